@@ -1,0 +1,43 @@
+#include "penumbra/core/parallel.h"
+
+#include <algorithm>
+
+#include <tbb/blocked_range.h>
+#include <tbb/blocked_range2d.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+namespace penumbra {
+
+struct ThreadLimit::Impl {
+  std::unique_ptr<tbb::global_control> control;
+};
+
+ThreadLimit::ThreadLimit(int threads) : impl_(std::make_unique<Impl>()) {
+  if (threads > 0)
+    impl_->control = std::make_unique<tbb::global_control>(
+        tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+}
+
+ThreadLimit::~ThreadLimit() = default;
+
+void parallel_for(size_t n, size_t grain, const std::function<void(size_t, size_t)>& body) {
+  if (n == 0) return;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain == 0 ? 1 : grain),
+                    [&](const tbb::blocked_range<size_t>& r) { body(r.begin(), r.end()); });
+}
+
+void parallel_for_tiles(int width, int height, int tile,
+                        const std::function<void(int, int, int, int)>& body) {
+  if (width <= 0 || height <= 0) return;
+  int tx = (width + tile - 1) / tile, ty = (height + tile - 1) / tile;
+  tbb::parallel_for(tbb::blocked_range2d<int>(0, ty, 1, 0, tx, 1),
+                    [&](const tbb::blocked_range2d<int>& r) {
+                      for (int j = r.rows().begin(); j < r.rows().end(); ++j)
+                        for (int i = r.cols().begin(); i < r.cols().end(); ++i)
+                          body(i * tile, j * tile, std::min(width, (i + 1) * tile),
+                               std::min(height, (j + 1) * tile));
+                    });
+}
+
+}  // namespace penumbra

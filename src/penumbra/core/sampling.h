@@ -1,0 +1,50 @@
+// Sampling routines shared by every method: stratified light-sample sets on the unit
+// square (agrawala2000 §3), warps from the square to disks and cones.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/core/rng.h"
+
+namespace penumbra {
+
+// Factor n into a cols x rows grid, as square as possible (rows <= cols, rows * cols = n):
+// 256 -> 16 x 16, 128 -> 16 x 8, 100 -> 10 x 10, 7 -> 7 x 1.
+void stratification_grid(int n, int* cols, int* rows);
+
+// n stratified, jittered points on [0,1)^2: one per cell of a stratification_grid(n),
+// cell-major (row by row). With jitter=false the cell centres.
+std::vector<Vec2f> stratified_samples(int n, Rng& rng, bool jitter = true);
+
+// Stratified sample `i` of `n` (cell i of stratification_grid(n)) jittered by u in [0,1)^2.
+Vec2f stratified_sample(int i, int n, Vec2f u);
+
+// The shared light-sample set of a frame. agrawala2000 §3: "the same light samples are
+// used for all surface points" (fixed: banding, no noise), or decorrelated per pixel by a
+// Cranley-Patterson rotation keyed by the pixel (noise, no banding).
+class LightSampleSet {
+ public:
+  LightSampleSet() = default;
+  // n stratified samples drawn with `seed`; per_pixel selects the decorrelated mode.
+  LightSampleSet(int n, uint64_t seed, bool per_pixel);
+  int size() const { return static_cast<int>(base_.size()); }
+  bool per_pixel() const { return per_pixel_; }
+  // Sample i for the given pixel (the pixel is ignored in the fixed mode).
+  Vec2f sample(int i, uint32_t pixel) const;
+  const std::vector<Vec2f>& base() const { return base_; }
+
+ private:
+  std::vector<Vec2f> base_;
+  uint64_t seed_ = 0;
+  bool per_pixel_ = false;
+};
+
+// Shirley-Chiu concentric map from [0,1)^2 to the unit disk: keeps strata compact.
+Vec2f square_to_disk_concentric(Vec2f u);
+// Uniform direction inside a cone of half-angle acos(cos_max) around +z.
+Vec3f square_to_cone(Vec2f u, float cos_max);
+inline float cone_pdf(float cos_max) { return 1.0f / (2.0f * kPi * (1.0f - cos_max)); }
+
+}  // namespace penumbra

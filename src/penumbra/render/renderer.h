@@ -1,0 +1,64 @@
+// The pipeline of DESIGN.md: camera pass -> per light prepare/evaluate -> compose.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "penumbra/core/image.h"
+#include "penumbra/shadow/shadow_method.h"
+#include "penumbra/trace/ray_tracer.h"
+
+namespace penumbra {
+
+struct RenderSettings {
+  std::string method = "reference";
+  std::vector<std::string> params;  // "key=value" overrides
+  int light_samples = 256;          // --spp
+  uint64_t seed = 0;
+  int frames = 1;                   // progressive accumulation (methods with new samples per frame)
+  bool bent_normals = false;        // sintorn2008 §4.3 coherent shading in compose
+  std::function<void(double)> progress;  // fraction done, from the calling thread
+};
+
+struct RenderResult {
+  Image color;       // linear RGB radiance (Lambertian: albedo / pi * E)
+  Image visibility;  // V per pixel (1 = fully lit; background 1)
+  MethodStats stats;            // summed over lights
+  double camera_pass_ms = 0;
+  double total_ms = 0;
+  size_t view_sample_count = 0;
+  nlohmann::json resolved_params;
+};
+
+// The camera pass on Embree: primary rays through each pixel (jittered when the camera
+// asks for several samples per pixel), producing the view samples.
+ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t seed);
+
+// Renders frames of one scene with one method, keeping the method's light-space
+// structures between frames: set_camera() re-runs the camera pass only.
+class Renderer {
+ public:
+  Renderer(const Scene& scene, RenderSettings settings);
+  ~Renderer();
+  void set_camera(const Camera& camera);
+  RenderResult render();
+  const RayTracer& tracer() const { return *tracer_; }
+  const Scene& scene() const { return scene_; }
+  // The method instance serving light i (for tests and statistics).
+  ShadowMethod& method(int light) { return *methods_[light]; }
+
+ private:
+  Scene scene_;
+  RenderSettings settings_;
+  std::unique_ptr<RayTracer> tracer_;
+  std::vector<std::unique_ptr<ShadowMethod>> methods_;
+  std::vector<bool> prepared_;
+  nlohmann::json resolved_params_;
+};
+
+// One-call convenience: load nothing, render `scene` with `settings`.
+RenderResult render_scene(const Scene& scene, const RenderSettings& settings);
+
+}  // namespace penumbra

@@ -1,0 +1,20 @@
+// A pinhole camera: eye, target, up, vertical field of view, resolution.
+#pragma once
+
+#include "penumbra/core/math.h"
+
+namespace penumbra {
+
+struct Camera {
+  Vec3f eye{0, 1, 5}, target{0, 0, 0}, up{0, 1, 0};
+  float fov_y = 45.0f;  // degrees
+  int width = 512, height = 512;
+  int samples_per_pixel = 1;  // jittered supersampling of the camera pass
+
+  // Unit direction of the ray through image position (px, py) in pixels, (0,0) the top
+  // left corner of the image, (width, height) the bottom right.
+  Vec3f ray_direction(float px, float py) const;
+  Frame frame() const;  // s = right, t = up, n = backward (-view direction)
+};
+
+}  // namespace penumbra

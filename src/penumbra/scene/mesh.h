@@ -1,0 +1,57 @@
+// Triangle meshes in world space, with the material they carry.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "penumbra/core/math.h"
+
+namespace penumbra {
+
+struct Material {
+  Vec3f albedo{0.8f, 0.8f, 0.8f};
+  // 1 = opaque; below 1 the surface is a semi-transparent caster: a shadow ray crossing
+  // it keeps (1 - opacity) of its light (xie2007 §5, deep shadow maps).
+  float opacity = 1.0f;
+  // One-sided surfaces are black when seen from behind (as in Mitsuba's diffuse BSDF);
+  // every surface casts shadows from both sides.
+  bool two_sided = true;
+};
+
+struct TriangleMesh {
+  std::vector<Vec3f> positions;
+  std::vector<Vec3f> normals;     // per vertex, optional (empty: flat shading)
+  std::vector<uint32_t> indices;  // 3 per triangle
+  // Optional per-triangle opacity, multiplied with the material's (furball strands).
+  std::vector<float> triangle_opacity;
+
+  size_t triangle_count() const { return indices.size() / 3; }
+  Vec3f vertex(size_t tri, int k) const { return positions[indices[3 * tri + k]]; }
+  Bounds3f bounds() const;
+  // Applies an affine transform to positions (and the inverse transpose to normals).
+  void transform(const Mat4& m);
+  // Appends another mesh (indices offset).
+  void append(const TriangleMesh& other);
+  // True when every edge is shared by exactly two triangles with opposite orientation:
+  // a closed, consistently oriented surface (sintorn2008 §3.3 needs this).
+  bool is_closed() const;
+};
+
+// An analytic sphere, kept beside its tessellation so methods that handle spheres
+// exactly (parker1998's appendix) can use it.
+struct SphereShape {
+  Vec3f center;
+  float radius = 0;
+};
+
+struct SceneObject {
+  std::string name;  // "objects[2]" or the generator/mesh name, for messages and stats
+  TriangleMesh mesh;
+  Material material;
+  bool closed = false;  // mesh.is_closed(), computed once at load
+  std::optional<SphereShape> sphere;
+};
+
+}  // namespace penumbra

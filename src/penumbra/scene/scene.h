@@ -1,0 +1,41 @@
+// A scene: a camera, area lights and triangle-mesh objects, loaded from a JSON scene file
+// (docs/scene-format.md).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "penumbra/scene/camera.h"
+#include "penumbra/scene/light.h"
+#include "penumbra/scene/mesh.h"
+
+namespace penumbra {
+
+struct Scene {
+  Camera camera;
+  std::vector<AreaLight> lights;
+  std::vector<SceneObject> objects;
+  std::filesystem::path source;  // the scene file, for messages; empty when built in code
+  // Per-method parameter defaults from the scene file's "methods" table:
+  // {"lam": {"samples": 64}, ...}. The CLI's -p overrides them.
+  nlohmann::json method_params = nlohmann::json::object();
+
+  Bounds3f bounds() const;
+  size_t triangle_count() const;
+  // After lights or objects change: orient sphere lights toward the scene, compute
+  // SceneObject::closed. The loader calls it; code that builds scenes by hand should too.
+  void finalize();
+};
+
+// Loads and validates a scene file. Every error (unknown key, wrong type, missing file,
+// NaN/Inf, zero-size light, empty scene) throws penumbra::Error naming the file and the
+// key path, e.g. "scenes/x.json: lights[0].size: must be two positive numbers".
+Scene load_scene(const std::filesystem::path& path);
+// The same from an already parsed document; `origin` is the file name used in messages
+// and the folder that relative paths are resolved against.
+Scene parse_scene(const nlohmann::json& doc, const std::filesystem::path& origin);
+
+}  // namespace penumbra

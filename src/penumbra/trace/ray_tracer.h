@@ -1,0 +1,74 @@
+// The geometry ray tracer on Embree 3: one BVH over every object of a scene, closest-hit
+// queries for the camera pass and batched shadow rays with transmittance through
+// semi-transparent casters.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+
+#include "penumbra/core/math.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+struct Ray {
+  Vec3f org;
+  Vec3f dir;
+  float tnear = 0;
+  float tfar = kInfinity;
+};
+
+struct Hit {
+  float t = kInfinity;
+  uint32_t object = 0;  // index into Scene::objects
+  uint32_t prim = 0;    // triangle within the object's mesh
+  float u = 0, v = 0;   // barycentrics of vertices 1 and 2
+  Vec3f ng;             // unnormalised geometric normal (winding order)
+};
+
+// A shadow segment from org along unit dir up to tfar.
+struct ShadowRay {
+  Vec3f org;
+  float tnear = 0;
+  Vec3f dir;
+  float tfar = 0;
+};
+
+// Offsets a surface point along its geometric normal toward the side `dir` leaves into,
+// by a margin relative to the point's magnitude: far enough to escape the surface's own
+// triangle (no acne), close enough not to cross a touching surface (no contact leaks).
+Vec3f offset_ray_origin(Vec3f p, Vec3f ng, Vec3f dir);
+// A shadow ray from surface point p (geometric normal ng) to point q on a light.
+ShadowRay shadow_ray_to(Vec3f p, Vec3f ng, Vec3f q);
+
+class RayTracer {
+ public:
+  explicit RayTracer(const Scene& scene);
+  ~RayTracer();
+  RayTracer(const RayTracer&) = delete;
+  RayTracer& operator=(const RayTracer&) = delete;
+
+  bool intersect(const Ray& ray, Hit* hit) const;
+  // Binary occlusion for opaque geometry; semi-transparent surfaces count as occluders.
+  bool occluded(const ShadowRay& ray) const;
+  // Fraction of light passing along the ray: 0 if an opaque surface blocks it, else the
+  // product of (1 - opacity) over the semi-transparent surfaces it crosses.
+  float transmittance(const ShadowRay& ray) const;
+  // Batched versions over n rays (Embree rtcOccluded1M streams: 1.5-2x faster than single
+  // rays for incoherent shadow rays). out[i] in {0,1} (occluded) or [0,1] (transmittance).
+  void transmittance(std::span<const ShadowRay> rays, std::span<float> out) const;
+
+  bool has_transparency() const { return has_transparency_; }
+  size_t triangle_count() const { return triangle_count_; }
+  double build_ms() const { return build_ms_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  bool has_transparency_ = false;
+  size_t triangle_count_ = 0;
+  double build_ms_ = 0;
+};
+
+}  // namespace penumbra
