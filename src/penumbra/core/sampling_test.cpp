@@ -1,5 +1,7 @@
 #include "penumbra/core/sampling.h"
 
+#include "penumbra/core/error.h"
+
 #include <gtest/gtest.h>
 
 #include <set>
