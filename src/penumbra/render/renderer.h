@@ -17,9 +17,7 @@ struct RenderSettings {
   std::vector<std::string> params;  // "key=value" overrides
   int light_samples = 256;          // --spp
   uint64_t seed = 0;
-  int frames = 1;                   // progressive accumulation (methods with new samples per frame)
-  bool bent_normals = false;        // sintorn2008 §4.3 coherent shading in compose
-  std::function<void(double)> progress;  // fraction done, from the calling thread
+  bool progress = false;            // a progress bar on stderr (when it is a terminal)
 };
 
 struct RenderResult {

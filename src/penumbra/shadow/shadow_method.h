@@ -20,6 +20,7 @@
 namespace penumbra {
 
 class RayTracer;
+class Progress;
 
 // What a method may read while it works on one light.
 struct ShadowContext {
@@ -31,6 +32,8 @@ struct ShadowContext {
   // Light samples per shading point (--spp) for methods that sample the light.
   int light_samples = 256;
   int frame = 0;  // progressive accumulation: frame index (new samples per frame)
+  // Optional: methods advance it by the number of view samples they finished.
+  Progress* progress = nullptr;
 };
 
 struct ShadowOutput {
@@ -49,7 +52,6 @@ class ShadowMethod {
   // True if evaluate() computes E (eq. 1) itself; otherwise compose multiplies V with the
   // closed-form unshadowed irradiance.
   virtual bool computes_irradiance() const { return false; }
-  // Whether the method uses ctx.light_samples (so --spp applies).
   MethodStats& stats() { return stats_; }
   const MethodStats& stats() const { return stats_; }
 

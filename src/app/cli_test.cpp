@@ -1,0 +1,140 @@
+// End-to-end tests of the `penumbra` tool: run the real binary on tiny scene files.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "penumbra/core/image.h"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Run {
+  int exit_code;
+  std::string out, err;
+};
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / fmt::format("penumbra-cli-{}-{}", ::getpid(),
+                                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  Run run(const std::string& args) {
+    std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
+    std::string cmd = fmt::format("{} {} >{} 2>{}", PENUMBRA_CLI, args, out, err);
+    int status = std::system(cmd.c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+  }
+  static std::string slurp(const fs::path& p) {
+    std::ifstream f(p);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  }
+  std::string write(const std::string& name, const std::string& text) {
+    fs::path p = dir_ / name;
+    std::ofstream(p) << text;
+    return p.string();
+  }
+  // A 1 x 1 occluder at height 1 over a ground plane, lit by a 1.5 x 1.5 rect light.
+  std::string tiny_scene(const std::string& extra_object_key = "") {
+    return write("tiny.json", R"({
+      "camera": {"eye": [0, 4, 0.001], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 60, "resolution": [32, 24]},
+      "lights": [{"type": "rect", "center": [0, 2, 0], "normal": [0, -1, 0], "u": [1, 0, 0],
+                  "size": [1.5, 1.5], "radiance": [4, 4, 4]}],
+      "objects": [
+        {"shape": "plane", "size": [8, 8]},
+        {"shape": "box", "size": [1, 0.05, 1], "translate": [0, 1, 0])" + extra_object_key + R"(}
+      ]
+    })");
+  }
+  fs::path dir_;
+};
+
+TEST_F(Cli, RenderWritesAnImageWithSoftShadows) {
+  std::string scene = tiny_scene();
+  fs::path exr = dir_ / "out.exr", stats = dir_ / "stats.json";
+  Run r = run(fmt::format("render {} -m reference --spp 64 -o {} --stats-json {} --quiet", scene, exr.string(),
+                          stats.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  Image v = read_exr_channel(exr.string(), "V");
+  EXPECT_EQ(v.width(), 32);
+  EXPECT_EQ(v.height(), 24);
+  int umbra = 0, penumbra = 0, lit = 0;
+  for (float x : v.data()) {
+    ASSERT_GE(x, 0.0f);
+    ASSERT_LE(x, 1.0f);
+    umbra += x < 0.02f;
+    penumbra += x > 0.05f && x < 0.95f;
+    lit += x > 0.999f;
+  }
+  EXPECT_GT(umbra, 0);
+  EXPECT_GT(penumbra, 0);
+  EXPECT_GT(lit, 0);
+  auto j = nlohmann::json::parse(slurp(stats));
+  EXPECT_EQ(j["method"], "reference");
+  EXPECT_GT(j["stats"]["rays_traced"].get<uint64_t>(), 0u);
+
+  fs::path png = dir_ / "out.png";
+  ASSERT_EQ(run(fmt::format("render {} -m hard -o {} --resolution 16x8 --quiet", scene, png.string())).exit_code, 0);
+  Image img = read_image(png.string());
+  EXPECT_EQ(img.width(), 16);
+  EXPECT_EQ(img.height(), 8);
+}
+
+TEST_F(Cli, BadSceneIsOneLineErrorNamingFileAndKeyAndWritesNothing) {
+  std::string scene = tiny_scene(R"(, "colour": [1, 0, 0])");
+  fs::path out = dir_ / "never.png";
+  Run r = run(fmt::format("render {} -o {}", scene, out.string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("tiny.json"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("colour"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST_F(Cli, BadArgumentsAreRejected) {
+  std::string scene = tiny_scene();
+  Run r = run(fmt::format("render {} -m no-such-method -o {}", scene, (dir_ / "x.png").string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("no-such-method"), std::string::npos) << r.err;
+  r = run(fmt::format("render {} -p samples=3 -o {}", scene, (dir_ / "x.png").string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("samples"), std::string::npos) << r.err;
+  r = run(fmt::format("render {} -o {}", scene, (dir_ / "x.bmp").string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find(".bmp"), std::string::npos) << r.err;
+  r = run(fmt::format("render {} --resolution 0x5 -o {}", scene, (dir_ / "x.png").string()));
+  EXPECT_NE(r.exit_code, 0);
+  r = run(fmt::format("render {} -o {}", (dir_ / "missing.json").string(), (dir_ / "x.png").string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("missing.json"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x.png"));
+}
+
+TEST_F(Cli, MethodsListsEveryRegisteredMethod) {
+  Run r = run("methods");
+  ASSERT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("reference"), std::string::npos);
+  EXPECT_NE(r.out.find("hard"), std::string::npos);
+  r = run("methods reference");
+  ASSERT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("sampling"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace penumbra

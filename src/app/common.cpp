@@ -1,0 +1,77 @@
+#include "app/common.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+
+#include "penumbra/core/error.h"
+
+namespace penumbra::app {
+
+namespace fs = std::filesystem;
+
+void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples) {
+  if (!resolution.empty()) {
+    std::smatch m;
+    static const std::regex re("^([0-9]{1,5})x([0-9]{1,5})$");
+    if (!std::regex_match(resolution, m, re) || std::stoi(m[1]) < 1 || std::stoi(m[2]) < 1)
+      throw Error("--resolution {}: expected WxH with positive integers, e.g. 512x512", resolution);
+    scene.camera.width = std::stoi(m[1]);
+    scene.camera.height = std::stoi(m[2]);
+  }
+  if (pixel_samples > 0) scene.camera.samples_per_pixel = pixel_samples;
+}
+
+void check_output_path(const std::string& path, const std::vector<std::string>& extensions) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (std::find(extensions.begin(), extensions.end(), ext) == extensions.end()) {
+    std::string list;
+    for (const auto& e : extensions) list += (list.empty() ? "" : ", ") + e;
+    throw Error("{}: unsupported output extension '{}' (use {})", path, ext, list);
+  }
+  fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent)) throw Error("{}: folder {} does not exist", path, parent.string());
+}
+
+nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
+                                 const RenderResult& r) {
+  return {{"scene", scene.source.string()},
+          {"method", method},
+          {"params", r.resolved_params},
+          {"light_samples", settings.light_samples},
+          {"seed", settings.seed},
+          {"resolution", {scene.camera.width, scene.camera.height}},
+          {"pixel_samples", scene.camera.samples_per_pixel},
+          {"triangles", scene.triangle_count()},
+          {"view_samples", r.view_sample_count},
+          {"camera_pass_ms", r.camera_pass_ms},
+          {"total_ms", r.total_ms},
+          {"stats", r.stats.to_json()}};
+}
+
+void write_text_file_atomic(const std::string& path, const std::string& text) {
+  fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent)) throw Error("{}: folder {} does not exist", path, parent.string());
+  std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary);
+    if (!f) throw Error("{}: cannot write", path);
+    f << text;
+    if (!f.flush()) {
+      fs::remove(tmp);
+      throw Error("{}: cannot write", path);
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp);
+    throw Error("{}: cannot write: {}", path, ec.message());
+  }
+}
+
+}  // namespace penumbra::app

@@ -1,0 +1,24 @@
+// Helpers shared by the CLI subcommands.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra::app {
+
+// --resolution WxH and --pixel-samples N applied to the scene's camera (0/empty: keep).
+void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples);
+// Checks an output path before any work: a known extension and an existing folder.
+void check_output_path(const std::string& path, const std::vector<std::string>& extensions);
+// The --stats-json document of one render.
+nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
+                                 const RenderResult& r);
+// Writes text to a temporary file and renames it over `path`.
+void write_text_file_atomic(const std::string& path, const std::string& text);
+
+}  // namespace penumbra::app

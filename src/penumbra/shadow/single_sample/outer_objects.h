@@ -1,0 +1,51 @@
+// The "outer objects" of parker1998: an occluder's opacity falls off from its real surface
+// outward over a width that grows linearly with the distance from the shading point, so a
+// single shadow ray toward the light's centre yields a soft shadow.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "penumbra/core/math.h"
+
+namespace penumbra::single_sample {
+
+// parker1998 appendix: s = 3 tau^2 - 2 tau^3, the Bernstein cubic with the values and
+// slopes of the sinusoid (1 + sin(pi tau - pi/2)) / 2 at tau = 0 and 1. s is the light
+// that passes: 0 at the inner (real) surface, 1 at the outer object's boundary.
+inline float falloff(float tau) {
+  tau = std::clamp(tau, 0.0f, 1.0f);
+  return tau * tau * (3.0f - 2.0f * tau);
+}
+
+// The inverse of falloff on [0,1]: tau = 1/2 - sin(asin(1 - 2s) / 3).
+inline float inverse_falloff(float s) {
+  s = std::clamp(s, 0.0f, 1.0f);
+  return 0.5f - std::sin(std::asin(1.0f - 2.0f * s) / 3.0f);
+}
+
+// parker1998 appendix, sphere (centre c, radius R) and a shadow ray p = o + t v (unit v)
+// toward a light of diameter D at distance light_dist from o.
+inline float sphere_transmission(Vec3f o, Vec3f v, float light_dist, Vec3f c, float R, float D) {
+  float t0 = dot(c - o, v);
+  if (t0 < 0 || t0 > light_dist) return 1.0f;  // behind the point, or beyond the light
+  float b = D * t0 / light_dist;               // penumbra width at the occluder: b = a D / A
+  float d = length(o + v * t0 - c);            // distance from c to the ray
+  if (d < R) return 0.0f;
+  if (d > R + b) return 1.0f;
+  return falloff((d - R) / b);
+}
+
+// The triangle's outer object generalised so that it is exact for every ray: a point x
+// of the occluder at distance t along the ray and `perp` from it has tau = perp / b(t)
+// with b(t) = D t / light_dist, i.e. tau = (perp / t) * light_dist / D. perp / t is the
+// distance from the ray's axis in a perspective projection centred on o, so the smallest
+// tau over the triangle is the 2D distance from the axis to the projected triangle
+// (clipped to near <= t <= far). In parker1998's terms: the triangle grown per edge by the
+// offset b with rounded corners (Fig. 6b), the offset measured perpendicular to the ray.
+// Returns +inf when no part of the triangle lies in [near, far] along the ray.
+// (e1, e2, v) is an orthonormal frame around the ray.
+float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
+                             Vec3f c);
+
+}  // namespace penumbra::single_sample

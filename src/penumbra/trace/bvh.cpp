@@ -1,0 +1,142 @@
+#include "penumbra/trace/bvh.h"
+
+#include <algorithm>
+#include <array>
+
+namespace penumbra {
+
+namespace {
+
+constexpr int kBins = 16;
+
+float surface_area(const Bounds3f& b) {
+  if (b.empty()) return 0;
+  Vec3f d = b.diagonal();
+  return 2 * (d.x * d.y + d.y * d.z + d.z * d.x);
+}
+
+Bounds3f triangle_bounds(const BvhTriangle& t) {
+  Bounds3f b;
+  b.extend(t.v0);
+  b.extend(t.v1);
+  b.extend(t.v2);
+  return b;
+}
+
+struct Builder {
+  std::vector<BvhTriangle>& tris;
+  std::vector<Vec3f> centroids;
+  std::vector<BvhNode>& nodes;
+  int max_leaf;
+
+  void finish_node(BvhNode& n, uint32_t begin, uint32_t end) {
+    Bounds3f b;
+    for (uint32_t i = begin; i < end; ++i) b.extend(triangle_bounds(tris[i]));
+    n.bounds = b;
+    n.sphere_center = b.center();
+    // The sphere around the box; tighter: around the vertices themselves.
+    float r2 = 0;
+    for (uint32_t i = begin; i < end; ++i)
+      for (Vec3f v : {tris[i].v0, tris[i].v1, tris[i].v2}) r2 = std::max(r2, length_squared(v - n.sphere_center));
+    n.sphere_radius = std::sqrt(r2);
+  }
+
+  void build(uint32_t node_index, uint32_t begin, uint32_t end) {
+    finish_node(nodes[node_index], begin, end);
+    uint32_t count = end - begin;
+    if (count <= static_cast<uint32_t>(max_leaf)) {
+      nodes[node_index].first = begin;
+      nodes[node_index].count = count;
+      return;
+    }
+    Bounds3f cb;
+    for (uint32_t i = begin; i < end; ++i) cb.extend(centroids[i]);
+    Vec3f extent = cb.diagonal();
+    int axis = extent.x > extent.y ? (extent.x > extent.z ? 0 : 2) : (extent.y > extent.z ? 1 : 2);
+    uint32_t mid = begin + count / 2;
+    if (extent[axis] > 0) {
+      // Binned SAH along the widest centroid axis.
+      std::array<Bounds3f, kBins> bin_bounds;
+      std::array<uint32_t, kBins> bin_count{};
+      float lo = cb.lo[axis], scale = kBins / extent[axis];
+      auto bin_of = [&](uint32_t i) { return std::min(kBins - 1, static_cast<int>((centroids[i][axis] - lo) * scale)); };
+      for (uint32_t i = begin; i < end; ++i) {
+        int b = bin_of(i);
+        bin_count[b]++;
+        bin_bounds[b].extend(triangle_bounds(tris[i]));
+      }
+      float best_cost = kInfinity;
+      int best_split = -1;
+      for (int s = 1; s < kBins; ++s) {
+        Bounds3f l, r;
+        uint32_t nl = 0, nr = 0;
+        for (int b = 0; b < s; ++b) { l.extend(bin_bounds[b]); nl += bin_count[b]; }
+        for (int b = s; b < kBins; ++b) { r.extend(bin_bounds[b]); nr += bin_count[b]; }
+        if (nl == 0 || nr == 0) continue;
+        float cost = nl * surface_area(l) + nr * surface_area(r);
+        if (cost < best_cost) { best_cost = cost; best_split = s; }
+      }
+      if (best_split > 0) {
+        uint32_t i = begin, j = end;
+        while (i < j) {
+          if (bin_of(i) < best_split) ++i;
+          else {
+            --j;
+            std::swap(tris[i], tris[j]);
+            std::swap(centroids[i], centroids[j]);
+          }
+        }
+        mid = i;
+      }
+    }
+    if (mid == begin || mid == end) {  // all centroids equal: split by count
+      mid = begin + count / 2;
+      std::vector<uint32_t> order(count);
+      for (uint32_t i = 0; i < count; ++i) order[i] = begin + i;
+      std::nth_element(order.begin(), order.begin() + count / 2, order.end(),
+                       [&](uint32_t a, uint32_t b) { return centroids[a][axis] < centroids[b][axis]; });
+      std::vector<BvhTriangle> t2;
+      std::vector<Vec3f> c2;
+      for (uint32_t k : order) { t2.push_back(tris[k]); c2.push_back(centroids[k]); }
+      std::copy(t2.begin(), t2.end(), tris.begin() + begin);
+      std::copy(c2.begin(), c2.end(), centroids.begin() + begin);
+    }
+    uint32_t left = static_cast<uint32_t>(nodes.size());
+    nodes.emplace_back();
+    nodes.emplace_back();
+    nodes[node_index].first = left;
+    nodes[node_index].count = 0;
+    build(left, begin, mid);
+    build(left + 1, mid, end);
+  }
+};
+
+}  // namespace
+
+TriangleBvh::TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size) : triangles_(std::move(triangles)) {
+  if (triangles_.empty()) return;
+  nodes_.reserve(2 * triangles_.size() / std::max(1, max_leaf_size) + 2);
+  nodes_.emplace_back();
+  Builder b{triangles_, {}, nodes_, std::max(1, max_leaf_size)};
+  b.centroids.reserve(triangles_.size());
+  for (const auto& t : triangles_) b.centroids.push_back((t.v0 + t.v1 + t.v2) / 3.0f);
+  b.build(0, 0, static_cast<uint32_t>(triangles_.size()));
+}
+
+std::vector<BvhTriangle> TriangleBvh::gather(const Scene& scene, bool skip_analytic_spheres) {
+  std::vector<BvhTriangle> out;
+  out.reserve(scene.triangle_count());
+  for (size_t o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& obj = scene.objects[o];
+    if (skip_analytic_spheres && obj.sphere) continue;
+    const TriangleMesh& m = obj.mesh;
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+      BvhTriangle bt{m.vertex(t, 0), m.vertex(t, 1), m.vertex(t, 2), static_cast<uint32_t>(o), static_cast<uint32_t>(t),
+                     obj.material.opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t])};
+      out.push_back(bt);
+    }
+  }
+  return out;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,50 @@
+// A bounding volume hierarchy over triangles for queries Embree does not offer (cone
+// queries of parker1998's single-sample soft shadows). Binned-SAH build, flat node array,
+// each node with its box and its bounding sphere (cheap to test against cones).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+struct BvhTriangle {
+  Vec3f v0, v1, v2;
+  uint32_t object = 0, prim = 0;
+  float opacity = 1.0f;
+};
+
+struct BvhNode {
+  Bounds3f bounds;
+  Vec3f sphere_center;
+  float sphere_radius = 0;
+  // Inner node: children at `first` and `first + 1`; leaf: triangles [first, first + count).
+  uint32_t first = 0;
+  uint32_t count = 0;  // 0 for an inner node
+  bool leaf() const { return count != 0; }
+};
+
+class TriangleBvh {
+ public:
+  TriangleBvh() = default;
+  // Builds over the given triangles (reordered into leaf order).
+  explicit TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size = 4);
+  // Every triangle of every object of the scene, with its opacity (material x per-triangle).
+  static std::vector<BvhTriangle> gather(const Scene& scene, bool skip_analytic_spheres);
+
+  const std::vector<BvhNode>& nodes() const { return nodes_; }
+  const std::vector<BvhTriangle>& triangles() const { return triangles_; }
+  bool empty() const { return nodes_.empty(); }
+  size_t memory_bytes() const {
+    return nodes_.capacity() * sizeof(BvhNode) + triangles_.capacity() * sizeof(BvhTriangle);
+  }
+
+ private:
+  std::vector<BvhNode> nodes_;
+  std::vector<BvhTriangle> triangles_;
+};
+
+}  // namespace penumbra

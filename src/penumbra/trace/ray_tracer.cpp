@@ -1,0 +1,198 @@
+#include "penumbra/trace/ray_tracer.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/timer.h"
+
+namespace penumbra {
+
+namespace {
+
+// One Embree device for the process: creating a device spins up its own thread state.
+RTCDevice shared_device() {
+  static RTCDevice device = [] {
+    RTCDevice d = rtcNewDevice(nullptr);
+    if (!d) throw Error("Embree: cannot create a device (error {})", static_cast<int>(rtcGetDeviceError(nullptr)));
+    return d;
+  }();
+  return device;
+}
+
+// Per-geometry data the occlusion filter reads to attenuate shadow rays.
+struct TransparencyData {
+  float opacity = 1.0f;               // material opacity
+  const float* triangle_opacity = nullptr;  // optional, per triangle
+};
+
+// The intersect context extended with the per-ray transmittance of the current batch
+// (Embree passes the context pointer through to filter functions).
+struct TransmittanceContext {
+  RTCIntersectContext base;
+  float* transmittance;  // indexed by RTCRay::id
+};
+
+// Below this transmittance a ray counts as blocked and stops early.
+constexpr float kOpaqueCutoff = 1e-4f;
+
+// Occlusion filter for semi-transparent geometry: multiply the ray's transmittance by
+// (1 - opacity) of each surface it crosses and let it continue, unless nothing is left.
+void transparency_filter(const RTCFilterFunctionNArguments* args) {
+  auto* ctx = reinterpret_cast<TransmittanceContext*>(args->context);
+  const auto* data = static_cast<const TransparencyData*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    unsigned id = RTCRayN_id(args->ray, args->N, i);
+    unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    float a = data->opacity * (data->triangle_opacity ? data->triangle_opacity[prim] : 1.0f);
+    float& t = ctx->transmittance[id];
+    t *= (1.0f - a);
+    if (t > kOpaqueCutoff) args->valid[i] = 0;  // reject the hit: keep tracing
+    else t = 0.0f;                               // accept: the ray is blocked
+  }
+}
+
+}  // namespace
+
+struct RayTracer::Impl {
+  RTCScene scene = nullptr;
+  std::vector<TransparencyData> transparency;  // per object (stable addresses)
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+  }
+};
+
+Vec3f offset_ray_origin(Vec3f p, Vec3f ng, Vec3f dir) {
+  // Embree's watertight triangle test is accurate to a few ulps of the coordinates, so
+  // the offset scales with the largest coordinate; 2^-15 relative is ~250 ulps.
+  float scale = 1.0f + std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
+  float eps = scale * 3.0e-5f;
+  float len = length(ng);
+  if (len == 0) return p;
+  Vec3f n = ng / len;
+  return p + n * (dot(n, dir) >= 0 ? eps : -eps);
+}
+
+ShadowRay shadow_ray_to(Vec3f p, Vec3f ng, Vec3f q) {
+  ShadowRay r;
+  r.org = offset_ray_origin(p, ng, q - p);
+  Vec3f d = q - r.org;
+  float dist = length(d);
+  r.dir = dist > 0 ? d / dist : Vec3f(0, 1, 0);
+  r.tnear = 0.0f;
+  r.tfar = dist * (1.0f - 1e-5f);
+  return r;
+}
+
+RayTracer::RayTracer(const Scene& scene) : impl_(std::make_unique<Impl>()) {
+  Timer timer;
+  RTCDevice device = shared_device();
+  impl_->scene = rtcNewScene(device);
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);  // no spatial splits: a filter sees each triangle once
+  impl_->transparency.resize(scene.objects.size());
+  for (size_t id = 0; id < scene.objects.size(); ++id) {
+    const SceneObject& obj = scene.objects[id];
+    const TriangleMesh& m = obj.mesh;
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                          3 * sizeof(float), m.positions.size()));
+    for (size_t i = 0; i < m.positions.size(); ++i) {
+      v[3 * i] = m.positions[i].x; v[3 * i + 1] = m.positions[i].y; v[3 * i + 2] = m.positions[i].z;
+    }
+    auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                               3 * sizeof(uint32_t), m.triangle_count()));
+    std::memcpy(idx, m.indices.data(), m.indices.size() * sizeof(uint32_t));
+    bool transparent = obj.material.opacity < 1.0f ||
+                       std::any_of(m.triangle_opacity.begin(), m.triangle_opacity.end(), [](float a) { return a < 1.0f; });
+    if (transparent) {
+      TransparencyData& td = impl_->transparency[id];
+      td.opacity = obj.material.opacity;
+      td.triangle_opacity = m.triangle_opacity.empty() ? nullptr : m.triangle_opacity.data();
+      rtcSetGeometryUserData(geom, &td);
+      rtcSetGeometryOccludedFilterFunction(geom, transparency_filter);
+      has_transparency_ = true;
+    }
+    rtcCommitGeometry(geom);
+    rtcAttachGeometryByID(impl_->scene, geom, static_cast<unsigned>(id));
+    rtcReleaseGeometry(geom);
+    triangle_count_ += m.triangle_count();
+  }
+  rtcCommitScene(impl_->scene);
+  if (rtcGetDeviceError(device) != RTC_ERROR_NONE) throw Error("Embree: scene build failed");
+  build_ms_ = timer.elapsed_ms();
+}
+
+RayTracer::~RayTracer() = default;
+
+bool RayTracer::intersect(const Ray& ray, Hit* hit) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh;
+  rh.ray.org_x = ray.org.x; rh.ray.org_y = ray.org.y; rh.ray.org_z = ray.org.z;
+  rh.ray.dir_x = ray.dir.x; rh.ray.dir_y = ray.dir.y; rh.ray.dir_z = ray.dir.z;
+  rh.ray.tnear = ray.tnear;
+  rh.ray.tfar = ray.tfar;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray.flags = 0;
+  rh.ray.time = 0;
+  rh.ray.id = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+  hit->t = rh.ray.tfar;
+  hit->object = rh.hit.geomID;
+  hit->prim = rh.hit.primID;
+  hit->u = rh.hit.u;
+  hit->v = rh.hit.v;
+  hit->ng = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
+  return true;
+}
+
+namespace {
+inline void fill_ray(RTCRay& r, const ShadowRay& s, unsigned id) {
+  r.org_x = s.org.x; r.org_y = s.org.y; r.org_z = s.org.z;
+  r.dir_x = s.dir.x; r.dir_y = s.dir.y; r.dir_z = s.dir.z;
+  r.tnear = s.tnear;
+  r.tfar = s.tfar;
+  r.mask = 0xFFFFFFFFu;
+  r.flags = 0;
+  r.time = 0;
+  r.id = id;
+}
+}  // namespace
+
+bool RayTracer::occluded(const ShadowRay& ray) const { return transmittance(ray) < 1.0f; }
+
+float RayTracer::transmittance(const ShadowRay& ray) const {
+  float t = 1.0f;
+  transmittance(std::span<const ShadowRay>(&ray, 1), std::span<float>(&t, 1));
+  return t;
+}
+
+void RayTracer::transmittance(std::span<const ShadowRay> rays, std::span<float> out) const {
+  if (out.size() < rays.size()) throw Error("RayTracer::transmittance: output too small");
+  // Streams of up to 256 rays on the stack: rtcOccluded1M with an incoherent context.
+  constexpr size_t kChunk = 256;
+  RTCRay buf[kChunk];
+  for (size_t begin = 0; begin < rays.size(); begin += kChunk) {
+    size_t n = std::min(kChunk, rays.size() - begin);
+    TransmittanceContext ctx;
+    rtcInitIntersectContext(&ctx.base);
+    ctx.transmittance = out.data() + begin;
+    for (size_t i = 0; i < n; ++i) {
+      fill_ray(buf[i], rays[begin + i], static_cast<unsigned>(i));
+      ctx.transmittance[i] = 1.0f;
+    }
+    rtcOccluded1M(impl_->scene, &ctx.base, buf, static_cast<unsigned>(n), sizeof(RTCRay));
+    for (size_t i = 0; i < n; ++i)
+      if (buf[i].tfar == -kInfinity) ctx.transmittance[i] = 0.0f;
+  }
+}
+
+}  // namespace penumbra
