@@ -1,0 +1,193 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "penumbra/core/rng.h"
+#include "penumbra/shadow/shadow_method.h"
+#include "penumbra/shadow/single_sample/outer_objects.h"
+#include "penumbra/testing/test_scenes.h"
+#include "penumbra/trace/ray_tracer.h"
+
+namespace penumbra {
+namespace {
+
+using single_sample::falloff;
+using single_sample::sphere_transmission;
+using single_sample::triangle_cone_distance;
+
+TEST(SingleSample, SphereFormulaAtChosenPoints) {
+  // Ray from the origin straight up to a light of diameter D = 1 at distance 10; sphere
+  // of radius 1 at height 5: t0 = 5, b = D t0 / |l - o| = 0.5.
+  Vec3f o(0, 0, 0), v(0, 1, 0);
+  auto s = [&](float d) { return sphere_transmission(o, v, 10.0f, {d, 5, 0}, 1.0f, 1.0f); };
+  EXPECT_EQ(s(0.0f), 0.0f);   // the ray hits the sphere
+  EXPECT_EQ(s(0.99f), 0.0f);  // still inside R
+  // tau = (d - R) / b; s = 3 tau^2 - 2 tau^3
+  EXPECT_NEAR(s(1.1f), 3 * 0.04f - 2 * 0.008f, 1e-5f);  // tau = 0.2 -> 0.104
+  EXPECT_NEAR(s(1.25f), 0.5f, 1e-5f);                   // tau = 0.5
+  EXPECT_NEAR(s(1.4f), 3 * 0.64f - 2 * 0.512f, 1e-5f);  // tau = 0.8 -> 0.896
+  EXPECT_EQ(s(1.6f), 1.0f);                             // outside the outer sphere
+  // Behind the point (t0 < 0) or beyond the light: no shadow.
+  EXPECT_EQ(sphere_transmission(o, v, 10.0f, {0, -3, 0}, 1.0f, 1.0f), 1.0f);
+  EXPECT_EQ(sphere_transmission(o, v, 10.0f, {0, 12, 0}, 1.0f, 1.0f), 1.0f);
+}
+
+TEST(SingleSample, TransmissionIsContinuousAcrossBothBoundaries) {
+  Vec3f o(0, 0, 0), v(0, 1, 0);
+  auto s = [&](float d) { return sphere_transmission(o, v, 10.0f, {d, 5, 0}, 1.0f, 1.0f); };
+  for (float boundary : {1.0f, 1.5f}) {
+    EXPECT_NEAR(s(boundary - 1e-4f), s(boundary + 1e-4f), 1e-3f) << boundary;
+  }
+  // And the slope is zero at both ends (the cubic's point): s changes by O(eps^2).
+  EXPECT_LT(s(1.0f + 1e-2f), 1e-3f);
+  EXPECT_GT(s(1.5f - 1e-2f), 1.0f - 1e-3f);
+  // Monotone in between.
+  float prev = 0;
+  for (float d = 1.0f; d <= 1.5f; d += 0.01f) {
+    float x = s(d);
+    EXPECT_GE(x, prev - 1e-6f);
+    prev = x;
+  }
+  EXPECT_NEAR(single_sample::inverse_falloff(falloff(0.3f)), 0.3f, 1e-5f);
+}
+
+TEST(SingleSample, TriangleConeDistanceIsTheSmallestPerspectiveOffset) {
+  // Brute force: the minimum of perp / t over a dense barycentric grid of the triangle
+  // (points with near <= t <= far) approaches the computed value from above.
+  Rng rng(17);
+  for (int trial = 0; trial < 50; ++trial) {
+    Vec3f o(0, 0, 0);
+    Vec3f v = normalize(Vec3f(rng.next_float() - 0.5f, 1.0f, rng.next_float() - 0.5f));
+    Vec3f e1, e2;
+    coordinate_system(v, &e1, &e2);
+    auto rnd = [&] { return Vec3f(4 * rng.next_float() - 2, 4 * rng.next_float() - 0.5f, 4 * rng.next_float() - 2); };
+    Vec3f a = rnd(), b = rnd(), c = rnd();
+    const float near = 0.01f, far = 3.0f;
+    float computed = triangle_cone_distance(o, v, e1, e2, near, far, a, b, c);
+    float brute = kInfinity;
+    const int n = 300;
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; i + j <= n; ++j) {
+        Vec3f x = a + (b - a) * (float(i) / n) + (c - a) * (float(j) / n);
+        float t = dot(x, v);
+        if (t < near || t > far) continue;
+        brute = std::min(brute, length(x - v * t) / t);
+      }
+    if (!std::isfinite(brute)) {
+      // No grid point in range; the exact answer may still see a sliver.
+      continue;
+    }
+    EXPECT_LE(computed, brute + 1e-5f) << trial;
+    EXPECT_NEAR(computed, brute, 0.02f * (1 + brute)) << trial;
+  }
+}
+
+// A ramp: a thin plate touching the ground along x = 0 and rising to height 1 at x = 2,
+// covering z in [0, 4]. With the light overhead its shadow's side edge (z = 0) is sharp
+// where the plate touches the ground and softens as the plate rises.
+TEST(SingleSample, PenumbraIsZeroAtContactAndGrowsLinearlyWithDistance) {
+  TriangleMesh ramp;
+  ramp.positions = {{0, 0, 0}, {2, 1, 0}, {2, 1, 4}, {0, 0, 4}};
+  ramp.indices = {0, 2, 1, 0, 3, 2};
+  const float H = 4.0f;
+  AreaLight light = testing::rect_light_down({1, H, 0}, 1.0f, 1.0f);
+  Scene scene = testing::ground_scene({testing::object(ramp)}, light);
+  RayTracer tracer(scene);
+  auto method = create_method("single-sample", scene, {});
+  ShadowContext ctx;
+  ctx.scene = &scene;
+  ctx.light = &scene.lights[0];
+  ctx.tracer = &tracer;
+  method->prepare(ctx);
+  // Penumbra width across z at position x along the ramp: from the last z where s = 0 to
+  // the first where s = 1, sampling the ground every 0.5 mm.
+  auto width_at = [&](float x) {
+    ViewSamples vs;
+    const int n = 1200;
+    for (int i = 0; i < n; ++i) {
+      ViewSample s;
+      s.p = {x, 0, 0.1f - 0.0005f * i};
+      s.ng = s.ns = {0, 1, 0};
+      s.object = 0;
+      s.prim = 0;
+      vs.samples.push_back(s);
+    }
+    std::vector<float> vis(n);
+    ShadowOutput out{vis, {}};
+    method->evaluate(ctx, vs, out);
+    // Walking away from the plate (decreasing z): the last fully dark sample is the
+    // hard shadow's edge, the first fully lit one after it ends the penumbra.
+    int last_dark = -1;
+    for (int i = 0; i < n; ++i)
+      if (vis[i] == 0.0f) last_dark = i;
+    EXPECT_GE(last_dark, 0);
+    int first_lit = n - 1;
+    for (int i = std::max(0, last_dark); i < n; ++i)
+      if (vis[i] >= 1.0f) {
+        first_lit = i;
+        break;
+      }
+    float z_dark = vs.samples[std::max(0, last_dark)].p.z, z_lit = vs.samples[first_lit].p.z;
+    return z_dark - z_lit;
+  };
+  float near_contact = width_at(0.02f);
+  EXPECT_LT(near_contact, 0.003f);
+  // Height of the ramp's edge h = x / 2; with the light at height H the outer object's
+  // width on the ground is about D h / (H - h): linear in h for h << H.
+  std::vector<float> xs = {0.4f, 0.8f, 1.2f, 1.6f};
+  std::vector<float> ratio;
+  for (float x : xs) {
+    float h = x / 2;
+    float w = width_at(x);
+    EXPECT_GT(w, 0.01f) << x;
+    ratio.push_back(w / (h / (H - h)));
+  }
+  for (float r : ratio) EXPECT_NEAR(r, ratio[0], 0.1f * ratio[0]);
+}
+
+TEST(SingleSample, CombinationRulesOfTwoOccluders) {
+  // Two analytic spheres beside the ray, each alone letting through s1 and s2.
+  auto sphere_object = [](Vec3f c, float r) {
+    // An octahedron inscribed in the sphere for Embree (never hit here: the ray passes
+    // outside the sphere), and the analytic sphere for parker1998's formula.
+    SceneObject o = testing::object(TriangleMesh{});
+    o.mesh.positions = {c + Vec3f(r, 0, 0), c - Vec3f(r, 0, 0), c + Vec3f(0, r, 0),
+                        c - Vec3f(0, r, 0), c + Vec3f(0, 0, r), c - Vec3f(0, 0, r)};
+    o.mesh.indices = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
+    o.sphere = SphereShape{c, r};
+    return o;
+  };
+  AreaLight light = testing::rect_light_down({0, 8, 0}, 1.0f, 1.0f);
+  Scene scene = testing::ground_scene({sphere_object({0.56f, 2, 0}, 0.5f), sphere_object({-0.38f, 5, 0}, 0.3f)}, light);
+  const float D = 2.0f * std::sqrt(1.0f / kPi);  // equal-area diameter of the 1 x 1 light
+  Vec3f o = offset_ray_origin({0, 0, 0}, {0, 1, 0}, {0, 1, 0});
+  float dist = 8.0f - o.y;
+  float s1 = sphere_transmission(o, {0, 1, 0}, dist, {0.56f, 2, 0}, 0.5f, D);
+  float s2 = sphere_transmission(o, {0, 1, 0}, dist, {-0.38f, 5, 0}, 0.3f, D);
+  ASSERT_GT(s1, 0.05f);
+  ASSERT_LT(s1, 0.95f);
+  ASSERT_GT(s2, 0.05f);
+  ASSERT_LT(s2, 0.95f);
+  RayTracer tracer(scene);
+  ViewSamples vs;
+  ViewSample p;
+  p.p = {0, 0, 0};
+  p.ng = p.ns = {0, 1, 0};
+  vs.samples = {p};
+  for (auto [mode, expected] : {std::pair{"min", std::min(s1, s2)}, std::pair{"multiply", s1 * s2},
+                                std::pair{"add", std::max(0.0f, 1 - ((1 - s1) + (1 - s2)))}}) {
+    auto m = create_method("single-sample", scene, {std::string("combine=") + mode});
+    ShadowContext ctx;
+    ctx.scene = &scene;
+    ctx.light = &scene.lights[0];
+    ctx.tracer = &tracer;
+    m->prepare(ctx);
+    float vis = -1;
+    ShadowOutput out{std::span<float>(&vis, 1), {}};
+    m->evaluate(ctx, vs, out);
+    EXPECT_NEAR(vis, expected, 1e-4f) << mode;
+  }
+}
+
+}  // namespace
+}  // namespace penumbra
