@@ -1,12 +1,11 @@
 #include "penumbra/core/image.h"
 
+#include "penumbra/core/file_util.h"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <system_error>
-
-#include <unistd.h>
 
 #include <ImfArray.h>
 #include <ImfChannelList.h>
@@ -50,31 +49,6 @@ std::string lower_extension(const std::string& path) {
   for (auto& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   return ext;
 }
-
-// A temporary file beside `path`, renamed over it on commit(), removed otherwise: a
-// failed run never leaves a half-written image (DESIGN.md, conventions).
-class AtomicFile {
- public:
-  explicit AtomicFile(const std::string& path)
-      : path_(path), tmp_(path + ".tmp-" + std::to_string(::getpid())) {}
-  ~AtomicFile() {
-    if (!committed_) {
-      std::error_code ec;
-      fs::remove(tmp_, ec);
-    }
-  }
-  const std::string& tmp() const { return tmp_; }
-  void commit() {
-    std::error_code ec;
-    fs::rename(tmp_, path_, ec);
-    if (ec) throw Error("{}: cannot write: {}", path_, ec.message());
-    committed_ = true;
-  }
-
- private:
-  std::string path_, tmp_;
-  bool committed_ = false;
-};
 
 void write_exr(const std::string& path, const Image& img, const std::vector<NamedChannel>& extra) {
   const int w = img.width(), h = img.height();

@@ -1,0 +1,281 @@
+#include "penumbra/scene/scene.h"
+
+#include <cmath>
+
+#include "penumbra/core/error.h"
+#include "penumbra/scene/generators.h"
+#include "penumbra/scene/json_reader.h"
+#include "penumbra/scene/mesh_import.h"
+#include "penumbra/scene/shapes.h"
+
+namespace penumbra {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+Bounds3f Scene::bounds() const {
+  Bounds3f b;
+  for (const auto& o : objects) b.extend(o.mesh.bounds());
+  return b;
+}
+
+size_t Scene::triangle_count() const {
+  size_t n = 0;
+  for (const auto& o : objects) n += o.mesh.triangle_count();
+  return n;
+}
+
+void Scene::finalize() {
+  for (auto& o : objects) o.closed = o.mesh.is_closed();
+  // A sphere light looks the same from everywhere; light-space methods need an axis, and
+  // the one that sees the most of the scene is toward its centre.
+  Bounds3f b = bounds();
+  for (auto& l : lights) {
+    if (l.shape != LightShape::Sphere) continue;
+    Vec3f d = b.empty() ? Vec3f(0, -1, 0) : b.center() - l.center;
+    if (!(length_squared(d) > 1e-12f)) d = Vec3f(0, -1, 0);
+    l.frame = Frame::from_z(d);
+  }
+}
+
+namespace {
+
+// Parses one document; `file` starts every message, `folder` resolves relative paths.
+class SceneParser {
+ public:
+  SceneParser(std::string file, fs::path folder) : file_(std::move(file)), folder_(std::move(folder)) {}
+
+  Scene parse(const json& doc) {
+    JsonValue root(doc, file_);
+    if (!doc.is_object()) throw Error("{}: expected a JSON object at the top level, got {}", file_, abbreviate_json(doc));
+    root.expect_object({"description", "camera", "lights", "objects", "methods"});
+    Scene scene;
+    if (root.has("description")) root["description"].string();
+    scene.camera = read_camera(root["camera"]);
+    JsonValue lights = root["lights"];
+    if (lights.size() == 0) lights.fail("expected at least one light");
+    for (size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(read_light(lights[i]));
+    JsonValue objects = root["objects"];
+    if (objects.size() == 0) objects.fail("expected at least one object");
+    for (size_t i = 0; i < objects.size(); ++i) read_object(objects[i], &scene.objects);
+    if (root.has("methods")) {
+      JsonValue methods = root["methods"];
+      methods.expect_object();
+      // The methods validate their own tables later (ParamSet); here only the shape.
+      for (const auto& [name, table] : methods.raw().items()) methods[name].expect_object();
+      scene.method_params = methods.raw();
+    }
+    scene.finalize();
+    return scene;
+  }
+
+ private:
+  Camera read_camera(const JsonValue& v) {
+    v.expect_object({"eye", "target", "up", "fov_y", "resolution", "samples_per_pixel"});
+    Camera c;
+    c.eye = v["eye"].vec3();
+    c.target = v["target"].vec3();
+    if (!(length_squared(c.target - c.eye) > 1e-12f)) v["target"].fail("must differ from camera.eye");
+    if (v.has("up")) c.up = v["up"].direction();
+    if (length_squared(cross(normalize(c.up), normalize(c.target - c.eye))) < 1e-10f) {
+      if (v.has("up")) v["up"].fail("must not be parallel to the view direction (target - eye)");
+      v.fail("the view direction is vertical: give an \"up\" that is not parallel to it");
+    }
+    if (v.has("fov_y")) {
+      JsonValue f = v["fov_y"];
+      if (!f.raw().is_number()) f.fail_expected("an angle in degrees in (0, 180)");
+      c.fov_y = f.number();
+      if (!(c.fov_y > 0 && c.fov_y < 180)) f.fail_expected("an angle in degrees in (0, 180)");
+    }
+    if (v.has("resolution")) {
+      JsonValue r = v["resolution"];
+      const char* what = "two integers in [1, 16384]";
+      if (!r.raw().is_array() || r.raw().size() != 2) r.fail_expected(what);
+      for (size_t i = 0; i < 2; ++i)
+        if (!r.raw()[i].is_number()) r.fail_expected(what);
+      c.width = r[size_t{0}].integer(1, 16384);
+      c.height = r[size_t{1}].integer(1, 16384);
+    }
+    if (v.has("samples_per_pixel")) c.samples_per_pixel = v["samples_per_pixel"].integer(1, 65536);
+    return c;
+  }
+
+  AreaLight read_light(const JsonValue& v) {
+    v.expect_object();
+    std::string type = v["type"].one_of({"rect", "disk", "sphere"});
+    AreaLight l;
+    if (type == "rect") {
+      v.expect_object({"type", "center", "normal", "u", "size", "radiance"});
+      l.shape = LightShape::Rect;
+      l.size = v["size"].positive_vec2();
+    } else if (type == "disk") {
+      v.expect_object({"type", "center", "normal", "u", "radius", "radiance"});
+      l.shape = LightShape::Disk;
+      l.radius = v["radius"].positive();
+    } else {
+      v.expect_object({"type", "center", "radius", "radiance"});
+      l.shape = LightShape::Sphere;
+      l.radius = v["radius"].positive();
+    }
+    l.center = v["center"].vec3();
+    if (v.has("radiance")) l.radiance = v["radiance"].color();  // default: AreaLight's (1,1,1)
+    if (type != "sphere") {
+      Vec3f n = normalize(v["normal"].direction());
+      if (v.has("u")) {
+        Vec3f u = normalize(v["u"].direction());
+        if (length_squared(cross(n, u)) < 1e-8f) v["u"].fail("must not be parallel to normal");
+        l.frame = Frame::from_zx(n, u);
+      } else if (type == "rect") {
+        // Default u: world x projected onto the light's plane (z if the normal is along x),
+        // so a light facing straight down has its width along x and height along z.
+        l.frame = Frame::from_zx(n, std::abs(n.x) > 0.999f ? Vec3f(0, 0, 1) : Vec3f(1, 0, 0));
+      } else {
+        l.frame = Frame::from_z(n);
+      }
+    }
+    return l;
+  }
+
+  // Object transform: scale, then rotate about x, y, z (degrees), then translate.
+  struct Transform {
+    Mat4 m;
+    bool similarity = true;  // uniform |scale|: spheres stay spheres
+    float uniform_scale = 1;
+  };
+  Transform read_transform(const JsonValue& v) {
+    Transform t;
+    Vec3f s(1, 1, 1);
+    if (v.has("scale")) {
+      JsonValue sv = v["scale"];
+      const char* what = "a non-zero number or three non-zero numbers";
+      if (sv.raw().is_number()) {
+        s = Vec3f(sv.number());
+      } else {
+        if (!sv.raw().is_array()) sv.fail_expected(what);
+        s = sv.vec3();
+      }
+      if (std::abs(s.x) < 1e-12f || std::abs(s.y) < 1e-12f || std::abs(s.z) < 1e-12f) sv.fail_expected(what);
+    }
+    Vec3f r = v.has("rotate") ? v["rotate"].vec3() : Vec3f(0);
+    Vec3f tr = v.has("translate") ? v["translate"].vec3() : Vec3f(0);
+    t.m = Mat4::translate(tr) * Mat4::rotate_z(r.z) * Mat4::rotate_y(r.y) * Mat4::rotate_x(r.x) * Mat4::scale(s);
+    float ax = std::abs(s.x);
+    t.similarity = std::abs(std::abs(s.y) - ax) <= 1e-6f * ax && std::abs(std::abs(s.z) - ax) <= 1e-6f * ax;
+    t.uniform_scale = ax;
+    return t;
+  }
+
+  // Overrides the fields given in "material" (generators set their own defaults).
+  void read_material(const JsonValue& v, Material* m) {
+    v.expect_object({"albedo", "opacity", "two_sided"});
+    if (v.has("albedo")) {
+      JsonValue a = v["albedo"];
+      m->albedo = a.color();
+      if (max_component(m->albedo) > 1) a.fail_expected("three numbers in [0, 1]");
+    }
+    if (v.has("opacity")) m->opacity = v["opacity"].in_range(0, 1);
+    if (v.has("two_sided")) m->two_sided = v["two_sided"].boolean();
+  }
+
+  void read_object(const JsonValue& v, std::vector<SceneObject>* out) {
+    v.expect_object();
+    int kinds = int(v.has("mesh")) + int(v.has("shape")) + int(v.has("generator"));
+    if (kinds != 1) v.fail("expected exactly one of \"mesh\", \"shape\" or \"generator\"");
+    std::vector<std::string_view> allowed = {"name", "translate", "rotate", "scale", "material"};
+    std::vector<SceneObject> parts;
+    std::string base_name;
+
+    if (v.has("mesh")) {
+      allowed.push_back("mesh");
+      v.expect_object(allowed);
+      JsonValue mv = v["mesh"];
+      std::string rel = mv.string();
+      if (rel.empty()) mv.fail("expected a file name, got an empty string");
+      fs::path p = fs::path(rel).is_absolute() ? fs::path(rel) : (folder_ / rel).lexically_normal();
+      SceneObject o;
+      try {
+        o.mesh = import_mesh(p);
+      } catch (const Error& e) {
+        mv.fail(e.what());
+      }
+      base_name = fs::path(rel).stem().string();
+      parts.push_back(std::move(o));
+    } else if (v.has("shape")) {
+      JsonValue sv = v["shape"];
+      std::string shape = sv.one_of({"plane", "box", "sphere"});
+      SceneObject o;
+      if (shape == "plane") {
+        allowed.insert(allowed.end(), {"shape", "size"});
+        v.expect_object(allowed);
+        o.mesh = make_plane(v["size"].positive_vec2());
+      } else if (shape == "box") {
+        allowed.insert(allowed.end(), {"shape", "size"});
+        v.expect_object(allowed);
+        JsonValue size = v["size"];
+        Vec3f s = size.vec3();
+        if (!(min_component(s) > 0)) size.fail_expected("three positive numbers");
+        o.mesh = make_box(s);
+      } else {
+        allowed.insert(allowed.end(), {"shape", "radius", "segments"});
+        v.expect_object(allowed);
+        float radius = v["radius"].positive();
+        int segments = v.has("segments") ? v["segments"].integer(3, 4096) : 32;
+        o.mesh = make_uv_sphere(radius, segments);
+        o.sphere = SphereShape{Vec3f(0), radius};
+      }
+      base_name = shape;
+      parts.push_back(std::move(o));
+    } else {
+      allowed.insert(allowed.end(), {"generator", "params"});
+      v.expect_object(allowed);
+      JsonValue gv = v["generator"];
+      const GeneratorInfo* g = nullptr;
+      try {
+        g = &find_generator(gv.string());
+      } catch (const Error& e) {
+        gv.fail(e.what());
+      }
+      static const json kEmpty = json::object();
+      JsonValue pv = v.has("params") ? v["params"] : JsonValue(kEmpty, file_, v.path() + ".params");
+      json params = resolve_generator_params(*g, pv);
+      try {
+        parts = g->generate(params);
+      } catch (const Error& e) {
+        pv.fail(e.what());
+      }
+      base_name = g->name;
+    }
+
+    std::string name = v.has("name") ? v["name"].string() : base_name;
+    Transform t = read_transform(v);
+    for (auto& o : parts) {
+      if (o.mesh.triangle_count() == 0) continue;  // e.g. a plant with leaves = 0
+      o.name = parts.size() > 1 && !o.name.empty() ? name + "." + o.name : name;
+      if (v.has("material")) read_material(v["material"], &o.material);
+      o.mesh.transform(t.m);
+      for (Vec3f p : o.mesh.positions)
+        if (!is_finite(p)) v.fail("vertex positions are not finite after the transform");
+      if (o.sphere && t.similarity)
+        o.sphere = SphereShape{t.m.transform_point(o.sphere->center), o.sphere->radius * t.uniform_scale};
+      else
+        o.sphere.reset();
+      out->push_back(std::move(o));
+    }
+  }
+
+  std::string file_;
+  fs::path folder_;
+};
+
+}  // namespace
+
+Scene parse_scene(const json& doc, const fs::path& origin) {
+  SceneParser parser(origin.string(), origin.parent_path());
+  Scene scene = parser.parse(doc);
+  scene.source = origin;
+  return scene;
+}
+
+Scene load_scene(const fs::path& path) { return parse_scene(read_json_file(path), path); }
+
+}  // namespace penumbra
