@@ -18,7 +18,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Run {
+struct CliRun {
   int exit_code;
   std::string out, err;
 };
@@ -33,7 +33,7 @@ class Cli : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  Run run(const std::string& args) {
+  CliRun run(const std::string& args) {
     std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
     std::string cmd = fmt::format("{} {} >{} 2>{}", PENUMBRA_CLI, args, out, err);
     int status = std::system(cmd.c_str());
@@ -50,12 +50,13 @@ class Cli : public ::testing::Test {
     std::ofstream(p) << text;
     return p.string();
   }
-  // A 1 x 1 occluder at height 1 over a ground plane, lit by a 1.5 x 1.5 rect light.
+  // A 1 x 1 occluder at height 1 over a ground plane, lit by a 0.5 x 0.5 rect light at
+  // height 2: an umbra 0.5 wide surrounded by a penumbra.
   std::string tiny_scene(const std::string& extra_object_key = "") {
     return write("tiny.json", R"({
       "camera": {"eye": [0, 4, 0.001], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 60, "resolution": [32, 24]},
       "lights": [{"type": "rect", "center": [0, 2, 0], "normal": [0, -1, 0], "u": [1, 0, 0],
-                  "size": [1.5, 1.5], "radiance": [4, 4, 4]}],
+                  "size": [0.5, 0.5], "radiance": [4, 4, 4]}],
       "objects": [
         {"shape": "plane", "size": [8, 8]},
         {"shape": "box", "size": [1, 0.05, 1], "translate": [0, 1, 0])" + extra_object_key + R"(}
@@ -68,7 +69,7 @@ class Cli : public ::testing::Test {
 TEST_F(Cli, RenderWritesAnImageWithSoftShadows) {
   std::string scene = tiny_scene();
   fs::path exr = dir_ / "out.exr", stats = dir_ / "stats.json";
-  Run r = run(fmt::format("render {} -m reference --spp 64 -o {} --stats-json {} --quiet", scene, exr.string(),
+  CliRun r = run(fmt::format("render {} -m reference --spp 64 -o {} --stats-json {} --quiet", scene, exr.string(),
                           stats.string()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   Image v = read_exr_channel(exr.string(), "V");
@@ -99,7 +100,7 @@ TEST_F(Cli, RenderWritesAnImageWithSoftShadows) {
 TEST_F(Cli, BadSceneIsOneLineErrorNamingFileAndKeyAndWritesNothing) {
   std::string scene = tiny_scene(R"(, "colour": [1, 0, 0])");
   fs::path out = dir_ / "never.png";
-  Run r = run(fmt::format("render {} -o {}", scene, out.string()));
+  CliRun r = run(fmt::format("render {} -o {}", scene, out.string()));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("tiny.json"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("colour"), std::string::npos) << r.err;
@@ -109,7 +110,7 @@ TEST_F(Cli, BadSceneIsOneLineErrorNamingFileAndKeyAndWritesNothing) {
 
 TEST_F(Cli, BadArgumentsAreRejected) {
   std::string scene = tiny_scene();
-  Run r = run(fmt::format("render {} -m no-such-method -o {}", scene, (dir_ / "x.png").string()));
+  CliRun r = run(fmt::format("render {} -m no-such-method -o {}", scene, (dir_ / "x.png").string()));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("no-such-method"), std::string::npos) << r.err;
   r = run(fmt::format("render {} -p samples=3 -o {}", scene, (dir_ / "x.png").string()));
@@ -127,7 +128,7 @@ TEST_F(Cli, BadArgumentsAreRejected) {
 }
 
 TEST_F(Cli, MethodsListsEveryRegisteredMethod) {
-  Run r = run("methods");
+  CliRun r = run("methods");
   ASSERT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("reference"), std::string::npos);
   EXPECT_NE(r.out.find("hard"), std::string::npos);

@@ -7,6 +7,7 @@
 
 #include "app/command.h"
 #include "app/common.h"
+#include "penumbra/core/file_util.h"
 #include "penumbra/core/image.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/render/renderer.h"

@@ -1,10 +1,7 @@
 #include "app/common.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
 #include <regex>
 
 #include "penumbra/core/error.h"
@@ -51,27 +48,6 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
           {"camera_pass_ms", r.camera_pass_ms},
           {"total_ms", r.total_ms},
           {"stats", r.stats.to_json()}};
-}
-
-void write_text_file_atomic(const std::string& path, const std::string& text) {
-  fs::path parent = fs::path(path).parent_path();
-  if (!parent.empty() && !fs::is_directory(parent)) throw Error("{}: folder {} does not exist", path, parent.string());
-  std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) throw Error("{}: cannot write", path);
-    f << text;
-    if (!f.flush()) {
-      fs::remove(tmp);
-      throw Error("{}: cannot write", path);
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp);
-    throw Error("{}: cannot write: {}", path, ec.message());
-  }
 }
 
 }  // namespace penumbra::app

@@ -18,7 +18,5 @@ void check_output_path(const std::string& path, const std::vector<std::string>& 
 // The --stats-json document of one render.
 nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
                                  const RenderResult& r);
-// Writes text to a temporary file and renames it over `path`.
-void write_text_file_atomic(const std::string& path, const std::string& text);
 
 }  // namespace penumbra::app

@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -29,11 +30,34 @@ struct TransparencyData {
   const float* triangle_opacity = nullptr;  // optional, per triangle
 };
 
-// The intersect context extended with the per-ray transmittance of the current batch
-// (Embree passes the context pointer through to filter functions).
+// A ray that crosses exactly an edge shared by two triangles is reported on both (Embree's
+// watertight test guarantees no gap, not no overlap): the filter remembers the last few
+// surfaces each ray crossed and attenuates once per surface.
+struct RecentHits {
+  static constexpr int kSize = 4;
+  float t[kSize];
+  unsigned geom[kSize];
+  int next = 0, count = 0;
+  bool seen(float hit_t, unsigned g) const {
+    float eps = 1e-5f * std::max(1.0f, hit_t);
+    for (int i = 0; i < count; ++i)
+      if (geom[i] == g && std::abs(t[i] - hit_t) <= eps) return true;
+    return false;
+  }
+  void add(float hit_t, unsigned g) {
+    t[next] = hit_t;
+    geom[next] = g;
+    next = (next + 1) % kSize;
+    count = std::min(count + 1, kSize);
+  }
+};
+
+// The intersect context extended with the per-ray state of the current batch (Embree
+// passes the context pointer through to filter functions).
 struct TransmittanceContext {
   RTCIntersectContext base;
   float* transmittance;  // indexed by RTCRay::id
+  RecentHits* recent;    // indexed by RTCRay::id
 };
 
 // Below this transmittance a ray counts as blocked and stops early.
@@ -48,6 +72,14 @@ void transparency_filter(const RTCFilterFunctionNArguments* args) {
     if (args->valid[i] != -1) continue;
     unsigned id = RTCRayN_id(args->ray, args->N, i);
     unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    unsigned geom = RTCHitN_geomID(args->hit, args->N, i);
+    float hit_t = RTCRayN_tfar(args->ray, args->N, i);
+    RecentHits& recent = ctx->recent[id];
+    if (recent.seen(hit_t, geom)) {  // the same surface through a shared edge
+      args->valid[i] = 0;
+      continue;
+    }
+    recent.add(hit_t, geom);
     float a = data->opacity * (data->triangle_opacity ? data->triangle_opacity[prim] : 1.0f);
     float& t = ctx->transmittance[id];
     t *= (1.0f - a);
@@ -180,14 +212,17 @@ void RayTracer::transmittance(std::span<const ShadowRay> rays, std::span<float> 
   // Streams of up to 256 rays on the stack: rtcOccluded1M with an incoherent context.
   constexpr size_t kChunk = 256;
   RTCRay buf[kChunk];
+  RecentHits recent[kChunk];
   for (size_t begin = 0; begin < rays.size(); begin += kChunk) {
     size_t n = std::min(kChunk, rays.size() - begin);
     TransmittanceContext ctx;
     rtcInitIntersectContext(&ctx.base);
     ctx.transmittance = out.data() + begin;
+    ctx.recent = recent;
     for (size_t i = 0; i < n; ++i) {
       fill_ray(buf[i], rays[begin + i], static_cast<unsigned>(i));
       ctx.transmittance[i] = 1.0f;
+      recent[i].count = recent[i].next = 0;
     }
     rtcOccluded1M(impl_->scene, &ctx.base, buf, static_cast<unsigned>(n), sizeof(RTCRay));
     for (size_t i = 0; i < n; ++i)

@@ -134,9 +134,10 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     }
     if (bvh_.empty()) return s;
 
-    // Nodes are visited while they could hold a point with tau < tau_max: with `min`,
-    // tau_max shrinks to the tau that would lower s; otherwise only tau < 1 matters.
-    auto tau_max = [&] { return combine_ == Combine::Min ? inverse_falloff(s) : 1.0f; };
+    // Nodes are visited while they could hold a point with perp / t < limit = k tau_max:
+    // with `min`, tau_max shrinks to the tau that would lower s; otherwise only tau < 1
+    // matters. (Recomputed only when s changes: inverse_falloff costs an asin and a sin.)
+    float limit = k * (combine_ == Combine::Min ? inverse_falloff(s) : 1.0f);
     auto node_bound = [&](const BvhNode& n) {  // lower bound of perp / t inside the node
       Vec3f rel = n.sphere_center - o;
       float t_c = dot(rel, v);
@@ -152,7 +153,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     while (!stack.empty()) {
       auto [bound, index] = stack.back();
       stack.pop_back();
-      if (bound >= k * tau_max()) continue;
+      if (bound >= limit) continue;
       ++*nodes_visited;
       const BvhNode& n = nodes[index];
       if (n.leaf()) {
@@ -171,12 +172,12 @@ class SingleSampleSoftShadows final : public ShadowMethod {
           if (tau >= 1.0f) continue;
           combine(s, 1.0f - t.opacity * (1.0f - falloff(tau)));
           if (s <= 0.0f) return 0.0f;
+          if (combine_ == Combine::Min) limit = k * inverse_falloff(s);
         }
         continue;
       }
       // Nearest child last on the stack, so it is searched first.
       float b0 = node_bound(nodes[n.first]), b1 = node_bound(nodes[n.first + 1]);
-      float limit = k * tau_max();
       if (b0 < b1) {
         if (b1 < limit) stack.push_back({b1, n.first + 1});
         if (b0 < limit) stack.push_back({b0, n.first});
