@@ -54,10 +54,13 @@ int run_render(const RenderOptions& o) {
     nlohmann::json j = render_stats_json(scene, o.method, settings, r);
     write_text_file_atomic(o.stats_json, j.dump(2) + "\n");
   }
-  if (!o.quiet)
-    std::fprintf(stderr, "%s: %s, %dx%d, %d light samples: %.1f ms (%.1f ms camera pass), %llu shadow rays -> %s\n",
-                 o.scene.c_str(), o.method.c_str(), scene.camera.width, scene.camera.height, o.spp, r.total_ms,
+  if (!o.quiet) {
+    std::string samples =
+        MethodRegistry::get(o.method).samples_light ? fmt::format(", {} light samples", o.spp) : std::string();
+    std::fprintf(stderr, "%s: %s, %dx%d%s: %.1f ms (%.1f ms camera pass), %llu shadow rays -> %s\n", o.scene.c_str(),
+                 o.method.c_str(), scene.camera.width, scene.camera.height, samples.c_str(), r.total_ms,
                  r.camera_pass_ms, static_cast<unsigned long long>(r.stats.rays_traced), out.c_str());
+  }
   return 0;
 }
 

@@ -14,12 +14,13 @@ void stratification_grid(int n, int* cols, int* rows) {
   *cols = n / r;
 }
 
-Vec2f stratified_sample(int i, int n, Vec2f u) {
-  int cols, rows;
-  stratification_grid(n, &cols, &rows);
-  int cx = i % cols, cy = i / cols;
-  return {(cx + u.x) / cols, (cy + u.y) / rows};
+StratifiedGrid::StratifiedGrid(int n) {
+  stratification_grid(n, &cols_, &rows_);
+  inv_cols_ = 1.0f / cols_;
+  inv_rows_ = 1.0f / rows_;
 }
+
+Vec2f stratified_sample(int i, int n, Vec2f u) { return StratifiedGrid(n).sample(i, u); }
 
 std::vector<Vec2f> stratified_samples(int n, Rng& rng, bool jitter) {
   int cols, rows;

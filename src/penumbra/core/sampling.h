@@ -18,7 +18,24 @@ void stratification_grid(int n, int* cols, int* rows);
 // cell-major (row by row). With jitter=false the cell centres.
 std::vector<Vec2f> stratified_samples(int n, Rng& rng, bool jitter = true);
 
+// The cells of stratification_grid(n), factored once: sample(i, u) is cell i (row by row)
+// jittered by u in [0,1)^2.
+class StratifiedGrid {
+ public:
+  explicit StratifiedGrid(int n);
+  int size() const { return cols_ * rows_; }
+  Vec2f sample(int i, Vec2f u) const {
+    int cx = i % cols_, cy = i / cols_;
+    return {(cx + u.x) * inv_cols_, (cy + u.y) * inv_rows_};
+  }
+
+ private:
+  int cols_ = 1, rows_ = 1;
+  float inv_cols_ = 1, inv_rows_ = 1;
+};
+
 // Stratified sample `i` of `n` (cell i of stratification_grid(n)) jittered by u in [0,1)^2.
+// (Factors n on every call: loops should hold a StratifiedGrid.)
 Vec2f stratified_sample(int i, int n, Vec2f u);
 
 // The shared light-sample set of a frame. agrawala2000 §3: "the same light samples are

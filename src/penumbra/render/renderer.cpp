@@ -21,6 +21,7 @@ ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t se
   // Each row is traced into its own list, then rows are concatenated in order, so the
   // sample order is scanline order whatever the thread count.
   std::vector<std::vector<ViewSample>> rows(cam.height);
+  const StratifiedGrid grid(spp);
   parallel_for(cam.height, 1, [&](size_t y0, size_t y1) {
     for (size_t y = y0; y < y1; ++y) {
       auto& row = rows[y];
@@ -30,7 +31,7 @@ ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t se
         Rng rng(seed, 0x43414dull /* "CAM" */, pixel);
         for (int s = 0; s < spp; ++s) {
           // One sample: the pixel centre. Several: stratified jitter inside the pixel.
-          Vec2f u = spp == 1 ? Vec2f(0.5f, 0.5f) : stratified_sample(s, spp, rng.next_2d());
+          Vec2f u = spp == 1 ? Vec2f(0.5f, 0.5f) : grid.sample(s, rng.next_2d());
           Ray ray{cam.eye, cam.ray_direction(x + u.x, y + u.y), 0.0f, kInfinity};
           Hit hit;
           if (!tracer.intersect(ray, &hit)) continue;

@@ -51,54 +51,6 @@ bool AreaLight::faces(Vec3f p) const {
 
 namespace {
 
-// Spherical rectangle sampling (Urena, Fajardo, King 2013, "An Area-Preserving
-// Parametrization for Spherical Rectangles", Algorithm 1). Works in the rectangle's frame
-// with the reference point at the origin; returns false when the solid angle is too small
-// for the parametrisation to be accurate (the caller then samples by area).
-struct SphericalRect {
-  Vec3f o, x, y, z;
-  float z0, x0, y0, x1, y1, b0, b1, k, solid_angle;
-
-  bool init(Vec3f corner, Vec3f ex, Vec3f ey, Vec3f origin) {
-    o = origin;
-    float exl = length(ex), eyl = length(ey);
-    x = ex / exl;
-    y = ey / eyl;
-    z = cross(x, y);
-    Vec3f d = corner - o;
-    z0 = dot(d, z);
-    if (z0 > 0) { z = -z; z0 = -z0; }
-    x0 = dot(d, x); y0 = dot(d, y);
-    x1 = x0 + exl; y1 = y0 + eyl;
-    Vec3f v00(x0, y0, z0), v01(x0, y1, z0), v10(x1, y0, z0), v11(x1, y1, z0);
-    Vec3f n0 = normalize(cross(v00, v10)), n1 = normalize(cross(v10, v11));
-    Vec3f n2 = normalize(cross(v11, v01)), n3 = normalize(cross(v01, v00));
-    float g0 = std::acos(std::clamp(-dot(n0, n1), -1.0f, 1.0f));
-    float g1 = std::acos(std::clamp(-dot(n1, n2), -1.0f, 1.0f));
-    float g2 = std::acos(std::clamp(-dot(n2, n3), -1.0f, 1.0f));
-    float g3 = std::acos(std::clamp(-dot(n3, n0), -1.0f, 1.0f));
-    b0 = n0.z; b1 = n2.z;
-    k = 2 * kPi - g2 - g3;
-    solid_angle = g0 + g1 - k;
-    return std::isfinite(solid_angle) && solid_angle > 1e-5f && -z0 > 1e-6f;
-  }
-
-  Vec3f sample(Vec2f u) const {
-    float au = u.x * solid_angle + k;
-    float fu = (std::cos(au) * b0 - b1) / std::sin(au);
-    float cu = std::copysign(1.0f, fu) / std::sqrt(fu * fu + b0 * b0);
-    cu = std::clamp(cu, -1.0f, 1.0f);
-    float xu = -(cu * z0) / std::sqrt(std::max(1e-12f, 1 - cu * cu));
-    xu = std::clamp(xu, x0, x1);
-    float d = std::sqrt(xu * xu + z0 * z0);
-    float h0 = y0 / std::sqrt(d * d + y0 * y0), h1 = y1 / std::sqrt(d * d + y1 * y1);
-    float hv = h0 + u.y * (h1 - h0), hv2 = hv * hv;
-    float yv = hv2 < 1 - 1e-6f ? (hv * d) / std::sqrt(1 - hv2) : y1;
-    yv = std::clamp(yv, y0, y1);
-    return o + x * xu + y * yv + z * z0;
-  }
-};
-
 // Irradiance factor of a convex polygon of unit radiance at p with normal n: Lambert's
 // formula E = 1/2 * sum_i theta_i (n . gamma_i) over the polygon clipped to n's
 // hemisphere (the part below the horizon contributes nothing).
@@ -152,51 +104,104 @@ std::vector<Vec3f> AreaLight::outline(int segments) const {
 }
 
 bool AreaLight::sample_direction(Vec3f p, Vec2f u, DirectionSample* out) const {
-  if (!faces(p)) return false;
-  if (shape == LightShape::Sphere) {
-    Vec3f to_c = center - p;
-    float d2 = length_squared(to_c), d = std::sqrt(d2);
-    float sin2 = radius * radius / d2;
-    float cos_max = std::sqrt(std::max(0.0f, 1 - sin2));
-    Frame f = Frame::from_z(to_c / d);
-    Vec3f dir = f.to_world(square_to_cone(u, cos_max));
-    // Distance to the near intersection with the sphere.
-    float b = dot(dir, to_c);
-    float disc = b * b - (d2 - radius * radius);
-    out->dir = dir;
-    out->dist = b - std::sqrt(std::max(0.0f, disc));
-    out->pdf = cone_pdf(cos_max);
-    out->area_weight = 1.0f;  // visibility of a sphere: the fraction of its solid angle
-    return true;
+  LightPointSampler sampler(*this, p);
+  return sampler.valid() && sampler.sample(u, out);
+}
+
+LightPointSampler::LightPointSampler(const AreaLight& light, Vec3f p) : light_(&light), p_(p) {
+  if (!light.faces(p)) return;
+  if (light.shape == LightShape::Sphere) {
+    Vec3f to_c = light.center - p;
+    dist2_ = length_squared(to_c);
+    cos_max_ = std::sqrt(std::max(0.0f, 1 - light.radius * light.radius / dist2_));
+    cone_frame_ = Frame::from_z(to_c / std::sqrt(dist2_));
+    mode_ = Mode::Cone;
+    return;
   }
-  if (shape == LightShape::Rect) {
-    Vec3f hs = frame.s * size.x, ht = frame.t * size.y;
-    SphericalRect sr;
-    if (sr.init(center - hs * 0.5f - ht * 0.5f, hs, ht, p)) {
-      Vec3f q = sr.sample(u);
-      Vec3f d = q - p;
+  mode_ = Mode::Area;
+  if (light.shape != LightShape::Rect) return;
+  // Spherical rectangle set-up (Urena, Fajardo, King 2013, "An Area-Preserving
+  // Parametrization for Spherical Rectangles", Algorithm 1): the rectangle's frame with p
+  // at the origin, the four corner planes and the solid angle.
+  Vec3f ex = light.frame.s * light.size.x, ey = light.frame.t * light.size.y;
+  Vec3f corner = light.center - ex * 0.5f - ey * 0.5f;
+  x_ = light.frame.s;
+  y_ = light.frame.t;
+  z_ = cross(x_, y_);
+  Vec3f d = corner - p;
+  z0_ = dot(d, z_);
+  if (z0_ > 0) { z_ = -z_; z0_ = -z0_; }
+  x0_ = dot(d, x_); y0_ = dot(d, y_);
+  x1_ = x0_ + light.size.x; y1_ = y0_ + light.size.y;
+  Vec3f v00(x0_, y0_, z0_), v01(x0_, y1_, z0_), v10(x1_, y0_, z0_), v11(x1_, y1_, z0_);
+  Vec3f n0 = normalize(cross(v00, v10)), n1 = normalize(cross(v10, v11));
+  Vec3f n2 = normalize(cross(v11, v01)), n3 = normalize(cross(v01, v00));
+  float g0 = std::acos(std::clamp(-dot(n0, n1), -1.0f, 1.0f));
+  float g1 = std::acos(std::clamp(-dot(n1, n2), -1.0f, 1.0f));
+  float g2 = std::acos(std::clamp(-dot(n2, n3), -1.0f, 1.0f));
+  float g3 = std::acos(std::clamp(-dot(n3, n0), -1.0f, 1.0f));
+  b0_ = n0.z; b1_ = n2.z;
+  k_ = 2 * kPi - g2 - g3;
+  solid_angle_ = g0 + g1 - k_;
+  // Too small a solid angle for the parametrisation to be accurate: sample by area.
+  if (std::isfinite(solid_angle_) && solid_angle_ > 1e-5f && -z0_ > 1e-6f) mode_ = Mode::SphericalRect;
+}
+
+bool LightPointSampler::sample(Vec2f u, AreaLight::DirectionSample* out) const {
+  const AreaLight& light = *light_;
+  switch (mode_) {
+    case Mode::None:
+      return false;
+    case Mode::Cone: {
+      Vec3f dir = cone_frame_.to_world(square_to_cone(u, cos_max_));
+      // Distance to the near intersection with the sphere.
+      float b = dot(dir, light.center - p_);
+      float disc = b * b - (dist2_ - light.radius * light.radius);
+      out->dir = dir;
+      out->dist = b - std::sqrt(std::max(0.0f, disc));
+      out->pdf = cone_pdf(cos_max_);
+      out->area_weight = 1.0f;  // visibility of a sphere: the fraction of its solid angle
+      return true;
+    }
+    case Mode::SphericalRect: {
+      float au = u.x * solid_angle_ + k_;
+      float fu = (std::cos(au) * b0_ - b1_) / std::sin(au);
+      float cu = std::copysign(1.0f, fu) / std::sqrt(fu * fu + b0_ * b0_);
+      cu = std::clamp(cu, -1.0f, 1.0f);
+      float xu = -(cu * z0_) / std::sqrt(std::max(1e-12f, 1 - cu * cu));
+      xu = std::clamp(xu, x0_, x1_);
+      float d = std::sqrt(xu * xu + z0_ * z0_);
+      float h0 = y0_ / std::sqrt(d * d + y0_ * y0_), h1 = y1_ / std::sqrt(d * d + y1_ * y1_);
+      float hv = h0 + u.y * (h1 - h0), hv2 = hv * hv;
+      float yv = hv2 < 1 - 1e-6f ? (hv * d) / std::sqrt(1 - hv2) : y1_;
+      yv = std::clamp(yv, y0_, y1_);
+      Vec3f q = p_ + x_ * xu + y_ * yv + z_ * z0_;
+      Vec3f dq = q - p_;
+      float dist = length(dq);
+      out->dir = dq / dist;
+      out->dist = dist;
+      out->pdf = 1.0f / solid_angle_;
+      float cos_l = std::abs(dot(out->dir, light.frame.n));
+      // p_A expressed per solid angle: dist^2 / (A cos_l); its ratio to 1/Omega.
+      out->area_weight = cos_l > 1e-8f ? dist * dist / (light.area() * cos_l) * solid_angle_ : 0.0f;
+      return true;
+    }
+    case Mode::Area: {
+      // Disks (and degenerate rects): uniform area sampling converted to solid angle.
+      Vec3f q = light.sample_area(u);
+      Vec3f d = q - p_;
       float dist = length(d);
+      if (dist < 1e-12f) return false;
       out->dir = d / dist;
       out->dist = dist;
-      out->pdf = 1.0f / sr.solid_angle;
-      float cos_l = std::abs(dot(out->dir, frame.n));
-      // p_A expressed per solid angle: dist^2 / (A cos_l); ratio to 1/Omega.
-      out->area_weight = cos_l > 1e-8f ? dist * dist / (area() * cos_l) * sr.solid_angle : 0.0f;
+      float cos_l = std::abs(dot(out->dir, light.frame.n));
+      if (cos_l < 1e-8f) return false;
+      out->pdf = dist * dist / (light.area() * cos_l);
+      out->area_weight = 1.0f;
       return true;
     }
   }
-  // Disk (and degenerate rects): uniform area sampling converted to solid angle.
-  Vec3f q = sample_area(u);
-  Vec3f d = q - p;
-  float dist = length(d);
-  if (dist < 1e-12f) return false;
-  out->dir = d / dist;
-  out->dist = dist;
-  float cos_l = std::abs(dot(out->dir, frame.n));
-  if (cos_l < 1e-8f) return false;
-  out->pdf = dist * dist / (area() * cos_l);
-  out->area_weight = 1.0f;
-  return true;
+  return false;
 }
 
 float AreaLight::unshadowed_irradiance_scalar(Vec3f p, Vec3f n) const {

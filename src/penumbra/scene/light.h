@@ -49,6 +49,7 @@ struct AreaLight {
     float pdf = 0;          // solid angle
     float area_weight = 0;  // p_A / p_omega, both as solid-angle densities
   };
+  // (One-off; a loop over many samples at one point should use LightPointSampler.)
   bool sample_direction(Vec3f p, Vec2f u, DirectionSample* out) const;
 
   // Unshadowed irradiance at p with normal n (closed form): Lambert's polygon formula for
@@ -64,6 +65,29 @@ struct AreaLight {
   std::vector<Vec3f> outline(int segments = 16) const;
   // Whether the emitting side faces p (always true for spheres).
   bool faces(Vec3f p) const;
+};
+
+// Direction sampling toward a light from one point p: the per-point set-up (the spherical
+// rectangle's corner normals and solid angle, the cone's frame) is done once, then each
+// sample costs a few trigonometric calls (AreaLight::sample_direction for the estimators).
+class LightPointSampler {
+ public:
+  LightPointSampler(const AreaLight& light, Vec3f p);
+  // False if p sees no part of the emitting side (sample() must not be called then).
+  bool valid() const { return mode_ != Mode::None; }
+  bool sample(Vec2f u, AreaLight::DirectionSample* out) const;
+
+ private:
+  enum class Mode { None, SphericalRect, Cone, Area };
+  const AreaLight* light_;
+  Vec3f p_;
+  Mode mode_ = Mode::None;
+  // Spherical rectangle (Urena et al. 2013), in the rectangle's frame around p.
+  Vec3f x_, y_, z_;
+  float z0_ = 0, x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0, b0_ = 0, b1_ = 0, k_ = 0, solid_angle_ = 0;
+  // Cone toward a sphere.
+  Frame cone_frame_;
+  float cos_max_ = 1, dist2_ = 0;
 };
 
 }  // namespace penumbra

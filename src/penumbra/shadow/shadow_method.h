@@ -64,6 +64,8 @@ struct MethodInfo {
   std::string description;  // one line
   std::vector<ParamSpec> params;
   std::function<std::unique_ptr<ShadowMethod>(const ParamSet&)> create;
+  // Whether the method samples the light (so --spp, ShadowContext::light_samples, applies).
+  bool samples_light = false;
 };
 
 // The registry of shadow methods by name. Methods register from their own source file:

@@ -36,6 +36,7 @@ class ReferenceMethod final : public ShadowMethod {
     const AreaLight& light = *ctx.light;
     const int n = std::max(1, ctx.light_samples);
     std::atomic<uint64_t> rays{0};
+    const StratifiedGrid grid(n);
     parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
       std::vector<ShadowRay> batch(n);
       std::vector<float> transmit(n), cosine(n), weight(n);
@@ -45,12 +46,13 @@ class ReferenceMethod final : public ShadowMethod {
         // Keyed by (seed, light, view sample, frame): independent of thread count.
         Rng rng(ctx.seed, 0x52454600u + ctx.light_index, k, ctx.frame);
         int m = 0;
-        bool use_solid_angle = solid_angle_ && light.faces(s.p);
+        const LightPointSampler sampler(light, s.p);
+        const bool use_solid_angle = solid_angle_ && sampler.valid();
         for (int i = 0; i < n; ++i) {
-          Vec2f u = stratified_sample(i, n, rng.next_2d());
+          Vec2f u = grid.sample(i, rng.next_2d());
           if (use_solid_angle) {
             AreaLight::DirectionSample ds;
-            if (!light.sample_direction(s.p, u, &ds)) continue;
+            if (!sampler.sample(u, &ds)) continue;
             batch[m] = shadow_ray_to(s.p, s.ng, s.p + ds.dir * ds.dist);
             cosine[m] = std::max(0.0f, dot(s.ns, ds.dir)) / ds.pdf;
             weight[m] = ds.area_weight;
@@ -94,6 +96,7 @@ const MethodRegistration registration({
       "how light samples are drawn: 'solid-angle' (spherical rectangles / cones; lower variance) or 'area'",
       {"solid-angle", "area"}}},
     [](const ParamSet& p) { return std::make_unique<ReferenceMethod>(p); },
+    /*samples_light=*/true,
 });
 
 }  // namespace
