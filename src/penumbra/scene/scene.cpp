@@ -54,10 +54,10 @@ class SceneParser {
     scene.camera = read_camera(root["camera"]);
     JsonValue lights = root["lights"];
     if (lights.size() == 0) lights.fail("expected at least one light");
-    for (size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(read_light(lights[i]));
+    for (size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(read_light(lights.at(i)));
     JsonValue objects = root["objects"];
     if (objects.size() == 0) objects.fail("expected at least one object");
-    for (size_t i = 0; i < objects.size(); ++i) read_object(objects[i], &scene.objects);
+    for (size_t i = 0; i < objects.size(); ++i) read_object(objects.at(i), &scene.objects);
     if (root.has("methods")) {
       JsonValue methods = root["methods"];
       methods.expect_object();
@@ -93,8 +93,8 @@ class SceneParser {
       if (!r.raw().is_array() || r.raw().size() != 2) r.fail_expected(what);
       for (size_t i = 0; i < 2; ++i)
         if (!r.raw()[i].is_number()) r.fail_expected(what);
-      c.width = r[size_t{0}].integer(1, 16384);
-      c.height = r[size_t{1}].integer(1, 16384);
+      c.width = r.at(0).integer(1, 16384);
+      c.height = r.at(1).integer(1, 16384);
     }
     if (v.has("samples_per_pixel")) c.samples_per_pixel = v["samples_per_pixel"].integer(1, 65536);
     return c;
