@@ -4,6 +4,7 @@
 
 #include <set>
 
+#include "penumbra/core/file_util.h"
 #include "penumbra/core/testing.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/scene/scene.h"
@@ -155,6 +156,22 @@ TEST(Generators, MakeExampleSceneParsesKeyValues) {
   EXPECT_NE(error_message([] { make_example_scene("plant", {"colour=red"}); }).find("scene plant: colour: unknown key"),
             std::string::npos);
   EXPECT_NE(error_message([] { make_example_scene("vase", {}); }).find("unknown generator"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// docs/scene-format.md documents every generator parameter (a new one must be added there).
+TEST(Generators, EveryParameterIsDocumented) {
+  std::string doc = read_text_file(std::filesystem::path(PENUMBRA_SOURCE_DIR) / "docs" / "scene-format.md");
+  for (const auto& g : generators()) {
+    EXPECT_NE(doc.find("### `" + g.name + "`"), std::string::npos) << g.name;
+    for (const auto& p : g.params)
+      EXPECT_NE(doc.find("| `" + p.name + "` |"), std::string::npos) << g.name << "." << p.name;
+  }
 }
 
 }  // namespace
