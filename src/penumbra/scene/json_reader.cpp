@@ -67,7 +67,7 @@ size_t JsonValue::size() const {
   return value_->size();
 }
 
-JsonValue JsonValue::operator[](size_t index) const {
+JsonValue JsonValue::at(size_t index) const {
   if (index >= size()) fail(fmt::format("index {} out of range", index));
   return JsonValue((*value_)[index], context_, fmt::format("{}[{}]", path_, index));
 }
@@ -194,11 +194,12 @@ json parse_json_text(std::string_view text, const std::string& name) {
     std::set<std::string> keys;
   };
   std::vector<Level> stack;
-  auto path_with = [&stack](const std::string& key) {
+  // The key path of the value being parsed (levels [0, depth)), then `key` if given.
+  auto path_of = [&stack](size_t depth, const std::string& key) {
     std::string p;
-    for (size_t i = 0; i + 1 < stack.size(); ++i)
+    for (size_t i = 0; i < depth; ++i)
       p += stack[i].array ? fmt::format("[{}]", stack[i].index) : (p.empty() ? "" : ".") + stack[i].key;
-    return p + (p.empty() ? "" : ".") + key;
+    return key.empty() ? p : p + (p.empty() ? "" : ".") + key;
   };
   auto element_done = [&stack] {
     if (!stack.empty() && stack.back().array) ++stack.back().index;
@@ -210,7 +211,7 @@ json parse_json_text(std::string_view text, const std::string& name) {
       case json::parse_event_t::key: {
         std::string key = parsed.get<std::string>();
         if (!stack.back().keys.insert(key).second)
-          throw Error("{}: {}: duplicate key", name, path_with(key));
+          throw Error("{}: {}: duplicate key", name, path_of(stack.size() - 1, key));
         stack.back().key = key;
         break;
       }
@@ -235,6 +236,13 @@ json parse_json_text(std::string_view text, const std::string& name) {
     for (char& c : msg)
       if (c == '\n' || c == '\r') c = ' ';
     throw Error("{}: invalid JSON: {}", name, msg);
+  } catch (const json::out_of_range& e) {
+    // Numbers beyond double range (1e400): "number overflow parsing '1e400'".
+    std::string msg = e.what();
+    size_t q = msg.find('\'');
+    std::string number = q != std::string::npos ? msg.substr(q + 1, msg.rfind('\'') - q - 1) : msg;
+    std::string where = path_of(stack.size(), "");
+    throw Error("{}: {}{}number out of range: {}", name, where, where.empty() ? "" : ": ", number);
   }
 }
 

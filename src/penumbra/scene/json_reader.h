@@ -42,9 +42,9 @@ class JsonValue {
   bool has(std::string_view key) const;
   // The member `key`; throws "<path>.<key>: required key is missing" if absent.
   JsonValue operator[](std::string_view key) const;
-  // Array access; `size()` throws unless this is an array.
+  // Array access ("lights[2]"); `size()` throws unless this is an array.
   size_t size() const;
-  JsonValue operator[](size_t index) const;
+  JsonValue at(size_t index) const;
 
   // --- scalars (each throws naming the path when the type or range is wrong)
   float number() const;                        // any finite float

@@ -31,11 +31,15 @@ struct TriangleMesh {
   Vec3f vertex(size_t tri, int k) const { return positions[indices[3 * tri + k]]; }
   Bounds3f bounds() const;
   // Applies an affine transform to positions (and the inverse transpose to normals).
+  // A mirroring transform (negative determinant) also swaps two indices per triangle, so
+  // windings keep facing the same side as the normals (outward for closed meshes).
   void transform(const Mat4& m);
-  // Appends another mesh (indices offset).
+  // Appends another mesh (indices offset). Normals are kept only if both meshes have them
+  // (or this one is empty); per-triangle opacity is filled with 1 where a side lacks it.
   void append(const TriangleMesh& other);
   // True when every edge is shared by exactly two triangles with opposite orientation:
-  // a closed, consistently oriented surface (sintorn2008 §3.3 needs this).
+  // a closed, consistently oriented surface (sintorn2008 §3.3 needs this). Vertices are
+  // welded by exact position first (copies split by normals do not open a surface).
   bool is_closed() const;
 };
 

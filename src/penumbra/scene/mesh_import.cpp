@@ -5,17 +5,44 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include <fstream>
+#include <string>
+
 #include "penumbra/core/error.h"
 
 namespace penumbra {
 
 namespace fs = std::filesystem;
 
+namespace {
+// Assimp 5.2's PLY parser loops forever on a header that never reaches "end_header"
+// (a truncated or mistyped file): reading fails and is retried. Check the header first,
+// so a bad file is an error and not a hang.
+void check_ply_header(const fs::path& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::string line;
+  if (!std::getline(f, line) || line.rfind("ply", 0) != 0) return;  // not PLY: Assimp decides
+  for (int lines = 0; lines < 10000 && std::getline(f, line); ++lines) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line == "end_header") return;
+    if (line.rfind("element ", 0) == 0) {
+      size_t count_at = line.find_last_of(' ');
+      std::string count = line.substr(count_at + 1);
+      if (count.empty() || count.find_first_not_of("0123456789") != std::string::npos)
+        throw Error("{}: malformed PLY header line \"{}\"", path.string(), line);
+    }
+  }
+  throw Error("{}: malformed PLY header (no end_header line)", path.string());
+}
+}  // namespace
+
 TriangleMesh import_mesh(const fs::path& path) {
   const std::string name = path.string();
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error("{}: no such file", name);
   if (fs::is_directory(path, ec)) throw Error("{}: is a folder, not a mesh file", name);
+
+  check_ply_header(path);
 
   Assimp::Importer importer;
   // Points and lines (and triangles that collapse to them) carry no surface to cast a

@@ -1,6 +1,7 @@
 #include "penumbra/scene/scene.h"
 
 #include <cmath>
+#include <optional>
 
 #include "penumbra/core/error.h"
 #include "penumbra/scene/generators.h"
@@ -54,10 +55,10 @@ class SceneParser {
     scene.camera = read_camera(root["camera"]);
     JsonValue lights = root["lights"];
     if (lights.size() == 0) lights.fail("expected at least one light");
-    for (size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(read_light(lights[i]));
+    for (size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(read_light(lights.at(i)));
     JsonValue objects = root["objects"];
     if (objects.size() == 0) objects.fail("expected at least one object");
-    for (size_t i = 0; i < objects.size(); ++i) read_object(objects[i], &scene.objects);
+    for (size_t i = 0; i < objects.size(); ++i) read_object(objects.at(i), &scene.objects);
     if (root.has("methods")) {
       JsonValue methods = root["methods"];
       methods.expect_object();
@@ -93,8 +94,8 @@ class SceneParser {
       if (!r.raw().is_array() || r.raw().size() != 2) r.fail_expected(what);
       for (size_t i = 0; i < 2; ++i)
         if (!r.raw()[i].is_number()) r.fail_expected(what);
-      c.width = r[size_t{0}].integer(1, 16384);
-      c.height = r[size_t{1}].integer(1, 16384);
+      c.width = r.at(0).integer(1, 16384);
+      c.height = r.at(1).integer(1, 16384);
     }
     if (v.has("samples_per_pixel")) c.samples_per_pixel = v["samples_per_pixel"].integer(1, 65536);
     return c;
@@ -165,16 +166,29 @@ class SceneParser {
     return t;
   }
 
-  // Overrides the fields given in "material" (generators set their own defaults).
-  void read_material(const JsonValue& v, Material* m) {
+  // The fields given in "material": they override the defaults (generators set their own
+  // colours per part, and only the given fields replace them).
+  struct MaterialOverride {
+    std::optional<Vec3f> albedo;
+    std::optional<float> opacity;
+    std::optional<bool> two_sided;
+    void apply(Material* m) const {
+      if (albedo) m->albedo = *albedo;
+      if (opacity) m->opacity = *opacity;
+      if (two_sided) m->two_sided = *two_sided;
+    }
+  };
+  MaterialOverride read_material(const JsonValue& v) {
     v.expect_object({"albedo", "opacity", "two_sided"});
+    MaterialOverride m;
     if (v.has("albedo")) {
       JsonValue a = v["albedo"];
-      m->albedo = a.color();
-      if (max_component(m->albedo) > 1) a.fail_expected("three numbers in [0, 1]");
+      m.albedo = a.color();
+      if (max_component(*m.albedo) > 1) a.fail_expected("three numbers in [0, 1]");
     }
-    if (v.has("opacity")) m->opacity = v["opacity"].in_range(0, 1);
-    if (v.has("two_sided")) m->two_sided = v["two_sided"].boolean();
+    if (v.has("opacity")) m.opacity = v["opacity"].in_range(0, 1);
+    if (v.has("two_sided")) m.two_sided = v["two_sided"].boolean();
+    return m;
   }
 
   void read_object(const JsonValue& v, std::vector<SceneObject>* out) {
@@ -182,6 +196,10 @@ class SceneParser {
     int kinds = int(v.has("mesh")) + int(v.has("shape")) + int(v.has("generator"));
     if (kinds != 1) v.fail("expected exactly one of \"mesh\", \"shape\" or \"generator\"");
     std::vector<std::string_view> allowed = {"name", "translate", "rotate", "scale", "material"};
+    // The cheap keys first, so their errors come before a long import or generation.
+    std::string name = v.has("name") ? v["name"].string() : "";
+    Transform t = read_transform(v);
+    MaterialOverride material = v.has("material") ? read_material(v["material"]) : MaterialOverride{};
     std::vector<SceneObject> parts;
     std::string base_name;
 
@@ -246,12 +264,11 @@ class SceneParser {
       base_name = g->name;
     }
 
-    std::string name = v.has("name") ? v["name"].string() : base_name;
-    Transform t = read_transform(v);
+    if (name.empty()) name = base_name;
     for (auto& o : parts) {
       if (o.mesh.triangle_count() == 0) continue;  // e.g. a plant with leaves = 0
       o.name = parts.size() > 1 && !o.name.empty() ? name + "." + o.name : name;
-      if (v.has("material")) read_material(v["material"], &o.material);
+      material.apply(&o.material);
       o.mesh.transform(t.m);
       for (Vec3f p : o.mesh.positions)
         if (!is_finite(p)) v.fail("vertex positions are not finite after the transform");

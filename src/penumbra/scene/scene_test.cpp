@@ -1,0 +1,314 @@
+#include "penumbra/scene/scene.h"
+
+#include <gtest/gtest.h>
+
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/testing.h"
+#include "penumbra/scene/json_reader.h"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using test::error_message;
+
+const char* kOrigin = "scenes/t.json";
+
+json minimal_doc() {
+  return json::parse(R"({
+    "camera": {"eye": [0, 1, 5], "target": [0, 0, 0]},
+    "lights": [{"type": "rect", "center": [0, 3, 0], "normal": [0, -1, 0], "size": [1, 2]}],
+    "objects": [{"shape": "plane", "size": [4, 4]}, {"shape": "box", "size": [1, 1, 1]}]
+  })");
+}
+
+void expect_near(Vec3f a, Vec3f b, float eps = 1e-5f) {
+  EXPECT_NEAR(a.x, b.x, eps);
+  EXPECT_NEAR(a.y, b.y, eps);
+  EXPECT_NEAR(a.z, b.z, eps);
+}
+
+TEST(SceneFile, MinimalSceneAndDefaults) {
+  Scene s = parse_scene(minimal_doc(), kOrigin);
+  EXPECT_EQ(s.source, fs::path(kOrigin));
+  EXPECT_EQ(s.camera.fov_y, 45.0f);
+  EXPECT_EQ(s.camera.width, 512);
+  EXPECT_EQ(s.camera.height, 512);
+  EXPECT_EQ(s.camera.samples_per_pixel, 1);
+  expect_near(s.camera.up, {0, 1, 0});
+  ASSERT_EQ(s.lights.size(), 1u);
+  const AreaLight& l = s.lights[0];
+  EXPECT_EQ(l.shape, LightShape::Rect);
+  expect_near(l.radiance, {1, 1, 1});
+  // Default u: world x projected onto the light plane; t = n x s.
+  expect_near(l.frame.n, {0, -1, 0});
+  expect_near(l.frame.s, {1, 0, 0});
+  expect_near(l.frame.t, {0, 0, 1});
+  EXPECT_EQ(l.size.y, 2.0f);
+  ASSERT_EQ(s.objects.size(), 2u);
+  EXPECT_EQ(s.objects[0].name, "plane");
+  EXPECT_FALSE(s.objects[0].closed);
+  EXPECT_TRUE(s.objects[1].closed);
+  EXPECT_EQ(s.triangle_count(), 2u + 12u);
+  expect_near(s.bounds().lo, {-2, -0.5f, -2});
+  EXPECT_TRUE(s.method_params.empty());
+}
+
+TEST(SceneFile, LightsAndMethods) {
+  json d = minimal_doc();
+  d["lights"] = json::parse(R"([
+    {"type": "rect", "center": [0, 3, 0], "normal": [0, 0, 2], "u": [0, 1, 0.5], "size": [1, 1],
+     "radiance": [5, 4, 3]},
+    {"type": "disk", "center": [1, 3, 0], "normal": [0, -1, 0], "radius": 0.25},
+    {"type": "sphere", "center": [0, 5, 0], "radius": 0.5}
+  ])");
+  d["methods"] = {{"lam", {{"samples", 64}}}};
+  Scene s = parse_scene(d, kOrigin);
+  expect_near(s.lights[0].frame.n, {0, 0, 1});
+  expect_near(s.lights[0].frame.s, {0, 1, 0});  // u projected onto the plane
+  expect_near(s.lights[0].radiance, {5, 4, 3});
+  EXPECT_EQ(s.lights[1].shape, LightShape::Disk);
+  EXPECT_EQ(s.lights[1].radius, 0.25f);
+  expect_near(s.lights[1].frame.n, {0, -1, 0});
+  // Sphere: frame.n from the light toward the centre of the objects' bounds (0, 0, 0).
+  EXPECT_EQ(s.lights[2].shape, LightShape::Sphere);
+  expect_near(s.lights[2].frame.n, {0, -1, 0});
+  EXPECT_EQ(s.method_params["lam"]["samples"], 64);
+}
+
+TEST(SceneFile, TransformsScaleThenRotateXYZThenTranslate) {
+  json d = minimal_doc();
+  // The UV sphere's vertex 0 is its north pole (0, r, 0).
+  d["objects"] = json::parse(R"([
+    {"name": "a", "shape": "sphere", "radius": 1, "segments": 8, "rotate": [90, 90, 0]},
+    {"name": "b", "shape": "sphere", "radius": 1, "segments": 8, "scale": [1, 2, 3],
+     "rotate": [0, 0, 90], "translate": [10, 0, 0]},
+    {"name": "c", "shape": "sphere", "radius": 0.5, "scale": 2, "translate": [1, 2, 3]},
+    {"name": "d", "shape": "box", "size": [2, 2, 2], "scale": [1, 2, 3], "rotate": [0, 90, 0],
+     "translate": [10, 0, 0]}
+  ])");
+  Scene s = parse_scene(d, kOrigin);
+  // Rx(90) takes the pole (0,1,0) to (0,0,1), then Ry(90) to (1,0,0). The other order
+  // would leave it at (0,0,1).
+  expect_near(s.objects[0].mesh.positions[0], {1, 0, 0});
+  // Scale (1,2,3): pole (0,2,0); Rz(90): (-2,0,0); translate: (8,0,0).
+  expect_near(s.objects[1].mesh.positions[0], {8, 0, 0});
+  EXPECT_FALSE(s.objects[1].sphere.has_value());  // non-uniform scale: no longer a sphere
+  ASSERT_TRUE(s.objects[2].sphere.has_value());
+  expect_near(s.objects[2].sphere->center, {1, 2, 3});
+  EXPECT_NEAR(s.objects[2].sphere->radius, 1.0f, 1e-6f);
+  // Box corner (1,1,1) -> scale (1,2,3) -> Ry(90): (x,z) -> (z,-x) = (3,2,-1) -> +10 x.
+  Bounds3f b = s.objects[3].mesh.bounds();
+  expect_near(b.lo, {7, -2, -1});
+  expect_near(b.hi, {13, 2, 1});
+  EXPECT_TRUE(s.objects[3].closed);
+}
+
+TEST(SceneFile, MaterialsAndNames) {
+  json d = minimal_doc();
+  d["objects"][1]["name"] = "crate";
+  d["objects"][1]["material"] = {{"albedo", {0.1, 0.2, 0.3}}, {"opacity", 0.5}, {"two_sided", false}};
+  Scene s = parse_scene(d, kOrigin);
+  EXPECT_EQ(s.objects[1].name, "crate");
+  expect_near(s.objects[1].material.albedo, {0.1f, 0.2f, 0.3f});
+  EXPECT_EQ(s.objects[1].material.opacity, 0.5f);
+  EXPECT_FALSE(s.objects[1].material.two_sided);
+  EXPECT_EQ(s.objects[0].material.opacity, 1.0f);
+}
+
+TEST(SceneFile, MeshPathsAreRelativeToTheSceneFile) {
+  test::TempDir dir("scene-paths");
+  fs::create_directories(dir / "sub" / "meshes");
+  write_text_file_atomic(dir / "sub" / "meshes" / "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  json d = minimal_doc();
+  d["objects"][1] = {{"mesh", "meshes/tri.obj"}};
+  write_text_file_atomic(dir / "sub" / "s.json", d.dump());
+  Scene s = load_scene(dir / "sub" / "s.json");
+  EXPECT_EQ(s.objects[1].name, "tri");
+  EXPECT_EQ(s.objects[1].mesh.triangle_count(), 1u);
+  // Absolute paths too.
+  d["objects"][1] = {{"mesh", (dir / "sub" / "meshes" / "tri.obj").string()}};
+  EXPECT_EQ(parse_scene(d, "elsewhere/x.json").objects[1].mesh.triangle_count(), 1u);
+}
+
+TEST(SceneFile, CommentsAreAllowed) {
+  json d = parse_json_text("{\"a\": 1, // a comment\n \"b\": [1, /* two */ 2]}", "c.json");
+  EXPECT_EQ(d["b"][1], 2);
+}
+
+// ---------------------------------------------------------------------------
+// Every class of bad input: the error is one line starting with the file and the key path.
+
+struct BadCase {
+  const char* what;
+  std::function<void(json&)> edit;
+  const char* expected;  // the message must contain this
+};
+
+TEST(SceneFile, RejectsBadInputNamingFileAndKey) {
+  const std::vector<BadCase> cases = {
+      {"unknown top-level key", [](json& d) { d["lightz"] = 1; }, "scenes/t.json: lightz: unknown key"},
+      {"unknown light key", [](json& d) { d["lights"][0]["colour"] = 1; },
+       "scenes/t.json: lights[0].colour: unknown key"},
+      {"unknown camera key", [](json& d) { d["camera"]["fov"] = 30; }, "scenes/t.json: camera.fov: unknown key"},
+      {"unknown object key", [](json& d) { d["objects"][1]["radius"] = 1; },
+       "scenes/t.json: objects[1].radius: unknown key"},
+      {"missing camera", [](json& d) { d.erase("camera"); }, "scenes/t.json: camera: required key is missing"},
+      {"missing eye", [](json& d) { d["camera"].erase("eye"); }, "scenes/t.json: camera.eye: required key is missing"},
+      {"wrong type", [](json& d) { d["camera"]["fov_y"] = "wide"; }, "scenes/t.json: camera.fov_y: expected"},
+      {"fov out of range", [](json& d) { d["camera"]["fov_y"] = 180; }, "scenes/t.json: camera.fov_y: expected"},
+      {"vector of strings", [](json& d) { d["camera"]["eye"] = {"a", "b", "c"}; },
+       "scenes/t.json: camera.eye: expected three finite numbers"},
+      {"vector too short", [](json& d) { d["camera"]["target"] = {0, 0}; }, "scenes/t.json: camera.target: expected"},
+      {"eye equals target", [](json& d) { d["camera"]["target"] = {0, 1, 5}; }, "scenes/t.json: camera.target:"},
+      {"up parallel", [](json& d) { d["camera"]["up"] = {0, 2, 10}; }, "scenes/t.json: camera.up: must not be parallel"},
+      {"resolution zero", [](json& d) { d["camera"]["resolution"] = {0, 512}; }, "scenes/t.json: camera.resolution"},
+      {"resolution negative", [](json& d) { d["camera"]["resolution"] = {512, -1}; },
+       "scenes/t.json: camera.resolution"},
+      {"resolution fractional", [](json& d) { d["camera"]["resolution"] = {512.5, 512}; },
+       "scenes/t.json: camera.resolution"},
+      {"samples zero", [](json& d) { d["camera"]["samples_per_pixel"] = 0; },
+       "scenes/t.json: camera.samples_per_pixel: expected an integer"},
+      {"no lights", [](json& d) { d["lights"] = json::array(); }, "scenes/t.json: lights: expected at least one light"},
+      {"lights not an array", [](json& d) { d["lights"] = json::object(); }, "scenes/t.json: lights: expected an array"},
+      {"no objects", [](json& d) { d["objects"] = json::array(); },
+       "scenes/t.json: objects: expected at least one object"},
+      {"light type", [](json& d) { d["lights"][0]["type"] = "spot"; }, "scenes/t.json: lights[0].type: expected one of"},
+      {"zero size", [](json& d) { d["lights"][0]["size"] = {1, 0}; },
+       "scenes/t.json: lights[0].size: expected two positive numbers"},
+      {"negative size", [](json& d) { d["lights"][0]["size"] = {-1, 1}; },
+       "scenes/t.json: lights[0].size: expected two positive numbers"},
+      {"zero normal", [](json& d) { d["lights"][0]["normal"] = {0, 0, 0}; },
+       "scenes/t.json: lights[0].normal: expected three numbers, not all zero"},
+      {"u parallel to normal", [](json& d) { d["lights"][0]["u"] = {0, 2, 0}; },
+       "scenes/t.json: lights[0].u: must not be parallel to normal"},
+      {"negative radiance", [](json& d) { d["lights"][0]["radiance"] = {1, -1, 1}; },
+       "scenes/t.json: lights[0].radiance: expected three non-negative numbers"},
+      {"zero disk radius",
+       [](json& d) { d["lights"][0] = {{"type", "disk"}, {"center", {0, 3, 0}}, {"normal", {0, -1, 0}}, {"radius", 0}}; },
+       "scenes/t.json: lights[0].radius: expected a positive number"},
+      {"negative sphere radius",
+       [](json& d) { d["lights"][0] = {{"type", "sphere"}, {"center", {0, 3, 0}}, {"radius", -1}}; },
+       "scenes/t.json: lights[0].radius: expected a positive number"},
+      {"normal on a sphere light",
+       [](json& d) { d["lights"][0] = {{"type", "sphere"}, {"center", {0, 3, 0}}, {"radius", 1}, {"normal", {0, 1, 0}}}; },
+       "scenes/t.json: lights[0].normal: unknown key"},
+      {"infinite number in the DOM", [](json& d) { d["lights"][0]["center"] = {0, INFINITY, 0}; },
+       "scenes/t.json: lights[0].center: expected three finite numbers"},
+      {"NaN in the DOM", [](json& d) { d["objects"][1]["translate"] = {NAN, 0, 0}; },
+       "scenes/t.json: objects[1].translate: expected three finite numbers"},
+      {"float overflow", [](json& d) { d["lights"][0]["center"] = {0, 1e39, 0}; },
+       "scenes/t.json: lights[0].center: expected three finite numbers"},
+      {"two kinds", [](json& d) { d["objects"][0]["mesh"] = "x.obj"; },
+       "scenes/t.json: objects[0]: expected exactly one of \"mesh\", \"shape\" or \"generator\""},
+      {"no kind", [](json& d) { d["objects"][0] = {{"name", "x"}}; }, "scenes/t.json: objects[0]: expected exactly one"},
+      {"unknown shape", [](json& d) { d["objects"][0]["shape"] = "cone"; }, "scenes/t.json: objects[0].shape: expected one of"},
+      {"zero box size", [](json& d) { d["objects"][1]["size"] = {1, 0, 1}; },
+       "scenes/t.json: objects[1].size: expected three positive numbers"},
+      {"zero plane size", [](json& d) { d["objects"][0]["size"] = {0, 1}; },
+       "scenes/t.json: objects[0].size: expected two positive numbers"},
+      {"sphere segments", [](json& d) { d["objects"][1] = {{"shape", "sphere"}, {"radius", 1}, {"segments", 2}}; },
+       "scenes/t.json: objects[1].segments: expected an integer in [3, 4096]"},
+      {"zero scale", [](json& d) { d["objects"][1]["scale"] = 0; }, "scenes/t.json: objects[1].scale: expected a non-zero"},
+      {"scale of wrong type", [](json& d) { d["objects"][1]["scale"] = "big"; }, "scenes/t.json: objects[1].scale: expected"},
+      {"opacity above 1", [](json& d) { d["objects"][1]["material"] = {{"opacity", 1.5}}; },
+       "scenes/t.json: objects[1].material.opacity: expected a number in [0, 1]"},
+      {"albedo above 1", [](json& d) { d["objects"][1]["material"] = {{"albedo", {2, 0, 0}}}; },
+       "scenes/t.json: objects[1].material.albedo: expected three numbers in [0, 1]"},
+      {"unknown material key", [](json& d) { d["objects"][1]["material"] = {{"shiny", true}}; },
+       "scenes/t.json: objects[1].material.shiny: unknown key"},
+      {"two_sided not bool", [](json& d) { d["objects"][1]["material"] = {{"two_sided", 1}}; },
+       "scenes/t.json: objects[1].material.two_sided: expected true or false"},
+      {"missing mesh file", [](json& d) { d["objects"][1] = {{"mesh", "no/such/mesh.obj"}}; },
+       "scenes/t.json: objects[1].mesh: scenes/no/such/mesh.obj: no such file"},
+      {"empty mesh name", [](json& d) { d["objects"][1] = {{"mesh", ""}}; }, "scenes/t.json: objects[1].mesh: expected a file"},
+      {"unknown generator", [](json& d) { d["objects"][1] = {{"generator", "teapot"}}; },
+       "scenes/t.json: objects[1].generator: unknown generator \"teapot\" (available: "},
+      {"generator param type", [](json& d) { d["objects"][1] = {{"generator", "plant"}, {"params", {{"leaves", "many"}}}}; },
+       "scenes/t.json: objects[1].params.leaves: expected an integer"},
+      {"generator param range", [](json& d) { d["objects"][1] = {{"generator", "plant"}, {"params", {{"leaves", -5}}}}; },
+       "scenes/t.json: objects[1].params.leaves: expected an integer in [0, "},
+      {"generator unknown param", [](json& d) { d["objects"][1] = {{"generator", "knot"}, {"params", {{"r", 1}}}}; },
+       "scenes/t.json: objects[1].params.r: unknown key"},
+      {"generator rejects params", [](json& d) { d["objects"][1] = {{"generator", "knot"}, {"params", {{"p", 2}, {"q", 4}}}}; },
+       "scenes/t.json: objects[1].params: p and q must be coprime"},
+      {"methods not objects", [](json& d) { d["methods"] = {{"lam", 64}}; }, "scenes/t.json: methods.lam: expected an object"},
+      {"description not a string", [](json& d) { d["description"] = 1; }, "scenes/t.json: description: expected a string"},
+      {"top level not an object", [](json& d) { d = json::array({1, 2}); }, "scenes/t.json: expected a JSON object"},
+  };
+  for (const auto& c : cases) {
+    json d = minimal_doc();
+    c.edit(d);
+    std::string msg = error_message([&] { parse_scene(d, kOrigin); });
+    EXPECT_NE(msg.find(c.expected), std::string::npos) << c.what << ": got \"" << msg << "\"";
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << c.what << ": message is not one line";
+  }
+}
+
+TEST(SceneFile, RejectsBadJsonTextNamingFileAndPosition) {
+  auto load_text = [](const std::string& text) {
+    return error_message([&] { parse_scene(parse_json_text(text, kOrigin), kOrigin); });
+  };
+  std::string base = minimal_doc().dump(1);
+  // nlohmann 3.11 refuses 1e400 while parsing (older versions made it inf, which
+  // JsonValue rejects: see "infinite number in the DOM"); either way, the key is named.
+  std::string huge = load_text(R"({"camera": {"eye": [0, 1e400, 5], "target": [0, 0, 0]},
+    "lights": [{"type": "sphere", "center": [0, 3, 0], "radius": 1}],
+    "objects": [{"shape": "box", "size": [1, 1, 1]}]})");
+  EXPECT_EQ(huge, "scenes/t.json: camera.eye[1]: number out of range: 1e400");
+  std::string syntax = load_text("{\n  \"camera\": {\n    \"eye\": [0, 1, 5],,\n");
+  EXPECT_NE(syntax.find("scenes/t.json: invalid JSON: line 3, column"), std::string::npos) << syntax;
+  EXPECT_EQ(syntax.find('\n'), std::string::npos);
+  std::string dup = load_text(R"({"lights": [{"size": [1, 1]}, {"size": [1, 1], "size": [2, 2]}]})");
+  EXPECT_EQ(dup, "scenes/t.json: lights[1].size: duplicate key");
+  EXPECT_EQ(load_text(""), error_message([] { parse_json_text("", kOrigin); }));
+  EXPECT_NE(load_text("").find("scenes/t.json: invalid JSON"), std::string::npos);
+}
+
+TEST(SceneFile, MissingSceneFile) {
+  EXPECT_EQ(error_message([] { load_scene("/nonexistent/penumbra.json"); }), "/nonexistent/penumbra.json: no such file");
+}
+
+TEST(SceneFile, FinalizeOrientsSphereLightsAndFindsClosedObjects) {
+  Scene s;
+  AreaLight l;
+  l.shape = LightShape::Sphere;
+  l.center = {4, 0, 0};
+  s.lights.push_back(l);
+  s.finalize();  // no objects: points down
+  expect_near(s.lights[0].frame.n, {0, -1, 0});
+  SceneObject o;
+  o.mesh.positions = {{-1, -1, -1}, {1, 1, 1}};
+  s.objects.push_back(o);
+  s.finalize();
+  expect_near(s.lights[0].frame.n, {-1, 0, 0});
+  EXPECT_FALSE(s.objects[0].closed);
+}
+
+// Every shipped scene loads (the suite the benchmarks and the README use).
+TEST(SceneSuite, EveryShippedSceneLoads) {
+  const fs::path dir = fs::path(PENUMBRA_SOURCE_DIR) / "scenes";
+  ASSERT_TRUE(fs::is_directory(dir));
+  int count = 0;
+  const bool have_bunny = fs::exists("/usr/share/glmark2/models/bunny.obj");
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.path().extension() != ".json") continue;
+    std::string text = read_text_file(e.path());
+    if (!have_bunny && text.find("glmark2") != std::string::npos) continue;
+    SCOPED_TRACE(e.path().string());
+    Scene s = load_scene(e.path());
+    EXPECT_EQ(s.camera.width, 512);
+    EXPECT_EQ(s.camera.height, 512);
+    EXPECT_GT(s.triangle_count(), 0u);
+    // A light large enough for wide penumbrae (AreaLight::diameter is in light.cpp, which
+    // this layer does not own: the rect's diagonal by hand).
+    ASSERT_EQ(s.lights[0].shape, LightShape::Rect);
+    EXPECT_GE(std::hypot(s.lights[0].size.x, s.lights[0].size.y), 1.5f);
+    ++count;
+  }
+  EXPECT_GE(count, have_bunny ? 6 : 4);
+}
+
+}  // namespace
+}  // namespace penumbra
