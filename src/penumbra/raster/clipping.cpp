@@ -17,10 +17,9 @@ struct ClipPlanes {
     }
   }
   unsigned outcode(const ClipVertex& v) const {
-    unsigned code = 0;
-    for (int p = 0; p < 6; ++p)
-      if (distance(p, v) < 0) code |= 1u << p;
-    return code;
+    return unsigned(v.z < near) | unsigned(v.z > far) << 1 | unsigned(v.x < -kGuardBand * v.w) << 2 |
+           unsigned(v.x > x_max * v.w) << 3 | unsigned(v.y < -kGuardBand * v.w) << 4 |
+           unsigned(v.y > y_max * v.w) << 5;
   }
 };
 
@@ -31,10 +30,13 @@ int clip_triangle(const RasterTriangle& t, const LightView& view, ClipVertex out
   ClipPlanes planes{view.near(), view.far(), static_cast<float>(view.width()) + kGuardBand,
                     static_cast<float>(view.height()) + kGuardBand};
   unsigned any = 0, all = ~0u;
+  const float (*r)[4] = m.m;
   for (int k = 0; k < 3; ++k) {
-    float h[4];
-    m.transform_homogeneous(t.p[k], h);
-    out[k] = {h[0], h[1], h[2], h[3]};
+    const Vec3f& p = t.p[k];
+    out[k] = {r[0][0] * p.x + r[0][1] * p.y + r[0][2] * p.z + r[0][3],
+              r[1][0] * p.x + r[1][1] * p.y + r[1][2] * p.z + r[1][3],
+              r[2][0] * p.x + r[2][1] * p.y + r[2][2] * p.z + r[2][3],
+              r[3][0] * p.x + r[3][1] * p.y + r[3][2] * p.z + r[3][3]};
     unsigned code = planes.outcode(out[k]);
     any |= code;
     all &= code;

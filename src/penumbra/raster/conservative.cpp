@@ -110,10 +110,10 @@ struct ConservativeRasterizer::Impl {
   void cover_tiles(const TileGrid& grid, const CoverageCallback& covered) {
     raster_internal::for_each_tile(grid, [&](int tile) {
       const int x0 = grid.x0(tile), y0 = grid.y0(tile), x1 = grid.x1(tile), y1 = grid.y1(tile);
-      for (const CoverItem* it : binner.tile(tile)) {
-        const Point2* p = chunk_points[it->chunk].data() + it->first;
-        const uint32_t index = it->index;
-        cover(*it, p, x0, y0, x1, y1, [&](int x, int y) { covered(x, y, index); });
+      for (const CoverItem& it : binner.tile(tile)) {
+        const Point2* p = chunk_points[it.chunk].data() + it.first;
+        const uint32_t index = it.index;
+        cover(it, p, x0, y0, x1, y1, [&](int x, int y) { covered(x, y, index); });
       }
     });
   }
@@ -121,7 +121,8 @@ struct ConservativeRasterizer::Impl {
 
 ConservativeRasterizer::ConservativeRasterizer(int tile_size)
     : impl_(std::make_unique<Impl>()), tile_size_(tile_size) {
-  if (tile_size < 8 || tile_size > 256) throw Error("ConservativeRasterizer: tile size {} must be in [8, 256]", tile_size);
+  if (raster_internal::tile_shift(tile_size) < 0)
+    throw Error("ConservativeRasterizer: tile size {} must be a power of two in [8, 256]", tile_size);
 }
 
 ConservativeRasterizer::~ConservativeRasterizer() = default;
@@ -129,7 +130,7 @@ ConservativeRasterizer::~ConservativeRasterizer() = default;
 void ConservativeRasterizer::polygons(const ConvexPolygons& polys, int width, int height,
                                       const CoverageCallback& covered) {
   if (width < 1 || height < 1) throw Error("ConservativeRasterizer: empty image {}x{}", width, height);
-  TileGrid grid(width, height, tile_size_);
+  TileGrid grid(width, height, raster_internal::tile_shift(tile_size_));
   impl_->prepare_chunks(polys.size());
   impl_->binner.run(polys.size(), kChunkSize, grid, [&](size_t chunk, size_t begin, size_t end, std::vector<CoverItem>& out) {
     std::vector<Point2>& pts = impl_->chunk_points[chunk];
@@ -150,7 +151,7 @@ void ConservativeRasterizer::polygons(const ConvexPolygons& polys, int width, in
 
 void ConservativeRasterizer::triangles(std::span<const RasterTriangle> tris, const LightView& view,
                                        const RasterFilter& filter, const CoverageCallback& covered) {
-  TileGrid grid(view.width(), view.height(), tile_size_);
+  TileGrid grid(view.width(), view.height(), raster_internal::tile_shift(tile_size_));
   impl_->prepare_chunks(tris.size());
   impl_->binner.run(tris.size(), kChunkSize, grid, [&](size_t chunk, size_t begin, size_t end, std::vector<CoverItem>& out) {
     std::vector<Point2>& pts = impl_->chunk_points[chunk];

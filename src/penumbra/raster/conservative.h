@@ -47,6 +47,7 @@ using CoverageCallback = std::function<void(int x, int y, uint32_t index)>;
 
 class ConservativeRasterizer {
  public:
+  // tile_size: a power of two in [8, 256].
   explicit ConservativeRasterizer(int tile_size = 64);
   ~ConservativeRasterizer();
   ConservativeRasterizer(const ConservativeRasterizer&) = delete;

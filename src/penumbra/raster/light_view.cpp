@@ -164,16 +164,6 @@ void LightView::finish() {
   }
 }
 
-float LightView::window_depth(float z) const {
-  if (kind_ == ProjectionKind::Perspective) return far_ * (z - near_) / ((far_ - near_) * z);
-  return (z - near_) / (far_ - near_);
-}
-
-float LightView::linear_depth_from_window(float d) const {
-  if (kind_ == ProjectionKind::Perspective) return far_ * near_ / (far_ - d * (far_ - near_));
-  return near_ + d * (far_ - near_);
-}
-
 Vec3f LightView::to_texel(Vec3f world) const {
   float h[4];
   texel_projection_.transform_homogeneous(world, h);

@@ -84,8 +84,12 @@ class LightView {
 
   float linear_depth(Vec3f world) const { return dot(world - eye_, forward_); }
   // Window depth of a linear depth and back (see the conventions above).
-  float window_depth(float z) const;
-  float linear_depth_from_window(float d) const;
+  float window_depth(float z) const {
+    return is_perspective() ? far_ * (z - near_) / ((far_ - near_) * z) : (z - near_) / (far_ - near_);
+  }
+  float linear_depth_from_window(float d) const {
+    return is_perspective() ? far_ * near_ / (far_ - d * (far_ - near_)) : near_ + d * (far_ - near_);
+  }
 
   // (x, y) in texel space and the linear depth z of a world point. For a perspective view
   // x and y are meaningless when z <= 0 (behind the eye).

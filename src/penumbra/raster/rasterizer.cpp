@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <type_traits>
 #include <vector>
 
@@ -30,6 +31,9 @@ constexpr int64_t kHalfTexel = kSubpixel / 2;
 constexpr size_t kChunkSize = 1024;
 
 int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+// Round half away from zero: a pure function of the value (shared vertices snap alike) that
+// compiles to one conversion instead of a libm call.
+int32_t round_to_int(double x) { return static_cast<int32_t>(x + (x >= 0 ? 0.5 : -0.5)); }
 int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
 
 // A triangle ready to scan: three edge functions E = a X + b Y + c over snapped texel
@@ -53,8 +57,8 @@ bool set_up(const float tx[3], const float ty[3], const double v[3], int width, 
             SetupTriangle* t) {
   int32_t X[3], Y[3];
   for (int k = 0; k < 3; ++k) {
-    X[k] = static_cast<int32_t>(std::lrint(static_cast<double>(tx[k]) * kSubpixel));
-    Y[k] = static_cast<int32_t>(std::lrint(static_cast<double>(ty[k]) * kSubpixel));
+    X[k] = round_to_int(static_cast<double>(tx[k]) * kSubpixel);
+    Y[k] = round_to_int(static_cast<double>(ty[k]) * kSubpixel);
   }
   int64_t area = int64_t{X[1] - X[0]} * (Y[2] - Y[0]) - int64_t{Y[1] - Y[0]} * (X[2] - X[0]);
   if (area == 0) return false;  // degenerate after snapping: covers no sample
@@ -104,12 +108,52 @@ bool set_up(const float tx[3], const float ty[3], const double v[3], int width, 
   return true;
 }
 
-// Calls fn(x, y, v) for every texel centre of [rx0, rx1) x [ry0, ry1) that t covers, row by
-// row, with incremental edge functions.
+// A rectangle of texels and how to index them: texel (x, y) is element
+// (y - y0) * stride + (x - x0) of the caller's storage.
+struct TexelRect {
+  int x0, y0, x1, y1;
+  size_t stride;
+  size_t index(int x, int y) const { return static_cast<size_t>(y - y0) * stride + (x - x0); }
+};
+
+// Narrows [*lo, *hi) to the x in [0, width) where the edge function e + x s is >= 0. The
+// bound comes from a floating-point quotient, then is corrected with exact integer evaluations,
+// so the span is exactly the set the per-texel test would accept.
+inline void clip_span(int64_t e, int64_t s, double inv_s, int width, int* lo, int* hi) {
+  if (s > 0) {
+    if (e >= 0) return;
+    double q = static_cast<double>(-e) * inv_s;  // first x inside: ceil(q)
+    if (q >= width) {
+      *hi = 0;
+      return;
+    }
+    int64_t n = static_cast<int64_t>(q);
+    if (static_cast<double>(n) < q) ++n;
+    while (e + n * s < 0) ++n;
+    while (n > 0 && e + (n - 1) * s >= 0) --n;
+    *lo = std::max(*lo, static_cast<int>(n));
+  } else if (s < 0) {
+    if (e < 0) {
+      *hi = 0;
+      return;
+    }
+    double q = static_cast<double>(e) * -inv_s;  // last x inside: floor(q)
+    if (q >= width) return;
+    int64_t n = static_cast<int64_t>(q);
+    while (n >= 0 && e + n * s < 0) --n;
+    while (e + (n + 1) * s >= 0) ++n;
+    *hi = std::min(*hi, static_cast<int>(n + 1));
+  } else if (e < 0) {
+    *hi = 0;
+  }
+}
+
+// Calls fn(index, v) for every texel centre of r that t covers, row by row, with incremental
+// edge functions. Narrow boxes test every texel; wider ones compute each row's span first.
 template <class Fn>
-inline void scan(const SetupTriangle& t, int rx0, int ry0, int rx1, int ry1, Fn&& fn) {
-  int x0 = std::max(rx0, t.x0), x1 = std::min(rx1, t.x1);
-  int y0 = std::max(ry0, t.y0), y1 = std::min(ry1, t.y1);
+inline void scan(const SetupTriangle& t, const TexelRect& r, Fn&& fn) {
+  const int x0 = std::max(r.x0, t.x0), x1 = std::min(r.x1, t.x1);
+  const int y0 = std::max(r.y0, t.y0), y1 = std::min(r.y1, t.y1);
   if (x0 >= x1 || y0 >= y1) return;
   const int64_t px = x0 * kSubpixel + kHalfTexel, py = y0 * kSubpixel + kHalfTexel;
   int64_t e0 = t.a[0] * px + t.b[0] * py + t.c[0];
@@ -118,19 +162,30 @@ inline void scan(const SetupTriangle& t, int rx0, int ry0, int rx1, int ry1, Fn&
   const int64_t sx0 = t.a[0] * kSubpixel, sx1 = t.a[1] * kSubpixel, sx2 = t.a[2] * kSubpixel;
   const int64_t sy0 = t.b[0] * kSubpixel, sy1 = t.b[1] * kSubpixel, sy2 = t.b[2] * kSubpixel;
   const float vx0 = t.v0 + t.dvdx * static_cast<float>(x0 - t.x0);
-  for (int y = y0; y < y1; ++y) {
-    int64_t f0 = e0, f1 = e1, f2 = e2;
-    const float vrow = vx0 + t.dvdy * static_cast<float>(y - t.y0);
-    bool inside = false;
-    for (int x = x0; x < x1; ++x) {
-      if ((f0 | f1 | f2) >= 0) {  // all three non-negative
-        inside = true;
-        fn(x, y, vrow + t.dvdx * static_cast<float>(x - x0));
-      } else if (inside) {
-        break;  // a convex span ended
+  const int width = x1 - x0;
+  size_t row = r.index(x0, y0);
+  if (width <= 4) {
+    for (int y = y0; y < y1; ++y, row += r.stride) {
+      int64_t f0 = e0, f1 = e1, f2 = e2;
+      const float vrow = vx0 + t.dvdy * static_cast<float>(y - t.y0);
+      for (int x = 0; x < width; ++x) {
+        if ((f0 | f1 | f2) >= 0) fn(row + x, vrow + t.dvdx * static_cast<float>(x));  // all >= 0
+        f0 += sx0; f1 += sx1; f2 += sx2;
       }
-      f0 += sx0; f1 += sx1; f2 += sx2;
+      e0 += sy0; e1 += sy1; e2 += sy2;
     }
+    return;
+  }
+  const double inv0 = sx0 ? 1.0 / static_cast<double>(sx0) : 0.0;
+  const double inv1 = sx1 ? 1.0 / static_cast<double>(sx1) : 0.0;
+  const double inv2 = sx2 ? 1.0 / static_cast<double>(sx2) : 0.0;
+  for (int y = y0; y < y1; ++y, row += r.stride) {
+    int lo = 0, hi = width;
+    clip_span(e0, sx0, inv0, width, &lo, &hi);
+    clip_span(e1, sx1, inv1, width, &lo, &hi);
+    clip_span(e2, sx2, inv2, width, &lo, &hi);
+    const float vrow = vx0 + t.dvdy * static_cast<float>(y - t.y0);
+    for (int x = lo; x < hi; ++x) fn(row + x, vrow + t.dvdx * static_cast<float>(x));
     e0 += sy0; e1 += sy1; e2 += sy2;
   }
 }
@@ -151,27 +206,42 @@ void dispatch_projection(const LightView& view, F&& f) {
     f(std::false_type{});
 }
 
-struct TileScratch {
-  std::vector<uint32_t> texel;      // local texel index of each gathered fragment
-  std::vector<Fragment> gathered;   // in triangle order
-  std::vector<uint32_t> offsets;    // per local texel, then a prefix sum
-  std::vector<Fragment> sorted;     // grouped by texel, each group sorted by depth
-};
-
-bool fragment_less(const Fragment& a, const Fragment& b) {
-  return a.z < b.z || (a.z == b.z && a.triangle < b.triangle);
+// Fragments sort by (z, triangle) as one unsigned 64-bit key, computed once per fragment:
+// the float's bits made monotonic (negative depths occur in orthographic views with
+// near < 0), then the triangle index. Ties in z thus keep triangle (input) order.
+inline uint64_t sort_key(float z, uint32_t triangle) {
+  uint32_t bits = std::bit_cast<uint32_t>(z);
+  bits = (bits & 0x80000000u) ? ~bits : bits | 0x80000000u;
+  return uint64_t{bits} << 32 | triangle;
+}
+inline float key_depth(uint64_t key) {
+  uint32_t bits = static_cast<uint32_t>(key >> 32);
+  return std::bit_cast<float>((bits & 0x80000000u) ? bits & 0x7fffffffu : ~bits);
 }
 
-void sort_fragments(Fragment* f, size_t n) {
-  if (n < 16) {  // insertion sort: lists are short in almost every texel
+struct KeyedFragment {
+  uint64_t key;
+  float opacity;
+  uint32_t texel;  // within the tile, row-major
+};
+
+struct TileScratch {
+  std::vector<KeyedFragment> gathered;  // in triangle order
+  std::vector<KeyedFragment> sorted;    // grouped by texel, each group sorted by key
+  std::vector<uint32_t> offsets;        // per local texel: start in sorted (prefix sums)
+  std::vector<Fragment> fragments;      // `sorted` as Fragments, what callers see
+};
+
+void sort_by_key(KeyedFragment* f, size_t n) {
+  if (n <= 32) {  // insertion sort: lists are short in almost every texel
     for (size_t i = 1; i < n; ++i) {
-      Fragment x = f[i];
+      KeyedFragment x = f[i];
       size_t j = i;
-      for (; j > 0 && fragment_less(x, f[j - 1]); --j) f[j] = f[j - 1];
+      for (; j > 0 && x.key < f[j - 1].key; --j) f[j] = f[j - 1];
       f[j] = x;
     }
   } else {
-    std::sort(f, f + n, fragment_less);
+    std::sort(f, f + n, [](const KeyedFragment& a, const KeyedFragment& b) { return a.key < b.key; });
   }
 }
 
@@ -189,14 +259,14 @@ struct Rasterizer::Impl {
   void set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
                         const RasterFilter& filter, int tile_size);
   // Collects the fragments of one tile, grouped by texel (row-major within the tile) and
-  // sorted by depth: s.offsets[k] .. s.offsets[k + 1] index s.sorted for local texel k.
+  // sorted by depth: s.offsets[k] .. s.offsets[k + 1] index s.fragments for local texel k.
   template <bool kPerspective>
   void gather_tile(int tile, const LightView& view, TileScratch& s);
 };
 
 void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
                                         const RasterFilter& filter, int tile_size) {
-  grid = TileGrid(view.width(), view.height(), tile_size);
+  grid = TileGrid(view.width(), view.height(), raster_internal::tile_shift(tile_size));
   const bool perspective = view.is_perspective();
   binner.run(tris.size(), kChunkSize, grid, [&](size_t, size_t begin, size_t end, std::vector<SetupTriangle>& out) {
     ClipVertex poly[raster_internal::kMaxClipVertices];
@@ -233,31 +303,41 @@ template <bool kPerspective>
 void Rasterizer::Impl::gather_tile(int tile, const LightView& view, TileScratch& s) {
   const int x0 = grid.x0(tile), y0 = grid.y0(tile), x1 = grid.x1(tile), y1 = grid.y1(tile);
   const int tw = x1 - x0, texels = tw * (y1 - y0);
+  const TexelRect rect{x0, y0, x1, y1, static_cast<size_t>(tw)};
   const float near = view.near(), far = view.far();
-  s.texel.clear();
   s.gathered.clear();
-  for (const SetupTriangle* t : binner.tile(tile)) {
-    const float opacity = t->opacity;
-    const uint32_t source = t->source;
-    scan(*t, x0, y0, x1, y1, [&](int x, int y, float v) {
-      s.texel.push_back(static_cast<uint32_t>((y - y0) * tw + (x - x0)));
-      s.gathered.push_back({linear_depth<kPerspective>(v, near, far), opacity, source});
+  for (const SetupTriangle& t : binner.tile(tile)) {
+    const float opacity = t.opacity;
+    const uint32_t source = t.source;
+    scan(t, rect, [&](size_t k, float v) {
+      float z = linear_depth<kPerspective>(v, near, far);
+      s.gathered.push_back({sort_key(z, source), opacity, static_cast<uint32_t>(k)});
     });
   }
-  fragments.fetch_add(s.gathered.size(), std::memory_order_relaxed);
+  const size_t n = s.gathered.size();
+  fragments.fetch_add(n, std::memory_order_relaxed);
   // Counting sort by texel (stable: keeps triangle order), then sort each texel by depth.
   s.offsets.assign(static_cast<size_t>(texels) + 1, 0);
-  for (uint32_t k : s.texel) ++s.offsets[k + 1];
+  for (const KeyedFragment& f : s.gathered) ++s.offsets[f.texel + 1];
   for (int k = 0; k < texels; ++k) s.offsets[k + 1] += s.offsets[k];
-  s.sorted.resize(s.gathered.size());
-  for (size_t i = 0; i < s.gathered.size(); ++i) s.sorted[s.offsets[s.texel[i]]++] = s.gathered[i];
+  s.sorted.resize(n);
+  for (const KeyedFragment& f : s.gathered) s.sorted[s.offsets[f.texel]++] = f;
   for (int k = texels; k > 0; --k) s.offsets[k] = s.offsets[k - 1];  // undo the cursor advance
   s.offsets[0] = 0;
-  for (int k = 0; k < texels; ++k) sort_fragments(s.sorted.data() + s.offsets[k], s.offsets[k + 1] - s.offsets[k]);
+  s.fragments.resize(n);
+  for (int k = 0; k < texels; ++k) {
+    KeyedFragment* f = s.sorted.data() + s.offsets[k];
+    size_t m = s.offsets[k + 1] - s.offsets[k];
+    sort_by_key(f, m);
+    Fragment* out = s.fragments.data() + s.offsets[k];
+    for (size_t i = 0; i < m; ++i)
+      out[i] = {key_depth(f[i].key), f[i].opacity, static_cast<uint32_t>(f[i].key)};
+  }
 }
 
 Rasterizer::Rasterizer(int tile_size) : impl_(std::make_unique<Impl>()), tile_size_(tile_size) {
-  if (tile_size < 8 || tile_size > 256) throw Error("Rasterizer: tile size {} must be in [8, 256]", tile_size);
+  if (raster_internal::tile_shift(tile_size) < 0)
+    throw Error("Rasterizer: tile size {} must be a power of two in [8, 256]", tile_size);
 }
 
 Rasterizer::~Rasterizer() = default;
@@ -278,23 +358,24 @@ void Rasterizer::depth_map(std::span<const RasterTriangle> triangles, const Ligh
     const float near = view.near(), far = view.far();
     raster_internal::for_each_tile(im.grid, [&](int tile) {
       const int x0 = im.grid.x0(tile), y0 = im.grid.y0(tile), x1 = im.grid.x1(tile), y1 = im.grid.y1(tile);
-      float* z = out->z.data();
-      float* opacity = out->opacity.data();
-      uint32_t* tri = out->triangle.data();
       for (int y = y0; y < y1; ++y) {
         size_t row = static_cast<size_t>(y) * width;
-        std::fill(z + row + x0, z + row + x1, kInfinity);
-        std::fill(opacity + row + x0, opacity + row + x1, 0.0f);
-        std::fill(tri + row + x0, tri + row + x1, kNoTriangle);
+        std::fill(out->z.begin() + row + x0, out->z.begin() + row + x1, kInfinity);
+        std::fill(out->opacity.begin() + row + x0, out->opacity.begin() + row + x1, 0.0f);
+        std::fill(out->triangle.begin() + row + x0, out->triangle.begin() + row + x1, kNoTriangle);
       }
       size_t frags = 0;
-      for (const SetupTriangle* t : im.binner.tile(tile)) {
-        const float a = t->opacity;
-        const uint32_t source = t->source;
-        scan(*t, x0, y0, x1, y1, [&](int x, int y, float v) {
+      const TexelRect rect{x0, y0, x1, y1, static_cast<size_t>(width)};
+      // Index the whole image from the tile's rectangle.
+      float* z = out->z.data() + rect.y0 * rect.stride + rect.x0;
+      float* opacity = out->opacity.data() + rect.y0 * rect.stride + rect.x0;
+      uint32_t* tri = out->triangle.data() + rect.y0 * rect.stride + rect.x0;
+      for (const SetupTriangle& t : im.binner.tile(tile)) {
+        const float a = t.opacity;
+        const uint32_t source = t.source;
+        scan(t, rect, [&](size_t i, float v) {
           ++frags;
           float zf = linear_depth<kPerspective>(v, near, far);
-          size_t i = static_cast<size_t>(y) * width + x;
           if (zf < z[i]) {  // strict: on equal depth the first triangle in input order stays
             z[i] = zf;
             opacity[i] = a;
@@ -302,10 +383,10 @@ void Rasterizer::depth_map(std::span<const RasterTriangle> triangles, const Ligh
           }
         });
       }
-      float* depth = out->depth.data();
+      float* depth = out->depth.data() + rect.y0 * rect.stride + rect.x0;
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
-          size_t i = static_cast<size_t>(y) * width + x;
+          size_t i = rect.index(x, y);
           depth[i] = tri[i] != kNoTriangle ? view.window_depth(z[i]) : kInfinity;
         }
       im.fragments.fetch_add(frags, std::memory_order_relaxed);
@@ -352,18 +433,19 @@ void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, co
       for (int y = y0; y < y1; ++y) {
         size_t row = static_cast<size_t>(y) * width;
         std::fill(out->counts.begin() + row + x0, out->counts.begin() + row + x1, uint8_t{0});
-        std::fill(out->samples.begin() + (row + x0) * k, out->samples.begin() + (row + x1) * k, DepthSample{});
       }
       size_t frags = 0;
-      for (const SetupTriangle* t : im.binner.tile(tile)) {
-        const float a = t->opacity;
-        const uint32_t source = t->source;
-        scan(*t, x0, y0, x1, y1, [&](int x, int y, float v) {
+      const TexelRect rect{x0, y0, x1, y1, static_cast<size_t>(width)};
+      uint8_t* counts = out->counts.data() + rect.y0 * rect.stride + rect.x0;
+      DepthSample* samples = out->samples.data() + (rect.y0 * rect.stride + rect.x0) * k;
+      for (const SetupTriangle& t : im.binner.tile(tile)) {
+        const float a = t.opacity;
+        const uint32_t source = t.source;
+        scan(t, rect, [&](size_t i, float v) {
           ++frags;
           const float z = linear_depth<kPerspective>(v, near, far);
-          const size_t i = static_cast<size_t>(y) * width + x;
-          DepthSample* s = out->samples.data() + i * k;
-          int n = out->counts[i];
+          DepthSample* s = samples + i * k;
+          int n = counts[i];
           // Most fragments of a deep texel lie behind a full list: reject them first.
           if (n == k && z > s[n - 1].z + eps) return;
           int p = n;
@@ -382,14 +464,17 @@ void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, co
           int last = std::min(n, k - 1);  // the k-th layer falls off a full list
           for (int q = last; q > p; --q) s[q] = s[q - 1];
           s[p] = {z, 0, a, source};
-          out->counts[i] = static_cast<uint8_t>(std::min(n + 1, k));
+          counts[i] = static_cast<uint8_t>(std::min(n + 1, k));
         });
       }
+      // Window depths, and the empty sample in unused layers.
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
-          size_t i = static_cast<size_t>(y) * width + x;
-          DepthSample* s = out->samples.data() + i * k;
-          for (int l = 0; l < out->counts[i]; ++l) s[l].depth = view.window_depth(s[l].z);
+          size_t i = rect.index(x, y);
+          DepthSample* s = samples + i * k;
+          int n = counts[i];
+          for (int l = 0; l < n; ++l) s[l].depth = view.window_depth(s[l].z);
+          for (int l = n; l < k; ++l) s[l] = DepthSample{};
         }
       im.fragments.fetch_add(frags, std::memory_order_relaxed);
     });
@@ -430,7 +515,7 @@ void Rasterizer::fragment_lists(std::span<const RasterTriangle> triangles, const
       int k = 0;
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x, ++k) {
-          std::span<Fragment> list(s.sorted.data() + s.offsets[k], s.offsets[k + 1] - s.offsets[k]);
+          std::span<Fragment> list(s.fragments.data() + s.offsets[k], s.offsets[k + 1] - s.offsets[k]);
           uint32_t n = static_cast<uint32_t>(list.size());
           if (reduce) n = std::min(n, reduce(x, y, list));
           kept.insert(kept.end(), list.begin(), list.begin() + n);
@@ -499,7 +584,7 @@ void Rasterizer::visit_fragments(std::span<const RasterTriangle> triangles, cons
       int k = 0;
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x, ++k)
-          visit(x, y, std::span<const Fragment>(s.sorted.data() + s.offsets[k], s.offsets[k + 1] - s.offsets[k]));
+          visit(x, y, std::span<const Fragment>(s.fragments.data() + s.offsets[k], s.offsets[k + 1] - s.offsets[k]));
     });
   });
   stats_.triangles = triangles.size();

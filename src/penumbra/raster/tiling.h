@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -13,23 +14,28 @@
 
 namespace penumbra::raster_internal {
 
+// Square tiles of 2^shift texels (a shift, not a division, maps texels to tiles when binning).
 struct TileGrid {
-  int width = 0, height = 0, tile = 64, nx = 0, ny = 0;
+  int width = 0, height = 0, shift = 6, tile = 64, nx = 0, ny = 0;
 
   TileGrid() = default;
-  TileGrid(int w, int h, int t) : width(w), height(h), tile(t), nx((w + t - 1) / t), ny((h + t - 1) / t) {}
+  TileGrid(int w, int h, int tile_shift)
+      : width(w), height(h), shift(tile_shift), tile(1 << tile_shift), nx((w + tile - 1) >> shift),
+        ny((h + tile - 1) >> shift) {}
   int count() const { return nx * ny; }
-  int x0(int t) const { return (t % nx) * tile; }
-  int y0(int t) const { return (t / nx) * tile; }
+  int x0(int t) const { return (t % nx) << shift; }
+  int y0(int t) const { return (t / nx) << shift; }
   int x1(int t) const { return std::min(width, x0(t) + tile); }
   int y1(int t) const { return std::min(height, y0(t) + tile); }
 };
 
 // Primitives set up in fixed-size chunks of the input (never per thread, so the result does
 // not depend on the thread count) and binned per tile in input order. An Item has a texel
-// bounding box [x0, x1) x [y0, y1) inside the grid. The chunk vectors keep their capacity from
-// one run to the next, so repeated renders (one shadow map per light sample, agrawala2000 §4)
-// do not allocate.
+// bounding box [x0, x1) x [y0, y1) inside the grid. Bins hold copies of the items, not
+// pointers: a tile then reads its primitives sequentially, where chasing pointers into input
+// order (spatially incoherent in most meshes) cost a cache miss per primitive and per tile.
+// All vectors keep their capacity from one run to the next, so repeated renders (one shadow
+// map per light sample, agrawala2000 §4) do not allocate.
 template <class Item>
 class TileBinner {
  public:
@@ -70,12 +76,12 @@ class TileBinner {
       for (size_t c = r.begin(); c < r.end(); ++c) {
         uint32_t* cursor = counts_.data() + c * tiles;
         for (const Item& it : chunks_[c])
-          for_each_tile(it, [&](size_t t) { entries_[offsets_[t] + cursor[t]++] = &it; });
+          for_each_tile(it, [&](size_t t) { entries_[offsets_[t] + cursor[t]++] = it; });
       }
     });
   }
 
-  std::span<const Item* const> tile(int t) const {
+  std::span<const Item> tile(int t) const {
     return {entries_.data() + offsets_[t], offsets_[t + 1] - offsets_[t]};
   }
   size_t item_count() const {
@@ -88,8 +94,8 @@ class TileBinner {
  private:
   template <class F>
   void for_each_tile(const Item& it, F&& f) const {
-    int tx0 = it.x0 / grid_.tile, tx1 = (it.x1 - 1) / grid_.tile;
-    int ty0 = it.y0 / grid_.tile, ty1 = (it.y1 - 1) / grid_.tile;
+    int tx0 = it.x0 >> grid_.shift, tx1 = (it.x1 - 1) >> grid_.shift;
+    int ty0 = it.y0 >> grid_.shift, ty1 = (it.y1 - 1) >> grid_.shift;
     for (int ty = ty0; ty <= ty1; ++ty)
       for (int tx = tx0; tx <= tx1; ++tx) f(static_cast<size_t>(ty) * grid_.nx + tx);
   }
@@ -99,7 +105,7 @@ class TileBinner {
   std::vector<std::vector<Item>> chunks_;
   std::vector<uint32_t> counts_;
   std::vector<size_t> offsets_;
-  std::vector<const Item*> entries_;
+  std::vector<Item> entries_;
 };
 
 // Runs body(tile) over every tile of the grid, load-balanced (tiles differ a lot in cost).
@@ -108,6 +114,12 @@ void for_each_tile(const TileGrid& grid, Body&& body) {
   tbb::parallel_for(tbb::blocked_range<int>(0, grid.count(), 1), [&](const tbb::blocked_range<int>& r) {
     for (int t = r.begin(); t < r.end(); ++t) body(t);
   });
+}
+
+// log2 of a tile size: a power of two in [8, 256], else -1.
+inline int tile_shift(int tile_size) {
+  if (tile_size < 8 || tile_size > 256 || !std::has_single_bit(static_cast<unsigned>(tile_size))) return -1;
+  return std::countr_zero(static_cast<unsigned>(tile_size));
 }
 
 }  // namespace penumbra::raster_internal
