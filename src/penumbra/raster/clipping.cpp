@@ -1,43 +1,35 @@
 #include "penumbra/raster/clipping.h"
 
 namespace penumbra::raster_internal {
-namespace {
 
-// Signed distances to the six clip planes (>= 0 inside), in homogeneous texel space.
-struct ClipPlanes {
-  float near, far, x_max, y_max;
-  float distance(int plane, const ClipVertex& v) const {
-    switch (plane) {
-      case 0: return v.z - near;
-      case 1: return far - v.z;
-      case 2: return v.x + kGuardBand * v.w;
-      case 3: return x_max * v.w - v.x;
-      case 4: return v.y + kGuardBand * v.w;
-      default: return y_max * v.w - v.y;
-    }
-  }
-  unsigned outcode(const ClipVertex& v) const {
-    return unsigned(v.z < near) | unsigned(v.z > far) << 1 | unsigned(v.x < -kGuardBand * v.w) << 2 |
-           unsigned(v.x > x_max * v.w) << 3 | unsigned(v.y < -kGuardBand * v.w) << 4 |
-           unsigned(v.y > y_max * v.w) << 5;
-  }
-};
-
-}  // namespace
-
-int clip_triangle(const RasterTriangle& t, const LightView& view, ClipVertex out[kMaxClipVertices]) {
+TriangleClipper::TriangleClipper(const LightView& view)
+    : near_(view.near()), far_(view.far()), x_max_(static_cast<float>(view.width()) + kGuardBand),
+      y_max_(static_cast<float>(view.height()) + kGuardBand) {
   const Mat4& m = view.texel_projection();
-  ClipPlanes planes{view.near(), view.far(), static_cast<float>(view.width()) + kGuardBand,
-                    static_cast<float>(view.height()) + kGuardBand};
+  for (int c = 0; c < 4; ++c) col_[c] = Float4{m.m[0][c], m.m[1][c], m.m[2][c], m.m[3][c]};
+}
+
+int TriangleClipper::clip(const RasterTriangle& t, ClipVertex out[kMaxClipVertices]) const {
+  // Signed distance to each clip plane (>= 0 inside).
+  auto distance = [&](int plane, const ClipVertex& v) {
+    switch (plane) {
+      case 0: return v.z - near_;
+      case 1: return far_ - v.z;
+      case 2: return v.x + kGuardBand * v.w;
+      case 3: return x_max_ * v.w - v.x;
+      case 4: return v.y + kGuardBand * v.w;
+      default: return y_max_ * v.w - v.y;
+    }
+  };
   unsigned any = 0, all = ~0u;
-  const float (*r)[4] = m.m;
   for (int k = 0; k < 3; ++k) {
     const Vec3f& p = t.p[k];
-    out[k] = {r[0][0] * p.x + r[0][1] * p.y + r[0][2] * p.z + r[0][3],
-              r[1][0] * p.x + r[1][1] * p.y + r[1][2] * p.z + r[1][3],
-              r[2][0] * p.x + r[2][1] * p.y + r[2][2] * p.z + r[2][3],
-              r[3][0] * p.x + r[3][1] * p.y + r[3][2] * p.z + r[3][3]};
-    unsigned code = planes.outcode(out[k]);
+    Float4 h = col_[0] * p.x + col_[1] * p.y + col_[2] * p.z + col_[3];
+    ClipVertex& v = out[k];
+    v = {h[0], h[1], h[2], h[3]};
+    unsigned code = unsigned(v.z < near_) | unsigned(v.z > far_) << 1 |
+                    unsigned(v.x < -kGuardBand * v.w) << 2 | unsigned(v.x > x_max_ * v.w) << 3 |
+                    unsigned(v.y < -kGuardBand * v.w) << 4 | unsigned(v.y > y_max_ * v.w) << 5;
     any |= code;
     all &= code;
   }
@@ -55,7 +47,7 @@ int clip_triangle(const RasterTriangle& t, const LightView& view, ClipVertex out
     for (int i = 0; i < n; ++i) {
       const ClipVertex& a = src[i];
       const ClipVertex& b = src[(i + 1) % n];
-      float da = planes.distance(p, a), db = planes.distance(p, b);
+      float da = distance(p, a), db = distance(p, b);
       if (da >= 0) dst[m_out++] = a;
       if ((da >= 0) != (db >= 0)) {
         // Interpolate from the inside vertex toward the outside one, so the two triangles

@@ -153,6 +153,7 @@ void ConservativeRasterizer::triangles(std::span<const RasterTriangle> tris, con
                                        const RasterFilter& filter, const CoverageCallback& covered) {
   TileGrid grid(view.width(), view.height(), raster_internal::tile_shift(tile_size_));
   impl_->prepare_chunks(tris.size());
+  const raster_internal::TriangleClipper clipper(view);
   impl_->binner.run(tris.size(), kChunkSize, grid, [&](size_t chunk, size_t begin, size_t end, std::vector<CoverItem>& out) {
     std::vector<Point2>& pts = impl_->chunk_points[chunk];
     pts.clear();
@@ -164,7 +165,7 @@ void ConservativeRasterizer::triangles(std::span<const RasterTriangle> tris, con
         bool front = raster_internal::faces_light(tri, view);
         if (front != (filter.culling == FaceCulling::Back)) continue;
       }
-      int n = raster_internal::clip_triangle(tri, view, poly);
+      int n = clipper.clip(tri, poly);
       if (n == 0) continue;
       uint32_t first = static_cast<uint32_t>(pts.size());
       for (int k = 0; k < n; ++k)

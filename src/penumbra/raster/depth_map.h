@@ -43,7 +43,8 @@ struct DepthMap {
 
 // Up to `max_layers` distinct surfaces per texel, nearest first (xie2007 §4.2). Stored
 // texel-major: a texel's layers are contiguous, which is what a walk that scans all layers
-// of one texel reads (xie2007 §4.3). Unused layers hold the empty DepthSample.
+// of one texel reads (xie2007 §4.3). Only the first counts[i] samples of texel i are
+// meaningful (layers() returns exactly those); the rasterizer does not clear the rest.
 struct LayeredDepthMap {
   int width = 0, height = 0;
   int max_layers = 0;

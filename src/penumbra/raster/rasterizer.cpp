@@ -268,6 +268,7 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
                                         const RasterFilter& filter, int tile_size) {
   grid = TileGrid(view.width(), view.height(), raster_internal::tile_shift(tile_size));
   const bool perspective = view.is_perspective();
+  const raster_internal::TriangleClipper clipper(view);
   binner.run(tris.size(), kChunkSize, grid, [&](size_t, size_t begin, size_t end, std::vector<SetupTriangle>& out) {
     ClipVertex poly[raster_internal::kMaxClipVertices];
     float tx[raster_internal::kMaxClipVertices], ty[raster_internal::kMaxClipVertices];
@@ -279,7 +280,7 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
         bool front = raster_internal::faces_light(tri, view);
         if (front != (filter.culling == FaceCulling::Back)) continue;
       }
-      int n = raster_internal::clip_triangle(tri, view, poly);
+      int n = clipper.clip(tri, poly);
       for (int k = 0; k < n; ++k) {
         tx[k] = poly[k].x / poly[k].w;
         ty[k] = poly[k].y / poly[k].w;
@@ -467,14 +468,14 @@ void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, co
           counts[i] = static_cast<uint8_t>(std::min(n + 1, k));
         });
       }
-      // Window depths, and the empty sample in unused layers.
+      // Window depths of the layers present. Unused layers are left as they were: clearing
+      // k samples per texel would cost more memory traffic than the whole single-layer map,
+      // where xie2007 §4.2 finds a 5-layer map only ~5% dearer than one layer.
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
           size_t i = rect.index(x, y);
           DepthSample* s = samples + i * k;
-          int n = counts[i];
-          for (int l = 0; l < n; ++l) s[l].depth = view.window_depth(s[l].z);
-          for (int l = n; l < k; ++l) s[l] = DepthSample{};
+          for (int l = 0, n = counts[i]; l < n; ++l) s[l].depth = view.window_depth(s[l].z);
         }
       im.fragments.fetch_add(frags, std::memory_order_relaxed);
     });

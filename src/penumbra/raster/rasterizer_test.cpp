@@ -635,8 +635,12 @@ TEST(Rasterizer, ResultsDoNotDependOnTheThreadCount) {
     ASSERT_EQ(many.fragments[i].triangle, single.fragments[i].triangle);
   }
   EXPECT_EQ(many_layers.counts, single_layers.counts);
-  for (size_t i = 0; i < many_layers.samples.size(); ++i)
-    ASSERT_EQ(many_layers.samples[i].triangle, single_layers.samples[i].triangle);
+  for (int y = 0; y < view.height(); ++y)
+    for (int x = 0; x < view.width(); ++x)
+      for (int l = 0; l < many_layers.count(x, y); ++l) {
+        ASSERT_EQ(many_layers.layers(x, y)[l].triangle, single_layers.layers(x, y)[l].triangle);
+        ASSERT_EQ(many_layers.layers(x, y)[l].z, single_layers.layers(x, y)[l].z);
+      }
 }
 
 }  // namespace
