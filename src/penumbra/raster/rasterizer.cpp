@@ -462,10 +462,13 @@ void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, co
             return;
           }
           if (p == k) return;
-          int last = std::min(n, k - 1);  // the k-th layer falls off a full list
-          for (int q = last; q > p; --q) s[q] = s[q - 1];
-          s[p] = {z, 0, a, source};
-          counts[i] = static_cast<uint8_t>(std::min(n + 1, k));
+          // Insert at p, pushing the layers behind back by one (the k-th falls off a full
+          // list). A carried swap: lists are a few samples long, and a shifting loop would be
+          // turned into a memmove call.
+          const int end = std::min(n + 1, k);
+          DepthSample carry{z, 0, a, source};
+          for (int q = p; q < end; ++q) std::swap(carry, s[q]);
+          counts[i] = static_cast<uint8_t>(end);
         });
       }
       // Window depths of the layers present. Unused layers are left as they were: clearing

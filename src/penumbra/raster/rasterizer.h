@@ -80,8 +80,8 @@ struct RasterStats {
 
 class Rasterizer {
  public:
-  // tile_size: edge of the square tiles in texels, a power of two in [8, 256]; 64 balances binning overhead and load
-  // balance for 512^2-2048^2 maps.
+  // tile_size: edge of the square tiles in texels, a power of two in [8, 256]; 64 balances
+  // binning overhead and load balance for 512^2-2048^2 maps.
   explicit Rasterizer(int tile_size = 64);
   ~Rasterizer();
   Rasterizer(const Rasterizer&) = delete;

@@ -64,8 +64,9 @@ inline Bounds3f bounds_of(const std::vector<RasterTriangle>& tris) {
 
 // A plant-like caster: `leaves` small quads (two triangles each, 0.016 to 0.028 across) hung at
 // random orientations along a few curved stems inside the unit cube, the depth-complex
-// foliage of agrawala2000's plant and xie2007's trees (40,000 leaves: depth complexity about
-// 10 seen from above). Deterministic from `seed`.
+// foliage of agrawala2000's plant and xie2007's trees (40,000 leaves seen from above as in
+// raster_bench: about 19 fragments per texel, averaged over the whole fitted view).
+// Deterministic from `seed`.
 inline std::vector<RasterTriangle> plant(int leaves, uint64_t seed = 7) {
   std::vector<RasterTriangle> tris;
   tris.reserve(static_cast<size_t>(leaves) * 2);
