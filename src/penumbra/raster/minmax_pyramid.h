@@ -53,6 +53,8 @@ class MinMaxPyramid {
     const Level& l = levels_[level];
     return l.nodes[static_cast<size_t>(y) * l.width + x];
   }
+  // A whole level, row-major (width(level) per row), for traversals that index it directly.
+  std::span<const DepthRange> level(int level) const { return levels_[level].nodes; }
   float min(int level, int x, int y) const { return range(level, x, y).lo; }
   float max(int level, int x, int y) const { return range(level, x, y).hi; }
   // The whole image's range (the root).

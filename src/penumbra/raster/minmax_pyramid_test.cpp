@@ -57,6 +57,8 @@ TEST(MinMaxPyramid, NonPowerOfTwoLevelsBoundEveryTexelBelow) {
   EXPECT_EQ(pyr.width(6), 1);
   EXPECT_EQ(pyr.height(6), 1);
   EXPECT_TRUE(pyr.range(2, 2, 2).empty());
+  EXPECT_EQ(pyr.level(1).size(), 19u * 12u);
+  EXPECT_EQ(pyr.level(1)[3 * 19 + 5].lo, pyr.min(1, 5, 3));
   EXPECT_FALSE(pyr.range(2, 2, 2).overlaps(-kInfinity, kInfinity));
   expect_bounds_everything_below(pyr, texels);
 }

@@ -31,10 +31,10 @@ constexpr int64_t kHalfTexel = kSubpixel / 2;
 constexpr size_t kChunkSize = 1024;
 
 int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
 // Round half away from zero: a pure function of the value (shared vertices snap alike) that
 // compiles to one conversion instead of a libm call.
 int32_t round_to_int(double x) { return static_cast<int32_t>(x + (x >= 0 ? 0.5 : -0.5)); }
-int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
 
 // A triangle ready to scan: three edge functions E = a X + b Y + c over snapped texel
 // coordinates (X, Y in 1/256 texel), positive inside, with the fill-rule bias folded into c

@@ -71,7 +71,7 @@ using FragmentVisitor = std::function<void(int x, int y, std::span<const Fragmen
 // What the last call did, for benchmarks and method statistics.
 struct RasterStats {
   size_t triangles = 0;   // input triangles
-  size_t setup = 0;       // triangles after culling and clipping that cover a texel centre's box
+  size_t setup = 0;       // set-up triangles (after culling, clipping, fanning) that may cover a centre
   size_t bin_entries = 0; // (triangle, tile) pairs
   size_t fragments = 0;   // covered texel centres visited (before any depth test)
   double setup_ms = 0;    // transform, clip, bin
