@@ -229,7 +229,7 @@ struct TileScratch {
   std::vector<KeyedFragment> gathered;  // in triangle order
   std::vector<KeyedFragment> sorted;    // grouped by texel, each group sorted by key
   std::vector<uint32_t> offsets;        // per local texel: start in sorted (prefix sums)
-  std::vector<Fragment> fragments;      // `sorted` as Fragments, what callers see
+  std::vector<Fragment> fragments;      // `sorted` as Fragments, for visit_fragments
 };
 
 void sort_by_key(KeyedFragment* f, size_t n) {
@@ -258,10 +258,10 @@ struct Rasterizer::Impl {
   // Culls, clips, sets up and bins every triangle.
   void set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
                         const RasterFilter& filter, int tile_size);
-  // Collects the fragments of one tile, grouped by texel (row-major within the tile) and
-  // sorted by depth: s.offsets[k] .. s.offsets[k + 1] index s.fragments for local texel k.
+  // Collects the fragments of one tile into *out, grouped by texel (row-major within the
+  // tile) and sorted by depth: s.offsets[k] .. s.offsets[k + 1] index *out for local texel k.
   template <bool kPerspective>
-  void gather_tile(int tile, const LightView& view, TileScratch& s);
+  void gather_tile(int tile, const LightView& view, TileScratch& s, std::vector<Fragment>* out);
 };
 
 void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
@@ -301,7 +301,8 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
 }
 
 template <bool kPerspective>
-void Rasterizer::Impl::gather_tile(int tile, const LightView& view, TileScratch& s) {
+void Rasterizer::Impl::gather_tile(int tile, const LightView& view, TileScratch& s,
+                                   std::vector<Fragment>* fragments_out) {
   const int x0 = grid.x0(tile), y0 = grid.y0(tile), x1 = grid.x1(tile), y1 = grid.y1(tile);
   const int tw = x1 - x0, texels = tw * (y1 - y0);
   const TexelRect rect{x0, y0, x1, y1, static_cast<size_t>(tw)};
@@ -325,12 +326,12 @@ void Rasterizer::Impl::gather_tile(int tile, const LightView& view, TileScratch&
   for (const KeyedFragment& f : s.gathered) s.sorted[s.offsets[f.texel]++] = f;
   for (int k = texels; k > 0; --k) s.offsets[k] = s.offsets[k - 1];  // undo the cursor advance
   s.offsets[0] = 0;
-  s.fragments.resize(n);
+  fragments_out->resize(n);
   for (int k = 0; k < texels; ++k) {
     KeyedFragment* f = s.sorted.data() + s.offsets[k];
     size_t m = s.offsets[k + 1] - s.offsets[k];
     sort_by_key(f, m);
-    Fragment* out = s.fragments.data() + s.offsets[k];
+    Fragment* out = fragments_out->data() + s.offsets[k];
     for (size_t i = 0; i < m; ++i)
       out[i] = {key_depth(f[i].key), f[i].opacity, static_cast<uint32_t>(f[i].key)};
   }
@@ -512,19 +513,23 @@ void Rasterizer::fragment_lists(std::span<const RasterTriangle> triangles, const
     constexpr bool kPerspective = decltype(perspective)::value;
     raster_internal::for_each_tile(im.grid, [&](int tile) {
       TileScratch& s = im.scratch.local();
-      im.gather_tile<kPerspective>(tile, view, s);
-      const int x0 = im.grid.x0(tile), y0 = im.grid.y0(tile), x1 = im.grid.x1(tile), y1 = im.grid.y1(tile);
       std::vector<Fragment>& kept = im.tile_fragments[tile];
-      kept.clear();
+      im.gather_tile<kPerspective>(tile, view, s, &kept);
+      const int x0 = im.grid.x0(tile), y0 = im.grid.y0(tile), x1 = im.grid.x1(tile), y1 = im.grid.y1(tile);
+      // Reduce each list in place and compact the tile's storage (the write position never
+      // passes the read position).
+      size_t write = 0;
       int k = 0;
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x, ++k) {
-          std::span<Fragment> list(s.fragments.data() + s.offsets[k], s.offsets[k + 1] - s.offsets[k]);
+          std::span<Fragment> list(kept.data() + s.offsets[k], s.offsets[k + 1] - s.offsets[k]);
           uint32_t n = static_cast<uint32_t>(list.size());
           if (reduce) n = std::min(n, reduce(x, y, list));
-          kept.insert(kept.end(), list.begin(), list.begin() + n);
+          if (write != s.offsets[k]) std::copy(list.begin(), list.begin() + n, kept.begin() + write);
+          write += n;
           im.counts[static_cast<size_t>(y) * width + x] = n;
         }
+      kept.resize(write);
     });
   });
   // Pass 2: prefix sum of the counts (row sums in parallel, then rows in order).
@@ -583,7 +588,7 @@ void Rasterizer::visit_fragments(std::span<const RasterTriangle> triangles, cons
     constexpr bool kPerspective = decltype(perspective)::value;
     raster_internal::for_each_tile(im.grid, [&](int tile) {
       TileScratch& s = im.scratch.local();
-      im.gather_tile<kPerspective>(tile, view, s);
+      im.gather_tile<kPerspective>(tile, view, s, &s.fragments);
       const int x0 = im.grid.x0(tile), y0 = im.grid.y0(tile), x1 = im.grid.x1(tile), y1 = im.grid.y1(tile);
       int k = 0;
       for (int y = y0; y < y1; ++y)
