@@ -620,6 +620,27 @@ TEST(Rasterizer, FaceCullingKeepsTheRequestedSide) {
   EXPECT_EQ(drawn(FaceCulling::Front), (std::vector<uint32_t>{2}));
 }
 
+TEST(Rasterizer, EmptyInputAndTinyImagesGiveEmptyOrFullMaps) {
+  Rasterizer raster(8);
+  DepthMap map;
+  LightView view = unit_ortho(13, 7);  // smaller than a tile, not a power of two
+  raster.depth_map({}, view, {}, &map);
+  for (size_t i = 0; i < map.z.size(); ++i) {
+    EXPECT_EQ(map.triangle[i], kNoTriangle);
+    EXPECT_EQ(map.z[i], kInfinity);
+  }
+  // One big triangle over a 1 x 1 image covers its only centre.
+  std::vector<RasterTriangle> tris = {tri({-5, -5, 0}, {20, -5, 0}, {-5, 20, 0})};
+  raster.depth_map(tris, unit_ortho(1, 1), {}, &map);
+  ASSERT_EQ(map.z.size(), 1u);
+  EXPECT_EQ(map.triangle[0], 0u);
+  EXPECT_FLOAT_EQ(map.z[0], 10.0f);  // the eye plane is at z = 10
+  FragmentLists lists;
+  raster.fragment_lists({}, view, {}, &lists);
+  EXPECT_EQ(lists.total(), 0u);
+  EXPECT_EQ(lists.offsets.size(), 13u * 7u + 1);
+}
+
 TEST(Rasterizer, ResultsDoNotDependOnTheThreadCount) {
   std::vector<RasterTriangle> tris = random_triangles(800, 23);
   LightView view = LightView::perspective({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 60, 200, 150, 1, 12);
