@@ -1,5 +1,9 @@
 #include "penumbra/shadow/single_sample/outer_objects.h"
 
+#include <algorithm>
+#include <cstring>
+#include <unordered_map>
+
 namespace penumbra::single_sample {
 
 namespace {
@@ -22,28 +26,14 @@ int clip(const RayPoint* in, int n, RayPoint* out, float bound, float sign) {
   }
   return m;
 }
-}  // namespace
 
-float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
-                             Vec3f c) {
-  RayPoint poly[3], tmp[4], clipped[5];
-  int n = 0;
-  for (Vec3f x : {a, b, c}) {
-    Vec3f r = x - o;
-    poly[n++] = {dot(r, v), dot(r, e1), dot(r, e2)};
-  }
-  n = clip(poly, 3, tmp, near, 1.0f);
-  if (n < 3) return kInfinity;
-  n = clip(tmp, n, clipped, far, -1.0f);
-  if (n < 3) return kInfinity;
-  // Perspective projection onto the plane t = 1; the ray's axis is the origin.
-  Vec2f q[5];
-  for (int i = 0; i < n; ++i) q[i] = {clipped[i].x / clipped[i].t, clipped[i].y / clipped[i].t};
-  // Inside test (either winding), then the distance to the nearest edge.
+// Squared distance from the origin to the convex polygon q[0..n) of the plane t = 1 (0
+// when the origin is inside; a polygon of zero area has no inside).
+float polygon_distance2(const Vec2f* q, int n) {
   bool pos = false, neg = false;
   float best2 = kInfinity;
   for (int i = 0; i < n; ++i) {
-    Vec2f p = q[i], e = q[(i + 1) % n] - q[i];
+    Vec2f p = q[i], e = q[i + 1 == n ? 0 : i + 1] - q[i];
     float side = cross(e, Vec2f(0, 0) - p);
     pos |= side > 0;
     neg |= side < 0;
@@ -52,10 +42,188 @@ float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, f
     Vec2f closest = p + e * s;
     best2 = std::min(best2, dot(closest, closest));
   }
-  // The axis passes through the triangle (or its edge); a projection of zero area (a
-  // triangle seen edge-on) has no inside.
+  // The axis passes through the triangle (or its edge).
   if (pos != neg) return 0.0f;
-  return std::sqrt(best2);
+  return best2;
+}
+}  // namespace
+
+float triangle_cone_distance2(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
+                              Vec3f c) {
+  RayPoint poly[3];
+  int n = 0;
+  for (Vec3f x : {a, b, c}) {
+    Vec3f r = x - o;
+    poly[n++] = {dot(r, v), dot(r, e1), dot(r, e2)};
+  }
+  Vec2f q[5];
+  if (std::min({poly[0].t, poly[1].t, poly[2].t}) >= near && std::max({poly[0].t, poly[1].t, poly[2].t}) <= far) {
+    // The common case: the whole triangle lies in [near, far] along the ray. Perspective
+    // projection onto the plane t = 1; the ray's axis is the origin.
+    for (int i = 0; i < 3; ++i) {
+      float inv = 1.0f / poly[i].t;
+      q[i] = {poly[i].x * inv, poly[i].y * inv};
+    }
+    return polygon_distance2(q, 3);
+  }
+  RayPoint tmp[4], clipped[5];
+  n = clip(poly, 3, tmp, near, 1.0f);
+  if (n < 3) return kInfinity;
+  n = clip(tmp, n, clipped, far, -1.0f);
+  if (n < 3) return kInfinity;
+  for (int i = 0; i < n; ++i) q[i] = {clipped[i].x / clipped[i].t, clipped[i].y / clipped[i].t};
+  return polygon_distance2(q, n);
+}
+
+float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
+                             Vec3f c) {
+  return std::sqrt(triangle_cone_distance2(o, v, e1, e2, near, far, a, b, c));
+}
+
+void TriangleBlock4::set(int lane, Vec3f a, Vec3f b, Vec3f c) {
+  const Vec3f p[3] = {a, b, c};
+  for (int k = 0; k < 3; ++k)
+    for (int axis = 0; axis < 3; ++axis) v[k][axis][lane] = p[k][axis];
+}
+
+namespace {
+// GCC/Clang vector extensions: four floats in one SSE/NEON register.
+typedef float f4 __attribute__((vector_size(16)));
+typedef int i4 __attribute__((vector_size(16)));
+inline f4 splat(float x) { return f4{x, x, x, x}; }
+inline f4 vmin4(f4 a, f4 b) { return a < b ? a : b; }
+inline f4 vmax4(f4 a, f4 b) { return a > b ? a : b; }
+inline f4 load4(const float* p) {
+  f4 r;
+  std::memcpy(&r, p, sizeof r);
+  return r;
+}
+}  // namespace
+
+int block_cone_distance2_unclipped(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near,
+                                   float far, float out[4]) {
+  f4 t[3], qx[3], qy[3];
+  i4 in_range = i4{-1, -1, -1, -1};
+  for (int k = 0; k < 3; ++k) {
+    f4 rx = load4(block.v[k][0]) - splat(o.x);
+    f4 ry = load4(block.v[k][1]) - splat(o.y);
+    f4 rz = load4(block.v[k][2]) - splat(o.z);
+    t[k] = rx * splat(v.x) + ry * splat(v.y) + rz * splat(v.z);
+    f4 x = rx * splat(e1.x) + ry * splat(e1.y) + rz * splat(e1.z);
+    f4 y = rx * splat(e2.x) + ry * splat(e2.y) + rz * splat(e2.z);
+    in_range &= (t[k] >= splat(near)) & (t[k] <= splat(far));
+    // Lanes out of range are recomputed below; keep their arithmetic finite.
+    f4 inv = splat(1.0f) / (in_range ? t[k] : splat(1.0f));
+    qx[k] = x * inv;
+    qy[k] = y * inv;
+  }
+  f4 best = splat(kInfinity);
+  i4 pos = i4{0, 0, 0, 0}, neg = i4{0, 0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    int k1 = k == 2 ? 0 : k + 1;
+    f4 ex = qx[k1] - qx[k], ey = qy[k1] - qy[k];
+    f4 side = ey * qx[k] - ex * qy[k];  // cross(e, -p)
+    pos |= side > splat(0.0f);
+    neg |= side < splat(0.0f);
+    f4 len2 = ex * ex + ey * ey;
+    f4 s = -(qx[k] * ex + qy[k] * ey) / (len2 > splat(0.0f) ? len2 : splat(1.0f));
+    s = vmin4(vmax4(s, splat(0.0f)), splat(1.0f));
+    f4 cx = qx[k] + s * ex, cy = qy[k] + s * ey;
+    best = vmin4(best, cx * cx + cy * cy);
+  }
+  // Inside when every side has one sign (a projection of zero area has no inside).
+  best = (pos ^ neg) ? splat(0.0f) : best;
+  int mask = 0;
+  for (int lane = 0; lane < 4; ++lane) {
+    out[lane] = best[lane];
+    if (!in_range[lane]) mask |= 1 << lane;
+  }
+  return mask;
+}
+
+void block_cone_distance2(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far,
+                          float out[4]) {
+  int clip = block_cone_distance2_unclipped(block, o, v, e1, e2, near, far, out);
+  for (int lane = 0; lane < 4; ++lane)
+    if (clip & (1 << lane))
+      out[lane] = triangle_cone_distance2(o, v, e1, e2, near, far, block.vertex(lane, 0), block.vertex(lane, 1),
+                                          block.vertex(lane, 2));
+}
+
+MeshTopology build_topology(const TriangleMesh& mesh) {
+  MeshTopology topo;
+  const size_t nt = mesh.triangle_count();
+  auto key_of = [](Vec3f p) {
+    uint32_t b[3];
+    std::memcpy(b, &p, sizeof b);
+    return std::make_pair(static_cast<uint64_t>(b[0]) << 32 | b[1], b[2]);
+  };
+  struct KeyHash {
+    size_t operator()(const std::pair<uint64_t, uint32_t>& k) const {
+      return std::hash<uint64_t>()(k.first * 0x9e3779b97f4a7c15ULL ^ k.second);
+    }
+  };
+  std::unordered_map<std::pair<uint64_t, uint32_t>, uint32_t, KeyHash> weld;
+  weld.reserve(mesh.positions.size());
+  topo.canon.resize(mesh.positions.size());
+  for (size_t i = 0; i < mesh.positions.size(); ++i)  // -0 and +0 weld together
+    topo.canon[i] = weld.emplace(key_of(mesh.positions[i] + Vec3f(0.0f)), static_cast<uint32_t>(weld.size())).first->second;
+  const size_t nv = weld.size();
+  topo.vertex_first.assign(nv + 1, 0);
+  topo.edges.reserve(3 * nt);
+  for (size_t t = 0; t < nt; ++t) {
+    uint32_t v[3] = {topo.canon[mesh.indices[3 * t]], topo.canon[mesh.indices[3 * t + 1]],
+                     topo.canon[mesh.indices[3 * t + 2]]};
+    for (int k = 0; k < 3; ++k) topo.vertex_first[v[k] + 1]++;
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // no area: no edges
+    for (int k = 0; k < 3; ++k) {
+      uint32_t a = v[k], b = v[(k + 1) % 3];
+      topo.edges.push_back(
+          {static_cast<uint64_t>(std::min(a, b)) << 32 | std::max(a, b), static_cast<uint32_t>(3 * t + k)});
+    }
+  }
+  for (size_t i = 0; i < nv; ++i) topo.vertex_first[i + 1] += topo.vertex_first[i];
+  topo.vertex_tris.resize(topo.vertex_first[nv]);
+  std::vector<uint32_t> fill(topo.vertex_first.begin(), topo.vertex_first.end() - 1);
+  for (size_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) topo.vertex_tris[fill[topo.canon[mesh.indices[3 * t + k]]]++] = static_cast<uint32_t>(t);
+  std::sort(topo.edges.begin(), topo.edges.end());
+  return topo;
+}
+
+std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos) {
+  std::vector<uint8_t> keep(mesh.triangle_count(), 0);
+  const auto& edges = topo.edges;
+  const auto& canon = topo.canon;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    bool contour = true;  // boundary (one triangle) or non-manifold (three or more)
+    if (j - i == 2) {
+      uint32_t t0 = edges[i].second / 3, k0 = edges[i].second % 3;
+      uint32_t t1 = edges[i + 1].second / 3;
+      Vec3f a = mesh.vertex(t0, k0), b = mesh.vertex(t0, (k0 + 1) % 3);
+      Vec3f c0 = mesh.vertex(t0, (k0 + 2) % 3);
+      // The vertex of t1 off the shared edge: the one whose welded id is neither end.
+      Vec3f c1 = mesh.vertex(t1, 0);
+      uint32_t ea = edges[i].first >> 32, eb = edges[i].first & 0xffffffffu;
+      for (int k = 0; k < 3; ++k) {
+        uint32_t id = canon[mesh.indices[3 * t1 + k]];
+        if (id != ea && id != eb) c1 = mesh.vertex(t1, k);
+      }
+      // Seen from the light, the two triangles lie on the same side of the edge (the
+      // surface folds away: a contour edge) when their free vertices are on the same side
+      // of the plane through the edge and the light. Near-degenerate cases count too.
+      Vec3f n = cross(b - a, light_pos - a);
+      float s0 = dot(n, c0 - a), s1 = dot(n, c1 - a);
+      float eps = 1e-6f * length(n) * (length(c0 - a) + length(c1 - a));
+      contour = (s0 > eps) == (s1 > eps) || std::abs(s0) <= eps || std::abs(s1) <= eps;
+    }
+    if (contour)
+      for (size_t k = i; k < j; ++k) keep[edges[k].second / 3] = 1;
+    i = j;
+  }
+  return keep;
 }
 
 }  // namespace penumbra::single_sample

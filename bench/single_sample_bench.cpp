@@ -1,0 +1,157 @@
+// parker1998's claim, measured: `single-sample` (one shadow ray plus the outer-object search)
+// against `hard` (one shadow ray) and `reference` (256 light samples) on bunny, knot and
+// plant at 512 x 512, side by side in one run; then the time ratios.
+//
+//   frame/<scene>/<method>   a whole frame through penumbra::render_scene, as a user's
+//                            `penumbra render` runs it minus file I/O: the Embree build,
+//                            the method's prepare() (single-sample: contour extraction and
+//                            BVH), the camera pass, the shadow evaluation and compose.
+//   warm/<scene>/<method>    Renderer::render() on a Renderer kept between frames: the
+//                            light-space structures survive (architecture.md), so this is
+//                            camera pass + evaluate + compose.
+//   shadow/<scene>/<method>  evaluate() alone on one thread, in CPU time (the least noisy
+//                            number on a shared machine; for profiling the method).
+//
+//   build/single_sample_bench --benchmark_enable_random_interleaving=true
+//
+// Ratios of medians are printed at the end (docs/methods/single-sample.md).
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+namespace {
+
+constexpr int kResolution = 512;
+constexpr int kReferenceSpp = 256;
+const char* const kScenes[] = {"bunny", "knot", "plant"};
+
+const Scene& scene(const std::string& name) {
+  static std::map<std::string, Scene> cache;
+  auto it = cache.find(name);
+  if (it == cache.end()) {
+    Scene s = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name + ".json");
+    s.camera.width = s.camera.height = kResolution;
+    it = cache.emplace(name, std::move(s)).first;
+  }
+  return it->second;
+}
+
+RenderSettings settings(const std::string& method) {
+  RenderSettings s;
+  s.method = method;
+  s.light_samples = kReferenceSpp;
+  return s;
+}
+
+void BM_Frame(benchmark::State& state, const std::string& scene_name, const std::string& method) {
+  const Scene& sc = scene(scene_name);
+  for (auto _ : state) {
+    RenderResult r = render_scene(sc, settings(method));
+    benchmark::DoNotOptimize(r.visibility.data());
+  }
+}
+
+void BM_Warm(benchmark::State& state, const std::string& scene_name, const std::string& method) {
+  Renderer renderer(scene(scene_name), settings(method));
+  renderer.render();  // prepare() once
+  for (auto _ : state) {
+    RenderResult r = renderer.render();
+    benchmark::DoNotOptimize(r.visibility.data());
+  }
+}
+
+void BM_Shadow(benchmark::State& state, const std::string& scene_name, const std::string& method) {
+  const Scene& sc = scene(scene_name);
+  ThreadLimit one(1);
+  RayTracer tracer(sc);
+  ViewSamples vs = camera_pass(sc, tracer, 0);
+  auto m = create_method(method, sc, {});
+  ShadowContext ctx;
+  ctx.scene = &sc;
+  ctx.light = &sc.lights[0];
+  ctx.tracer = &tracer;
+  ctx.light_samples = kReferenceSpp;
+  m->prepare(ctx);
+  std::vector<float> v(vs.size());
+  std::vector<Vec3f> e(vs.size());
+  ShadowOutput out{v, e};
+  for (auto _ : state) m->evaluate(ctx, vs, out);
+  m->stats() = MethodStats{};
+  m->evaluate(ctx, vs, out);
+  for (const auto& [key, value] : m->stats().extra.items())
+    if (value.is_number()) state.counters[key] = value.get<double>();
+}
+
+// Collects the median real time of every benchmark and prints the ratios at the end.
+class RatioReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const Run& r : runs) {
+      bool median = r.run_type == Run::RT_Aggregate && r.aggregate_name == "median";
+      bool single = r.run_type == Run::RT_Iteration && r.repetitions <= 1;
+      if (median || single) ms_[r.run_name.function_name] = r.GetAdjustedRealTime();  // in the unit: ms
+    }
+  }
+  void Finalize() override {
+    ConsoleReporter::Finalize();
+    std::printf("\nmedian ms and ratios (%dx%d, reference at %d spp)\n", kResolution, kResolution, kReferenceSpp);
+    std::printf("%-12s %-7s %10s %10s %10s %12s %12s\n", "kind", "scene", "hard", "single", "reference",
+                "single/hard", "ref/single");
+    for (const char* kind : {"frame", "warm"})
+      for (const char* sc : kScenes) {
+        auto get = [&](const char* m) {
+          auto it = ms_.find(std::string(kind) + "/" + sc + "/" + m);
+          return it == ms_.end() ? -1.0 : it->second;
+        };
+        double h = get("hard"), s = get("single-sample"), ref = get("reference");
+        if (h < 0 && s < 0) continue;
+        std::printf("%-12s %-7s %10.1f %10.1f %10.1f %12.2f %12.1f\n", kind, sc, h, s, ref,
+                    h > 0 && s > 0 ? s / h : 0.0, s > 0 && ref > 0 ? ref / s : 0.0);
+      }
+  }
+
+ private:
+  std::map<std::string, double> ms_;
+};
+
+void register_all() {
+  for (const char* sc : kScenes) {
+    std::string name(sc);
+    for (const char* m : {"hard", "single-sample"}) {
+      benchmark::RegisterBenchmark(("frame/" + name + "/" + m).c_str(), BM_Frame, name, std::string(m))
+          ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5)->Repetitions(5);
+      benchmark::RegisterBenchmark(("warm/" + name + "/" + m).c_str(), BM_Warm, name, std::string(m))
+          ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5)->Repetitions(5);
+    }
+    // 256 shadow rays per view sample: one frame takes seconds.
+    benchmark::RegisterBenchmark(("frame/" + name + "/reference").c_str(), BM_Frame, name, std::string("reference"))
+        ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Repetitions(3);
+    benchmark::RegisterBenchmark(("shadow/" + name + "/single-sample").c_str(), BM_Shadow, name,
+                                 std::string("single-sample"))
+        ->Unit(benchmark::kMillisecond)->MinTime(0.5);
+    benchmark::RegisterBenchmark(("shadow/" + name + "/hard").c_str(), BM_Shadow, name, std::string("hard"))
+        ->Unit(benchmark::kMillisecond)->MinTime(0.5);
+  }
+}
+
+}  // namespace
+}  // namespace penumbra
+
+int main(int argc, char** argv) {
+  penumbra::register_all();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  penumbra::RatioReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  benchmark::Shutdown();
+  return 0;
+}
