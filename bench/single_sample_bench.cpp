@@ -17,6 +17,7 @@
 // Ratios of medians are printed at the end (docs/methods/single-sample.md).
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -90,6 +91,22 @@ void BM_Shadow(benchmark::State& state, const std::string& scene_name, const std
     if (value.is_number()) state.counters[key] = value.get<double>();
 }
 
+// prepare() alone on one thread (CPU time): the per-light build.
+void BM_Prepare(benchmark::State& state, const std::string& scene_name, const std::string& method) {
+  const Scene& sc = scene(scene_name);
+  ThreadLimit one(1);
+  RayTracer tracer(sc);
+  ShadowContext ctx;
+  ctx.scene = &sc;
+  ctx.light = &sc.lights[0];
+  ctx.tracer = &tracer;
+  for (auto _ : state) {
+    auto m = create_method(method, sc, {});
+    m->prepare(ctx);
+    benchmark::DoNotOptimize(m.get());
+  }
+}
+
 // Collects the median real time of every benchmark and prints the ratios at the end.
 class RatioReporter : public benchmark::ConsoleReporter {
  public:
@@ -123,6 +140,8 @@ class RatioReporter : public benchmark::ConsoleReporter {
   std::map<std::string, double> ms_;
 };
 
+double min_of(const std::vector<double>& v) { return v.empty() ? 0.0 : *std::min_element(v.begin(), v.end()); }
+
 void register_all() {
   for (const char* sc : kScenes) {
     std::string name(sc);
@@ -135,11 +154,12 @@ void register_all() {
     // 256 shadow rays per view sample: one frame takes seconds.
     benchmark::RegisterBenchmark(("frame/" + name + "/reference").c_str(), BM_Frame, name, std::string("reference"))
         ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Repetitions(3);
-    benchmark::RegisterBenchmark(("shadow/" + name + "/single-sample").c_str(), BM_Shadow, name,
+    benchmark::RegisterBenchmark(("prepare/" + name + "/single-sample").c_str(), BM_Prepare, name,
                                  std::string("single-sample"))
-        ->Unit(benchmark::kMillisecond)->MinTime(0.5);
-    benchmark::RegisterBenchmark(("shadow/" + name + "/hard").c_str(), BM_Shadow, name, std::string("hard"))
-        ->Unit(benchmark::kMillisecond)->MinTime(0.5);
+        ->Unit(benchmark::kMillisecond)->MinTime(0.2)->Repetitions(5)->ComputeStatistics("min", min_of);
+    for (const char* m : {"hard", "single-sample"})
+      benchmark::RegisterBenchmark(("shadow/" + name + "/" + m).c_str(), BM_Shadow, name, std::string(m))
+          ->Unit(benchmark::kMillisecond)->MinTime(0.2)->Repetitions(5)->ComputeStatistics("min", min_of);
   }
 }
 

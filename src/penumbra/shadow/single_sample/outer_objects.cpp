@@ -1,8 +1,10 @@
 #include "penumbra/shadow/single_sample/outer_objects.h"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
-#include <unordered_map>
+
+#include "penumbra/shadow/single_sample/simd4.h"
 
 namespace penumbra::single_sample {
 
@@ -86,20 +88,6 @@ void TriangleBlock4::set(int lane, Vec3f a, Vec3f b, Vec3f c) {
     for (int axis = 0; axis < 3; ++axis) v[k][axis][lane] = p[k][axis];
 }
 
-namespace {
-// GCC/Clang vector extensions: four floats in one SSE/NEON register.
-typedef float f4 __attribute__((vector_size(16)));
-typedef int i4 __attribute__((vector_size(16)));
-inline f4 splat(float x) { return f4{x, x, x, x}; }
-inline f4 vmin4(f4 a, f4 b) { return a < b ? a : b; }
-inline f4 vmax4(f4 a, f4 b) { return a > b ? a : b; }
-inline f4 load4(const float* p) {
-  f4 r;
-  std::memcpy(&r, p, sizeof r);
-  return r;
-}
-}  // namespace
-
 int block_cone_distance2_unclipped(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near,
                                    float far, float out[4]) {
   f4 t[3], qx[3], qy[3];
@@ -153,41 +141,69 @@ void block_cone_distance2(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e
 MeshTopology build_topology(const TriangleMesh& mesh) {
   MeshTopology topo;
   const size_t nt = mesh.triangle_count();
-  auto key_of = [](Vec3f p) {
-    uint32_t b[3];
-    std::memcpy(b, &p, sizeof b);
-    return std::make_pair(static_cast<uint64_t>(b[0]) << 32 | b[1], b[2]);
+  // Weld by exact position (-0 and +0 together) with an open-addressing hash table.
+  const size_t np = mesh.positions.size();
+  auto bits = [&](size_t i) {
+    Vec3f p = mesh.positions[i] + Vec3f(0.0f);
+    std::array<uint32_t, 3> b;
+    std::memcpy(b.data(), &p, sizeof b);
+    return b;
   };
-  struct KeyHash {
-    size_t operator()(const std::pair<uint64_t, uint32_t>& k) const {
-      return std::hash<uint64_t>()(k.first * 0x9e3779b97f4a7c15ULL ^ k.second);
-    }
-  };
-  std::unordered_map<std::pair<uint64_t, uint32_t>, uint32_t, KeyHash> weld;
-  weld.reserve(mesh.positions.size());
-  topo.canon.resize(mesh.positions.size());
-  for (size_t i = 0; i < mesh.positions.size(); ++i)  // -0 and +0 weld together
-    topo.canon[i] = weld.emplace(key_of(mesh.positions[i] + Vec3f(0.0f)), static_cast<uint32_t>(weld.size())).first->second;
-  const size_t nv = weld.size();
-  topo.vertex_first.assign(nv + 1, 0);
-  topo.edges.reserve(3 * nt);
-  for (size_t t = 0; t < nt; ++t) {
-    uint32_t v[3] = {topo.canon[mesh.indices[3 * t]], topo.canon[mesh.indices[3 * t + 1]],
-                     topo.canon[mesh.indices[3 * t + 2]]};
-    for (int k = 0; k < 3; ++k) topo.vertex_first[v[k] + 1]++;
-    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // no area: no edges
-    for (int k = 0; k < 3; ++k) {
-      uint32_t a = v[k], b = v[(k + 1) % 3];
-      topo.edges.push_back(
-          {static_cast<uint64_t>(std::min(a, b)) << 32 | std::max(a, b), static_cast<uint32_t>(3 * t + k)});
+  size_t cap = 16;
+  while (cap < 2 * np) cap *= 2;
+  std::vector<uint32_t> table(cap, ~0u);  // a representative mesh vertex, or empty
+  topo.canon.resize(np);
+  uint32_t nv = 0;
+  for (size_t i = 0; i < np; ++i) {
+    std::array<uint32_t, 3> b = bits(i);
+    uint64_t h = (static_cast<uint64_t>(b[0]) * 0x9e3779b97f4a7c15ULL) ^ (static_cast<uint64_t>(b[1]) * 0xc2b2ae3d27d4eb4fULL) ^
+                 (static_cast<uint64_t>(b[2]) * 0x165667b19e3779f9ULL);
+    size_t slot = (h ^ (h >> 29)) & (cap - 1);
+    while (table[slot] != ~0u && bits(table[slot]) != b) slot = (slot + 1) & (cap - 1);
+    if (table[slot] == ~0u) {
+      table[slot] = static_cast<uint32_t>(i);
+      topo.canon[i] = nv++;
+    } else {
+      topo.canon[i] = topo.canon[table[slot]];
     }
   }
-  for (size_t i = 0; i < nv; ++i) topo.vertex_first[i + 1] += topo.vertex_first[i];
+  // Vertex -> triangles, and every edge of a triangle with area bucketed by its smaller
+  // welded vertex (counting sort: linear time, no comparison sort of 3n edges).
+  topo.vertex_first.assign(nv + 1, 0);
+  std::vector<uint32_t> edge_first(nv + 1, 0);
+  auto welded = [&](size_t t, int k) { return topo.canon[mesh.indices[3 * t + k]]; };
+  auto has_area = [&](size_t t) {
+    uint32_t a = welded(t, 0), b = welded(t, 1), c = welded(t, 2);
+    return a != b && b != c && c != a;
+  };
+  for (size_t t = 0; t < nt; ++t) {
+    bool area = has_area(t);
+    for (int k = 0; k < 3; ++k) {
+      topo.vertex_first[welded(t, k) + 1]++;
+      if (area) edge_first[std::min(welded(t, k), welded(t, (k + 1) % 3)) + 1]++;
+    }
+  }
+  for (size_t i = 0; i < nv; ++i) {
+    topo.vertex_first[i + 1] += topo.vertex_first[i];
+    edge_first[i + 1] += edge_first[i];
+  }
   topo.vertex_tris.resize(topo.vertex_first[nv]);
-  std::vector<uint32_t> fill(topo.vertex_first.begin(), topo.vertex_first.end() - 1);
-  for (size_t t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) topo.vertex_tris[fill[topo.canon[mesh.indices[3 * t + k]]]++] = static_cast<uint32_t>(t);
-  std::sort(topo.edges.begin(), topo.edges.end());
+  topo.edges.resize(edge_first[nv]);
+  std::vector<uint32_t> vfill(topo.vertex_first.begin(), topo.vertex_first.end() - 1);
+  std::vector<uint32_t> efill(edge_first.begin(), edge_first.end() - 1);
+  for (size_t t = 0; t < nt; ++t) {
+    bool area = has_area(t);
+    for (int k = 0; k < 3; ++k) {
+      uint32_t a = welded(t, k), b = welded(t, (k + 1) % 3);
+      topo.vertex_tris[vfill[a]++] = static_cast<uint32_t>(t);
+      if (area)
+        topo.edges[efill[std::min(a, b)]++] = {static_cast<uint64_t>(std::min(a, b)) << 32 | std::max(a, b),
+                                               static_cast<uint32_t>(3 * t + k)};
+    }
+  }
+  // Within a bucket (a handful of edges) sort by the other end: the whole list is then
+  // sorted by key.
+  for (size_t v = 0; v < nv; ++v) std::sort(topo.edges.begin() + edge_first[v], topo.edges.begin() + edge_first[v + 1]);
   return topo;
 }
 
@@ -213,11 +229,9 @@ std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopol
       }
       // Seen from the light, the two triangles lie on the same side of the edge (the
       // surface folds away: a contour edge) when their free vertices are on the same side
-      // of the plane through the edge and the light. Near-degenerate cases count too.
+      // of the plane through the edge and the light.
       Vec3f n = cross(b - a, light_pos - a);
-      float s0 = dot(n, c0 - a), s1 = dot(n, c1 - a);
-      float eps = 1e-6f * length(n) * (length(c0 - a) + length(c1 - a));
-      contour = (s0 > eps) == (s1 > eps) || std::abs(s0) <= eps || std::abs(s1) <= eps;
+      contour = dot(n, c0 - a) * dot(n, c1 - a) >= 0.0f;  // same side, or in the plane
     }
     if (contour)
       for (size_t k = i; k < j; ++k) keep[edges[k].second / 3] = 1;

@@ -25,6 +25,7 @@
 #include "penumbra/core/progress.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/single_sample/outer_objects.h"
+#include "penumbra/shadow/single_sample/simd4.h"
 #include "penumbra/trace/bvh.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -33,6 +34,7 @@ namespace {
 
 using single_sample::falloff;
 using single_sample::inverse_falloff;
+using namespace single_sample;  // f4, i4 and their helpers (simd4.h)
 
 enum class Combine { Min, Multiply, Add };
 
@@ -46,7 +48,6 @@ struct Plane {
 struct RayFrame {
   Vec3f o, v, e1, e2, av, ae1, ae2;
   float near, far;
-  float limit2_hint = kInfinity;
 };
 
 // Lower bound of (perp / t)^2 over the points of box b with near <= t <= far: the box's
@@ -59,25 +60,70 @@ inline float box_bound2(const Bounds3f& b, const RayFrame& r) {
   if (tmax <= r.near || tc - th >= r.far) return kInfinity;
   float dx = std::max(0.0f, std::abs(dot(c, r.e1)) - dot(h, r.ae1));
   float dy = std::max(0.0f, std::abs(dot(c, r.e2)) - dot(h, r.ae2));
-  float cyl = (dx * dx + dy * dy) / (tmax * tmax);
-#ifdef PERSPECTIVE_BOUND
-  if (tc - th > r.near && cyl < r.limit2_hint) {
-    // All eight corners in front of the origin: the box projects (perspective, onto t = 1)
-    // into the convex hull of its projected corners.
-    float lo_x = kInfinity, hi_x = -kInfinity, lo_y = kInfinity, hi_y = -kInfinity;
-    Vec3f base = b.lo - r.o, ext = b.hi - b.lo;
-    for (int i = 0; i < 8; ++i) {
-      Vec3f p = base + Vec3f((i & 1) ? ext.x : 0.0f, (i & 2) ? ext.y : 0.0f, (i & 4) ? ext.z : 0.0f);
-      float inv = 1.0f / dot(p, r.v);
-      float x = dot(p, r.e1) * inv, y = dot(p, r.e2) * inv;
-      lo_x = std::min(lo_x, x); hi_x = std::max(hi_x, x);
-      lo_y = std::min(lo_y, y); hi_y = std::max(hi_y, y);
-    }
-    float px = std::max({0.0f, lo_x, -hi_x}), py = std::max({0.0f, lo_y, -hi_y});
-    return std::max(cyl, px * px + py * py);
+  return (dx * dx + dy * dy) / (tmax * tmax);
+}
+
+// Four rays side by side (structure of arrays) for the packet search.
+struct RayFrame4 {
+  f4 ox, oy, oz, vx, vy, vz, e1x, e1y, e1z, e2x, e2y, e2z;
+  f4 avx, avy, avz, ae1x, ae1y, ae1z, ae2x, ae2y, ae2z, near, far;
+  void set(int lane, const RayFrame& r) {
+    ox[lane] = r.o.x; oy[lane] = r.o.y; oz[lane] = r.o.z;
+    vx[lane] = r.v.x; vy[lane] = r.v.y; vz[lane] = r.v.z;
+    e1x[lane] = r.e1.x; e1y[lane] = r.e1.y; e1z[lane] = r.e1.z;
+    e2x[lane] = r.e2.x; e2y[lane] = r.e2.y; e2z[lane] = r.e2.z;
+    avx[lane] = r.av.x; avy[lane] = r.av.y; avz[lane] = r.av.z;
+    ae1x[lane] = r.ae1.x; ae1y[lane] = r.ae1.y; ae1z[lane] = r.ae1.z;
+    ae2x[lane] = r.ae2.x; ae2y[lane] = r.ae2.y; ae2z[lane] = r.ae2.z;
+    near[lane] = r.near; far[lane] = r.far;
   }
-#endif
-  return cyl;
+};
+
+// box_bound2 of one box for four rays.
+inline f4 box_bound2(const Bounds3f& b, const RayFrame4& r) {
+  Vec3f c = (b.lo + b.hi) * 0.5f, h = (b.hi - b.lo) * 0.5f;
+  f4 cx = splat(c.x) - r.ox, cy = splat(c.y) - r.oy, cz = splat(c.z) - r.oz;
+  f4 hx = splat(h.x), hy = splat(h.y), hz = splat(h.z);
+  f4 tc = cx * r.vx + cy * r.vy + cz * r.vz, th = hx * r.avx + hy * r.avy + hz * r.avz;
+  f4 tmax = vmin4(tc + th, r.far);
+  f4 dx = vmax4(splat(0.0f), vabs4(cx * r.e1x + cy * r.e1y + cz * r.e1z) - (hx * r.ae1x + hy * r.ae1y + hz * r.ae1z));
+  f4 dy = vmax4(splat(0.0f), vabs4(cx * r.e2x + cy * r.e2y + cz * r.e2z) - (hx * r.ae2x + hy * r.ae2y + hz * r.ae2z));
+  f4 bound = (dx * dx + dy * dy) / (tmax * tmax);
+  return (tmax <= r.near) | (tc - th >= r.far) ? splat(kInfinity) : bound;
+}
+
+// triangle_cone_distance2 of one triangle for four rays; lanes whose ray sees a vertex
+// outside [near, far] are flagged in *clip (their value is meaningless).
+inline f4 triangle_distance2(const BvhTriangle& tri, const RayFrame4& r, int* clip) {
+  const Vec3f* v[3] = {&tri.v0, &tri.v1, &tri.v2};
+  f4 qx[3], qy[3];
+  i4 in_range = i4{-1, -1, -1, -1};
+  for (int k = 0; k < 3; ++k) {
+    f4 rx = splat(v[k]->x) - r.ox, ry = splat(v[k]->y) - r.oy, rz = splat(v[k]->z) - r.oz;
+    f4 t = rx * r.vx + ry * r.vy + rz * r.vz;
+    f4 x = rx * r.e1x + ry * r.e1y + rz * r.e1z;
+    f4 y = rx * r.e2x + ry * r.e2y + rz * r.e2z;
+    in_range &= (t >= r.near) & (t <= r.far);
+    f4 inv = splat(1.0f) / (in_range ? t : splat(1.0f));
+    qx[k] = x * inv;
+    qy[k] = y * inv;
+  }
+  f4 best = splat(kInfinity);
+  i4 pos = i4{0, 0, 0, 0}, neg = i4{0, 0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    int k1 = k == 2 ? 0 : k + 1;
+    f4 ex = qx[k1] - qx[k], ey = qy[k1] - qy[k];
+    f4 side = ey * qx[k] - ex * qy[k];
+    pos |= side > splat(0.0f);
+    neg |= side < splat(0.0f);
+    f4 len2 = ex * ex + ey * ey;
+    f4 u = -(qx[k] * ex + qy[k] * ey) / (len2 > splat(0.0f) ? len2 : splat(1.0f));
+    u = vmin4(vmax4(u, splat(0.0f)), splat(1.0f));
+    f4 cx = qx[k] + u * ex, cy = qy[k] + u * ey;
+    best = vmin4(best, cx * cx + cy * cy);
+  }
+  *clip = mask4(~in_range);
+  return (pos ^ neg) ? splat(0.0f) : best;
 }
 
 class SingleSampleSoftShadows final : public ShadowMethod {
@@ -86,7 +132,8 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       : equal_area_(p.get_string("diameter") == "equal-area"),
         diameter_scale_(p.get_float("diameter_scale")),
         contour_only_(p.get_string("candidates") == "contour"),
-        leaf_size_(p.get_int("leaf_size")) {
+        leaf_size_(p.get_int("leaf_size")),
+        packets_(p.get_bool("packets")) {
     const std::string& c = p.get_string("combine");
     combine_ = c == "min" ? Combine::Min : (c == "multiply" ? Combine::Multiply : Combine::Add);
   }
@@ -176,6 +223,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     diameter_ *= diameter_scale_;
     Bounds3f b = scene.bounds();
     scene_scale_ = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
+    plane_eps_ = 1e-4f * scene_scale_;
     stats_.memory_bytes = bvh_.memory_bytes() + ring_tris_.capacity() * sizeof(BvhTriangle) +
                           blocks_.capacity() * sizeof(single_sample::TriangleBlock4) + 4 * leaf_block_.capacity();
     for (const ObjectData& od : objects_)
@@ -202,28 +250,62 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       stats_.rays_traced += vs.size();
     }
     ScopedPhase phase(stats_, "outer objects");
-    std::atomic<uint64_t> nodes{0}, tests{0}, blocked{0};
+    std::atomic<uint64_t> nodes{0}, tests{0}, blocked{0}, searched{0};
+    const bool packets = packets_ && combine_ == Combine::Min && !bvh_.empty();
+    static const bool scalar_seed = getenv("SCALARSEED") != nullptr;
     parallel_for(vs.size(), 256, [&](size_t begin, size_t end) {
       Search search;
-      search.stack.reserve(128);
+      // View samples come in scanline order: four unblocked neighbours make a packet.
+      Lane lanes[4];
+      size_t index[4];
+      int count = 0;
+      auto flush = [&] {
+        search_packet(lanes, count, search);
+        for (int j = 0; j < count; ++j) {
+          out.visibility[index[j]] = lanes[j].result();
+          if (lanes[j].best != ~0u) search.hints[j] = lanes[j].best;
+        }
+        count = 0;
+      };
       for (size_t k = begin; k < end; ++k) {
         if (hard[k] == 0.0f) {
-          out.visibility[k] = 0.0f;
+          out.visibility[k] = 0.0f;  // the inner object blocks the ray
           ++search.blocked;
           continue;
         }
-        out.visibility[k] = transmission(vs.samples[k], l, search);
+        Lane& lane = lanes[count];
+        if (!begin_lane(vs.samples[k], l, search, packets ? (scalar_seed ? search.hints[count] : ~0u) : search.hints[0], lane)) {
+          out.visibility[k] = lane.result();
+          continue;
+        }
+        ++search.searched;
+        if (!packets) {
+          search_single(lane, search);
+          out.visibility[k] = lane.result();
+          if (lane.best != ~0u) search.hints[0] = lane.best;
+          continue;
+        }
+        index[count++] = k;
+        if (count == 4) flush();
       }
+      if (count) flush();
       nodes += search.nodes;
       tests += search.tests;
       blocked += search.blocked;
+      searched += search.searched;
+      dbg_clipped += search.clipped;
+      dbg_ring += search.ringtests;
       if (ctx.progress) ctx.progress->add(end - begin);
     });
     stats_.texels_visited += nodes.load();
     const double n = std::max<size_t>(1, vs.size());
-    stats_.extra["bvh_nodes_per_ray"] = nodes.load() / n;
+    stats_.extra["bvh_nodes_per_ray"] = nodes.load() / n;  // a packet's visit counts once
     stats_.extra["triangle_tests_per_ray"] = tests.load() / n;
     stats_.extra["hard_blocked_fraction"] = blocked.load() / n;
+    stats_.extra["searched_fraction"] = searched.load() / n;
+    stats_.extra["dbg_clipped"] = dbg_clipped.load() / n;
+    stats_.extra["dbg_ring"] = dbg_ring.load() / n;
+    dbg_clipped = 0; dbg_ring = 0;
   }
 
  private:
@@ -237,15 +319,34 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     uint32_t first = 0;  // the object's first triangle in ring_tris_
     bool ring = false;   // receivers on it test the triangles around their own
   };
-  // Per-thread search state; `hint` carries the nearest triangle from one view sample to
-  // the next (they come in scanline order).
+  // Per-thread search state. `hints` carry the nearest triangle from one view sample (or
+  // packet lane) to the next.
   struct Search {
+    struct Entry {
+      f4 bound;
+      uint32_t node;
+    };
+    std::vector<Entry> packet_stack;
     std::vector<std::pair<float, uint32_t>> stack;
-    uint32_t hint = ~0u;
+    uint32_t hints[4] = {~0u, ~0u, ~0u, ~0u};
     static constexpr int kMaxRing = 64;
     uint32_t ring[kMaxRing];
     int ring_count = 0;
-    uint64_t nodes = 0, tests = 0, blocked = 0, clipped = 0;
+    uint64_t nodes = 0, tests = 0, blocked = 0, searched = 0, clipped = 0, ringtests = 0;
+  };
+  // One shadow ray's search. With `min`, limit2 = (k tau)^2 holds the current s (an opaque
+  // triangle at squared distance d2 < limit2 sets limit2 = d2; no trigonometry); with the
+  // other rules s accumulates and limit2 = k^2 (only tau < 1 matters).
+  struct Lane {
+    const ViewSample* sample = nullptr;
+    RayFrame r;       // in the light frame
+    Vec3f p_local;    // the receiver, in the light frame
+    float k2 = 1.0f;  // (D / |l - o|)^2: tau^2 = d2 / k2
+    float limit2 = 0.0f;
+    float s = 1.0f;
+    bool is_min = true;
+    uint32_t best = ~0u;  // the BVH triangle that set limit2
+    float result() const { return is_min ? falloff(std::sqrt(limit2 / k2)) : s; }
   };
 
   void combine(float& s, float si) const {
@@ -275,101 +376,124 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     }
   }
 
-  float transmission(const ViewSample& vsample, Vec3f l, Search& search) const {
+  // The receiver's own triangle, and triangles in its plane (the rest of a ground plane or
+  // a leaf), are no occluders of it.
+  bool excluded(const Lane& lane, const BvhTriangle& t, const Plane& plane) const {
+    return t.object == lane.sample->object &&
+           (t.prim == lane.sample->prim || std::abs(dot(plane.n, lane.p_local) - plane.d) < plane_eps_);
+  }
+
+  // A triangle at squared cone distance d2 < lane.limit2 (BVH index `index`, ~0u for one
+  // outside the BVH). Returns false when the ray is fully blocked (s = 0).
+  bool accept(Lane& lane, const BvhTriangle& t, const Plane& plane, uint32_t index, float d2) const {
+    if (excluded(lane, t, plane)) return true;
+    if (lane.is_min) {
+      if (t.opacity >= 1.0f) {
+        lane.limit2 = d2;
+        lane.best = index;
+        return d2 > 0.0f;
+      }
+      float si = 1.0f - t.opacity * (1.0f - falloff(std::sqrt(d2 / lane.k2)));
+      lane.limit2 = std::min(lane.limit2, lane.k2 * sqr(inverse_falloff(si)));
+      return true;
+    }
+    combine(lane.s, 1.0f - t.opacity * (1.0f - falloff(std::sqrt(d2 / lane.k2))));
+    return lane.s > 0.0f;
+  }
+
+  // Tests one triangle against one ray (scalar path). Returns false when s = 0.
+  bool test_one(Lane& lane, const BvhTriangle& t, const Plane& plane, uint32_t index, Search& search) const {
+    ++search.tests;
+    const RayFrame& r = lane.r;
+    float d2 = single_sample::triangle_cone_distance2(r.o, r.v, r.e1, r.e2, r.near, r.far, t.v0, t.v1, t.v2);
+    return d2 >= lane.limit2 || accept(lane, t, plane, index, d2);
+  }
+
+  // Sets up a ray: its frames, the analytic spheres, the triangles around the receiver and
+  // the hint. Returns false when nothing is left to search (lane.result() is final).
+  bool begin_lane(const ViewSample& vsample, Vec3f l, Search& search, uint32_t hint, Lane& lane) const {
+    lane = Lane{};
+    lane.sample = &vsample;
+    lane.is_min = combine_ == Combine::Min;
     Vec3f o = offset_ray_origin(vsample.p, vsample.ng, l - vsample.p);
     Vec3f to_l = l - o;
     float light_dist = length(to_l);
-    if (light_dist <= 0) return 1.0f;
+    if (!(light_dist > 0)) {
+      lane.limit2 = lane.k2;  // s = 1
+      return false;
+    }
     const Vec3f v_world = to_l / light_dist;
-    RayFrame r;  // in the light frame
+    RayFrame& r = lane.r;
     r.o = to_light_space(o);
     r.v = light_frame_.to_local(v_world);
     coordinate_system(r.v, &r.e1, &r.e2);
-    const Vec3f p_local = to_light_space(vsample.p);
     auto vabs = [](Vec3f a) { return Vec3f(std::abs(a.x), std::abs(a.y), std::abs(a.z)); };
     r.av = vabs(r.v);
     r.ae1 = vabs(r.e1);
     r.ae2 = vabs(r.e2);
     r.near = 1e-6f * light_dist;
     r.far = light_dist;
+    lane.p_local = to_light_space(vsample.p);
     const float k = diameter_ / light_dist;  // b(t) = k t
-    const float k2 = k * k;
-    const bool is_min = combine_ == Combine::Min;
-    float s = 1.0f;
-
+    lane.k2 = k * k;
+    if (!(lane.k2 > 0)) {  // D = 0: a point light, the hard shadow alone
+      lane.is_min = false;
+      return false;
+    }
     for (const AnalyticSphere& sp : spheres_) {
       float si = single_sample::sphere_transmission(o, v_world, light_dist, sp.shape.center, sp.shape.radius, diameter_);
-      combine(s, 1.0f - sp.opacity * (1.0f - si));
-      if (s <= 0.0f) return 0.0f;
+      combine(lane.s, 1.0f - sp.opacity * (1.0f - si));
     }
-    if (bvh_.empty()) return s;
-
-    // Nodes are visited while they could hold a point with (perp / t)^2 < limit2 =
-    // (k tau_max)^2: with `min`, tau_max is the tau that would lower s (an opaque triangle
-    // at distance d sets limit2 = d^2 directly, no trigonometry); otherwise only tau < 1
-    // matters. With `min`, s is derived from limit2 at the end.
-    float limit2 = is_min ? k2 * sqr(inverse_falloff(s)) : k2;
-    const float plane_eps = 1e-4f * scene_scale_;
-    const auto& nodes = bvh_.nodes();
-    const auto& tris = bvh_.triangles();
-    // Returns false when the ray is fully blocked (s = 0).
-    // A triangle at squared cone distance d2 < limit2: lowers s unless it is the
-    // receiver's own triangle or lies in its plane (the rest of a ground plane or a leaf
-    // is no occluder of it). Returns false when the ray is fully blocked (s = 0).
-    auto excluded = [&](const BvhTriangle& t, const Plane& plane) {
-      return t.prim == vsample.prim ||
-             std::abs(dot(plane.n, p_local) - plane.d) < plane_eps;
-    };
-    auto accept = [&](const BvhTriangle& t, float d2) {
-      if (t.object == vsample.object && excluded(t, triangle_plane(t))) return true;
-      if (is_min) {
-        if (t.opacity >= 1.0f) {
-          limit2 = d2;
-          return d2 > 0.0f;
-        }
-        float si = 1.0f - t.opacity * (1.0f - falloff(std::sqrt(d2 / k2)));
-        limit2 = std::min(limit2, k2 * sqr(inverse_falloff(si)));
-        return true;
-      }
-      combine(s, 1.0f - t.opacity * (1.0f - falloff(std::sqrt(d2 / k2))));
-      return s > 0.0f;
-    };
-    auto test_triangle = [&](const BvhTriangle& t) {
-      ++search.tests;
-      float d2 = single_sample::triangle_cone_distance2(r.o, r.v, r.e1, r.e2, r.near, r.far, t.v0, t.v1, t.v2);
-      return d2 >= limit2 || accept(t, d2);
-    };
-    auto result = [&] { return is_min ? falloff(std::sqrt(limit2 / k2)) : s; };
-
+    lane.limit2 = lane.is_min && lane.s < 1.0f ? lane.k2 * sqr(inverse_falloff(lane.s)) : lane.k2;
+    if (lane.s <= 0.0f || bvh_.empty()) return false;
     // The receiver's neighbourhood on its own mesh (self-shadowing of smooth surfaces
     // comes from the triangles around the receiver, which the contour set lacks).
     search.ring_count = 0;
     if (!ring_tris_.empty()) {
       gather_ring(vsample, search);
-      const uint32_t first = objects_.size() > vsample.object ? objects_[vsample.object].first : 0;
-      for (int j = 0; j < search.ring_count; ++j)
-        if (!test_triangle(ring_tris_[first + search.ring[j]])) return 0.0f;
+      const uint32_t first = objects_[vsample.object].first;
+      const RayFrame& r = lane.r;
+      for (int j = 0; j < search.ring_count; ++j) {
+        const BvhTriangle& t = ring_tris_[first + search.ring[j]];
+        // A plane with the ray's origin on its positive side (n . (o - v0) >= 0) that the
+        // ray leaves (n . v >= 0) holds no point closer to the axis than perp / t >=
+        // tan(asin(n . v)) >= n . v: most neighbours of a receiver facing the light.
+        Vec3f nt = cross(t.v1 - t.v0, t.v2 - t.v0);
+        float side = dot(nt, r.o - t.v0), nv = dot(nt, r.v);
+        if (side < 0) nv = -nv;
+        if (nv >= 0 && nv * nv >= lane.limit2 * length_squared(nt)) continue;
+        ++search.ringtests;
+        if (!test_one(lane, t, triangle_plane(t), ~0u, search)) return false;
+      }
     }
     // Coherence: the previous view sample's nearest triangle is usually near this ray
     // too; testing it first gives a tight limit before the descent (min only: the other
-    // rules must see each triangle once).
-    uint32_t seeded = ~0u;
-    if (is_min && search.hint < tris.size()) {
-      seeded = search.hint;
-      if (!test_triangle(tris[seeded])) return 0.0f;
-    }
+    // rules must see each triangle once). Testing it again in its leaf changes nothing.
+    // (Packets test their lanes' hints together in search_packet.)
+    if (lane.is_min && hint < bvh_.triangles().size())
+      if (!test_one(lane, bvh_.triangles()[hint], planes_[hint], hint, search)) return false;
+    return true;
+  }
+
+  // The descent for one ray, any combination rule.
+  void search_single(Lane& lane, Search& search) const {
+    const auto& nodes = bvh_.nodes();
+    const auto& tris = bvh_.triangles();
+    const RayFrame& r = lane.r;
+    const uint32_t receiver = lane.sample->object;
     auto in_ring = [&](const BvhTriangle& t) {
-      if (t.object != vsample.object) return false;
+      if (t.object != receiver) return false;
       for (int j = 0; j < search.ring_count; ++j)
         if (search.ring[j] == t.prim) return true;
       return false;
     };
-    search.stack.clear();
-    search.stack.push_back({box_bound2(nodes[0].bounds, r), 0});
-    while (!search.stack.empty()) {
-      auto [bound, index] = search.stack.back();
-      search.stack.pop_back();
-      if (bound >= limit2) continue;
+    auto& stack = search.stack;
+    stack.clear();
+    stack.push_back({box_bound2(nodes[0].bounds, r), 0});
+    while (!stack.empty()) {
+      auto [bound, index] = stack.back();
+      stack.pop_back();
+      if (bound >= lane.limit2) continue;
       ++search.nodes;
       const BvhNode& n = nodes[index];
       if (n.leaf()) {
@@ -380,40 +504,102 @@ class SingleSampleSoftShadows final : public ShadowMethod {
           const single_sample::TriangleBlock4& block = blocks_[first_block + b];
           int clip = single_sample::block_cone_distance2_unclipped(block, r.o, r.v, r.e1, r.e2, r.near, r.far, d2);
           search.tests += std::min<uint32_t>(4, n.count - 4 * b);
-          for (uint32_t lane = 0; lane < 4 && 4 * b + lane < n.count; ++lane) {
-            const uint32_t i = n.first + 4 * b + lane;
-            if (clip & (1 << lane)) {
+          for (uint32_t j = 0; j < 4 && 4 * b + j < n.count; ++j) {
+            const uint32_t i = n.first + 4 * b + j;
+            if (clip & (1 << j)) {
               // Straddles the ray's origin plane: clip it, unless it is the receiver's own
               // triangle or coplanar with it (the ground under a ground receiver).
-              if (tris[i].object == vsample.object && excluded(tris[i], planes_[i])) continue;
-              ++search.clipped;
-              d2[lane] = single_sample::triangle_cone_distance2(r.o, r.v, r.e1, r.e2, r.near, r.far, block.vertex(lane, 0),
-                                                                block.vertex(lane, 1), block.vertex(lane, 2));
+              if (excluded(lane, tris[i], planes_[i])) continue;
+              d2[j] = single_sample::triangle_cone_distance2(r.o, r.v, r.e1, r.e2, r.near, r.far, block.vertex(j, 0),
+                                                             block.vertex(j, 1), block.vertex(j, 2));
             }
-            if (d2[lane] >= limit2) continue;
-            if (i == seeded) continue;
-            if (!is_min && search.ring_count && in_ring(tris[i])) continue;  // counted once
-            if (!accept(tris[i], d2[lane])) {
-              search.hint = i;
-              return 0.0f;
-            }
-            if (is_min) search.hint = i;
+            if (d2[j] >= lane.limit2) continue;
+            if (!lane.is_min && search.ring_count && in_ring(tris[i])) continue;  // counted once
+            if (!accept(lane, tris[i], planes_[i], i, d2[j])) return;
           }
         }
         continue;
       }
       // Nearest child last on the stack, so it is searched first.
-      r.limit2_hint = limit2;
       float b0 = box_bound2(nodes[n.first].bounds, r), b1 = box_bound2(nodes[n.first + 1].bounds, r);
       if (b0 < b1) {
-        if (b1 < limit2) search.stack.push_back({b1, n.first + 1});
-        if (b0 < limit2) search.stack.push_back({b0, n.first});
+        if (b1 < lane.limit2) stack.push_back({b1, n.first + 1});
+        if (b0 < lane.limit2) stack.push_back({b0, n.first});
       } else {
-        if (b0 < limit2) search.stack.push_back({b0, n.first});
-        if (b1 < limit2) search.stack.push_back({b1, n.first + 1});
+        if (b0 < lane.limit2) stack.push_back({b0, n.first});
+        if (b1 < lane.limit2) stack.push_back({b1, n.first + 1});
       }
     }
-    return result();
+  }
+
+  // The descent for up to four rays at once (`min` only): a node is opened when it could
+  // lower any lane's s; four rays are tested against one box or one triangle per step.
+  void search_packet(Lane* lanes, int count, Search& search) const {
+    const auto& nodes = bvh_.nodes();
+    const auto& tris = bvh_.triangles();
+    RayFrame4 r;
+    f4 limit2 = splat(0.0f);  // unused lanes: nothing is below 0
+    for (int j = 0; j < 4; ++j) {
+      r.set(j, lanes[j < count ? j : 0].r);
+      if (j < count) limit2[j] = lanes[j].limit2;
+    }
+    // One triangle against the four rays; the lanes it could lower go one by one.
+    auto test = [&](uint32_t i) {
+      int clip;
+      f4 d2 = triangle_distance2(tris[i], r, &clip);
+      search.tests += count;
+      int hit = mask4(d2 < limit2) | clip;
+      if (!hit) return;
+      for (int j = 0; j < count; ++j) {
+        if (!(hit & (1 << j))) continue;
+        Lane& lane = lanes[j];
+        float dj = d2[j];
+        if (clip & (1 << j)) {
+          if (!(limit2[j] > 0.0f) || excluded(lane, tris[i], planes_[i])) continue;
+          const RayFrame& rj = lane.r;
+          ++search.clipped;
+          dj = single_sample::triangle_cone_distance2(rj.o, rj.v, rj.e1, rj.e2, rj.near, rj.far, tris[i].v0,
+                                                      tris[i].v1, tris[i].v2);
+          if (dj >= limit2[j]) continue;
+        }
+        lane.limit2 = limit2[j];
+        accept(lane, tris[i], planes_[i], i, dj);
+        limit2[j] = lane.limit2;
+      }
+    };
+    // The previous packet's nearest triangles first (coherence; see begin_lane).
+    static const bool scalar_seed = getenv("SCALARSEED") != nullptr;
+    for (int j = 0; j < 4 && !scalar_seed; ++j) {
+      uint32_t h = search.hints[j];
+      bool seen = h >= tris.size();
+      for (int q = 0; q < j; ++q) seen |= search.hints[q] == h;
+      if (!seen) test(h);
+    }
+    auto& stack = search.packet_stack;
+    stack.clear();
+    stack.push_back({box_bound2(nodes[0].bounds, r), 0});
+    while (!stack.empty()) {
+      Search::Entry e = stack.back();
+      stack.pop_back();
+      if (!any4(e.bound < limit2)) continue;
+      ++search.nodes;
+      const BvhNode& n = nodes[e.node];
+      if (n.leaf()) {
+        for (uint32_t i = n.first; i < n.first + n.count; ++i) test(i);
+        continue;
+      }
+      f4 b0 = box_bound2(nodes[n.first].bounds, r), b1 = box_bound2(nodes[n.first + 1].bounds, r);
+      bool open0 = any4(b0 < limit2), open1 = any4(b1 < limit2);
+      // The child nearer to some lane last on the stack, so it is searched first.
+      if (hmin4(b0) < hmin4(b1)) {
+        if (open1) stack.push_back({b1, n.first + 1});
+        if (open0) stack.push_back({b0, n.first});
+      } else {
+        if (open0) stack.push_back({b0, n.first});
+        if (open1) stack.push_back({b1, n.first + 1});
+      }
+    }
+    for (int j = 0; j < count; ++j) lanes[j].limit2 = limit2[j];
   }
 
   static float sqr(float x) { return x * x; }
@@ -431,6 +617,9 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   float diameter_scale_;
   bool contour_only_;
   int leaf_size_;
+  bool packets_;
+  mutable std::atomic<uint64_t> dbg_clipped{0}, dbg_ring{0};
+  float plane_eps_ = 1e-4f;
   Combine combine_ = Combine::Min;
   TriangleBvh bvh_;
   std::vector<single_sample::TriangleBlock4> blocks_;
@@ -461,7 +650,9 @@ const MethodRegistration registration({
       "centre, the receiver's neighbours, boundary edges, transparent objects) or 'all' (every triangle: the "
       "exact minimum)",
       {"contour", "all"}},
-     {"leaf_size", ParamType::Int, 4, "triangles per leaf of the cone-search BVH", {}, 1, 64}},
+     {"leaf_size", ParamType::Int, 4, "triangles per leaf of the cone-search BVH", {}, 1, 64},
+     {"packets", ParamType::Bool, true,
+      "search four neighbouring view samples' rays together (SIMD; min only; same result)", {}}},
     [](const ParamSet& p) { return std::make_unique<SingleSampleSoftShadows>(p); },
 });
 
