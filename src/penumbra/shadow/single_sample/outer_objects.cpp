@@ -167,75 +167,67 @@ MeshTopology build_topology(const TriangleMesh& mesh) {
       topo.canon[i] = topo.canon[table[slot]];
     }
   }
-  // Vertex -> triangles, and every edge of a triangle with area bucketed by its smaller
-  // welded vertex (counting sort: linear time, no comparison sort of 3n edges).
+  topo.corners.resize(3 * nt);
+  for (size_t i = 0; i < 3 * nt; ++i) topo.corners[i] = topo.canon[mesh.indices[i]];
+  // Vertex -> triangles (counting sort).
   topo.vertex_first.assign(nv + 1, 0);
-  std::vector<uint32_t> edge_first(nv + 1, 0);
-  auto welded = [&](size_t t, int k) { return topo.canon[mesh.indices[3 * t + k]]; };
-  auto has_area = [&](size_t t) {
-    uint32_t a = welded(t, 0), b = welded(t, 1), c = welded(t, 2);
-    return a != b && b != c && c != a;
-  };
-  for (size_t t = 0; t < nt; ++t) {
-    bool area = has_area(t);
-    for (int k = 0; k < 3; ++k) {
-      topo.vertex_first[welded(t, k) + 1]++;
-      if (area) edge_first[std::min(welded(t, k), welded(t, (k + 1) % 3)) + 1]++;
-    }
-  }
-  for (size_t i = 0; i < nv; ++i) {
-    topo.vertex_first[i + 1] += topo.vertex_first[i];
-    edge_first[i + 1] += edge_first[i];
-  }
+  for (size_t i = 0; i < 3 * nt; ++i) topo.vertex_first[topo.corners[i] + 1]++;
+  for (size_t i = 0; i < nv; ++i) topo.vertex_first[i + 1] += topo.vertex_first[i];
   topo.vertex_tris.resize(topo.vertex_first[nv]);
-  topo.edges.resize(edge_first[nv]);
-  std::vector<uint32_t> vfill(topo.vertex_first.begin(), topo.vertex_first.end() - 1);
-  std::vector<uint32_t> efill(edge_first.begin(), edge_first.end() - 1);
-  for (size_t t = 0; t < nt; ++t) {
-    bool area = has_area(t);
-    for (int k = 0; k < 3; ++k) {
-      uint32_t a = welded(t, k), b = welded(t, (k + 1) % 3);
-      topo.vertex_tris[vfill[a]++] = static_cast<uint32_t>(t);
-      if (area)
-        topo.edges[efill[std::min(a, b)]++] = {static_cast<uint64_t>(std::min(a, b)) << 32 | std::max(a, b),
-                                               static_cast<uint32_t>(3 * t + k)};
-    }
-  }
-  // Within a bucket (a handful of edges) sort by the other end: the whole list is then
-  // sorted by key.
-  for (size_t v = 0; v < nv; ++v) std::sort(topo.edges.begin() + edge_first[v], topo.edges.begin() + edge_first[v + 1]);
+  std::vector<uint32_t> fill(topo.vertex_first.begin(), topo.vertex_first.end() - 1);
+  for (size_t i = 0; i < 3 * nt; ++i) topo.vertex_tris[fill[topo.corners[i]]++] = static_cast<uint32_t>(i / 3);
   return topo;
 }
 
 std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos) {
-  std::vector<uint8_t> keep(mesh.triangle_count(), 0);
-  const auto& edges = topo.edges;
-  const auto& canon = topo.canon;
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i + 1;
-    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-    bool contour = true;  // boundary (one triangle) or non-manifold (three or more)
-    if (j - i == 2) {
-      uint32_t t0 = edges[i].second / 3, k0 = edges[i].second % 3;
-      uint32_t t1 = edges[i + 1].second / 3;
-      Vec3f a = mesh.vertex(t0, k0), b = mesh.vertex(t0, (k0 + 1) % 3);
-      Vec3f c0 = mesh.vertex(t0, (k0 + 2) % 3);
-      // The vertex of t1 off the shared edge: the one whose welded id is neither end.
-      Vec3f c1 = mesh.vertex(t1, 0);
-      uint32_t ea = edges[i].first >> 32, eb = edges[i].first & 0xffffffffu;
+  const size_t nt = mesh.triangle_count();
+  std::vector<uint8_t> keep(nt, 0);
+  auto welded = [&](size_t t, int k) { return topo.corners[3 * t + k]; };
+  // The edges of a vertex's triangles that lead to a higher vertex: (other end, 3 * t + k).
+  // Each undirected edge is found from its lower end, once per triangle that has it.
+  struct HalfEdge {
+    uint32_t other, code;
+  };
+  std::vector<HalfEdge> bucket;
+  const size_t nv = topo.vertex_first.empty() ? 0 : topo.vertex_first.size() - 1;
+  for (uint32_t a = 0; a < nv; ++a) {
+    bucket.clear();
+    for (uint32_t i = topo.vertex_first[a]; i < topo.vertex_first[a + 1]; ++i) {
+      uint32_t t = topo.vertex_tris[i];
+      uint32_t v[3] = {welded(t, 0), welded(t, 1), welded(t, 2)};
+      if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // no area: no edges
       for (int k = 0; k < 3; ++k) {
-        uint32_t id = canon[mesh.indices[3 * t1 + k]];
-        if (id != ea && id != eb) c1 = mesh.vertex(t1, k);
+        uint32_t p = v[k], q = v[(k + 1) % 3];
+        if (std::min(p, q) == a) bucket.push_back({std::max(p, q), 3 * t + k});
       }
-      // Seen from the light, the two triangles lie on the same side of the edge (the
-      // surface folds away: a contour edge) when their free vertices are on the same side
-      // of the plane through the edge and the light.
-      Vec3f n = cross(b - a, light_pos - a);
-      contour = dot(n, c0 - a) * dot(n, c1 - a) >= 0.0f;  // same side, or in the plane
     }
-    if (contour)
-      for (size_t k = i; k < j; ++k) keep[edges[k].second / 3] = 1;
-    i = j;
+    for (size_t i = 1; i < bucket.size(); ++i)  // insertion sort: a handful of entries
+      for (size_t j = i; j > 0 && bucket[j].other < bucket[j - 1].other; --j) std::swap(bucket[j], bucket[j - 1]);
+    for (size_t i = 0; i < bucket.size();) {
+      size_t j = i + 1;
+      while (j < bucket.size() && bucket[j].other == bucket[i].other) ++j;
+      bool contour = true;  // boundary (one triangle) or non-manifold (three or more)
+      if (j - i == 2) {
+        uint32_t t0 = bucket[i].code / 3, k0 = bucket[i].code % 3;
+        uint32_t t1 = bucket[i + 1].code / 3;
+        Vec3f ea = mesh.vertex(t0, k0), eb = mesh.vertex(t0, (k0 + 1) % 3);
+        Vec3f c0 = mesh.vertex(t0, (k0 + 2) % 3);
+        // The vertex of t1 off the shared edge: the one whose welded id is neither end.
+        Vec3f c1 = mesh.vertex(t1, 0);
+        for (int k = 0; k < 3; ++k) {
+          uint32_t id = welded(t1, k);
+          if (id != a && id != bucket[i].other) c1 = mesh.vertex(t1, k);
+        }
+        // Seen from the light, the two triangles lie on the same side of the edge (the
+        // surface folds away: a contour edge) when their free vertices are on the same
+        // side of the plane through the edge and the light.
+        Vec3f n = cross(eb - ea, light_pos - ea);
+        contour = dot(n, c0 - ea) * dot(n, c1 - ea) >= 0.0f;  // same side, or in the plane
+      }
+      if (contour)
+        for (size_t q = i; q < j; ++q) keep[bucket[q].code / 3] = 1;
+      i = j;
+    }
   }
   return keep;
 }

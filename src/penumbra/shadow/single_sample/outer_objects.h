@@ -75,12 +75,10 @@ int block_cone_distance2_unclipped(const TriangleBlock4& block, Vec3f o, Vec3f v
 // The connectivity of a mesh with its vertices welded by exact position (shading seams
 // and importers split vertices without opening the surface).
 struct MeshTopology {
-  std::vector<uint32_t> canon;  // welded vertex id of each mesh vertex
+  std::vector<uint32_t> canon;    // welded vertex id of each mesh vertex
+  std::vector<uint32_t> corners;  // welded vertex id of each triangle corner (3 per triangle)
   // Triangles around each welded vertex: vertex_tris[vertex_first[v] .. vertex_first[v + 1]).
   std::vector<uint32_t> vertex_first, vertex_tris;
-  // Every edge of every triangle with area: (undirected welded key, 3 * triangle + edge),
-  // sorted by key, so the triangles of one edge are neighbours.
-  std::vector<std::pair<uint64_t, uint32_t>> edges;
 };
 MeshTopology build_topology(const TriangleMesh& mesh);
 

@@ -4,9 +4,20 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
+// The eight-lane helpers are inlined into AVX2 functions only (single_sample.cpp); as
+// out-of-line functions they would pass 32-byte vectors without AVX.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace penumbra::single_sample {
+
+#define PENUMBRA_SIMD_INLINE inline __attribute__((always_inline))
 
 typedef float f4 __attribute__((vector_size(16)));
 typedef int i4 __attribute__((vector_size(16)));
@@ -20,8 +31,52 @@ inline f4 load4(const float* p) {
   std::memcpy(&r, p, sizeof r);
   return r;
 }
+inline f4 sqrt4(f4 a) {
+#if defined(__SSE2__)
+  return (f4)_mm_sqrt_ps((__m128)a);
+#else
+  return f4{std::sqrt(a[0]), std::sqrt(a[1]), std::sqrt(a[2]), std::sqrt(a[3])};
+#endif
+}
 inline bool any4(i4 m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
 inline int mask4(i4 m) { return (m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8); }
 inline float hmin4(f4 a) { return std::min(std::min(a[0], a[1]), std::min(a[2], a[3])); }
 
+// Eight lanes for the packet search: GCC/Clang lower them to two SSE registers (two
+// independent dependency chains) or one AVX register where the target has it.
+typedef float f8 __attribute__((vector_size(32)));
+typedef int i8 __attribute__((vector_size(32)));
+
+// Width-generic helpers (V = f4 or f8, M the matching int vector).
+template <typename V>
+PENUMBRA_SIMD_INLINE V splat_v(float x) {
+  return V{} + x;
+}
+template <typename V>
+PENUMBRA_SIMD_INLINE V vmin_v(V a, V b) {
+  return a < b ? a : b;
+}
+template <typename V>
+PENUMBRA_SIMD_INLINE V vmax_v(V a, V b) {
+  return a > b ? a : b;
+}
+template <typename V>
+PENUMBRA_SIMD_INLINE V vabs_v(V a) {
+  return a < 0.0f ? -a : a;
+}
+template <typename M>
+PENUMBRA_SIMD_INLINE int mask_v(M m) {
+  int r = 0;
+  for (int i = 0; i < static_cast<int>(sizeof(M) / 4); ++i) r |= (m[i] & 1) << i;
+  return r;
+}
+template <typename V>
+PENUMBRA_SIMD_INLINE float hmin_v(V a) {
+  float r = a[0];
+  for (int i = 1; i < static_cast<int>(sizeof(V) / 4); ++i) r = std::min(r, a[i]);
+  return r;
+}
+
 }  // namespace penumbra::single_sample
+
+#pragma GCC diagnostic pop

@@ -16,6 +16,8 @@
 // holds only the triangles along each opaque mesh's contour seen from the light centre,
 // plus, per receiver on a mesh, the triangles around its own triangle (outer_objects.h).
 
+
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -28,6 +30,16 @@
 #include "penumbra/shadow/single_sample/simd4.h"
 #include "penumbra/trace/bvh.h"
 #include "penumbra/trace/ray_tracer.h"
+
+// Eight-lane packets with AVX2, chosen at run time, on x86 with GCC or Clang.
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define PENUMBRA_HAVE_AVX2_DISPATCH 1
+#else
+#define PENUMBRA_HAVE_AVX2_DISPATCH 0
+#endif
+#define PENUMBRA_INLINE inline __attribute__((always_inline))
+// Eight-float vectors cross function boundaries only inside the AVX2 functions.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace penumbra {
 namespace {
@@ -63,11 +75,15 @@ inline float box_bound2(const Bounds3f& b, const RayFrame& r) {
   return (dx * dx + dy * dy) / (tmax * tmax);
 }
 
-// Four rays side by side (structure of arrays) for the packet search.
-struct RayFrame4 {
-  f4 ox, oy, oz, vx, vy, vz, e1x, e1y, e1z, e2x, e2y, e2z;
-  f4 avx, avy, avz, ae1x, ae1y, ae1z, ae2x, ae2y, ae2z, near, far;
-  void set(int lane, const RayFrame& r) {
+// The packet search: W rays side by side in vectors F (floats) and I (ints) of W lanes:
+// f4/i4 everywhere (SSE, NEON), f8/i8 where the CPU has AVX2 (chosen at run time).
+constexpr int kMaxLanes = 8;
+
+template <typename F>
+struct RayFramePacket {
+  F ox, oy, oz, vx, vy, vz, e1x, e1y, e1z, e2x, e2y, e2z;
+  F avx, avy, avz, ae1x, ae1y, ae1z, ae2x, ae2y, ae2z, near, far;
+  PENUMBRA_INLINE void set(int lane, const RayFrame& r) {
     ox[lane] = r.o.x; oy[lane] = r.o.y; oz[lane] = r.o.z;
     vx[lane] = r.v.x; vy[lane] = r.v.y; vz[lane] = r.v.z;
     e1x[lane] = r.e1.x; e1y[lane] = r.e1.y; e1z[lane] = r.e1.z;
@@ -79,51 +95,54 @@ struct RayFrame4 {
   }
 };
 
-// box_bound2 of one box for four rays.
-inline f4 box_bound2(const Bounds3f& b, const RayFrame4& r) {
+// box_bound2 of one box for the packet's rays.
+template <typename F>
+PENUMBRA_INLINE F box_bound2(const Bounds3f& b, const RayFramePacket<F>& r) {
   Vec3f c = (b.lo + b.hi) * 0.5f, h = (b.hi - b.lo) * 0.5f;
-  f4 cx = splat(c.x) - r.ox, cy = splat(c.y) - r.oy, cz = splat(c.z) - r.oz;
-  f4 hx = splat(h.x), hy = splat(h.y), hz = splat(h.z);
-  f4 tc = cx * r.vx + cy * r.vy + cz * r.vz, th = hx * r.avx + hy * r.avy + hz * r.avz;
-  f4 tmax = vmin4(tc + th, r.far);
-  f4 dx = vmax4(splat(0.0f), vabs4(cx * r.e1x + cy * r.e1y + cz * r.e1z) - (hx * r.ae1x + hy * r.ae1y + hz * r.ae1z));
-  f4 dy = vmax4(splat(0.0f), vabs4(cx * r.e2x + cy * r.e2y + cz * r.e2z) - (hx * r.ae2x + hy * r.ae2y + hz * r.ae2z));
-  f4 bound = (dx * dx + dy * dy) / (tmax * tmax);
-  return (tmax <= r.near) | (tc - th >= r.far) ? splat(kInfinity) : bound;
+  F cx = c.x - r.ox, cy = c.y - r.oy, cz = c.z - r.oz;
+  F tc = cx * r.vx + cy * r.vy + cz * r.vz, th = h.x * r.avx + h.y * r.avy + h.z * r.avz;
+  F tmax = vmin_v(tc + th, r.far);
+  F zero = splat_v<F>(0.0f);
+  F dx = vmax_v(zero, vabs_v(cx * r.e1x + cy * r.e1y + cz * r.e1z) - (h.x * r.ae1x + h.y * r.ae1y + h.z * r.ae1z));
+  F dy = vmax_v(zero, vabs_v(cx * r.e2x + cy * r.e2y + cz * r.e2z) - (h.x * r.ae2x + h.y * r.ae2y + h.z * r.ae2z));
+  F bound = (dx * dx + dy * dy) / (tmax * tmax);
+  return (tmax <= r.near) | (tc - th >= r.far) ? splat_v<F>(kInfinity) : bound;
 }
 
-// triangle_cone_distance2 of one triangle for four rays; lanes whose ray sees a vertex
-// outside [near, far] are flagged in *clip (their value is meaningless).
-inline f4 triangle_distance2(const BvhTriangle& tri, const RayFrame4& r, int* clip) {
+// triangle_cone_distance2 of one triangle for the packet's rays; lanes whose ray sees a
+// vertex outside [near, far] are flagged in *clip (their value is meaningless).
+template <typename F, typename I>
+PENUMBRA_INLINE F triangle_distance2(const BvhTriangle& tri, const RayFramePacket<F>& r, int* clip) {
   const Vec3f* v[3] = {&tri.v0, &tri.v1, &tri.v2};
-  f4 qx[3], qy[3];
-  i4 in_range = i4{-1, -1, -1, -1};
+  const F one = splat_v<F>(1.0f), zero = splat_v<F>(0.0f);
+  F qx[3], qy[3];
+  I in_range = I{} - 1;
   for (int k = 0; k < 3; ++k) {
-    f4 rx = splat(v[k]->x) - r.ox, ry = splat(v[k]->y) - r.oy, rz = splat(v[k]->z) - r.oz;
-    f4 t = rx * r.vx + ry * r.vy + rz * r.vz;
-    f4 x = rx * r.e1x + ry * r.e1y + rz * r.e1z;
-    f4 y = rx * r.e2x + ry * r.e2y + rz * r.e2z;
+    F rx = v[k]->x - r.ox, ry = v[k]->y - r.oy, rz = v[k]->z - r.oz;
+    F t = rx * r.vx + ry * r.vy + rz * r.vz;
+    F x = rx * r.e1x + ry * r.e1y + rz * r.e1z;
+    F y = rx * r.e2x + ry * r.e2y + rz * r.e2z;
     in_range &= (t >= r.near) & (t <= r.far);
-    f4 inv = splat(1.0f) / (in_range ? t : splat(1.0f));
+    F inv = one / (in_range ? t : one);
     qx[k] = x * inv;
     qy[k] = y * inv;
   }
-  f4 best = splat(kInfinity);
-  i4 pos = i4{0, 0, 0, 0}, neg = i4{0, 0, 0, 0};
+  F best = splat_v<F>(kInfinity);
+  I pos = I{}, neg = I{};
   for (int k = 0; k < 3; ++k) {
     int k1 = k == 2 ? 0 : k + 1;
-    f4 ex = qx[k1] - qx[k], ey = qy[k1] - qy[k];
-    f4 side = ey * qx[k] - ex * qy[k];
-    pos |= side > splat(0.0f);
-    neg |= side < splat(0.0f);
-    f4 len2 = ex * ex + ey * ey;
-    f4 u = -(qx[k] * ex + qy[k] * ey) / (len2 > splat(0.0f) ? len2 : splat(1.0f));
-    u = vmin4(vmax4(u, splat(0.0f)), splat(1.0f));
-    f4 cx = qx[k] + u * ex, cy = qy[k] + u * ey;
-    best = vmin4(best, cx * cx + cy * cy);
+    F ex = qx[k1] - qx[k], ey = qy[k1] - qy[k];
+    F side = ey * qx[k] - ex * qy[k];
+    pos |= side > zero;
+    neg |= side < zero;
+    F len2 = ex * ex + ey * ey;
+    F u = -(qx[k] * ex + qy[k] * ey) / (len2 > zero ? len2 : one);
+    u = vmin_v(vmax_v(u, zero), one);
+    F cx = qx[k] + u * ex, cy = qy[k] + u * ey;
+    best = vmin_v(best, cx * cx + cy * cy);
   }
-  *clip = mask4(~in_range);
-  return (pos ^ neg) ? splat(0.0f) : best;
+  *clip = mask_v(~in_range);
+  return (pos ^ neg) ? zero : best;
 }
 
 class SingleSampleSoftShadows final : public ShadowMethod {
@@ -133,7 +152,11 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         diameter_scale_(p.get_float("diameter_scale")),
         contour_only_(p.get_string("candidates") == "contour"),
         leaf_size_(p.get_int("leaf_size")),
-        packets_(p.get_bool("packets")) {
+        packets_(p.get_int("packet") > 1) {
+#if PENUMBRA_HAVE_AVX2_DISPATCH
+    __builtin_cpu_init();
+    if (p.get_int("packet") == 8 && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) lanes_ = 8;
+#endif
     const std::string& c = p.get_string("combine");
     combine_ = c == "min" ? Combine::Min : (c == "multiply" ? Combine::Multiply : Combine::Add);
   }
@@ -144,56 +167,47 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     const Scene& scene = *ctx.scene;
     scene_ = &scene;
     const AreaLight& l = *ctx.light;
-    std::vector<BvhTriangle> tris = TriangleBvh::gather(scene, /*skip_analytic_spheres=*/true);
-    const size_t all_count = tris.size();
-    objects_.assign(scene.objects.size(), {});
-    if (contour_only_) {
-      // Only the triangles along each opaque mesh's contour seen from the light centre
-      // (outer_objects.h: the nearest point in cone space of a surface the ray misses
-      // lies on that contour). Semi-transparent objects keep every triangle: a ray may
-      // cross them and still see the light.
-      std::vector<BvhTriangle> kept;
-      size_t first = 0;
-      for (size_t o = 0; o < scene.objects.size(); ++o) {
-        const SceneObject& obj = scene.objects[o];
-        if (obj.sphere) continue;
-        size_t count = obj.mesh.triangle_count();
-        bool opaque = true;
-        for (size_t t = first; t < first + count; ++t) opaque &= tris[t].opacity >= 1.0f;
-        if (opaque) {
-          ObjectData& od = objects_[o];
-          od.topology = single_sample::build_topology(obj.mesh);
-          od.ring = true;
-          od.first = static_cast<uint32_t>(first);
-          std::vector<uint8_t> keep = single_sample::contour_triangles(obj.mesh, od.topology, l.center);
-          for (size_t t = 0; t < count; ++t)
-            if (keep[t]) kept.push_back(tris[first + t]);
-        } else {
-          kept.insert(kept.end(), tris.begin() + first, tris.begin() + first + count);
-        }
-        first += count;
-      }
-      ring_tris_ = std::move(tris);  // every triangle, indexed by object first + prim
-      tris = std::move(kept);
-    } else {
-      ring_tris_.clear();
-    }
-    stats_.extra["occluder_triangles"] = tris.size();
-    stats_.extra["occluder_fraction"] = all_count ? static_cast<double>(tris.size()) / all_count : 0.0;
     // The search runs in a frame centred on the light with z toward the scene: every
     // shadow ray ends at its origin and runs roughly along -z, and the contour triangles
     // lie edge-on to the light, so boxes aligned with this frame are thin across the rays
     // (world-axis boxes of the same slivers are not).
-    Vec3f toward = scene.bounds().center() - l.center;
+    const Bounds3f scene_bounds = scene.bounds();
+    Vec3f toward = scene_bounds.center() - l.center;
     light_frame_ = length_squared(toward) > 0 ? Frame::from_z(toward) : Frame::from_z(-l.frame.n);
     light_pos_ = l.center;
-    auto to_light = [&](BvhTriangle& t) {
-      t.v0 = to_light_space(t.v0);
-      t.v1 = to_light_space(t.v1);
-      t.v2 = to_light_space(t.v2);
-    };
-    for (BvhTriangle& t : tris) to_light(t);
-    for (BvhTriangle& t : ring_tris_) to_light(t);
+    std::vector<BvhTriangle> tris;
+    size_t all_count = 0;
+    objects_.assign(scene.objects.size(), {});
+    for (size_t o = 0; o < scene.objects.size(); ++o) {
+      const SceneObject& obj = scene.objects[o];
+      if (obj.sphere) continue;  // parker1998's analytic sphere instead
+      const TriangleMesh& m = obj.mesh;
+      const size_t count = m.triangle_count();
+      all_count += count;
+      auto opacity = [&](size_t t) {
+        return obj.material.opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
+      };
+      bool opaque = true;
+      for (size_t t = 0; t < count && opaque; ++t) opaque = opacity(t) >= 1.0f;
+      // With `contour`, only the triangles along an opaque mesh's contour seen from the
+      // light centre (outer_objects.h: the nearest point in cone space of a surface the
+      // ray misses lies on that contour). Semi-transparent objects keep every triangle: a
+      // ray may cross them and still see the light.
+      std::vector<uint8_t> keep;
+      if (contour_only_ && opaque) {
+        ObjectData& od = objects_[o];
+        od.topology = single_sample::build_topology(m);
+        od.ring = true;
+        keep = single_sample::contour_triangles(m, od.topology, l.center);
+      }
+      for (size_t t = 0; t < count; ++t)
+        if (keep.empty() || keep[t])
+          tris.push_back({to_light_space(m.vertex(t, 0)), to_light_space(m.vertex(t, 1)),
+                          to_light_space(m.vertex(t, 2)), static_cast<uint32_t>(o), static_cast<uint32_t>(t),
+                          opacity(t)});
+    }
+    stats_.extra["occluder_triangles"] = tris.size();
+    stats_.extra["occluder_fraction"] = all_count ? static_cast<double>(tris.size()) / all_count : 0.0;
     bvh_ = TriangleBvh(std::move(tris), leaf_size_);
     planes_.clear();
     for (const BvhTriangle& t : bvh_.triangles()) planes_.push_back(triangle_plane(t));
@@ -221,14 +235,15 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     // the penumbra, the diameter of the disk of equal area matches its mean width.
     diameter_ = (l.shape == LightShape::Rect && equal_area_) ? 2.0f * std::sqrt(l.area() / kPi) : l.diameter();
     diameter_ *= diameter_scale_;
-    Bounds3f b = scene.bounds();
+    const Bounds3f& b = scene_bounds;
     scene_scale_ = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
     plane_eps_ = 1e-4f * scene_scale_;
-    stats_.memory_bytes = bvh_.memory_bytes() + ring_tris_.capacity() * sizeof(BvhTriangle) +
-                          blocks_.capacity() * sizeof(single_sample::TriangleBlock4) + 4 * leaf_block_.capacity();
+    stats_.memory_bytes = bvh_.memory_bytes() + blocks_.capacity() * sizeof(single_sample::TriangleBlock4) +
+                          4 * leaf_block_.capacity() + planes_.capacity() * sizeof(Plane);
     for (const ObjectData& od : objects_)
-      stats_.memory_bytes += 4 * (od.topology.canon.size() + od.topology.vertex_first.size() +
-                                  od.topology.vertex_tris.size()) + 12 * od.topology.edges.size();
+      stats_.memory_bytes +=
+          4 * (od.topology.canon.size() + od.topology.corners.size() + od.topology.vertex_first.size() +
+               od.topology.vertex_tris.size());
   }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
@@ -250,17 +265,16 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       stats_.rays_traced += vs.size();
     }
     ScopedPhase phase(stats_, "outer objects");
-    std::atomic<uint64_t> nodes{0}, tests{0}, blocked{0}, searched{0};
+    std::atomic<uint64_t> nodes{0}, tests{0}, blocked{0}, searched{0}, clipped{0}, ring{0};
     const bool packets = packets_ && combine_ == Combine::Min && !bvh_.empty();
-    static const bool scalar_seed = getenv("SCALARSEED") != nullptr;
     parallel_for(vs.size(), 256, [&](size_t begin, size_t end) {
       Search search;
       // View samples come in scanline order: four unblocked neighbours make a packet.
-      Lane lanes[4];
-      size_t index[4];
+      Lane lanes[kMaxLanes];
+      size_t index[kMaxLanes];
       int count = 0;
       auto flush = [&] {
-        search_packet(lanes, count, search);
+        search_packet_any(lanes, count, search);
         for (int j = 0; j < count; ++j) {
           out.visibility[index[j]] = lanes[j].result();
           if (lanes[j].best != ~0u) search.hints[j] = lanes[j].best;
@@ -274,7 +288,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
           continue;
         }
         Lane& lane = lanes[count];
-        if (!begin_lane(vs.samples[k], l, search, packets ? (scalar_seed ? search.hints[count] : ~0u) : search.hints[0], lane)) {
+        if (!begin_lane(vs.samples[k], l, search, packets ? ~0u : search.hints[0], lane)) {
           out.visibility[k] = lane.result();
           continue;
         }
@@ -286,15 +300,15 @@ class SingleSampleSoftShadows final : public ShadowMethod {
           continue;
         }
         index[count++] = k;
-        if (count == 4) flush();
+        if (count == lanes_) flush();
       }
       if (count) flush();
       nodes += search.nodes;
       tests += search.tests;
       blocked += search.blocked;
       searched += search.searched;
-      dbg_clipped += search.clipped;
-      dbg_ring += search.ringtests;
+      clipped += search.clipped;
+      ring += search.ringtests;
       if (ctx.progress) ctx.progress->add(end - begin);
     });
     stats_.texels_visited += nodes.load();
@@ -303,9 +317,9 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     stats_.extra["triangle_tests_per_ray"] = tests.load() / n;
     stats_.extra["hard_blocked_fraction"] = blocked.load() / n;
     stats_.extra["searched_fraction"] = searched.load() / n;
-    stats_.extra["dbg_clipped"] = dbg_clipped.load() / n;
-    stats_.extra["dbg_ring"] = dbg_ring.load() / n;
-    dbg_clipped = 0; dbg_ring = 0;
+    stats_.extra["clipped_tests_per_ray"] = clipped.load() / n;
+    stats_.extra["neighbour_tests_per_ray"] = ring.load() / n;
+    stats_.extra["packet_lanes"] = packets ? lanes_ : 1;
   }
 
  private:
@@ -316,19 +330,18 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   };
   struct ObjectData {
     single_sample::MeshTopology topology;
-    uint32_t first = 0;  // the object's first triangle in ring_tris_
     bool ring = false;   // receivers on it test the triangles around their own
   };
   // Per-thread search state. `hints` carry the nearest triangle from one view sample (or
   // packet lane) to the next.
   struct Search {
-    struct Entry {
-      f4 bound;
-      uint32_t node;
+    struct alignas(32) StackChunk {
+      char bytes[32];
     };
-    std::vector<Entry> packet_stack;
+    std::vector<StackChunk> packet_stack;  // entries of search_packet's type
     std::vector<std::pair<float, uint32_t>> stack;
-    uint32_t hints[4] = {~0u, ~0u, ~0u, ~0u};
+    uint32_t hints[kMaxLanes];
+    Search() { std::fill(hints, hints + kMaxLanes, ~0u); }
     static constexpr int kMaxRing = 64;
     uint32_t ring[kMaxRing];
     int ring_count = 0;
@@ -363,9 +376,8 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     search.ring_count = 0;
     if (vsample.object >= objects_.size() || !objects_[vsample.object].ring) return;
     const single_sample::MeshTopology& topo = objects_[vsample.object].topology;
-    const TriangleMesh& m = scene_->objects[vsample.object].mesh;
     for (int c = 0; c < 3; ++c) {
-      uint32_t v = topo.canon[m.indices[3 * vsample.prim + c]];
+      uint32_t v = topo.corners[3 * vsample.prim + c];
       for (uint32_t i = topo.vertex_first[v]; i < topo.vertex_first[v + 1]; ++i) {
         uint32_t t = topo.vertex_tris[i];
         if (t == vsample.prim) continue;
@@ -381,6 +393,16 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   bool excluded(const Lane& lane, const BvhTriangle& t, const Plane& plane) const {
     return t.object == lane.sample->object &&
            (t.prim == lane.sample->prim || std::abs(dot(plane.n, lane.p_local) - plane.d) < plane_eps_);
+  }
+
+  // True when no point of the plane is nearer than limit2 to the ray in cone space: the
+  // ray's origin lies on one side and the ray leaves the plane (n . v >= 0, n toward the
+  // origin's side), so every point of the plane is seen at least asin(n . v) off the ray:
+  // perp / t >= tan(asin(n . v)) >= n . v.
+  static bool leaves_plane(const RayFrame& r, const Plane& plane, float limit2) {
+    float side = dot(plane.n, r.o) - plane.d, nv = dot(plane.n, r.v);
+    if (side < 0) nv = -nv;
+    return nv >= 0 && nv * nv >= limit2;
   }
 
   // A triangle at squared cone distance d2 < lane.limit2 (BVH index `index`, ~0u for one
@@ -449,16 +471,18 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     // The receiver's neighbourhood on its own mesh (self-shadowing of smooth surfaces
     // comes from the triangles around the receiver, which the contour set lacks).
     search.ring_count = 0;
-    if (!ring_tris_.empty()) {
+    if (vsample.object < objects_.size() && objects_[vsample.object].ring) {
       gather_ring(vsample, search);
-      const uint32_t first = objects_[vsample.object].first;
+      const SceneObject& obj = scene_->objects[vsample.object];
       const RayFrame& r = lane.r;
       for (int j = 0; j < search.ring_count; ++j) {
-        const BvhTriangle& t = ring_tris_[first + search.ring[j]];
+        const uint32_t prim = search.ring[j];
+        BvhTriangle t{to_light_space(obj.mesh.vertex(prim, 0)), to_light_space(obj.mesh.vertex(prim, 1)),
+                      to_light_space(obj.mesh.vertex(prim, 2)), vsample.object, prim, 1.0f};  // opaque object
         // A plane with the ray's origin on its positive side (n . (o - v0) >= 0) that the
         // ray leaves (n . v >= 0) holds no point closer to the axis than perp / t >=
         // tan(asin(n . v)) >= n . v: most neighbours of a receiver facing the light.
-        Vec3f nt = cross(t.v1 - t.v0, t.v2 - t.v0);
+        Vec3f nt = cross(t.v1 - t.v0, t.v2 - t.v0);  // leaves_plane, unnormalised
         float side = dot(nt, r.o - t.v0), nv = dot(nt, r.v);
         if (side < 0) nv = -nv;
         if (nv >= 0 && nv * nv >= lane.limit2 * length_squared(nt)) continue;
@@ -508,8 +532,9 @@ class SingleSampleSoftShadows final : public ShadowMethod {
             const uint32_t i = n.first + 4 * b + j;
             if (clip & (1 << j)) {
               // Straddles the ray's origin plane: clip it, unless it is the receiver's own
-              // triangle or coplanar with it (the ground under a ground receiver).
-              if (excluded(lane, tris[i], planes_[i])) continue;
+              // triangle or coplanar with it (the ground under a ground receiver), or the
+              // ray leaves its plane too steeply.
+              if (excluded(lane, tris[i], planes_[i]) || leaves_plane(r, planes_[i], lane.limit2)) continue;
               d2[j] = single_sample::triangle_cone_distance2(r.o, r.v, r.e1, r.e2, r.near, r.far, block.vertex(j, 0),
                                                              block.vertex(j, 1), block.vertex(j, 2));
             }
@@ -532,30 +557,34 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     }
   }
 
-  // The descent for up to four rays at once (`min` only): a node is opened when it could
-  // lower any lane's s; four rays are tested against one box or one triangle per step.
-  void search_packet(Lane* lanes, int count, Search& search) const {
+  // The descent for up to W rays at once (`min` only): a node is opened when it could lower
+  // any lane's s; W rays are tested against one box or one triangle per step.
+  template <typename F, typename I>
+  PENUMBRA_INLINE void search_packet(Lane* lanes, int count, Search& search) const {
+    constexpr int W = sizeof(F) / sizeof(float);
     const auto& nodes = bvh_.nodes();
     const auto& tris = bvh_.triangles();
-    RayFrame4 r;
-    f4 limit2 = splat(0.0f);  // unused lanes: nothing is below 0
-    for (int j = 0; j < 4; ++j) {
+    RayFramePacket<F> r;
+    F limit2 = splat_v<F>(0.0f);  // unused lanes: nothing is below 0
+    for (int j = 0; j < W; ++j) {
       r.set(j, lanes[j < count ? j : 0].r);
       if (j < count) limit2[j] = lanes[j].limit2;
     }
     // One triangle against the four rays; the lanes it could lower go one by one.
     auto test = [&](uint32_t i) {
       int clip;
-      f4 d2 = triangle_distance2(tris[i], r, &clip);
+      F d2 = triangle_distance2<F, I>(tris[i], r, &clip);
       search.tests += count;
-      int hit = mask4(d2 < limit2) | clip;
+      int hit = mask_v(d2 < limit2) | clip;
       if (!hit) return;
       for (int j = 0; j < count; ++j) {
         if (!(hit & (1 << j))) continue;
         Lane& lane = lanes[j];
         float dj = d2[j];
         if (clip & (1 << j)) {
-          if (!(limit2[j] > 0.0f) || excluded(lane, tris[i], planes_[i])) continue;
+          if (!(limit2[j] > 0.0f) || excluded(lane, tris[i], planes_[i]) ||
+              leaves_plane(lane.r, planes_[i], limit2[j]))
+            continue;
           const RayFrame& rj = lane.r;
           ++search.clipped;
           dj = single_sample::triangle_cone_distance2(rj.o, rj.v, rj.e1, rj.e2, rj.near, rj.far, tris[i].v0,
@@ -568,41 +597,74 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       }
     };
     // The previous packet's nearest triangles first (coherence; see begin_lane).
-    static const bool scalar_seed = getenv("SCALARSEED") != nullptr;
-    for (int j = 0; j < 4 && !scalar_seed; ++j) {
+    for (int j = 0; j < W; ++j) {
       uint32_t h = search.hints[j];
       bool seen = h >= tris.size();
       for (int q = 0; q < j; ++q) seen |= search.hints[q] == h;
       if (!seen) test(h);
     }
-    auto& stack = search.packet_stack;
-    stack.clear();
-    stack.push_back({box_bound2(nodes[0].bounds, r), 0});
-    while (!stack.empty()) {
-      Search::Entry e = stack.back();
-      stack.pop_back();
-      if (!any4(e.bound < limit2)) continue;
+    struct Entry {
+      F bound;
+      uint32_t node;
+    };
+    // The stack lives in the Search (no allocation per packet), typed here.
+    static_assert(alignof(Entry) <= alignof(Search::StackChunk) && sizeof(Entry) % sizeof(Search::StackChunk) == 0);
+    constexpr size_t kChunks = sizeof(Entry) / sizeof(Search::StackChunk);
+    auto& storage = search.packet_stack;
+    if (storage.size() < 64 * kChunks) storage.resize(64 * kChunks);
+    Entry* stack_base = reinterpret_cast<Entry*>(storage.data());
+    size_t top = 0;
+    auto push = [&](F bound, uint32_t node) {
+      if ((top + 1) * kChunks > storage.size()) {
+        storage.resize(2 * storage.size());
+        stack_base = reinterpret_cast<Entry*>(storage.data());
+      }
+      stack_base[top++] = Entry{bound, node};
+    };
+    push(box_bound2(nodes[0].bounds, r), 0);
+    while (top > 0) {
+      Entry e = stack_base[--top];
+      if (!mask_v(e.bound < limit2)) continue;
       ++search.nodes;
       const BvhNode& n = nodes[e.node];
       if (n.leaf()) {
         for (uint32_t i = n.first; i < n.first + n.count; ++i) test(i);
         continue;
       }
-      f4 b0 = box_bound2(nodes[n.first].bounds, r), b1 = box_bound2(nodes[n.first + 1].bounds, r);
-      bool open0 = any4(b0 < limit2), open1 = any4(b1 < limit2);
+      F b0 = box_bound2(nodes[n.first].bounds, r), b1 = box_bound2(nodes[n.first + 1].bounds, r);
+      bool open0 = mask_v(b0 < limit2), open1 = mask_v(b1 < limit2);
       // The child nearer to some lane last on the stack, so it is searched first.
-      if (hmin4(b0) < hmin4(b1)) {
-        if (open1) stack.push_back({b1, n.first + 1});
-        if (open0) stack.push_back({b0, n.first});
+      if (hmin_v(b0) < hmin_v(b1)) {
+        if (open1) push(b1, n.first + 1);
+        if (open0) push(b0, n.first);
       } else {
-        if (open0) stack.push_back({b0, n.first});
-        if (open1) stack.push_back({b1, n.first + 1});
+        if (open0) push(b0, n.first);
+        if (open1) push(b1, n.first + 1);
       }
     }
     for (int j = 0; j < count; ++j) lanes[j].limit2 = limit2[j];
   }
 
+  // The packet search compiled for 4 lanes (the baseline ISA) and, on x86, for 8 lanes
+  // with AVX2 (every helper inlined into the target-specific function).
+  __attribute__((flatten)) void search_packet4(Lane* lanes, int count, Search& search) const {
+    search_packet<f4, i4>(lanes, count, search);
+  }
+#if PENUMBRA_HAVE_AVX2_DISPATCH
+  __attribute__((target("avx2,fma"), flatten)) void search_packet8(Lane* lanes, int count, Search& search) const {
+    search_packet<f8, i8>(lanes, count, search);
+  }
+#endif
+  void search_packet_any(Lane* lanes, int count, Search& search) const {
+#if PENUMBRA_HAVE_AVX2_DISPATCH
+    if (lanes_ == 8) return search_packet8(lanes, count, search);
+#endif
+    search_packet4(lanes, count, search);
+  }
+
   static float sqr(float x) { return x * x; }
+
+
   Vec3f to_light_space(Vec3f x) const { return light_frame_.to_local(x - light_pos_); }
   // The unit normal and offset of t's plane (zero for a triangle without area).
   static Plane triangle_plane(const BvhTriangle& t) {
@@ -618,14 +680,13 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   bool contour_only_;
   int leaf_size_;
   bool packets_;
-  mutable std::atomic<uint64_t> dbg_clipped{0}, dbg_ring{0};
+  int lanes_ = 4;  // rays per packet: 8 with AVX2
   float plane_eps_ = 1e-4f;
   Combine combine_ = Combine::Min;
   TriangleBvh bvh_;
   std::vector<single_sample::TriangleBlock4> blocks_;
   std::vector<uint32_t> leaf_block_;  // per BVH node: its first block (leaves)
   std::vector<Plane> planes_;         // per BVH triangle: triangle_plane
-  std::vector<BvhTriangle> ring_tris_;
   std::vector<ObjectData> objects_;
   const Scene* scene_ = nullptr;
   Frame light_frame_;
@@ -651,8 +712,10 @@ const MethodRegistration registration({
       "exact minimum)",
       {"contour", "all"}},
      {"leaf_size", ParamType::Int, 4, "triangles per leaf of the cone-search BVH", {}, 1, 64},
-     {"packets", ParamType::Bool, true,
-      "search four neighbouring view samples' rays together (SIMD; min only; same result)", {}}},
+     {"packet", ParamType::Int, 8,
+      "rays of neighbouring view samples searched together (SIMD; `min` only; the same result): 8 (where the "
+      "CPU has AVX2, else 4), 4, or 1 (one at a time)",
+      {}, 1, 8}},
     [](const ParamSet& p) { return std::make_unique<SingleSampleSoftShadows>(p); },
 });
 
