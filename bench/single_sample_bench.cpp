@@ -17,6 +17,8 @@
 // Ratios of medians are printed at the end (docs/methods/single-sample.md).
 #include <benchmark/benchmark.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <map>
@@ -52,21 +54,33 @@ RenderSettings settings(const std::string& method) {
   return s;
 }
 
+// CPU time of the whole process (every thread), in ms: on a shared machine it moves less
+// than wall time when other work competes for the cores.
+double process_cpu_ms() {
+  rusage u;
+  getrusage(RUSAGE_SELF, &u);
+  return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 void BM_Frame(benchmark::State& state, const std::string& scene_name, const std::string& method) {
   const Scene& sc = scene(scene_name);
+  double cpu0 = process_cpu_ms();
   for (auto _ : state) {
     RenderResult r = render_scene(sc, settings(method));
     benchmark::DoNotOptimize(r.visibility.data());
   }
+  state.counters["cpu_ms"] = (process_cpu_ms() - cpu0) / std::max<int64_t>(1, state.iterations());
 }
 
 void BM_Warm(benchmark::State& state, const std::string& scene_name, const std::string& method) {
   Renderer renderer(scene(scene_name), settings(method));
   renderer.render();  // prepare() once
+  double cpu0 = process_cpu_ms();
   for (auto _ : state) {
     RenderResult r = renderer.render();
     benchmark::DoNotOptimize(r.visibility.data());
   }
+  state.counters["cpu_ms"] = (process_cpu_ms() - cpu0) / std::max<int64_t>(1, state.iterations());
 }
 
 void BM_Shadow(benchmark::State& state, const std::string& scene_name, const std::string& method) {
@@ -115,29 +129,43 @@ class RatioReporter : public benchmark::ConsoleReporter {
     for (const Run& r : runs) {
       bool median = r.run_type == Run::RT_Aggregate && r.aggregate_name == "median";
       bool single = r.run_type == Run::RT_Iteration && r.repetitions <= 1;
-      if (median || single) ms_[r.run_name.function_name] = r.GetAdjustedRealTime();  // in the unit: ms
+      if (!median && !single) continue;
+      const std::string& name = r.run_name.function_name;
+      ms_[name] = r.GetAdjustedRealTime();  // in the benchmarks' unit: ms
+      auto cpu = r.counters.find("cpu_ms");
+      if (cpu != r.counters.end()) cpu_ms_[name] = cpu->second.value;
     }
   }
   void Finalize() override {
     ConsoleReporter::Finalize();
-    std::printf("\nmedian ms and ratios (%dx%d, reference at %d spp)\n", kResolution, kResolution, kReferenceSpp);
-    std::printf("%-12s %-7s %10s %10s %10s %12s %12s\n", "kind", "scene", "hard", "single", "reference",
+    std::printf("\nmedians over repetitions, %dx%d, reference at %d spp; wall ms (process CPU ms)\n", kResolution,
+                kResolution, kReferenceSpp);
+    std::printf("%-6s %-6s %16s %16s %18s %12s %12s\n", "kind", "scene", "hard", "single-sample", "reference",
                 "single/hard", "ref/single");
     for (const char* kind : {"frame", "warm"})
       for (const char* sc : kScenes) {
-        auto get = [&](const char* m) {
-          auto it = ms_.find(std::string(kind) + "/" + sc + "/" + m);
-          return it == ms_.end() ? -1.0 : it->second;
+        auto get = [&](const std::map<std::string, double>& m, const char* method) {
+          auto it = m.find(std::string(kind) + "/" + sc + "/" + method);
+          return it == m.end() ? -1.0 : it->second;
         };
-        double h = get("hard"), s = get("single-sample"), ref = get("reference");
+        double h = get(ms_, "hard"), s = get(ms_, "single-sample"), ref = get(ms_, "reference");
+        double hc = get(cpu_ms_, "hard"), scpu = get(cpu_ms_, "single-sample"), rc = get(cpu_ms_, "reference");
         if (h < 0 && s < 0) continue;
-        std::printf("%-12s %-7s %10.1f %10.1f %10.1f %12.2f %12.1f\n", kind, sc, h, s, ref,
-                    h > 0 && s > 0 ? s / h : 0.0, s > 0 && ref > 0 ? ref / s : 0.0);
+        auto cell = [](double w, double c) {
+          char buf[64];
+          std::snprintf(buf, sizeof buf, w < 0 ? "-" : "%.1f (%.0f)", w, c);
+          return std::string(buf);
+        };
+        char ratio[64] = "-", ref_ratio[64] = "-";
+        if (h > 0 && s > 0) std::snprintf(ratio, sizeof ratio, "%.2f (%.2f)", s / h, scpu / hc);
+        if (s > 0 && ref > 0) std::snprintf(ref_ratio, sizeof ref_ratio, "%.1f (%.1f)", ref / s, rc / scpu);
+        std::printf("%-6s %-6s %16s %16s %18s %12s %12s\n", kind, sc, cell(h, hc).c_str(), cell(s, scpu).c_str(),
+                    cell(ref, rc).c_str(), ratio, ref_ratio);
       }
   }
 
  private:
-  std::map<std::string, double> ms_;
+  std::map<std::string, double> ms_, cpu_ms_;
 };
 
 double min_of(const std::vector<double>& v) { return v.empty() ? 0.0 : *std::min_element(v.begin(), v.end()); }

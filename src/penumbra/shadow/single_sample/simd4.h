@@ -64,17 +64,31 @@ template <typename V>
 PENUMBRA_SIMD_INLINE V vabs_v(V a) {
   return a < 0.0f ? -a : a;
 }
-template <typename M>
-PENUMBRA_SIMD_INLINE int mask_v(M m) {
-  int r = 0;
-  for (int i = 0; i < static_cast<int>(sizeof(M) / 4); ++i) r |= (m[i] & 1) << i;
-  return r;
+// Lane i of a comparison mask (0 or -1) as bit i, and the smallest lane: log2(W) shuffle
+// steps, generic (no target-specific intrinsic, so they inline into code of any target).
+PENUMBRA_SIMD_INLINE int mask_v(i4 m) {
+  i4 v = m & i4{1, 2, 4, 8};
+  v |= __builtin_shufflevector(v, v, 2, 3, 0, 1);
+  v |= __builtin_shufflevector(v, v, 1, 0, 3, 2);
+  return v[0];
 }
-template <typename V>
-PENUMBRA_SIMD_INLINE float hmin_v(V a) {
-  float r = a[0];
-  for (int i = 1; i < static_cast<int>(sizeof(V) / 4); ++i) r = std::min(r, a[i]);
-  return r;
+PENUMBRA_SIMD_INLINE int mask_v(i8 m) {
+  i8 v = m & i8{1, 2, 4, 8, 16, 32, 64, 128};
+  v |= __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
+  v |= __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5);
+  v |= __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6);
+  return v[0];
+}
+PENUMBRA_SIMD_INLINE float hmin_v(f4 a) {
+  a = vmin_v(a, __builtin_shufflevector(a, a, 2, 3, 0, 1));
+  a = vmin_v(a, __builtin_shufflevector(a, a, 1, 0, 3, 2));
+  return a[0];
+}
+PENUMBRA_SIMD_INLINE float hmin_v(f8 a) {
+  a = vmin_v(a, __builtin_shufflevector(a, a, 4, 5, 6, 7, 0, 1, 2, 3));
+  a = vmin_v(a, __builtin_shufflevector(a, a, 2, 3, 0, 1, 6, 7, 4, 5));
+  a = vmin_v(a, __builtin_shufflevector(a, a, 1, 0, 3, 2, 5, 4, 7, 6));
+  return a[0];
 }
 
 }  // namespace penumbra::single_sample

@@ -110,7 +110,7 @@ PENUMBRA_INLINE F box_bound2(const Bounds3f& b, const RayFramePacket<F>& r) {
 }
 
 // triangle_cone_distance2 of one triangle for the packet's rays; lanes whose ray sees a
-// vertex outside [near, far] are flagged in *clip (their value is meaningless).
+// vertex outside [near, far] are flagged in *clip (their value is +inf: to be clipped).
 template <typename F, typename I>
 PENUMBRA_INLINE F triangle_distance2(const BvhTriangle& tri, const RayFramePacket<F>& r, int* clip) {
   const Vec3f* v[3] = {&tri.v0, &tri.v1, &tri.v2};
@@ -142,7 +142,8 @@ PENUMBRA_INLINE F triangle_distance2(const BvhTriangle& tri, const RayFramePacke
     best = vmin_v(best, cx * cx + cy * cy);
   }
   *clip = mask_v(~in_range);
-  return (pos ^ neg) ? zero : best;
+  best = (pos ^ neg) ? zero : best;
+  return in_range ? best : splat_v<F>(kInfinity);
 }
 
 class SingleSampleSoftShadows final : public ShadowMethod {
@@ -199,6 +200,10 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         od.topology = single_sample::build_topology(m);
         od.ring = true;
         keep = single_sample::contour_triangles(m, od.topology, l.center);
+        od.planes.resize(count);
+        for (size_t t = 0; t < count; ++t)
+          od.planes[t] = triangle_plane(
+              BvhTriangle{to_light_space(m.vertex(t, 0)), to_light_space(m.vertex(t, 1)), to_light_space(m.vertex(t, 2))});
       }
       for (size_t t = 0; t < count; ++t)
         if (keep.empty() || keep[t])
@@ -243,7 +248,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     for (const ObjectData& od : objects_)
       stats_.memory_bytes +=
           4 * (od.topology.canon.size() + od.topology.corners.size() + od.topology.vertex_first.size() +
-               od.topology.vertex_tris.size());
+               od.topology.vertex_tris.size()) + sizeof(Plane) * od.planes.size();
   }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
@@ -330,6 +335,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   };
   struct ObjectData {
     single_sample::MeshTopology topology;
+    std::vector<Plane> planes;  // per triangle, light frame
     bool ring = false;   // receivers on it test the triangles around their own
   };
   // Per-thread search state. `hints` carry the nearest triangle from one view sample (or
@@ -370,17 +376,21 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     }
   }
 
-  // The triangles sharing a welded vertex with the receiver's own triangle (without it),
-  // when the receiver lies on a mesh whose other triangles are not all in the BVH.
-  void gather_ring(const ViewSample& vsample, Search& search) const {
+  // The triangles sharing a welded vertex with the receiver's own triangle (without it)
+  // that could lower the lane's s, when the receiver lies on a mesh whose other triangles
+  // are not all in the BVH. A neighbour's plane with the ray's origin on its positive side
+  // that the ray leaves (leaves_plane) cannot: that prunes most neighbours of a receiver
+  // that faces the light, from the precomputed planes alone.
+  void gather_ring(const Lane& lane, Search& search) const {
     search.ring_count = 0;
-    if (vsample.object >= objects_.size() || !objects_[vsample.object].ring) return;
-    const single_sample::MeshTopology& topo = objects_[vsample.object].topology;
+    const ViewSample& vsample = *lane.sample;
+    const ObjectData& od = objects_[vsample.object];
+    const single_sample::MeshTopology& topo = od.topology;
     for (int c = 0; c < 3; ++c) {
       uint32_t v = topo.corners[3 * vsample.prim + c];
       for (uint32_t i = topo.vertex_first[v]; i < topo.vertex_first[v + 1]; ++i) {
         uint32_t t = topo.vertex_tris[i];
-        if (t == vsample.prim) continue;
+        if (t == vsample.prim || leaves_plane(lane.r, od.planes[t], lane.limit2)) continue;
         bool dup = false;
         for (int j = 0; j < search.ring_count; ++j) dup |= search.ring[j] == t;
         if (!dup && search.ring_count < Search::kMaxRing) search.ring[search.ring_count++] = t;
@@ -472,22 +482,15 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     // comes from the triangles around the receiver, which the contour set lacks).
     search.ring_count = 0;
     if (vsample.object < objects_.size() && objects_[vsample.object].ring) {
-      gather_ring(vsample, search);
+      gather_ring(lane, search);
       const SceneObject& obj = scene_->objects[vsample.object];
-      const RayFrame& r = lane.r;
+      const ObjectData& od = objects_[vsample.object];
       for (int j = 0; j < search.ring_count; ++j) {
         const uint32_t prim = search.ring[j];
         BvhTriangle t{to_light_space(obj.mesh.vertex(prim, 0)), to_light_space(obj.mesh.vertex(prim, 1)),
                       to_light_space(obj.mesh.vertex(prim, 2)), vsample.object, prim, 1.0f};  // opaque object
-        // A plane with the ray's origin on its positive side (n . (o - v0) >= 0) that the
-        // ray leaves (n . v >= 0) holds no point closer to the axis than perp / t >=
-        // tan(asin(n . v)) >= n . v: most neighbours of a receiver facing the light.
-        Vec3f nt = cross(t.v1 - t.v0, t.v2 - t.v0);  // leaves_plane, unnormalised
-        float side = dot(nt, r.o - t.v0), nv = dot(nt, r.v);
-        if (side < 0) nv = -nv;
-        if (nv >= 0 && nv * nv >= lane.limit2 * length_squared(nt)) continue;
         ++search.ringtests;
-        if (!test_one(lane, t, triangle_plane(t), ~0u, search)) return false;
+        if (!test_one(lane, t, od.planes[prim], ~0u, search)) return false;
       }
     }
     // Coherence: the previous view sample's nearest triangle is usually near this ray
@@ -566,15 +569,39 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     const auto& tris = bvh_.triangles();
     RayFramePacket<F> r;
     F limit2 = splat_v<F>(0.0f);  // unused lanes: nothing is below 0
+    I object, prim;               // the receivers, for excluded() on four or eight lanes
+    F px, py, pz;
     for (int j = 0; j < W; ++j) {
-      r.set(j, lanes[j < count ? j : 0].r);
-      if (j < count) limit2[j] = lanes[j].limit2;
+      const Lane& lane = lanes[j < count ? j : 0];
+      r.set(j, lane.r);
+      if (j < count) limit2[j] = lane.limit2;
+      object[j] = static_cast<int>(lane.sample->object);
+      prim[j] = static_cast<int>(lane.sample->prim);
+      px[j] = lane.p_local.x;
+      py[j] = lane.p_local.y;
+      pz[j] = lane.p_local.z;
     }
+    const float plane_eps = plane_eps_;
     // One triangle against the four rays; the lanes it could lower go one by one.
     auto test = [&](uint32_t i) {
       int clip;
       F d2 = triangle_distance2<F, I>(tris[i], r, &clip);
       search.tests += count;
+      if (clip) {
+        // Lanes that would clip: drop those where the triangle is the receiver's own or
+        // in its plane (excluded), or where the ray leaves its plane too steeply
+        // (leaves_plane), on all lanes at once.
+        const Plane& pl = planes_[i];
+        const BvhTriangle& t = tris[i];
+        I same = object == static_cast<int>(t.object);
+        F height = pl.n.x * px + pl.n.y * py + pl.n.z * pz - pl.d;
+        I out = same & ((prim == static_cast<int>(t.prim)) | (vabs_v(height) < plane_eps));
+        F side = pl.n.x * r.ox + pl.n.y * r.oy + pl.n.z * r.oz - pl.d;
+        F nv = pl.n.x * r.vx + pl.n.y * r.vy + pl.n.z * r.vz;
+        nv = side < 0.0f ? -nv : nv;
+        out |= (nv >= 0.0f) & (nv * nv >= limit2);
+        clip &= ~mask_v(out);
+      }
       int hit = mask_v(d2 < limit2) | clip;
       if (!hit) return;
       for (int j = 0; j < count; ++j) {
@@ -582,9 +609,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         Lane& lane = lanes[j];
         float dj = d2[j];
         if (clip & (1 << j)) {
-          if (!(limit2[j] > 0.0f) || excluded(lane, tris[i], planes_[i]) ||
-              leaves_plane(lane.r, planes_[i], limit2[j]))
-            continue;
+          if (!(limit2[j] > 0.0f)) continue;
           const RayFrame& rj = lane.r;
           ++search.clipped;
           dj = single_sample::triangle_cone_distance2(rj.o, rj.v, rj.e1, rj.e2, rj.near, rj.far, tris[i].v0,
