@@ -179,9 +179,17 @@ MeshTopology build_topology(const TriangleMesh& mesh) {
   return topo;
 }
 
-std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos) {
+std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos,
+                                       float band_radius) {
   const size_t nt = mesh.triangle_count();
   std::vector<uint8_t> keep(nt, 0);
+  if (band_radius > 0)
+    for (size_t t = 0; t < nt; ++t) {
+      Vec3f a = mesh.vertex(t, 0);
+      Vec3f n = cross(mesh.vertex(t, 1) - a, mesh.vertex(t, 2) - a);
+      float d = dot(n, light_pos - a);
+      keep[t] = d * d < band_radius * band_radius * length_squared(n);
+    }
   auto welded = [&](size_t t, int k) { return topo.corners[3 * t + k]; };
   // The edges of a vertex's triangles that lead to a higher vertex: (other end, 3 * t + k).
   // Each undirected edge is found from its lower end, once per triangle that has it.

@@ -91,9 +91,12 @@ MeshTopology build_topology(const TriangleMesh& mesh);
 // edge seen from light_pos (the two neighbouring triangles fold to the same side of the
 // plane through the edge and light_pos), a boundary edge (one triangle) or a non-manifold
 // edge (three or more).
-std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos);
-inline std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, Vec3f light_pos) {
-  return contour_triangles(mesh, build_topology(mesh), light_pos);
+// With band_radius > 0, also every triangle whose plane passes within band_radius of
+// light_pos (see single_sample.cpp: with band_radius = D the set is exact).
+std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos,
+                                       float band_radius = 0.0f);
+inline std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, Vec3f light_pos, float band_radius = 0.0f) {
+  return contour_triangles(mesh, build_topology(mesh), light_pos, band_radius);
 }
 
 }  // namespace penumbra::single_sample

@@ -151,7 +151,9 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   explicit SingleSampleSoftShadows(const ParamSet& p)
       : equal_area_(p.get_string("diameter") == "equal-area"),
         diameter_scale_(p.get_float("diameter_scale")),
-        contour_only_(p.get_string("candidates") == "contour"),
+        contour_only_(p.get_string("candidates") != "all"),
+        band_(p.get_float("band")),
+        ring_(p.get_bool("neighbours")),
         leaf_size_(p.get_int("leaf_size")),
         packets_(p.get_int("packet") > 1) {
 #if PENUMBRA_HAVE_AVX2_DISPATCH
@@ -168,6 +170,10 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     const Scene& scene = *ctx.scene;
     scene_ = &scene;
     const AreaLight& l = *ctx.light;
+    // parker1998 uses the light's diameter D. A rect has none: its diagonal over-states
+    // the penumbra, the diameter of the disk of equal area matches its mean width.
+    diameter_ = (l.shape == LightShape::Rect && equal_area_) ? 2.0f * std::sqrt(l.area() / kPi) : l.diameter();
+    diameter_ *= diameter_scale_;
     // The search runs in a frame centred on the light with z toward the scene: every
     // shadow ray ends at its origin and runs roughly along -z, and the contour triangles
     // lie edge-on to the light, so boxes aligned with this frame are thin across the rays
@@ -198,12 +204,17 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       if (contour_only_ && opaque) {
         ObjectData& od = objects_[o];
         od.topology = single_sample::build_topology(m);
-        od.ring = true;
-        keep = single_sample::contour_triangles(m, od.topology, l.center);
-        od.planes.resize(count);
-        for (size_t t = 0; t < count; ++t)
-          od.planes[t] = triangle_plane(
-              BvhTriangle{to_light_space(m.vertex(t, 0)), to_light_space(m.vertex(t, 1)), to_light_space(m.vertex(t, 2))});
+        od.ring = ring_;
+        keep = single_sample::contour_triangles(m, od.topology, l.center, band_ * diameter_);
+        if (ring_) {
+          od.planes.resize(count);
+          for (size_t t = 0; t < count; ++t)
+            od.planes[t] = triangle_plane(BvhTriangle{to_light_space(m.vertex(t, 0)), to_light_space(m.vertex(t, 1)),
+                                                      to_light_space(m.vertex(t, 2))});
+          // The same planes in the order of the vertex fans, read contiguously by gather_ring.
+          od.fan_planes.resize(od.topology.vertex_tris.size());
+          for (size_t i = 0; i < od.fan_planes.size(); ++i) od.fan_planes[i] = od.planes[od.topology.vertex_tris[i]];
+        }
       }
       for (size_t t = 0; t < count; ++t)
         if (keep.empty() || keep[t])
@@ -236,10 +247,6 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     for (size_t o = 0; o < scene.objects.size(); ++o)
       if (scene.objects[o].sphere) spheres_.push_back({*scene.objects[o].sphere, static_cast<uint32_t>(o),
                                                        scene.objects[o].material.opacity});
-    // parker1998 uses the light's diameter D. A rect has none: its diagonal over-states
-    // the penumbra, the diameter of the disk of equal area matches its mean width.
-    diameter_ = (l.shape == LightShape::Rect && equal_area_) ? 2.0f * std::sqrt(l.area() / kPi) : l.diameter();
-    diameter_ *= diameter_scale_;
     const Bounds3f& b = scene_bounds;
     scene_scale_ = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
     plane_eps_ = 1e-4f * scene_scale_;
@@ -248,7 +255,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     for (const ObjectData& od : objects_)
       stats_.memory_bytes +=
           4 * (od.topology.canon.size() + od.topology.corners.size() + od.topology.vertex_first.size() +
-               od.topology.vertex_tris.size()) + sizeof(Plane) * od.planes.size();
+               od.topology.vertex_tris.size()) + sizeof(Plane) * (od.planes.size() + od.fan_planes.size());
   }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
@@ -281,6 +288,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       auto flush = [&] {
         search_packet_any(lanes, count, search);
         for (int j = 0; j < count; ++j) {
+          if (lanes[j].limit2 > 0.0f) test_ring(lanes[j], search);
           out.visibility[index[j]] = lanes[j].result();
           if (lanes[j].best != ~0u) search.hints[j] = lanes[j].best;
         }
@@ -293,7 +301,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
           continue;
         }
         Lane& lane = lanes[count];
-        if (!begin_lane(vs.samples[k], l, search, packets ? ~0u : search.hints[0], lane)) {
+        if (!begin_lane(vs.samples[k], l, search, packets ? ~0u : search.hints[0], !packets, lane)) {
           out.visibility[k] = lane.result();
           continue;
         }
@@ -335,7 +343,8 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   };
   struct ObjectData {
     single_sample::MeshTopology topology;
-    std::vector<Plane> planes;  // per triangle, light frame
+    std::vector<Plane> planes;      // per triangle, light frame
+    std::vector<Plane> fan_planes;  // planes[topology.vertex_tris[i]]
     bool ring = false;   // receivers on it test the triangles around their own
   };
   // Per-thread search state. `hints` carry the nearest triangle from one view sample (or
@@ -390,7 +399,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       uint32_t v = topo.corners[3 * vsample.prim + c];
       for (uint32_t i = topo.vertex_first[v]; i < topo.vertex_first[v + 1]; ++i) {
         uint32_t t = topo.vertex_tris[i];
-        if (t == vsample.prim || leaves_plane(lane.r, od.planes[t], lane.limit2)) continue;
+        if (t == vsample.prim || leaves_plane(lane.r, od.fan_planes[i], lane.limit2)) continue;
         bool dup = false;
         for (int j = 0; j < search.ring_count; ++j) dup |= search.ring[j] == t;
         if (!dup && search.ring_count < Search::kMaxRing) search.ring[search.ring_count++] = t;
@@ -443,7 +452,28 @@ class SingleSampleSoftShadows final : public ShadowMethod {
 
   // Sets up a ray: its frames, the analytic spheres, the triangles around the receiver and
   // the hint. Returns false when nothing is left to search (lane.result() is final).
-  bool begin_lane(const ViewSample& vsample, Vec3f l, Search& search, uint32_t hint, Lane& lane) const {
+  // The receiver's neighbourhood on its own mesh: self-shadowing of smooth surfaces comes
+  // from the triangles around the receiver, which the contour set lacks. Returns false
+  // when s = 0. (Packets test it after their descent, when limit2 prunes more.)
+  bool test_ring(Lane& lane, Search& search) const {
+    const ViewSample& vsample = *lane.sample;
+    search.ring_count = 0;
+    if (vsample.object >= objects_.size() || !objects_[vsample.object].ring) return true;
+    gather_ring(lane, search);
+    const SceneObject& obj = scene_->objects[vsample.object];
+    const ObjectData& od = objects_[vsample.object];
+    for (int j = 0; j < search.ring_count; ++j) {
+      const uint32_t prim = search.ring[j];
+      BvhTriangle t{to_light_space(obj.mesh.vertex(prim, 0)), to_light_space(obj.mesh.vertex(prim, 1)),
+                    to_light_space(obj.mesh.vertex(prim, 2)), vsample.object, prim, 1.0f};  // opaque object
+      ++search.ringtests;
+      if (!test_one(lane, t, od.planes[prim], ~0u, search)) return false;
+    }
+    return true;
+  }
+
+  bool begin_lane(const ViewSample& vsample, Vec3f l, Search& search, uint32_t hint, bool ring_now,
+                  Lane& lane) const {
     lane = Lane{};
     lane.sample = &vsample;
     lane.is_min = combine_ == Combine::Min;
@@ -478,21 +508,8 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     }
     lane.limit2 = lane.is_min && lane.s < 1.0f ? lane.k2 * sqr(inverse_falloff(lane.s)) : lane.k2;
     if (lane.s <= 0.0f || bvh_.empty()) return false;
-    // The receiver's neighbourhood on its own mesh (self-shadowing of smooth surfaces
-    // comes from the triangles around the receiver, which the contour set lacks).
     search.ring_count = 0;
-    if (vsample.object < objects_.size() && objects_[vsample.object].ring) {
-      gather_ring(lane, search);
-      const SceneObject& obj = scene_->objects[vsample.object];
-      const ObjectData& od = objects_[vsample.object];
-      for (int j = 0; j < search.ring_count; ++j) {
-        const uint32_t prim = search.ring[j];
-        BvhTriangle t{to_light_space(obj.mesh.vertex(prim, 0)), to_light_space(obj.mesh.vertex(prim, 1)),
-                      to_light_space(obj.mesh.vertex(prim, 2)), vsample.object, prim, 1.0f};  // opaque object
-        ++search.ringtests;
-        if (!test_one(lane, t, od.planes[prim], ~0u, search)) return false;
-      }
-    }
+    if (ring_now && !test_ring(lane, search)) return false;
     // Coherence: the previous view sample's nearest triangle is usually near this ray
     // too; testing it first gives a tight limit before the descent (min only: the other
     // rules must see each triangle once). Testing it again in its leaf changes nothing.
@@ -703,6 +720,8 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   bool equal_area_;
   float diameter_scale_;
   bool contour_only_;
+  float band_;
+  bool ring_;
   int leaf_size_;
   bool packets_;
   int lanes_ = 4;  // rays per packet: 8 with AVX2
@@ -736,6 +755,12 @@ const MethodRegistration registration({
       "centre, the receiver's neighbours, boundary edges, transparent objects) or 'all' (every triangle: the "
       "exact minimum)",
       {"contour", "all"}},
+     {"band", ParamType::Float, 0.0,
+      "with candidates=contour, also the triangles whose plane passes within band x D of the light centre "
+      "(1: exact for rays that miss a closed mesh, slower)",
+      {}, 0.0, 1.0},
+     {"neighbours", ParamType::Bool, true,
+      "with candidates=contour, a receiver on a mesh also tests the triangles around its own (self-shadowing)", {}},
      {"leaf_size", ParamType::Int, 4, "triangles per leaf of the cone-search BVH", {}, 1, 64},
      {"packet", ParamType::Int, 8,
       "rays of neighbouring view samples searched together (SIMD; `min` only; the same result): 8 (where the "

@@ -1,8 +1,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "penumbra/core/rng.h"
+#include "penumbra/scene/shapes.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/single_sample/outer_objects.h"
 #include "penumbra/testing/test_scenes.h"
@@ -185,6 +187,76 @@ TEST(SingleSample, CombinationRulesOfTwoOccluders) {
     m->evaluate(ctx, vs, out);
     EXPECT_NEAR(vis, expected, 1e-4f) << mode;
   }
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// V of single-sample (with `params`) at the given receivers of `scene`.
+std::vector<float> single_sample_v(const Scene& scene, const ViewSamples& vs, const std::vector<std::string>& params) {
+  RayTracer tracer(scene);
+  auto method = create_method("single-sample", scene, params);
+  ShadowContext ctx;
+  ctx.scene = &scene;
+  ctx.light = &scene.lights[0];
+  ctx.tracer = &tracer;
+  method->prepare(ctx);
+  std::vector<float> vis(vs.size(), -1.0f);
+  ShadowOutput out{vis, {}};
+  method->evaluate(ctx, vs, out);
+  return vis;
+}
+
+// Ground receivers (object 0, normal +y) on an n x n grid over [-half, half]^2, in
+// scanline order like a camera pass.
+ViewSamples ground_grid(int n, float half) {
+  ViewSamples vs;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      ViewSample s;
+      s.p = {-half + 2 * half * (i + 0.5f) / n, 0.0f, -half + 2 * half * (j + 0.5f) / n};
+      s.ng = s.ns = {0, 1, 0};
+      s.object = 0;
+      s.prim = 0;
+      vs.samples.push_back(s);
+    }
+  return vs;
+}
+
+TEST(SingleSample, ContourCandidatesMatchTheAllTriangleSearchOnAClosedMesh) {
+  SceneObject ball = testing::object(make_uv_sphere(0.5f, 48));
+  ball.mesh.transform(Mat4::translate({0.2f, 0.9f, -0.1f}));
+  Scene scene = testing::ground_scene({ball}, testing::rect_light_down({-0.5f, 3.0f, 0.3f}, 1.0f, 1.0f));
+  ASSERT_TRUE(scene.objects[1].closed);
+  ViewSamples vs = ground_grid(160, 2.0f);
+  std::vector<float> contour = single_sample_v(scene, vs, {"candidates=contour"});
+  std::vector<float> all = single_sample_v(scene, vs, {"candidates=all"});
+  double sum = 0, worst = 0;
+  int penumbra = 0;
+  for (size_t k = 0; k < vs.size(); ++k) {
+    double d = std::abs(contour[k] - all[k]);
+    sum += d;
+    worst = std::max(worst, d);
+    penumbra += all[k] > 0.0f && all[k] < 1.0f;
+  }
+  std::printf("contour vs all on %zu ground points (%d in the penumbra): mean |dV| %.2e, max %.2e\n", vs.size(),
+              penumbra, sum / vs.size(), worst);
+  for (int b = 0; b < 10; ++b) {
+    double bs = 0, bw = 0, bsigned = 0; int bn = 0;
+    for (size_t k = 0; k < vs.size(); ++k) {
+      if (all[k] <= 0.0f || all[k] >= 1.0f) continue;
+      if (int(all[k] * 10) != b) continue;
+      double d = contour[k] - all[k];
+      bs += std::abs(d); bsigned += d; bw = std::max(bw, std::abs(d)); ++bn;
+    }
+    std::printf("  V in [%.1f, %.1f): n %d mean |dV| %.4f signed %.4f max %.4f\n", b / 10.0, (b + 1) / 10.0, bn, bn ? bs / bn : 0, bn ? bsigned / bn : 0, bw);
+  }
+  ASSERT_GT(penumbra, 2000);
+  EXPECT_LT(sum / vs.size(), 1e-3);
+  EXPECT_LT(worst, 0.05);
 }
 
 }  // namespace
