@@ -460,12 +460,21 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     search.ring_count = 0;
     if (vsample.object >= objects_.size() || !objects_[vsample.object].ring) return true;
     gather_ring(lane, search);
+    if (search.ring_count == 0) return true;
     const SceneObject& obj = scene_->objects[vsample.object];
     const ObjectData& od = objects_[vsample.object];
+    // A neighbour wholly below the receiver's own plane, with the ray's origin above that
+    // plane and leaving it steeply (leaves_plane of the receiver's triangle), is seen at
+    // least asin(n . v) off the ray too: the convex neighbours that their own planes
+    // cannot rule out.
+    const Plane& own = od.planes[vsample.prim];
+    const bool own_leaves = leaves_plane(lane.r, own, lane.limit2) && dot(own.n, lane.r.o) > own.d;
     for (int j = 0; j < search.ring_count; ++j) {
       const uint32_t prim = search.ring[j];
       BvhTriangle t{to_light_space(obj.mesh.vertex(prim, 0)), to_light_space(obj.mesh.vertex(prim, 1)),
                     to_light_space(obj.mesh.vertex(prim, 2)), vsample.object, prim, 1.0f};  // opaque object
+      if (own_leaves && dot(own.n, t.v0) <= own.d && dot(own.n, t.v1) <= own.d && dot(own.n, t.v2) <= own.d)
+        continue;
       ++search.ringtests;
       if (!test_one(lane, t, od.planes[prim], ~0u, search)) return false;
     }
