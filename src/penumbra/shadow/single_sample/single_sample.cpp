@@ -261,27 +261,16 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
     const Vec3f l = ctx.light->center;
     scene_ = ctx.scene;
-    std::vector<float> hard(vs.size());
-    {
-      // The inner objects: the hard shadow ray through the real geometry.
-      ScopedPhase phase(stats_, "hard rays");
-      parallel_for(vs.size(), 1024, [&](size_t begin, size_t end) {
-        constexpr size_t kBatch = 256;
-        ShadowRay rays[kBatch];
-        for (size_t b = begin; b < end; b += kBatch) {
-          size_t n = std::min(kBatch, end - b);
-          for (size_t i = 0; i < n; ++i) rays[i] = shadow_ray_to(vs.samples[b + i].p, vs.samples[b + i].ng, l);
-          ctx.tracer->transmittance(std::span<const ShadowRay>(rays, n), std::span<float>(hard.data() + b, n));
-        }
-      });
-      stats_.rays_traced += vs.size();
-    }
-    ScopedPhase phase(stats_, "outer objects");
+    // One pass: per batch of 256 view samples, the inner objects (the hard shadow ray
+    // through the real geometry, Embree rtcOccluded1M) and then, for the rays they do not
+    // block, the outer objects (the cone search), reusing the rays.
+    ScopedPhase phase(stats_, "shadow rays");
     std::atomic<uint64_t> nodes{0}, tests{0}, blocked{0}, searched{0}, clipped{0}, ring{0};
+    std::atomic<int64_t> hard_ns{0};
     const bool packets = packets_ && combine_ == Combine::Min && !bvh_.empty();
     parallel_for(vs.size(), 256, [&](size_t begin, size_t end) {
       Search search;
-      // View samples come in scanline order: four unblocked neighbours make a packet.
+      // View samples come in scanline order: unblocked neighbours make a packet.
       Lane lanes[kMaxLanes];
       size_t index[kMaxLanes];
       int count = 0;
@@ -294,26 +283,38 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         }
         count = 0;
       };
-      for (size_t k = begin; k < end; ++k) {
-        if (hard[k] == 0.0f) {
-          out.visibility[k] = 0.0f;  // the inner object blocks the ray
-          ++search.blocked;
-          continue;
+      constexpr size_t kBatch = 256;
+      ShadowRay rays[kBatch];
+      float hard[kBatch];
+      int64_t local_hard_ns = 0;
+      for (size_t b = begin; b < end; b += kBatch) {
+        const size_t n_batch = std::min(kBatch, end - b);
+        Timer timer;
+        for (size_t i = 0; i < n_batch; ++i) rays[i] = shadow_ray_to(vs.samples[b + i].p, vs.samples[b + i].ng, l);
+        ctx.tracer->transmittance(std::span<const ShadowRay>(rays, n_batch), std::span<float>(hard, n_batch));
+        local_hard_ns += static_cast<int64_t>(timer.elapsed_ms() * 1e6);
+        for (size_t i = 0; i < n_batch; ++i) {
+          const size_t k = b + i;
+          if (hard[i] == 0.0f) {
+            out.visibility[k] = 0.0f;  // the inner object blocks the ray
+            ++search.blocked;
+            continue;
+          }
+          Lane& lane = lanes[count];
+          if (!begin_lane(vs.samples[k], rays[i], l, search, packets ? ~0u : search.hints[0], !packets, lane)) {
+            out.visibility[k] = lane.result();
+            continue;
+          }
+          ++search.searched;
+          if (!packets) {
+            search_single(lane, search);
+            out.visibility[k] = lane.result();
+            if (lane.best != ~0u) search.hints[0] = lane.best;
+            continue;
+          }
+          index[count++] = k;
+          if (count == lanes_) flush();
         }
-        Lane& lane = lanes[count];
-        if (!begin_lane(vs.samples[k], l, search, packets ? ~0u : search.hints[0], !packets, lane)) {
-          out.visibility[k] = lane.result();
-          continue;
-        }
-        ++search.searched;
-        if (!packets) {
-          search_single(lane, search);
-          out.visibility[k] = lane.result();
-          if (lane.best != ~0u) search.hints[0] = lane.best;
-          continue;
-        }
-        index[count++] = k;
-        if (count == lanes_) flush();
       }
       if (count) flush();
       nodes += search.nodes;
@@ -322,9 +323,13 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       searched += search.searched;
       clipped += search.clipped;
       ring += search.ringtests;
+      hard_ns += local_hard_ns;
       if (ctx.progress) ctx.progress->add(end - begin);
     });
+    stats_.rays_traced += vs.size();
     stats_.texels_visited += nodes.load();
+    // The hard rays' share of the pass, in thread time summed over threads.
+    stats_.extra["hard_rays_thread_ms"] = hard_ns.load() * 1e-6;
     const double n = std::max<size_t>(1, vs.size());
     stats_.extra["bvh_nodes_per_ray"] = nodes.load() / n;  // a packet's visit counts once
     stats_.extra["triangle_tests_per_ray"] = tests.load() / n;
@@ -481,19 +486,22 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     return true;
   }
 
-  bool begin_lane(const ViewSample& vsample, Vec3f l, Search& search, uint32_t hint, bool ring_now,
-                  Lane& lane) const {
-    lane = Lane{};
+  // `ray` is the hard shadow ray of the view sample toward the light centre l (its origin
+  // offset off the surface, unit direction).
+  bool begin_lane(const ViewSample& vsample, const ShadowRay& ray, Vec3f l, Search& search, uint32_t hint,
+                  bool ring_now, Lane& lane) const {
     lane.sample = &vsample;
     lane.is_min = combine_ == Combine::Min;
-    Vec3f o = offset_ray_origin(vsample.p, vsample.ng, l - vsample.p);
-    Vec3f to_l = l - o;
-    float light_dist = length(to_l);
+    lane.s = 1.0f;
+    lane.best = ~0u;
+    lane.k2 = 1.0f;
+    const Vec3f o = ray.org;
+    const float light_dist = length(l - o);
     if (!(light_dist > 0)) {
       lane.limit2 = lane.k2;  // s = 1
       return false;
     }
-    const Vec3f v_world = to_l / light_dist;
+    const Vec3f v_world = ray.dir;
     RayFrame& r = lane.r;
     r.o = to_light_space(o);
     r.v = light_frame_.to_local(v_world);
