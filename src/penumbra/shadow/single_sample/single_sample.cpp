@@ -95,10 +95,20 @@ struct RayFramePacket {
   }
 };
 
+// A box as centre and half extent (what the packet's box test reads).
+struct CenterBox {
+  Vec3f c;
+  float pad0 = 0;
+  Vec3f h;
+  float pad1 = 0;
+  CenterBox() = default;
+  explicit CenterBox(const Bounds3f& b) : c((b.lo + b.hi) * 0.5f), h((b.hi - b.lo) * 0.5f) {}
+};
+
 // box_bound2 of one box for the packet's rays.
 template <typename F>
-PENUMBRA_INLINE F box_bound2(const Bounds3f& b, const RayFramePacket<F>& r) {
-  Vec3f c = (b.lo + b.hi) * 0.5f, h = (b.hi - b.lo) * 0.5f;
+PENUMBRA_INLINE F box_bound2(const CenterBox& b, const RayFramePacket<F>& r) {
+  const Vec3f c = b.c, h = b.h;
   F cx = c.x - r.ox, cy = c.y - r.oy, cz = c.z - r.oz;
   F tc = cx * r.vx + cy * r.vy + cz * r.vz, th = h.x * r.avx + h.y * r.avy + h.z * r.avz;
   F tmax = vmin_v(tc + th, r.far);
@@ -227,6 +237,8 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     bvh_ = TriangleBvh(std::move(tris), leaf_size_);
     planes_.clear();
     for (const BvhTriangle& t : bvh_.triangles()) planes_.push_back(triangle_plane(t));
+    node_boxes_.clear();
+    for (const BvhNode& n : bvh_.nodes()) node_boxes_.emplace_back(n.bounds);
     // The leaves' triangles as blocks of four for the SIMD distance test.
     blocks_.clear();
     leaf_block_.assign(bvh_.nodes().size(), 0);
@@ -680,7 +692,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       }
       stack_base[top++] = Entry{bound, node};
     };
-    push(box_bound2(nodes[0].bounds, r), 0);
+    push(box_bound2(node_boxes_[0], r), 0);
     while (top > 0) {
       Entry e = stack_base[--top];
       if (!mask_v(e.bound < limit2)) continue;
@@ -690,7 +702,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         for (uint32_t i = n.first; i < n.first + n.count; ++i) test(i);
         continue;
       }
-      F b0 = box_bound2(nodes[n.first].bounds, r), b1 = box_bound2(nodes[n.first + 1].bounds, r);
+      F b0 = box_bound2(node_boxes_[n.first], r), b1 = box_bound2(node_boxes_[n.first + 1], r);
       bool open0 = mask_v(b0 < limit2), open1 = mask_v(b1 < limit2);
       // The child nearer to some lane last on the stack, so it is searched first.
       if (hmin_v(b0) < hmin_v(b1)) {
@@ -748,6 +760,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   std::vector<single_sample::TriangleBlock4> blocks_;
   std::vector<uint32_t> leaf_block_;  // per BVH node: its first block (leaves)
   std::vector<Plane> planes_;         // per BVH triangle: triangle_plane
+  std::vector<CenterBox> node_boxes_;  // per BVH node: its box as centre and half extent
   std::vector<ObjectData> objects_;
   const Scene* scene_ = nullptr;
   Frame light_frame_;
