@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <memory>
 #include <string>
@@ -47,10 +48,26 @@ const Scene& scene(const std::string& name) {
   return it->second;
 }
 
+// Extra single-sample parameters for experiments ("key=value,key=value"), e.g.
+//   SINGLE_SAMPLE_PARAMS=neighbours=false build/single_sample_bench
+std::vector<std::string> single_sample_params() {
+  std::vector<std::string> out;
+  const char* env = std::getenv("SINGLE_SAMPLE_PARAMS");
+  std::string all = env ? env : "";
+  for (size_t b = 0; b < all.size();) {
+    size_t e = all.find(',', b);
+    if (e == std::string::npos) e = all.size();
+    if (e > b) out.push_back(all.substr(b, e - b));
+    b = e + 1;
+  }
+  return out;
+}
+
 RenderSettings settings(const std::string& method) {
   RenderSettings s;
   s.method = method;
   s.light_samples = kReferenceSpp;
+  if (method == "single-sample") s.params = single_sample_params();
   return s;
 }
 
@@ -88,7 +105,7 @@ void BM_Shadow(benchmark::State& state, const std::string& scene_name, const std
   ThreadLimit one(1);
   RayTracer tracer(sc);
   ViewSamples vs = camera_pass(sc, tracer, 0);
-  auto m = create_method(method, sc, {});
+  auto m = create_method(method, sc, settings(method).params);
   ShadowContext ctx;
   ctx.scene = &sc;
   ctx.light = &sc.lights[0];
@@ -115,7 +132,7 @@ void BM_Prepare(benchmark::State& state, const std::string& scene_name, const st
   ctx.light = &sc.lights[0];
   ctx.tracer = &tracer;
   for (auto _ : state) {
-    auto m = create_method(method, sc, {});
+    auto m = create_method(method, sc, settings(method).params);
     m->prepare(ctx);
     benchmark::DoNotOptimize(m.get());
   }
