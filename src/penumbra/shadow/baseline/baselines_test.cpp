@@ -10,6 +10,7 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/baseline/shadow_map_common.h"
 #include "penumbra/testing/test_scenes.h"
+#include "penumbra/trace/ray_tracer.h"
 
 namespace penumbra {
 namespace {
@@ -173,6 +174,33 @@ TEST(Pcss, KernelOffsetIsWhereTheSegmentToTheLightPointCrossesTheBlockerPlane) {
       EXPECT_NEAR(predicted.y, tx.y, 1e-2f);
     }
   }
+}
+
+TEST(ShadowMap, FastLookupAgreesWithTheGeneralPath) {
+  // ShadowDepthMap::lookup (hoisted per-map set-up) against receiver() + transmit_at().
+  Scene scene = shipped("contact.json", 64);
+  RayTracer tracer(scene);
+  ViewSamples vs = camera_pass(scene, tracer, 0);
+  const AreaLight& light = scene.lights[0];
+  std::vector<Vec3f> receivers = shadow_map::receiver_points(vs, light);
+  std::vector<RasterTriangle> tris = gather_raster_triangles(scene);
+  Rasterizer rasterizer;
+  shadow_map::ShadowDepthMap sm;
+  int shadowed = 0;
+  for (Vec3f eye : {light.center, light.sample_area({0.1f, 0.9f})}) {
+    sm.render(rasterizer, tris, shadow_map::light_view_from(light, eye, receivers, scene.bounds(), 256, 120));
+    for (const char* mode : {"slope", "zero"}) {
+      shadow_map::BiasParams b;
+      if (std::string(mode) == "zero") b.bias = b.slope_bias = 0;
+      for (const ViewSample& s : vs.samples) {
+        shadow_map::Receiver r = sm.receiver(s.p, s.ng, b);
+        float expected = r.faces ? sm.transmit_at(r, r.texel, b) : 0.0f;
+        ASSERT_EQ(sm.lookup(s.p, s.ng, b), expected) << mode;
+        shadowed += expected < 1;
+      }
+    }
+  }
+  EXPECT_GT(shadowed, 1000);
 }
 
 TEST(MultiViewShadowMap, ConvergesToTheReference) {

@@ -24,7 +24,6 @@ namespace {
 
 using shadow_map::BiasParams;
 using shadow_map::in_front_of_light;
-using shadow_map::Receiver;
 
 class MultiViewShadowMap final : public ShadowMethod {
  public:
@@ -66,9 +65,7 @@ class MultiViewShadowMap final : public ShadowMethod {
         for (size_t k = begin; k < end; ++k) {
           const ViewSample& s = vs.samples[k];
           if (!in_front_of_light(light, s.p)) continue;
-          Receiver rc = map_.receiver(s.p, s.ng, bias_);
-          if (!rc.faces) continue;
-          out.visibility[k] += map_.transmit_at(rc, rc.texel, bias_);
+          out.visibility[k] += map_.lookup(s.p, s.ng, bias_);
           ++local;
         }
         texels += local;

@@ -70,6 +70,19 @@ void ShadowDepthMap::render(Rasterizer& rasterizer, std::span<const RasterTriang
   float zmin = kInfinity;
   for (float z : map_.z) zmin = std::min(zmin, z);
   z_min_ = zmin;
+  perspective_ = view.is_perspective();
+  eye_ = view.eye();
+  right_ = view.right();
+  up_ = view.up();
+  forward_ = view.forward();
+  const Mat4& m = view.texel_projection();
+  row_x_ = {m.m[0][0], m.m[0][1], m.m[0][2]};
+  row_y_ = {m.m[1][0], m.m[1][1], m.m[1][2]};
+  off_x_ = m.m[0][3];
+  off_y_ = m.m[1][3];
+  inv_focal_ = 1.0f / focal_texels(view);
+  width_f_ = static_cast<float>(map_.width);
+  height_f_ = static_cast<float>(map_.height);
 }
 
 size_t ShadowDepthMap::memory_bytes() const {

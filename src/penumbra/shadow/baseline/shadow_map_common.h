@@ -128,6 +128,33 @@ class ShadowDepthMap {
     if (x < 0 || y < 0 || x >= map_.width || y >= map_.height) return 1.0f;
     return transmit(x, y, reference_depth(r, x, y, b));
   }
+  // The hard-shadow lookup of one point at its own texel: 0 when p does not face the eye,
+  // else transmit_at(receiver(p, ng), its texel). The same numbers as those two calls, with
+  // the per-map set-up hoisted (what multi-view-sm and shadow-map do per point and map).
+  float lookup(Vec3f p, Vec3f ng, const BiasParams& b) const {
+    if (b.receiver_plane || !perspective_) {
+      Receiver r = receiver(p, ng, b);
+      return r.faces ? transmit_at(r, r.texel, b) : 0.0f;
+    }
+    const Vec3f d = p - eye_;
+    const float plane_num = dot(ng, d);
+    if (!(plane_num < 0)) return 0.0f;  // faces: dot(ng, eye - p) > 0
+    const float z = dot(d, forward_);
+    const float inv_z = 1.0f / z;
+    const float tx = (dot(row_x_, p) + off_x_) * inv_z, ty = (dot(row_y_, p) + off_y_) * inv_z;
+    if (!(tx >= 0) || !(ty >= 0) || !(tx < width_f_) || !(ty < height_f_)) return 1.0f;
+    const size_t i = map_.index(static_cast<int>(tx), static_cast<int>(ty));
+    const float zt = map_.z[i];
+    // Cheap early out: a surface farther than p never blocks.
+    if (!(zt < z)) return 1.0f;
+    const float nr = dot(ng, right_), nu = dot(ng, up_);
+    const float lateral = std::sqrt(nr * nr + nu * nu), den = -plane_num * inv_z;
+    const float slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
+    // Own texel: reach max(1, d_t) = 1; s = z / focal.
+    const float ref = z - b.bias - b.slope_bias * z * inv_focal_ * slope;
+    return zt < ref ? 1.0f - map_.opacity[i] : 1.0f;
+  }
+
   // Depth of the nearest surface at a texel-space point (+inf outside the map or empty).
   float depth_at(Vec2f texel) const {
     int x = static_cast<int>(std::floor(texel.x)), y = static_cast<int>(std::floor(texel.y));
@@ -139,6 +166,10 @@ class ShadowDepthMap {
   LightView view_;
   DepthMap map_;
   float z_min_ = kInfinity;
+  // lookup()'s hoisted view: texel x = (row_x . p + off_x) / z, likewise y (perspective).
+  bool perspective_ = false;
+  Vec3f eye_, right_, up_, forward_, row_x_, row_y_;
+  float off_x_ = 0, off_y_ = 0, inv_focal_ = 0, width_f_ = 0, height_f_ = 0;
 };
 
 // The scene's triangles and the map from the light's centre (shadow-map, pcss), fitted to
