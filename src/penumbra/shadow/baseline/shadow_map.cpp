@@ -46,6 +46,11 @@ class ShadowMapMethod final : public ShadowMethod {
           out.visibility[k] = 0.0f;
           continue;
         }
+        if (r == 0) {  // one texel: the hoisted lookup (same numbers, tested)
+          out.visibility[k] = sm.lookup(s.p, s.ng, bias_);
+          ++local;
+          continue;
+        }
         Receiver rc = sm.receiver(s.p, s.ng, bias_);
         if (!rc.faces) {
           out.visibility[k] = 0.0f;
