@@ -201,6 +201,27 @@ TEST(ShadowMap, FastLookupAgreesWithTheGeneralPath) {
     }
   }
   EXPECT_GT(shadowed, 1000);
+  // The receiver plane's depth at a texel is where that texel's ray meets p's tangent
+  // plane (clamped to at most p's own depth).
+  shadow_map::BiasParams plane;
+  plane.receiver_plane = true;
+  plane.bias = 0;
+  plane.max_slope = 1e6f;
+  int checked = 0;
+  for (size_t k = 0; k < vs.size(); k += 97) {
+    const ViewSample& s = vs.samples[k];
+    shadow_map::Receiver r = sm.receiver(s.p, s.ng, plane);
+    if (!r.faces) continue;
+    for (Vec2f d : {Vec2f(3, 0), Vec2f(-5, 7), Vec2f(20, -11)}) {
+      int x = static_cast<int>(std::floor(r.texel.x + d.x)), y = static_cast<int>(std::floor(r.texel.y + d.y));
+      LightView::TexelRay ray = sm.view().texel_ray({x + 0.5f, y + 0.5f});
+      float t = dot(s.ng, s.p - ray.origin) / dot(s.ng, ray.dir);
+      if (!(t > 0) || t > r.z) continue;
+      EXPECT_NEAR(sm.reference_depth(r, x, y, plane), t, 1e-4f * t);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 20);
 }
 
 TEST(MultiViewShadowMap, ConvergesToTheReference) {

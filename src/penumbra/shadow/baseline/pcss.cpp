@@ -40,6 +40,14 @@ using shadow_map::in_front_of_light;
 using shadow_map::kernel_offset;
 using shadow_map::Receiver;
 
+// Cranley-Patterson rotation: a toroidal shift keeps the stratification.
+Vec2f rotate(Vec2f u, Vec2f shift) {
+  u = u + shift;
+  if (u.x >= 1.0f) u.x -= 1.0f;
+  if (u.y >= 1.0f) u.y -= 1.0f;
+  return u;
+}
+
 class Pcss final : public ShadowMethod {
  public:
   explicit Pcss(const ParamSet& p)
@@ -66,8 +74,10 @@ class Pcss final : public ShadowMethod {
     const float focal = focal_texels(sm.view());
     const float z_min = sm.z_min();
     const uint64_t key = hash_combine(hash_combine(ctx.seed, 0x50435353u /* "PCSS" */ + ctx.light_index), ctx.frame);
-    const LightSampleSet blocker_set(blocker_samples_, key, jitter_);
-    const LightSampleSet pcf_set(pcf_samples_, hash_combine(key, 1), jitter_);
+    // Stratified kernels on the light's parameter square, shifted per pixel
+    // (Cranley-Patterson) unless jitter=false.
+    const std::vector<Vec2f> blocker_base = LightSampleSet(blocker_samples_, key, false).base();
+    const std::vector<Vec2f> pcf_base = LightSampleSet(pcf_samples_, hash_combine(key, 1), false).base();
     std::atomic<uint64_t> texels{0}, no_blocker{0};
     parallel_for(vs.size(), 1024, [&](size_t begin, size_t end) {
       uint64_t local = 0, unblocked = 0;
@@ -79,15 +89,18 @@ class Pcss final : public ShadowMethod {
         }
         Receiver rc = sm.receiver(s.p, s.ng, bias_);
         if (xie_) {
-          out.visibility[k] = rc.faces ? xie2007(sm, rc, pcf_set, s.pixel, focal, light.extent_radius(), z_min, &local) : 0.0f;
+          out.visibility[k] = rc.faces ? xie2007(sm, rc, pcf_base, jitter_ ? Rng(key, 0x5050u, s.pixel).next_2d() : Vec2f(0, 0),
+                                                 focal, light.extent_radius(), z_min, &local)
+                                       : 0.0f;
           continue;
         }
         // 1. Blocker search over the light's shape projected onto z_min.
         const float search = rc.z > z_min ? 1.0f / z_min - 1.0f / rc.z : 0.0f;
         double sum = 0;
         int count = 0;
+        const Vec2f shift = jitter_ ? Rng(key, 0x5050u, s.pixel).next_2d() : Vec2f(0, 0);
         for (int i = 0; i < blocker_samples_; ++i) {
-          Vec3f q = light.sample_area(blocker_set.sample(i, s.pixel));
+          Vec3f q = light.sample_area(rotate(blocker_base[i], shift));
           if (dot(s.ng, q - s.p) <= 0) continue;
           Vec2f t = rc.texel + kernel_offset(sm.view(), focal, q) * search;
           int x = static_cast<int>(std::floor(t.x)), y = static_cast<int>(std::floor(t.y));
@@ -105,7 +118,7 @@ class Pcss final : public ShadowMethod {
         // 3. PCF over that kernel (with no blocker, only p's own horizon darkens it).
         float v = 0;
         for (int i = 0; i < pcf_samples_; ++i) {
-          Vec3f q = light.sample_area(pcf_set.sample(i, s.pixel));
+          Vec3f q = light.sample_area(rotate(pcf_base[i], shift));
           if (dot(s.ng, q - s.p) <= 0) continue;
           if (count == 0) {
             v += 1.0f;
@@ -128,12 +141,12 @@ class Pcss final : public ShadowMethod {
  private:
   // xie2007 §3: stochastic samples in a disk of radius filter_size (eq. 1) around p's
   // texel; the fraction of blockers.
-  float xie2007(const shadow_map::ShadowDepthMap& sm, const Receiver& rc, const LightSampleSet& set,
-                uint32_t pixel, float focal, float light_radius, float z_min, uint64_t* texels) const {
+  float xie2007(const shadow_map::ShadowDepthMap& sm, const Receiver& rc, const std::vector<Vec2f>& base, Vec2f shift,
+                float focal, float light_radius, float z_min, uint64_t* texels) const {
     const float radius = shadow_map::xie2007_filter_size(focal, light_radius, z_min, rc.z);
     float v = 0;
     for (int i = 0; i < pcf_samples_; ++i) {
-      Vec2f d = square_to_disk_concentric(set.sample(i, pixel));
+      Vec2f d = square_to_disk_concentric(rotate(base[i], shift));
       v += sm.transmit_at(rc, rc.texel + d * radius, bias_);
     }
     *texels += pcf_samples_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/scene/scene.h"
@@ -65,12 +66,12 @@ LightView light_view_from(const AreaLight& light, Vec3f eye, std::span<const Vec
 }
 
 void ShadowDepthMap::render(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view) {
+  if (!view.is_perspective()) throw Error("ShadowDepthMap: the view must be perspective");
   view_ = view;
   rasterizer.depth_map(triangles, view, RasterFilter{}, &map_);
   float zmin = kInfinity;
   for (float z : map_.z) zmin = std::min(zmin, z);
   z_min_ = zmin;
-  perspective_ = view.is_perspective();
   eye_ = view.eye();
   right_ = view.right();
   up_ = view.up();
@@ -100,6 +101,12 @@ Receiver ShadowDepthMap::receiver(Vec3f p, Vec3f ng, const BiasParams& b) const 
   Vec3f to_eye = view_.eye() - p;
   r.faces = dot(ng, to_eye) > 0;
   r.plane_num = -dot(ng, to_eye);
+  // dot(ng, texel_ray(x, y).dir) with dir = right u / near + up v / near + forward,
+  // u = l + (r - l) x / W, v = t - (t - b) y / H (LightView::texel_ray).
+  const float nr = dot(ng, view_.right()) / view_.near(), nu = dot(ng, view_.up()) / view_.near();
+  r.plane_a = nr * (view_.window_right() - view_.window_left()) / static_cast<float>(view_.width());
+  r.plane_b = -nu * (view_.window_top() - view_.window_bottom()) / static_cast<float>(view_.height());
+  r.plane_c = nr * view_.window_left() + nu * view_.window_top() + dot(ng, view_.forward());
   // The tangent plane's linear depth along texel rays d(x, y) (unit forward component) is
   // plane_num / dot(ng, d); one texel moves d by right / f (or up / f), so the depth changes
   // by s * |(ng.right, ng.up)| / |ng.d| per texel. On the view axis that is tan(theta).

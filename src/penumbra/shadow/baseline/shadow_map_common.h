@@ -78,7 +78,10 @@ struct Receiver {
   // Linear-depth change of p's tangent plane per texel, in texel widths s (tan of the
   // angle between ng and the ray for a point on the view axis), clamped to max_slope.
   float slope = 0;
-  float plane_num = 0;  // dot(ng, p - eye), for the receiver plane
+  // The receiver plane: its depth along the ray through texel-space point (x, y) is
+  // plane_num / (plane_a x + plane_b y + plane_c) (the denominator is dot(ng, ray dir)).
+  float plane_num = 0;  // dot(ng, p - eye)
+  float plane_a = 0, plane_b = 0, plane_c = 0;
   Vec3f ng;
   bool faces = false;   // dot(ng, eye - p) > 0
 };
@@ -87,7 +90,7 @@ struct Receiver {
 class ShadowDepthMap {
  public:
   // Renders the nearest surface of `triangles` seen from `view` (semi-transparent casters
-  // included; see the header comment).
+  // included; see the header comment). The view must be perspective (fit_shadow_view's).
   void render(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view);
 
   const LightView& view() const { return view_; }
@@ -104,8 +107,7 @@ class ShadowDepthMap {
     float reach = std::max(1.0f, std::sqrt(dx * dx + dy * dy));
     if (!b.receiver_plane) return r.z - b.bias - b.slope_bias * r.s * r.slope * reach;
     float limit = b.max_slope * r.s * reach;
-    LightView::TexelRay ray = view_.texel_ray({x + 0.5f, y + 0.5f});
-    float den = dot(r.ng, ray.dir);
+    float den = r.plane_a * (x + 0.5f) + r.plane_b * (y + 0.5f) + r.plane_c;
     // The ray meets the plane in front when den has the sign of plane_num (both negative
     // for a plane facing the eye); otherwise the plane is beyond its horizon: far away.
     float zp = den * r.plane_num > 0 ? r.plane_num / den : kInfinity;
@@ -132,7 +134,7 @@ class ShadowDepthMap {
   // else transmit_at(receiver(p, ng), its texel). The same numbers as those two calls, with
   // the per-map set-up hoisted (what multi-view-sm and shadow-map do per point and map).
   float lookup(Vec3f p, Vec3f ng, const BiasParams& b) const {
-    if (b.receiver_plane || !perspective_) {
+    if (b.receiver_plane) {
       Receiver r = receiver(p, ng, b);
       return r.faces ? transmit_at(r, r.texel, b) : 0.0f;
     }
@@ -166,8 +168,7 @@ class ShadowDepthMap {
   LightView view_;
   DepthMap map_;
   float z_min_ = kInfinity;
-  // lookup()'s hoisted view: texel x = (row_x . p + off_x) / z, likewise y (perspective).
-  bool perspective_ = false;
+  // lookup()'s hoisted view: texel x = (row_x . p + off_x) / z, likewise y.
   Vec3f eye_, right_, up_, forward_, row_x_, row_y_;
   float off_x_ = 0, off_y_ = 0, inv_focal_ = 0, width_f_ = 0, height_f_ = 0;
 };
