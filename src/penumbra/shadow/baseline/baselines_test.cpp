@@ -130,6 +130,67 @@ TEST(Pcss, ExactForOneOccluderParallelToTheLight) {
   EXPECT_GT(count_pixels(ref, [](float x) { return x > 0.1f && x < 0.9f; }), 48 * 48 / 20);
 }
 
+// Distance from p to the segment [a, b].
+float segment_distance(Vec3f p, Vec3f a, Vec3f b) {
+  Vec3f ab = b - a;
+  float t = std::clamp(dot(p - a, ab) / dot(ab, ab), 0.0f, 1.0f);
+  return length(p - (a + ab * t));
+}
+
+TEST(Pcss, DepartsFromTheReferenceAtContactAndWhereOccludersOverlap) {
+  // contact.json, regions of the ground (docs/methods/pcss.md):
+  //  - contact: within 0.08 of the box's footprint outline or 0.12 of the ball's contact
+  //    point (xie2007 §3: "loss of contact shadows");
+  //  - overlap: in the shadow (V < 0.98) of the box alone *and* of the ball alone: the
+  //    blocker search averages the two occluders' depths (wrong occluder fusion).
+  // There PCSS must be measurably wrong, and multi-view-sm (the same maps' brute-force
+  // version) right.
+  const int res = 112;
+  Scene scene = shipped("contact.json", res);
+  ASSERT_EQ(scene.objects.size(), 3u);  // ground, box, ball
+  RayTracer tracer(scene);
+  ViewSamples vs = camera_pass(scene, tracer, 0);
+  std::vector<Vec3f> foot;  // the box's bottom corners, in order around the footprint
+  for (Vec3f v : scene.objects[1].mesh.positions)
+    if (std::abs(v.y) < 1e-4f && std::none_of(foot.begin(), foot.end(), [&](Vec3f f) { return distance(f, v) < 1e-5f; }))
+      foot.push_back(v);
+  ASSERT_EQ(foot.size(), 4u);
+  std::sort(foot.begin(), foot.end(), [](Vec3f a, Vec3f b) { return std::atan2(a.z, a.x) < std::atan2(b.z, b.x); });
+  Scene box_only = scene, ball_only = scene;
+  box_only.objects.erase(box_only.objects.begin() + 2);
+  ball_only.objects.erase(ball_only.objects.begin() + 1);
+  Image v_box = render_v(box_only, "reference", {}, 32), v_ball = render_v(ball_only, "reference", {}, 32);
+  Image contact(res, res, 1, 0.0f), overlap(res, res, 1, 0.0f);
+  for (const ViewSample& s : vs.samples) {
+    if (s.object != 0) continue;
+    float d = distance(s.p, Vec3f(0.55f, 0, 0.35f)) < 0.12f ? 0.0f : 1e9f;
+    for (size_t i = 0; i < 4; ++i) d = std::min(d, segment_distance(s.p, foot[i], foot[(i + 1) % 4]));
+    if (d < 0.08f) contact.data()[s.pixel] = 1;
+    else if (v_box.data()[s.pixel] < 0.98f && v_ball.data()[s.pixel] < 0.98f) overlap.data()[s.pixel] = 1;
+  }
+  EXPECT_GT(count_pixels(contact, [](float x) { return x > 0; }), 80);
+  EXPECT_GT(count_pixels(overlap, [](float x) { return x > 0; }), 300);
+  Image ref = render_v(scene, "reference", {}, 256);
+  Image mv = render_v(scene, "multi-view-sm", {}, 256);
+  for (const char* variant : {"variant=fernando", "variant=xie2007"}) {
+    Image pcss = render_v(scene, "pcss", {variant});
+    for (const Image* mask : {&contact, &overlap}) {
+      MetricOptions o;
+      o.mask = mask;
+      double e_pcss = compare_images(pcss, ref, o).mae, e_mv = compare_images(mv, ref, o).mae;
+      const char* region = mask == &contact ? "contact" : "overlap";
+      EXPECT_GT(e_pcss, 0.08) << variant << " " << region;
+      EXPECT_GT(e_pcss, 5 * e_mv) << variant << " " << region;
+      EXPECT_LT(e_mv, 0.02) << region;
+    }
+  }
+  // Where the occluders overlap, PCSS's shadow is too light (the averaged blocker depth
+  // lies between the two occluders and shrinks the nearer one's umbra).
+  MetricOptions o;
+  o.mask = &overlap;
+  EXPECT_GT(compare_images(render_v(scene, "pcss"), ref, o).mean_signed, 0.05);
+}
+
 TEST(Pcss, Xie2007FilterSizeFollowsEquation1) {
   using shadow_map::xie2007_filter_size;
   // filter_size = resolution * light_radius * (1/z_min - 1/p.z)
