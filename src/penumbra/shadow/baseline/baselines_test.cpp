@@ -255,9 +255,11 @@ TEST(ShadowMap, FastLookupAgreesWithTheGeneralPath) {
       if (std::string(mode) == "zero") b.bias = b.slope_bias = 0;
       for (const ViewSample& s : vs.samples) {
         shadow_map::Receiver r = sm.receiver(s.p, s.ng, b);
-        float expected = r.faces ? sm.transmit_at(r, r.texel, b) : 0.0f;
-        ASSERT_EQ(sm.lookup(s.p, s.ng, b), expected) << mode;
-        shadowed += expected < 1;
+        for (bool closed : {false, true}) {
+          float expected = !r.faces && closed ? 0.0f : sm.transmit_at(r, r.texel, b);
+          ASSERT_EQ(sm.lookup(s.p, s.ng, closed, b), expected) << mode;
+          shadowed += expected < 1;
+        }
       }
     }
   }

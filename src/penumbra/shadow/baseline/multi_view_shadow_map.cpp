@@ -2,8 +2,8 @@
 // points q_i on the light (one fixed LightSampleSet per frame, AreaLight::sample_area);
 // from each, a depth map looking along the light's normal and fitted to the receivers; a
 // view sample's V is the fraction of the maps in which it is lit (its transmittance
-// through the nearest surface, with the biases of shadow_map_common.h; light points behind
-// its own surface count as blocked). This is the brute-force image-based soft shadow that
+// through the nearest surface, with the biases of shadow_map_common.h; on closed objects,
+// light points behind its own surface count as blocked). This is the brute-force image-based soft shadow that
 // xie2007 §3 calls the first reference method ("around 1000 light samples") and that
 // sintorn2008 compares against ("one shadow map per light sample").
 //
@@ -65,7 +65,7 @@ class MultiViewShadowMap final : public ShadowMethod {
         for (size_t k = begin; k < end; ++k) {
           const ViewSample& s = vs.samples[k];
           if (!in_front_of_light(light, s.p)) continue;
-          out.visibility[k] += map_.lookup(s.p, s.ng, bias_);
+          out.visibility[k] += map_.lookup(s.p, s.ng, ctx.scene->objects[s.object].closed, bias_);
           ++local;
         }
         texels += local;

@@ -13,8 +13,8 @@
 //     (1/d_b - 1/z_p), i.e. Fernando's w * near / z_p in map units.
 //  3. PCF: `pcf_samples` stratified light points q_i, each looked up at
 //     texel(p) + kernel_offset(q_i) * (1/d_b - 1/z_p): the point where the segment from p
-//     to q_i crosses the plane at d_b. V = mean transmittance (light points behind p's own
-//     surface count as blocked). With one blocker plane this is exact; the artifacts come
+//     to q_i crosses the plane at d_b. V = mean transmittance (on closed objects, light
+//     points behind p's own surface count as blocked). With one blocker plane this is exact; the artifacts come
 //     from pretending every blocker lies at d_b.
 // variant=xie2007 (§3, eq. 1): no blocker search; filter radius
 //   filter_size = resolution * light_radius * (1/z_min - 1/p.z) texels (z_min: the map's
@@ -89,11 +89,14 @@ class Pcss final : public ShadowMethod {
         }
         Receiver rc = sm.receiver(s.p, s.ng, bias_);
         if (xie_) {
-          out.visibility[k] = rc.faces ? xie2007(sm, rc, pcf_base, jitter_ ? Rng(key, 0x5050u, s.pixel).next_2d() : Vec2f(0, 0),
+          const bool closed = ctx.scene->objects[s.object].closed;
+          out.visibility[k] = rc.faces || !closed ? xie2007(sm, rc, pcf_base, jitter_ ? Rng(key, 0x5050u, s.pixel).next_2d() : Vec2f(0, 0),
                                                  focal, light.extent_radius(), z_min, &local)
                                        : 0.0f;
           continue;
         }
+        // On a closed object, light points behind p's own surface are blocked by it.
+        const bool closed = ctx.scene->objects[s.object].closed;
         // 1. Blocker search over the light's shape projected onto z_min.
         const float search = rc.z > z_min ? 1.0f / z_min - 1.0f / rc.z : 0.0f;
         double sum = 0;
@@ -101,7 +104,7 @@ class Pcss final : public ShadowMethod {
         const Vec2f shift = jitter_ ? Rng(key, 0x5050u, s.pixel).next_2d() : Vec2f(0, 0);
         for (int i = 0; i < blocker_samples_; ++i) {
           Vec3f q = light.sample_area(rotate(blocker_base[i], shift));
-          if (dot(s.ng, q - s.p) <= 0) continue;
+          if (closed && dot(s.ng, q - s.p) <= 0) continue;
           Vec2f t = rc.texel + kernel_offset(sm.view(), focal, q) * search;
           int x = static_cast<int>(std::floor(t.x)), y = static_cast<int>(std::floor(t.y));
           ++local;
@@ -119,7 +122,7 @@ class Pcss final : public ShadowMethod {
         float v = 0;
         for (int i = 0; i < pcf_samples_; ++i) {
           Vec3f q = light.sample_area(rotate(pcf_base[i], shift));
-          if (dot(s.ng, q - s.p) <= 0) continue;
+          if (closed && dot(s.ng, q - s.p) <= 0) continue;
           if (count == 0) {
             v += 1.0f;
             continue;

@@ -46,13 +46,14 @@ class ShadowMapMethod final : public ShadowMethod {
           out.visibility[k] = 0.0f;
           continue;
         }
+        const bool closed = ctx.scene->objects[s.object].closed;
         if (r == 0) {  // one texel: the hoisted lookup (same numbers, tested)
-          out.visibility[k] = sm.lookup(s.p, s.ng, bias_);
+          out.visibility[k] = sm.lookup(s.p, s.ng, closed, bias_);
           ++local;
           continue;
         }
         Receiver rc = sm.receiver(s.p, s.ng, bias_);
-        if (!rc.faces) {
+        if (!rc.faces && closed) {
           out.visibility[k] = 0.0f;
           continue;
         }

@@ -6,10 +6,13 @@
 // - p is *in front of the light* when dot(p - c, n) > 0 (c, n: the light's centre and
 //   normal; for a sphere light, the disk facing the scene). Other points see nothing of the
 //   light's emitting side and get V = 0, as with `reference`.
-// - p *faces* e when dot(ng, e - p) > 0. A shadow ray from p toward a point behind its own
-//   surface is blocked by that surface (penumbra's ray tracer offsets origins along ng), so
-//   a light point p does not face counts as blocked. This also removes the acne a depth
-//   comparison would give there.
+// - p *faces* e when dot(ng, e - p) > 0. Where p lies on a closed object (SceneObject::
+//   closed) and does not face e, the segment to e runs through the object's inside and
+//   leaves it through its surface: blocked (that is what a shadow ray does; the ray tracer
+//   offsets its origin toward the light, here into the object). The depth comparison would
+//   be a coin toss there (acne at terminators). On an open surface (a plane, a leaf) the
+//   ray tracer's offset puts the origin on the light's side, so its own surface never
+//   blocks it; the maps then decide, as for any point.
 // - Depth comparison at texel t (nearest-texel lookup, no interpolation): the nearest
 //   surface z_t of the map blocks p when z_t < ref(t), where ref(t) is
 //     slope bias (default):     z_p - bias - slope_bias * s * min(k, max_slope) * max(1, d_t)
@@ -130,17 +133,18 @@ class ShadowDepthMap {
     if (x < 0 || y < 0 || x >= map_.width || y >= map_.height) return 1.0f;
     return transmit(x, y, reference_depth(r, x, y, b));
   }
-  // The hard-shadow lookup of one point at its own texel: 0 when p does not face the eye,
-  // else transmit_at(receiver(p, ng), its texel). The same numbers as those two calls, with
-  // the per-map set-up hoisted (what multi-view-sm and shadow-map do per point and map).
-  float lookup(Vec3f p, Vec3f ng, const BiasParams& b) const {
+  // The hard-shadow lookup of one point at its own texel: 0 when p lies on a closed
+  // object and does not face the eye, else transmit_at(receiver(p, ng), its texel). The
+  // same numbers as those calls, with the per-map set-up hoisted (what multi-view-sm and
+  // shadow-map do per point and map).
+  float lookup(Vec3f p, Vec3f ng, bool closed, const BiasParams& b) const {
     if (b.receiver_plane) {
       Receiver r = receiver(p, ng, b);
-      return r.faces ? transmit_at(r, r.texel, b) : 0.0f;
+      return !r.faces && closed ? 0.0f : transmit_at(r, r.texel, b);
     }
     const Vec3f d = p - eye_;
     const float plane_num = dot(ng, d);
-    if (!(plane_num < 0)) return 0.0f;  // faces: dot(ng, eye - p) > 0
+    if (!(plane_num < 0) && closed) return 0.0f;  // faces: dot(ng, eye - p) > 0
     const float z = dot(d, forward_);
     const float inv_z = 1.0f / z;
     const float tx = (dot(row_x_, p) + off_x_) * inv_z, ty = (dot(row_y_, p) + off_y_) * inv_z;
@@ -150,7 +154,7 @@ class ShadowDepthMap {
     // Cheap early out: a surface farther than p never blocks.
     if (!(zt < z)) return 1.0f;
     const float nr = dot(ng, right_), nu = dot(ng, up_);
-    const float lateral = std::sqrt(nr * nr + nu * nu), den = -plane_num * inv_z;
+    const float lateral = std::sqrt(nr * nr + nu * nu), den = std::abs(plane_num) * inv_z;
     const float slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
     // Own texel: reach max(1, d_t) = 1; s = z / focal.
     const float ref = z - b.bias - b.slope_bias * z * inv_focal_ * slope;
