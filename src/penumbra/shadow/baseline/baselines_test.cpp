@@ -299,6 +299,24 @@ TEST(MultiViewShadowMap, ConvergesToTheReference) {
   EXPECT_LT(e256.max_abs, 0.25);
 }
 
+TEST(MultiViewShadowMap, DiskAndSphereLights) {
+  // A disk light: its maps sample the disk itself. A sphere light: the maps sample the
+  // disk through its centre facing the scene (AreaLight::sample_area), while `reference`
+  // samples the cone each point sees: equal on the axis, an approximation off it.
+  for (LightShape shape : {LightShape::Disk, LightShape::Sphere}) {
+    Scene scene = small_scene(32);
+    AreaLight& l = scene.lights[0];
+    l.shape = shape;
+    l.radius = 0.5f;
+    scene.finalize();
+    Image ref = render_v(scene, "reference", {}, 512);
+    ErrorStats e = compare_images(render_v(scene, "multi-view-sm", {}, 256), ref);
+    ErrorStats p = compare_images(render_v(scene, "pcss"), ref);
+    EXPECT_LT(e.mae, shape == LightShape::Disk ? 0.004 : 0.01) << to_string(shape);
+    EXPECT_LT(p.mae, 0.02) << to_string(shape);
+  }
+}
+
 TEST(MultiViewShadowMap, SameImageForAnyThreadCountAndBoundedMemory) {
   Scene scene = small_scene(24);
   RenderSettings settings;
