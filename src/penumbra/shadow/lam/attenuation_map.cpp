@@ -224,36 +224,59 @@ LightView sample_view(const LightAxes& a, const LightView& ref, Vec3f sample, in
 // ---------------------------------------------------------------------------------------
 // Lookup.
 
-LookupClass AttenuationMap::classify(int x, int y, float z, float* attenuation) const {
-  size_t i = static_cast<size_t>(y) * width_ + x;
-  const Layer* l = layers_.data() + offsets_[i];
-  const Layer* e = layers_.data() + offsets_[i + 1];
-  const float tol = depth_tolerance(epsilon_, z);
-  // Layers are sorted by depth: the first within tolerance is the match, and a layer before
-  // it means something lies in front of z.
-  bool in_front = false;
-  float best = tol;
-  const Layer* hit = nullptr;
+namespace {
+
+// The lookup in one texel's layers [l, e) (sorted by depth): the attenuation of the layer
+// nearest to z within tol (>= 0); kOccluded if none matches but one lies in front of z;
+// kUndefined if none lies at or in front of z.
+constexpr float kOccluded = -1.0f, kUndefined = -2.0f;
+
+inline float lookup(const Layer* l, const Layer* e, float z, float tol) {
+  float best = tol, result = kUndefined;
   for (; l != e; ++l) {
     float d = std::abs(l->z - z);
     if (d <= best) {
       best = d;
-      hit = l;
+      result = l->attenuation;
     } else if (l->z < z) {
-      in_front = true;
-    } else if (hit || l->z > z + tol) {
-      break;
+      result = kOccluded;  // in front (a later match overrides it)
+    } else {
+      break;  // behind z beyond the best match: no later layer can be nearer
     }
   }
-  if (hit) {
-    *attenuation = hit->attenuation;
-    return LookupClass::Match;
-  }
-  return in_front ? LookupClass::Occluded : LookupClass::Undefined;
+  return result;
 }
 
-float AttenuationMap::visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels) const {
-  if (empty()) return 1.0f;
+}  // namespace
+
+LookupClass AttenuationMap::classify(int x, int y, float z, float* attenuation) const {
+  size_t i = static_cast<size_t>(y) * width_ + x;
+  float r = lookup(layers_.data() + offsets_[i], layers_.data() + offsets_[i + 1], z, depth_tolerance(epsilon_, z));
+  if (r >= 0) {
+    *attenuation = r;
+    return LookupClass::Match;
+  }
+  return r == kOccluded ? LookupClass::Occluded : LookupClass::Undefined;
+}
+
+namespace {
+
+// One texel: the common single-layer case without the loop.
+inline float lookup_texel(const Layer* layers, const uint32_t* offsets, size_t t, float z, float eps) {
+  const uint32_t b = offsets[t], e = offsets[t + 1];
+  const float tol = depth_tolerance(eps, z);
+  if (e - b == 1) {
+    const Layer& l = layers[b];
+    const float d = l.z - z;
+    return std::abs(d) <= tol ? l.attenuation : (d < 0 ? kOccluded : kUndefined);
+  }
+  return lookup(layers + b, layers + e, z, tol);
+}
+
+}  // namespace
+
+template <bool kBilinear, bool kSlope>
+inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, uint64_t& texels) const {
   const float z = proj_[2][0] * p.x + proj_[2][1] * p.y + proj_[2][2] * p.z + proj_[2][3];
   if (!(z >= near_ && z <= far_)) return 1.0f;
   const float inv = 1.0f / z;
@@ -261,58 +284,90 @@ float AttenuationMap::visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texe
   const float y = (proj_[1][0] * p.x + proj_[1][1] * p.y + proj_[1][2] * p.z + proj_[1][3]) * inv;
   if (!(x >= 0 && y >= 0 && x < static_cast<float>(width_) && y < static_cast<float>(height_))) return 1.0f;
   // p's surface as a plane in the reference view: linear depth on the ray through texel
-  // point (X, Y) is nd / (nr u + nu v + nf), u = u0 + X delta, v = v1 - Y delta. The layers
+  // point (X, Y) is nd / (nr X - nu Y + nf) (u = u0 + X delta, v = v1 - Y delta). The layers
   // hold depths at texel centres, so p's depth is carried to the same centres.
-  bool plane = slope_ && length_squared(n) > 0;
   float nd = 0, nr = 0, nu = 0, nf = 0, den_p = 0;
-  if (plane) {
+  bool plane = false;
+  if constexpr (kSlope) {
     nd = dot(n, p - eye_);
     nr = dot(n, right_) * delta_;
     nu = dot(n, up_) * delta_;
     nf = dot(n, forward_) + dot(n, right_) * u0_ + dot(n, up_) * v1_;
     den_p = nr * x - nu * y + nf;
-    plane = den_p != 0;
+    plane = den_p != 0;  // false for n = 0 too
   }
   const float cap = 2 * kMaxSlope * z;
-  auto depth_at = [&](int tx, int ty) {
+  // Depth of p's plane on the ray through the centre (cx, cy), clamped; p's own depth where
+  // the plane turns edge-on in between.
+  auto depth_at = [&](float cx, float cy) {
+    if constexpr (!kSlope) return z;
     if (!plane) return z;
-    float den = nr * (tx + 0.5f) - nu * (ty + 0.5f) + nf;
-    if (!(den * den_p > 0)) return z;  // the plane turns edge-on in between
+    float den = nr * cx - nu * cy + nf;
+    if (!(den * den_p > 0)) return z;
     return std::clamp(nd / den, z - cap, z + cap);
   };
-  float att = 0;
-  if (filter == Filter::Nearest) {
+  const Layer* layers = layers_.data();
+  const uint32_t* offsets = offsets_.data();
+  if constexpr (!kBilinear) {
     int ix = std::min(static_cast<int>(x), width_ - 1), iy = std::min(static_cast<int>(y), height_ - 1);
-    if (texels) ++*texels;
-    switch (classify(ix, iy, depth_at(ix, iy), &att)) {
-      case LookupClass::Match: return att;
-      case LookupClass::Occluded: return 0.0f;
-      case LookupClass::Undefined: return 1.0f;
-    }
-    return 1.0f;
-  }
-  // Bilinear over the 4 texel centres around p (percentage-closer style, agrawala2000 §6.1).
-  const float fx = x - 0.5f, fy = y - 0.5f;
-  const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
-  const float wx = fx - x0, wy = fy - y0;
-  float sum = 0, wsum = 0;
-  for (int j = 0; j < 2; ++j) {
-    int ty = y0 + j;
-    if (ty < 0 || ty >= height_) continue;
-    float w_y = j ? wy : 1 - wy;
-    for (int i = 0; i < 2; ++i) {
-      int tx = x0 + i;
-      if (tx < 0 || tx >= width_) continue;
-      float w = w_y * (i ? wx : 1 - wx);
-      if (texels) ++*texels;
-      switch (classify(tx, ty, depth_at(tx, ty), &att)) {
-        case LookupClass::Match: sum += w * att; wsum += w; break;
-        case LookupClass::Occluded: wsum += w; break;
-        case LookupClass::Undefined: break;
+    ++texels;
+    float zt = depth_at(ix + 0.5f, iy + 0.5f);
+    float r = lookup_texel(layers, offsets, static_cast<size_t>(iy) * width_ + ix, zt, epsilon_);
+    return r >= 0 ? r : (r == kOccluded ? 0.0f : 1.0f);
+  } else {
+    // Bilinear over the 4 texel centres around p (percentage-closer style, agrawala2000
+    // §6.1); texels that p's surface does not reach (kUndefined) drop out of the weights.
+    const float fx = x - 0.5f, fy = y - 0.5f;  // >= -0.5
+    const int x0 = static_cast<int>(fx + 1.0f) - 1, y0 = static_cast<int>(fy + 1.0f) - 1;
+    const float wx = fx - static_cast<float>(x0), wy = fy - static_cast<float>(y0);
+    float sum = 0, wsum = 0;
+    auto texel = [&](int tx, int ty, float w) {
+      if (tx < 0 || ty < 0 || tx >= width_ || ty >= height_) return;
+      ++texels;
+      const float zt = depth_at(tx + 0.5f, ty + 0.5f);
+      const float r = lookup_texel(layers, offsets, static_cast<size_t>(ty) * width_ + tx, zt, epsilon_);
+      if (r >= 0) {
+        sum += w * r;
+        wsum += w;
+      } else if (r == kOccluded) {
+        wsum += w;
       }
-    }
+    };
+    texel(x0, y0, (1 - wx) * (1 - wy));
+    texel(x0 + 1, y0, wx * (1 - wy));
+    texel(x0, y0 + 1, (1 - wx) * wy);
+    texel(x0 + 1, y0 + 1, wx * wy);
+    return wsum > 0 ? sum / wsum : 1.0f;
   }
-  return wsum > 0 ? sum / wsum : 1.0f;
+}
+
+float AttenuationMap::visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels) const {
+  if (empty()) return 1.0f;
+  uint64_t t = 0;
+  float v = filter == Filter::Bilinear ? (slope_ ? visibility_impl<true, true>(p, n, t) : visibility_impl<true, false>(p, n, t))
+                                       : (slope_ ? visibility_impl<false, true>(p, n, t) : visibility_impl<false, false>(p, n, t));
+  if (texels) *texels += t;
+  return v;
+}
+
+template <bool kBilinear, bool kSlope>
+void AttenuationMap::visibility_batch(std::span<const ViewSample> samples, std::span<float> out,
+                                      uint64_t* texels) const {
+  uint64_t t = 0;
+  for (size_t i = 0; i < samples.size(); ++i) out[i] = visibility_impl<kBilinear, kSlope>(samples[i].p, samples[i].ng, t);
+  if (texels) *texels += t;
+}
+
+void AttenuationMap::visibility(std::span<const ViewSample> samples, std::span<float> out, Filter filter,
+                                uint64_t* texels) const {
+  if (empty()) {
+    std::fill(out.begin(), out.begin() + samples.size(), 1.0f);
+    return;
+  }
+  if (filter == Filter::Bilinear)
+    slope_ ? visibility_batch<true, true>(samples, out, texels) : visibility_batch<true, false>(samples, out, texels);
+  else
+    slope_ ? visibility_batch<false, true>(samples, out, texels) : visibility_batch<false, false>(samples, out, texels);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -413,6 +468,9 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
   size_t total_layers = 0, total_nonempty = 0;
   s.depth_complexity.reserve(samples.size());
 
+  // 1 / k for the running mean of a layer's depth.
+  std::vector<float> inv_count(samples.size() + 1, 0.0f);
+  for (size_t k = 1; k < inv_count.size(); ++k) inv_count[k] = 1.0f / static_cast<float>(k);
   Rasterizer raster;
   DepthMap dm;
   std::vector<Splat> splats;
@@ -453,8 +511,8 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
             // Reference texel-space position minus 0.5: the top-left splat centre.
             float fx = (x + 0.5f) + ox + bx * inv - 0.5f;
             float fy = (y + 0.5f) + oy - by * inv - 0.5f;
-            int ix = static_cast<int>(std::floor(fx)), iy = static_cast<int>(std::floor(fy));
-            if (ix < -1 || ix >= W || iy < -1 || iy >= H) continue;
+            if (!(fx >= -1.0f && fy >= -1.0f && fx < static_cast<float>(W) && fy < static_cast<float>(H))) continue;
+            const int ix = static_cast<int>(fx + 1.0f) - 1, iy = static_cast<int>(fy + 1.0f) - 1;  // floor
             float gx = 0, gy = 0, z00 = z;
             if (slope) {
               // The surface's depth gradient in the sample view (per texel), carried through
@@ -462,11 +520,10 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
               // it is g / (1 + g.a).
               float sgx = axis_gradient(x > 0 ? zr[x - 1] : kInfinity, z, x + 1 < sw ? zr[x + 1] : kInfinity);
               float sgy = axis_gradient(y > 0 ? zr[x - sw] : kInfinity, z, y + 1 < sh ? zr[x + sw] : kInfinity);
-              float den = 1.0f + (-bx * sgx + by * sgy) * inv * inv;
-              den = std::max(den, 0.2f);
+              const float rden = 1.0f / std::max(1.0f + (-bx * sgx + by * sgy) * inv * inv, 0.2f);
               const float cap = kMaxSlope * z;
-              gx = std::clamp(sgx / den, -cap, cap);
-              gy = std::clamp(sgy / den, -cap, cap);
+              gx = std::clamp(sgx * rden, -cap, cap);
+              gy = std::clamp(sgy * rden, -cap, cap);
               z00 = z - gx * (fx - ix) - gy * (fy - iy);
             }
             out[m++] = {static_cast<int16_t>(ix), static_cast<int16_t>(iy), z00, gx, gy};
@@ -537,7 +594,7 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
             if (l.stamp != stamp) {  // at most once per light sample
               l.stamp = stamp;
               l.count++;
-              l.z += (z - l.z) / l.count;
+              l.z += (z - l.z) * inv_count[l.count];
             }
           } else if (n < K) {
             L[n * texels] = {z, 1, stamp};

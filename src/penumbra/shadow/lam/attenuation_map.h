@@ -25,6 +25,7 @@
 #include "penumbra/core/math.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/raster/raster_triangle.h"
+#include "penumbra/shadow/view_samples.h"
 
 namespace penumbra {
 
@@ -102,12 +103,19 @@ class AttenuationMap {
   // of p (p's surface does not reach them). Outside the shadow region: 1. *texels (if
   // given) is increased by the number of texels read.
   float visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels = nullptr) const;
+  // The same for a run of view samples (p and ng): out[i] for samples[i].
+  void visibility(std::span<const ViewSample> samples, std::span<float> out, Filter filter,
+                  uint64_t* texels = nullptr) const;
 
   // The texel-level classification of a depth at texel (x, y), for tests and images.
   LookupClass classify(int x, int y, float z, float* attenuation) const;
 
  private:
   friend class Builder;
+  template <bool kBilinear, bool kSlope>
+  float visibility_impl(Vec3f p, Vec3f n, uint64_t& texels) const;
+  template <bool kBilinear, bool kSlope>
+  void visibility_batch(std::span<const ViewSample> samples, std::span<float> out, uint64_t* texels) const;
   int width_ = 0, height_ = 0;
   int samples_ = 0;
   float epsilon_ = 0.01f;
