@@ -110,19 +110,30 @@ void clip_squares(const float* __restrict X, const float* __restrict Y, const fl
     sq.mode[i] = !nonempty ? kEmpty : (squareish ? kSquare : kSlow);
   }
 }
-// Lookup counts, and the elongated rectangles: 0 if they miss the slice's covered texels,
-// else through `box` (which counts itself).
+// Lookup counts, and the elongated rectangles through `box` (which counts itself).
 template <class Box>
-void finish_squares(const SquareBatch& sq, size_t m, const float* X, const float* Y, const float* Q,
-                    const SliceBounds& bounds, float* out, LookupCounters& n, Box&& box) {
+void finish_squares(const SquareBatch& sq, size_t m, const float* X, const float* Y, const float* Q, float* out,
+                    LookupCounters& n, Box&& box) {
   for (size_t i = 0; i < m; ++i) {
-    const float half = 0.5f * std::max(Q[i], 1.0f);
-    if (sq.mode[i] != kSlow || !bounds.meets(X[i] - half, Y[i] - half, X[i] + half, Y[i] + half)) {
+    if (sq.mode[i] != kSlow) {
       ++n.lookups;
       continue;
     }
+    const float half = 0.5f * std::max(Q[i], 1.0f);
     out[i] = box(X[i] - half, Y[i] - half, X[i] + half, Y[i] + half);
   }
+}
+
+// box() of the 8-bit pyramids: cut to the texture; an elongated cut (more than 5:4) that
+// misses every covered texel is 0 (the exact answer, without the several lookups).
+template <class Square>
+float pyramid_box(float x0, float y0, float x1, float y1, int width, int height, const SliceBounds& bounds,
+                  Square&& square) {
+  const ClippedRect r = clip_rect(x0, y0, x1, y1, width, height);
+  if (r.fraction <= 0) return 0;
+  const float sx = r.x1 - r.x0, sy = r.y1 - r.y0;
+  if (!(sx <= 1.25f * sy && sy <= 1.25f * sx) && !bounds.meets(x0, y0, x1, y1)) return 0;
+  return r.fraction * mean_over_squares(r, square);
 }
 
 }  // namespace
@@ -227,9 +238,8 @@ float MipmapFilter::trilinear(int k, float cx, float cy, float side, LookupCount
 
 float MipmapFilter::box(int k, float x0, float y0, float x1, float y1, LookupCounters& n) const {
   ++n.lookups;
-  const ClippedRect r = clip_rect(x0, y0, x1, y1, width_, height_);
-  if (r.fraction <= 0) return 0;
-  return r.fraction * mean_over_squares(r, [&](float cx, float cy, float side) { return trilinear(k, cx, cy, side, n); });
+  return pyramid_box(x0, y0, x1, y1, width_, height_, bounds_[k],
+                     [&](float cx, float cy, float side) { return trilinear(k, cx, cy, side, n); });
 }
 
 void MipmapFilter::squares(int k, size_t count, const float* cx, const float* cy, const float* side, float* out,
@@ -287,7 +297,7 @@ void MipmapFilter::squares(int k, size_t count, const float* cx, const float* cy
       const float v1 = (top1 + (bottom1 - top1) * fy1[i]) * (1.0f / 255.0f);
       o[i] = sq.mode[i] == kSquare ? sq.fraction[i] * (v0 + (v1 - v0) * f[i]) : 0.0f;
     }
-    finish_squares(sq, m, cx + b, cy + b, side + b, bounds_[k], o, n, [&](float x0, float y0, float x1, float y1) {
+    finish_squares(sq, m, cx + b, cy + b, side + b, o, n, [&](float x0, float y0, float x1, float y1) {
       return box(k, x0, y0, x1, y1, n);
     });
   }
@@ -344,9 +354,8 @@ float NBufferFilter::square(int k, float cx, float cy, float side, LookupCounter
 
 float NBufferFilter::box(int k, float x0, float y0, float x1, float y1, LookupCounters& n) const {
   ++n.lookups;
-  const ClippedRect r = clip_rect(x0, y0, x1, y1, width_, height_);
-  if (r.fraction <= 0) return 0;
-  return r.fraction * mean_over_squares(r, [&](float cx, float cy, float side) { return square(k, cx, cy, side, n); });
+  return pyramid_box(x0, y0, x1, y1, width_, height_, bounds_[k],
+                     [&](float cx, float cy, float side) { return square(k, cx, cy, side, n); });
 }
 
 void NBufferFilter::squares(int k, size_t count, const float* cx, const float* cy, const float* side, float* out,
@@ -403,7 +412,7 @@ void NBufferFilter::squares(int k, size_t count, const float* cx, const float* c
       const float v1 = (top1 + (bottom1 - top1) * fy1[i]) * (1.0f / 255.0f);
       o[i] = sq.mode[i] == kSquare ? sq.fraction[i] * (v0 + (v1 - v0) * f[i]) : 0.0f;
     }
-    finish_squares(sq, m, cx + b, cy + b, side + b, bounds_[k], o, n, [&](float x0, float y0, float x1, float y1) {
+    finish_squares(sq, m, cx + b, cy + b, side + b, o, n, [&](float x0, float y0, float x1, float y1) {
       return box(k, x0, y0, x1, y1, n);
     });
   }
@@ -449,26 +458,35 @@ inline float diff(uint32_t a, uint32_t b) { return static_cast<float>(static_cas
 inline float diff(double a, double b) { return static_cast<float>(a - b); }
 
 // Covered area in [x0, x1] x [y0, y1] (inside the texture, x0 <= x1, y0 <= y1) from the table
-// t of a width x height texture (row stride width + 1). The integral image F is bilinear in
-// each texel: F(i + fx, j + fy) = T00 + fx (T10 - T00) + fy (T01 - T00) + fx fy D, D the
-// texel's value. The four corners' T00 terms make an exact integer count; the rest are
-// small numbers times fractions, so nothing large cancels in float.
+// of a width x height texture (row stride width + 1). The integral image F is bilinear in
+// each texel: F(i + fx, j + fy) = T(i, j) + fx Dx + fy Dy + fx fy c, with Dx = T(i+1, j) -
+// T(i, j), Dy = T(i, j+1) - T(i, j) and c the texel's value. Summed over the four corners
+// with their signs, the T terms make an exact integer count, and the Dx (Dy) terms of two
+// corners sharing a fraction differ by a count along one column (row) of the box: every
+// number multiplied by a fraction is small, so nothing large cancels in float.
+// e[c][0..3] = T at (i, j), (i+1, j), (i, j+1), (i+1, j+1) for corners c = (x0, y0),
+// (x1, y0), (x0, y1), (x1, y1).
+template <class E>
+float sat_area_from(const E& e, float fx0, float fy0, float fx1, float fy1) {
+  const float count = diff(e(3, 0), e(2, 0)) - diff(e(1, 0), e(0, 0));
+  auto dx = [&](int c) { return e(c, 1) - e(c, 0); };  // exact (wrapping for counts)
+  auto dy = [&](int c) { return e(c, 2) - e(c, 0); };
+  auto texel = [&](int c) { return diff(e(c, 3) - e(c, 2), e(c, 1) - e(c, 0)); };
+  const float x1 = diff(dx(3), dx(1)), x0 = diff(dx(2), dx(0));
+  const float y1 = diff(dy(3), dy(2)), y0 = diff(dy(1), dy(0));
+  return count + (fx1 * x1 - fx0 * x0) + (fy1 * y1 - fy0 * y0) +
+         (fx1 * fy1 * texel(3) - fx0 * fy1 * texel(2) - fx1 * fy0 * texel(1) + fx0 * fy0 * texel(0));
+}
+
 template <class T>
 float sat_area(const T* t, size_t stride, int width, int height, float x0, float y0, float x1, float y1) {
   const int i0 = std::min(static_cast<int>(x0), width - 1), i1 = std::min(static_cast<int>(x1), width - 1);
   const int j0 = std::min(static_cast<int>(y0), height - 1), j1 = std::min(static_cast<int>(y1), height - 1);
-  const float fx0 = x0 - float(i0), fx1 = x1 - float(i1), fy0 = y0 - float(j0), fy1 = y1 - float(j1);
-  const T* a = t + static_cast<size_t>(j0) * stride + i0;  // (x0, y0)
-  const T* b = t + static_cast<size_t>(j0) * stride + i1;  // (x1, y0)
-  const T* c = t + static_cast<size_t>(j1) * stride + i0;  // (x0, y1)
-  const T* d = t + static_cast<size_t>(j1) * stride + i1;  // (x1, y1)
-  const float count = diff(d[0], c[0]) - diff(b[0], a[0]);  // exact: T(i1,j1) - T(i0,j1) - T(i1,j0) + T(i0,j0)
-  auto frac = [stride](const T* p, float fx, float fy) {
-    const float dx = diff(p[1], p[0]), dy = diff(p[stride], p[0]);
-    const float dxy = diff(p[stride + 1], p[stride]) - dx;
-    return fx * dx + fy * dy + fx * fy * dxy;
-  };
-  return count + frac(d, fx1, fy1) - frac(c, fx0, fy1) - frac(b, fx1, fy0) + frac(a, fx0, fy0);
+  const T* corner[4] = {t + static_cast<size_t>(j0) * stride + i0, t + static_cast<size_t>(j0) * stride + i1,
+                        t + static_cast<size_t>(j1) * stride + i0, t + static_cast<size_t>(j1) * stride + i1};
+  const size_t offset[4] = {0, 1, stride, stride + 1};
+  return sat_area_from([&](int c, int k) { return corner[c][offset[k]]; }, x0 - float(i0), y0 - float(j0),
+                       x1 - float(i1), y1 - float(j1));
 }
 
 }  // namespace
@@ -533,14 +551,7 @@ void SatFilter<T>::squares(int k, size_t count, const float* cx, const float* cy
     float* __restrict o = out + b;
     uint64_t reads = 0;
     for (size_t i = 0; i < m; ++i) {
-      const float count_ = diff(e[12][i], e[8][i]) - diff(e[4][i], e[0][i]);
-      auto frac = [&](int c, float fx, float fy) {
-        const float dx = diff(e[4 * c + 1][i], e[4 * c][i]), dy = diff(e[4 * c + 2][i], e[4 * c][i]);
-        const float dxy = diff(e[4 * c + 3][i], e[4 * c + 2][i]) - dx;
-        return fx * dx + fy * dy + fx * fy * dxy;
-      };
-      const float area = count_ + frac(3, fx1[i], fy1[i]) - frac(2, fx0[i], fy1[i]) - frac(1, fx1[i], fy0[i]) +
-                         frac(0, fx0[i], fy0[i]);
+      const float area = sat_area_from([&](int c, int k) { return e[4 * c + k][i]; }, fx0[i], fy0[i], fx1[i], fy1[i]);
       o[i] = area * inv_area[i];
       reads += inv_area[i] > 0;
     }
