@@ -12,6 +12,11 @@ Progress::Progress(std::string label, uint64_t total, bool enabled)
 
 Progress::~Progress() { finish(); }
 
+void Progress::set_label(std::string label) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  label_ = std::move(label);
+}
+
 void Progress::add(uint64_t n) {
   if (!enabled_) return;
   uint64_t done = done_.fetch_add(n) + n;
