@@ -243,6 +243,11 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
   return c;
 }
 
+double rays_per_view_sample(const MethodRun& r) {
+  return r.view_samples ? static_cast<double>(r.stats.rays_traced) / r.view_samples
+                        : std::numeric_limits<double>::quiet_NaN();
+}
+
 json comparison_json(const Comparison& c) {
   json methods = json::array();
   for (const MethodRun& r : c.runs) {
@@ -264,6 +269,7 @@ json comparison_json(const Comparison& c) {
       m["run_shadow_ms"] = r.run_shadow_ms;
       m["speedup"] = json_number(r.speedup);
       m["rays_traced"] = r.stats.rays_traced;
+      m["rays_per_view_sample"] = json_number(rays_per_view_sample(r));
       m["texels_visited"] = r.stats.texels_visited;
       m["memory_bytes"] = r.stats.memory_bytes;
       m["view_samples"] = r.view_samples;
@@ -333,20 +339,20 @@ std::string comparison_csv(const Comparison& c) {
       if (std::find(phases.begin(), phases.end(), n) == phases.end()) phases.push_back(n);
   std::ostringstream out;
   out << "method,ok,error,light_samples,v_mae,v_rmse,v_max,v_mean_signed,color_psnr,flip,total_ms,camera_pass_ms,"
-         "shadow_ms,speedup,rays_traced,texels_visited,memory_bytes";
+         "shadow_ms,speedup,rays_traced,rays_per_view_sample,texels_visited,memory_bytes";
   for (const auto& p : phases) out << "," << csv_field("phase_" + p + "_ms");
   out << "\n";
   for (const MethodRun& r : c.runs) {
     out << csv_field(r.method) << "," << (r.ok ? "true" : "false") << "," << csv_field(r.error);
     if (!r.ok) {
-      out << std::string(14 + phases.size(), ',') << "\n";
+      out << std::string(15 + phases.size(), ',') << "\n";
       continue;
     }
     out << "," << r.light_samples << "," << csv_number(r.v.mae) << "," << csv_number(r.v.rmse) << ","
         << csv_number(r.v.max_abs) << "," << csv_number(r.v.mean_signed) << "," << csv_number(r.color_psnr) << ","
         << csv_number(r.flip) << "," << csv_number(r.times.total_ms) << "," << csv_number(r.times.camera_pass_ms)
         << "," << csv_number(r.times.shadow_ms) << "," << csv_number(r.speedup) << "," << r.stats.rays_traced << ","
-        << r.stats.texels_visited << "," << r.stats.memory_bytes;
+        << csv_number(rays_per_view_sample(r)) << "," << r.stats.texels_visited << "," << r.stats.memory_bytes;
     for (const auto& p : phases) {
       bool has = std::any_of(r.stats.phases_ms.begin(), r.stats.phases_ms.end(),
                              [&](const auto& e) { return e.first == p; });

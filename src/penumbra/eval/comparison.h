@@ -82,6 +82,9 @@ struct Comparison {
 };
 
 Comparison run_comparison(const RunSetup& setup, const CompareOptions& options);
+// Shadow rays traced per view sample (over all lights): agrawala2000's "average rays
+// traced" per shading point; NaN when there are no view samples.
+double rays_per_view_sample(const MethodRun& r);
 // The progress units run_comparison() will report: a caller that passes its own bar
 // (options.progress_bar) sets the bar's total to the sum over its comparisons.
 uint64_t comparison_progress_units(const RunSetup& setup, const CompareOptions& options);

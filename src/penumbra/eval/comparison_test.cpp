@@ -56,6 +56,10 @@ TEST(Comparison, RunsEveryMethodAgainstTheGroundTruth) {
   EXPECT_LT(ref.v.mae, hard.v.mae);
   EXPECT_EQ(ref.light_samples, 4);
   EXPECT_EQ(hard.light_samples, 0);
+  // At most one ray per light sample and view sample (none toward a light behind the point).
+  EXPECT_GT(rays_per_view_sample(ref), 2.0);
+  EXPECT_LE(rays_per_view_sample(ref), 4.0);
+  EXPECT_LE(rays_per_view_sample(hard), 1.0);
   // Speed-ups are against the reference method of this run.
   EXPECT_EQ(c.speedup_basis, "reference");
   EXPECT_DOUBLE_EQ(ref.speedup, 1.0);

@@ -132,6 +132,7 @@ figure { margin: 0; } figcaption { font-size: 12px; color: #555; margin-top: 3px
 .view { position: relative; display: inline-block; line-height: 0; cursor: crosshair; touch-action: none; }
 .view img, .view canvas { width: var(--thumb); height: auto; }
 .view img.up, .view canvas { image-rendering: pixelated; }
+.view img { outline: 1px solid #d0d0d0; }
 .view canvas { position: absolute; left: 0; top: 0; }
 .band { position: absolute; border: 1px dashed #fff; outline: 1px dashed #000; pointer-events: none; display: none; }
 )CSS";
@@ -175,6 +176,11 @@ const char* kScript = R"JS(
       g.drawImage(img, crop.x * nw, crop.y * nh, Math.max(1, crop.s * nw), Math.max(1, crop.s * nh),
                   0, 0, cv.width, cv.height);
       cv.hidden = false;
+    }
+    // The crop in the address (#zoom=x,y,side): a zoomed view can be bookmarked or shared.
+    if (location.hash !== '#selftest') {
+      const h = crop ? `#zoom=${crop.x.toFixed(4)},${crop.y.toFixed(4)},${crop.s.toFixed(4)}` : ' ';
+      try { history.replaceState(null, '', h); } catch (err) { /* file:// may refuse; the zoom still works */ }
     }
     if (status) {
       if (!crop) {
@@ -288,6 +294,8 @@ const char* kScript = R"JS(
     const imgs = Array.from(document.images);
     document.body.dataset.imagesTotal = imgs.length;
     document.body.dataset.imagesLoaded = imgs.filter(i => i.complete && i.naturalWidth > 0).length;
+    const z = /^#zoom=([0-9.]+),([0-9.]+),([0-9.]+)$/.exec(location.hash);
+    if (z) crop = clampCrop({x: Number(z[1]), y: Number(z[2]), s: Number(z[3])});
     draw();
     // file:///.../index.html#selftest: zoom programmatically and check that every canvas
     // shows pixels (the end-to-end test reads data-selftest back from the DOM).

@@ -56,7 +56,7 @@ const std::vector<std::string>& base_columns() {
   static const std::vector<std::string> cols = {
       "light_samples", "v_mae",          "v_rmse",    "v_max",   "v_mean_signed", "color_psnr",
       "flip",          "total_ms",       "camera_pass_ms", "shadow_ms", "speedup", "rays_traced",
-      "texels_visited", "memory_bytes",  "ground_truth_ms"};
+      "rays_per_view_sample", "texels_visited", "memory_bytes",  "ground_truth_ms"};
   return cols;
 }
 
@@ -146,6 +146,7 @@ double sweep_value(const SweepRow& row, const std::string& column) {
   if (column == "shadow_ms") return r.times.shadow_ms;
   if (column == "speedup") return r.speedup;
   if (column == "rays_traced") return static_cast<double>(r.stats.rays_traced);
+  if (column == "rays_per_view_sample") return rays_per_view_sample(r);
   if (column == "texels_visited") return static_cast<double>(r.stats.texels_visited);
   if (column == "memory_bytes") return static_cast<double>(r.stats.memory_bytes);
   if (column == "ground_truth_ms") return row.ground_truth_ms;
@@ -240,6 +241,7 @@ std::string column_label(const std::string& c) {
   if (c == "camera_pass_ms") return "camera pass (ms)";
   if (c == "speedup") return "speed-up vs reference";
   if (c == "rays_traced") return "rays traced";
+  if (c == "rays_per_view_sample") return "rays traced per view sample";
   if (c == "memory_bytes") return "memory (bytes)";
   return c;
 }
@@ -294,6 +296,11 @@ std::vector<fs::path> write_sweep(const Sweep& s, const fs::path& dir, const Swe
     check_sweep_column(c);
     plots.emplace_back(safe_name(c), c);
   }
+  // Every number a method reports in its stats' "extra" (e.g. an LDI's depth complexity)
+  // gets a plot of its own without being asked for.
+  for (const auto& c : sweep_columns(s))
+    if (c.rfind("extra.", 0) == 0 && std::none_of(plots.begin(), plots.end(), [&](const auto& p) { return p.second == c; }))
+      plots.emplace_back(safe_name(c), c);
   std::vector<fs::path> written;
   for (const auto& [stem, column] : plots) {
     fs::path f = dir / (stem + ".svg");

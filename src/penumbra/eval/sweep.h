@@ -52,7 +52,8 @@ Sweep run_sweep(const RunSetup& base, const SweepOptions& options);
 
 // The numeric columns a row offers (for --plot): v_mae, v_rmse, v_max, v_mean_signed,
 // color_psnr, flip, total_ms, camera_pass_ms, shadow_ms, speedup, rays_traced,
-// texels_visited, memory_bytes, ground_truth_ms, phase_<name>_ms and extra.<key>.
+// rays_per_view_sample, texels_visited, memory_bytes, ground_truth_ms, phase_<name>_ms
+// and extra.<key>.
 double sweep_value(const SweepRow& row, const std::string& column);
 std::vector<std::string> sweep_columns(const Sweep& s);
 // Throws unless `column` can name a sweep column (before a sweep runs: --plot checks).
@@ -70,8 +71,9 @@ struct SweepPlotOptions {
 std::string sweep_plot(const Sweep& s, const std::string& column, const SweepPlotOptions& options = {});
 
 // Writes DIR/sweep.csv, DIR/sweep.json and the plots: error.svg (v_mae, with a ground
-// truth), time.svg (shadow_ms), rays.svg (when any method traced rays) and one
-// <column>.svg per extra plot. Returns the plot files written.
+// truth), time.svg (shadow_ms), rays.svg (when any method traced rays), one <column>.svg
+// per extra plot asked for and one extra.<key>.svg per number a method reported in its
+// MethodStats::extra. Returns the plot files written.
 std::vector<std::filesystem::path> write_sweep(const Sweep& s, const std::filesystem::path& dir,
                                                const SweepPlotOptions& options = {});
 

@@ -88,7 +88,11 @@ TEST(Sweep, TimingsOnlyCategoricalValuesAndMethodParameters) {
     EXPECT_TRUE(std::isnan(s.rows[i].run.v.mae));
   }
   auto plots = write_sweep(s, dir / "out");
-  ASSERT_EQ(plots.size(), 2u);  // time and rays; no error without a ground truth
+  // time and rays (then single-sample's own extra numbers); no error without a ground truth.
+  ASSERT_GE(plots.size(), 2u);
+  EXPECT_EQ(plots[0].filename(), "time.svg");
+  EXPECT_EQ(plots[1].filename(), "rays.svg");
+  for (const auto& p : plots) EXPECT_NE(p.filename(), "error.svg");
   std::string svg = slurp(plots[0]), problem;
   EXPECT_TRUE(testing::xml_well_formed(svg, &problem)) << problem;
   EXPECT_NE(svg.find(">multiply<"), std::string::npos);
@@ -110,6 +114,40 @@ TEST(Sweep, BadValuesAndColumnsFailBeforeAnyRender) {
   EXPECT_NO_THROW(check_sweep_column("extra.ldi_layers"));
   EXPECT_NO_THROW(check_sweep_column("phase_trace_ms"));
   EXPECT_NO_THROW(check_sweep_column("rays_traced"));
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+TEST(Sweep, NumbersAMethodReportsInExtraArePlottedUnasked) {
+  testing::TempDir dir;
+  Sweep s;
+  s.scene = "scenes/plant.json";
+  s.key = "spp";
+  s.values = {"4", "16"};
+  s.methods = {"lam"};
+  for (int i = 0; i < 2; ++i) {
+    SweepRow row;
+    row.value = s.values[i];
+    row.x = i == 0 ? 4 : 16;
+    row.run.method = "lam";
+    row.run.ok = true;
+    row.run.times.shadow_ms = 1 + i;
+    row.run.stats.extra = {{"ldi_depth_complexity", 1.5 + i}, {"note", "text is not plotted"}};
+    s.rows.push_back(row);
+  }
+  auto plots = write_sweep(s, dir.path());
+  std::vector<std::string> names;
+  for (const auto& p : plots) names.push_back(p.filename().string());
+  EXPECT_EQ(names, (std::vector<std::string>{"time.svg", "extra.ldi_depth_complexity.svg"}));
+  std::string csv = testing::slurp(dir / "sweep.csv");
+  EXPECT_NE(csv.find(",extra.ldi_depth_complexity"), std::string::npos) << csv;
+  EXPECT_EQ(csv.find("note"), std::string::npos) << csv;
+  std::string problem;
+  EXPECT_TRUE(testing::xml_well_formed(testing::slurp(plots[1]), &problem)) << problem;
 }
 
 }  // namespace
