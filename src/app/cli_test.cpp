@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -125,6 +126,41 @@ TEST_F(Cli, BadArgumentsAreRejected) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("missing.json"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir_ / "x.png"));
+}
+
+TEST_F(Cli, DiffMeasuresVisibilityErrorAndWritesAHeatmap) {
+  std::string scene = tiny_scene();
+  std::string ref = (dir_ / "ref.exr").string(), hard = (dir_ / "hard.exr").string();
+  ASSERT_EQ(run(fmt::format("render {} -m reference --spp 64 -o {} -q", scene, ref)).exit_code, 0);
+  ASSERT_EQ(run(fmt::format("render {} -m hard -o {} -q", scene, hard)).exit_code, 0);
+  // An image against itself: no error at all.
+  CliRun same = run(fmt::format("diff {} {} --json", ref, ref));
+  ASSERT_EQ(same.exit_code, 0) << same.err;
+  auto js = nlohmann::json::parse(same.out);
+  EXPECT_EQ(js["on"], "v");
+  EXPECT_EQ(js["mae"].get<double>(), 0.0);
+  // Hard shadows against the reference: the MAE on V equals the mean |dV| computed here.
+  std::string heat = (dir_ / "heat.png").string();
+  CliRun d = run(fmt::format("diff {} {} --json --heatmap {}", hard, ref, heat));
+  ASSERT_EQ(d.exit_code, 0) << d.err;
+  auto j = nlohmann::json::parse(d.out);
+  Image a = read_exr_channel(hard, "V"), b = read_exr_channel(ref, "V");
+  double mae = 0;
+  for (size_t i = 0; i < a.data().size(); ++i) mae += std::abs(a.data()[i] - b.data()[i]);
+  mae /= a.data().size();
+  EXPECT_GT(mae, 0.01);
+  EXPECT_NEAR(j["mae"].get<double>(), mae, 1e-6);
+  Image h = read_image(heat);
+  EXPECT_EQ(h.width(), a.width());
+  // Colour mode reports FLIP too.
+  CliRun c = run(fmt::format("diff {} {} --on color --json", hard, ref));
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  EXPECT_GT(nlohmann::json::parse(c.out)["flip"].get<double>(), 0.0);
+  // Mismatched sizes are an error naming both.
+  std::string small = (dir_ / "small.exr").string();
+  ASSERT_EQ(run(fmt::format("render {} -m hard --resolution 8x8 -o {} -q", scene, small)).exit_code, 0);
+  CliRun bad = run(fmt::format("diff {} {}", small, ref));
+  EXPECT_NE(bad.exit_code, 0);
 }
 
 TEST_F(Cli, MethodsListsEveryRegisteredMethod) {

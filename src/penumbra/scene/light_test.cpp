@@ -143,6 +143,36 @@ TEST(AreaLight, SolidAngleEstimatorConvergesToClosedForm) {
   EXPECT_NEAR(wsum / N, 1.0, 5e-3);
 }
 
+TEST(AreaLight, DiskAndSphereEstimatorsConvergeToClosedForms) {
+  // The reference's estimators with 1024 stratified samples, for the other two shapes:
+  // within 0.5% of the closed forms, on a tilted receiver.
+  AreaLight disk;
+  disk.shape = LightShape::Disk;
+  disk.center = {0.2f, 1.4f, 0.1f};
+  disk.frame = Frame::from_z(normalize(Vec3f(0.2f, -1, 0.1f)));
+  disk.radius = 0.6f;
+  AreaLight sphere;
+  sphere.shape = LightShape::Sphere;
+  sphere.center = {-0.3f, 1.8f, 0.2f};
+  sphere.radius = 0.5f;
+  Vec3f p(0.4f, 0, -0.3f), n = normalize(Vec3f(0.3f, 1, 0.2f));
+  for (const AreaLight* l : {&disk, &sphere}) {
+    LightPointSampler sampler(*l, p);
+    ASSERT_TRUE(sampler.valid());
+    Rng rng(23);
+    const int N = 1024;
+    StratifiedGrid grid(N);
+    double e = 0;
+    for (int i = 0; i < N; ++i) {
+      AreaLight::DirectionSample ds;
+      ASSERT_TRUE(sampler.sample(grid.sample(i, rng.next_2d()), &ds));
+      e += std::max(0.0f, dot(n, ds.dir)) / ds.pdf;
+    }
+    double expected = l->unshadowed_irradiance_scalar(p, n);
+    EXPECT_NEAR(e / N, expected, 5e-3 * expected) << to_string(l->shape);
+  }
+}
+
 TEST(AreaLight, OneSidedLightsDoNotLightTheirBack) {
   AreaLight l = rect({0, 1, 0}, 1, 1);
   AreaLight::DirectionSample ds;

@@ -1,0 +1,130 @@
+// penumbra's CPU rasterizer: renders world-space triangles into images seen from a
+// LightView, exactly and in parallel. One implementation serves every light-space method:
+// shadow maps and PCF/PCSS (one depth map), agrawala2000 §4 (one depth map per light
+// sample), agrawala2000 §5 and xie2007 §4 (depth maps and k-layer maps plus min/max
+// pyramids), xie2007 §5 (fragment lists with opacity), sintorn2008 §3-4 (conservative
+// coverage, conservative.h).
+//
+// How it works (docs/raster.md): triangles are transformed to homogeneous texel space,
+// clipped against the near and far planes (and a guard band far outside the image, so the
+// fixed-point edge functions cannot overflow), snapped to 1/256 texel and binned into square
+// tiles; tiles are rasterized in parallel (oneTBB), each by one thread, visiting its
+// triangles in input order. Coverage is sampled at texel centres with exact integer edge
+// functions and the top-left fill rule (D3D/OpenGL convention in a y-down image), so two
+// triangles sharing an edge cover each centre on it exactly once. Depth is interpolated from
+// the unsnapped vertices: 1/z is affine in texel space for a perspective view, z for an
+// orthographic one, and z = the linear depth of the LightView.
+//
+// Every result is independent of the thread count. No mode allocates per fragment; a
+// Rasterizer keeps its scratch memory between calls, so keep one per thread of control and
+// reuse it (it is not itself safe to call from several threads at once).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+
+#include "penumbra/raster/depth_map.h"
+#include "penumbra/raster/fragment_lists.h"
+#include "penumbra/raster/light_view.h"
+#include "penumbra/raster/raster_triangle.h"
+
+namespace penumbra {
+
+// Facing is relative to the light: a triangle is front-facing when the light sees the side
+// its normal cross(p1 - p0, p2 - p0) points to (counter-clockwise winding seen from the light).
+enum class FaceCulling {
+  None,
+  Back,   // keep only triangles facing the light
+  Front,  // keep only triangles facing away (sintorn2008 §3.3: back faces of closed casters)
+};
+
+// Which triangles a mode sees. Triangles with opacity <= 0 are always skipped: they cast
+// nothing.
+struct RasterFilter {
+  FaceCulling culling = FaceCulling::None;
+  // Skip semi-transparent triangles (opacity < 1): a map of the opaque casters only.
+  bool opaque_only = false;
+};
+
+struct LayerOptions {
+  int layers = 5;  // k; xie2007 §4.2 finds 5 enough for production scenes (1..255)
+  // Two fragments of a texel are the same surface (one layer) when their linear depths differ
+  // by at most this many world units. A watertight mesh gives exactly one fragment per
+  // crossing, so this only merges coincident geometry (duplicated faces, a two-sided leaf
+  // modelled as two triangles, decals). 0 merges only equal depths. See rasterizer.cpp for
+  // the exact rule.
+  float distinct_epsilon = 0;
+  RasterFilter filter;
+};
+
+// In-place compression of one texel's fragment list: `fragments` arrive sorted by z; write
+// the ones to keep (or a summary, e.g. deep-shadow control points, xie2007 §5.1) to its front
+// and return how many. Called exactly once per texel, empty texels included, from several
+// threads at once (never two calls for the same texel).
+using FragmentReducer = std::function<uint32_t(int x, int y, std::span<Fragment> fragments)>;
+// Streaming access to each texel's sorted fragments (same threading rules as the reducer);
+// the span is valid only during the call.
+using FragmentVisitor = std::function<void(int x, int y, std::span<const Fragment> fragments)>;
+
+// What the last call did, for benchmarks and method statistics.
+struct RasterStats {
+  size_t triangles = 0;   // input triangles
+  size_t setup = 0;       // set-up triangles (after culling, clipping, fanning) that may cover a centre
+  size_t bin_entries = 0; // (triangle, tile) pairs
+  size_t fragments = 0;   // covered texel centres visited (before any depth test)
+  double setup_ms = 0;    // transform, clip, bin
+  double raster_ms = 0;   // tiles
+};
+
+class Rasterizer {
+ public:
+  // tile_size: edge of the square tiles in texels, a power of two in [8, 256]; 64 balances
+  // binning overhead and load balance for 512^2-2048^2 maps.
+  explicit Rasterizer(int tile_size = 64);
+  ~Rasterizer();
+  Rasterizer(const Rasterizer&) = delete;
+  Rasterizer& operator=(const Rasterizer&) = delete;
+
+  // The nearest surface through each texel centre (ties: the first triangle in input
+  // order), with its opacity and triangle index.
+  void depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+                 const RasterFilter& filter, DepthMap* out);
+
+  // The options.layers nearest distinct surfaces through each texel centre, nearest first
+  // (xie2007 §4.2).
+  void layered_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+                         const LayerOptions& options, LayeredDepthMap* out);
+
+  // Every fragment through each texel centre, sorted by depth, in flat storage; with a
+  // reducer, each texel's list as the reducer compressed it.
+  void fragment_lists(std::span<const RasterTriangle> triangles, const LightView& view,
+                      const RasterFilter& filter, FragmentLists* out,
+                      const FragmentReducer& reduce = {});
+
+  // The same fragments, streamed texel by texel without storing the whole image's lists
+  // (memory bounded by one tile's fragments per thread): for building compressed per-texel
+  // structures directly.
+  void visit_fragments(std::span<const RasterTriangle> triangles, const LightView& view,
+                       const RasterFilter& filter, const FragmentVisitor& visit);
+
+  const RasterStats& stats() const { return stats_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  int tile_size_;
+  RasterStats stats_;
+};
+
+// One-shot conveniences (a fresh Rasterizer per call: fine for tests and single maps).
+DepthMap render_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+                          const RasterFilter& filter = {});
+LayeredDepthMap render_layered_depth_map(std::span<const RasterTriangle> triangles,
+                                         const LightView& view, const LayerOptions& options = {});
+FragmentLists render_fragment_lists(std::span<const RasterTriangle> triangles,
+                                    const LightView& view, const RasterFilter& filter = {},
+                                    const FragmentReducer& reduce = {});
+
+}  // namespace penumbra
