@@ -42,9 +42,11 @@ json run_bench(const BenchOptions& o) {
   Timer wall;
   const BenchSuite& suite = o.suite;
   if (suite.scenes.empty()) throw Error("bench: no scenes");
-  std::vector<std::string> methods = o.methods;
-  if (std::find(methods.begin(), methods.end(), "reference") == methods.end())
-    methods.insert(methods.begin(), "reference");
+  const std::string started = local_time_iso();
+  // The reference first: it is what every other row is measured against.
+  std::vector<std::string> methods = {"reference"};
+  for (const auto& m : o.methods)
+    if (m != "reference") methods.push_back(m);
 
   // Every scene's setup before any render: a missing scene or bad setting fails at once.
   std::vector<RunSetup> setups;
@@ -123,7 +125,7 @@ json run_bench(const BenchOptions& o) {
            "speedup = reference's shadow_ms / the method's, both measured in this run"},
           {"methods", methods},
           {"machine", machine_json()},
-          {"started", local_time_iso()},
+          {"started", started},
           {"wall_ms", wall.elapsed_ms()},
           {"command", o.command},
           {"scenes", scenes}};
