@@ -1,6 +1,7 @@
 // penumbra sweep SCENE --param key=v1,v2,... (--method M | --methods a,b) [--set key=value]... -o DIR
 // One setting varied over a list of values: a comparison per value, sweep.csv, sweep.json
 // and SVG plots of error and time against the value (docs/compare.md).
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -84,7 +85,8 @@ int run_sweep_cli(const SweepCliOptions& o) {
         std::printf("%-12s %-20s failed: %s\n", r.value.c_str(), r.run.method.c_str(), r.run.error.c_str());
         continue;
       }
-      std::printf("%-12s %-20s %11.5f %11.2f %14llu\n", r.value.c_str(), r.run.method.c_str(), r.run.v.mae,
+      std::string mae = std::isnan(r.run.v.mae) ? "-" : fmt::format("{:.5f}", r.run.v.mae);
+      std::printf("%-12s %-20s %11s %11.2f %14llu\n", r.value.c_str(), r.run.method.c_str(), mae.c_str(),
                   r.run.times.shadow_ms, static_cast<unsigned long long>(r.run.stats.rays_traced));
     }
     std::string files;

@@ -35,7 +35,7 @@ void Progress::draw(uint64_t done) {
   int filled = static_cast<int>(f * width);
   std::string bar(filled, '#');
   bar.resize(width, '.');
-  std::fprintf(stderr, "\r%s [%s] %3d%%", label_.c_str(), bar.c_str(), static_cast<int>(f * 100));
+  std::fprintf(stderr, "\r%s [%s] %3d%%\033[K", label_.c_str(), bar.c_str(), static_cast<int>(f * 100));
   std::fflush(stderr);
 }
 

@@ -16,11 +16,13 @@ namespace {
 using testing::slurp;
 using testing::TempDir;
 
-// The Chromium binary: $PENUMBRA_CHROMIUM, else chromium or chromium-browser on PATH.
+// The Chromium binary: $PENUMBRA_CHROMIUM if set (a name on PATH or a path), else chromium or
+// chromium-browser on PATH; empty when there is none.
 std::string find_chromium() {
-  if (const char* c = std::getenv("PENUMBRA_CHROMIUM"); c && *c) return c;
-  for (const char* name : {"chromium", "chromium-browser"}) {
-    std::string cmd = fmt::format("command -v {} >/dev/null 2>&1", name);
+  std::vector<std::string> names = {"chromium", "chromium-browser"};
+  if (const char* c = std::getenv("PENUMBRA_CHROMIUM"); c && *c) names = {c};
+  for (const std::string& name : names) {
+    std::string cmd = fmt::format("command -v '{}' >/dev/null 2>&1", name);
     if (std::system(cmd.c_str()) == 0) return name;
   }
   return "";

@@ -230,7 +230,7 @@ json sweep_json(const Sweep& s) {
 namespace {
 
 std::string column_label(const std::string& c) {
-  if (c == "v_mae") return "mean |ΔV| vs ground truth";
+  if (c == "v_mae") return "mean |ΔV| (against the ground truth)";
   if (c == "v_rmse") return "RMSE of V";
   if (c == "v_max") return "max |ΔV|";
   if (c == "v_mean_signed") return "mean ΔV (bias)";
@@ -252,7 +252,8 @@ std::string sweep_plot(const Sweep& s, const std::string& column, const SweepPlo
   Plot p;
   p.x_label = s.key;
   p.y_label = column_label(column);
-  p.title = fmt::format("{}: {} vs {}", fs::path(s.scene).stem().string(), column_label(column), s.key);
+  std::string what = column == "v_mae" ? "mean |ΔV|" : column_label(column);
+  p.title = fmt::format("{}: {} against {}", fs::path(s.scene).stem().string(), what, s.key);
   if (!s.numeric) p.x_categories = s.values;
   double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
   for (const std::string& m : s.methods) {
