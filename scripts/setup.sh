@@ -1,10 +1,21 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package penumbra needs, then configures and builds it.
-# Usage: scripts/setup.sh [build-dir]   (default: build)
+# Usage: scripts/setup.sh [--with-test-tools] [build-dir]   (default: build)
+#   --with-test-tools  also installs what some tests use but penumbra does not need:
+#                      chromium (the comparison page's headless-browser test; without it
+#                      that test skips with a message)
 # Safe to run again: apt-get skips what is installed, CMake rebuilds what changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-build_dir=${1:-build}
+build_dir=build
+with_test_tools=0
+for arg in "$@"; do
+  case "$arg" in
+    --with-test-tools) with_test_tools=1 ;;
+    -*) echo "scripts/setup.sh: unknown option $arg (usage: scripts/setup.sh [--with-test-tools] [build-dir])" >&2; exit 2 ;;
+    *) build_dir=$arg ;;
+  esac
+done
 
 packages=(
   build-essential cmake pkg-config
@@ -13,6 +24,9 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   glmark2-data   # the full Stanford bunny at /usr/share/glmark2/models/bunny.obj
 )
+if [ "$with_test_tools" -eq 1 ]; then
+  packages+=(chromium)   # headless browser test of the `penumbra compare` page
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

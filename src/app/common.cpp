@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <regex>
 
 #include "penumbra/core/error.h"
@@ -32,6 +34,23 @@ void check_output_path(const std::string& path, const std::vector<std::string>& 
   }
   fs::path parent = fs::path(path).parent_path();
   if (!parent.empty() && !fs::is_directory(parent)) throw Error("{}: folder {} does not exist", path, parent.string());
+}
+
+std::string command_line() {
+  std::ifstream f("/proc/self/cmdline", std::ios::binary);
+  std::string all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string out, arg;
+  auto flush = [&] {
+    bool quote = arg.empty() || arg.find_first_of(" \t\"'$&|;<>()*?") != std::string::npos;
+    out += (out.empty() ? "" : " ") + (quote ? "'" + arg + "'" : arg);
+    arg.clear();
+  };
+  for (char c : all) {
+    if (c == '\0') flush();
+    else arg += c;
+  }
+  if (!arg.empty()) flush();
+  return out;
 }
 
 nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,

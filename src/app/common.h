@@ -15,6 +15,8 @@ namespace penumbra::app {
 void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples);
 // Checks an output path before any work: a known extension and an existing folder.
 void check_output_path(const std::string& path, const std::vector<std::string>& extensions);
+// The command line of this process, as typed (arguments with spaces quoted), for reports.
+std::string command_line();
 // The --stats-json document of one render.
 nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
                                  const RenderResult& r);

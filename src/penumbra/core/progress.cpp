@@ -12,6 +12,11 @@ Progress::Progress(std::string label, uint64_t total, bool enabled)
 
 Progress::~Progress() { finish(); }
 
+void Progress::set_label(std::string label) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  label_ = std::move(label);
+}
+
 void Progress::add(uint64_t n) {
   if (!enabled_) return;
   uint64_t done = done_.fetch_add(n) + n;
@@ -30,7 +35,7 @@ void Progress::draw(uint64_t done) {
   int filled = static_cast<int>(f * width);
   std::string bar(filled, '#');
   bar.resize(width, '.');
-  std::fprintf(stderr, "\r%s [%s] %3d%%", label_.c_str(), bar.c_str(), static_cast<int>(f * 100));
+  std::fprintf(stderr, "\r%s [%s] %3d%%\033[K", label_.c_str(), bar.c_str(), static_cast<int>(f * 100));
   std::fflush(stderr);
 }
 

@@ -15,6 +15,11 @@ class Progress {
   Progress(std::string label, uint64_t total, bool enabled);
   ~Progress();
   void set_total(uint64_t total) { total_ = total; }
+  uint64_t total() const { return total_.load(); }
+  // Units added so far (0 when disabled: add() is then a no-op).
+  uint64_t done() const { return done_.load(); }
+  // The text before the bar (e.g. the method now running in a comparison).
+  void set_label(std::string label);
   void add(uint64_t n);
   void finish();
 

@@ -99,7 +99,8 @@ RenderResult Renderer::render() {
   std::vector<float> vis(n);
   std::vector<Vec3f> irr(n);
   const size_t lights = scene_.lights.size();
-  Progress progress(settings_.method, n * lights, settings_.progress);
+  Progress own_progress(settings_.method, n * lights, settings_.progress && !settings_.progress_bar);
+  Progress& progress = settings_.progress_bar ? *settings_.progress_bar : own_progress;
   for (size_t l = 0; l < lights; ++l) {
     const AreaLight& light = scene_.lights[l];
     ShadowContext ctx;
@@ -139,7 +140,7 @@ RenderResult Renderer::render() {
       });
     }
   }
-  progress.finish();
+  own_progress.finish();
   for (size_t l = 0; l < lights; ++l) result.stats.accumulate(methods_[l]->stats());
   for (auto& m : methods_) m->stats() = MethodStats{};
 

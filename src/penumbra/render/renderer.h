@@ -18,6 +18,9 @@ struct RenderSettings {
   int light_samples = 256;          // --spp
   uint64_t seed = 0;
   bool progress = false;            // a progress bar on stderr (when it is a terminal)
+  // A bar owned by the caller (a comparison of several renders) to advance instead of
+  // drawing one per render; `progress` is then ignored. Not owned.
+  Progress* progress_bar = nullptr;
 };
 
 struct RenderResult {

@@ -1,0 +1,110 @@
+// End-to-end tests of `penumbra compare`, `sweep` and `bench`: the real binary on the
+// contact scene at 32 x 32 pixels and a few light samples.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+
+#include "penumbra/testing/compare_fixture.h"
+#include "penumbra/testing/xml_check.h"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::slurp;
+
+struct CliRun {
+  int exit_code;
+  std::string out, err;
+};
+
+class CliCompare : public ::testing::Test {
+ protected:
+  CliRun run(const std::string& args) {
+    std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
+    std::string cmd = fmt::format("cd {} && {} {} >{} 2>{}", PENUMBRA_SOURCE_DIR, PENUMBRA_CLI, args, out, err);
+    int status = std::system(cmd.c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+  }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  testing::TempDir dir_;
+};
+
+TEST_F(CliCompare, CompareWritesThePageJsonCsvAndImages) {
+  CliRun r = run(fmt::format("compare scenes/contact.json --methods reference,hard,single-sample --resolution 32 --spp 4 "
+                          "--reference-spp 16 --cache-dir {} -o {} -p hard.bogus=1",
+                          path("cache"), path("out")));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("hard                 failed: hard: unknown parameter 'bogus'"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("3 methods (1 failed), ground truth rendered"), std::string::npos) << r.err;
+  for (const char* f : {"index.html", "results.json", "results.csv", "images/ground-truth.exr", "images/reference.exr",
+                        "images/single-sample.exr"})
+    EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "images" / "hard.exr"));
+  json j = json::parse(slurp(dir_ / "out" / "results.json"));
+  EXPECT_NE(j["command"].get<std::string>().find("compare scenes/contact.json"), std::string::npos);
+  EXPECT_EQ(j["spp"], 4);
+  EXPECT_EQ(j["ground_truth"]["spp"], 16);
+  EXPECT_FALSE(j["ground_truth"]["cached"].get<bool>());
+
+  // Again: the ground truth comes from the cache.
+  CliRun again = run(fmt::format("compare scenes/contact.json --methods hard --resolution 32 --reference-spp 16 "
+                              "--cache-dir {} -o {} -q",
+                              path("cache"), path("out2")));
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_TRUE(json::parse(slurp(dir_ / "out2" / "results.json"))["ground_truth"]["cached"].get<bool>());
+}
+
+TEST_F(CliCompare, BadArgumentsAreOneLineErrors) {
+  CliRun r = run("compare scenes/contact.json --methods hard,nosuch -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("unknown shadow method 'nosuch'"), std::string::npos) << r.err;
+  r = run("compare scenes/contact.json --methods hard -p light.sise=2 -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("light.sise: unknown light setting"), std::string::npos) << r.err;
+  r = run("sweep scenes/contact.json --method hard --param spp -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("expected key=v1,v2,..."), std::string::npos) << r.err;
+  r = run("sweep scenes/contact.json --param spp=1,2 -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--method M or --methods"), std::string::npos) << r.err;
+  r = run("sweep scenes/contact.json --method hard --param spp=1,2 --plot nope -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--plot nope: unknown column"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x"));
+}
+
+TEST_F(CliCompare, SweepWritesCsvAndPlots) {
+  CliRun r = run(fmt::format("sweep scenes/contact.json --methods reference,hard --param spp=2,4,8 --resolution 24 "
+                          "--no-reference --runs 2 --plot rays_traced -o {}",
+                          path("sw")));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::string csv = slurp(dir_ / "sw" / "sweep.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 3 * 2);
+  EXPECT_NE(csv.find("spp,8,8,reference,true,,8,"), std::string::npos) << csv;
+  for (const char* f : {"time.svg", "rays.svg", "rays_traced.svg"}) {
+    std::string problem;
+    EXPECT_TRUE(testing::xml_well_formed(slurp(dir_ / "sw" / f), &problem)) << f << ": " << problem;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "sw" / "error.svg"));  // --no-reference
+}
+
+TEST_F(CliCompare, BenchWritesJsonAndMarkdown) {
+  CliRun r = run(fmt::format("bench --scenes contact --methods hard --resolution 24 --spp 4 --runs 2 -o {}", path("b")));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json j = json::parse(slurp(dir_ / "b" / "bench-results.json"));
+  EXPECT_EQ(j["suite"], "quick (modified)");
+  EXPECT_EQ(j["settings"]["runs"], 2);
+  EXPECT_EQ(j["scenes"][0]["methods"].size(), 2u);
+  EXPECT_DOUBLE_EQ(j["scenes"][0]["methods"][0]["speedup"].get<double>(), 1.0);
+  std::string md = slurp(dir_ / "b" / "bench-results.md");
+  EXPECT_NE(md.find("| `hard` |"), std::string::npos) << md;
+  EXPECT_NE(r.out.find("| `hard` |"), std::string::npos) << r.out;  // the table on stdout too
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,114 @@
+// penumbra compare SCENE [--methods a,b,c|all] [--spp N] [--reference-spp N] [-p key=value]... -o DIR
+// Every method against the ground truth in one report: DIR/index.html, results.json,
+// results.csv (docs/compare.md).
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "app/command.h"
+#include "app/common.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/eval/comparison.h"
+#include "penumbra/eval/report_util.h"
+
+namespace penumbra::app {
+namespace {
+
+struct CompareCliOptions {
+  std::string scene;
+  std::vector<std::string> methods{"all"};
+  int spp = 256;
+  int reference_spp = 1024;
+  std::string resolution;
+  uint64_t seed = 0;
+  std::vector<std::string> params;
+  std::string output;
+  int runs = 1;
+  std::string cache_dir;
+  bool no_cache = false;
+  float heatmap_scale = 0;
+  bool no_images = false;
+  int threads = 0;
+  bool quiet = false;
+};
+
+// A few columns of the table on stdout, for a terminal user.
+void print_summary(const Comparison& c) {
+  std::printf("%-20s %11s %9s %8s %11s %9s\n", "method", "mean|dV|", "PSNR dB", "FLIP", "shadow ms", "speed-up");
+  for (const MethodRun& r : c.runs) {
+    if (!r.ok) {
+      std::printf("%-20s failed: %s\n", r.method.c_str(), r.error.c_str());
+      continue;
+    }
+    auto num = [](double v, int digits) { return std::isnan(v) ? std::string("-") : format_significant(v, digits); };
+    std::string psnr = std::isnan(r.color_psnr) ? "-" : std::isinf(r.color_psnr) ? "inf" : fmt::format("{:.2f}", r.color_psnr);
+    std::printf("%-20s %11s %9s %8s %11s %9s\n", r.method.c_str(), num(r.v.mae, 3).c_str(), psnr.c_str(),
+                num(r.flip, 3).c_str(), num(r.times.shadow_ms, 4).c_str(),
+                std::isnan(r.speedup) ? "-" : (format_significant(r.speedup, 3) + "x").c_str());
+  }
+}
+
+int run_compare(const CompareCliOptions& o) {
+  ThreadLimit limit(o.threads);
+  RunSetup setup = RunSetup::from_file(o.scene);
+  setup.light_samples = o.spp;
+  setup.reference_samples = o.reference_spp;
+  setup.seed = o.seed;
+  if (!o.resolution.empty()) setup.apply("resolution", o.resolution);
+  for (const std::string& kv : o.params) setup.apply(kv);
+  CompareOptions co;
+  co.methods = expand_method_list(o.methods);
+  co.runs = o.runs;
+  co.progress = !o.quiet;
+  co.cache_dir = o.no_cache ? std::filesystem::path() : o.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(o.cache_dir);
+  std::string out = o.output.empty() ? fmt::format("compare-{}", std::filesystem::path(o.scene).stem().string()) : o.output;
+
+  Comparison c = run_comparison(setup, co);
+  c.command = command_line();
+  ReportOptions ro;
+  ro.heatmap_scale = o.heatmap_scale;
+  ro.write_images = !o.no_images;
+  write_comparison(c, out, ro);
+  if (!o.quiet) {
+    print_summary(c);
+    int failed = 0;
+    for (const auto& r : c.runs) failed += r.ok ? 0 : 1;
+    std::fprintf(stderr, "%s: %zu methods (%d failed), ground truth %s; %.1f s -> %s/index.html\n", o.scene.c_str(),
+                 c.runs.size(), failed, c.truth.from_cache ? "from the cache" : "rendered", c.wall_ms / 1000,
+                 out.c_str());
+  }
+  return 0;
+}
+
+const CommandRegistration registration("compare", 50, [](CLI::App& app) {
+  auto o = std::make_shared<CompareCliOptions>();
+  CLI::App* cmd = app.add_subcommand("compare", "every method against the ground truth: an HTML page, JSON and CSV");
+  cmd->add_option("scene", o->scene, "scene file (JSON)")->required();
+  cmd->add_option("--methods", o->methods, "methods to compare, comma-separated, or 'all'")
+      ->delimiter(',')->capture_default_str();
+  cmd->add_option("--spp", o->spp, "light samples of every method that samples the light")
+      ->capture_default_str()->check(CLI::Range(1, 1 << 20));
+  cmd->add_option("--reference-spp", o->reference_spp, "light samples of the ground truth (the reference)")
+      ->capture_default_str()->check(CLI::Range(1, 1 << 20));
+  cmd->add_option("--resolution", o->resolution, "image size N or WxH (overrides the scene's camera)");
+  cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
+  cmd->add_option("-p,--param", o->params,
+                  "setting key=value (repeatable): <method>.<param>, <param> (every method declaring it), "
+                  "light.size_scale, light.size, light.radius, generator.<param>, pixel_samples, ...");
+  cmd->add_option("-o,--output", o->output, "output folder (default compare-<scene>)");
+  cmd->add_option("--runs", o->runs, "timed renders per method (the median is reported)")
+      ->capture_default_str()->check(CLI::Range(1, 100));
+  cmd->add_option("--cache-dir", o->cache_dir, "reference cache folder (default $PENUMBRA_CACHE_DIR or ~/.cache/penumbra)");
+  cmd->add_flag("--no-cache", o->no_cache, "always render the ground truth, store nothing");
+  cmd->add_option("--heatmap-scale", o->heatmap_scale, "|dV| at the end of the heat-map colour scales (0: automatic)")
+      ->check(CLI::Range(0.0, 1.0));
+  cmd->add_flag("--no-images", o->no_images, "do not write DIR/images/*.exr");
+  cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
+  return [o] { return run_compare(*o); };
+});
+
+}  // namespace
+}  // namespace penumbra::app

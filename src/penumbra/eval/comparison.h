@@ -1,0 +1,124 @@
+// A comparison: every chosen shadow method rendered on one scene and measured against the
+// ground truth (the reference at many light samples, cached): V errors, colour PSNR and
+// FLIP, time per phase, speed ratio, rays traced and memory. A method that throws is
+// recorded with its message and the others still run. Used by `penumbra compare`, `sweep`
+// and `bench`; written out as index.html, results.json and results.csv (docs/compare.md).
+#pragma once
+
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "penumbra/core/image.h"
+#include "penumbra/eval/metrics.h"
+#include "penumbra/eval/reference_cache.h"
+#include "penumbra/eval/run_setup.h"
+#include "penumbra/shadow/stats.h"
+
+namespace penumbra {
+
+class Progress;
+
+struct CompareOptions {
+  std::vector<std::string> methods;  // registered names (expand_method_list)
+  bool ground_truth = true;          // false: timings only, no error metrics
+  std::filesystem::path cache_dir;   // reference cache; empty: always render it
+  int runs = 1;                      // timed renders per method; the median is reported
+  int warmup_runs = 0;               // untimed renders per method before the timed ones
+  bool keep_images = true;           // keep each method's colour and V images
+  bool progress = false;             // one progress bar on stderr over the whole comparison
+  // A bar owned by the caller (a sweep over several comparisons); overrides `progress`.
+  Progress* progress_bar = nullptr;
+};
+
+// Times of one render (ms). shadow = total - camera pass - compose: what the method itself
+// costs (prepare + evaluate), the part that differs between methods.
+struct RenderTimes {
+  double total_ms = 0;
+  double camera_pass_ms = 0;
+  double shadow_ms = 0;
+};
+
+struct MethodRun {
+  std::string method;
+  bool ok = false;
+  std::string error;            // the exception's message when !ok
+  nlohmann::json params;        // resolved parameters
+  int light_samples = 0;        // --spp when the method samples the light, else 0
+  Image color, visibility;      // when keep_images
+  RenderTimes times;            // of the median run (by shadow_ms)
+  std::vector<double> run_shadow_ms;  // every timed run
+  MethodStats stats;            // of the median run: phases, rays, memory, extra
+  size_t view_samples = 0;
+  // Against the ground truth (NaN without one).
+  ErrorStats v;                         // on V
+  double color_psnr = std::numeric_limits<double>::quiet_NaN();  // dB, displayed (sRGB) colour
+  double flip = std::numeric_limits<double>::quiet_NaN();        // mean FLIP of the colour image
+  double speedup = std::numeric_limits<double>::quiet_NaN();     // basis shadow_ms / this shadow_ms
+};
+
+struct Comparison {
+  std::string scene;            // the scene file
+  std::string description;      // the scene's "description"
+  int width = 0, height = 0, pixel_samples = 1;
+  size_t triangles = 0, lights = 0;
+  int light_samples = 0, reference_samples = 0;
+  uint64_t seed = 0;
+  std::vector<std::string> params;  // the run's method parameter settings
+  bool has_ground_truth = false;
+  GroundTruth truth;
+  std::vector<MethodRun> runs;  // in the order of CompareOptions::methods
+  // What speedup divides: "reference" (the reference method at --spp in this run) or
+  // "ground truth" (the ground truth's render, when `reference` is not compared).
+  std::string speedup_basis;
+  double speedup_basis_ms = 0;
+  nlohmann::json machine;       // machine_json()
+  std::string started;          // local time, ISO 8601
+  double wall_ms = 0;
+  std::string command;          // the command line, set by the CLI
+};
+
+Comparison run_comparison(const RunSetup& setup, const CompareOptions& options);
+// Shadow rays traced per view sample (over all lights): agrawala2000's "average rays
+// traced" per shading point; NaN when there are no view samples.
+double rays_per_view_sample(const MethodRun& r);
+// The progress units run_comparison() will report: a caller that passes its own bar
+// (options.progress_bar) sets the bar's total to the sum over its comparisons.
+uint64_t comparison_progress_units(const RunSetup& setup, const CompareOptions& options);
+
+// The colour image as displayed: linear radiance clamped to [0,1] and sRGB-encoded (what
+// the PNG shows); PSNR of colour images is computed on these values.
+Image display_srgb(const Image& linear);
+
+// CPU model, logical cores, worker threads, compiler, build type.
+nlohmann::json machine_json();
+// A number for JSON: finite as is, +/-infinity as "inf"/"-inf", NaN as null.
+nlohmann::json json_number(double v);
+// Local time now, "2024-05-01T12:34:56".
+std::string local_time_iso();
+
+// results.json: the settings, the ground truth and one object per method.
+nlohmann::json comparison_json(const Comparison& c);
+// results.csv: one row per method (phase columns: the union of the methods' phases).
+std::string comparison_csv(const Comparison& c);
+
+struct ReportOptions {
+  // Scale of the V error heat maps, shared by every method so they compare at a glance;
+  // 0: automatic: the lower median over the methods of each one's 99th percentile of
+  // |dV|, rounded up to 1, 2 or 5 x 10^k.
+  float heatmap_scale = 0;
+  bool write_images = true;  // also DIR/images/<method>.exr (colour + V) for `penumbra diff`
+};
+
+// Writes DIR/index.html, DIR/results.json, DIR/results.csv (and DIR/images/). Creates DIR.
+void write_comparison(const Comparison& c, const std::filesystem::path& dir, const ReportOptions& options = {});
+
+// The self-contained HTML page (report_html.cpp).
+std::string comparison_html(const Comparison& c, const ReportOptions& options = {});
+// The heat-map scale the page uses for `options` (the automatic one when 0).
+float comparison_heatmap_scale(const Comparison& c, const ReportOptions& options);
+
+}  // namespace penumbra

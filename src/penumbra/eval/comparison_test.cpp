@@ -1,0 +1,313 @@
+#include "penumbra/eval/comparison.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <regex>
+
+#include "penumbra/eval/metrics.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/testing/compare_fixture.h"
+
+namespace penumbra {
+namespace {
+
+using nlohmann::json;
+using testing::TempDir;
+using testing::slurp;
+using testing::tiny_contact_setup;
+
+const MethodRun& find_run(const Comparison& c, const std::string& name) {
+  for (const auto& r : c.runs)
+    if (r.method == name) return r;
+  throw Error("no run of {}", name);
+}
+
+TEST(Comparison, RunsEveryMethodAgainstTheGroundTruth) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"reference", "hard", "single-sample"};
+  o.cache_dir = dir / "cache";
+  RunSetup setup = tiny_contact_setup();
+  Comparison c = run_comparison(setup, o);
+  ASSERT_TRUE(c.has_ground_truth);
+  EXPECT_EQ(c.width, 32);
+  EXPECT_EQ(c.truth.light_samples, 16);
+  EXPECT_EQ(c.truth.seed, ground_truth_seed(0));
+  ASSERT_EQ(c.runs.size(), 3u);
+  for (const MethodRun& r : c.runs) {
+    ASSERT_TRUE(r.ok) << r.method << ": " << r.error;
+    EXPECT_TRUE(std::isfinite(r.v.mae)) << r.method;
+    EXPECT_GE(r.v.rmse, r.v.mae);
+    EXPECT_GE(r.v.max_abs, r.v.rmse);
+    EXPECT_TRUE(r.flip >= 0 && r.flip <= 1) << r.flip;
+    EXPECT_GT(r.times.total_ms, 0);
+    EXPECT_EQ(r.color.width(), 32);
+    EXPECT_GT(r.stats.rays_traced, 0u) << r.method;
+  }
+  // The metrics are those of eval/ on the images the runs kept.
+  const MethodRun& hard = find_run(c, "hard");
+  ErrorStats direct = compare_images(hard.visibility, c.truth.visibility);
+  EXPECT_EQ(hard.v.mae, direct.mae);
+  EXPECT_EQ(hard.color_psnr, compare_images(display_srgb(hard.color), display_srgb(c.truth.color)).psnr);
+  // The reference at 4 samples is noisy but unbiased; hard shadows miss every penumbra.
+  const MethodRun& ref = find_run(c, "reference");
+  EXPECT_LT(ref.v.mae, hard.v.mae);
+  EXPECT_EQ(ref.light_samples, 4);
+  EXPECT_EQ(hard.light_samples, 0);
+  // At most one ray per light sample and view sample (none toward a light behind the point).
+  EXPECT_GT(rays_per_view_sample(ref), 2.0);
+  EXPECT_LE(rays_per_view_sample(ref), 4.0);
+  EXPECT_LE(rays_per_view_sample(hard), 1.0);
+  // Speed-ups are against the reference method of this run.
+  EXPECT_EQ(c.speedup_basis, "reference");
+  EXPECT_DOUBLE_EQ(ref.speedup, 1.0);
+  EXPECT_NEAR(hard.speedup, ref.times.shadow_ms / hard.times.shadow_ms, 1e-9);
+  // The ground truth's own seed: the reference row is not the ground truth at equal spp.
+  EXPECT_GT(ref.v.mae, 0);
+}
+
+TEST(Comparison, AFailingMethodIsReportedAndTheOthersStillRun) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"hard", "single-sample", "reference"};
+  o.cache_dir = dir / "cache";
+  RunSetup setup = tiny_contact_setup();
+  setup.apply("hard.no_such_param", "1");  // create_method throws for hard only
+  Comparison c = run_comparison(setup, o);
+  const MethodRun& hard = find_run(c, "hard");
+  EXPECT_FALSE(hard.ok);
+  EXPECT_NE(hard.error.find("no_such_param"), std::string::npos) << hard.error;
+  EXPECT_TRUE(find_run(c, "single-sample").ok);
+  EXPECT_TRUE(find_run(c, "reference").ok);
+
+  write_comparison(c, dir / "out");
+  std::string html = slurp(dir / "out" / "index.html");
+  EXPECT_NE(html.find("<tr class=\"failed\" data-method=\"hard\">"), std::string::npos);
+  EXPECT_NE(html.find("unknown parameter &#39;no_such_param&#39;"), std::string::npos);
+  EXPECT_NE(html.find("<div class=\"card failed\" data-method=\"hard\">"), std::string::npos);
+  json j = json::parse(slurp(dir / "out" / "results.json"));
+  for (const json& m : j["methods"]) {
+    if (m["method"] == "hard") {
+      EXPECT_FALSE(m["ok"].get<bool>());
+      EXPECT_EQ(m["error"], hard.error);
+    } else {
+      EXPECT_TRUE(m["ok"].get<bool>());
+    }
+  }
+  std::string csv = slurp(dir / "out" / "results.csv");
+  EXPECT_NE(csv.find("\nhard,false,"), std::string::npos);
+  // Every CSV row has as many fields as the header (the error has no comma here).
+  std::istringstream lines(csv);
+  std::string header, line;
+  std::getline(lines, header);
+  size_t fields = std::count(header.begin(), header.end(), ',');
+  while (std::getline(lines, line)) EXPECT_EQ(static_cast<size_t>(std::count(line.begin(), line.end(), ',')), fields) << line;
+}
+
+TEST(Comparison, UnknownPlainParameterFailsBeforeRendering) {
+  CompareOptions o;
+  o.methods = {"hard"};
+  RunSetup setup = tiny_contact_setup();
+  setup.apply("sampling", "area");  // only reference declares it
+  EXPECT_THROW(run_comparison(setup, o), Error);
+}
+
+TEST(Comparison, TheReferenceCacheIsHitTheSecondTime) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"hard"};
+  o.cache_dir = dir / "cache";
+  RunSetup setup = tiny_contact_setup();
+  EXPECT_FALSE(ground_truth_cached(setup, o.cache_dir));
+  Comparison first = run_comparison(setup, o);
+  EXPECT_FALSE(first.truth.from_cache);
+  EXPECT_TRUE(ground_truth_cached(setup, o.cache_dir));
+  Comparison second = run_comparison(setup, o);
+  EXPECT_TRUE(second.truth.from_cache);
+  EXPECT_EQ(first.truth.key, second.truth.key);
+  EXPECT_EQ(first.truth.visibility.data(), second.truth.visibility.data());  // EXR float: exact
+  EXPECT_EQ(first.truth.color.data(), second.truth.color.data());
+  EXPECT_EQ(find_run(first, "hard").v.mae, find_run(second, "hard").v.mae);
+  EXPECT_EQ(first.truth.total_ms, second.truth.total_ms);  // the time of the render that made it
+
+  // The methods' spp does not change the ground truth; anything that changes its pixels does.
+  RunSetup more = setup;
+  more.light_samples = 64;
+  EXPECT_EQ(ground_truth_key(more), first.truth.key);
+  for (auto [key, value] : std::vector<std::pair<std::string, std::string>>{
+           {"reference_spp", "32"}, {"light.size_scale", "2"}, {"resolution", "16"}, {"seed", "3"},
+           {"reference.sampling", "area"}}) {
+    RunSetup changed = setup;
+    changed.apply(key, value);
+    EXPECT_NE(ground_truth_key(changed), first.truth.key) << key;
+  }
+  // No cache folder: always rendered.
+  o.cache_dir.clear();
+  EXPECT_FALSE(run_comparison(setup, o).truth.from_cache);
+}
+
+TEST(Comparison, MedianOfSeveralRunsAndWarmups) {
+  CompareOptions o;
+  o.methods = {"hard"};
+  o.ground_truth = false;
+  o.runs = 3;
+  o.warmup_runs = 1;
+  Comparison c = run_comparison(tiny_contact_setup(), o);
+  const MethodRun& r = c.runs[0];
+  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_EQ(r.run_shadow_ms.size(), 3u);
+  std::vector<double> t = r.run_shadow_ms;
+  std::sort(t.begin(), t.end());
+  EXPECT_EQ(r.times.shadow_ms, t[1]);
+  EXPECT_FALSE(r.color.empty());  // the images survive dropping the warm-up
+  // No ground truth: no error metrics, no basis for a speed-up without the reference.
+  EXPECT_FALSE(c.has_ground_truth);
+  EXPECT_TRUE(std::isnan(r.v.mae));
+  EXPECT_TRUE(std::isnan(r.speedup));
+  EXPECT_EQ(comparison_progress_units(tiny_contact_setup(), o), 32u * 32u * 4u);
+}
+
+TEST(Comparison, SpeedupAgainstTheGroundTruthWithoutTheReferenceMethod) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"hard"};
+  o.cache_dir = dir / "cache";
+  Comparison c = run_comparison(tiny_contact_setup(), o);
+  EXPECT_EQ(c.speedup_basis, "ground truth");
+  EXPECT_GT(c.speedup_basis_ms, 0);
+  EXPECT_TRUE(std::isfinite(c.runs[0].speedup));
+}
+
+// --- results.json against the page's table
+
+std::string html_unescape(std::string s) {
+  for (auto [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"&quot;", "\""}, {"&#39;", "'"}, {"&lt;", "<"}, {"&gt;", ">"}, {"&amp;", "&"}}) {
+    for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
+  }
+  return s;
+}
+
+struct Cell {
+  std::string value;    // data-value (JSON text)
+  std::string display;  // the text shown
+};
+
+// method -> key -> cell, from the <tbody> of the results table.
+std::map<std::string, std::map<std::string, Cell>> parse_table(const std::string& html) {
+  std::map<std::string, std::map<std::string, Cell>> out;
+  size_t b = html.find("<table id=\"results\">");
+  size_t body = html.find("<tbody>", b), end = html.find("</tbody>", b);
+  EXPECT_NE(b, std::string::npos);
+  std::string rows = html.substr(body, end - body);
+  static const std::regex row_re("<tr data-method=\"([^\"]+)\">");
+  static const std::regex cell_re("<td data-key=\"([a-z_]+)\" data-value=\"([^\"]*)\"(?: class=\"best\")?>([^<]*)</td>");
+  for (size_t p = rows.find("<tr"); p != std::string::npos;) {
+    size_t q = rows.find("</tr>", p);
+    std::string row = rows.substr(p, q - p);
+    std::smatch m;
+    if (std::regex_search(row, m, row_re)) {
+      std::string method = m[1];
+      for (auto it = std::sregex_iterator(row.begin(), row.end(), cell_re); it != std::sregex_iterator(); ++it)
+        out[method][(*it)[1]] = {html_unescape((*it)[2]), html_unescape((*it)[3])};
+    }
+    p = rows.find("<tr", q);
+  }
+  return out;
+}
+
+double parse_display(const std::string& key, std::string text) {
+  auto strip = [&](const std::string& s) {
+    for (size_t p = text.find(s); p != std::string::npos; p = text.find(s)) text.erase(p, s.size());
+  };
+  strip(",");
+  strip("×");
+  double scale = 1;
+  if (key == "memory_bytes") {
+    for (auto [unit, f] : std::vector<std::pair<std::string, double>>{
+             {" KiB", 1024.0}, {" MiB", 1048576.0}, {" GiB", 1073741824.0}, {" B", 1.0}}) {
+      if (text.size() > unit.size() && text.substr(text.size() - unit.size()) == unit) {
+        text.erase(text.size() - unit.size());
+        scale = f;
+        break;
+      }
+    }
+  }
+  return std::stod(text) * scale;
+}
+
+TEST(Comparison, ResultsJsonMatchesTheHtmlTable) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"reference", "hard", "single-sample"};
+  o.cache_dir = dir / "cache";
+  RunSetup setup = tiny_contact_setup();
+  setup.apply("single-sample.bogus", "1");  // one failed row as well
+  Comparison c = run_comparison(setup, o);
+  write_comparison(c, dir / "out");
+  json j = json::parse(slurp(dir / "out" / "results.json"));
+  auto table = parse_table(slurp(dir / "out" / "index.html"));
+
+  const std::vector<std::string> keys = {"light_samples", "v_mae", "v_rmse", "v_max", "v_mean_signed", "color_psnr",
+                                         "flip", "shadow_ms", "speedup", "camera_pass_ms", "total_ms", "rays_traced",
+                                         "memory_bytes"};
+  int checked = 0;
+  ASSERT_EQ(j["methods"].size(), 3u);
+  for (const json& m : j["methods"]) {
+    std::string name = m["method"];
+    if (!m["ok"].get<bool>()) {
+      EXPECT_EQ(table.count(name), 0u) << name << " failed: it has no numeric cells";
+      continue;
+    }
+    ASSERT_EQ(table.count(name), 1u) << name;
+    for (const std::string& key : keys) {
+      ASSERT_EQ(table[name].count(key), 1u) << name << " " << key;
+      const Cell& cell = table[name][key];
+      // The exact value: the same JSON number.
+      EXPECT_EQ(json::parse(cell.value), m[key]) << name << " " << key;
+      // The text shown: that number rounded for reading.
+      if (m[key].is_number()) {
+        double v = m[key].get<double>();
+        if (key == "light_samples" && v == 0) {
+          EXPECT_EQ(cell.display, "—");
+          continue;
+        }
+        double shown = parse_display(key, cell.display);
+        double tol = key == "color_psnr" ? 0.0051 : std::abs(v) * 5.01e-3 + 1e-12;
+        EXPECT_NEAR(shown, v, tol) << name << " " << key << ": '" << cell.display << "'";
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GE(checked, 2 * 12);
+}
+
+TEST(Comparison, PageIsSelfContained) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"hard", "reference"};
+  o.cache_dir = dir / "cache";
+  Comparison c = run_comparison(tiny_contact_setup(), o);
+  std::string html = comparison_html(c);
+  // Nothing fetched: no URLs but data URIs.
+  EXPECT_EQ(html.find("http://"), std::string::npos);
+  EXPECT_EQ(html.find("https://"), std::string::npos);
+  EXPECT_EQ(html.find("src=\"file"), std::string::npos);
+  // Every image is an embedded PNG: the ground truth's two, three per method.
+  size_t images = 0;
+  for (size_t p = html.find("<img "); p != std::string::npos; p = html.find("<img ", p + 1)) {
+    ++images;
+    EXPECT_EQ(html.compare(html.find("src=\"", p) + 5, 22, "data:image/png;base64,"), 0);
+  }
+  EXPECT_EQ(images, 2u + 3u * 2u);
+  // The heat-map legends name the shared scale.
+  float scale = comparison_heatmap_scale(c, {});
+  EXPECT_GT(scale, 0);
+  EXPECT_LE(scale, 1);
+  EXPECT_EQ(comparison_heatmap_scale(c, ReportOptions{0.25f}), 0.25f);
+}
+
+}  // namespace
+}  // namespace penumbra

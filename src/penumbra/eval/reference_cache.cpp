@@ -1,0 +1,218 @@
+#include "penumbra/eval/reference_cache.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <system_error>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/json_reader.h"
+
+namespace penumbra {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr int kCacheFormat = 1;
+
+uint64_t fnv1a(const std::string& s, uint64_t basis, bool reverse) {
+  uint64_t h = basis;
+  const size_t n = s.size();
+  for (size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(reverse ? s[n - 1 - i] : s[i]);
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+// Size and modification time of a file; null when it cannot be read.
+json file_identity(const fs::path& p) {
+  std::error_code ec;
+  auto size = fs::file_size(p, ec);
+  if (ec) return json{{"path", p.string()}, {"missing", true}};
+  auto mtime = fs::last_write_time(p, ec);
+  long long ticks = ec ? 0 : static_cast<long long>(mtime.time_since_epoch().count());
+  return json{{"path", p.string()}, {"size", size}, {"mtime", ticks}};
+}
+
+json program_identity() {
+  std::error_code ec;
+  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return json("unknown");
+  return file_identity(exe);
+}
+
+}  // namespace
+
+fs::path default_cache_dir() {
+  if (const char* d = std::getenv("PENUMBRA_CACHE_DIR"); d && *d) return fs::path(d);
+  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) return fs::path(d) / "penumbra";
+  if (const char* d = std::getenv("HOME"); d && *d) return fs::path(d) / ".cache" / "penumbra";
+  return {};
+}
+
+uint64_t ground_truth_seed(uint64_t seed) { return seed ^ 0x9e3779b97f4a7c15ull; }
+
+std::string ground_truth_key(const RunSetup& setup, json* key_document) {
+  json files = json::array();
+  if (setup.scene_doc.contains("objects") && setup.scene_doc["objects"].is_array()) {
+    for (const json& obj : setup.scene_doc["objects"]) {
+      if (!obj.is_object() || !obj.contains("mesh") || !obj["mesh"].is_string()) continue;
+      fs::path mesh = obj["mesh"].get<std::string>();
+      if (mesh.is_relative()) mesh = setup.scene_path.parent_path() / mesh;
+      files.push_back(file_identity(mesh));
+    }
+  }
+  json doc = {{"format", kCacheFormat},
+              {"scene", setup.scene_doc},
+              {"files", files},
+              {"reference_spp", setup.reference_samples},
+              {"seed", ground_truth_seed(setup.seed)},
+              {"params", setup.overrides_for("reference", /*explicit_only=*/true)},
+              {"program", program_identity()}};
+  // nlohmann::json keeps object keys sorted: dump() is canonical.
+  std::string text = doc.dump();
+  if (key_document) *key_document = doc;
+  return fmt::format("{:016x}{:016x}", fnv1a(text, 0xcbf29ce484222325ull, false),
+                     fnv1a(text, 0x84222325cbf29ce4ull, true));
+}
+
+namespace {
+
+struct CachePaths {
+  fs::path exr, meta;
+};
+CachePaths cache_paths(const fs::path& dir, const std::string& key) {
+  return {dir / fmt::format("reference-{}.exr", key), dir / fmt::format("reference-{}.json", key)};
+}
+
+bool load_cached(const fs::path& dir, const std::string& key, int width, int height, GroundTruth* out) {
+  CachePaths p = cache_paths(dir, key);
+  std::error_code ec;
+  if (!fs::exists(p.exr, ec) || !fs::exists(p.meta, ec)) return false;
+  try {
+    json meta = json::parse(read_text_file(p.meta));
+    if (meta.value("key", "") != key) return false;
+    Image color = read_image(p.exr.string());
+    Image v = read_exr_channel(p.exr.string(), "V");
+    if (color.width() != width || color.height() != height || v.width() != width || v.height() != height ||
+        color.channels() != 3)
+      return false;
+    out->color = std::move(color);
+    out->visibility = std::move(v);
+    out->light_samples = meta.at("reference_spp").get<int>();
+    out->seed = meta.at("seed").get<uint64_t>();
+    out->params = meta.at("params");
+    out->total_ms = meta.at("total_ms").get<double>();
+    out->camera_pass_ms = meta.at("camera_pass_ms").get<double>();
+    out->stats = meta.at("stats");
+    out->from_cache = true;
+    out->key = key;
+    out->cache_file = p.exr;
+    // Touch the entry so that pruning removes the least recently used first.
+    fs::last_write_time(p.meta, fs::file_time_type::clock::now(), ec);
+    return true;
+  } catch (const std::exception&) {
+    return false;  // a damaged entry is rendered again and overwritten
+  }
+}
+
+}  // namespace
+
+bool ground_truth_cached(const RunSetup& setup, const fs::path& cache_dir) {
+  if (cache_dir.empty()) return false;
+  CachePaths p = cache_paths(cache_dir, ground_truth_key(setup));
+  std::error_code ec;
+  return fs::exists(p.exr, ec) && fs::exists(p.meta, ec);
+}
+
+GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const fs::path& cache_dir, Progress* progress) {
+  json key_doc;
+  GroundTruth gt;
+  gt.key = ground_truth_key(setup, &key_doc);
+  if (!cache_dir.empty() && load_cached(cache_dir, gt.key, scene.camera.width, scene.camera.height, &gt)) return gt;
+
+  RenderSettings settings;
+  settings.method = "reference";
+  settings.params = setup.overrides_for("reference", /*explicit_only=*/true);
+  settings.light_samples = setup.reference_samples;
+  settings.seed = ground_truth_seed(setup.seed);
+  settings.progress_bar = progress;
+  RenderResult r = render_scene(scene, settings);
+  gt.color = std::move(r.color);
+  gt.visibility = std::move(r.visibility);
+  gt.light_samples = setup.reference_samples;
+  gt.seed = settings.seed;
+  gt.params = r.resolved_params;
+  gt.total_ms = r.total_ms;
+  gt.camera_pass_ms = r.camera_pass_ms;
+  gt.stats = r.stats.to_json();
+  gt.from_cache = false;
+
+  if (!cache_dir.empty()) {
+    try {
+      fs::create_directories(cache_dir);
+      CachePaths p = cache_paths(cache_dir, gt.key);
+      write_image(p.exr.string(), gt.color, {{"V", &gt.visibility}});
+      json meta = {{"key", gt.key},
+                   {"reference_spp", gt.light_samples},
+                   {"seed", gt.seed},
+                   {"params", gt.params},
+                   {"total_ms", gt.total_ms},
+                   {"camera_pass_ms", gt.camera_pass_ms},
+                   {"stats", gt.stats},
+                   {"scene", setup.scene_path.string()},
+                   {"key_document", key_doc}};
+      write_text_file_atomic(p.meta, meta.dump(1) + "\n");
+      gt.cache_file = p.exr;
+      prune_cache(cache_dir, uintmax_t(2) << 30);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "penumbra: warning: reference cache %s not written: %s\n", cache_dir.string().c_str(),
+                   e.what());
+    }
+  }
+  return gt;
+}
+
+void prune_cache(const fs::path& cache_dir, uintmax_t max_bytes) {
+  struct Entry {
+    fs::file_time_type time;
+    uintmax_t bytes = 0;
+    std::vector<fs::path> files;
+  };
+  std::error_code ec;
+  std::map<std::string, Entry> entries;  // by key
+  for (const auto& f : fs::directory_iterator(cache_dir, ec)) {
+    std::string name = f.path().filename().string();
+    if (name.rfind("reference-", 0) != 0) continue;
+    std::string key = f.path().stem().string();
+    Entry& e = entries[key];
+    e.bytes += f.file_size(ec);
+    auto t = f.last_write_time(ec);
+    if (e.files.empty() || t > e.time) e.time = t;
+    e.files.push_back(f.path());
+  }
+  uintmax_t total = 0;
+  std::vector<Entry*> order;
+  for (auto& [k, e] : entries) {
+    total += e.bytes;
+    order.push_back(&e);
+  }
+  std::sort(order.begin(), order.end(), [](const Entry* a, const Entry* b) { return a->time < b->time; });
+  for (Entry* e : order) {
+    if (total <= max_bytes) break;
+    for (const auto& f : e->files) fs::remove(f, ec);
+    total -= e->bytes;
+  }
+}
+
+}  // namespace penumbra

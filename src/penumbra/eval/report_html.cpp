@@ -1,0 +1,520 @@
+// The comparison page (index.html): one self-contained file (images as PNG data URIs,
+// inline CSS and JS, nothing fetched) that reads at a glance: a table of every method
+// sorted by error with the best value of each column highlighted, then each method's image
+// beside its signed and absolute V error maps on one shared scale, and a zoom that shows
+// the same crop of every image magnified.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "penumbra/eval/comparison.h"
+#include "penumbra/eval/heatmap.h"
+#include "penumbra/eval/metrics.h"
+#include "penumbra/eval/report_util.h"
+
+namespace penumbra {
+
+using nlohmann::json;
+
+namespace {
+
+// 1, 2 or 5 x 10^k, the smallest such at or above v.
+float nice_ceiling(float v) {
+  if (!(v > 0)) return 1.0f;
+  double e = std::floor(std::log10(v));
+  double base = std::pow(10.0, e);
+  for (double m : {1.0, 2.0, 5.0, 10.0})
+    if (m * base >= v * (1 - 1e-6)) return static_cast<float>(m * base);
+  return static_cast<float>(10 * base);
+}
+
+std::string css_gradient(ColorMap map) {
+  std::string stops;
+  for (int i = 0; i <= 10; ++i) {
+    Vec3f c = colormap_srgb(map, i / 10.0f);
+    auto b = [](float x) { return static_cast<int>(std::lround(clamp01(x) * 255)); };
+    stops += fmt::format("{}#{:02x}{:02x}{:02x} {}%", i ? ", " : "", b(c.x), b(c.y), b(c.z), i * 10);
+  }
+  return "linear-gradient(to right, " + stops + ")";
+}
+
+struct Column {
+  std::string key, header, tip;
+  enum class Better { kNone, kLower, kHigher, kLowerAbs } better = Better::kNone;
+  bool needs_truth = false;
+};
+
+const std::vector<Column>& columns() {
+  using B = Column::Better;
+  static const std::vector<Column> cols = {
+      {"light_samples", "spp", "light samples per shading point (— : the method does not sample the light)"},
+      {"v_mae", "mean |ΔV|", "mean absolute error of the visibility V against the ground truth", B::kLower, true},
+      {"v_rmse", "RMSE ΔV", "root mean square error of V", B::kLower, true},
+      {"v_max", "max |ΔV|", "largest absolute error of V in any pixel", B::kLower, true},
+      {"v_mean_signed", "mean ΔV", "bias: mean of (method − ground truth); negative = too dark", B::kLowerAbs, true},
+      {"color_psnr", "PSNR dB", "PSNR of the colour image as displayed (sRGB, clamped), peak 1", B::kHigher, true},
+      {"flip", "FLIP", "mean FLIP (Andersson et al. 2020) of the colour image; 0 = identical", B::kLower, true},
+      {"shadow_ms", "shadow ms", "the method's own time: total − camera pass − compose (median of the runs)",
+       B::kLower},
+      {"speedup", "speed-up", "time of the basis (see above) / this method's shadow time", B::kHigher},
+      {"camera_pass_ms", "camera ms", "camera pass (primary rays on Embree), the same work for every method"},
+      {"total_ms", "total ms", "the whole render: camera pass, every phase, compose"},
+      {"rays_traced", "rays", "shadow rays traced through geometry or depth images"},
+      {"memory_bytes", "memory", "peak size of the method's light-space structures"},
+  };
+  return cols;
+}
+
+double run_value(const MethodRun& r, const std::string& key) {
+  if (key == "light_samples") return r.light_samples;
+  if (key == "v_mae") return r.v.mae;
+  if (key == "v_rmse") return r.v.rmse;
+  if (key == "v_max") return r.v.max_abs;
+  if (key == "v_mean_signed") return r.v.mean_signed;
+  if (key == "color_psnr") return r.color_psnr;
+  if (key == "flip") return r.flip;
+  if (key == "shadow_ms") return r.times.shadow_ms;
+  if (key == "speedup") return r.speedup;
+  if (key == "camera_pass_ms") return r.times.camera_pass_ms;
+  if (key == "total_ms") return r.times.total_ms;
+  if (key == "rays_traced") return static_cast<double>(r.stats.rays_traced);
+  if (key == "memory_bytes") return static_cast<double>(r.stats.memory_bytes);
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// The exact value, as results.json holds it.
+json run_json_value(const MethodRun& r, const std::string& key) {
+  if (key == "light_samples") return r.light_samples;
+  if (key == "rays_traced") return r.stats.rays_traced;
+  if (key == "memory_bytes") return r.stats.memory_bytes;
+  return json_number(run_value(r, key));
+}
+
+std::string display(const MethodRun& r, const std::string& key) {
+  double v = run_value(r, key);
+  if (key == "light_samples") return r.light_samples > 0 ? std::to_string(r.light_samples) : "—";
+  if (std::isnan(v)) return "—";
+  if (key == "color_psnr") return std::isinf(v) ? "∞" : fmt::format("{:.2f}", v);
+  if (key == "speedup") return format_significant(v, 3) + "×";
+  if (key == "rays_traced") return format_grouped(r.stats.rays_traced);
+  if (key == "memory_bytes") return format_bytes(r.stats.memory_bytes);
+  return format_significant(v, 3);
+}
+
+const char* kStyle = R"CSS(
+:root { --thumb: 256px; color-scheme: light; }
+body { font: 14px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; margin: 24px; color: #1d1d1f; background: #fafafa; }
+h1 { font-size: 22px; margin: 0 0 4px; } h2 { font-size: 17px; margin: 28px 0 8px; }
+.meta { color: #555; margin: 2px 0; } .meta code { color: #333; }
+table { border-collapse: collapse; background: #fff; box-shadow: 0 1px 2px #0002; }
+th, td { padding: 5px 9px; border-bottom: 1px solid #e3e3e3; text-align: right; white-space: nowrap; }
+th { background: #f0f0f3; cursor: pointer; user-select: none; position: sticky; top: 0; }
+th.sorted-asc::after { content: " ▲"; font-size: 10px; } th.sorted-desc::after { content: " ▼"; font-size: 10px; }
+td.name, th.name { text-align: left; font-weight: 600; }
+td.best { background: #d8f3dc; font-weight: 700; }
+td.phases { text-align: left; color: #555; font-size: 12px; }
+tr.failed td { background: #fde8e8; } td.error { text-align: left; color: #a00; white-space: normal; max-width: 60em; }
+.legend { display: inline-flex; align-items: center; gap: 8px; margin: 4px 24px 4px 0; }
+.bar { width: 220px; height: 12px; border: 1px solid #999; }
+.toolbar { position: sticky; top: 0; z-index: 5; background: #fafafaee; padding: 6px 0; border-bottom: 1px solid #ddd; }
+.toolbar button { margin-left: 8px; }
+.cards { display: flex; flex-direction: column; gap: 14px; }
+.card { background: #fff; box-shadow: 0 1px 2px #0002; padding: 10px 12px; }
+.card h3 { margin: 0 0 4px; font-size: 15px; } .card .sub { color: #555; font-size: 12px; margin-bottom: 6px; }
+.card.failed { background: #fde8e8; } .card.failed .error { color: #a00; }
+.row { display: flex; flex-wrap: wrap; gap: 10px; }
+figure { margin: 0; } figcaption { font-size: 12px; color: #555; margin-top: 3px; }
+.view { position: relative; display: inline-block; line-height: 0; cursor: crosshair; touch-action: none; }
+.view img, .view canvas { width: var(--thumb); height: auto; }
+.view img.up, .view canvas { image-rendering: pixelated; }
+.view img { outline: 1px solid #d0d0d0; }
+.view canvas { position: absolute; left: 0; top: 0; }
+.band { position: absolute; border: 1px dashed #fff; outline: 1px dashed #000; pointer-events: none; display: none; }
+)CSS";
+
+const char* kScript = R"JS(
+(() => {
+  'use strict';
+  const root = document.documentElement;
+  const views = Array.from(document.querySelectorAll('.view'));
+  const status = document.getElementById('zoom-status');
+  const thumb = document.getElementById('thumb');
+  let crop = null;  // {x, y, s}: top-left and side, as fractions of the image's width and height
+
+  function natural() {
+    const img = views.length ? views[0].querySelector('img') : null;
+    return img && img.naturalWidth ? [img.naturalWidth, img.naturalHeight] : [1, 1];
+  }
+  function clampCrop(c) {
+    const [nw, nh] = natural();
+    const minS = Math.min(1, 4 / Math.min(nw, nh));
+    let s = Math.max(minS, Math.min(1, c.s));
+    if (s >= 1) return null;
+    let x = Math.max(0, Math.min(1 - s, c.x)), y = Math.max(0, Math.min(1 - s, c.y));
+    // Whole pixels: a magnified crop shows square, unblended pixels.
+    x = Math.round(x * nw) / nw; y = Math.round(y * nh) / nh;
+    return {x, y, s};
+  }
+  function draw() {
+    for (const v of views) {
+      const img = v.querySelector('img'), cv = v.querySelector('canvas');
+      img.classList.toggle('up', img.clientWidth > img.naturalWidth);
+      if (!crop || !img.naturalWidth) { cv.hidden = true; continue; }
+      const w = img.clientWidth, h = img.clientHeight, d = window.devicePixelRatio || 1;
+      cv.width = Math.max(1, Math.round(w * d));
+      cv.height = Math.max(1, Math.round(h * d));
+      cv.style.width = w + 'px';
+      cv.style.height = h + 'px';
+      const g = cv.getContext('2d');
+      g.imageSmoothingEnabled = false;
+      const nw = img.naturalWidth, nh = img.naturalHeight;
+      g.drawImage(img, crop.x * nw, crop.y * nh, Math.max(1, crop.s * nw), Math.max(1, crop.s * nh),
+                  0, 0, cv.width, cv.height);
+      cv.hidden = false;
+    }
+    // The crop in the address (#zoom=x,y,side): a zoomed view can be bookmarked or shared.
+    if (location.hash !== '#selftest') {
+      const h = crop ? `#zoom=${crop.x.toFixed(4)},${crop.y.toFixed(4)},${crop.s.toFixed(4)}` : ' ';
+      try { history.replaceState(null, '', h); } catch (err) { /* file:// may refuse; the zoom still works */ }
+    }
+    if (status) {
+      if (!crop) {
+        status.textContent = 'Click an image to zoom every image to the same spot; drag to choose the crop; ' +
+                             'wheel or +/− to change the magnification; Esc to reset.';
+      } else {
+        const [nw, nh] = natural();
+        status.textContent = `Zoom ${(1 / crop.s).toFixed(1)}×: pixels x ${Math.round(crop.x * nw)}–` +
+          `${Math.round((crop.x + crop.s) * nw)}, y ${Math.round(crop.y * nh)}–${Math.round((crop.y + crop.s) * nh)}` +
+          ' (Esc to reset)';
+      }
+    }
+  }
+  // The image point under the pointer, in fractions of the whole image.
+  function point(v, e) {
+    const r = v.getBoundingClientRect();
+    let u = (e.clientX - r.left) / r.width, w = (e.clientY - r.top) / r.height;
+    if (crop) { u = crop.x + u * crop.s; w = crop.y + w * crop.s; }
+    return [u, w];
+  }
+  function zoomAt(u, w, factor) {
+    const s0 = crop ? crop.s : 1, x0 = crop ? crop.x : 0, y0 = crop ? crop.y : 0;
+    const s = s0 * factor;
+    crop = clampCrop({x: u - (u - x0) * (s / s0), y: w - (w - y0) * (s / s0), s});
+    draw();
+  }
+  for (const v of views) {
+    const band = v.querySelector('.band');
+    let start = null;
+    v.addEventListener('pointerdown', e => {
+      e.preventDefault();
+      start = {p: point(v, e), cx: e.clientX, cy: e.clientY};
+      v.setPointerCapture(e.pointerId);
+    });
+    v.addEventListener('pointermove', e => {
+      if (!start) return;
+      const r = v.getBoundingClientRect();
+      const dx = e.clientX - start.cx, dy = e.clientY - start.cy, side = Math.max(Math.abs(dx), Math.abs(dy));
+      if (side < 4) { band.style.display = 'none'; return; }
+      band.style.display = 'block';
+      band.style.left = (dx < 0 ? start.cx - side : start.cx) - r.left + 'px';
+      band.style.top = (dy < 0 ? start.cy - side : start.cy) - r.top + 'px';
+      band.style.width = band.style.height = side + 'px';
+    });
+    v.addEventListener('pointerup', e => {
+      if (!start) return;
+      band.style.display = 'none';
+      const p = point(v, e);
+      const moved = Math.max(Math.abs(e.clientX - start.cx), Math.abs(e.clientY - start.cy));
+      if (moved < 4) {
+        const s = crop ? crop.s : 0.25;
+        crop = clampCrop({x: p[0] - s / 2, y: p[1] - s / 2, s});
+      } else {
+        const s = Math.max(Math.abs(p[0] - start.p[0]), Math.abs(p[1] - start.p[1]));
+        crop = clampCrop({x: p[0] < start.p[0] ? start.p[0] - s : start.p[0],
+                          y: p[1] < start.p[1] ? start.p[1] - s : start.p[1], s});
+      }
+      start = null;
+      draw();
+    });
+    v.addEventListener('wheel', e => {
+      e.preventDefault();
+      const p = point(v, e);
+      zoomAt(p[0], p[1], e.deltaY > 0 ? 1.25 : 0.8);
+    }, {passive: false});
+  }
+  document.addEventListener('keydown', e => {
+    if (e.key === 'Escape') { crop = null; draw(); }
+    const c = crop ? [crop.x + crop.s / 2, crop.y + crop.s / 2] : [0.5, 0.5];
+    if (e.key === '+' || e.key === '=') zoomAt(c[0], c[1], 0.8);
+    if (e.key === '-') zoomAt(c[0], c[1], 1.25);
+  });
+  const reset = document.getElementById('zoom-reset');
+  if (reset) reset.addEventListener('click', () => { crop = null; draw(); });
+  if (thumb) thumb.addEventListener('input', () => {
+    root.style.setProperty('--thumb', thumb.value + 'px');
+    draw();
+  });
+
+  // Sortable table: click a header to sort by its column (failed methods stay last).
+  const table = document.getElementById('results');
+  if (table) {
+    const heads = Array.from(table.tHead.rows[0].cells);
+    heads.forEach((th, col) => th.addEventListener('click', () => {
+      const asc = !th.classList.contains('sorted-asc');
+      heads.forEach(h => h.classList.remove('sorted-asc', 'sorted-desc'));
+      th.classList.add(asc ? 'sorted-asc' : 'sorted-desc');
+      const body = table.tBodies[0];
+      const rows = Array.from(body.rows);
+      const key = r => {
+        if (r.classList.contains('failed')) return null;
+        const cell = r.cells[col];
+        if (col === 0) return cell.textContent;
+        const v = cell ? cell.dataset.value : undefined;
+        if (v === undefined || v === 'null') return null;
+        if (v === '"inf"') return Infinity;
+        return Number(v);
+      };
+      rows.sort((a, b) => {
+        const ka = key(a), kb = key(b);
+        if (ka === null) return kb === null ? 0 : 1;
+        if (kb === null) return -1;
+        const d = typeof ka === 'string' ? ka.localeCompare(kb) : ka - kb;
+        return asc ? d : -d;
+      });
+      rows.forEach(r => body.appendChild(r));
+    }));
+  }
+
+  window.addEventListener('load', () => {
+    const imgs = Array.from(document.images);
+    document.body.dataset.imagesTotal = imgs.length;
+    document.body.dataset.imagesLoaded = imgs.filter(i => i.complete && i.naturalWidth > 0).length;
+    const z = /^#zoom=([0-9.]+),([0-9.]+),([0-9.]+)$/.exec(location.hash);
+    if (z) crop = clampCrop({x: Number(z[1]), y: Number(z[2]), s: Number(z[3])});
+    draw();
+    // file:///.../index.html#selftest: zoom programmatically and check that every canvas
+    // shows pixels (the end-to-end test reads data-selftest back from the DOM).
+    if (location.hash === '#selftest') {
+      let result = 'ok';
+      try {
+        crop = clampCrop({x: 0.25, y: 0.25, s: 0.5});
+        draw();
+        for (const v of views) {
+          const cv = v.querySelector('canvas');
+          if (cv.hidden || cv.width === 0) { result = 'canvas not shown'; break; }
+          const px = cv.getContext('2d').getImageData(cv.width >> 1, cv.height >> 1, 1, 1).data;
+          if (px[3] !== 255) { result = 'canvas empty'; break; }
+        }
+        crop = null;
+        draw();
+        if (views.some(v => !v.querySelector('canvas').hidden)) result = 'reset failed';
+      } catch (err) {
+        result = 'exception: ' + err.message;
+      }
+      document.body.dataset.selftest = result;
+    }
+  });
+})();
+)JS";
+
+}  // namespace
+
+float comparison_heatmap_scale(const Comparison& c, const ReportOptions& options) {
+  if (options.heatmap_scale > 0) return options.heatmap_scale;
+  // Each method's 99th percentile of |dV|; the scale is the lower median of these, so
+  // that the better half of the methods shows its error structure and the worse half
+  // saturates (one bad method would otherwise wash out every other map).
+  std::vector<float> p99s;
+  for (const MethodRun& r : c.runs) {
+    if (!r.ok || r.visibility.empty() || !c.has_ground_truth) continue;
+    std::vector<float> d;
+    const auto& a = r.visibility.data();
+    const auto& b = c.truth.visibility.data();
+    for (size_t i = 0; i < a.size() && i < b.size(); ++i) {
+      float e = std::abs(a[i] - b[i]);
+      if (std::isfinite(e)) d.push_back(e);
+    }
+    if (d.empty()) continue;
+    size_t k = static_cast<size_t>(0.99 * (d.size() - 1));
+    std::nth_element(d.begin(), d.begin() + k, d.end());
+    float p = d[k] > 0 ? d[k] : *std::max_element(d.begin(), d.end());
+    if (p > 0) p99s.push_back(p);
+  }
+  if (p99s.empty()) return 1.0f;
+  std::sort(p99s.begin(), p99s.end());
+  return std::min(1.0f, nice_ceiling(p99s[(p99s.size() - 1) / 2]));
+}
+
+std::string comparison_html(const Comparison& c, const ReportOptions& options) {
+  std::ostringstream h;
+  const bool truth = c.has_ground_truth;
+  const float scale = comparison_heatmap_scale(c, options);
+  std::string scene_name = std::filesystem::path(c.scene).stem().string();
+
+  h << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+    << "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
+    << "<link rel=\"icon\" href=\"data:,\">\n"
+    << "<title>penumbra compare: " << xml_escape(scene_name) << "</title>\n<style>" << kStyle << "</style>\n</head>\n"
+    << "<body>\n";
+
+  // --- header
+  h << "<h1>" << xml_escape(scene_name) << ": every method against the ground truth</h1>\n";
+  if (!c.description.empty()) h << "<p class=\"meta\">" << xml_escape(c.description) << "</p>\n";
+  h << "<p class=\"meta\">Scene <code>" << xml_escape(c.scene) << "</code>: " << c.width << "×" << c.height
+    << (c.pixel_samples > 1 ? fmt::format(", {} samples per pixel", c.pixel_samples) : std::string()) << ", "
+    << format_grouped(c.triangles) << " triangles, " << c.lights << (c.lights == 1 ? " light" : " lights")
+    << ". Methods that sample the light use <b>" << c.light_samples << "</b> light samples; seed " << c.seed
+    << ".</p>\n";
+  if (!c.params.empty()) {
+    std::string p;
+    for (const auto& kv : c.params) {
+      if (!p.empty()) p += ' ';
+      p += "<code>";
+      p += xml_escape(kv);
+      p += "</code>";
+    }
+    h << "<p class=\"meta\">Parameters: " << p << "</p>\n";
+  }
+  if (truth) {
+    h << "<p class=\"meta\">Ground truth: <b>reference</b> (ray tracing the real geometry) at <b>"
+      << c.truth.light_samples << "</b> light samples (with a seed of its own); rendered in "
+      << format_significant(c.truth.total_ms / 1000.0, 3) << " s"
+      << (c.truth.from_cache ? " (loaded from the reference cache)" : "") << ".</p>\n";
+  } else {
+    h << "<p class=\"meta\">No ground truth (timings only).</p>\n";
+  }
+  if (!c.speedup_basis.empty())
+    h << "<p class=\"meta\">Speed-up = shadow time of the "
+      << (c.speedup_basis == "reference"
+              ? std::string("<b>reference</b> method at the same light samples, in this run")
+              : std::string("<b>ground-truth</b> render (the reference at ") + std::to_string(c.truth.light_samples) +
+                    " light samples)")
+      << " (" << format_significant(c.speedup_basis_ms, 3) << " ms) / the method's shadow time.</p>\n";
+  h << "<p class=\"meta\">Machine: " << xml_escape(c.machine.value("cpu", "?")) << ", "
+    << c.machine.value("threads", 0) << " threads, " << xml_escape(c.machine.value("compiler", "")) << ", "
+    << xml_escape(c.machine.value("build", "")) << ". Started " << xml_escape(c.started) << ", took "
+    << format_significant(c.wall_ms / 1000.0, 3) << " s.</p>\n";
+  if (!c.command.empty()) h << "<p class=\"meta\">Command: <code>" << xml_escape(c.command) << "</code></p>\n";
+
+  // --- table, sorted by mean |dV| (or time without a ground truth); failures last
+  std::vector<const MethodRun*> order;
+  for (const MethodRun& r : c.runs) order.push_back(&r);
+  const std::string sort_key = truth ? "v_mae" : "shadow_ms";
+  std::stable_sort(order.begin(), order.end(), [&](const MethodRun* a, const MethodRun* b) {
+    if (a->ok != b->ok) return a->ok;
+    if (!a->ok) return false;
+    double va = run_value(*a, sort_key), vb = run_value(*b, sort_key);
+    if (std::isnan(va) != std::isnan(vb)) return !std::isnan(va);
+    return va < vb;
+  });
+  std::vector<const Column*> cols;
+  for (const Column& col : columns())
+    if (!col.needs_truth || truth) cols.push_back(&col);
+  // The best value of each column among the methods that ran.
+  std::map<std::string, double> best;
+  for (const Column* col : cols) {
+    if (col->better == Column::Better::kNone) continue;
+    double b = std::numeric_limits<double>::quiet_NaN();
+    for (const MethodRun& r : c.runs) {
+      if (!r.ok) continue;
+      double v = run_value(r, col->key);
+      if (std::isnan(v)) continue;
+      if (col->better == Column::Better::kLowerAbs) v = std::abs(v);
+      if (std::isnan(b) || (col->better == Column::Better::kHigher ? v > b : v < b)) b = v;
+    }
+    best[col->key] = b;
+  }
+
+  h << "<h2>Results</h2>\n";
+  h << "<p class=\"meta\">ΔV = V<sub>method</sub> − V<sub>ground truth</sub> per pixel (V: the fraction of the light "
+       "a pixel sees). Best value of each column in green; click a header to sort.</p>\n";
+  h << "<div style=\"overflow-x: auto\"><table id=\"results\">\n<thead><tr><th class=\"name\" title=\"shadow method\">method</th>";
+  for (const Column* col : cols) h << "<th title=\"" << xml_escape(col->tip) << "\">" << xml_escape(col->header) << "</th>";
+  h << "<th class=\"name\" title=\"time per phase (ms) of the median run\">phases (ms)</th></tr></thead>\n<tbody>\n";
+  for (const MethodRun* r : order) {
+    if (!r->ok) {
+      h << "<tr class=\"failed\" data-method=\"" << xml_escape(r->method) << "\"><td class=\"name\">"
+        << xml_escape(r->method) << "</td><td class=\"error\" colspan=\"" << cols.size() + 1 << "\">failed: "
+        << xml_escape(r->error) << "</td></tr>\n";
+      continue;
+    }
+    h << "<tr data-method=\"" << xml_escape(r->method) << "\"><td class=\"name\">" << xml_escape(r->method) << "</td>";
+    for (const Column* col : cols) {
+      double v = run_value(*r, col->key);
+      bool is_best = false;
+      if (col->better != Column::Better::kNone && !std::isnan(v) && !std::isnan(best[col->key])) {
+        double cmp = col->better == Column::Better::kLowerAbs ? std::abs(v) : v;
+        is_best = cmp == best[col->key];
+      }
+      h << "<td data-key=\"" << col->key << "\" data-value=\"" << xml_escape(run_json_value(*r, col->key).dump())
+        << "\"" << (is_best ? " class=\"best\"" : "") << ">" << xml_escape(display(*r, col->key)) << "</td>";
+    }
+    std::string phases;
+    for (const auto& [n, t] : r->stats.phases_ms)
+      phases += (phases.empty() ? "" : " · ") + xml_escape(n) + " " + format_significant(t, 3);
+    h << "<td class=\"phases\">" << phases << "</td></tr>\n";
+  }
+  h << "</tbody>\n</table></div>\n";
+
+  // --- images
+  h << "<h2>Images</h2>\n<div class=\"toolbar\"><span id=\"zoom-status\"></span>"
+    << "<button id=\"zoom-reset\" type=\"button\">reset zoom</button>"
+    << " <label>size <input id=\"thumb\" type=\"range\" min=\"64\" max=\"1024\" step=\"32\" value=\"256\"></label>";
+  if (truth) {
+    h << "<br><span class=\"legend\">signed ΔV <span>" << format_significant(-scale, 3) << "</span><span class=\"bar\" "
+      << "style=\"background: " << css_gradient(ColorMap::kDiverging) << "\"></span><span>+"
+      << format_significant(scale, 3) << "</span> (blue: darker than the ground truth, red: brighter)</span>"
+      << "<span class=\"legend\">|ΔV| <span>0</span><span class=\"bar\" style=\"background: "
+      << css_gradient(ColorMap::kMagma) << "\"></span><span>" << format_significant(scale, 3)
+      << "</span></span>";
+  }
+  h << "</div>\n<div class=\"cards\">\n";
+  auto figure = [&](const Image& img, bool linear, const std::string& caption, const std::string& alt) {
+    h << "<figure><div class=\"view\"><img alt=\"" << xml_escape(alt) << "\" src=\"" << png_data_uri(img, linear)
+      << "\"><canvas hidden></canvas><div class=\"band\"></div></div><figcaption>" << caption
+      << "</figcaption></figure>";
+  };
+  if (truth && !c.truth.color.empty()) {
+    h << "<div class=\"card\" data-method=\"ground-truth\"><h3>ground truth</h3><div class=\"sub\">reference, "
+      << c.truth.light_samples << " light samples</div><div class=\"row\">";
+    figure(c.truth.color, false, "colour", "ground truth colour");
+    figure(c.truth.visibility, true, "V (white: fully lit)", "ground truth V");
+    h << "</div></div>\n";
+  }
+  for (const MethodRun* r : order) {
+    if (!r->ok) {
+      h << "<div class=\"card failed\" data-method=\"" << xml_escape(r->method) << "\"><h3>" << xml_escape(r->method)
+        << "</h3><div class=\"error\">failed: " << xml_escape(r->error) << "</div></div>\n";
+      continue;
+    }
+    std::string sub = fmt::format("{} ms", format_significant(r->times.shadow_ms, 3));
+    if (!std::isnan(r->speedup)) sub += fmt::format(" ({}× the {})", format_significant(r->speedup, 3),
+                                                    c.speedup_basis == "reference" ? "reference's speed" : "ground truth's speed");
+    if (truth) sub = fmt::format("mean |ΔV| {} · RMSE {} · FLIP {} · ", format_significant(r->v.mae, 3),
+                                 format_significant(r->v.rmse, 3), format_significant(r->flip, 3)) + sub;
+    if (r->light_samples > 0) sub += fmt::format(" · {} light samples", r->light_samples);
+    h << "<div class=\"card\" data-method=\"" << xml_escape(r->method) << "\"><h3>" << xml_escape(r->method)
+      << "</h3><div class=\"sub\">" << xml_escape(sub) << "</div><div class=\"row\">";
+    if (r->color.empty()) {
+      h << "<p>(images not kept)</p>";
+    } else {
+      figure(r->color, false, "colour", r->method + " colour");
+      if (truth) {
+        Image d = difference_map(r->visibility, c.truth.visibility);
+        figure(signed_heatmap(d, scale).image, false, "signed ΔV", r->method + " signed V error");
+        for (float& x : d.data()) x = std::abs(x);
+        figure(absolute_heatmap(d, scale).image, false, "|ΔV|", r->method + " absolute V error");
+      }
+    }
+    h << "</div></div>\n";
+  }
+  h << "</div>\n<script>" << kScript << "</script>\n</body>\n</html>\n";
+  return h.str();
+}
+
+}  // namespace penumbra

@@ -1,0 +1,36 @@
+// Small helpers for self-contained reports: base64, in-memory PNG, HTML/XML escaping and
+// number formatting shared by the comparison page and the SVG plots.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "penumbra/core/image.h"
+
+namespace penumbra {
+
+// RFC 4648 base64 with padding.
+std::string base64_encode(const void* data, size_t size);
+inline std::string base64_encode(std::string_view s) { return base64_encode(s.data(), s.size()); }
+
+// An 8-bit PNG in memory: 1-channel images as grey, 3+ channels as RGB. Values are linear
+// and pass through the sRGB curve unless `linear` (then they are written as they are,
+// clamped to [0,1]) -- the same bytes write_image() writes to a .png file.
+std::vector<unsigned char> encode_png(const Image& image, bool linear = false);
+// "data:image/png;base64,..." of encode_png().
+std::string png_data_uri(const Image& image, bool linear = false);
+
+// Escapes & < > " ' for HTML/XML text and attribute values.
+std::string xml_escape(std::string_view s);
+
+// `v` with `digits` significant digits, in fixed notation for 1e-4 <= |v| < 1e15 and
+// scientific otherwise; "0" for 0, "inf", "-inf", "nan".
+std::string format_significant(double v, int digits = 3);
+// 12345678 -> "12,345,678".
+std::string format_grouped(uint64_t v);
+// Bytes as "512 B", "1.50 KiB", "3.25 MiB", "1.00 GiB".
+std::string format_bytes(uint64_t bytes);
+
+}  // namespace penumbra

@@ -1,0 +1,63 @@
+// What one compare, sweep or bench run renders: a scene *document* (rewritten before it is
+// loaded, so a sweep can change a light's size or a generator's tessellation), the render
+// settings and per-method parameter overrides. Everything a run may vary is a "key=value"
+// setting from one namespace (docs/compare.md, "Settings keys"):
+//
+//   spp, reference_spp, seed, resolution, pixel_samples      render settings
+//   light.size_scale, light.size, light.radius               every light of the scene
+//   generator.<param>                                        every generated object having <param>
+//   <method>.<param>                                         one method's parameter
+//   <param>                                                  every compared method declaring <param>
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+struct RunSetup {
+  nlohmann::json scene_doc = nlohmann::json::object();  // the scene file, as rewritten by settings
+  std::filesystem::path scene_path;                      // messages; relative mesh paths
+  int light_samples = 256;       // spp: light samples of every method that samples the light
+  int reference_samples = 1024;  // reference_spp: light samples of the ground truth
+  uint64_t seed = 0;
+  // Method parameters in the order given: "method.key=value" and plain "key=value".
+  std::vector<std::string> method_params;
+
+  // Reads a scene file (strict JSON with comments, as load_scene does).
+  static RunSetup from_file(const std::filesystem::path& scene_file);
+
+  // Applies one setting; throws an Error naming the key or value at fault.
+  void apply(const std::string& key, const std::string& value);
+  void apply(const std::string& key_eq_value);  // "key=value"
+
+  // The parameter overrides for `method`, as create_method takes them ("key=value"):
+  // plain keys the method declares, then "method.key" ones. With explicit_only, only the
+  // keys addressed to the method by name (the ground truth takes those alone).
+  std::vector<std::string> overrides_for(const std::string& method, bool explicit_only = false) const;
+  // Throws unless every plain parameter key is declared by at least one of `methods`.
+  void check_plain_params(const std::vector<std::string>& methods) const;
+
+  // Parses the (rewritten) document into a Scene.
+  Scene load() const;
+  // The camera resolution and samples per pixel of the document (defaults as the loader's).
+  int width() const;
+  int height() const;
+  int pixel_samples() const;
+};
+
+// The settings keys that are not method parameters, for messages and docs.
+const std::vector<std::string>& run_setting_keys();
+
+// Expands a --methods list: "all" (every registered method), names, or a mix; keeps the
+// order given, drops repeats, and throws naming an unknown method.
+std::vector<std::string> expand_method_list(const std::vector<std::string>& names);
+// Splits "a,b,c" at commas (empty items dropped).
+std::vector<std::string> split_list(const std::string& text, char sep = ',');
+
+}  // namespace penumbra
