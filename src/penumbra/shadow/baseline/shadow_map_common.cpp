@@ -126,11 +126,17 @@ void LightCentreMap::prepare(const Scene& scene, MethodStats& stats) {
 bool LightCentreMap::update(const AreaLight& light, const ViewSamples& vs, const ViewParams& params,
                             MethodStats& stats) {
   LightView view;
+  uint64_t outside = 0;
   {
     ScopedPhase phase(stats, "fit");
     std::vector<Vec3f> receivers = receiver_points(vs, light);
     if (receivers.empty()) return false;
     view = light_view_from(light, light.center, receivers, scene_bounds_, params.resolution, params.max_fov);
+    // Receivers beyond max_fov (or too close to the light's plane): not covered, lit.
+    for (Vec3f p : receivers) {
+      Vec3f t = view.to_texel(p);
+      outside += !(t.z >= view.near() && t.x >= 0 && t.y >= 0 && t.x < view.width() && t.y < view.height());
+    }
   }
   const LightView& old = map_.view();
   bool same = valid_ && old.width() == view.width() && old.height() == view.height() && old.near() == view.near() &&
@@ -145,6 +151,7 @@ bool LightCentreMap::update(const AreaLight& light, const ViewSamples& vs, const
   stats.memory_bytes = std::max<uint64_t>(stats.memory_bytes, map_.memory_bytes());
   stats.extra["map_width"] = map_.map().width;
   stats.extra["map_height"] = map_.map().height;
+  stats.extra["receivers_outside_map"] = outside;
   return true;
 }
 

@@ -20,12 +20,13 @@
 //   z_p is p's linear depth, s the world size of one texel at z_p, d_t the distance in
 //   texels from p's projection to the centre of t, z_plane(t) the depth of p's tangent
 //   plane along the ray through t's centre (clamped to [z_p - max_slope * s * max(1, d_t),
-//   z_p]: nothing behind p blocks it),
-//   and k the tangent plane's depth slope: its linear-depth change per texel in units of s
-//   (tan of the angle between ng and the light direction on the view axis; off the axis
-//   larger, since linear depth is measured along the axis, not along the ray). A blocking surface of opacity a
-//   lets 1 - a through (only the nearest surface of a texel is known: a map cannot see
-//   several semi-transparent layers, which is what xie2007 §5 addresses).
+//   z_p]: nothing behind p blocks it), and k the tangent plane's depth slope: its
+//   linear-depth change per texel in units of s (tan of the angle between ng and the light
+//   direction on the view axis; off the axis larger, since linear depth is measured along
+//   the axis, not along the ray).
+// - A blocking surface of opacity a lets 1 - a through (only the nearest surface of a texel
+//   is known: a map cannot see several semi-transparent layers, which is what xie2007 §5
+//   addresses).
 #pragma once
 
 #include <cmath>
@@ -44,8 +45,8 @@ namespace penumbra::shadow_map {
 
 struct BiasParams {
   float bias = 1e-3f;         // constant, world units of linear depth
-  float slope_bias = 1.0f;    // texels, scaled by tan(theta)
-  float max_slope = 10.0f;    // cap on tan(theta) (and on the receiver plane's slope)
+  float slope_bias = 1.0f;    // texels, scaled by the receiver's depth slope k
+  float max_slope = 10.0f;    // cap on k (and on the receiver plane's slope)
   bool receiver_plane = false;
 };
 
