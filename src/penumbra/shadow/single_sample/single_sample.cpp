@@ -217,10 +217,14 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         od.ring = ring_;
         keep = single_sample::contour_triangles(m, od.topology, l.center, band_ * diameter_);
         if (ring_) {
+          // Planes in the light frame, from the welded vertices transformed once each.
+          const auto& topo = od.topology;
+          std::vector<Vec3f> pos(topo.vertex_first.size() - 1);
+          for (size_t i = 0; i < m.positions.size(); ++i) pos[topo.canon[i]] = to_light_space(m.positions[i]);
           od.planes.resize(count);
           for (size_t t = 0; t < count; ++t)
-            od.planes[t] = triangle_plane(BvhTriangle{to_light_space(m.vertex(t, 0)), to_light_space(m.vertex(t, 1)),
-                                                      to_light_space(m.vertex(t, 2))});
+            od.planes[t] = triangle_plane(
+                BvhTriangle{pos[topo.corners[3 * t]], pos[topo.corners[3 * t + 1]], pos[topo.corners[3 * t + 2]]});
           // The same planes in the order of the vertex fans, read contiguously by gather_ring.
           od.fan_planes.resize(od.topology.vertex_tris.size());
           for (size_t i = 0; i < od.fan_planes.size(); ++i) od.fan_planes[i] = od.planes[od.topology.vertex_tris[i]];
@@ -239,10 +243,12 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     for (const BvhTriangle& t : bvh_.triangles()) planes_.push_back(triangle_plane(t));
     node_boxes_.clear();
     for (const BvhNode& n : bvh_.nodes()) node_boxes_.emplace_back(n.bounds);
-    // The leaves' triangles as blocks of four for the SIMD distance test.
+    // The leaves' triangles as blocks of four for the SIMD distance test of search_single
+    // (packets test one triangle against all their rays instead).
     blocks_.clear();
     leaf_block_.assign(bvh_.nodes().size(), 0);
-    for (size_t i = 0; i < bvh_.nodes().size(); ++i) {
+    const bool single_rays = !(packets_ && combine_ == Combine::Min);
+    for (size_t i = 0; i < bvh_.nodes().size() && single_rays; ++i) {
       const BvhNode& n = bvh_.nodes()[i];
       if (!n.leaf()) continue;
       leaf_block_[i] = static_cast<uint32_t>(blocks_.size());
