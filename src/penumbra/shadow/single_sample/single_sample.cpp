@@ -192,6 +192,11 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     Vec3f toward = scene_bounds.center() - l.center;
     light_frame_ = length_squared(toward) > 0 ? Frame::from_z(toward) : Frame::from_z(-l.frame.n);
     light_pos_ = l.center;
+    {
+      const Bounds3f& b = scene_bounds;
+      scene_scale_ = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
+      plane_eps_ = 1e-4f * scene_scale_;
+    }
     std::vector<BvhTriangle> tris;
     size_t all_count = 0;
     objects_.assign(scene.objects.size(), {});
@@ -228,6 +233,12 @@ class SingleSampleSoftShadows final : public ShadowMethod {
           // The same planes in the order of the vertex fans, read contiguously by gather_ring.
           od.fan_planes.resize(od.topology.vertex_tris.size());
           for (size_t i = 0; i < od.fan_planes.size(); ++i) od.fan_planes[i] = od.planes[od.topology.vertex_tris[i]];
+          // A flat object (a ground plane): every neighbour lies in the receiver's plane
+          // and is excluded anyway.
+          bool flat = true;
+          for (size_t t = 1; t < count && flat; ++t)
+            flat = dot(od.planes[t].n, od.planes[0].n) > 1 - 1e-6f && std::abs(od.planes[t].d - od.planes[0].d) < plane_eps_;
+          od.ring = !flat;
         }
       }
       for (size_t t = 0; t < count; ++t)
@@ -265,9 +276,6 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     for (size_t o = 0; o < scene.objects.size(); ++o)
       if (scene.objects[o].sphere) spheres_.push_back({*scene.objects[o].sphere, static_cast<uint32_t>(o),
                                                        scene.objects[o].material.opacity});
-    const Bounds3f& b = scene_bounds;
-    scene_scale_ = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
-    plane_eps_ = 1e-4f * scene_scale_;
     stats_.memory_bytes = bvh_.memory_bytes() + blocks_.capacity() * sizeof(single_sample::TriangleBlock4) +
                           4 * leaf_block_.capacity() + planes_.capacity() * sizeof(Plane);
     for (const ObjectData& od : objects_)
@@ -636,25 +644,30 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     const float plane_eps = plane_eps_;
     // One triangle against the four rays; the lanes it could lower go one by one.
     auto test = [&](uint32_t i) {
-      int clip;
-      F d2 = triangle_distance2<F, I>(tris[i], r, &clip);
-      search.tests += count;
-      if (clip) {
-        // Lanes that would clip: drop those where the triangle is the receiver's own or
-        // in its plane (excluded), or where the ray leaves its plane too steeply
-        // (leaves_plane), on all lanes at once.
-        const Plane& pl = planes_[i];
-        const BvhTriangle& t = tris[i];
-        I same = object == static_cast<int>(t.object);
+      const Plane& pl = planes_[i];
+      const BvhTriangle& t = tris[i];
+      // Lanes where the triangle is the receiver's own or lies in its plane (the ground
+      // under a ground receiver) are excluded before any distance is computed.
+      int active = mask_v(limit2 > 0.0f);
+      I same = object == static_cast<int>(t.object);
+      if (mask_v(same)) {
         F height = pl.n.x * px + pl.n.y * py + pl.n.z * pz - pl.d;
-        I out = same & ((prim == static_cast<int>(t.prim)) | (vabs_v(height) < plane_eps));
+        active &= ~mask_v(same & ((prim == static_cast<int>(t.prim)) | (vabs_v(height) < plane_eps)));
+        if (!active) return;
+      }
+      int clip;
+      F d2 = triangle_distance2<F, I>(t, r, &clip);
+      search.tests += count;
+      clip &= active;
+      if (clip) {
+        // Lanes that would clip: drop those where the ray leaves the triangle's plane too
+        // steeply (leaves_plane), on all lanes at once.
         F side = pl.n.x * r.ox + pl.n.y * r.oy + pl.n.z * r.oz - pl.d;
         F nv = pl.n.x * r.vx + pl.n.y * r.vy + pl.n.z * r.vz;
         nv = side < 0.0f ? -nv : nv;
-        out |= (nv >= 0.0f) & (nv * nv >= limit2);
-        clip &= ~mask_v(out);
+        clip &= ~mask_v((nv >= 0.0f) & (nv * nv >= limit2));
       }
-      int hit = mask_v(d2 < limit2) | clip;
+      int hit = (mask_v(d2 < limit2) & active) | clip;
       if (!hit) return;
       for (int j = 0; j < count; ++j) {
         if (!(hit & (1 << j))) continue;
