@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstring>
 
+#include "penumbra/core/parallel.h"
 #include "penumbra/shadow/single_sample/simd4.h"
 
 namespace penumbra::single_sample {
@@ -219,7 +221,10 @@ std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopol
           edges[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<uint32_t>(3 * t + k), corners[3 * t + (k + 2) % 3]};
         }
   }
-  for (uint32_t a = 0; a < nv; ++a) {
+  // Buckets are independent: in parallel (a triangle may be marked from two buckets:
+  // relaxed atomic stores of the same value).
+  parallel_for(nv, 2048, [&](size_t va, size_t vb) {
+  for (uint32_t a = static_cast<uint32_t>(va); a < vb; ++a) {
     HalfEdge* bucket = edges.data() + first[a];
     const size_t n = first[a + 1] - first[a];
     for (size_t i = 1; i < n; ++i)  // insertion sort
@@ -239,10 +244,11 @@ std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopol
         contour = dot(nrm, c0 - ea) * dot(nrm, c1 - ea) >= 0.0f;  // same side, or in the plane
       }
       if (contour)
-        for (size_t q = i; q < j; ++q) keep[bucket[q].code / 3] = 1;
+        for (size_t q = i; q < j; ++q) std::atomic_ref<uint8_t>(keep[bucket[q].code / 3]).store(1, std::memory_order_relaxed);
       i = j;
     }
   }
+  });
   return keep;
 }
 

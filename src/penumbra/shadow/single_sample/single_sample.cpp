@@ -227,12 +227,16 @@ class SingleSampleSoftShadows final : public ShadowMethod {
           std::vector<Vec3f> pos(topo.vertex_first.size() - 1);
           for (size_t i = 0; i < m.positions.size(); ++i) pos[topo.canon[i]] = to_light_space(m.positions[i]);
           od.planes.resize(count);
-          for (size_t t = 0; t < count; ++t)
-            od.planes[t] = triangle_plane(
-                BvhTriangle{pos[topo.corners[3 * t]], pos[topo.corners[3 * t + 1]], pos[topo.corners[3 * t + 2]]});
+          parallel_for(count, 4096, [&](size_t b, size_t e) {
+            for (size_t t = b; t < e; ++t)
+              od.planes[t] = triangle_plane(
+                  BvhTriangle{pos[topo.corners[3 * t]], pos[topo.corners[3 * t + 1]], pos[topo.corners[3 * t + 2]]});
+          });
           // The same planes in the order of the vertex fans, read contiguously by gather_ring.
           od.fan_planes.resize(od.topology.vertex_tris.size());
-          for (size_t i = 0; i < od.fan_planes.size(); ++i) od.fan_planes[i] = od.planes[od.topology.vertex_tris[i]];
+          parallel_for(od.fan_planes.size(), 16384, [&](size_t b, size_t e) {
+            for (size_t i = b; i < e; ++i) od.fan_planes[i] = od.planes[od.topology.vertex_tris[i]];
+          });
           // A flat object (a ground plane): every neighbour lies in the receiver's plane
           // and is excluded anyway.
           bool flat = true;
