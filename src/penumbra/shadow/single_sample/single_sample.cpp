@@ -4,19 +4,22 @@
 // that grows linearly with the distance t from the shading point, so the penumbra has
 // zero width at contact and widens with distance (paper §2-3, appendix).
 //
-// How it runs (docs/methods/single-sample.md): first the hard shadow ray on Embree
-// (rtcOccluded1M streams): where opaque geometry blocks it the inner object is hit and
-// s = 0. Elsewhere the outer objects are searched. Growing every triangle's bounding
-// volume by b_max (the paper's way) makes a ray near a 70k-triangle mesh test thousands
-// of triangles; instead the search walks a BVH in "cone space": the outer object of width
-// b(t) around the ray is a cone from o to a disk of radius D at the light, and with the
-// default `min` combination only occluders that could lower the current minimum are
-// visited, so the cone shrinks as the search goes (nearest-first order, seeded with the
-// previous view sample's nearest triangle). With `candidates=contour` (default) the BVH
-// holds only the triangles along each opaque mesh's contour seen from the light centre,
-// plus, per receiver on a mesh, the triangles around its own triangle (outer_objects.h).
-
-
+// How it runs (docs/methods/single-sample.md). Per batch of 256 view samples: the hard
+// shadow ray on Embree (rtcOccluded1M): where opaque geometry blocks it, the inner object
+// is hit and s = 0. Elsewhere the outer objects: instead of growing every triangle's
+// bounding volume by b_max (the paper's way; a ray near a 70k-triangle mesh would test
+// thousands), a search in "cone space": the outer object of width b(t) around the ray is
+// a cone from o to a disk of radius D at the light, and with `min` (the default) only the
+// occluders that could lower the current minimum are visited: a BVH descent, nearest
+// child first, seeded with the previous view sample's nearest triangle, whose cone
+// shrinks as it goes. What is searched:
+//   - candidates=contour (default): per opaque mesh, only the triangles along its contour
+//     seen from the light centre (plus boundary edges; semi-transparent objects whole), an
+//     approximation of the contour seen from each receiver (outer_objects.h); `band`
+//     widens it to exact; `neighbours` adds each receiver's own neighbouring triangles.
+//   - candidates=all: every triangle (the all-triangle minimum).
+// The BVH lives in a frame centred on the light (every ray ends there), its boxes tested
+// against packets of 8 neighbouring rays at once with AVX2 (4 with SSE/NEON).
 
 #include <algorithm>
 #include <array>
