@@ -60,15 +60,28 @@ struct Builder {
         bin_count[b]++;
         bin_bounds[b].extend(boxes[i]);
       }
+      // Split s puts bins [0, s) left: sweep the right sides once, then the left sides.
+      std::array<float, kBins> right_area{};
+      std::array<uint32_t, kBins> right_count{};
+      {
+        Bounds3f r;
+        uint32_t nr = 0;
+        for (int b = kBins - 1; b >= 1; --b) {
+          r.extend(bin_bounds[b]);
+          nr += bin_count[b];
+          right_area[b] = surface_area(r);
+          right_count[b] = nr;
+        }
+      }
       float best_cost = kInfinity;
       int best_split = -1;
+      Bounds3f l;
+      uint32_t nl = 0;
       for (int s = 1; s < kBins; ++s) {
-        Bounds3f l, r;
-        uint32_t nl = 0, nr = 0;
-        for (int b = 0; b < s; ++b) { l.extend(bin_bounds[b]); nl += bin_count[b]; }
-        for (int b = s; b < kBins; ++b) { r.extend(bin_bounds[b]); nr += bin_count[b]; }
-        if (nl == 0 || nr == 0) continue;
-        float cost = nl * surface_area(l) + nr * surface_area(r);
+        l.extend(bin_bounds[s - 1]);
+        nl += bin_count[s - 1];
+        if (nl == 0 || right_count[s] == 0) continue;
+        float cost = nl * surface_area(l) + right_count[s] * right_area[s];
         if (cost < best_cost) { best_cost = cost; best_split = s; }
       }
       if (best_split > 0) {

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstring>
 
+#include "penumbra/core/parallel.h"
 #include "penumbra/shadow/single_sample/simd4.h"
 
 namespace penumbra::single_sample {
@@ -182,61 +184,71 @@ MeshTopology build_topology(const TriangleMesh& mesh) {
 std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos,
                                        float band_radius) {
   const size_t nt = mesh.triangle_count();
+  const size_t nv = topo.vertex_first.empty() ? 0 : topo.vertex_first.size() - 1;
   std::vector<uint8_t> keep(nt, 0);
+  std::vector<Vec3f> pos(nv);  // welded vertices
+  for (size_t i = 0; i < mesh.positions.size(); ++i) pos[topo.canon[i]] = mesh.positions[i];
+  const uint32_t* corners = topo.corners.data();
+  auto has_area = [&](size_t t) {
+    uint32_t a = corners[3 * t], b = corners[3 * t + 1], c = corners[3 * t + 2];
+    return a != b && b != c && c != a;
+  };
   if (band_radius > 0)
     for (size_t t = 0; t < nt; ++t) {
-      Vec3f a = mesh.vertex(t, 0);
-      Vec3f n = cross(mesh.vertex(t, 1) - a, mesh.vertex(t, 2) - a);
+      Vec3f a = pos[corners[3 * t]];
+      Vec3f n = cross(pos[corners[3 * t + 1]] - a, pos[corners[3 * t + 2]] - a);
       float d = dot(n, light_pos - a);
       keep[t] = d * d < band_radius * band_radius * length_squared(n);
     }
-  auto welded = [&](size_t t, int k) { return topo.corners[3 * t + k]; };
-  // The edges of a vertex's triangles that lead to a higher vertex: (other end, 3 * t + k).
-  // Each undirected edge is found from its lower end, once per triangle that has it.
+  // Every edge of every triangle with area, bucketed by its lower welded vertex (counting
+  // sort: two sequential passes over the triangles), each bucket then sorted by the upper
+  // vertex (a handful of entries): the triangles of one edge end up side by side.
   struct HalfEdge {
-    uint32_t other, code;
+    uint32_t other, code, opposite;  // upper vertex; 3 * triangle + edge; the corner off the edge
   };
-  std::vector<HalfEdge> bucket;
-  const size_t nv = topo.vertex_first.empty() ? 0 : topo.vertex_first.size() - 1;
-  for (uint32_t a = 0; a < nv; ++a) {
-    bucket.clear();
-    for (uint32_t i = topo.vertex_first[a]; i < topo.vertex_first[a + 1]; ++i) {
-      uint32_t t = topo.vertex_tris[i];
-      uint32_t v[3] = {welded(t, 0), welded(t, 1), welded(t, 2)};
-      if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // no area: no edges
-      for (int k = 0; k < 3; ++k) {
-        uint32_t p = v[k], q = v[(k + 1) % 3];
-        if (std::min(p, q) == a) bucket.push_back({std::max(p, q), 3 * t + k});
-      }
-    }
-    for (size_t i = 1; i < bucket.size(); ++i)  // insertion sort: a handful of entries
+  std::vector<uint32_t> first(nv + 1, 0);
+  for (size_t t = 0; t < nt; ++t)
+    if (has_area(t))
+      for (int k = 0; k < 3; ++k) first[std::min(corners[3 * t + k], corners[3 * t + (k + 1) % 3]) + 1]++;
+  for (size_t v = 0; v < nv; ++v) first[v + 1] += first[v];
+  std::vector<HalfEdge> edges(first[nv]);
+  {
+    std::vector<uint32_t> fill(first.begin(), first.end() - 1);
+    for (size_t t = 0; t < nt; ++t)
+      if (has_area(t))
+        for (int k = 0; k < 3; ++k) {
+          uint32_t a = corners[3 * t + k], b = corners[3 * t + (k + 1) % 3];
+          edges[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<uint32_t>(3 * t + k), corners[3 * t + (k + 2) % 3]};
+        }
+  }
+  // Buckets are independent: in parallel (a triangle may be marked from two buckets:
+  // relaxed atomic stores of the same value).
+  parallel_for(nv, 2048, [&](size_t va, size_t vb) {
+  for (uint32_t a = static_cast<uint32_t>(va); a < vb; ++a) {
+    HalfEdge* bucket = edges.data() + first[a];
+    const size_t n = first[a + 1] - first[a];
+    for (size_t i = 1; i < n; ++i)  // insertion sort
       for (size_t j = i; j > 0 && bucket[j].other < bucket[j - 1].other; --j) std::swap(bucket[j], bucket[j - 1]);
-    for (size_t i = 0; i < bucket.size();) {
+    for (size_t i = 0; i < n;) {
       size_t j = i + 1;
-      while (j < bucket.size() && bucket[j].other == bucket[i].other) ++j;
+      while (j < n && bucket[j].other == bucket[i].other) ++j;
       bool contour = true;  // boundary (one triangle) or non-manifold (three or more)
       if (j - i == 2) {
-        uint32_t t0 = bucket[i].code / 3, k0 = bucket[i].code % 3;
-        uint32_t t1 = bucket[i + 1].code / 3;
-        Vec3f ea = mesh.vertex(t0, k0), eb = mesh.vertex(t0, (k0 + 1) % 3);
-        Vec3f c0 = mesh.vertex(t0, (k0 + 2) % 3);
-        // The vertex of t1 off the shared edge: the one whose welded id is neither end.
-        Vec3f c1 = mesh.vertex(t1, 0);
-        for (int k = 0; k < 3; ++k) {
-          uint32_t id = welded(t1, k);
-          if (id != a && id != bucket[i].other) c1 = mesh.vertex(t1, k);
-        }
+        const uint32_t b = bucket[i].other;
+        Vec3f ea = pos[a], eb = pos[b];
+        Vec3f c0 = pos[bucket[i].opposite], c1 = pos[bucket[i + 1].opposite];
         // Seen from the light, the two triangles lie on the same side of the edge (the
-        // surface folds away: a contour edge) when their free vertices are on the same
-        // side of the plane through the edge and the light.
-        Vec3f n = cross(eb - ea, light_pos - ea);
-        contour = dot(n, c0 - ea) * dot(n, c1 - ea) >= 0.0f;  // same side, or in the plane
+        // surface folds away: a contour edge) when their free corners are on the same side
+        // of the plane through the edge and the light.
+        Vec3f nrm = cross(eb - ea, light_pos - ea);
+        contour = dot(nrm, c0 - ea) * dot(nrm, c1 - ea) >= 0.0f;  // same side, or in the plane
       }
       if (contour)
-        for (size_t q = i; q < j; ++q) keep[bucket[q].code / 3] = 1;
+        for (size_t q = i; q < j; ++q) std::atomic_ref<uint8_t>(keep[bucket[q].code / 3]).store(1, std::memory_order_relaxed);
       i = j;
     }
   }
+  });
   return keep;
 }
 

@@ -85,14 +85,22 @@ MeshTopology build_topology(const TriangleMesh& mesh);
 // Candidate occluders of a closed opaque surface for shadow rays toward the point light_pos.
 // For a ray that misses a closed surface, the point of the surface nearest to the ray in
 // cone space (smallest perp / t) lies on the surface's contour as seen from the ray's
-// origin o. The ray ends at light_pos and the contour point lies near the line o-l, so the
-// contour seen from o is, to first order in the offset, the contour seen from l (exactly
-// when the ray grazes the edge). Marks the triangles adjacent to an edge that is a contour
-// edge seen from light_pos (the two neighbouring triangles fold to the same side of the
-// plane through the edge and light_pos), a boundary edge (one triangle) or a non-manifold
-// edge (three or more).
-// With band_radius > 0, also every triangle whose plane passes within band_radius of
-// light_pos (see single_sample.cpp: with band_radius = D the set is exact).
+// origin o (the boundary of its projection from o; nothing inside the projection is
+// nearer to an axis outside it). The ray ends at light_pos and the contour point lies
+// near the line o-l, so the contour seen from o is nearly the contour seen from l: they
+// coincide where the ray grazes the edge (tau = 0) and part as tau grows (the
+// approximation, docs/methods/single-sample.md). Marks the triangles adjacent to an edge
+// that is a contour edge seen from light_pos (the two neighbouring triangles fold to the
+// same side of the plane through the edge and light_pos), a boundary edge (one triangle)
+// or a non-manifold edge (three or more).
+//
+// Exactness: a point x on the contour seen from o with tau < 1 is also on the contour
+// seen from the point q where the line o-x reaches the light's distance, and |q - l| =
+// tau D < D. An edge whose contour status differs between l and q has a triangle whose
+// plane separates l from q, i.e. passes within D of l. So with band_radius = D the set
+// also holds every triangle whose plane passes within band_radius of light_pos, and the
+// minimum over the set equals the minimum over the whole closed mesh for every ray that
+// misses it.
 std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos,
                                        float band_radius = 0.0f);
 inline std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, Vec3f light_pos, float band_radius = 0.0f) {

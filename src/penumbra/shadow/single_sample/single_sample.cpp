@@ -4,19 +4,22 @@
 // that grows linearly with the distance t from the shading point, so the penumbra has
 // zero width at contact and widens with distance (paper §2-3, appendix).
 //
-// How it runs (docs/methods/single-sample.md): first the hard shadow ray on Embree
-// (rtcOccluded1M streams): where opaque geometry blocks it the inner object is hit and
-// s = 0. Elsewhere the outer objects are searched. Growing every triangle's bounding
-// volume by b_max (the paper's way) makes a ray near a 70k-triangle mesh test thousands
-// of triangles; instead the search walks a BVH in "cone space": the outer object of width
-// b(t) around the ray is a cone from o to a disk of radius D at the light, and with the
-// default `min` combination only occluders that could lower the current minimum are
-// visited, so the cone shrinks as the search goes (nearest-first order, seeded with the
-// previous view sample's nearest triangle). With `candidates=contour` (default) the BVH
-// holds only the triangles along each opaque mesh's contour seen from the light centre,
-// plus, per receiver on a mesh, the triangles around its own triangle (outer_objects.h).
-
-
+// How it runs (docs/methods/single-sample.md). Per batch of 256 view samples: the hard
+// shadow ray on Embree (rtcOccluded1M): where opaque geometry blocks it, the inner object
+// is hit and s = 0. Elsewhere the outer objects: instead of growing every triangle's
+// bounding volume by b_max (the paper's way; a ray near a 70k-triangle mesh would test
+// thousands), a search in "cone space": the outer object of width b(t) around the ray is
+// a cone from o to a disk of radius D at the light, and with `min` (the default) only the
+// occluders that could lower the current minimum are visited: a BVH descent, nearest
+// child first, seeded with the previous view sample's nearest triangle, whose cone
+// shrinks as it goes. What is searched:
+//   - candidates=contour (default): per opaque mesh, only the triangles along its contour
+//     seen from the light centre (plus boundary edges; semi-transparent objects whole), an
+//     approximation of the contour seen from each receiver (outer_objects.h); `band`
+//     widens it to exact; `neighbours` adds each receiver's own neighbouring triangles.
+//   - candidates=all: every triangle (the all-triangle minimum).
+// The BVH lives in a frame centred on the light (every ray ends there), its boxes tested
+// against packets of 8 neighbouring rays at once with AVX2 (4 with SSE/NEON).
 
 #include <algorithm>
 #include <array>
@@ -192,6 +195,11 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     Vec3f toward = scene_bounds.center() - l.center;
     light_frame_ = length_squared(toward) > 0 ? Frame::from_z(toward) : Frame::from_z(-l.frame.n);
     light_pos_ = l.center;
+    {
+      const Bounds3f& b = scene_bounds;
+      scene_scale_ = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
+      plane_eps_ = 1e-4f * scene_scale_;
+    }
     std::vector<BvhTriangle> tris;
     size_t all_count = 0;
     objects_.assign(scene.objects.size(), {});
@@ -217,13 +225,27 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         od.ring = ring_;
         keep = single_sample::contour_triangles(m, od.topology, l.center, band_ * diameter_);
         if (ring_) {
+          // Planes in the light frame, from the welded vertices transformed once each.
+          const auto& topo = od.topology;
+          std::vector<Vec3f> pos(topo.vertex_first.size() - 1);
+          for (size_t i = 0; i < m.positions.size(); ++i) pos[topo.canon[i]] = to_light_space(m.positions[i]);
           od.planes.resize(count);
-          for (size_t t = 0; t < count; ++t)
-            od.planes[t] = triangle_plane(BvhTriangle{to_light_space(m.vertex(t, 0)), to_light_space(m.vertex(t, 1)),
-                                                      to_light_space(m.vertex(t, 2))});
+          parallel_for(count, 4096, [&](size_t b, size_t e) {
+            for (size_t t = b; t < e; ++t)
+              od.planes[t] = triangle_plane(
+                  BvhTriangle{pos[topo.corners[3 * t]], pos[topo.corners[3 * t + 1]], pos[topo.corners[3 * t + 2]]});
+          });
           // The same planes in the order of the vertex fans, read contiguously by gather_ring.
           od.fan_planes.resize(od.topology.vertex_tris.size());
-          for (size_t i = 0; i < od.fan_planes.size(); ++i) od.fan_planes[i] = od.planes[od.topology.vertex_tris[i]];
+          parallel_for(od.fan_planes.size(), 16384, [&](size_t b, size_t e) {
+            for (size_t i = b; i < e; ++i) od.fan_planes[i] = od.planes[od.topology.vertex_tris[i]];
+          });
+          // A flat object (a ground plane): every neighbour lies in the receiver's plane
+          // and is excluded anyway.
+          bool flat = true;
+          for (size_t t = 1; t < count && flat; ++t)
+            flat = dot(od.planes[t].n, od.planes[0].n) > 1 - 1e-6f && std::abs(od.planes[t].d - od.planes[0].d) < plane_eps_;
+          od.ring = !flat;
         }
       }
       for (size_t t = 0; t < count; ++t)
@@ -239,10 +261,12 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     for (const BvhTriangle& t : bvh_.triangles()) planes_.push_back(triangle_plane(t));
     node_boxes_.clear();
     for (const BvhNode& n : bvh_.nodes()) node_boxes_.emplace_back(n.bounds);
-    // The leaves' triangles as blocks of four for the SIMD distance test.
+    // The leaves' triangles as blocks of four for the SIMD distance test of search_single
+    // (packets test one triangle against all their rays instead).
     blocks_.clear();
     leaf_block_.assign(bvh_.nodes().size(), 0);
-    for (size_t i = 0; i < bvh_.nodes().size(); ++i) {
+    const bool single_rays = !(packets_ && combine_ == Combine::Min);
+    for (size_t i = 0; i < bvh_.nodes().size() && single_rays; ++i) {
       const BvhNode& n = bvh_.nodes()[i];
       if (!n.leaf()) continue;
       leaf_block_[i] = static_cast<uint32_t>(blocks_.size());
@@ -259,9 +283,6 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     for (size_t o = 0; o < scene.objects.size(); ++o)
       if (scene.objects[o].sphere) spheres_.push_back({*scene.objects[o].sphere, static_cast<uint32_t>(o),
                                                        scene.objects[o].material.opacity});
-    const Bounds3f& b = scene_bounds;
-    scene_scale_ = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
-    plane_eps_ = 1e-4f * scene_scale_;
     stats_.memory_bytes = bvh_.memory_bytes() + blocks_.capacity() * sizeof(single_sample::TriangleBlock4) +
                           4 * leaf_block_.capacity() + planes_.capacity() * sizeof(Plane);
     for (const ObjectData& od : objects_)
@@ -630,25 +651,30 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     const float plane_eps = plane_eps_;
     // One triangle against the four rays; the lanes it could lower go one by one.
     auto test = [&](uint32_t i) {
-      int clip;
-      F d2 = triangle_distance2<F, I>(tris[i], r, &clip);
-      search.tests += count;
-      if (clip) {
-        // Lanes that would clip: drop those where the triangle is the receiver's own or
-        // in its plane (excluded), or where the ray leaves its plane too steeply
-        // (leaves_plane), on all lanes at once.
-        const Plane& pl = planes_[i];
-        const BvhTriangle& t = tris[i];
-        I same = object == static_cast<int>(t.object);
+      const Plane& pl = planes_[i];
+      const BvhTriangle& t = tris[i];
+      // Lanes where the triangle is the receiver's own or lies in its plane (the ground
+      // under a ground receiver) are excluded before any distance is computed.
+      int active = mask_v(limit2 > 0.0f);
+      I same = object == static_cast<int>(t.object);
+      if (mask_v(same)) {
         F height = pl.n.x * px + pl.n.y * py + pl.n.z * pz - pl.d;
-        I out = same & ((prim == static_cast<int>(t.prim)) | (vabs_v(height) < plane_eps));
+        active &= ~mask_v(same & ((prim == static_cast<int>(t.prim)) | (vabs_v(height) < plane_eps)));
+        if (!active) return;
+      }
+      int clip;
+      F d2 = triangle_distance2<F, I>(t, r, &clip);
+      search.tests += count;
+      clip &= active;
+      if (clip) {
+        // Lanes that would clip: drop those where the ray leaves the triangle's plane too
+        // steeply (leaves_plane), on all lanes at once.
         F side = pl.n.x * r.ox + pl.n.y * r.oy + pl.n.z * r.oz - pl.d;
         F nv = pl.n.x * r.vx + pl.n.y * r.vy + pl.n.z * r.vz;
         nv = side < 0.0f ? -nv : nv;
-        out |= (nv >= 0.0f) & (nv * nv >= limit2);
-        clip &= ~mask_v(out);
+        clip &= ~mask_v((nv >= 0.0f) & (nv * nv >= limit2));
       }
-      int hit = mask_v(d2 < limit2) | clip;
+      int hit = (mask_v(d2 < limit2) & active) | clip;
       if (!hit) return;
       for (int j = 0; j < count; ++j) {
         if (!(hit & (1 << j))) continue;
@@ -789,8 +815,10 @@ const MethodRegistration registration({
       "with candidates=contour, also the triangles whose plane passes within band x D of the light centre "
       "(1: exact for rays that miss a closed mesh, slower)",
       {}, 0.0, 1.0},
-     {"neighbours", ParamType::Bool, true,
-      "with candidates=contour, a receiver on a mesh also tests the triangles around its own (self-shadowing)", {}},
+     {"neighbours", ParamType::Bool, false,
+      "with candidates=contour, a receiver on a mesh also tests the triangles sharing a vertex with its own (the "
+      "all-triangle search's self-shadowing from local bumps; about 10-20% slower on the bunny)",
+      {}},
      {"leaf_size", ParamType::Int, 4, "triangles per leaf of the cone-search BVH", {}, 1, 64},
      {"packet", ParamType::Int, 8,
       "rays of neighbouring view samples searched together (SIMD; `min` only; the same result): 8 (where the "

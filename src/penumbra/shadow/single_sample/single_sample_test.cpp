@@ -376,10 +376,13 @@ TEST(SingleSample, PacketsGiveTheSameVisibilityAsSingleRays) {
   scene.camera.width = scene.camera.height = 96;
   RayTracer tracer(scene);
   ViewSamples vs = camera_pass(scene, tracer, 0);
-  std::vector<float> one = single_sample_v(scene, vs, {"packet=1"});
-  for (const char* packet : {"packet=4", "packet=8"}) {
-    std::vector<float> v = single_sample_v(scene, vs, {packet});
-    for (size_t k = 0; k < vs.size(); ++k) ASSERT_NEAR(v[k], one[k], 1e-5f) << packet << " sample " << k;
+  for (const char* neighbours : {"neighbours=false", "neighbours=true"}) {
+    std::vector<float> one = single_sample_v(scene, vs, {"packet=1", neighbours});
+    for (const char* packet : {"packet=4", "packet=8"}) {
+      std::vector<float> v = single_sample_v(scene, vs, {packet, neighbours});
+      for (size_t k = 0; k < vs.size(); ++k)
+        ASSERT_NEAR(v[k], one[k], 1e-5f) << packet << " " << neighbours << " sample " << k;
+    }
   }
 }
 
