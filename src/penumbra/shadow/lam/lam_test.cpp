@@ -205,6 +205,46 @@ TEST(Lam, UnoccludedPointsAreFullyLit) {
   }
 }
 
+TEST(Lam, SolidsAreDarkWhereTheirOwnPlaneHidesTheLight) {
+  // A box on the ground lit from the +x side: its -x face sees none of the light. Points of
+  // that face just below the lit top edge lie within epsilon of the top face's layer in the
+  // LDI; the closed mesh's own plane still hides the light from them.
+  Scene scene = ground_scene({object(box({-0.3f, 0.0f, -0.3f}, {0.3f, 0.6f, 0.3f}))},
+                             rect_light_down({1.5f, 2.0f, 0.0f}, 1.0f, 1.0f));
+  ASSERT_TRUE(scene.objects[1].closed);
+  ViewSamples vs;
+  vs.width = 40;
+  vs.height = 2;
+  for (int i = 0; i < 20; ++i) {
+    ViewSample side;
+    side.p = {-0.3f, 0.6f - 0.0005f * (i + 1), -0.2f + 0.02f * i};
+    side.ng = side.ns = {-1, 0, 0};
+    side.object = 1;
+    side.pixel = static_cast<uint32_t>(i);
+    vs.samples.push_back(side);
+  }
+  for (int i = 0; i < 20; ++i) {
+    ViewSample top;
+    top.p = {-0.29f + 0.03f * i, 0.6f, 0.05f};
+    top.ng = top.ns = {0, 1, 0};
+    top.object = 1;
+    top.pixel = static_cast<uint32_t>(20 + i);
+    vs.samples.push_back(top);
+  }
+  std::vector<float> v = run_lam(scene, vs, 64, {});
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(v[i], 0.0f) << "side " << i;
+  for (int i = 20; i < 40; ++i) EXPECT_EQ(v[i], 1.0f) << "top " << i;
+
+  // The fraction itself: planes through the 1 x 1 light at x = 1.5 + t split it at t.
+  const lam::AttenuationMap map = build_map(scene, 16, 64);
+  for (float t : {-0.6f, -0.5f, -0.25f, 0.0f, 0.3f, 0.5f, 0.7f}) {
+    float expected = clamp01(0.5f - t);  // the part with x > 1.5 + t
+    EXPECT_NEAR(map.front_fraction({1.5f + t, 0.3f, 0.1f}, {1, 0, 0}), expected, 1e-5f) << t;
+    EXPECT_NEAR(map.front_fraction({1.5f + t, 0.3f, 0.1f}, {-1, 0, 0}), 1 - expected, 1e-5f) << t;
+  }
+  EXPECT_EQ(map.front_fraction({0, 0, 0}, {0, 0, 0}), 1.0f);
+}
+
 TEST(Lam, ShadowRegionIsTheCastersShadowNotTheWholeGround) {
   const Scene scene = edge_scene();
   const lam::ShadowRegion r = lam::fit_shadow_region(scene, scene.lights[0]);
