@@ -392,7 +392,7 @@ void AttenuationMap::visibility_batch(std::span<const ViewSample> samples, std::
   for (size_t i = 0; i < samples.size(); ++i) {
     const ViewSample& s = samples[i];
     const float v = visibility_impl<kBilinear, kSlope>(s.p, s.ng, t);
-    out[i] = s.object < solid_.size() && solid_[s.object] ? std::min(v, front_fraction(s.p, s.ng)) : v;
+    out[i] = v > 0 && s.object < solid_.size() && solid_[s.object] ? std::min(v, front_fraction(s.p, s.ng)) : v;
   }
   if (texels) *texels += t;
 }
