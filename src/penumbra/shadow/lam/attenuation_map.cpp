@@ -341,6 +341,41 @@ inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, uint64_t& texels)
   }
 }
 
+float AttenuationMap::front_fraction(Vec3f p, Vec3f n) const {
+  if (outline_.empty() || !(length_squared(n) > 0)) return 1.0f;
+  // Quick exits: the plane misses the light's bounding sphere (n is unit length).
+  const float sc = dot(n, light_center_ - p);
+  if (sc >= light_radius_) return 1.0f;
+  if (sc <= -light_radius_) return 0.0f;
+  const size_t m = outline_.size();
+  float side[kMaxOutline];
+  int front = 0;
+  for (size_t i = 0; i < m; ++i) {
+    side[i] = dot(n, outline_[i] - p);
+    front += side[i] > 0;
+  }
+  if (front == static_cast<int>(m)) return 1.0f;
+  if (front == 0) return 0.0f;
+  // Area of the outline clipped to the front half-space (Sutherland-Hodgman, one plane),
+  // as a fan around the light centre.
+  float area = 0;
+  Vec3f first{}, prev{};
+  bool have = false;
+  auto emit = [&](Vec3f v) {
+    if (have) area += dot(light_normal_, cross(prev - light_center_, v - light_center_));
+    else first = v;
+    prev = v;
+    have = true;
+  };
+  for (size_t i = 0; i < m; ++i) {
+    size_t j = (i + 1) % m;
+    if (side[i] > 0) emit(outline_[i]);
+    if ((side[i] > 0) != (side[j] > 0)) emit(outline_[i] + (outline_[j] - outline_[i]) * (side[i] / (side[i] - side[j])));
+  }
+  area += dot(light_normal_, cross(prev - light_center_, first - light_center_));
+  return std::clamp(0.5f * area / light_area_, 0.0f, 1.0f);
+}
+
 float AttenuationMap::visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels) const {
   if (empty()) return 1.0f;
   uint64_t t = 0;
@@ -354,14 +389,21 @@ template <bool kBilinear, bool kSlope>
 void AttenuationMap::visibility_batch(std::span<const ViewSample> samples, std::span<float> out,
                                       uint64_t* texels) const {
   uint64_t t = 0;
-  for (size_t i = 0; i < samples.size(); ++i) out[i] = visibility_impl<kBilinear, kSlope>(samples[i].p, samples[i].ng, t);
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const ViewSample& s = samples[i];
+    const float v = visibility_impl<kBilinear, kSlope>(s.p, s.ng, t);
+    out[i] = v > 0 && s.object < solid_.size() && solid_[s.object] ? std::min(v, front_fraction(s.p, s.ng)) : v;
+  }
   if (texels) *texels += t;
 }
 
 void AttenuationMap::visibility(std::span<const ViewSample> samples, std::span<float> out, Filter filter,
                                 uint64_t* texels) const {
   if (empty()) {
-    std::fill(out.begin(), out.begin() + samples.size(), 1.0f);
+    for (size_t i = 0; i < samples.size(); ++i) {
+      const ViewSample& s = samples[i];
+      out[i] = s.object < solid_.size() && solid_[s.object] ? front_fraction(s.p, s.ng) : 1.0f;
+    }
     return;
   }
   if (filter == Filter::Bilinear)
@@ -431,6 +473,22 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
   AttenuationMap map;
   map.samples_ = static_cast<int>(samples.size());
   map.epsilon_ = opt.epsilon;
+  map.solid_ = opt.solid_objects;
+  {
+    // The light as the LDI's samples see it: the polygon its samples lie in.
+    map.outline_ = light.outline(AttenuationMap::kMaxOutline);
+    map.light_center_ = light.center;
+    map.light_normal_ = normalize(light.frame.n);
+    float area = 0, radius = 0;
+    for (size_t i = 0; i < map.outline_.size(); ++i) {
+      const Vec3f a = map.outline_[i] - light.center, b = map.outline_[(i + 1) % map.outline_.size()] - light.center;
+      area += dot(map.light_normal_, cross(a, b));
+      radius = std::max(radius, length(a));
+    }
+    map.light_area_ = std::max(0.5f * std::abs(area), 1e-30f);
+    if (area < 0) map.light_normal_ = -map.light_normal_;  // counter-clockwise around the normal
+    map.light_radius_ = radius * (1 + 1e-5f);
+  }
   if (region.empty) return map;
 
   const LightAxes axes = light_axes(light);

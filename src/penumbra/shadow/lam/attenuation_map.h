@@ -103,15 +103,28 @@ class AttenuationMap {
   // of p (p's surface does not reach them). Outside the shadow region: 1. *texels (if
   // given) is increased by the number of texels read.
   float visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels = nullptr) const;
-  // The same for a run of view samples (p and ng): out[i] for samples[i].
+  // The same for a run of view samples (p and ng): out[i] for samples[i]; on a solid object
+  // (BuildOptions::solid_objects) V is also at most front_fraction(p, ng).
   void visibility(std::span<const ViewSample> samples, std::span<float> out, Filter filter,
                   uint64_t* texels = nullptr) const;
+
+  // The fraction of the light's area in front of the plane through p with unit normal n (1
+  // for n = 0). On a closed mesh the solid lies behind that plane, so the light behind it is
+  // hidden; the LDI alone can miss that within epsilon of a lit surface (the unlit side of a
+  // box just below its lit top edge, a terminator). Thin open surfaces (two-sided leaves)
+  // see the light from both sides, as the reference's rays do, so they are not clamped.
+  float front_fraction(Vec3f p, Vec3f n) const;
 
   // The texel-level classification of a depth at texel (x, y), for tests and images.
   LookupClass classify(int x, int y, float z, float* attenuation) const;
 
  private:
   friend class Builder;
+  static constexpr int kMaxOutline = 16;  // disk and sphere lights as 16-gons
+  std::vector<Vec3f> outline_;
+  Vec3f light_center_, light_normal_{0, 0, 1};
+  float light_area_ = 1, light_radius_ = 0;
+  std::vector<bool> solid_;  // per scene object: closed mesh
   template <bool kBilinear, bool kSlope>
   float visibility_impl(Vec3f p, Vec3f n, uint64_t& texels) const;
   template <bool kBilinear, bool kSlope>
@@ -134,13 +147,16 @@ class AttenuationMap {
 struct BuildOptions {
   int resolution = 512;   // texels along the longer side of the reference view (square texels)
   float epsilon = 0.005f;  // depth tolerance, relative to linear depth
-  int max_layers = 16;    // layers one texel can hold while building (more are dropped)
+  int max_layers = 32;    // layers one texel can hold while building (more are dropped)
   // Compare depths at texel centres: each splat carries its depth to the centres it lands
   // on along the surface's local plane (gradient from the depth map), and a lookup carries
   // the view sample's depth along its own plane. Without it (the paper's rule) a depth is
   // compared as is, which needs epsilon to cover the depth change across a texel or two
   // (insufficient depth sampling on oblique surfaces, agrawala2000 §6.1).
   bool slope = true;
+  // Per scene object (RasterTriangle::object, ViewSample::object): whether it is a closed
+  // mesh (SceneObject::closed), whose view samples are clamped by front_fraction.
+  std::vector<bool> solid_objects;
 };
 
 struct BuildStats {

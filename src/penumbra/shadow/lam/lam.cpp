@@ -62,7 +62,7 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     options_.resolution = p.get_int("resolution");
     options_.epsilon = p.get_float("epsilon");
     options_.max_layers = p.get_int("max_layers");
-    options_.slope = p.get_bool("slope");
+    options_.slope = p.get_bool("local_planes");
     filter_ = p.get_string("filter") == "nearest" ? lam::Filter::Nearest : lam::Filter::Bilinear;
   }
 
@@ -81,7 +81,10 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     const std::vector<RasterTriangle> tris = cull_hidden_back_faces(*ctx.scene, *ctx.light, all);
     const double gather_ms = t_gather.elapsed_ms();
     lam::BuildStats bs;
-    map_ = lam::build_attenuation_map(tris, *ctx.light, region, set.base(), options_, &bs);
+    lam::BuildOptions options = options_;
+    if (options.slope)
+      for (const SceneObject& o : ctx.scene->objects) options.solid_objects.push_back(o.closed);
+    map_ = lam::build_attenuation_map(tris, *ctx.light, region, set.base(), options, &bs);
     bs.fit_ms = fit_ms;
 
     nlohmann::json dc = nlohmann::json::array();
@@ -161,10 +164,11 @@ const MethodRegistration registration({
          {}, 0, 1},
         {"filter", ParamType::String, "bilinear",
          "display lookup: 'nearest' texel or 'bilinear' over the 4 neighbouring texels", {"nearest", "bilinear"}},
-        {"slope", ParamType::Bool, true,
-         "compare depths at LDI texel centres, carried there along each surface's local plane (penumbra's "
-         "addition); false: the paper's plain |z - z_layer| <= epsilon z", {}},
-        {"max_layers", ParamType::Int, 16, "most layers one LDI texel holds while building (more are dropped)", {},
+        {"local_planes", ParamType::Bool, true,
+         "use each surface's local plane (penumbra's addition): compare depths at LDI texel centres, carried "
+         "there along the plane, and on closed meshes hide the light behind a point's own tangent plane; "
+         "false: the paper's plain rule |z - z_layer| <= epsilon z", {}},
+        {"max_layers", ParamType::Int, 32, "most layers one LDI texel holds while building (more are dropped)", {},
          1, 255},
     },
     [](const ParamSet& p) { return std::make_unique<LayeredAttenuationMaps>(p); },
