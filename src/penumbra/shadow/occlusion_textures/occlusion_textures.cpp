@@ -71,22 +71,18 @@ namespace {
 bool is_planar_non_caster(const Scene& scene, size_t i, const LightRect& light) {
   const TriangleMesh& m = scene.objects[i].mesh;
   if (m.triangle_count() == 0) return true;
-  // The plane of the largest triangle.
-  Vec3f normal;
-  float best = 0;
-  for (size_t t = 0; t < m.triangle_count(); ++t) {
-    Vec3f c = cross(m.vertex(t, 1) - m.vertex(t, 0), m.vertex(t, 2) - m.vertex(t, 0));
-    float a = length_squared(c);
-    if (a > best) {
-      best = a;
-      normal = c;
-    }
-  }
-  if (!(best > 0)) return false;
-  normal = normalize(normal);
+  // The plane of the first triangle that is not a sliver; every vertex must lie on it (a
+  // non-planar mesh fails at its first vertex off the plane).
   const Bounds3f b = m.bounds();
+  const float extent = length(b.diagonal());
+  Vec3f normal;
+  for (size_t t = 0; t < m.triangle_count() && !(length_squared(normal) > 0); ++t) {
+    const Vec3f c = cross(m.vertex(t, 1) - m.vertex(t, 0), m.vertex(t, 2) - m.vertex(t, 0));
+    if (length(c) > 1e-3f * extent * extent) normal = normalize(c);
+  }
+  if (!(length_squared(normal) > 0)) return false;
   const float offset = dot(normal, m.vertex(0, 0));
-  const float tol = 1e-5f * (length(b.diagonal()) + max_component(vmax(vmax(b.hi, -b.lo), Vec3f(0.0f))));
+  const float tol = 1e-5f * (extent + max_component(vmax(vmax(b.hi, -b.lo), Vec3f(0.0f))));
   for (Vec3f p : m.positions)
     if (std::abs(dot(normal, p) - offset) > tol) return false;
   // The light's corners: all strictly on one side.
@@ -254,27 +250,18 @@ inline float OcclusionTextures::combine(float product, float sum, float largest)
   return product;
 }
 
-// Points in the light's frame, structure of arrays; compacted slice by slice as points drop
-// out (a slice at or beyond a point's depth, and every farther slice, casts nothing on it).
+// A batch of points (the view samples of one image tile) in the light's frame, structure of
+// arrays, sorted by how many slices lie between the point and the light, most first: slice k
+// then shades the prefix of points with more than k slices above them.
 struct OcclusionTextures::Batch {
-  std::vector<float> u, v, z, inv_z, product, sum, largest;
-  std::vector<uint32_t> target;  // where the point's V goes
-  std::vector<float> cx, cy, side, occlusion;
-  size_t size = 0;
-  void resize(size_t n) {
-    for (auto* a : {&u, &v, &z, &inv_z, &product, &sum, &largest, &cx, &cy, &side, &occlusion}) a->resize(n);
-    target.resize(n);
-    size = n;
-  }
-  void set(size_t i, const LightRect& light, const LightView& view, Vec3f p, uint32_t to) {
-    const Vec3f q = p - light.center;
-    u[i] = dot(q, view.right());
-    v[i] = dot(q, view.up());
-    z[i] = dot(q, light.forward);
-    inv_z[i] = 1.0f / z[i];
-    product[i] = 1.0f;
-    sum[i] = largest[i] = 0.0f;
-    target[i] = to;
+  std::vector<Vec3f> points;      // as added
+  std::vector<uint32_t> targets;  // where each point's V goes
+  std::vector<uint8_t> above;     // slices above each point
+  std::vector<float> u, v, z, inv_z, product, sum, largest, cx, cy, side, occlusion;  // sorted
+  std::vector<uint32_t> target;                                                    // sorted
+  void reset(size_t n) {
+    points.resize(n);
+    targets.resize(n);
   }
 };
 
@@ -282,31 +269,51 @@ struct OcclusionTextures::Batch {
 // (zp = plane(k)): the light seen from P cuts plane k in a square of t x size(light), t =
 // (z - zp) / z (eq. 4), centred where P-C crosses the plane; in texels its side is
 // t R d / (zp + d) and its centre is R/2 + u (zp / z) (d / (zp + d)) R / width (and likewise
-// in y, rows downward). The slice just above P fades in over `fade` slice thicknesses (§3.4).
+// in y, rows downward). The slice just above P fades in over `fade` slice thicknesses (§3.4);
+// the slice containing P and those below are not looked up.
 template <class F>
 void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> out, LookupCounters& n) const {
-  size_t m = b.size;
-  auto finish = [&](size_t i) {
-    out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? combine(b.product[i], b.sum[i], b.largest[i]) : 1.0f);
-  };
-  for (int k = 0; k < options_.slices && m > 0 && has_casters_; ++k) {
-    const float zp = plane(k);
-    // Drop the points this slice does not lie above (compacting the arrays in place).
-    size_t kept = 0;
-    for (size_t i = 0; i < m; ++i) {
-      if (!(zp < b.z[i])) {
-        finish(i);
-        continue;
-      }
-      if (kept != i) {
-        b.u[kept] = b.u[i]; b.v[kept] = b.v[i]; b.z[kept] = b.z[i]; b.inv_z[kept] = b.inv_z[i];
-        b.product[kept] = b.product[i]; b.sum[kept] = b.sum[i]; b.largest[kept] = b.largest[i];
-        b.target[kept] = b.target[i];
-      }
-      ++kept;
+  const size_t count = b.points.size();
+  const int S = options_.slices;
+  for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion})
+    a->resize(count);
+  b.target.resize(count);
+  b.above.resize(count);
+  // Slices above each point, and a counting sort by that number, descending.
+  uint32_t bucket[33] = {};
+  const Vec3f right = view_.right(), up = view_.up();
+  for (size_t i = 0; i < count; ++i) {
+    const float z = dot(b.points[i] - light_.center, light_.forward);
+    int a = 0;
+    if (has_casters_ && z > 0) {
+      a = std::clamp(static_cast<int>(std::ceil((z - top_) / thickness_)) - 1, 0, S);
+      while (a > 0 && !(plane(a - 1) < z)) --a;
+      while (a < S && plane(a) < z) ++a;
     }
-    m = kept;
+    b.above[i] = static_cast<uint8_t>(a);
+    ++bucket[a];
+  }
+  uint32_t next[33];
+  for (int a = S, start = 0; a >= 0; --a) {
+    next[a] = static_cast<uint32_t>(start);
+    start += static_cast<int>(bucket[a]);
+  }
+  for (size_t i = 0; i < count; ++i) {
+    const uint32_t j = next[b.above[i]]++;
+    const Vec3f q = b.points[i] - light_.center;
+    b.u[j] = dot(q, right);
+    b.v[j] = dot(q, up);
+    b.z[j] = dot(q, light_.forward);
+    b.inv_z[j] = 1.0f / b.z[j];
+    b.product[j] = 1.0f;
+    b.sum[j] = b.largest[j] = 0.0f;
+    b.target[j] = b.targets[i];
+  }
+  size_t m = count;
+  for (int k = 0; k < S; ++k) {
+    m -= bucket[k];  // the points with exactly k slices above drop out
     if (m == 0) break;
+    const float zp = plane(k);
     const float scale = scale_[k], half_r = 0.5f * R_, kx = kx_, ky = ky_, side_scale = scale * R_;
     {
       const float* __restrict u = b.u.data();
@@ -339,15 +346,17 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
       }
     }
   }
-  for (size_t i = 0; i < m; ++i) finish(i);
+  for (size_t i = 0; i < count; ++i)
+    out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? combine(b.product[i], b.sum[i], b.largest[i]) : 1.0f);
 }
 
 float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
   LookupCounters local;
   LookupCounters& n = counters ? *counters : local;
   Batch b;
-  b.resize(1);
-  b.set(0, light_, view_, p, 0);
+  b.reset(1);
+  b.points[0] = p;
+  b.targets[0] = 0;
   float v = 0;
   dispatch([&](const auto& f) { shade_batch(f, b, std::span<float>(&v, 1), n); });
   return v;
@@ -355,7 +364,8 @@ float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
 
 // Shading walks the image in 16 x 16 pixel tiles and, within a tile, slice by slice: the
 // kernels of a tile's samples on one slice cover a small patch of one texture plane that
-// stays in cache, and the per-sample arithmetic runs over arrays (vectorised).
+// stays in cache, and the per-sample arithmetic runs over arrays (vectorised). The same code
+// as visibility() (a batch of one).
 template <class F>
 void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::span<float> visibility,
                                    LookupCounters& total) const {
@@ -383,17 +393,20 @@ void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::
   constexpr int kTile = 16;
   parallel_for_tiles(W, H, kTile, [&](int x0, int y0, int x1, int y1) {
     Batch& b = batches.local();
-    uint32_t range[kTile][2];
+    uint32_t begin[kTile], end[kTile];
     size_t n = 0;
     for (int y = y0; y < y1; ++y) {
-      range[y - y0][0] = first_at_or_after(y, x0);
-      range[y - y0][1] = x1 < W ? first_at_or_after(y, x1) : row[y + 1];
-      n += range[y - y0][1] - range[y - y0][0];
+      begin[y - y0] = first_at_or_after(y, x0);
+      end[y - y0] = x1 < W ? first_at_or_after(y, x1) : row[y + 1];
+      n += end[y - y0] - begin[y - y0];
     }
-    b.resize(n);
+    b.reset(n);
     size_t j = 0;
     for (int y = y0; y < y1; ++y)
-      for (uint32_t i = range[y - y0][0]; i < range[y - y0][1]; ++i) b.set(j++, light_, view_, vs.samples[i].p, i);
+      for (uint32_t i = begin[y - y0]; i < end[y - y0]; ++i, ++j) {
+        b.points[j] = vs.samples[i].p;
+        b.targets[j] = i;
+      }
     LookupCounters counters;
     shade_batch(filter, b, visibility, counters);
     lookups.fetch_add(counters.lookups, std::memory_order_relaxed);

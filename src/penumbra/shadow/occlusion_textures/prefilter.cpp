@@ -179,7 +179,7 @@ void BytePyramid::allocate(int levels, int slices, const std::vector<std::pair<i
   size_t offset = 0;
   for (int l = 0; l < levels; ++l)
     for (int k = 0; k < slices; ++k) {
-      planes_[static_cast<size_t>(l) * slices + k] = {data_.data() + offset, sizes[l].first, sizes[l].second};
+      planes_[static_cast<size_t>(k) * levels + l] = {data_.data() + offset, sizes[l].first, sizes[l].second};
       offset += static_cast<size_t>(sizes[l].first) * sizes[l].second;
     }
 }
@@ -230,7 +230,7 @@ float MipmapFilter::trilinear(int k, float cx, float cy, float side, LookupCount
     const float y = std::min(std::max(cy * scale - 0.5f, 0.0f), h - 1.0f);
     const float ix = float(static_cast<int>(x)), iy = float(static_cast<int>(y));
     const BytePyramid::Plane& p = pyramid_.plane(l + i, k);
-    v[i] = BytePyramid::bilinear(p.data + static_cast<int>(iy * w + ix), p.w, x - ix, y - iy);
+    v[i] = BytePyramid::bilinear(BytePyramid::quad(p.data + static_cast<int>(iy * w + ix), p.w), x - ix, y - iy);
   }
   n.reads += 8;
   return v[0] + (v[1] - v[0]) * f;
@@ -275,22 +275,22 @@ void MipmapFilter::squares(int k, size_t count, const float* cx, const float* cy
       off0[i] = static_cast<int>(iy0 * w0 + ix0);
       off1[i] = static_cast<int>(iy1 * w1 + ix1);
     }
-    int t[8][kChunk];
+    uint32_t q0[kChunk], q1[kChunk];
     size_t reads = 0;
+    const BytePyramid::Plane* planes = pyramid_.planes(k);
     for (size_t i = 0; i < m; ++i) {
-      const BytePyramid::Plane& p0 = pyramid_.plane(level[i], k);
-      const BytePyramid::Plane& p1 = pyramid_.plane(level[i] + 1, k);
-      const uint8_t* a = p0.data + off0[i];
-      const uint8_t* c = p1.data + off1[i];
-      t[0][i] = a[0]; t[1][i] = a[1]; t[2][i] = a[p0.w]; t[3][i] = a[p0.w + 1];
-      t[4][i] = c[0]; t[5][i] = c[1]; t[6][i] = c[p1.w]; t[7][i] = c[p1.w + 1];
+      const BytePyramid::Plane* p = planes + level[i];
+      q0[i] = BytePyramid::quad(p[0].data + off0[i], p[0].w);
+      q1[i] = BytePyramid::quad(p[1].data + off1[i], p[1].w);
       reads += sq.mode[i] == kSquare;
     }
     n.reads += 8 * reads;
     float* __restrict o = out + b;
     for (size_t i = 0; i < m; ++i) {
-      const float a0 = float(t[0][i]), b0 = float(t[1][i]), c0 = float(t[2][i]), d0 = float(t[3][i]);
-      const float a1 = float(t[4][i]), b1 = float(t[5][i]), c1 = float(t[6][i]), d1 = float(t[7][i]);
+      const float a0 = float(q0[i] & 0xffu), b0 = float((q0[i] >> 8) & 0xffu);
+      const float c0 = float((q0[i] >> 16) & 0xffu), d0 = float(q0[i] >> 24);
+      const float a1 = float(q1[i] & 0xffu), b1 = float((q1[i] >> 8) & 0xffu);
+      const float c1 = float((q1[i] >> 16) & 0xffu), d1 = float(q1[i] >> 24);
       const float top0 = a0 + (b0 - a0) * fx0[i], bottom0 = c0 + (d0 - c0) * fx0[i];
       const float top1 = a1 + (b1 - a1) * fx1[i], bottom1 = c1 + (d1 - c1) * fx1[i];
       const float v0 = (top0 + (bottom0 - top0) * fy0[i]) * (1.0f / 255.0f);
@@ -345,8 +345,8 @@ float NBufferFilter::square(int k, float cx, float cy, float side, LookupCounter
     const float y = std::min(std::max(cy - 0.5f * size, 0.0f), float(height_) - size);
     const float ix = float(static_cast<int>(x)), iy = float(static_cast<int>(y));
     const BytePyramid::Plane& p = pyramid_.plane(l + i, k);
-    v[i] = BytePyramid::bilinear(p.data + static_cast<int>(iy * (float(width_) + 1.0f - size) + ix), p.w, x - ix,
-                                 y - iy);
+    v[i] = BytePyramid::bilinear(BytePyramid::quad(p.data + static_cast<int>(iy * (float(width_) + 1.0f - size) + ix), p.w),
+                                 x - ix, y - iy);
   }
   n.reads += 8;
   return v[0] + (v[1] - v[0]) * f;
@@ -389,23 +389,23 @@ void NBufferFilter::squares(int k, size_t count, const float* cx, const float* c
       off1[i] = static_cast<int>(iy1 * (W + 1.0f - size1) + ix1);
     }
     // Texel reads (offsets are inside the planes whatever the mode).
-    int t[8][kChunk];
+    uint32_t q0[kChunk], q1[kChunk];
     size_t reads = 0;
+    const BytePyramid::Plane* planes = pyramid_.planes(k);
     for (size_t i = 0; i < m; ++i) {
-      const BytePyramid::Plane& p0 = pyramid_.plane(level[i], k);
-      const BytePyramid::Plane& p1 = pyramid_.plane(level[i] + 1, k);
-      const uint8_t* a = p0.data + off0[i];
-      const uint8_t* c = p1.data + off1[i];
-      t[0][i] = a[0]; t[1][i] = a[1]; t[2][i] = a[p0.w]; t[3][i] = a[p0.w + 1];
-      t[4][i] = c[0]; t[5][i] = c[1]; t[6][i] = c[p1.w]; t[7][i] = c[p1.w + 1];
+      const BytePyramid::Plane* p = planes + level[i];
+      q0[i] = BytePyramid::quad(p[0].data + off0[i], p[0].w);
+      q1[i] = BytePyramid::quad(p[1].data + off1[i], p[1].w);
       reads += sq.mode[i] == kSquare;
     }
     n.reads += 8 * reads;
     // Blends, over the batch (the same arithmetic as BytePyramid::bilinear and square()).
     float* __restrict o = out + b;
     for (size_t i = 0; i < m; ++i) {
-      const float a0 = float(t[0][i]), b0 = float(t[1][i]), c0 = float(t[2][i]), d0 = float(t[3][i]);
-      const float a1 = float(t[4][i]), b1 = float(t[5][i]), c1 = float(t[6][i]), d1 = float(t[7][i]);
+      const float a0 = float(q0[i] & 0xffu), b0 = float((q0[i] >> 8) & 0xffu);
+      const float c0 = float((q0[i] >> 16) & 0xffu), d0 = float(q0[i] >> 24);
+      const float a1 = float(q1[i] & 0xffu), b1 = float((q1[i] >> 8) & 0xffu);
+      const float c1 = float((q1[i] >> 16) & 0xffu), d1 = float(q1[i] >> 24);
       const float top0 = a0 + (b0 - a0) * fx0[i], bottom0 = c0 + (d0 - c0) * fx0[i];
       const float top1 = a1 + (b1 - a1) * fx1[i], bottom1 = c1 + (d1 - c1) * fx1[i];
       const float v0 = (top0 + (bottom0 - top0) * fy0[i]) * (1.0f / 255.0f);
