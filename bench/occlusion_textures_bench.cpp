@@ -73,7 +73,7 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
   std::vector<Vec3f> e(f.vs.size());
   ShadowOutput out{v, e};
   MethodStats sum;  // phase times and texel reads summed over frames
-  uint64_t lookups = 0;
+  uint64_t lookups = 0, outside = 0, strips = 0;
   int64_t frames = 0;
   // With OT_THREADS=1 everything runs on this thread, and its CPU time per call is the cost
   // of the work alone, however loaded the machine (the least of the frames is reported).
@@ -92,6 +92,8 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
     benchmark::DoNotOptimize(v.data());
     sum.accumulate(method->stats());
     lookups += method->stats().extra.value("lookups", uint64_t{0});
+    outside += method->stats().extra.value("lookups_outside", uint64_t{0});
+    strips += method->stats().extra.value("lookups_strips", uint64_t{0});
     ++frames;
   }
   const double n = static_cast<double>(std::max<int64_t>(1, frames));
@@ -106,6 +108,8 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
   const double samples = static_cast<double>(f.vs.size()) * n;
   state.counters["lookups_per_sample"] = static_cast<double>(lookups) / samples;
   state.counters["texels_per_sample"] = static_cast<double>(sum.texels_visited) / samples;
+  state.counters["outside_per_sample"] = static_cast<double>(outside) / samples;
+  state.counters["strips_per_sample"] = static_cast<double>(strips) / samples;
   state.counters["texture_MB"] = static_cast<double>(method->stats().memory_bytes) / (1024.0 * 1024.0);
   state.counters["d"] = method->stats().extra.value("cop_distance", 0.0);
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <bit>
 #include <cmath>
 
@@ -388,12 +389,12 @@ void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::
     return static_cast<uint32_t>(
         std::lower_bound(b, e, pixel, [](const ViewSample& s, uint32_t p) { return s.pixel < p; }) - vs.samples.data());
   };
-  std::atomic<uint64_t> lookups{0}, reads{0};
+  std::atomic<uint64_t> lookups{0}, reads{0}, outside{0}, strips{0};
   tbb::enumerable_thread_specific<Batch> batches;
-  constexpr int kTile = 16;
+  static const int kTile = std::getenv("OT_TILE") ? std::atoi(std::getenv("OT_TILE")) : 16;
   parallel_for_tiles(W, H, kTile, [&](int x0, int y0, int x1, int y1) {
     Batch& b = batches.local();
-    uint32_t begin[kTile], end[kTile];
+    uint32_t begin[64], end[64];
     size_t n = 0;
     for (int y = y0; y < y1; ++y) {
       begin[y - y0] = first_at_or_after(y, x0);
@@ -411,9 +412,13 @@ void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::
     shade_batch(filter, b, visibility, counters);
     lookups.fetch_add(counters.lookups, std::memory_order_relaxed);
     reads.fetch_add(counters.reads, std::memory_order_relaxed);
+    outside.fetch_add(counters.outside, std::memory_order_relaxed);
+    strips.fetch_add(counters.strips, std::memory_order_relaxed);
   });
   total.lookups += lookups.load();
   total.reads += reads.load();
+  total.outside += outside.load();
+  total.strips += strips.load();
 }
 
 void OcclusionTextures::shade(const ViewSamples& vs, std::span<float> visibility, MethodStats* stats) const {
@@ -422,8 +427,12 @@ void OcclusionTextures::shade(const ViewSamples& vs, std::span<float> visibility
   dispatch([&](const auto& f) { shade_with(f, vs, visibility, n); });
   stats->add_phase("shading", timer.elapsed_ms());
   stats->texels_visited += n.reads;
-  const uint64_t before = stats->extra.contains("lookups") ? stats->extra["lookups"].get<uint64_t>() : 0;
-  stats->extra["lookups"] = before + n.lookups;
+  auto add = [&](const char* key, uint64_t value) {
+    stats->extra[key] = (stats->extra.contains(key) ? stats->extra[key].get<uint64_t>() : 0) + value;
+  };
+  add("lookups", n.lookups);
+  add("lookups_outside", n.outside);
+  add("lookups_strips", n.strips);
 }
 
 }  // namespace penumbra::occlusion

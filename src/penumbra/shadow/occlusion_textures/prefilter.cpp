@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstring>
+#include <type_traits>
 
 #include "penumbra/core/parallel.h"
 
@@ -86,15 +88,16 @@ inline float max_side(int levels) { return exp2_int(levels - 1) * (1.0f - 1.0f /
 
 // A batch of square kernels cut to the texture, as box() and mean_over_squares() see them:
 // kSquare: one square lookup (side, centre) times `fraction` (the kernel inside, or cut to a
-// nearly square rectangle); kEmpty: entirely outside, 0; kSlow: cut to an elongated rectangle,
-// through box() (several lookups).
+// nearly square rectangle); kEmpty: 0 (entirely outside, or cut to an elongated rectangle
+// that misses the slice's covered texels); kSlow: cut to an elongated rectangle that meets
+// them, through box() (several lookups).
 enum : int { kSquare = 0, kEmpty = 1, kSlow = 2 };
 struct SquareBatch {
   float cx[kChunk], cy[kChunk], side[kChunk], fraction[kChunk];
   int mode[kChunk];
 };
 void clip_squares(const float* __restrict X, const float* __restrict Y, const float* __restrict Q, size_t m, float W,
-                  float H, SquareBatch& sq) {
+                  float H, const SliceBounds& bounds, SquareBatch& sq) {
   for (size_t i = 0; i < m; ++i) {
     const float half = 0.5f * std::max(Q[i], 1.0f);
     const float ux0 = X[i] - half, ux1 = X[i] + half, uy0 = Y[i] - half, uy1 = Y[i] + half;
@@ -107,7 +110,11 @@ void clip_squares(const float* __restrict X, const float* __restrict Y, const fl
     sq.cy[i] = 0.5f * (y0 + y1);
     sq.side[i] = sx == sy ? sx : std::sqrt(std::max(sx * sy, 0.0f));
     sq.fraction[i] = nonempty ? sx * sy / area : 0.0f;
-    sq.mode[i] = !nonempty ? kEmpty : (squareish ? kSquare : kSlow);
+    // An elongated cut that misses every covered texel is 0 here already (as in box()).
+    const int in = nonempty, square = squareish;
+    const int meets = (ux0 < bounds.x1) & (ux1 > bounds.x0) & (uy0 < bounds.y1) & (uy1 > bounds.y0);
+    const int strip = in & (square ^ 1);  // (bit operations: the loop stays vectorised)
+    sq.mode[i] = (in ^ 1) | (strip & (meets ^ 1)) | ((strip & meets) << 1);  // kEmpty 1, kSlow 2, kSquare 0
   }
 }
 // Lookup counts, and the elongated rectangles through `box` (which counts itself).
@@ -117,8 +124,10 @@ void finish_squares(const SquareBatch& sq, size_t m, const float* X, const float
   for (size_t i = 0; i < m; ++i) {
     if (sq.mode[i] != kSlow) {
       ++n.lookups;
+      n.outside += sq.mode[i] == kEmpty;
       continue;
     }
+    ++n.strips;
     const float half = 0.5f * std::max(Q[i], 1.0f);
     out[i] = box(X[i] - half, Y[i] - half, X[i] + half, Y[i] + half);
   }
@@ -248,7 +257,7 @@ void MipmapFilter::squares(int k, size_t count, const float* cx, const float* cy
   for (size_t b = 0; b < count; b += kChunk) {
     const size_t m = std::min(kChunk, count - b);
     SquareBatch sq;
-    clip_squares(cx + b, cy + b, side + b, m, W, H, sq);
+    clip_squares(cx + b, cy + b, side + b, m, W, H, bounds_[k], sq);
     int level[kChunk], off0[kChunk], off1[kChunk];
     float f[kChunk], fx0[kChunk], fy0[kChunk], fx1[kChunk], fy1[kChunk];
     // Coordinates (the same arithmetic as trilinear(), over the batch).
@@ -364,7 +373,7 @@ void NBufferFilter::squares(int k, size_t count, const float* cx, const float* c
   for (size_t b = 0; b < count; b += kChunk) {
     const size_t m = std::min(kChunk, count - b);
     SquareBatch sq;
-    clip_squares(cx + b, cy + b, side + b, m, W, H, sq);
+    clip_squares(cx + b, cy + b, side + b, m, W, H, bounds_[k], sq);
     int level[kChunk], off0[kChunk], off1[kChunk];
     float f[kChunk], fx0[kChunk], fy0[kChunk], fx1[kChunk], fy1[kChunk];
     // Coordinates (the same arithmetic as square(), over the batch).
@@ -537,26 +546,41 @@ void SatFilter<T>::squares(int k, size_t count, const float* cx, const float* cy
       corner[2][i] = static_cast<int>(j1 * S + i0);
       corner[3][i] = static_cast<int>(j1 * S + i1);
     }
-    // Table reads: for each corner, the entry and its right, lower and lower-right neighbours.
-    T e[16][kChunk];
-    for (size_t i = 0; i < m; ++i)
-      for (int c = 0; c < 4; ++c) {
-        const T* p = t + corner[c][i];
-        e[4 * c][i] = p[0];
-        e[4 * c + 1][i] = p[1];
-        e[4 * c + 2][i] = p[stride];
-        e[4 * c + 3][i] = p[stride + 1];
-      }
-    // The exact count plus the fractional terms (as sat_area()).
+    // Table reads: for each corner, the entry and its right, lower and lower-right neighbours
+    // (for 32-bit counts, each horizontal pair in one 64-bit read).
     float* __restrict o = out + b;
     uint64_t reads = 0;
-    for (size_t i = 0; i < m; ++i) {
-      const float area = sat_area_from([&](int c, int k) { return e[4 * c + k][i]; }, fx0[i], fy0[i], fx1[i], fy1[i]);
-      o[i] = area * inv_area[i];
-      reads += inv_area[i] > 0;
+    if constexpr (std::is_same_v<T, uint32_t>) {
+      uint64_t pair[8][kChunk];
+      for (size_t i = 0; i < m; ++i)
+        for (int c = 0; c < 4; ++c) {
+          const T* p = t + corner[c][i];
+          std::memcpy(&pair[2 * c][i], p, 8);
+          std::memcpy(&pair[2 * c + 1][i], p + stride, 8);
+        }
+      for (size_t i = 0; i < m; ++i) {
+        auto e = [&](int c, int k) { return static_cast<uint32_t>(pair[2 * c + (k >> 1)][i] >> (32 * (k & 1))); };
+        o[i] = sat_area_from(e, fx0[i], fy0[i], fx1[i], fy1[i]) * inv_area[i];
+        reads += inv_area[i] > 0;
+      }
+    } else {
+      T e[16][kChunk];
+      for (size_t i = 0; i < m; ++i)
+        for (int c = 0; c < 4; ++c) {
+          const T* p = t + corner[c][i];
+          e[4 * c][i] = p[0];
+          e[4 * c + 1][i] = p[1];
+          e[4 * c + 2][i] = p[stride];
+          e[4 * c + 3][i] = p[stride + 1];
+        }
+      for (size_t i = 0; i < m; ++i) {
+        o[i] = sat_area_from([&](int c, int k) { return e[4 * c + k][i]; }, fx0[i], fy0[i], fx1[i], fy1[i]) * inv_area[i];
+        reads += inv_area[i] > 0;
+      }
     }
     n.lookups += m;
     n.reads += 16 * reads;
+    n.outside += m - reads;
   }
 }
 

@@ -62,6 +62,8 @@ inline float approx_log2(float x) {
 struct LookupCounters {
   uint64_t lookups = 0;  // filtered lookups (one per kernel)
   uint64_t reads = 0;    // texels read
+  uint64_t outside = 0;  // kernels entirely outside the texture (0, nothing read)
+  uint64_t strips = 0;   // kernels cut by the border to an elongated rectangle (mipmap, N-buffer)
 };
 
 // The coverage stack the filters are built from: bit k of masks[y * width + x] = slice k
