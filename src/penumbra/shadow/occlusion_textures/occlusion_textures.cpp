@@ -123,14 +123,8 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   // Casters: every object but the planar ones that cannot shadow anything.
   culled_.clear();
   triangles_.clear();
-  for (size_t i = 0; i < scene.objects.size(); ++i) {
-    const SceneObject& o = scene.objects[i];
-    if (options_.cull_planar && is_planar_non_caster(scene, i, light_)) {
-      culled_.push_back(static_cast<uint32_t>(i));
-      continue;
-    }
-    append_raster_triangles(o.mesh, o.material.opacity, static_cast<uint32_t>(i), &triangles_);
-  }
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (options_.cull_planar && is_planar_non_caster(scene, i, light_)) culled_.push_back(static_cast<uint32_t>(i));
 
   // The casters' depth range, and the largest d for which the frustum from E = C - d forward
   // through the light's edges contains every caster vertex in front of the light: a vertex at
@@ -174,8 +168,26 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   ky_ = R_ / light_.height;
   inv_fade_ = options_.fade > 0 ? 1.0f / (options_.fade * thickness_) : kInfinity;
 
-  // One perspective pass from E, the window at depth d being the light itself.
+  // The casters' triangles; of a closed object only those facing E (where rays from E enter
+  // the solid) when cull_back_faces: the solid then occludes once in eq. 5, not twice.
   const Vec3f eye = light_.center - light_.forward * d_;
+  for (size_t i = 0, c = 0; i < scene.objects.size(); ++i) {
+    if (c < culled_.size() && culled_[c] == i) {
+      ++c;
+      continue;
+    }
+    const SceneObject& o = scene.objects[i];
+    const size_t first = triangles_.size();
+    append_raster_triangles(o.mesh, o.material.opacity, static_cast<uint32_t>(i), &triangles_);
+    if (options_.cull_back_faces && o.closed) {
+      auto facing_away = [&](const RasterTriangle& t) {
+        return !(dot(cross(t.p[1] - t.p[0], t.p[2] - t.p[0]), eye - t.p[0]) > 0);
+      };
+      triangles_.erase(std::remove_if(triangles_.begin() + first, triangles_.end(), facing_away), triangles_.end());
+    }
+  }
+
+  // One perspective pass from E, the window at depth d being the light itself.
   const float near = (d_ + top_) * (1 - 1e-5f), far = (d_ + bottom) * (1 + 1e-5f);
   const float sx = hw * near / d_, sy = hh * near / d_;
   view_ = LightView::frustum(eye, light_.forward, light_.up, -sx, sx, -sy, sy, near, far, R, R);
