@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstdlib>
 #include <bit>
 #include <cmath>
 
@@ -278,6 +277,35 @@ struct OcclusionTextures::Batch {
   }
 };
 
+namespace {
+
+// The kernels of slice k (texture plane at depth zp) for m points: centre and side in texels.
+PENUMBRA_OT_CLONES void kernels(size_t m, const float* __restrict u, const float* __restrict v, const float* __restrict z,
+                                const float* __restrict inv_z, float zp, float scale, float R, float kx, float ky,
+                                float* __restrict cx, float* __restrict cy, float* __restrict side) {
+  const float half_r = 0.5f * R, side_scale = scale * R;
+  for (size_t i = 0; i < m; ++i) {
+    const float a = scale * zp * inv_z[i];
+    cx[i] = half_r + u[i] * a * kx;
+    cy[i] = half_r - v[i] * a * ky;
+    side[i] = std::max(1.0f, (z[i] - zp) * inv_z[i] * side_scale);
+  }
+}
+
+// Slice k's occlusion, faded in below its plane, into the three combinations.
+PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict occ, float zp,
+                                   float inv_fade, float* __restrict product, float* __restrict sum,
+                                   float* __restrict largest) {
+  for (size_t i = 0; i < m; ++i) {
+    const float o = std::min(1.0f, (z[i] - zp) * inv_fade) * occ[i];
+    product[i] *= 1.0f - o;  // eq. 5
+    sum[i] += o;
+    largest[i] = std::max(largest[i], o);
+  }
+}
+
+}  // namespace
+
 // V for every point of the batch into out[target]. For slice k and a point P at depth z > zp
 // (zp = plane(k)): the light seen from P cuts plane k in a square of t x size(light), t =
 // (z - zp) / z (eq. 4), centred where P-C crosses the plane; in texels its side is
@@ -327,37 +355,10 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
     m -= bucket[k];  // the points with exactly k slices above drop out
     if (m == 0) break;
     const float zp = plane(k);
-    const float scale = scale_[k], half_r = 0.5f * R_, kx = kx_, ky = ky_, side_scale = scale * R_;
-    {
-      const float* __restrict u = b.u.data();
-      const float* __restrict v = b.v.data();
-      const float* __restrict z = b.z.data();
-      const float* __restrict inv_z = b.inv_z.data();
-      float* __restrict cx = b.cx.data();
-      float* __restrict cy = b.cy.data();
-      float* __restrict side = b.side.data();
-      for (size_t i = 0; i < m; ++i) {
-        const float a = scale * zp * inv_z[i];
-        cx[i] = half_r + u[i] * a * kx;
-        cy[i] = half_r - v[i] * a * ky;
-        side[i] = std::max(1.0f, (z[i] - zp) * inv_z[i] * side_scale);
-      }
-    }
+    kernels(m, b.u.data(), b.v.data(), b.z.data(), b.inv_z.data(), zp, scale_[k], R_, kx_, ky_, b.cx.data(), b.cy.data(),
+            b.side.data());
     filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
-    {
-      const float* __restrict z = b.z.data();
-      const float* __restrict occ = b.occlusion.data();
-      float* __restrict product = b.product.data();
-      float* __restrict sum = b.sum.data();
-      float* __restrict largest = b.largest.data();
-      const float inv_fade = inv_fade_;
-      for (size_t i = 0; i < m; ++i) {
-        const float o = std::min(1.0f, (z[i] - zp) * inv_fade) * occ[i];
-        product[i] *= 1.0f - o;  // eq. 5
-        sum[i] += o;
-        largest[i] = std::max(largest[i], o);
-      }
-    }
+    accumulate(m, b.z.data(), b.occlusion.data(), zp, inv_fade_, b.product.data(), b.sum.data(), b.largest.data());
   }
   for (size_t i = 0; i < count; ++i)
     out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? combine(b.product[i], b.sum[i], b.largest[i]) : 1.0f);
@@ -403,10 +404,10 @@ void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::
   };
   std::atomic<uint64_t> lookups{0}, reads{0}, outside{0}, strips{0};
   tbb::enumerable_thread_specific<Batch> batches;
-  static const int kTile = std::getenv("OT_TILE") ? std::atoi(std::getenv("OT_TILE")) : 16;
+  constexpr int kTile = 16;
   parallel_for_tiles(W, H, kTile, [&](int x0, int y0, int x1, int y1) {
     Batch& b = batches.local();
-    uint32_t begin[64], end[64];
+    uint32_t begin[kTile], end[kTile];
     size_t n = 0;
     for (int y = y0; y < y1; ++y) {
       begin[y - y0] = first_at_or_after(y, x0);
