@@ -2,13 +2,19 @@
 // evaluate (shading), for 4, 8 and 16 slices and each pre-filter, on the bunny and the
 // plant, at light sizes spanning 10x (0.25x to 2.5x the scene's 1.5 x 1.5 rect). The camera
 // pass runs once per scene, outside the timed loop. Counters: the per-phase times of the
-// frames (ms, wall clock), the process CPU time per frame (all threads), filtered lookups and texels read per view sample, texture memory.
+// frames (ms, wall clock), the process CPU time per frame (all threads), filtered lookups
+// and texels read per view sample (and lookups whose kernel lies outside the texture or is
+// cut to a strip by its border), texture memory, the centre of projection's distance d.
 //
 //   cmake --build build --target occlusion_textures_bench -j2
 //   build/occlusion_textures_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 //   build/occlusion_textures_bench --benchmark_filter='bunny/nbuffer/S16/'
+//   build/occlusion_textures_bench --benchmark_filter=prefilter     (Fig. 2: pre-filter builds)
+//   OT_THREADS=1 build/occlusion_textures_bench ...   (one thread: per-phase CPU times)
+//   OT_PARAMS=thin_fix=false build/occlusion_textures_bench ...   (one more method parameter)
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
+#include <time.h>
 
 #include <cstdlib>
 #include <map>
@@ -17,7 +23,9 @@
 
 #include <fmt/format.h>
 
+#include "penumbra/core/parallel.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/shadow/occlusion_textures/occlusion_textures.h"
 
 namespace penumbra {
 namespace {
@@ -26,10 +34,17 @@ constexpr int kResolution = 512;
 
 // CPU time of the whole process (every thread), ms: on a shared machine, wall time includes
 // waiting for the cores; this does not.
-double process_cpu_ms() {
+double cpu_ms(int who) {
   rusage u;
-  getrusage(RUSAGE_SELF, &u);
+  getrusage(who, &u);
   return (u.ru_utime.tv_sec + u.ru_stime.tv_sec) * 1e3 + (u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-3;
+}
+double process_cpu_ms() { return cpu_ms(RUSAGE_SELF); }
+// This thread's CPU time, ms (clock_gettime: ns resolution, where getrusage counts ticks).
+double thread_cpu_ms() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
 }
 constexpr float kLightScales[] = {0.25f, 0.5f, 1.0f, 2.5f};
 
@@ -71,31 +86,84 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
   std::vector<Vec3f> e(f.vs.size());
   ShadowOutput out{v, e};
   MethodStats sum;  // phase times and texel reads summed over frames
-  uint64_t lookups = 0;
+  uint64_t lookups = 0, outside = 0, strips = 0;
   int64_t frames = 0;
+  // With OT_THREADS=1 everything runs on this thread, and its CPU time per call is the cost
+  // of the work alone, however loaded the machine (the least of the frames is reported).
+  const bool one_thread = std::getenv("OT_THREADS") && std::atoi(std::getenv("OT_THREADS")) == 1;
+  double prepare_min = 1e300, evaluate_min = 1e300;
   const double cpu0 = process_cpu_ms();
   for (auto _ : state) {
     method->stats() = MethodStats{};
+    const double t0 = thread_cpu_ms();
     method->prepare(ctx);
+    const double t1 = thread_cpu_ms();
     method->evaluate(ctx, f.vs, out);
+    const double t2 = thread_cpu_ms();
+    prepare_min = std::min(prepare_min, t1 - t0);
+    evaluate_min = std::min(evaluate_min, t2 - t1);
     benchmark::DoNotOptimize(v.data());
     sum.accumulate(method->stats());
     lookups += method->stats().extra.value("lookups", uint64_t{0});
+    outside += method->stats().extra.value("lookups_outside", uint64_t{0});
+    strips += method->stats().extra.value("lookups_strips", uint64_t{0});
     ++frames;
   }
   const double n = static_cast<double>(std::max<int64_t>(1, frames));
   state.counters["cpu_ms"] = (process_cpu_ms() - cpu0) / n;
+  if (one_thread) {
+    state.counters["prepare_cpu_min_ms"] = prepare_min;
+    state.counters["evaluate_cpu_min_ms"] = evaluate_min;
+  }
   state.counters["slicing_ms"] = sum.phase("slicing") / n;
   state.counters["filtering_ms"] = sum.phase("filtering") / n;
   state.counters["shading_ms"] = sum.phase("shading") / n;
   const double samples = static_cast<double>(f.vs.size()) * n;
   state.counters["lookups_per_sample"] = static_cast<double>(lookups) / samples;
   state.counters["texels_per_sample"] = static_cast<double>(sum.texels_visited) / samples;
+  state.counters["outside_per_sample"] = static_cast<double>(outside) / samples;
+  state.counters["strips_per_sample"] = static_cast<double>(strips) / samples;
   state.counters["texture_MB"] = static_cast<double>(method->stats().memory_bytes) / (1024.0 * 1024.0);
   state.counters["d"] = method->stats().extra.value("cop_distance", 0.0);
 }
 
+// eisemann2006 Fig. 2's speed column: building each pre-filter for the 16 occlusion
+// textures of the bunny (the coverage of the scene's own light), at 256^2 and 512^2.
+template <class Filter>
+void BM_Prefilter(benchmark::State& state, int resolution) {
+  Fixture& f = fixture("bunny");
+  occlusion::Options o;
+  o.resolution = resolution;
+  o.prefilter = occlusion::Prefilter::Mipmap;
+  occlusion::OcclusionTextures ot(o);
+  MethodStats stats;
+  ot.build(f.scene, f.scene.lights[0], &stats);
+  const occlusion::CoverageStack stack{resolution, resolution, o.slices, ot.coverage().masks};
+  Filter filter;
+  double cpu_min = 1e300;
+  for (auto _ : state) {
+    const double t0 = thread_cpu_ms();
+    filter.build(stack);
+    cpu_min = std::min(cpu_min, thread_cpu_ms() - t0);
+    benchmark::DoNotOptimize(&filter);
+  }
+  state.counters["texture_MB"] = static_cast<double>(filter.memory_bytes()) / (1024.0 * 1024.0);
+  if (std::getenv("OT_THREADS") && std::atoi(std::getenv("OT_THREADS")) == 1) state.counters["cpu_min_ms"] = cpu_min;
+}
+
 void register_all() {
+  for (int r : {256, 512}) {
+    benchmark::RegisterBenchmark(fmt::format("prefilter/mipmap/{}", r).c_str(), BM_Prefilter<occlusion::MipmapFilter>, r)
+        ->Unit(benchmark::kMillisecond)->UseRealTime();
+    benchmark::RegisterBenchmark(fmt::format("prefilter/nbuffer/{}", r).c_str(), BM_Prefilter<occlusion::NBufferFilter>, r)
+        ->Unit(benchmark::kMillisecond)->UseRealTime();
+    benchmark::RegisterBenchmark(fmt::format("prefilter/sat-uint32/{}", r).c_str(),
+                                 BM_Prefilter<occlusion::SatFilter<uint32_t>>, r)
+        ->Unit(benchmark::kMillisecond)->UseRealTime();
+    benchmark::RegisterBenchmark(fmt::format("prefilter/sat-double/{}", r).c_str(),
+                                 BM_Prefilter<occlusion::SatFilter<double>>, r)
+        ->Unit(benchmark::kMillisecond)->UseRealTime();
+  }
   for (const char* name : {"bunny", "plant"})
     for (const char* prefilter : {"nbuffer", "sat", "mipmap"})
       for (int slices : {16, 8, 4})
@@ -110,6 +178,8 @@ void register_all() {
 }  // namespace penumbra
 
 int main(int argc, char** argv) {
+  // OT_THREADS=n limits the worker threads (1: per-phase CPU times, see BM_OcclusionTextures).
+  penumbra::ThreadLimit limit(std::getenv("OT_THREADS") ? std::atoi(std::getenv("OT_THREADS")) : 0);
   penumbra::register_all();
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();

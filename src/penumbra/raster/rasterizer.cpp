@@ -630,12 +630,29 @@ void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, cons
       uint32_t* masks = out->masks.data() + rect.y0 * rect.stride + rect.x0;
       for (int y = y0; y < y1; ++y) std::fill(masks + rect.index(x0, y), masks + rect.index(x1, y), 0u);
       size_t frags = 0;
+      auto bin = [&](float v) {
+        const float b = (linear_depth<kPerspective>(v, near, far) - first) * inv_width;
+        return b <= 0 ? 0 : std::min(last, static_cast<int>(b));
+      };
       for (const SetupTriangle& t : im.binner.tile(tile)) {
+        // Most triangles are far thinner than a bin: when the depth plane over the triangle's
+        // texel box (with a margin far above float rounding) lies in one bin, every fragment
+        // sets that bit without its own depth.
+        const float ex = t.dvdx * static_cast<float>(t.x1 - 1 - t.x0), ey = t.dvdy * static_cast<float>(t.y1 - 1 - t.y0);
+        const float lo = t.v0 + std::min(0.0f, ex) + std::min(0.0f, ey), hi = t.v0 + std::max(0.0f, ex) + std::max(0.0f, ey);
+        const float margin = 1e-5f * std::max(std::abs(lo), std::abs(hi));
+        const int k_lo = bin(lo - margin), k_hi = bin(hi + margin);
+        if (k_lo == k_hi) {
+          const uint32_t bit = 1u << k_lo;
+          scan(t, rect, [&](size_t i, float) {
+            ++frags;
+            masks[i] |= bit;
+          });
+          continue;
+        }
         scan(t, rect, [&](size_t i, float v) {
           ++frags;
-          const float b = (linear_depth<kPerspective>(v, near, far) - first) * inv_width;
-          const int k = b <= 0 ? 0 : std::min(last, static_cast<int>(b));
-          masks[i] |= 1u << k;
+          masks[i] |= 1u << bin(v);
         });
       }
       im.fragments.fetch_add(frags, std::memory_order_relaxed);

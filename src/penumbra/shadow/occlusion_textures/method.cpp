@@ -19,6 +19,7 @@ occlusion::Options options_from(const ParamSet& p) {
   o.fade = p.get_float("fade");
   o.cop_distance = p.get_float("cop_distance");
   o.cull_planar = p.get_bool("cull_planar");
+  o.cull_back_faces = p.get_bool("cull_back_faces");
   return o;
 }
 
@@ -60,7 +61,10 @@ const MethodRegistration registration({
         {"combine", ParamType::String, "product",
          "how slices combine: 'product' (eq. 5, V = prod(1 - I_k)), 'sum' (1 - sum I_k) or 'max' (1 - max I_k)",
          {"product", "sum", "max"}},
-        {"thin_fix", ParamType::Bool, true, "also fill each slice's coverage into the next slice farther away (thin occluders, §3.4)", {}},
+        {"thin_fix", ParamType::Bool, false,
+         "also fill each slice's coverage into the next slice farther away (thin occluders, §3.4): closes light leaks through thin "
+         "surfaces cut by a slice plane, and darkens every other shadow (each occluder counts twice in eq. 5)",
+         {}},
         {"fade", ParamType::Float, 1.0,
          "the slice just above a point fades in linearly over this many slice thicknesses (self-shadowing, §3.4; 0 = no fade)",
          {}, 0, 16},
@@ -70,6 +74,10 @@ const MethodRegistration registration({
          {}, 0, 1e6},
         {"cull_planar", ParamType::Bool, true,
          "leave out planar objects that cannot shadow anything (the light and every other object on one side: ground planes)", {}},
+        {"cull_back_faces", ParamType::Bool, true,
+         "closed objects: slice only the faces toward the centre of projection (where rays enter the solid), so that a solid "
+         "occludes once in eq. 5 instead of twice, and half its triangles are rasterized",
+         {}},
     },
     [](const ParamSet& p) { return std::make_unique<OcclusionTexturesMethod>(p); },
 });

@@ -71,22 +71,18 @@ namespace {
 bool is_planar_non_caster(const Scene& scene, size_t i, const LightRect& light) {
   const TriangleMesh& m = scene.objects[i].mesh;
   if (m.triangle_count() == 0) return true;
-  // The plane of the largest triangle.
-  Vec3f normal;
-  float best = 0;
-  for (size_t t = 0; t < m.triangle_count(); ++t) {
-    Vec3f c = cross(m.vertex(t, 1) - m.vertex(t, 0), m.vertex(t, 2) - m.vertex(t, 0));
-    float a = length_squared(c);
-    if (a > best) {
-      best = a;
-      normal = c;
-    }
-  }
-  if (!(best > 0)) return false;
-  normal = normalize(normal);
+  // The plane of the first triangle that is not a sliver; every vertex must lie on it (a
+  // non-planar mesh fails at its first vertex off the plane).
   const Bounds3f b = m.bounds();
+  const float extent = length(b.diagonal());
+  Vec3f normal;
+  for (size_t t = 0; t < m.triangle_count() && !(length_squared(normal) > 0); ++t) {
+    const Vec3f c = cross(m.vertex(t, 1) - m.vertex(t, 0), m.vertex(t, 2) - m.vertex(t, 0));
+    if (length(c) > 1e-3f * extent * extent) normal = normalize(c);
+  }
+  if (!(length_squared(normal) > 0)) return false;
   const float offset = dot(normal, m.vertex(0, 0));
-  const float tol = 1e-5f * (length(b.diagonal()) + max_component(vmax(vmax(b.hi, -b.lo), Vec3f(0.0f))));
+  const float tol = 1e-5f * (extent + max_component(vmax(vmax(b.hi, -b.lo), Vec3f(0.0f))));
   for (Vec3f p : m.positions)
     if (std::abs(dot(normal, p) - offset) > tol) return false;
   // The light's corners: all strictly on one side.
@@ -126,14 +122,8 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   // Casters: every object but the planar ones that cannot shadow anything.
   culled_.clear();
   triangles_.clear();
-  for (size_t i = 0; i < scene.objects.size(); ++i) {
-    const SceneObject& o = scene.objects[i];
-    if (options_.cull_planar && is_planar_non_caster(scene, i, light_)) {
-      culled_.push_back(static_cast<uint32_t>(i));
-      continue;
-    }
-    append_raster_triangles(o.mesh, o.material.opacity, static_cast<uint32_t>(i), &triangles_);
-  }
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (options_.cull_planar && is_planar_non_caster(scene, i, light_)) culled_.push_back(static_cast<uint32_t>(i));
 
   // The casters' depth range, and the largest d for which the frustum from E = C - d forward
   // through the light's edges contains every caster vertex in front of the light: a vertex at
@@ -177,8 +167,26 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   ky_ = R_ / light_.height;
   inv_fade_ = options_.fade > 0 ? 1.0f / (options_.fade * thickness_) : kInfinity;
 
-  // One perspective pass from E, the window at depth d being the light itself.
+  // The casters' triangles; of a closed object only those facing E (where rays from E enter
+  // the solid) when cull_back_faces: the solid then occludes once in eq. 5, not twice.
   const Vec3f eye = light_.center - light_.forward * d_;
+  for (size_t i = 0, c = 0; i < scene.objects.size(); ++i) {
+    if (c < culled_.size() && culled_[c] == i) {
+      ++c;
+      continue;
+    }
+    const SceneObject& o = scene.objects[i];
+    const size_t first = triangles_.size();
+    append_raster_triangles(o.mesh, o.material.opacity, static_cast<uint32_t>(i), &triangles_);
+    if (options_.cull_back_faces && o.closed) {
+      auto facing_away = [&](const RasterTriangle& t) {
+        return !(dot(cross(t.p[1] - t.p[0], t.p[2] - t.p[0]), eye - t.p[0]) > 0);
+      };
+      triangles_.erase(std::remove_if(triangles_.begin() + first, triangles_.end(), facing_away), triangles_.end());
+    }
+  }
+
+  // One perspective pass from E, the window at depth d being the light itself.
   const float near = (d_ + top_) * (1 - 1e-5f), far = (d_ + bottom) * (1 + 1e-5f);
   const float sx = hw * near / d_, sy = hh * near / d_;
   view_ = LightView::frustum(eye, light_.forward, light_.up, -sx, sx, -sy, sy, near, far, R, R);
@@ -254,100 +262,115 @@ inline float OcclusionTextures::combine(float product, float sum, float largest)
   return product;
 }
 
-// Points in the light's frame, structure of arrays; compacted slice by slice as points drop
-// out (a slice at or beyond a point's depth, and every farther slice, casts nothing on it).
+// A batch of points (the view samples of one image tile) in the light's frame, structure of
+// arrays, sorted by how many slices lie between the point and the light, most first: slice k
+// then shades the prefix of points with more than k slices above them.
 struct OcclusionTextures::Batch {
-  std::vector<float> u, v, z, inv_z, product, sum, largest;
-  std::vector<uint32_t> target;  // where the point's V goes
-  std::vector<float> cx, cy, side, occlusion;
-  size_t size = 0;
-  void resize(size_t n) {
-    for (auto* a : {&u, &v, &z, &inv_z, &product, &sum, &largest, &cx, &cy, &side, &occlusion}) a->resize(n);
-    target.resize(n);
-    size = n;
-  }
-  void set(size_t i, const LightRect& light, const LightView& view, Vec3f p, uint32_t to) {
-    const Vec3f q = p - light.center;
-    u[i] = dot(q, view.right());
-    v[i] = dot(q, view.up());
-    z[i] = dot(q, light.forward);
-    inv_z[i] = 1.0f / z[i];
-    product[i] = 1.0f;
-    sum[i] = largest[i] = 0.0f;
-    target[i] = to;
+  std::vector<Vec3f> points;      // as added
+  std::vector<uint32_t> targets;  // where each point's V goes
+  std::vector<uint8_t> above;     // slices above each point
+  std::vector<float> u, v, z, inv_z, product, sum, largest, cx, cy, side, occlusion;  // sorted
+  std::vector<uint32_t> target;                                                    // sorted
+  void reset(size_t n) {
+    points.resize(n);
+    targets.resize(n);
   }
 };
+
+namespace {
+
+// The kernels of slice k (texture plane at depth zp) for m points: centre and side in texels.
+PENUMBRA_OT_CLONES void kernels(size_t m, const float* __restrict u, const float* __restrict v, const float* __restrict z,
+                                const float* __restrict inv_z, float zp, float scale, float R, float kx, float ky,
+                                float* __restrict cx, float* __restrict cy, float* __restrict side) {
+  const float half_r = 0.5f * R, side_scale = scale * R;
+  for (size_t i = 0; i < m; ++i) {
+    const float a = scale * zp * inv_z[i];
+    cx[i] = half_r + u[i] * a * kx;
+    cy[i] = half_r - v[i] * a * ky;
+    side[i] = std::max(1.0f, (z[i] - zp) * inv_z[i] * side_scale);
+  }
+}
+
+// Slice k's occlusion, faded in below its plane, into the three combinations.
+PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict occ, float zp,
+                                   float inv_fade, float* __restrict product, float* __restrict sum,
+                                   float* __restrict largest) {
+  for (size_t i = 0; i < m; ++i) {
+    const float o = std::min(1.0f, (z[i] - zp) * inv_fade) * occ[i];
+    product[i] *= 1.0f - o;  // eq. 5
+    sum[i] += o;
+    largest[i] = std::max(largest[i], o);
+  }
+}
+
+}  // namespace
 
 // V for every point of the batch into out[target]. For slice k and a point P at depth z > zp
 // (zp = plane(k)): the light seen from P cuts plane k in a square of t x size(light), t =
 // (z - zp) / z (eq. 4), centred where P-C crosses the plane; in texels its side is
 // t R d / (zp + d) and its centre is R/2 + u (zp / z) (d / (zp + d)) R / width (and likewise
-// in y, rows downward). The slice just above P fades in over `fade` slice thicknesses (§3.4).
+// in y, rows downward). The slice just above P fades in over `fade` slice thicknesses (§3.4);
+// the slice containing P and those below are not looked up.
 template <class F>
 void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> out, LookupCounters& n) const {
-  size_t m = b.size;
-  auto finish = [&](size_t i) {
-    out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? combine(b.product[i], b.sum[i], b.largest[i]) : 1.0f);
-  };
-  for (int k = 0; k < options_.slices && m > 0 && has_casters_; ++k) {
-    const float zp = plane(k);
-    // Drop the points this slice does not lie above (compacting the arrays in place).
-    size_t kept = 0;
-    for (size_t i = 0; i < m; ++i) {
-      if (!(zp < b.z[i])) {
-        finish(i);
-        continue;
-      }
-      if (kept != i) {
-        b.u[kept] = b.u[i]; b.v[kept] = b.v[i]; b.z[kept] = b.z[i]; b.inv_z[kept] = b.inv_z[i];
-        b.product[kept] = b.product[i]; b.sum[kept] = b.sum[i]; b.largest[kept] = b.largest[i];
-        b.target[kept] = b.target[i];
-      }
-      ++kept;
+  const size_t count = b.points.size();
+  const int S = options_.slices;
+  for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion})
+    a->resize(count);
+  b.target.resize(count);
+  b.above.resize(count);
+  // Slices above each point, and a counting sort by that number, descending.
+  uint32_t bucket[33] = {};
+  const Vec3f right = view_.right(), up = view_.up();
+  for (size_t i = 0; i < count; ++i) {
+    const float z = dot(b.points[i] - light_.center, light_.forward);
+    int a = 0;
+    if (has_casters_ && z > 0) {
+      a = std::clamp(static_cast<int>(std::ceil((z - top_) / thickness_)) - 1, 0, S);
+      while (a > 0 && !(plane(a - 1) < z)) --a;
+      while (a < S && plane(a) < z) ++a;
     }
-    m = kept;
-    if (m == 0) break;
-    const float scale = scale_[k], half_r = 0.5f * R_, kx = kx_, ky = ky_, side_scale = scale * R_;
-    {
-      const float* __restrict u = b.u.data();
-      const float* __restrict v = b.v.data();
-      const float* __restrict z = b.z.data();
-      const float* __restrict inv_z = b.inv_z.data();
-      float* __restrict cx = b.cx.data();
-      float* __restrict cy = b.cy.data();
-      float* __restrict side = b.side.data();
-      for (size_t i = 0; i < m; ++i) {
-        const float a = scale * zp * inv_z[i];
-        cx[i] = half_r + u[i] * a * kx;
-        cy[i] = half_r - v[i] * a * ky;
-        side[i] = std::max(1.0f, (z[i] - zp) * inv_z[i] * side_scale);
-      }
-    }
-    filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
-    {
-      const float* __restrict z = b.z.data();
-      const float* __restrict occ = b.occlusion.data();
-      float* __restrict product = b.product.data();
-      float* __restrict sum = b.sum.data();
-      float* __restrict largest = b.largest.data();
-      const float inv_fade = inv_fade_;
-      for (size_t i = 0; i < m; ++i) {
-        const float o = std::min(1.0f, (z[i] - zp) * inv_fade) * occ[i];
-        product[i] *= 1.0f - o;  // eq. 5
-        sum[i] += o;
-        largest[i] = std::max(largest[i], o);
-      }
-    }
+    b.above[i] = static_cast<uint8_t>(a);
+    ++bucket[a];
   }
-  for (size_t i = 0; i < m; ++i) finish(i);
+  uint32_t next[33];
+  for (int a = S, start = 0; a >= 0; --a) {
+    next[a] = static_cast<uint32_t>(start);
+    start += static_cast<int>(bucket[a]);
+  }
+  for (size_t i = 0; i < count; ++i) {
+    const uint32_t j = next[b.above[i]]++;
+    const Vec3f q = b.points[i] - light_.center;
+    b.u[j] = dot(q, right);
+    b.v[j] = dot(q, up);
+    b.z[j] = dot(q, light_.forward);
+    b.inv_z[j] = 1.0f / b.z[j];
+    b.product[j] = 1.0f;
+    b.sum[j] = b.largest[j] = 0.0f;
+    b.target[j] = b.targets[i];
+  }
+  size_t m = count;
+  for (int k = 0; k < S; ++k) {
+    m -= bucket[k];  // the points with exactly k slices above drop out
+    if (m == 0) break;
+    const float zp = plane(k);
+    kernels(m, b.u.data(), b.v.data(), b.z.data(), b.inv_z.data(), zp, scale_[k], R_, kx_, ky_, b.cx.data(), b.cy.data(),
+            b.side.data());
+    filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
+    accumulate(m, b.z.data(), b.occlusion.data(), zp, inv_fade_, b.product.data(), b.sum.data(), b.largest.data());
+  }
+  for (size_t i = 0; i < count; ++i)
+    out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? combine(b.product[i], b.sum[i], b.largest[i]) : 1.0f);
 }
 
 float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
   LookupCounters local;
   LookupCounters& n = counters ? *counters : local;
   Batch b;
-  b.resize(1);
-  b.set(0, light_, view_, p, 0);
+  b.reset(1);
+  b.points[0] = p;
+  b.targets[0] = 0;
   float v = 0;
   dispatch([&](const auto& f) { shade_batch(f, b, std::span<float>(&v, 1), n); });
   return v;
@@ -355,7 +378,8 @@ float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
 
 // Shading walks the image in 16 x 16 pixel tiles and, within a tile, slice by slice: the
 // kernels of a tile's samples on one slice cover a small patch of one texture plane that
-// stays in cache, and the per-sample arithmetic runs over arrays (vectorised).
+// stays in cache, and the per-sample arithmetic runs over arrays (vectorised). The same code
+// as visibility() (a batch of one).
 template <class F>
 void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::span<float> visibility,
                                    LookupCounters& total) const {
@@ -378,29 +402,36 @@ void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::
     return static_cast<uint32_t>(
         std::lower_bound(b, e, pixel, [](const ViewSample& s, uint32_t p) { return s.pixel < p; }) - vs.samples.data());
   };
-  std::atomic<uint64_t> lookups{0}, reads{0};
+  std::atomic<uint64_t> lookups{0}, reads{0}, outside{0}, strips{0};
   tbb::enumerable_thread_specific<Batch> batches;
   constexpr int kTile = 16;
   parallel_for_tiles(W, H, kTile, [&](int x0, int y0, int x1, int y1) {
     Batch& b = batches.local();
-    uint32_t range[kTile][2];
+    uint32_t begin[kTile], end[kTile];
     size_t n = 0;
     for (int y = y0; y < y1; ++y) {
-      range[y - y0][0] = first_at_or_after(y, x0);
-      range[y - y0][1] = x1 < W ? first_at_or_after(y, x1) : row[y + 1];
-      n += range[y - y0][1] - range[y - y0][0];
+      begin[y - y0] = first_at_or_after(y, x0);
+      end[y - y0] = x1 < W ? first_at_or_after(y, x1) : row[y + 1];
+      n += end[y - y0] - begin[y - y0];
     }
-    b.resize(n);
+    b.reset(n);
     size_t j = 0;
     for (int y = y0; y < y1; ++y)
-      for (uint32_t i = range[y - y0][0]; i < range[y - y0][1]; ++i) b.set(j++, light_, view_, vs.samples[i].p, i);
+      for (uint32_t i = begin[y - y0]; i < end[y - y0]; ++i, ++j) {
+        b.points[j] = vs.samples[i].p;
+        b.targets[j] = i;
+      }
     LookupCounters counters;
     shade_batch(filter, b, visibility, counters);
     lookups.fetch_add(counters.lookups, std::memory_order_relaxed);
     reads.fetch_add(counters.reads, std::memory_order_relaxed);
+    outside.fetch_add(counters.outside, std::memory_order_relaxed);
+    strips.fetch_add(counters.strips, std::memory_order_relaxed);
   });
   total.lookups += lookups.load();
   total.reads += reads.load();
+  total.outside += outside.load();
+  total.strips += strips.load();
 }
 
 void OcclusionTextures::shade(const ViewSamples& vs, std::span<float> visibility, MethodStats* stats) const {
@@ -409,8 +440,12 @@ void OcclusionTextures::shade(const ViewSamples& vs, std::span<float> visibility
   dispatch([&](const auto& f) { shade_with(f, vs, visibility, n); });
   stats->add_phase("shading", timer.elapsed_ms());
   stats->texels_visited += n.reads;
-  const uint64_t before = stats->extra.contains("lookups") ? stats->extra["lookups"].get<uint64_t>() : 0;
-  stats->extra["lookups"] = before + n.lookups;
+  auto add = [&](const char* key, uint64_t value) {
+    stats->extra[key] = (stats->extra.contains(key) ? stats->extra[key].get<uint64_t>() : 0) + value;
+  };
+  add("lookups", n.lookups);
+  add("lookups_outside", n.outside);
+  add("lookups_strips", n.strips);
 }
 
 }  // namespace penumbra::occlusion

@@ -54,10 +54,11 @@ struct Options {
   Prefilter prefilter = Prefilter::NBuffer;
   SatPrecision sat_precision = SatPrecision::UInt32;
   Combine combine = Combine::Product;
-  bool thin_fix = true;    // also fill the next slice farther from the light (§3.4, Fig. 6)
+  bool thin_fix = false;   // also fill the next slice farther from the light (§3.4, Fig. 6)
   float fade = 1.0f;       // fade-in length of the slice just above a point, in slice thicknesses
   float cop_distance = 0;  // d in world units; 0 = fitted to the casters
   bool cull_planar = true; // skip planar objects that cannot shadow anything (ground planes)
+  bool cull_back_faces = true;   // closed objects: slice only the faces toward the centre of projection
 };
 
 // The light as a rectangle: a rect light itself, a disk (or a sphere's disk facing

@@ -282,6 +282,34 @@ TEST(OcclusionTextures, GroundPlanesAreLeftOutUnlessSomethingLiesBeneath) {
   EXPECT_TRUE(ot.culled_objects().empty());
 }
 
+TEST(OcclusionTextures, ClosedObjectsAreSlicedAtTheirFacesTowardTheCentreOfProjection) {
+  // A floating box under the light: of its faces only the top one faces the centre of
+  // projection (the sides face away from the light's axis, the bottom down), so with
+  // cull_back_faces every covered texel lies in slice 0 (the top, at the casters' nearest
+  // depth); without, the sides fill every slice. Under the box the shadow is an umbra either way.
+  Scene scene = testing::ground_scene({testing::object(testing::box({-0.2f, 0.5f, -0.2f}, {0.2f, 0.9f, 0.2f}))},
+                                      testing::rect_light_down({0, 2, 0}, 0.2f, 0.2f));
+  ASSERT_TRUE(scene.objects[1].closed);
+  Options o;
+  o.slices = 4;
+  o.cull_back_faces = false;
+  OcclusionTextures all(o);
+  o.cull_back_faces = true;
+  OcclusionTextures front(o);
+  MethodStats stats;
+  all.build(scene, scene.lights[0], &stats);
+  EXPECT_EQ(stats.extra["caster_triangles"], 12);
+  front.build(scene, scene.lights[0], &stats);
+  EXPECT_EQ(stats.extra["caster_triangles"], 2);
+  uint32_t bits_all = 0, bits_front = 0;
+  for (uint32_t m : all.coverage().masks) bits_all |= m;
+  for (uint32_t m : front.coverage().masks) bits_front |= m;
+  EXPECT_EQ(bits_all, 0xfu);
+  EXPECT_EQ(bits_front, 0x1u);
+  EXPECT_LT(all.visibility({0, 0, 0}), 0.01f);
+  EXPECT_LT(front.visibility({0, 0, 0}), 0.01f);
+}
+
 TEST(OcclusionTextures, DiskLightsUseTheirBoundingSquare) {
   Scene rect = testing::ground_scene({testing::object(testing::box({-0.2f, 0.5f, -0.2f}, {0.2f, 0.7f, 0.2f}))},
                                      testing::rect_light_down({0, 2, 0}, 0.8f, 0.8f), 32);
