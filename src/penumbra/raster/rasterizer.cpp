@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <cmath>
 #include <type_traits>
 #include <vector>
 
@@ -594,6 +595,50 @@ void Rasterizer::visit_fragments(std::span<const RasterTriangle> triangles, cons
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x, ++k)
           visit(x, y, std::span<const Fragment>(s.fragments.data() + s.offsets[k], s.offsets[k + 1] - s.offsets[k]));
+    });
+  });
+  stats_.triangles = triangles.size();
+  stats_.setup = im.binner.item_count();
+  stats_.bin_entries = im.binner.entry_count();
+  stats_.fragments = im.fragments;
+  stats_.raster_ms = timer.elapsed_ms();
+}
+
+void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, const LightView& view,
+                                 const RasterFilter& filter, const DepthBins& bins, DepthBinMasks* out) {
+  if (bins.count < 1 || bins.count > 32) throw Error("Rasterizer: {} depth bins must be in [1, 32]", bins.count);
+  if (!(bins.width > 0) || !std::isfinite(bins.first)) throw Error("Rasterizer: depth bins need a finite start and a positive width");
+  Timer timer;
+  Impl& im = *impl_;
+  im.set_up_triangles(triangles, view, filter, tile_size_);
+  stats_ = {};
+  stats_.setup_ms = timer.elapsed_ms();
+  timer.reset();
+  const int width = view.width();
+  out->width = width;
+  out->height = view.height();
+  out->masks.resize(static_cast<size_t>(width) * view.height());
+  im.fragments = 0;
+  const float first = bins.first, inv_width = 1.0f / bins.width;
+  const int last = bins.count - 1;
+  dispatch_projection(view, [&](auto perspective) {
+    constexpr bool kPerspective = decltype(perspective)::value;
+    const float near = view.near(), far = view.far();
+    raster_internal::for_each_tile(im.grid, [&](int tile) {
+      const int x0 = im.grid.x0(tile), y0 = im.grid.y0(tile), x1 = im.grid.x1(tile), y1 = im.grid.y1(tile);
+      const TexelRect rect{x0, y0, x1, y1, static_cast<size_t>(width)};
+      uint32_t* masks = out->masks.data() + rect.y0 * rect.stride + rect.x0;
+      for (int y = y0; y < y1; ++y) std::fill(masks + rect.index(x0, y), masks + rect.index(x1, y), 0u);
+      size_t frags = 0;
+      for (const SetupTriangle& t : im.binner.tile(tile)) {
+        scan(t, rect, [&](size_t i, float v) {
+          ++frags;
+          const float b = (linear_depth<kPerspective>(v, near, far) - first) * inv_width;
+          const int k = b <= 0 ? 0 : std::min(last, static_cast<int>(b));
+          masks[i] |= 1u << k;
+        });
+      }
+      im.fragments.fetch_add(frags, std::memory_order_relaxed);
     });
   });
   stats_.triangles = triangles.size();

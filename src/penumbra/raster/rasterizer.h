@@ -24,6 +24,7 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <vector>
 
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/fragment_lists.h"
@@ -57,6 +58,25 @@ struct LayerOptions {
   // the exact rule.
   float distinct_epsilon = 0;
   RasterFilter filter;
+};
+
+// Uniform bins of linear depth for Rasterizer::depth_bin_masks: bin k holds the depths in
+// [first + k * width, first + (k + 1) * width). Depths before the first bin fall into it and
+// depths after the last into the last (the caller clips with the view's near and far planes;
+// this only absorbs float rounding at the ends).
+struct DepthBins {
+  float first = 0;
+  float width = 1;
+  int count = 1;  // 1..32
+};
+
+// One bit per depth bin and texel: bit k of masks[y * width + x] is set when some fragment
+// through the texel centre lies in bin k (eisemann2006 §3.4's slices as packed bit channels).
+struct DepthBinMasks {
+  int width = 0, height = 0;
+  std::vector<uint32_t> masks;
+  size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
+  uint32_t at(int x, int y) const { return masks[index(x, y)]; }
 };
 
 // In-place compression of one texel's fragment list: `fragments` arrive sorted by z; write
@@ -108,6 +128,12 @@ class Rasterizer {
   // structures directly.
   void visit_fragments(std::span<const RasterTriangle> triangles, const LightView& view,
                        const RasterFilter& filter, const FragmentVisitor& visit);
+
+  // Which depth bins each texel centre's fragments fall in: one pass, one bit per bin (the
+  // slicing pass of eisemann2006 §3.4, where a fragment shader writes a colour channel per
+  // slice). Cheaper than fragment lists: no fragment is stored or sorted.
+  void depth_bin_masks(std::span<const RasterTriangle> triangles, const LightView& view,
+                       const RasterFilter& filter, const DepthBins& bins, DepthBinMasks* out);
 
   const RasterStats& stats() const { return stats_; }
 

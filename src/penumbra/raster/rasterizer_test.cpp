@@ -5,9 +5,11 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <bit>
 #include <filesystem>
 #include <vector>
 
+#include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/raster/test_meshes.h"
@@ -662,6 +664,46 @@ TEST(Rasterizer, ResultsDoNotDependOnTheThreadCount) {
         ASSERT_EQ(many_layers.layers(x, y)[l].triangle, single_layers.layers(x, y)[l].triangle);
         ASSERT_EQ(many_layers.layers(x, y)[l].z, single_layers.layers(x, y)[l].z);
       }
+}
+
+TEST(Rasterizer, DepthBinMasksAreTheBinsOfTheFragmentLists) {
+  // Every fragment's bin, from the sorted fragment lists (the same depths), ORed per texel;
+  // depths beyond the bins' ends clamp into the first and last bin.
+  std::vector<RasterTriangle> tris = random_triangles(100, 23);
+  for (bool perspective : {true, false}) {
+    LightView view = perspective ? random_scene_view()
+                                 : LightView::orthographic({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, -5, 5, -4, 4, 1, 12, 64, 48);
+    Rasterizer raster(16);
+    FragmentLists lists;
+    raster.fragment_lists(tris, view, {}, &lists);
+    const DepthBins bins{3.0f, 0.37f, 13};  // [3, 7.81): some fragments before, some after
+    DepthBinMasks masks;
+    raster.depth_bin_masks(tris, view, {}, bins, &masks);
+    ASSERT_EQ(masks.width, view.width());
+    ASSERT_EQ(masks.height, view.height());
+    EXPECT_EQ(raster.stats().fragments, lists.total());
+    int before = 0, after = 0, multi = 0;
+    for (int y = 0; y < view.height(); ++y)
+      for (int x = 0; x < view.width(); ++x) {
+        uint32_t expect = 0;
+        for (const Fragment& f : lists.at(x, y)) {
+          float b = (f.z - bins.first) / bins.width;
+          int k = b <= 0 ? 0 : std::min(bins.count - 1, int(b));
+          before += b < 0;
+          after += b >= bins.count;
+          expect |= 1u << k;
+        }
+        multi += std::popcount(expect) > 1;
+        EXPECT_EQ(masks.at(x, y), expect) << x << "," << y;
+      }
+    EXPECT_GT(before, 0);
+    EXPECT_GT(after, 0);
+    EXPECT_GT(multi, 300);
+  }
+  DepthBinMasks masks;
+  Rasterizer raster;
+  EXPECT_THROW(raster.depth_bin_masks(tris, random_scene_view(), {}, DepthBins{0, 1, 33}, &masks), Error);
+  EXPECT_THROW(raster.depth_bin_masks(tris, random_scene_view(), {}, DepthBins{0, 0, 4}, &masks), Error);
 }
 
 }  // namespace

@@ -26,19 +26,14 @@ Bounds3f triangle_bounds(const BvhTriangle& t) {
 struct Builder {
   std::vector<BvhTriangle>& tris;
   std::vector<Vec3f> centroids;
+  std::vector<Bounds3f> boxes;  // per triangle, reordered with tris
   std::vector<BvhNode>& nodes;
   int max_leaf;
 
   void finish_node(BvhNode& n, uint32_t begin, uint32_t end) {
     Bounds3f b;
-    for (uint32_t i = begin; i < end; ++i) b.extend(triangle_bounds(tris[i]));
+    for (uint32_t i = begin; i < end; ++i) b.extend(boxes[i]);
     n.bounds = b;
-    n.sphere_center = b.center();
-    // The sphere around the box; tighter: around the vertices themselves.
-    float r2 = 0;
-    for (uint32_t i = begin; i < end; ++i)
-      for (Vec3f v : {tris[i].v0, tris[i].v1, tris[i].v2}) r2 = std::max(r2, length_squared(v - n.sphere_center));
-    n.sphere_radius = std::sqrt(r2);
   }
 
   void build(uint32_t node_index, uint32_t begin, uint32_t end) {
@@ -63,7 +58,7 @@ struct Builder {
       for (uint32_t i = begin; i < end; ++i) {
         int b = bin_of(i);
         bin_count[b]++;
-        bin_bounds[b].extend(triangle_bounds(tris[i]));
+        bin_bounds[b].extend(boxes[i]);
       }
       float best_cost = kInfinity;
       int best_split = -1;
@@ -84,6 +79,7 @@ struct Builder {
             --j;
             std::swap(tris[i], tris[j]);
             std::swap(centroids[i], centroids[j]);
+            std::swap(boxes[i], boxes[j]);
           }
         }
         mid = i;
@@ -97,9 +93,11 @@ struct Builder {
                        [&](uint32_t a, uint32_t b) { return centroids[a][axis] < centroids[b][axis]; });
       std::vector<BvhTriangle> t2;
       std::vector<Vec3f> c2;
-      for (uint32_t k : order) { t2.push_back(tris[k]); c2.push_back(centroids[k]); }
+      std::vector<Bounds3f> b2;
+      for (uint32_t k : order) { t2.push_back(tris[k]); c2.push_back(centroids[k]); b2.push_back(boxes[k]); }
       std::copy(t2.begin(), t2.end(), tris.begin() + begin);
       std::copy(c2.begin(), c2.end(), centroids.begin() + begin);
+      std::copy(b2.begin(), b2.end(), boxes.begin() + begin);
     }
     uint32_t left = static_cast<uint32_t>(nodes.size());
     nodes.emplace_back();
@@ -117,9 +115,13 @@ TriangleBvh::TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size) 
   if (triangles_.empty()) return;
   nodes_.reserve(2 * triangles_.size() / std::max(1, max_leaf_size) + 2);
   nodes_.emplace_back();
-  Builder b{triangles_, {}, nodes_, std::max(1, max_leaf_size)};
+  Builder b{triangles_, {}, {}, nodes_, std::max(1, max_leaf_size)};
   b.centroids.reserve(triangles_.size());
-  for (const auto& t : triangles_) b.centroids.push_back((t.v0 + t.v1 + t.v2) / 3.0f);
+  b.boxes.reserve(triangles_.size());
+  for (const auto& t : triangles_) {
+    b.centroids.push_back((t.v0 + t.v1 + t.v2) / 3.0f);
+    b.boxes.push_back(triangle_bounds(t));
+  }
   b.build(0, 0, static_cast<uint32_t>(triangles_.size()));
 }
 

@@ -1,6 +1,6 @@
 // A bounding volume hierarchy over triangles for queries Embree does not offer (cone
-// queries of parker1998's single-sample soft shadows). Binned-SAH build, flat node array,
-// each node with its box and its bounding sphere (cheap to test against cones).
+// queries of parker1998's single-sample soft shadows). Binned-SAH build, flat node array of
+// boxes.
 #pragma once
 
 #include <cstdint>
@@ -19,8 +19,6 @@ struct BvhTriangle {
 
 struct BvhNode {
   Bounds3f bounds;
-  Vec3f sphere_center;
-  float sphere_radius = 0;
   // Inner node: children at `first` and `first + 1`; leaf: triangles [first, first + count).
   uint32_t first = 0;
   uint32_t count = 0;  // 0 for an inner node

@@ -1,5 +1,11 @@
 #include "penumbra/shadow/single_sample/outer_objects.h"
 
+#include <algorithm>
+#include <array>
+#include <cstring>
+
+#include "penumbra/shadow/single_sample/simd4.h"
+
 namespace penumbra::single_sample {
 
 namespace {
@@ -22,28 +28,14 @@ int clip(const RayPoint* in, int n, RayPoint* out, float bound, float sign) {
   }
   return m;
 }
-}  // namespace
 
-float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
-                             Vec3f c) {
-  RayPoint poly[3], tmp[4], clipped[5];
-  int n = 0;
-  for (Vec3f x : {a, b, c}) {
-    Vec3f r = x - o;
-    poly[n++] = {dot(r, v), dot(r, e1), dot(r, e2)};
-  }
-  n = clip(poly, 3, tmp, near, 1.0f);
-  if (n < 3) return kInfinity;
-  n = clip(tmp, n, clipped, far, -1.0f);
-  if (n < 3) return kInfinity;
-  // Perspective projection onto the plane t = 1; the ray's axis is the origin.
-  Vec2f q[5];
-  for (int i = 0; i < n; ++i) q[i] = {clipped[i].x / clipped[i].t, clipped[i].y / clipped[i].t};
-  // Inside test (either winding), then the distance to the nearest edge.
+// Squared distance from the origin to the convex polygon q[0..n) of the plane t = 1 (0
+// when the origin is inside; a polygon of zero area has no inside).
+float polygon_distance2(const Vec2f* q, int n) {
   bool pos = false, neg = false;
   float best2 = kInfinity;
   for (int i = 0; i < n; ++i) {
-    Vec2f p = q[i], e = q[(i + 1) % n] - q[i];
+    Vec2f p = q[i], e = q[i + 1 == n ? 0 : i + 1] - q[i];
     float side = cross(e, Vec2f(0, 0) - p);
     pos |= side > 0;
     neg |= side < 0;
@@ -52,10 +44,200 @@ float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, f
     Vec2f closest = p + e * s;
     best2 = std::min(best2, dot(closest, closest));
   }
-  // The axis passes through the triangle (or its edge); a projection of zero area (a
-  // triangle seen edge-on) has no inside.
+  // The axis passes through the triangle (or its edge).
   if (pos != neg) return 0.0f;
-  return std::sqrt(best2);
+  return best2;
+}
+}  // namespace
+
+float triangle_cone_distance2(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
+                              Vec3f c) {
+  RayPoint poly[3];
+  int n = 0;
+  for (Vec3f x : {a, b, c}) {
+    Vec3f r = x - o;
+    poly[n++] = {dot(r, v), dot(r, e1), dot(r, e2)};
+  }
+  Vec2f q[5];
+  if (std::min({poly[0].t, poly[1].t, poly[2].t}) >= near && std::max({poly[0].t, poly[1].t, poly[2].t}) <= far) {
+    // The common case: the whole triangle lies in [near, far] along the ray. Perspective
+    // projection onto the plane t = 1; the ray's axis is the origin.
+    for (int i = 0; i < 3; ++i) {
+      float inv = 1.0f / poly[i].t;
+      q[i] = {poly[i].x * inv, poly[i].y * inv};
+    }
+    return polygon_distance2(q, 3);
+  }
+  RayPoint tmp[4], clipped[5];
+  n = clip(poly, 3, tmp, near, 1.0f);
+  if (n < 3) return kInfinity;
+  n = clip(tmp, n, clipped, far, -1.0f);
+  if (n < 3) return kInfinity;
+  for (int i = 0; i < n; ++i) q[i] = {clipped[i].x / clipped[i].t, clipped[i].y / clipped[i].t};
+  return polygon_distance2(q, n);
+}
+
+float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
+                             Vec3f c) {
+  return std::sqrt(triangle_cone_distance2(o, v, e1, e2, near, far, a, b, c));
+}
+
+void TriangleBlock4::set(int lane, Vec3f a, Vec3f b, Vec3f c) {
+  const Vec3f p[3] = {a, b, c};
+  for (int k = 0; k < 3; ++k)
+    for (int axis = 0; axis < 3; ++axis) v[k][axis][lane] = p[k][axis];
+}
+
+int block_cone_distance2_unclipped(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near,
+                                   float far, float out[4]) {
+  f4 t[3], qx[3], qy[3];
+  i4 in_range = i4{-1, -1, -1, -1};
+  for (int k = 0; k < 3; ++k) {
+    f4 rx = load4(block.v[k][0]) - splat(o.x);
+    f4 ry = load4(block.v[k][1]) - splat(o.y);
+    f4 rz = load4(block.v[k][2]) - splat(o.z);
+    t[k] = rx * splat(v.x) + ry * splat(v.y) + rz * splat(v.z);
+    f4 x = rx * splat(e1.x) + ry * splat(e1.y) + rz * splat(e1.z);
+    f4 y = rx * splat(e2.x) + ry * splat(e2.y) + rz * splat(e2.z);
+    in_range &= (t[k] >= splat(near)) & (t[k] <= splat(far));
+    // Lanes out of range are recomputed below; keep their arithmetic finite.
+    f4 inv = splat(1.0f) / (in_range ? t[k] : splat(1.0f));
+    qx[k] = x * inv;
+    qy[k] = y * inv;
+  }
+  f4 best = splat(kInfinity);
+  i4 pos = i4{0, 0, 0, 0}, neg = i4{0, 0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    int k1 = k == 2 ? 0 : k + 1;
+    f4 ex = qx[k1] - qx[k], ey = qy[k1] - qy[k];
+    f4 side = ey * qx[k] - ex * qy[k];  // cross(e, -p)
+    pos |= side > splat(0.0f);
+    neg |= side < splat(0.0f);
+    f4 len2 = ex * ex + ey * ey;
+    f4 s = -(qx[k] * ex + qy[k] * ey) / (len2 > splat(0.0f) ? len2 : splat(1.0f));
+    s = vmin4(vmax4(s, splat(0.0f)), splat(1.0f));
+    f4 cx = qx[k] + s * ex, cy = qy[k] + s * ey;
+    best = vmin4(best, cx * cx + cy * cy);
+  }
+  // Inside when every side has one sign (a projection of zero area has no inside).
+  best = (pos ^ neg) ? splat(0.0f) : best;
+  int mask = 0;
+  for (int lane = 0; lane < 4; ++lane) {
+    out[lane] = best[lane];
+    if (!in_range[lane]) mask |= 1 << lane;
+  }
+  return mask;
+}
+
+void block_cone_distance2(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far,
+                          float out[4]) {
+  int clip = block_cone_distance2_unclipped(block, o, v, e1, e2, near, far, out);
+  for (int lane = 0; lane < 4; ++lane)
+    if (clip & (1 << lane))
+      out[lane] = triangle_cone_distance2(o, v, e1, e2, near, far, block.vertex(lane, 0), block.vertex(lane, 1),
+                                          block.vertex(lane, 2));
+}
+
+MeshTopology build_topology(const TriangleMesh& mesh) {
+  MeshTopology topo;
+  const size_t nt = mesh.triangle_count();
+  // Weld by exact position (-0 and +0 together) with an open-addressing hash table.
+  const size_t np = mesh.positions.size();
+  auto bits = [&](size_t i) {
+    Vec3f p = mesh.positions[i] + Vec3f(0.0f);
+    std::array<uint32_t, 3> b;
+    std::memcpy(b.data(), &p, sizeof b);
+    return b;
+  };
+  size_t cap = 16;
+  while (cap < 2 * np) cap *= 2;
+  std::vector<uint32_t> table(cap, ~0u);  // a representative mesh vertex, or empty
+  topo.canon.resize(np);
+  uint32_t nv = 0;
+  for (size_t i = 0; i < np; ++i) {
+    std::array<uint32_t, 3> b = bits(i);
+    uint64_t h = (static_cast<uint64_t>(b[0]) * 0x9e3779b97f4a7c15ULL) ^ (static_cast<uint64_t>(b[1]) * 0xc2b2ae3d27d4eb4fULL) ^
+                 (static_cast<uint64_t>(b[2]) * 0x165667b19e3779f9ULL);
+    size_t slot = (h ^ (h >> 29)) & (cap - 1);
+    while (table[slot] != ~0u && bits(table[slot]) != b) slot = (slot + 1) & (cap - 1);
+    if (table[slot] == ~0u) {
+      table[slot] = static_cast<uint32_t>(i);
+      topo.canon[i] = nv++;
+    } else {
+      topo.canon[i] = topo.canon[table[slot]];
+    }
+  }
+  topo.corners.resize(3 * nt);
+  for (size_t i = 0; i < 3 * nt; ++i) topo.corners[i] = topo.canon[mesh.indices[i]];
+  // Vertex -> triangles (counting sort).
+  topo.vertex_first.assign(nv + 1, 0);
+  for (size_t i = 0; i < 3 * nt; ++i) topo.vertex_first[topo.corners[i] + 1]++;
+  for (size_t i = 0; i < nv; ++i) topo.vertex_first[i + 1] += topo.vertex_first[i];
+  topo.vertex_tris.resize(topo.vertex_first[nv]);
+  std::vector<uint32_t> fill(topo.vertex_first.begin(), topo.vertex_first.end() - 1);
+  for (size_t i = 0; i < 3 * nt; ++i) topo.vertex_tris[fill[topo.corners[i]]++] = static_cast<uint32_t>(i / 3);
+  return topo;
+}
+
+std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos,
+                                       float band_radius) {
+  const size_t nt = mesh.triangle_count();
+  std::vector<uint8_t> keep(nt, 0);
+  if (band_radius > 0)
+    for (size_t t = 0; t < nt; ++t) {
+      Vec3f a = mesh.vertex(t, 0);
+      Vec3f n = cross(mesh.vertex(t, 1) - a, mesh.vertex(t, 2) - a);
+      float d = dot(n, light_pos - a);
+      keep[t] = d * d < band_radius * band_radius * length_squared(n);
+    }
+  auto welded = [&](size_t t, int k) { return topo.corners[3 * t + k]; };
+  // The edges of a vertex's triangles that lead to a higher vertex: (other end, 3 * t + k).
+  // Each undirected edge is found from its lower end, once per triangle that has it.
+  struct HalfEdge {
+    uint32_t other, code;
+  };
+  std::vector<HalfEdge> bucket;
+  const size_t nv = topo.vertex_first.empty() ? 0 : topo.vertex_first.size() - 1;
+  for (uint32_t a = 0; a < nv; ++a) {
+    bucket.clear();
+    for (uint32_t i = topo.vertex_first[a]; i < topo.vertex_first[a + 1]; ++i) {
+      uint32_t t = topo.vertex_tris[i];
+      uint32_t v[3] = {welded(t, 0), welded(t, 1), welded(t, 2)};
+      if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // no area: no edges
+      for (int k = 0; k < 3; ++k) {
+        uint32_t p = v[k], q = v[(k + 1) % 3];
+        if (std::min(p, q) == a) bucket.push_back({std::max(p, q), 3 * t + k});
+      }
+    }
+    for (size_t i = 1; i < bucket.size(); ++i)  // insertion sort: a handful of entries
+      for (size_t j = i; j > 0 && bucket[j].other < bucket[j - 1].other; --j) std::swap(bucket[j], bucket[j - 1]);
+    for (size_t i = 0; i < bucket.size();) {
+      size_t j = i + 1;
+      while (j < bucket.size() && bucket[j].other == bucket[i].other) ++j;
+      bool contour = true;  // boundary (one triangle) or non-manifold (three or more)
+      if (j - i == 2) {
+        uint32_t t0 = bucket[i].code / 3, k0 = bucket[i].code % 3;
+        uint32_t t1 = bucket[i + 1].code / 3;
+        Vec3f ea = mesh.vertex(t0, k0), eb = mesh.vertex(t0, (k0 + 1) % 3);
+        Vec3f c0 = mesh.vertex(t0, (k0 + 2) % 3);
+        // The vertex of t1 off the shared edge: the one whose welded id is neither end.
+        Vec3f c1 = mesh.vertex(t1, 0);
+        for (int k = 0; k < 3; ++k) {
+          uint32_t id = welded(t1, k);
+          if (id != a && id != bucket[i].other) c1 = mesh.vertex(t1, k);
+        }
+        // Seen from the light, the two triangles lie on the same side of the edge (the
+        // surface folds away: a contour edge) when their free vertices are on the same
+        // side of the plane through the edge and the light.
+        Vec3f n = cross(eb - ea, light_pos - ea);
+        contour = dot(n, c0 - ea) * dot(n, c1 - ea) >= 0.0f;  // same side, or in the plane
+      }
+      if (contour)
+        for (size_t q = i; q < j; ++q) keep[bucket[q].code / 3] = 1;
+      i = j;
+    }
+  }
+  return keep;
 }
 
 }  // namespace penumbra::single_sample

@@ -5,8 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/scene/mesh.h"
 
 namespace penumbra::single_sample {
 
@@ -47,5 +50,53 @@ inline float sphere_transmission(Vec3f o, Vec3f v, float light_dist, Vec3f c, fl
 // (e1, e2, v) is an orthonormal frame around the ray.
 float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
                              Vec3f c);
+
+// The squared version of triangle_cone_distance, without the final sqrt, for the search's
+// inner loop (it compares against a squared limit).
+float triangle_cone_distance2(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
+                              Vec3f c);
+
+// Four triangles side by side (structure of arrays) for triangle_cone_distance2 on four
+// lanes at once: v[vertex][axis][lane]. Unused lanes repeat a used one.
+struct TriangleBlock4 {
+  alignas(16) float v[3][3][4];
+  void set(int lane, Vec3f a, Vec3f b, Vec3f c);
+  Vec3f vertex(int lane, int k) const { return {v[k][0][lane], v[k][1][lane], v[k][2][lane]}; }
+};
+// triangle_cone_distance2 of the block's four triangles into out[4] (SIMD; lanes with a
+// vertex outside [near, far] along the ray take the clipping path one by one).
+void block_cone_distance2(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far,
+                          float out[4]);
+// The same for the lanes whose triangle lies within [near, far] along the ray; returns the
+// bit mask of the other lanes (out[] meaningless there), for the caller to clip.
+int block_cone_distance2_unclipped(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near,
+                                   float far, float out[4]);
+
+// The connectivity of a mesh with its vertices welded by exact position (shading seams
+// and importers split vertices without opening the surface).
+struct MeshTopology {
+  std::vector<uint32_t> canon;    // welded vertex id of each mesh vertex
+  std::vector<uint32_t> corners;  // welded vertex id of each triangle corner (3 per triangle)
+  // Triangles around each welded vertex: vertex_tris[vertex_first[v] .. vertex_first[v + 1]).
+  std::vector<uint32_t> vertex_first, vertex_tris;
+};
+MeshTopology build_topology(const TriangleMesh& mesh);
+
+// Candidate occluders of a closed opaque surface for shadow rays toward the point light_pos.
+// For a ray that misses a closed surface, the point of the surface nearest to the ray in
+// cone space (smallest perp / t) lies on the surface's contour as seen from the ray's
+// origin o. The ray ends at light_pos and the contour point lies near the line o-l, so the
+// contour seen from o is, to first order in the offset, the contour seen from l (exactly
+// when the ray grazes the edge). Marks the triangles adjacent to an edge that is a contour
+// edge seen from light_pos (the two neighbouring triangles fold to the same side of the
+// plane through the edge and light_pos), a boundary edge (one triangle) or a non-manifold
+// edge (three or more).
+// With band_radius > 0, also every triangle whose plane passes within band_radius of
+// light_pos (see single_sample.cpp: with band_radius = D the set is exact).
+std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, const MeshTopology& topo, Vec3f light_pos,
+                                       float band_radius = 0.0f);
+inline std::vector<uint8_t> contour_triangles(const TriangleMesh& mesh, Vec3f light_pos, float band_radius = 0.0f) {
+  return contour_triangles(mesh, build_topology(mesh), light_pos, band_radius);
+}
 
 }  // namespace penumbra::single_sample

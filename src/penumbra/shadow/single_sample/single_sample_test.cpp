@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "penumbra/core/rng.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/shapes.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/single_sample/outer_objects.h"
 #include "penumbra/testing/test_scenes.h"
@@ -184,6 +188,198 @@ TEST(SingleSample, CombinationRulesOfTwoOccluders) {
     ShadowOutput out{std::span<float>(&vis, 1), {}};
     m->evaluate(ctx, vs, out);
     EXPECT_NEAR(vis, expected, 1e-4f) << mode;
+  }
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// V of single-sample (with `params`) at the given receivers of `scene`.
+std::vector<float> single_sample_v(const Scene& scene, const ViewSamples& vs, const std::vector<std::string>& params) {
+  RayTracer tracer(scene);
+  auto method = create_method("single-sample", scene, params);
+  ShadowContext ctx;
+  ctx.scene = &scene;
+  ctx.light = &scene.lights[0];
+  ctx.tracer = &tracer;
+  method->prepare(ctx);
+  std::vector<float> vis(vs.size(), -1.0f);
+  ShadowOutput out{vis, {}};
+  method->evaluate(ctx, vs, out);
+  return vis;
+}
+
+// Ground receivers (object 0, normal +y) on an n x n grid over [-half, half]^2, in
+// scanline order like a camera pass.
+ViewSamples ground_grid(int n, float half) {
+  ViewSamples vs;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      ViewSample s;
+      s.p = {-half + 2 * half * (i + 0.5f) / n, 0.0f, -half + 2 * half * (j + 0.5f) / n};
+      s.ng = s.ns = {0, 1, 0};
+      s.object = 0;
+      s.prim = 0;
+      vs.samples.push_back(s);
+    }
+  return vs;
+}
+
+// A closed UV sphere (a mesh, not parker1998's analytic sphere) floating over the ground,
+// the ground sampled densely around its shadow.
+Scene floating_ball_scene() {
+  SceneObject ball = testing::object(make_uv_sphere(0.5f, 48));
+  ball.mesh.transform(Mat4::translate({0.2f, 0.9f, -0.1f}));
+  return testing::ground_scene({ball}, testing::rect_light_down({-0.5f, 3.0f, 0.3f}, 1.0f, 1.0f));
+}
+
+// With band = 1 the candidate set holds every triangle on the contour seen from any
+// point within D of the light centre, which includes the contour seen from every receiver
+// whose ray passes within the outer object: the minimum is the all-triangle minimum.
+TEST(SingleSample, ContourBandOfOneIsExactOnAClosedMesh) {
+  Scene scene = floating_ball_scene();
+  ASSERT_TRUE(scene.objects[1].closed);
+  ViewSamples vs = ground_grid(160, 2.0f);
+  std::vector<float> band = single_sample_v(scene, vs, {"candidates=contour", "band=1", "neighbours=false"});
+  std::vector<float> all = single_sample_v(scene, vs, {"candidates=all"});
+  int penumbra = 0;
+  for (size_t k = 0; k < vs.size(); ++k) {
+    penumbra += all[k] > 0.0f && all[k] < 1.0f;
+    ASSERT_NEAR(band[k], all[k], 1e-5f) << k;
+  }
+  EXPECT_GT(penumbra, 5000);
+}
+
+// The default contour set (band = 0): the contour seen from the light centre instead of
+// from each receiver. Exact where the ray grazes the mesh (tau -> 0), a subset elsewhere,
+// so never darker; the error grows toward the outer edge of the penumbra (the numbers in
+// docs/methods/single-sample.md), and a wider band shrinks it.
+TEST(SingleSample, ContourCandidatesApproximateTheAllTriangleSearch) {
+  Scene scene = floating_ball_scene();
+  ViewSamples vs = ground_grid(160, 2.0f);
+  std::vector<float> all = single_sample_v(scene, vs, {"candidates=all"});
+  auto errors = [&](const std::vector<float>& v, double* mean, double* worst, double* worst_dark) {
+    double sum = 0;
+    int n = 0;
+    *worst = *worst_dark = 0;
+    for (size_t k = 0; k < vs.size(); ++k) {
+      EXPECT_GE(v[k], all[k] - 1e-6f) << k;  // a subset of the triangles: never darker
+      if (!(all[k] > 0.0f && all[k] < 1.0f)) {
+        EXPECT_NEAR(v[k], all[k], 1e-6f) << k;  // umbra and fully lit agree
+        continue;
+      }
+      double d = std::abs(v[k] - all[k]);
+      sum += d;
+      ++n;
+      *worst = std::max(*worst, d);
+      if (all[k] < 0.1f) *worst_dark = std::max(*worst_dark, d);
+    }
+    *mean = sum / std::max(1, n);
+  };
+  double mean0, worst0, dark0, mean5, worst5, dark5;
+  errors(single_sample_v(scene, vs, {"band=0", "neighbours=false"}), &mean0, &worst0, &dark0);
+  errors(single_sample_v(scene, vs, {"band=0.5", "neighbours=false"}), &mean5, &worst5, &dark5);
+  std::printf("contour vs all in the penumbra: band 0: mean |dV| %.4f max %.4f (V < 0.1: %.4f); band 0.5: %.4f %.4f\n",
+              mean0, worst0, dark0, mean5, worst5);
+  EXPECT_LT(dark0, 0.01);  // tau small: the two contours nearly coincide
+  EXPECT_LT(mean0, 0.03);
+  EXPECT_LT(worst0, 0.1);
+  EXPECT_LT(mean5, 0.5 * mean0);
+  EXPECT_LE(worst5, worst0);
+}
+
+// scenes/contact.json: the box stands on the ground. A vertical silhouette edge of the box
+// (seen from the light centre L) casts a shadow edge that starts at the box's foot C and
+// runs away from the light; the point of the edge at height h shadows the ground at
+// G(h) = L' + (C - L') Ly / (Ly - h) (L' = L on the ground). A ground point offset by u
+// from there, perpendicular to the shadow edge, sees its ray to L pass the edge line at
+// d = u (Ly - h) / Ly, at t along the ray (A to L, t / A = h / Ly). Along the edge, a
+// point dz higher is sqrt(d^2 + dz^2 sin^2 a) off the ray at t + dz cos a (a: the angle
+// between the edge and the ray, tan a = |L' - G| / Ly), so the smallest perp / t is
+// q / sqrt(1 + q^2 / tan^2 a) with q = d / t. V reaches falloff(tau) when that is tau k
+// (k = D / A), at
+//   u(h) = tau D h / (Ly - h) / sqrt(1 - (tau k / tan a)^2),
+// zero where the box touches the ground and growing linearly with h near it. Measured to
+// V = 0.1: beyond the edge's own penumbra V rises slowly as the whole edge and the lit
+// wall next to it stay near the rim of the wide cone (V ~ 0.2 to 0.7 here), so the V = 1
+// end of the penumbra is no measure of the edge.
+TEST(SingleSample, ContactShadowWidthOnContactScene) {
+  Scene scene = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/contact.json");
+  // The ball's outer object would overlap the box's penumbra on one side: measure the box alone.
+  std::erase_if(scene.objects, [](const SceneObject& o) { return o.name == "ball"; });
+  scene.finalize();
+  size_t box_index = 0;
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (scene.objects[i].name == "box") box_index = i;
+  ASSERT_GT(box_index, 0u);
+  const AreaLight& light = scene.lights[0];
+  const Vec3f L = light.center;
+  const float D = 2.0f * std::sqrt(light.area() / kPi);  // equal-area diameter (the default)
+  // The box's foot corners (y = 0), and the two that bound its shadow: extreme in angle
+  // around the light's ground point.
+  std::vector<Vec3f> feet;
+  for (Vec3f p : scene.objects[box_index].mesh.positions)
+    if (std::abs(p.y) < 1e-5f && std::none_of(feet.begin(), feet.end(), [&](Vec3f q) { return length(q - p) < 1e-5f; }))
+      feet.push_back(p);
+  ASSERT_EQ(feet.size(), 4u);
+  const Vec3f Lg(L.x, 0.0f, L.z);
+  Vec3f mid(0.0f);
+  for (Vec3f f : feet) mid += f * 0.25f;
+  auto angle = [&](Vec3f p) {
+    Vec3f a = normalize(mid - Lg), d = p - Lg;
+    return std::atan2(a.x * d.z - a.z * d.x, a.x * d.x + a.z * d.z);
+  };
+  std::sort(feet.begin(), feet.end(), [&](Vec3f a, Vec3f b) { return angle(a) < angle(b); });
+  int measured = 0;
+  auto sqr = [](float x) { return x * x; };
+  for (Vec3f C : {feet.front(), feet.back()}) {
+    const Vec3f d = normalize(C - Lg);  // along the shadow edge, away from the light
+    Vec3f p(-d.z, 0.0f, d.x);           // across it, pointing out of the shadow
+    if (dot(p, C - mid) < 0) p = -p;
+    ++measured;
+    for (float h : {0.005f, 0.05f, 0.1f, 0.2f, 0.3f}) {
+      const Vec3f G = Lg + (C - Lg) * (L.y / (L.y - h));
+      const float step = 2.5e-4f;
+      ViewSamples vs;
+      for (int i = 0; i < 4000; ++i) {
+        ViewSample s;
+        s.p = G + p * (-0.05f + step * i);
+        s.ng = s.ns = {0, 1, 0};
+        vs.samples.push_back(s);  // the ground: object 0
+      }
+      std::vector<float> v = single_sample_v(scene, vs, {});
+      int last_dark = -1, level = -1;
+      for (int i = 0; i < 4000; ++i)
+        if (v[i] == 0.0f) last_dark = i;
+      for (int i = std::max(0, last_dark); i < 4000 && level < 0; ++i)
+        if (v[i] >= 0.1f) level = i;
+      ASSERT_GE(last_dark, 0) << "h = " << h;
+      ASSERT_GT(level, 0) << "h = " << h;
+      // The hard shadow edge is where G(h) says (to the 3e-5 ray offset and the step).
+      EXPECT_NEAR(-0.05f + step * last_dark, 0.0f, 2 * step) << "h = " << h;
+      const float width = step * (level - last_dark);
+      const float tau = single_sample::inverse_falloff(0.1f);
+      const float k = D / length(L - G), tan_a = length(Lg - G) / L.y;
+      const float expected = tau * D * h / (L.y - h) / std::sqrt(1 - sqr(tau * k / tan_a));
+      EXPECT_NEAR(width, expected, 0.05f * expected + 2 * step) << "corner " << C.x << "," << C.z << " h = " << h;
+    }
+  }
+  EXPECT_EQ(measured, 2);
+}
+
+// Packets of 4 or 8 rays (SIMD) find the same minimum as one ray at a time.
+TEST(SingleSample, PacketsGiveTheSameVisibilityAsSingleRays) {
+  Scene scene = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/knot.json");
+  scene.camera.width = scene.camera.height = 96;
+  RayTracer tracer(scene);
+  ViewSamples vs = camera_pass(scene, tracer, 0);
+  std::vector<float> one = single_sample_v(scene, vs, {"packet=1"});
+  for (const char* packet : {"packet=4", "packet=8"}) {
+    std::vector<float> v = single_sample_v(scene, vs, {packet});
+    for (size_t k = 0; k < vs.size(); ++k) ASSERT_NEAR(v[k], one[k], 1e-5f) << packet << " sample " << k;
   }
 }
 

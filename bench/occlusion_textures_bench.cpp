@@ -1,0 +1,118 @@
+// occlusion-textures (eisemann2006): time per 512^2 frame, prepare (slicing + filtering) +
+// evaluate (shading), for 4, 8 and 16 slices and each pre-filter, on the bunny and the
+// plant, at light sizes spanning 10x (0.25x to 2.5x the scene's 1.5 x 1.5 rect). The camera
+// pass runs once per scene, outside the timed loop. Counters: the per-phase times of the
+// frames (ms, wall clock), the process CPU time per frame (all threads), filtered lookups and texels read per view sample, texture memory.
+//
+//   cmake --build build --target occlusion_textures_bench -j2
+//   build/occlusion_textures_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+//   build/occlusion_textures_bench --benchmark_filter='bunny/nbuffer/S16/'
+#include <benchmark/benchmark.h>
+#include <sys/resource.h>
+
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "penumbra/render/renderer.h"
+
+namespace penumbra {
+namespace {
+
+constexpr int kResolution = 512;
+
+// CPU time of the whole process (every thread), ms: on a shared machine, wall time includes
+// waiting for the cores; this does not.
+double process_cpu_ms() {
+  rusage u;
+  getrusage(RUSAGE_SELF, &u);
+  return (u.ru_utime.tv_sec + u.ru_stime.tv_sec) * 1e3 + (u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-3;
+}
+constexpr float kLightScales[] = {0.25f, 0.5f, 1.0f, 2.5f};
+
+struct Fixture {
+  Scene scene;
+  std::unique_ptr<RayTracer> tracer;
+  ViewSamples vs;
+};
+
+Fixture& fixture(const std::string& name) {
+  static std::map<std::string, std::unique_ptr<Fixture>> cache;
+  auto& f = cache[name];
+  if (!f) {
+    f = std::make_unique<Fixture>();
+    f->scene = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name + ".json");
+    f->scene.camera.width = f->scene.camera.height = kResolution;
+    f->scene.camera.samples_per_pixel = 1;
+    f->tracer = std::make_unique<RayTracer>(f->scene);
+    f->vs = camera_pass(f->scene, *f->tracer, 0);  // the light's size changes nothing here
+  }
+  return *f;
+}
+
+void BM_OcclusionTextures(benchmark::State& state, const std::string& name, const std::string& prefilter,
+                          int slices, float light_scale) {
+  Fixture& f = fixture(name);
+  Scene scene = f.scene;  // a copy with the light scaled
+  AreaLight& light = scene.lights[0];
+  light.size = light.size * light_scale;
+  light.radius *= light_scale;
+  std::vector<std::string> params = {fmt::format("prefilter={}", prefilter), fmt::format("slices={}", slices)};
+  if (const char* extra = std::getenv("OT_PARAMS")) params.push_back(extra);  // e.g. OT_PARAMS=thin_fix=false
+  auto method = create_method("occlusion-textures", scene, params);
+  ShadowContext ctx;
+  ctx.scene = &scene;
+  ctx.light = &light;
+  ctx.tracer = f.tracer.get();
+  std::vector<float> v(f.vs.size());
+  std::vector<Vec3f> e(f.vs.size());
+  ShadowOutput out{v, e};
+  MethodStats sum;  // phase times and texel reads summed over frames
+  uint64_t lookups = 0;
+  int64_t frames = 0;
+  const double cpu0 = process_cpu_ms();
+  for (auto _ : state) {
+    method->stats() = MethodStats{};
+    method->prepare(ctx);
+    method->evaluate(ctx, f.vs, out);
+    benchmark::DoNotOptimize(v.data());
+    sum.accumulate(method->stats());
+    lookups += method->stats().extra.value("lookups", uint64_t{0});
+    ++frames;
+  }
+  const double n = static_cast<double>(std::max<int64_t>(1, frames));
+  state.counters["cpu_ms"] = (process_cpu_ms() - cpu0) / n;
+  state.counters["slicing_ms"] = sum.phase("slicing") / n;
+  state.counters["filtering_ms"] = sum.phase("filtering") / n;
+  state.counters["shading_ms"] = sum.phase("shading") / n;
+  const double samples = static_cast<double>(f.vs.size()) * n;
+  state.counters["lookups_per_sample"] = static_cast<double>(lookups) / samples;
+  state.counters["texels_per_sample"] = static_cast<double>(sum.texels_visited) / samples;
+  state.counters["texture_MB"] = static_cast<double>(method->stats().memory_bytes) / (1024.0 * 1024.0);
+  state.counters["d"] = method->stats().extra.value("cop_distance", 0.0);
+}
+
+void register_all() {
+  for (const char* name : {"bunny", "plant"})
+    for (const char* prefilter : {"nbuffer", "sat", "mipmap"})
+      for (int slices : {16, 8, 4})
+        for (float scale : kLightScales)
+          benchmark::RegisterBenchmark(fmt::format("ot/{}/{}/S{}/light{}x", name, prefilter, slices, scale).c_str(),
+                                       BM_OcclusionTextures, std::string(name), std::string(prefilter), slices, scale)
+              ->Unit(benchmark::kMillisecond)
+              ->UseRealTime();
+}
+
+}  // namespace
+}  // namespace penumbra
+
+int main(int argc, char** argv) {
+  penumbra::register_all();
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,94 @@
+#include "penumbra/raster/shadow_view.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+
+namespace penumbra {
+
+LightView fit_shadow_view(Vec3f eye, Vec3f dir, Vec3f up, std::span<const Vec3f> receivers,
+                          const Bounds3f& casters, const ShadowViewFit& fit) {
+  if (fit.resolution < 1 || fit.resolution > 16384)
+    throw Error("fit_shadow_view: resolution {} must be between 1 and 16384", fit.resolution);
+  if (!(fit.max_fov > 0) || !(fit.max_fov < 180))
+    throw Error("fit_shadow_view: max_fov {} must be in (0, 180) degrees", fit.max_fov);
+  // The view axes (LightView owns the convention).
+  const LightView axes = LightView::perspective(eye, dir, up, 90.0f, 1, 1, 1.0f, 2.0f);
+  const Vec3f right = axes.right(), upv = axes.up(), fwd = axes.forward();
+  float min_near = fit.min_near;
+  if (!(min_near > 0)) {
+    Bounds3f all = casters;
+    if (all.empty())
+      for (Vec3f p : receivers) all.extend(p);
+    min_near = all.empty() ? 1e-6f : 1e-4f * std::max(length(all.diagonal()), 1e-6f);
+  }
+  // Extents of x/z and y/z over the receivers in front, and their depth range.
+  struct Range {
+    float x0 = kInfinity, x1 = -kInfinity, y0 = kInfinity, y1 = -kInfinity, z0 = kInfinity, z1 = -kInfinity;
+    void add(const Range& o) {
+      x0 = std::min(x0, o.x0); x1 = std::max(x1, o.x1); y0 = std::min(y0, o.y0);
+      y1 = std::max(y1, o.y1); z0 = std::min(z0, o.z0); z1 = std::max(z1, o.z1);
+    }
+  };
+  const size_t chunk = 16384;
+  std::vector<Range> parts((receivers.size() + chunk - 1) / chunk);
+  parallel_for(parts.size(), 1, [&](size_t b, size_t e) {
+    for (size_t c = b; c < e; ++c) {
+      Range r;
+      for (size_t k = c * chunk; k < std::min(receivers.size(), (c + 1) * chunk); ++k) {
+        Vec3f d = receivers[k] - eye;
+        float z = dot(d, fwd);
+        if (!(z >= min_near)) continue;
+        float x = dot(d, right) / z, y = dot(d, upv) / z;
+        r.x0 = std::min(r.x0, x); r.x1 = std::max(r.x1, x);
+        r.y0 = std::min(r.y0, y); r.y1 = std::max(r.y1, y);
+        r.z0 = std::min(r.z0, z); r.z1 = std::max(r.z1, z);
+      }
+      parts[c] = r;
+    }
+  });
+  Range r;
+  for (const Range& p : parts) r.add(p);
+  if (!(r.z1 >= r.z0)) throw Error("fit_shadow_view: no receiver lies in front of the eye");
+  const float cap = std::tan(radians(fit.max_fov) * 0.5f);
+  r.x0 = std::max(r.x0, -cap); r.x1 = std::min(r.x1, cap);
+  r.y0 = std::max(r.y0, -cap); r.y1 = std::min(r.y1, cap);
+  if (!(r.x1 >= r.x0) || !(r.y1 >= r.y0))
+    throw Error("fit_shadow_view: every receiver lies outside the {}-degree field of view", fit.max_fov);
+  // A little slack so points on the boundary land inside the image, and a minimum size.
+  float px = std::max(1e-6f, (r.x1 - r.x0) * 1e-4f), py = std::max(1e-6f, (r.y1 - r.y0) * 1e-4f);
+  float l = r.x0 - px, rr = r.x1 + px, b = r.y0 - py, t = r.y1 + py;
+  // Near before every caster (never behind min_near, never beyond the receivers); far just
+  // beyond the farthest receiver.
+  float near = r.z0;
+  if (!casters.empty()) {
+    float zmin = kInfinity;
+    for (int i = 0; i < 8; ++i) zmin = std::min(zmin, dot(casters.corner(i) - eye, fwd));
+    near = std::min(near, zmin);
+  }
+  near = std::max(min_near, near * (1 - 1e-5f));
+  float far = std::max(r.z1 * (1 + 1e-5f), near * (1 + 1e-4f));
+  // Square texels: the longer side gets `resolution` texels, the shorter side is widened
+  // (symmetrically) to a whole number of texels.
+  float w = rr - l, h = t - b;
+  int width, height;
+  if (w >= h) {
+    width = fit.resolution;
+    height = std::clamp(static_cast<int>(std::ceil(fit.resolution * h / w - 1e-4f)), 1, fit.resolution);
+    float grow = std::max(0.0f, (w * height / width - h) * 0.5f);
+    b -= grow;
+    t += grow;
+  } else {
+    height = fit.resolution;
+    width = std::clamp(static_cast<int>(std::ceil(fit.resolution * w / h - 1e-4f)), 1, fit.resolution);
+    float grow = std::max(0.0f, (h * width / height - w) * 0.5f);
+    l -= grow;
+    rr += grow;
+  }
+  return LightView::frustum(eye, dir, up, l * near, rr * near, b * near, t * near, near, far, width, height);
+}
+
+}  // namespace penumbra

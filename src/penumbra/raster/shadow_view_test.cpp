@@ -1,0 +1,99 @@
+#include "penumbra/raster/shadow_view.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/testing.h"
+
+namespace penumbra {
+namespace {
+
+std::vector<Vec3f> random_points(Vec3f lo, Vec3f hi, int n, uint64_t seed) {
+  Rng rng(seed);
+  std::vector<Vec3f> out;
+  for (int i = 0; i < n; ++i)
+    out.push_back({lo.x + (hi.x - lo.x) * rng.next_float(), lo.y + (hi.y - lo.y) * rng.next_float(),
+                   lo.z + (hi.z - lo.z) * rng.next_float()});
+  return out;
+}
+
+TEST(ShadowView, HoldsEveryReceiverWithSquareTexelsAndTheNearPlaneBeforeTheCasters) {
+  // A light at y = 3 looking down and a little sideways; receivers on a patch of ground,
+  // casters reaching up to y = 2.5.
+  const Vec3f eye{0.3f, 3, -0.2f}, dir{0.2f, -1, 0.1f};
+  std::vector<Vec3f> receivers = random_points({-1.5f, 0, -0.7f}, {0.9f, 0.4f, 1.3f}, 500, 1);
+  Bounds3f casters;
+  casters.extend(Vec3f(-4, 0, -4));
+  casters.extend(Vec3f(4, 2.5f, 4));
+  for (int res : {64, 512, 2048}) {
+    ShadowViewFit fit;
+    fit.resolution = res;
+    LightView v = fit_shadow_view(eye, dir, {0, 0, 1}, receivers, casters, fit);
+    EXPECT_EQ(std::max(v.width(), v.height()), res);
+    // Square texels: the window's aspect is the image's.
+    float aspect = (v.window_right() - v.window_left()) / (v.window_top() - v.window_bottom());
+    EXPECT_NEAR(aspect, static_cast<float>(v.width()) / v.height(), 1e-4f * aspect);
+    for (Vec3f p : receivers) {
+      Vec3f t = v.to_texel(p);
+      EXPECT_GE(t.x, 0.0f);
+      EXPECT_LT(t.x, static_cast<float>(v.width()));
+      EXPECT_GE(t.y, 0.0f);
+      EXPECT_LT(t.y, static_cast<float>(v.height()));
+      EXPECT_GE(t.z, v.near());
+      EXPECT_LE(t.z, v.far());
+    }
+    // The casters' top (y = 2.5) is 0.5 below the eye: near must not exceed its depth.
+    EXPECT_LE(v.near(), 0.5f * dot(normalize(dir), {0, -1, 0}) + 1e-4f);
+    // Tight: some receiver lies within a texel of the left and of the right edge.
+    float xmin = 1e30f, xmax = -1e30f;
+    for (Vec3f p : receivers) {
+      xmin = std::min(xmin, v.to_texel(p).x);
+      xmax = std::max(xmax, v.to_texel(p).x);
+    }
+    if (v.width() >= v.height()) {
+      EXPECT_LT(xmin, 1.0f);
+      EXPECT_GT(xmax, v.width() - 1.0f);
+    }
+  }
+}
+
+TEST(ShadowView, GrazingReceiversAreCappedAtMaxFov) {
+  // Receivers running off toward the eye's own plane: without the cap the window would
+  // approach 180 degrees.
+  const Vec3f eye{0, 1, 0};
+  std::vector<Vec3f> receivers;
+  for (int i = 0; i <= 100; ++i) receivers.push_back({-50.0f + i, 0, 0.5f});
+  ShadowViewFit fit;
+  fit.resolution = 256;
+  fit.max_fov = 90;
+  LightView v = fit_shadow_view(eye, {0, -1, 0}, {0, 0, 1}, receivers, {}, fit);
+  // tan(45 deg) = 1 on each side (plus a hair of slack).
+  EXPECT_NEAR(v.window_left() / v.near(), -1.0f, 1e-3f);
+  EXPECT_NEAR(v.window_right() / v.near(), 1.0f, 1e-3f);
+  EXPECT_NEAR(focal_texels(v), 128.0f, 0.1f);
+}
+
+TEST(ShadowView, RejectsReceiversBehindTheEyeAndBadSettings) {
+  std::vector<Vec3f> behind = {{0, 2, 0}, {1, 3, 0}};
+  EXPECT_NE(test::error_message([&] { fit_shadow_view({0, 1, 0}, {0, -1, 0}, {0, 0, 1}, behind, {}, {}); })
+                .find("in front"),
+            std::string::npos);
+  std::vector<Vec3f> ok = {{0, 0, 0}};
+  ShadowViewFit bad;
+  bad.resolution = 0;
+  EXPECT_THROW(fit_shadow_view({0, 1, 0}, {0, -1, 0}, {0, 0, 1}, ok, {}, bad), Error);
+  bad.resolution = 16;
+  bad.max_fov = 180;
+  EXPECT_THROW(fit_shadow_view({0, 1, 0}, {0, -1, 0}, {0, 0, 1}, ok, {}, bad), Error);
+  // A single receiver still gives a valid (tiny) window.
+  LightView v = fit_shadow_view({0, 1, 0}, {0, -1, 0}, {0, 0, 1}, ok, {}, {});
+  Vec3f t = v.to_texel({0, 0, 0});
+  EXPECT_GE(t.x, 0.0f);
+  EXPECT_LT(t.x, static_cast<float>(v.width()));
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,349 @@
+// The shadow-map baselines: shadow-map against `hard`, PCF widening, PCSS bounds, limits
+// and exact cases, xie2007 eq. 1, multi-view-sm converging to `reference`.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/eval/metrics.h"
+#include "penumbra/raster/shadow_view.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/shadow/baseline/shadow_map_common.h"
+#include "penumbra/testing/test_scenes.h"
+#include "penumbra/trace/ray_tracer.h"
+
+namespace penumbra {
+namespace {
+
+using testing::ground_scene;
+using testing::object;
+using testing::quad_y;
+using testing::rect_light_down;
+
+Scene shipped(const char* name, int res) {
+  Scene s = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name);
+  s.camera.width = s.camera.height = res;
+  return s;
+}
+
+Image render_v(const Scene& scene, const std::string& method, std::vector<std::string> params = {}, int spp = 16,
+               uint64_t seed = 0) {
+  RenderSettings settings;
+  settings.method = method;
+  settings.params = std::move(params);
+  settings.light_samples = spp;
+  settings.seed = seed;
+  return render_scene(scene, settings).visibility;
+}
+
+int count_pixels(const Image& v, const std::function<bool(float)>& pred) {
+  int n = 0;
+  for (float x : v.data()) n += pred(x);
+  return n;
+}
+
+// A small scene: ground, a 0.6 x 0.6 square at height 0.5 and a box standing on the ground,
+// under a 1 x 1 rect light at height 2, seen from above.
+Scene small_scene(int res) {
+  std::vector<SceneObject> occluders;
+  occluders.push_back(object(quad_y(0.5f, -0.7f, -0.1f, -0.3f, 0.3f)));
+  occluders.push_back(object(testing::box({0.3f, 0, -0.2f}, {0.6f, 0.7f, 0.2f})));
+  Scene s = ground_scene(std::move(occluders), rect_light_down({0, 2, 0}, 1.0f, 1.0f), res);
+  s.camera = testing::top_camera(res, 4.0f, 40.0f);
+  return s;
+}
+
+TEST(ShadowMap, EqualsHardOnContact) {
+  Scene scene = shipped("contact.json", 96);
+  Image hard = render_v(scene, "hard");
+  Image sm = render_v(scene, "shadow-map");
+  // Both are binary; they may differ only where the map's texels alias the shadow edge.
+  EXPECT_EQ(count_pixels(sm, [](float v) { return v != 0.0f && v != 1.0f; }), 0);
+  EXPECT_LE(fraction_above(sm, hard, 0.5), 0.01);
+  int shadowed = count_pixels(hard, [](float v) { return v < 0.5f; });
+  EXPECT_GT(shadowed, 96 * 96 / 10);  // the comparison is not vacuous
+  // Without any bias the lit surfaces shadow themselves (acne): the bias is what makes
+  // the map agree with the ray-traced shadow.
+  Image acne = render_v(scene, "shadow-map", {"bias=0", "slope_bias=0"});
+  EXPECT_GT(fraction_above(acne, hard, 0.5), 0.05);
+}
+
+TEST(ShadowMap, PcfWidensTheShadowMonotonically) {
+  Scene scene = shipped("contact.json", 96);
+  int last_touched = -1, last_umbra = 1 << 30;
+  for (int pcf : {0, 1, 2, 4, 8}) {
+    Image v = render_v(scene, "shadow-map", {"resolution=256", "pcf=" + std::to_string(pcf)});
+    for (float x : v.data()) {
+      ASSERT_GE(x, 0.0f);
+      ASSERT_LE(x, 1.0f);
+    }
+    int touched = count_pixels(v, [](float x) { return x < 1.0f; });  // any shadow
+    int umbra = count_pixels(v, [](float x) { return x == 0.0f; });
+    int partial = count_pixels(v, [](float x) { return x > 0.0f && x < 1.0f; });
+    if (pcf == 0) EXPECT_EQ(partial, 0);
+    if (pcf > 0) {
+      EXPECT_GT(touched, last_touched) << "pcf " << pcf;  // the shadow grows outward
+      EXPECT_LE(umbra, last_umbra) << "pcf " << pcf;      // and the umbra shrinks
+      EXPECT_GT(partial, 0);
+    }
+    last_touched = touched;
+    last_umbra = umbra;
+  }
+}
+
+TEST(Pcss, VisibilityIsInTheUnitIntervalAndSoft) {
+  Scene scene = shipped("contact.json", 64);
+  for (const char* variant : {"variant=fernando", "variant=xie2007"}) {
+    Image v = render_v(scene, "pcss", {variant});
+    for (float x : v.data()) {
+      ASSERT_GE(x, 0.0f) << variant;
+      ASSERT_LE(x, 1.0f) << variant;
+    }
+    EXPECT_GT(count_pixels(v, [](float x) { return x > 0.05f && x < 0.95f; }), 64 * 64 / 50) << variant;
+  }
+}
+
+TEST(Pcss, ReducesToTheHardShadowForATinyLight) {
+  Scene scene = shipped("contact.json", 96);
+  scene.lights[0].size = scene.lights[0].size * 1e-4f;
+  Image hard = render_v(scene, "hard");
+  for (const char* variant : {"variant=fernando", "variant=xie2007"}) {
+    Image v = render_v(scene, "pcss", {variant});
+    EXPECT_LE(fraction_above(v, hard, 0.5), 0.01) << variant;
+    EXPECT_LE(count_pixels(v, [](float x) { return x > 0.05f && x < 0.95f; }), 96 * 96 / 100) << variant;
+  }
+}
+
+TEST(Pcss, ExactForOneOccluderParallelToTheLight) {
+  // Light, occluder and receiver in parallel planes: every blocker lies at the average
+  // blocker depth, so PCSS's planar assumption holds and its kernel (the light's shape
+  // projected through the receiver onto the blocker plane) finds exactly the occluded
+  // light points: it must agree with ray tracing up to sampling noise.
+  Scene scene = ground_scene({object(quad_y(1.0f, -0.4f, 0.4f, -0.3f, 0.5f))}, rect_light_down({0, 2, 0}, 1.0f, 0.6f), 48);
+  scene.camera = testing::top_camera(48, 4.0f, 45.0f);
+  Image ref = render_v(scene, "reference", {}, 256);
+  Image pcss = render_v(scene, "pcss", {"blocker_samples=64", "pcf_samples=256"});
+  ErrorStats e = compare_images(pcss, ref);
+  EXPECT_LT(e.mae, 0.01);
+  EXPECT_LT(e.max_abs, 0.2);
+  // The penumbra is really there.
+  EXPECT_GT(count_pixels(ref, [](float x) { return x > 0.1f && x < 0.9f; }), 48 * 48 / 20);
+}
+
+// Distance from p to the segment [a, b].
+float segment_distance(Vec3f p, Vec3f a, Vec3f b) {
+  Vec3f ab = b - a;
+  float t = std::clamp(dot(p - a, ab) / dot(ab, ab), 0.0f, 1.0f);
+  return length(p - (a + ab * t));
+}
+
+TEST(Pcss, DepartsFromTheReferenceAtContactAndWhereOccludersOverlap) {
+  // contact.json, regions of the ground (docs/methods/pcss.md):
+  //  - contact: within 0.08 of the box's footprint outline or 0.12 of the ball's contact
+  //    point (xie2007 §3: "loss of contact shadows");
+  //  - overlap: in the shadow (V < 0.98) of the box alone *and* of the ball alone: the
+  //    blocker search averages the two occluders' depths (wrong occluder fusion).
+  // There PCSS must be measurably wrong, and multi-view-sm (the same maps' brute-force
+  // version) right.
+  const int res = 112;
+  Scene scene = shipped("contact.json", res);
+  ASSERT_EQ(scene.objects.size(), 3u);  // ground, box, ball
+  RayTracer tracer(scene);
+  ViewSamples vs = camera_pass(scene, tracer, 0);
+  std::vector<Vec3f> foot;  // the box's bottom corners, in order around the footprint
+  for (Vec3f v : scene.objects[1].mesh.positions)
+    if (std::abs(v.y) < 1e-4f && std::none_of(foot.begin(), foot.end(), [&](Vec3f f) { return distance(f, v) < 1e-5f; }))
+      foot.push_back(v);
+  ASSERT_EQ(foot.size(), 4u);
+  std::sort(foot.begin(), foot.end(), [](Vec3f a, Vec3f b) { return std::atan2(a.z, a.x) < std::atan2(b.z, b.x); });
+  Scene box_only = scene, ball_only = scene;
+  box_only.objects.erase(box_only.objects.begin() + 2);
+  ball_only.objects.erase(ball_only.objects.begin() + 1);
+  Image v_box = render_v(box_only, "reference", {}, 32), v_ball = render_v(ball_only, "reference", {}, 32);
+  Image contact(res, res, 1, 0.0f), overlap(res, res, 1, 0.0f);
+  for (const ViewSample& s : vs.samples) {
+    if (s.object != 0) continue;
+    float d = distance(s.p, Vec3f(0.55f, 0, 0.35f)) < 0.12f ? 0.0f : 1e9f;
+    for (size_t i = 0; i < 4; ++i) d = std::min(d, segment_distance(s.p, foot[i], foot[(i + 1) % 4]));
+    if (d < 0.08f) contact.data()[s.pixel] = 1;
+    else if (v_box.data()[s.pixel] < 0.98f && v_ball.data()[s.pixel] < 0.98f) overlap.data()[s.pixel] = 1;
+  }
+  EXPECT_GT(count_pixels(contact, [](float x) { return x > 0; }), 80);
+  EXPECT_GT(count_pixels(overlap, [](float x) { return x > 0; }), 300);
+  Image ref = render_v(scene, "reference", {}, 256);
+  Image mv = render_v(scene, "multi-view-sm", {}, 256);
+  for (const char* variant : {"variant=fernando", "variant=xie2007"}) {
+    Image pcss = render_v(scene, "pcss", {variant});
+    for (const Image* mask : {&contact, &overlap}) {
+      MetricOptions o;
+      o.mask = mask;
+      double e_pcss = compare_images(pcss, ref, o).mae, e_mv = compare_images(mv, ref, o).mae;
+      const char* region = mask == &contact ? "contact" : "overlap";
+      // The numbers docs/methods/pcss.md quotes.
+      std::printf("[ numbers  ] pcss %-16s %-7s MAE %.3f (mean signed %+.3f); multi-view-sm MAE %.3f\n", variant, region,
+                  e_pcss, compare_images(pcss, ref, o).mean_signed, e_mv);
+      EXPECT_GT(e_pcss, 0.08) << variant << " " << region;
+      EXPECT_GT(e_pcss, 5 * e_mv) << variant << " " << region;
+      EXPECT_LT(e_mv, 0.02) << region;
+    }
+  }
+  // Where the occluders overlap, PCSS's shadow is too light (the averaged blocker depth
+  // lies between the two occluders and shrinks the nearer one's umbra).
+  MetricOptions o;
+  o.mask = &overlap;
+  EXPECT_GT(compare_images(render_v(scene, "pcss"), ref, o).mean_signed, 0.05);
+}
+
+TEST(Pcss, Xie2007FilterSizeFollowsEquation1) {
+  using shadow_map::xie2007_filter_size;
+  // filter_size = resolution * light_radius * (1/z_min - 1/p.z)
+  EXPECT_FLOAT_EQ(xie2007_filter_size(1000, 0.5f, 2.0f, 4.0f), 1000 * 0.5f * (0.5f - 0.25f));
+  EXPECT_FLOAT_EQ(xie2007_filter_size(512, 1.0f, 1.0f, 2.0f), 256.0f);
+  // Linear in the light radius and in the resolution; zero for the nearest surface and
+  // in front of it; growing toward resolution * radius / z_min far away.
+  EXPECT_FLOAT_EQ(xie2007_filter_size(512, 2.0f, 1.0f, 3.0f), 2 * xie2007_filter_size(512, 1.0f, 1.0f, 3.0f));
+  EXPECT_FLOAT_EQ(xie2007_filter_size(1024, 1.0f, 1.0f, 3.0f), 2 * xie2007_filter_size(512, 1.0f, 1.0f, 3.0f));
+  EXPECT_EQ(xie2007_filter_size(512, 1.0f, 2.0f, 2.0f), 0.0f);
+  EXPECT_EQ(xie2007_filter_size(512, 1.0f, 2.0f, 1.5f), 0.0f);
+  EXPECT_LT(xie2007_filter_size(512, 1.0f, 1.0f, 1e6f), 512.0f);
+  EXPECT_NEAR(xie2007_filter_size(512, 1.0f, 1.0f, 1e6f), 512.0f, 1e-2f);
+  // The paper's "resolution" is the focal length in texels: W / (2 tan(fov/2)), equal to
+  // W for a window one unit wide at unit distance.
+  LightView v = LightView::perspective({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 2 * degrees(std::atan(0.5f)), 640, 640, 0.1f, 10);
+  EXPECT_NEAR(focal_texels(v), 640.0f, 1e-2f);
+  // PCSS's penumbra width: (d_r - d_b) * light_size / d_b; as a filter radius in texels
+  // (times focal / d_r) it is eq. 1 with z_min replaced by d_b.
+  EXPECT_FLOAT_EQ(shadow_map::pcss_penumbra_width(0.5f, 1.0f, 3.0f), 1.0f);
+  EXPECT_NEAR(shadow_map::pcss_penumbra_width(0.5f, 1.0f, 3.0f) * 640 / 3.0f, xie2007_filter_size(640, 0.5f, 1.0f, 3.0f),
+              1e-3f);
+  EXPECT_EQ(shadow_map::pcss_penumbra_width(0.5f, 3.0f, 2.0f), 0.0f);
+}
+
+TEST(Pcss, KernelOffsetIsWhereTheSegmentToTheLightPointCrossesTheBlockerPlane) {
+  AreaLight light = rect_light_down({0.2f, 2, -0.1f}, 1.0f, 0.6f);
+  std::vector<Vec3f> receivers = {{-1, 0, -1}, {1, 0, 1}, {0.3f, 0.2f, 0.1f}};
+  LightView v = shadow_map::light_view_from(light, light.center, receivers, {}, 512, 120);
+  const float f = focal_texels(v);
+  const Vec3f p{0.3f, 0.2f, 0.1f};
+  const Vec3f tp = v.to_texel(p);
+  for (Vec2f u : {Vec2f(0.1f, 0.2f), Vec2f(0.9f, 0.5f), Vec2f(0.5f, 0.99f)}) {
+    Vec3f q = light.sample_area(u);
+    for (float zb : {0.5f, 1.0f, 1.6f}) {
+      // The point of segment p -> q at linear depth zb.
+      float a = (tp.z - zb) / (tp.z - v.linear_depth(q));
+      Vec3f x = p + (q - p) * a;
+      Vec3f tx = v.to_texel(x);
+      Vec2f predicted = Vec2f(tp.x, tp.y) + shadow_map::kernel_offset(v, f, q) * (1.0f / zb - 1.0f / tp.z);
+      EXPECT_NEAR(predicted.x, tx.x, 1e-2f);
+      EXPECT_NEAR(predicted.y, tx.y, 1e-2f);
+    }
+  }
+}
+
+TEST(ShadowMap, FastLookupAgreesWithTheGeneralPath) {
+  // ShadowDepthMap::lookup (hoisted per-map set-up) against receiver() + transmit_at().
+  Scene scene = shipped("contact.json", 64);
+  RayTracer tracer(scene);
+  ViewSamples vs = camera_pass(scene, tracer, 0);
+  const AreaLight& light = scene.lights[0];
+  std::vector<Vec3f> receivers = shadow_map::receiver_points(vs, light);
+  std::vector<RasterTriangle> tris = gather_raster_triangles(scene);
+  Rasterizer rasterizer;
+  shadow_map::ShadowDepthMap sm;
+  int shadowed = 0;
+  for (Vec3f eye : {light.center, light.sample_area({0.1f, 0.9f})}) {
+    sm.render(rasterizer, tris, shadow_map::light_view_from(light, eye, receivers, scene.bounds(), 256, 120));
+    for (const char* mode : {"slope", "zero"}) {
+      shadow_map::BiasParams b;
+      if (std::string(mode) == "zero") b.bias = b.slope_bias = 0;
+      for (const ViewSample& s : vs.samples) {
+        shadow_map::Receiver r = sm.receiver(s.p, s.ng, b);
+        for (bool closed : {false, true}) {
+          float expected = !r.faces && closed ? 0.0f : sm.transmit_at(r, r.texel, b);
+          ASSERT_EQ(sm.lookup(s.p, s.ng, closed, b), expected) << mode;
+          shadowed += expected < 1;
+        }
+      }
+    }
+  }
+  EXPECT_GT(shadowed, 1000);
+  // The receiver plane's depth at a texel is where that texel's ray meets p's tangent
+  // plane (clamped to at most p's own depth).
+  shadow_map::BiasParams plane;
+  plane.receiver_plane = true;
+  plane.bias = 0;
+  plane.max_slope = 1e6f;
+  int checked = 0;
+  for (size_t k = 0; k < vs.size(); k += 97) {
+    const ViewSample& s = vs.samples[k];
+    shadow_map::Receiver r = sm.receiver(s.p, s.ng, plane);
+    if (!r.faces) continue;
+    for (Vec2f d : {Vec2f(3, 0), Vec2f(-5, 7), Vec2f(20, -11)}) {
+      int x = static_cast<int>(std::floor(r.texel.x + d.x)), y = static_cast<int>(std::floor(r.texel.y + d.y));
+      LightView::TexelRay ray = sm.view().texel_ray({x + 0.5f, y + 0.5f});
+      float t = dot(s.ng, s.p - ray.origin) / dot(s.ng, ray.dir);
+      if (!(t > 0) || t > r.z) continue;
+      EXPECT_NEAR(sm.reference_depth(r, x, y, plane), t, 1e-4f * t);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 20);
+}
+
+TEST(MultiViewShadowMap, ConvergesToTheReference) {
+  Scene scene = small_scene(40);
+  Image ref = render_v(scene, "reference", {}, 1024);
+  double mae16 = compare_images(render_v(scene, "multi-view-sm", {}, 16), ref).mae;
+  ErrorStats e256 = compare_images(render_v(scene, "multi-view-sm", {}, 256), ref);
+  EXPECT_LT(e256.mae, 0.006);
+  EXPECT_LT(mae16, 0.03);
+  EXPECT_LT(e256.mae, 0.6 * mae16);
+  // The contact shadow of the box does not leak: where the reference is dark, so is it.
+  EXPECT_LT(e256.max_abs, 0.25);
+}
+
+TEST(MultiViewShadowMap, DiskAndSphereLights) {
+  // A disk light: its maps sample the disk itself. A sphere light: the maps sample the
+  // disk through its centre facing the scene (AreaLight::sample_area), while `reference`
+  // samples the cone each point sees: equal on the axis, an approximation off it.
+  for (LightShape shape : {LightShape::Disk, LightShape::Sphere}) {
+    Scene scene = small_scene(32);
+    AreaLight& l = scene.lights[0];
+    l.shape = shape;
+    l.radius = 0.5f;
+    scene.finalize();
+    Image ref = render_v(scene, "reference", {}, 512);
+    ErrorStats e = compare_images(render_v(scene, "multi-view-sm", {}, 256), ref);
+    ErrorStats p = compare_images(render_v(scene, "pcss"), ref);
+    EXPECT_LT(e.mae, shape == LightShape::Disk ? 0.004 : 0.01) << to_string(shape);
+    EXPECT_LT(p.mae, 0.02) << to_string(shape);
+  }
+}
+
+TEST(MultiViewShadowMap, SameImageForAnyThreadCountAndBoundedMemory) {
+  Scene scene = small_scene(24);
+  RenderSettings settings;
+  settings.method = "multi-view-sm";
+  settings.light_samples = 16;
+  settings.seed = 4;
+  RenderResult a, b;
+  {
+    ThreadLimit one(1);
+    a = render_scene(scene, settings);
+  }
+  {
+    ThreadLimit two(2);
+    b = render_scene(scene, settings);
+  }
+  EXPECT_EQ(a.visibility.data(), b.visibility.data());
+  // One map at a time: memory is one 512-texel map (16 bytes a texel), not 16 of them.
+  EXPECT_LE(a.stats.memory_bytes, 512u * 512u * 16u);
+  EXPECT_GT(a.stats.memory_bytes, 0u);
+  EXPECT_EQ(a.stats.extra["maps"], 16);
+  EXPECT_GT(a.stats.phase("raster"), 0.0);
+  EXPECT_GT(a.stats.phase("lookup"), 0.0);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,102 @@
+// Method `multi-view-sm`: one depth map per light sample, averaged. N = --spp stratified
+// points q_i on the light (one fixed LightSampleSet per frame, AreaLight::sample_area);
+// from each, a depth map looking along the light's normal and fitted to the receivers; a
+// view sample's V is the fraction of the maps in which it is lit (its transmittance
+// through the nearest surface, with the biases of shadow_map_common.h; on closed objects,
+// light points behind its own surface count as blocked). This is the brute-force image-based soft shadow that
+// xie2007 §3 calls the first reference method ("around 1000 light samples") and that
+// sintorn2008 compares against ("one shadow map per light sample").
+//
+// Memory stays bounded by one map: render map i, test every view sample against it
+// (parallel over view samples), accumulate, go on to map i + 1. One Rasterizer serves all
+// maps. docs/methods/multi-view-sm.md.
+#include <algorithm>
+#include <atomic>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/shadow/baseline/shadow_map_common.h"
+#include "penumbra/shadow/shadow_method.h"
+
+namespace penumbra {
+namespace {
+
+using shadow_map::BiasParams;
+using shadow_map::in_front_of_light;
+
+class MultiViewShadowMap final : public ShadowMethod {
+ public:
+  explicit MultiViewShadowMap(const ParamSet& p) : view_(shadow_map::view_params(p)), bias_(shadow_map::bias_params(p)) {}
+
+  void prepare(const ShadowContext& ctx) override {
+    ScopedPhase phase(stats_, "gather");
+    stats_.prepare_count++;
+    triangles_ = gather_raster_triangles(*ctx.scene);
+    scene_bounds_ = ctx.scene->bounds();
+  }
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    const AreaLight& light = *ctx.light;
+    const size_t n = vs.size();
+    std::fill(out.visibility.begin(), out.visibility.end(), 0.0f);
+    const std::vector<Vec3f> receivers = shadow_map::receiver_points(vs, light);
+    if (receivers.empty()) return;
+    const int maps = std::max(1, ctx.light_samples);
+    // The same light points for every view sample (agrawala2000 §3's fixed set): banding,
+    // no noise. Keyed by (seed, light, frame) so progressive frames take new points.
+    const LightSampleSet set(maps, hash_combine(hash_combine(ctx.seed, 0x4d5653u /* "MVS" */ + ctx.light_index), ctx.frame),
+                             /*per_pixel=*/false);
+    std::atomic<uint64_t> texels{0};
+    for (int i = 0; i < maps; ++i) {
+      const Vec3f q = light.sample_area(set.sample(i, 0));
+      LightView view;
+      {
+        ScopedPhase phase(stats_, "fit");
+        view = shadow_map::light_view_from(light, q, receivers, scene_bounds_, view_.resolution, view_.max_fov);
+      }
+      {
+        ScopedPhase phase(stats_, "raster");
+        map_.render(rasterizer_, triangles_, view);
+      }
+      ScopedPhase phase(stats_, "lookup");
+      parallel_for(n, 4096, [&](size_t begin, size_t end) {
+        uint64_t local = 0;
+        for (size_t k = begin; k < end; ++k) {
+          const ViewSample& s = vs.samples[k];
+          if (!in_front_of_light(light, s.p)) continue;
+          out.visibility[k] += map_.lookup(s.p, s.ng, ctx.scene->objects[s.object].closed, bias_);
+          ++local;
+        }
+        texels += local;
+      });
+      if (ctx.progress) ctx.progress->add(n * (i + 1) / maps - n * i / maps);
+    }
+    const float inv = 1.0f / static_cast<float>(maps);
+    for (float& v : out.visibility) v *= inv;
+    stats_.texels_visited += texels.load();
+    stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, map_.memory_bytes());
+    stats_.extra["maps"] = maps;
+    stats_.extra["map_width"] = map_.map().width;
+    stats_.extra["map_height"] = map_.map().height;
+  }
+
+ private:
+  shadow_map::ViewParams view_;
+  BiasParams bias_;
+  std::vector<RasterTriangle> triangles_;
+  Bounds3f scene_bounds_;
+  Rasterizer rasterizer_;
+  shadow_map::ShadowDepthMap map_;
+};
+
+const MethodRegistration registration({
+    "multi-view-sm",
+    "one depth map per light sample (--spp stratified points on the light), averaged",
+    shadow_map::common_param_specs(512, /*receiver_plane_default=*/false),
+    [](const ParamSet& p) { return std::make_unique<MultiViewShadowMap>(p); },
+    /*samples_light=*/true,
+});
+
+}  // namespace
+}  // namespace penumbra

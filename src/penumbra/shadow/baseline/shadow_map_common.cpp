@@ -1,0 +1,158 @@
+#include "penumbra/shadow/baseline/shadow_map_common.h"
+
+#include <algorithm>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/raster/shadow_view.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra::shadow_map {
+
+std::vector<ParamSpec> common_param_specs(int default_resolution, bool receiver_plane_default) {
+  return {
+      {"resolution", ParamType::Int, default_resolution,
+       "texels along the longer side of each depth map (the view is fitted to the receivers; texels are square)",
+       {}, 16, 16384},
+      {"max_fov", ParamType::Float, 120.0,
+       "largest field of view of a map, degrees: receivers beyond it (grazing the light's plane) are not covered and "
+       "count as lit",
+       {}, 1, 179},
+      {"bias", ParamType::Float, 1e-3, "constant depth bias, world units of linear depth", {}, 0, 1e30},
+      {"slope_bias", ParamType::Float, 1.0,
+       "slope-scaled bias in texels: adds slope_bias x texel size x the receiver's depth slope (depth change per "
+       "texel / texel size; tan(angle between normal and light direction) on the axis) x max(1, lookup distance in "
+       "texels); unused with receiver_plane",
+       {}, 0, 1e30},
+      {"max_slope", ParamType::Float, 10.0, "cap on the depth slope in the slope-scaled bias and on the receiver plane's slope",
+       {}, 0, 1e30},
+      {"receiver_plane", ParamType::Bool, receiver_plane_default,
+       "compare each texel with the receiver's tangent plane at that texel (receiver plane depth bias) instead of the "
+       "point's depth minus the slope-scaled bias",
+       {}},
+  };
+}
+
+ViewParams view_params(const ParamSet& p) {
+  ViewParams v;
+  v.resolution = p.get_int("resolution");
+  v.max_fov = p.get_float("max_fov");
+  return v;
+}
+
+BiasParams bias_params(const ParamSet& p) {
+  BiasParams b;
+  b.bias = p.get_float("bias");
+  b.slope_bias = p.get_float("slope_bias");
+  b.max_slope = p.get_float("max_slope");
+  b.receiver_plane = p.get_bool("receiver_plane");
+  return b;
+}
+
+std::vector<Vec3f> receiver_points(const ViewSamples& vs, const AreaLight& light) {
+  std::vector<Vec3f> out;
+  out.reserve(vs.size());
+  for (const ViewSample& s : vs.samples)
+    if (in_front_of_light(light, s.p)) out.push_back(s.p);
+  return out;
+}
+
+LightView light_view_from(const AreaLight& light, Vec3f eye, std::span<const Vec3f> receivers,
+                          const Bounds3f& casters, int resolution, float max_fov) {
+  ShadowViewFit fit;
+  fit.resolution = resolution;
+  fit.max_fov = max_fov;
+  return fit_shadow_view(eye, light.frame.n, light.frame.t, receivers, casters, fit);
+}
+
+void ShadowDepthMap::render(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view) {
+  if (!view.is_perspective()) throw Error("ShadowDepthMap: the view must be perspective");
+  view_ = view;
+  rasterizer.depth_map(triangles, view, RasterFilter{}, &map_);
+  float zmin = kInfinity;
+  for (float z : map_.z) zmin = std::min(zmin, z);
+  z_min_ = zmin;
+  eye_ = view.eye();
+  right_ = view.right();
+  up_ = view.up();
+  forward_ = view.forward();
+  const Mat4& m = view.texel_projection();
+  row_x_ = {m.m[0][0], m.m[0][1], m.m[0][2]};
+  row_y_ = {m.m[1][0], m.m[1][1], m.m[1][2]};
+  off_x_ = m.m[0][3];
+  off_y_ = m.m[1][3];
+  inv_focal_ = 1.0f / focal_texels(view);
+  width_f_ = static_cast<float>(map_.width);
+  height_f_ = static_cast<float>(map_.height);
+}
+
+size_t ShadowDepthMap::memory_bytes() const {
+  return map_.z.size() * sizeof(float) + map_.depth.size() * sizeof(float) + map_.opacity.size() * sizeof(float) +
+         map_.triangle.size() * sizeof(uint32_t);
+}
+
+Receiver ShadowDepthMap::receiver(Vec3f p, Vec3f ng, const BiasParams& b) const {
+  Receiver r;
+  Vec3f t = view_.to_texel(p);
+  r.texel = {t.x, t.y};
+  r.z = t.z;
+  r.s = view_.texel_world_size(std::max(t.z, view_.near()));
+  r.ng = ng;
+  Vec3f to_eye = view_.eye() - p;
+  r.faces = dot(ng, to_eye) > 0;
+  r.plane_num = -dot(ng, to_eye);
+  // dot(ng, texel_ray(x, y).dir) with dir = right u / near + up v / near + forward,
+  // u = l + (r - l) x / W, v = t - (t - b) y / H (LightView::texel_ray).
+  const float nr = dot(ng, view_.right()) / view_.near(), nu = dot(ng, view_.up()) / view_.near();
+  r.plane_a = nr * (view_.window_right() - view_.window_left()) / static_cast<float>(view_.width());
+  r.plane_b = -nu * (view_.window_top() - view_.window_bottom()) / static_cast<float>(view_.height());
+  r.plane_c = nr * view_.window_left() + nu * view_.window_top() + dot(ng, view_.forward());
+  // The tangent plane's linear depth along texel rays d(x, y) (unit forward component) is
+  // plane_num / dot(ng, d); one texel moves d by right / f (or up / f), so the depth changes
+  // by s * |(ng.right, ng.up)| / |ng.d| per texel. On the view axis that is tan(theta).
+  float den = t.z > 0 ? std::abs(dot(ng, (p - view_.eye()) / t.z)) : 0.0f;
+  float lateral = std::sqrt(dot(ng, view_.right()) * dot(ng, view_.right()) + dot(ng, view_.up()) * dot(ng, view_.up()));
+  r.slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
+  return r;
+}
+
+void LightCentreMap::prepare(const Scene& scene, MethodStats& stats) {
+  ScopedPhase phase(stats, "gather");
+  triangles_ = gather_raster_triangles(scene);
+  scene_bounds_ = scene.bounds();
+  valid_ = false;
+}
+
+bool LightCentreMap::update(const AreaLight& light, const ViewSamples& vs, const ViewParams& params,
+                            MethodStats& stats) {
+  LightView view;
+  uint64_t outside = 0;
+  {
+    ScopedPhase phase(stats, "fit");
+    std::vector<Vec3f> receivers = receiver_points(vs, light);
+    if (receivers.empty()) return false;
+    view = light_view_from(light, light.center, receivers, scene_bounds_, params.resolution, params.max_fov);
+    // Receivers beyond max_fov (or too close to the light's plane): not covered, lit.
+    for (Vec3f p : receivers) {
+      Vec3f t = view.to_texel(p);
+      outside += !(t.z >= view.near() && t.x >= 0 && t.y >= 0 && t.x < view.width() && t.y < view.height());
+    }
+  }
+  const LightView& old = map_.view();
+  bool same = valid_ && old.width() == view.width() && old.height() == view.height() && old.near() == view.near() &&
+              old.far() == view.far() && old.window_left() == view.window_left() &&
+              old.window_right() == view.window_right() && old.window_bottom() == view.window_bottom() &&
+              old.window_top() == view.window_top();
+  if (!same) {
+    ScopedPhase phase(stats, "raster");
+    map_.render(rasterizer_, triangles_, view);
+    valid_ = true;
+  }
+  stats.memory_bytes = std::max<uint64_t>(stats.memory_bytes, map_.memory_bytes());
+  stats.extra["map_width"] = map_.map().width;
+  stats.extra["map_height"] = map_.map().height;
+  stats.extra["receivers_outside_map"] = outside;
+  return true;
+}
+
+}  // namespace penumbra::shadow_map

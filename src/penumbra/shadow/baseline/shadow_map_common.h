@@ -1,0 +1,233 @@
+// What the shadow-map baselines share (`shadow-map`, `pcss`, `multi-view-sm`): their bias
+// parameters, the view from a point on the light, and the depth comparison of a view sample
+// against one depth map. docs/methods/shadow-map.md states the conventions.
+//
+// A view sample p (geometric normal ng) seen from a map whose eye is e:
+// - p is *in front of the light* when dot(p - c, n) > 0 (c, n: the light's centre and
+//   normal; for a sphere light, the disk facing the scene). Other points see nothing of the
+//   light's emitting side and get V = 0, as with `reference`.
+// - p *faces* e when dot(ng, e - p) > 0. Where p lies on a closed object (SceneObject::
+//   closed) and does not face e, the segment to e runs through the object's inside and
+//   leaves it through its surface: blocked (that is what a shadow ray does; the ray tracer
+//   offsets its origin toward the light, here into the object). The depth comparison would
+//   be a coin toss there (acne at terminators). On an open surface (a plane, a leaf) the
+//   ray tracer's offset puts the origin on the light's side, so its own surface never
+//   blocks it; the maps then decide, as for any point.
+// - Depth comparison at texel t (nearest-texel lookup, no interpolation): the nearest
+//   surface z_t of the map blocks p when z_t < ref(t), where ref(t) is
+//     slope bias (default):     z_p - bias - slope_bias * s * min(k, max_slope) * max(1, d_t)
+//     receiver plane:           z_plane(t) - bias
+//   z_p is p's linear depth, s the world size of one texel at z_p, d_t the distance in
+//   texels from p's projection to the centre of t, z_plane(t) the depth of p's tangent
+//   plane along the ray through t's centre (clamped to [z_p - max_slope * s * max(1, d_t),
+//   z_p]: nothing behind p blocks it), and k the tangent plane's depth slope: its
+//   linear-depth change per texel in units of s (tan of the angle between ng and the light
+//   direction on the view axis; off the axis larger, since linear depth is measured along
+//   the axis, not along the ray).
+// - A blocking surface of opacity a lets 1 - a through (only the nearest surface of a texel
+//   is known: a map cannot see several semi-transparent layers, which is what xie2007 §5
+//   addresses).
+#pragma once
+
+#include <cmath>
+#include <span>
+#include <vector>
+
+#include "penumbra/raster/depth_map.h"
+#include "penumbra/raster/light_view.h"
+#include "penumbra/raster/rasterizer.h"
+#include "penumbra/scene/light.h"
+#include "penumbra/shadow/params.h"
+#include "penumbra/shadow/stats.h"
+#include "penumbra/shadow/view_samples.h"
+
+namespace penumbra::shadow_map {
+
+struct BiasParams {
+  float bias = 1e-3f;         // constant, world units of linear depth
+  float slope_bias = 1.0f;    // texels, scaled by the receiver's depth slope k
+  float max_slope = 10.0f;    // cap on k (and on the receiver plane's slope)
+  bool receiver_plane = false;
+};
+
+// The view parameters every shadow-map baseline has.
+struct ViewParams {
+  int resolution = 1024;
+  float max_fov = 120.0f;
+};
+
+// The parameter table entries every shadow-map baseline has: resolution, max_fov, bias,
+// slope_bias, max_slope, receiver_plane (with the given defaults).
+std::vector<ParamSpec> common_param_specs(int default_resolution, bool receiver_plane_default);
+BiasParams bias_params(const ParamSet& p);
+ViewParams view_params(const ParamSet& p);
+
+// Whether p is in front of the light's emitting plane (see above).
+inline bool in_front_of_light(const AreaLight& light, Vec3f p) { return dot(p - light.center, light.frame.n) > 0.0f; }
+
+// Positions of the view samples in front of the light (the receivers a map must cover).
+std::vector<Vec3f> receiver_points(const ViewSamples& vs, const AreaLight& light);
+
+// The view from `eye` (a point on the light's plane) along the light's normal, its roll
+// fixed by the light's t axis, fitted to the receivers with the near plane before every
+// caster and a field of view of at most max_fov degrees (raster/shadow_view.h).
+LightView light_view_from(const AreaLight& light, Vec3f eye, std::span<const Vec3f> receivers,
+                          const Bounds3f& casters, int resolution, float max_fov);
+
+// A view sample as one map sees it.
+struct Receiver {
+  Vec2f texel;       // its projection, texel space
+  float z = 0;       // its linear depth
+  float s = 0;       // world size of one texel at z
+  // Linear-depth change of p's tangent plane per texel, in texel widths s (tan of the
+  // angle between ng and the ray for a point on the view axis), clamped to max_slope.
+  float slope = 0;
+  // The receiver plane: its depth along the ray through texel-space point (x, y) is
+  // plane_num / (plane_a x + plane_b y + plane_c) (the denominator is dot(ng, ray dir)).
+  float plane_num = 0;  // dot(ng, p - eye)
+  float plane_a = 0, plane_b = 0, plane_c = 0;
+  Vec3f ng;
+  bool faces = false;   // dot(ng, eye - p) > 0
+};
+
+// One depth map and its view, with the comparisons of the header comment.
+class ShadowDepthMap {
+ public:
+  // Renders the nearest surface of `triangles` seen from `view` (semi-transparent casters
+  // included; see the header comment). The view must be perspective (fit_shadow_view's).
+  void render(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view);
+
+  const LightView& view() const { return view_; }
+  const DepthMap& map() const { return map_; }
+  // The smallest depth in the map (+inf if it is empty): xie2007's z_min.
+  float z_min() const { return z_min_; }
+  size_t memory_bytes() const;
+
+  Receiver receiver(Vec3f p, Vec3f ng, const BiasParams& b) const;
+
+  // The depth a surface at texel (x, y) must be in front of to block the receiver.
+  float reference_depth(const Receiver& r, int x, int y, const BiasParams& b) const {
+    float dx = x + 0.5f - r.texel.x, dy = y + 0.5f - r.texel.y;
+    float reach = std::max(1.0f, std::sqrt(dx * dx + dy * dy));
+    if (!b.receiver_plane) return r.z - b.bias - b.slope_bias * r.s * r.slope * reach;
+    float limit = b.max_slope * r.s * reach;
+    float den = r.plane_a * (x + 0.5f) + r.plane_b * (y + 0.5f) + r.plane_c;
+    // The ray meets the plane in front when den has the sign of plane_num (both negative
+    // for a plane facing the eye); otherwise the plane is beyond its horizon: far away.
+    float zp = den * r.plane_num > 0 ? r.plane_num / den : kInfinity;
+    // Nothing behind p can block it (every point of a segment from p to the light is at
+    // most as deep as p), however far the plane runs.
+    return std::clamp(zp, r.z - limit, r.z) - b.bias;
+  }
+
+  // The fraction of light texel (x, y) lets through to a receiver whose reference depth
+  // there is `ref`: 1 outside the map or when its surface is not in front of ref,
+  // otherwise 1 - opacity.
+  float transmit(int x, int y, float ref) const {
+    if (x < 0 || y < 0 || x >= map_.width || y >= map_.height) return 1.0f;
+    size_t i = map_.index(x, y);
+    return map_.z[i] < ref ? 1.0f - map_.opacity[i] : 1.0f;
+  }
+  // The same at a texel-space point (its texel: floor of the coordinates).
+  float transmit_at(const Receiver& r, Vec2f texel, const BiasParams& b) const {
+    int x = static_cast<int>(std::floor(texel.x)), y = static_cast<int>(std::floor(texel.y));
+    if (x < 0 || y < 0 || x >= map_.width || y >= map_.height) return 1.0f;
+    return transmit(x, y, reference_depth(r, x, y, b));
+  }
+  // The hard-shadow lookup of one point at its own texel: 0 when p lies on a closed
+  // object and does not face the eye, else transmit_at(receiver(p, ng), its texel). The
+  // same numbers as those calls, with the per-map set-up hoisted (what multi-view-sm and
+  // shadow-map do per point and map).
+  float lookup(Vec3f p, Vec3f ng, bool closed, const BiasParams& b) const {
+    if (b.receiver_plane) {
+      Receiver r = receiver(p, ng, b);
+      return !r.faces && closed ? 0.0f : transmit_at(r, r.texel, b);
+    }
+    const Vec3f d = p - eye_;
+    const float plane_num = dot(ng, d);
+    if (!(plane_num < 0) && closed) return 0.0f;  // faces: dot(ng, eye - p) > 0
+    const float z = dot(d, forward_);
+    const float inv_z = 1.0f / z;
+    const float tx = (dot(row_x_, p) + off_x_) * inv_z, ty = (dot(row_y_, p) + off_y_) * inv_z;
+    if (!(tx >= 0) || !(ty >= 0) || !(tx < width_f_) || !(ty < height_f_)) return 1.0f;
+    const size_t i = map_.index(static_cast<int>(tx), static_cast<int>(ty));
+    const float zt = map_.z[i];
+    // Cheap early out: a surface farther than p never blocks.
+    if (!(zt < z)) return 1.0f;
+    const float nr = dot(ng, right_), nu = dot(ng, up_);
+    const float lateral = std::sqrt(nr * nr + nu * nu), den = std::abs(plane_num) * inv_z;
+    const float slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
+    // Own texel: reach max(1, d_t) = 1; s = z / focal.
+    const float ref = z - b.bias - b.slope_bias * z * inv_focal_ * slope;
+    return zt < ref ? 1.0f - map_.opacity[i] : 1.0f;
+  }
+
+  // Depth of the nearest surface at a texel-space point (+inf outside the map or empty).
+  float depth_at(Vec2f texel) const {
+    int x = static_cast<int>(std::floor(texel.x)), y = static_cast<int>(std::floor(texel.y));
+    if (x < 0 || y < 0 || x >= map_.width || y >= map_.height) return kInfinity;
+    return map_.z[map_.index(x, y)];
+  }
+
+ private:
+  LightView view_;
+  DepthMap map_;
+  float z_min_ = kInfinity;
+  // lookup()'s hoisted view: texel x = (row_x . p + off_x) / z, likewise y.
+  Vec3f eye_, right_, up_, forward_, row_x_, row_y_;
+  float off_x_ = 0, off_y_ = 0, inv_focal_ = 0, width_f_ = 0, height_f_ = 0;
+};
+
+// The scene's triangles and the map from the light's centre (shadow-map, pcss), fitted to
+// the receivers of the view samples it is asked about and re-rendered only when their
+// bounds or the resolution change (a camera change that keeps the receivers in view
+// reuses it).
+class LightCentreMap {
+ public:
+  // Gathers the scene's triangles (phase "gather"); call again when the geometry changes.
+  void prepare(const Scene& scene, MethodStats& stats);
+  // Makes map() serve `vs` (phase "raster" when it renders). False if no view sample is in
+  // front of the light (there is nothing to look up then).
+  bool update(const AreaLight& light, const ViewSamples& vs, const ViewParams& view, MethodStats& stats);
+  const ShadowDepthMap& map() const { return map_; }
+  std::span<const RasterTriangle> triangles() const { return triangles_; }
+
+ private:
+  std::vector<RasterTriangle> triangles_;
+  Bounds3f scene_bounds_;
+  Rasterizer rasterizer_;
+  ShadowDepthMap map_;
+  bool valid_ = false;
+};
+
+// Where a light point q lands in a map from the light's centre, per unit of
+// (1/z_blocker - 1/z_receiver): the point at depth z_b on the segment from a receiver at
+// depth z_r to q projects at texel(receiver) + kernel_offset(q) * (1/z_b - 1/z_r). Exact
+// for a light lying in the view's z = 0 plane (rect, disk, a sphere's disk): the shadow of
+// a blocker plane at depth z_b is the light's own shape scaled by that factor (the PCSS
+// kernel, Fernando 2005; xie2007 eq. 1 for a disk).
+inline Vec2f kernel_offset(const LightView& v, float focal, Vec3f q) {
+  Vec3f d = q - v.eye();
+  return {focal * dot(d, v.right()), -focal * dot(d, v.up())};
+}
+
+// xie2007 eq. 1: the radius in texels of the region around a receiver's texel where
+// blockers of a light of radius `light_radius` can lie: resolution * light_radius *
+// (1/z_min - 1/p.z). `focal` is the focal length in texels (raster/shadow_view.h
+// focal_texels; the paper's "resolution" for a view whose window is one unit wide at unit
+// distance). Zero when p.z <= z_min (nothing can be in front of p).
+inline float xie2007_filter_size(float focal, float light_radius, float z_min, float pz) {
+  if (!(pz > z_min) || !(z_min > 0)) return 0.0f;
+  return focal * light_radius * (1.0f / z_min - 1.0f / pz);
+}
+
+// Fernando 2005 (PCSS): penumbra width at the receiver, w = (d_receiver - d_blocker) *
+// light_size / d_blocker, in world units; divided by the receiver's depth and multiplied
+// by the focal length it is the filter radius in texels (the same scaling as eq. 1 with
+// z_min replaced by the average blocker depth).
+inline float pcss_penumbra_width(float light_size, float d_blocker, float d_receiver) {
+  if (!(d_blocker > 0) || !(d_receiver > d_blocker)) return 0.0f;
+  return (d_receiver - d_blocker) * light_size / d_blocker;
+}
+
+}  // namespace penumbra::shadow_map

@@ -1,0 +1,186 @@
+// Layered attenuation maps (agrawala2000 §4): the data structure, its precomputation and
+// its lookup. The method `lam` (lam.cpp) drives them; tests and benchmarks use them directly.
+//
+// Geometry (docs/methods/lam.md):
+// - The *reference view* looks from the light centre along the light normal (LightView
+//   conventions). Image-plane coordinates (u, v) = (x / z, y / z) at unit depth.
+// - Light samples lie in the light's plane (rect, disk; a sphere light is sampled on the disk
+//   through its centre facing the scene), and every sample view has the reference view's
+//   orientation and texel size, so the warp of a pixel at linear depth z from the view at
+//   sample offset d = (dx, dy) (in the light plane, along the view's right/up axes) into
+//   the reference view is eq. 3: u_ref = u_sample + dx / z, v_ref = v_sample + dy / z (the
+//   disparity is -d / z for a move of the eye by -d), and z itself is unchanged. This is exact (the general projective warp reduces to it).
+// - The reference view covers only the *shadow region*: the image-plane window of every
+//   object that can shadow something, grown by the light's extent over its nearest depth
+//   (eq. 3 with |d| at most the light's half-size): outside it no light sample is blocked,
+//   so V = 1 there without a lookup.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/raster/light_view.h"
+#include "penumbra/raster/raster_triangle.h"
+#include "penumbra/shadow/view_samples.h"
+
+namespace penumbra {
+
+struct Scene;
+struct AreaLight;
+
+namespace lam {
+
+// The reference view's axes: eye at the light centre, forward along the light normal,
+// up along the light's t axis (so right = -s): the same axes LightView::frustum builds.
+struct LightAxes {
+  Vec3f eye, right, up, forward;
+};
+LightAxes light_axes(const AreaLight& light);
+
+// Where shadows can fall, seen from the light centre: the window [u0, u1] x [v0, v1] at unit
+// depth and the linear depths [near, far] of every caster and receiver in it.
+struct ShadowRegion {
+  bool empty = true;
+  float u0 = 0, u1 = 0, v0 = 0, v1 = 0;
+  float near = 0, far = 0;
+};
+
+// The region where some part of `light` can be hidden by scene geometry: for every object O
+// that can shadow some object O' (itself if O is not planar; another object whose bounds
+// overlap O's shadow volume and, when O is planar and the light lies on one side of its
+// plane, reach the other side of it), the window of O's bounds grown by the light's
+// half-extent divided by O's nearest depth (eq. 3), clipped to the receivers' windows.
+// Windows are capped at |u|, |v| <= max_tan (points farther off-axis than that are treated
+// as unshadowed).
+ShadowRegion fit_shadow_region(const Scene& scene, const AreaLight& light, float max_tan = 4.0f);
+
+// The tolerance within which two linear depths are one surface: epsilon * z (relative).
+inline float depth_tolerance(float epsilon, float z) { return epsilon * z; }
+
+// One layer of one texel after precomputation.
+struct Layer {
+  float z = 0;            // linear depth in the reference view (mean of the samples that saw it)
+  float attenuation = 0;  // fraction of the light samples that see this surface at this texel
+};
+
+enum class Filter { Nearest, Bilinear };
+
+// What a display lookup found (exposed for tests and the docs' visualisation).
+enum class LookupClass : uint8_t { Match, Occluded, Undefined };
+
+// The layered attenuation map: per texel of the reference view, the distinct surfaces seen
+// from at least one light sample, nearest first, each with its attenuation. Flat storage:
+// texel i's layers are layers[offsets[i] .. offsets[i + 1]).
+class AttenuationMap {
+ public:
+  AttenuationMap() = default;
+
+  bool empty() const { return width_ == 0; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const LightView& view() const { return view_; }
+  float epsilon() const { return epsilon_; }
+  int samples() const { return samples_; }
+  std::span<const Layer> layers(int x, int y) const {
+    size_t i = static_cast<size_t>(y) * width_ + x;
+    return {layers_.data() + offsets_[i], offsets_[i + 1] - offsets_[i]};
+  }
+  size_t layer_count() const { return layers_.size(); }
+  size_t memory_bytes() const { return offsets_.size() * sizeof(uint32_t) + layers_.size() * sizeof(Layer); }
+
+  // Visibility of world point p with geometric normal n (agrawala2000 §4, Display):
+  // project into the reference view; per texel, the layer within epsilon of p's depth gives
+  // its attenuation (with slope correction, p's depth is first carried along the plane
+  // through p with normal n to the texel's centre, where the layers' depths are; n = 0
+  // skips that); no
+  // matching layer but one in front: umbra (0); no layer in front either (p was not seen
+  // by any sample, nor anything in front of it: thin or grazing geometry): lit (1).
+  // Bilinear weighs the 4 texels around p, skipping those without a layer at or in front
+  // of p (p's surface does not reach them). Outside the shadow region: 1. *texels (if
+  // given) is increased by the number of texels read.
+  float visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels = nullptr) const;
+  // The same for a run of view samples (p and ng): out[i] for samples[i].
+  void visibility(std::span<const ViewSample> samples, std::span<float> out, Filter filter,
+                  uint64_t* texels = nullptr) const;
+
+  // The texel-level classification of a depth at texel (x, y), for tests and images.
+  LookupClass classify(int x, int y, float z, float* attenuation) const;
+
+ private:
+  friend class Builder;
+  template <bool kBilinear, bool kSlope>
+  float visibility_impl(Vec3f p, Vec3f n, uint64_t& texels) const;
+  template <bool kBilinear, bool kSlope>
+  void visibility_batch(std::span<const ViewSample> samples, std::span<float> out, uint64_t* texels) const;
+  int width_ = 0, height_ = 0;
+  int samples_ = 0;
+  float epsilon_ = 0.01f;
+  LightView view_;
+  // Texel projection rows (world -> (X z, Y z, z)), copied out of the view for speed.
+  float proj_[3][4] = {};
+  float near_ = 0, far_ = 0;
+  // Slope correction: the view's axes and window (u0 left, v1 top, delta per texel).
+  bool slope_ = true;
+  Vec3f eye_, right_, up_, forward_;
+  float u0_ = 0, v1_ = 0, delta_ = 1;
+  std::vector<uint32_t> offsets_;  // width * height + 1
+  std::vector<Layer> layers_;
+};
+
+struct BuildOptions {
+  int resolution = 512;   // texels along the longer side of the reference view (square texels)
+  float epsilon = 0.005f;  // depth tolerance, relative to linear depth
+  int max_layers = 16;    // layers one texel can hold while building (more are dropped)
+  // Compare depths at texel centres: each splat carries its depth to the centres it lands
+  // on along the surface's local plane (gradient from the depth map), and a lookup carries
+  // the view sample's depth along its own plane. Without it (the paper's rule) a depth is
+  // compared as is, which needs epsilon to cover the depth change across a texel or two
+  // (insufficient depth sampling on oblique surfaces, agrawala2000 §6.1).
+  bool slope = true;
+};
+
+struct BuildStats {
+  double fit_ms = 0, raster_ms = 0, warp_ms = 0, insert_ms = 0, finalize_ms = 0;
+  size_t sample_texels = 0;  // depth-map texels rendered, all samples
+  size_t splats = 0;         // (texel, depth) insertions attempted
+  size_t dropped = 0;        // insertions lost to max_layers
+  size_t nonempty_texels = 0;
+  size_t layers = 0;
+  int max_depth = 0;                 // most layers in one texel
+  size_t peak_bytes = 0;             // build-time buffers (what the precompute holds at once)
+  // Average depth complexity over non-empty texels after k light samples, k = 1..N
+  // (agrawala2000 Fig. 10 right).
+  std::vector<std::pair<int, double>> depth_complexity;
+};
+
+// Precomputation (agrawala2000 §4, procedure Precompute): one depth map per light sample
+// `light_samples[i]` (points of [0,1)^2 mapped by AreaLight::sample_area), each pixel warped
+// into the reference view by eq. 3 and splatted into its 4 neighbouring texels; a texel's
+// layer is counted at most once per light sample; attenuation = count / N.
+// The result depends only on its inputs, not on the thread count.
+AttenuationMap build_attenuation_map(std::span<const RasterTriangle> triangles, const AreaLight& light,
+                                     const ShadowRegion& region, std::span<const Vec2f> light_samples,
+                                     const BuildOptions& options, BuildStats* stats = nullptr);
+
+// The reference view for a region at a given resolution (the LDI's view), and a light
+// sample's view (eye at `sample`, same axes and texel size, window widened so every point
+// of the region at depth in [near, far] is inside). *offset receives the sample view's
+// texel-space origin relative to the reference view's, in whole texels.
+LightView reference_view(const LightAxes& axes, const ShadowRegion& region, int resolution);
+LightView sample_view(const LightAxes& axes, const LightView& reference, Vec3f sample, int* offset_x,
+                      int* offset_y);
+
+// Eq. 3 in texel units: a pixel at texel-space point (x, y) and linear depth z in the view of
+// a sample displaced by (dx, dy) (world units along right/up) lands at this texel-space
+// point of the reference view.
+inline Vec2f warp_to_reference(Vec2f texel, float z, float dx, float dy, int offset_x, int offset_y,
+                               float texel_size) {
+  return {texel.x + offset_x + dx / (z * texel_size), texel.y + offset_y - dy / (z * texel_size)};
+}
+
+}  // namespace lam
+}  // namespace penumbra

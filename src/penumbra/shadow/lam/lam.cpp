@@ -1,0 +1,175 @@
+// Method `lam`: layered attenuation maps (agrawala2000 §4), the fast-preview half of the
+// paper's lighting workflow. prepare() precomputes the LDI once per light (one depth map
+// per light sample, warped into the light centre's view by eq. 3 and counted per layer);
+// evaluate() is the display phase: one projection and 1 or 4 texel lookups per view sample,
+// independent of the number of light samples. The LDI survives camera changes.
+// docs/methods/lam.md maps the paper to this code.
+#include <atomic>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/raster/raster_triangle.h"
+#include "penumbra/shadow/lam/attenuation_map.h"
+#include "penumbra/shadow/shadow_method.h"
+
+namespace penumbra {
+namespace {
+
+// The triangles of closed meshes that face away from every point of the light can never be
+// the nearest surface seen from a light sample (a ray from outside enters a closed solid
+// through a face turned toward it), so the per-sample depth maps are the same without them:
+// about half of a closed mesh's triangles are not rasterized 64-256 times. Orientation
+// (outward or inward windings) comes from the mesh's signed volume.
+std::vector<RasterTriangle> cull_hidden_back_faces(const Scene& scene, const AreaLight& light,
+                                                   const std::vector<RasterTriangle>& tris) {
+  std::vector<float> orientation(scene.objects.size(), 0.0f);  // +1 outward, -1 inward, 0 keep all
+  for (size_t o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& obj = scene.objects[o];
+    if (!obj.closed) continue;
+    const TriangleMesh& m = obj.mesh;
+    double volume = 0;
+    for (size_t t = 0; 3 * t + 2 < m.indices.size(); ++t) {
+      Vec3f a = m.positions[m.indices[3 * t]], b = m.positions[m.indices[3 * t + 1]], c = m.positions[m.indices[3 * t + 2]];
+      volume += dot(a, cross(b, c));
+    }
+    orientation[o] = volume > 0 ? 1.0f : (volume < 0 ? -1.0f : 0.0f);
+  }
+  const std::vector<Vec3f> outline = light.outline(32);
+  std::vector<RasterTriangle> out;
+  out.reserve(tris.size());
+  for (const RasterTriangle& t : tris) {
+    float orient = t.object < orientation.size() ? orientation[t.object] : 0.0f;
+    if (orient != 0) {
+      Vec3f n = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]) * orient;
+      bool behind = true;
+      for (Vec3f q : outline)
+        if (dot(q - t.p[0], n) >= 0) {
+          behind = false;
+          break;
+        }
+      if (behind) continue;
+    }
+    out.push_back(t);
+  }
+  return out;
+}
+
+class LayeredAttenuationMaps final : public ShadowMethod {
+ public:
+  explicit LayeredAttenuationMaps(const ParamSet& p) {
+    options_.resolution = p.get_int("resolution");
+    options_.epsilon = p.get_float("epsilon");
+    options_.max_layers = p.get_int("max_layers");
+    options_.slope = p.get_bool("slope");
+    filter_ = p.get_string("filter") == "nearest" ? lam::Filter::Nearest : lam::Filter::Bilinear;
+  }
+
+  void prepare(const ShadowContext& ctx) override {
+    stats_.prepare_count++;
+    ScopedPhase phase(stats_, "precompute");
+    const int n = std::max(1, ctx.light_samples);
+    Timer t_fit;
+    const lam::ShadowRegion region = lam::fit_shadow_region(*ctx.scene, *ctx.light);
+    const double fit_ms = t_fit.elapsed_ms();
+    // The same stratified, jittered samples for every surface point (agrawala2000 §3):
+    // banding rather than noise.
+    const LightSampleSet set(n, hash_combine(ctx.seed, 0x4c414d00u + ctx.light_index), /*per_pixel=*/false);
+    Timer t_gather;
+    const std::vector<RasterTriangle> all = gather_raster_triangles(*ctx.scene);
+    const std::vector<RasterTriangle> tris = cull_hidden_back_faces(*ctx.scene, *ctx.light, all);
+    const double gather_ms = t_gather.elapsed_ms();
+    lam::BuildStats bs;
+    map_ = lam::build_attenuation_map(tris, *ctx.light, region, set.base(), options_, &bs);
+    bs.fit_ms = fit_ms;
+
+    nlohmann::json dc = nlohmann::json::array();
+    for (auto [k, c] : bs.depth_complexity) dc.push_back({{"samples", k}, {"depth_complexity", c}});
+    extra_ = {
+        {"light_samples", n},
+        {"depth_complexity", std::move(dc)},
+        {"ldi",
+         {{"width", map_.width()},
+          {"height", map_.height()},
+          {"layers", bs.layers},
+          {"nonempty_texels", bs.nonempty_texels},
+          {"max_depth", bs.max_depth},
+          {"dropped_insertions", bs.dropped},
+          {"bytes", map_.memory_bytes()},
+          {"window_degrees",
+           map_.empty() ? nlohmann::json(nullptr)
+                        : nlohmann::json({degrees(std::atan(map_.view().window_left() / map_.view().near())),
+                                          degrees(std::atan(map_.view().window_right() / map_.view().near())),
+                                          degrees(std::atan(map_.view().window_bottom() / map_.view().near())),
+                                          degrees(std::atan(map_.view().window_top() / map_.view().near()))})}}},
+        {"precompute_ms",
+         {{"fit", bs.fit_ms},
+          {"gather", gather_ms},
+          {"raster", bs.raster_ms},
+          {"warp", bs.warp_ms},
+          {"insert", bs.insert_ms},
+          {"finalize", bs.finalize_ms}}},
+        {"triangles", {{"scene", all.size()}, {"rasterized", tris.size()}}},
+        {"sample_texels", bs.sample_texels},
+        {"splats", bs.splats},
+    };
+    peak_bytes_ = bs.peak_bytes;
+  }
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    {
+      ScopedPhase phase(stats_, "display");
+      std::atomic<uint64_t> texels{0};
+      parallel_for(vs.size(), 4096, [&](size_t b, size_t e) {
+        uint64_t local = 0;
+        map_.visibility(std::span<const ViewSample>(vs.samples).subspan(b, e - b), out.visibility.subspan(b, e - b),
+                        filter_, &local);
+        texels += local;
+        if (ctx.progress) ctx.progress->add(e - b);
+      });
+      stats_.texels_visited += texels.load();
+    }
+    // Stats are per frame (the Renderer clears them), the LDI is not: report it every frame.
+    stats_.memory_bytes = std::max<uint64_t>(peak_bytes_, map_.memory_bytes());
+    const std::string suffix = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
+    for (auto it = extra_.begin(); it != extra_.end(); ++it) stats_.extra[it.key() + suffix] = it.value();
+  }
+
+  const lam::AttenuationMap& map() const { return map_; }
+
+ private:
+  lam::BuildOptions options_;
+  lam::Filter filter_ = lam::Filter::Bilinear;
+  lam::AttenuationMap map_;
+  nlohmann::json extra_ = nlohmann::json::object();
+  size_t peak_bytes_ = 0;
+};
+
+const MethodRegistration registration({
+    "lam",
+    "layered attenuation maps (agrawala2000 §4): an LDI at the light centre, precomputed once per light from "
+    "--spp light-sample depth maps; fast display",
+    {
+        {"resolution", ParamType::Int, 512,
+         "LDI texels along the longer side of the light-centre view (square texels; the view is fitted to the "
+         "region where shadows can fall)",
+         {}, 4, 8192},
+        {"epsilon", ParamType::Float, 0.005,
+         "depth tolerance, relative to the light-view linear depth: depths within epsilon * z are one surface "
+         "(insertion and display)",
+         {}, 0, 1},
+        {"filter", ParamType::String, "bilinear",
+         "display lookup: 'nearest' texel or 'bilinear' over the 4 neighbouring texels", {"nearest", "bilinear"}},
+        {"slope", ParamType::Bool, true,
+         "compare depths at LDI texel centres, carried there along each surface's local plane (penumbra's "
+         "addition); false: the paper's plain |z - z_layer| <= epsilon z", {}},
+        {"max_layers", ParamType::Int, 16, "most layers one LDI texel holds while building (more are dropped)", {},
+         1, 255},
+    },
+    [](const ParamSet& p) { return std::make_unique<LayeredAttenuationMaps>(p); },
+    /*samples_light=*/true,
+});
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,252 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/raster/raster_triangle.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/shadow/lam/attenuation_map.h"
+#include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/test_scenes.h"
+#include "penumbra/trace/ray_tracer.h"
+
+namespace penumbra {
+namespace {
+
+using namespace penumbra::testing;
+
+// A square-ish occluder at height h covering x in [-1.5, 0] (the edge at x = 0) over the
+// ground, under a w x w rect light at height H centred above the edge.
+constexpr float kH = 2.0f, kh = 1.0f, kw = 1.0f;
+
+Scene edge_scene() {
+  return ground_scene({object(quad_y(kh, -1.5f, 0.0f, -1.0f, 1.0f))}, rect_light_down({0, kH, 0}, kw, kw));
+}
+
+// The exact V of a ground point (x, 0, z) under the edge: the part of the light with
+// lx >= -x (H - h) / h is visible.
+float analytic_v(float x) { return clamp01(0.5f + x * (kH - kh) / (kh * kw)); }
+
+ViewSamples ground_line(float x0, float x1, int n, float z = 0.0137f) {
+  ViewSamples vs;
+  vs.width = n;
+  vs.height = 1;
+  for (int i = 0; i < n; ++i) {
+    ViewSample s;
+    s.p = {x0 + (x1 - x0) * (i + 0.5f) / n, 0.0f, z};
+    s.ng = s.ns = {0, 1, 0};
+    s.albedo = Vec3f(0.8f);
+    s.pixel = static_cast<uint32_t>(i);
+    vs.samples.push_back(s);
+  }
+  return vs;
+}
+
+std::vector<float> run_lam(const Scene& scene, const ViewSamples& vs, int spp, std::vector<std::string> params,
+                           MethodStats* stats = nullptr) {
+  auto m = create_method("lam", scene, params);
+  RayTracer tracer(scene);
+  ShadowContext ctx;
+  ctx.scene = &scene;
+  ctx.light = &scene.lights[0];
+  ctx.tracer = &tracer;
+  ctx.light_samples = spp;
+  m->prepare(ctx);
+  std::vector<float> v(vs.size(), -1.0f);
+  std::vector<Vec3f> e(vs.size());
+  ShadowOutput out{v, e};
+  m->evaluate(ctx, vs, out);
+  if (stats) *stats = m->stats();
+  return v;
+}
+
+TEST(Lam, Eq3WarpEqualsTheProjectiveWarp) {
+  Rng rng(5);
+  for (int trial = 0; trial < 20; ++trial) {
+    AreaLight light = rect_light_down({rng.next_float() - 0.5f, 3.0f, rng.next_float() - 0.5f},
+                                      0.5f + rng.next_float(), 0.5f + rng.next_float());
+    light.frame = Frame::from_zx(normalize(Vec3f(rng.next_float() - 0.5f, -1.0f, rng.next_float() - 0.5f)),
+                                 {1, 0, 0});
+    const lam::LightAxes axes = lam::light_axes(light);
+    lam::ShadowRegion region;
+    region.empty = false;
+    region.u0 = -0.6f; region.u1 = 0.5f; region.v0 = -0.4f; region.v1 = 0.7f;
+    region.near = 1.0f; region.far = 5.0f;
+    const LightView ref = lam::reference_view(axes, region, 256);
+    // The axes are the view's.
+    EXPECT_NEAR(length(ref.right() - axes.right), 0.0f, 1e-6f);
+    EXPECT_NEAR(length(ref.up() - axes.up), 0.0f, 1e-6f);
+    const float delta = ref.texel_world_size(1.0f);
+    for (int s = 0; s < 8; ++s) {
+      Vec3f q = light.sample_area(rng.next_2d());
+      int ox = 0, oy = 0;
+      const LightView sv = lam::sample_view(axes, ref, q, &ox, &oy);
+      Vec3f d = q - axes.eye;
+      for (int k = 0; k < 50; ++k) {
+        // A random point of the region, seen from the sample at (x, y, z).
+        float z = 1.0f + 4.0f * rng.next_float();
+        Vec3f p = ref.texel_to_world({rng.next_float() * ref.width(), rng.next_float() * ref.height()}, z);
+        Vec3f t = sv.to_texel(p);
+        ASSERT_NEAR(t.z, z, 1e-4f * z);
+        // Inside the widened sample view.
+        EXPECT_GE(t.x, 0.0f);
+        EXPECT_LT(t.x, static_cast<float>(sv.width()));
+        EXPECT_GE(t.y, 0.0f);
+        EXPECT_LT(t.y, static_cast<float>(sv.height()));
+        Vec2f w = lam::warp_to_reference({t.x, t.y}, t.z, dot(d, axes.right), dot(d, axes.up), ox, oy, delta);
+        Vec3f r = ref.to_texel(p);
+        EXPECT_NEAR(w.x, r.x, 2e-3f);
+        EXPECT_NEAR(w.y, r.y, 2e-3f);
+      }
+    }
+  }
+}
+
+TEST(Lam, FlatOccluderGivesTheAnalyticPenumbraWithinTheBanding) {
+  const Scene scene = edge_scene();
+  const ViewSamples vs = ground_line(-1.0f, 1.0f, 400);
+  for (int spp : {64, 256}) {
+    int cols = 0, rows = 0;
+    stratification_grid(spp, &cols, &rows);
+    for (const char* filter : {"nearest", "bilinear"}) {
+      std::vector<float> v = run_lam(scene, vs, spp, {std::string("filter=") + filter});
+      double mae = 0, worst = 0;
+      for (size_t i = 0; i < vs.size(); ++i) {
+        float err = std::abs(v[i] - analytic_v(vs.samples[i].p.x));
+        mae += err;
+        worst = std::max<double>(worst, err);
+      }
+      mae /= vs.size();
+      // The light samples' x coordinates fall in `cols` strata: a fixed set deviates from
+      // the continuous fraction by at most one stratum (1 / cols); the splat and the texel
+      // grid (1.2 cm texels for a 1 m wide penumbra here) add about 2%.
+      EXPECT_LE(worst, 1.0 / cols + 0.03) << spp << " " << filter;
+      EXPECT_LE(mae, 0.5 / cols) << spp << " " << filter;
+      // Umbra and full light exactly.
+      EXPECT_EQ(v.front(), 0.0f);
+      EXPECT_EQ(v.back(), 1.0f);
+    }
+  }
+}
+
+TEST(Lam, AttenuationIsMonotoneAndInTheUnitInterval) {
+  const Scene scene = edge_scene();
+  const ViewSamples vs = ground_line(-1.2f, 1.2f, 600);
+  for (const char* filter : {"nearest", "bilinear"}) {
+    std::vector<float> v = run_lam(scene, vs, 64, {std::string("filter=") + filter});
+    for (size_t i = 0; i < v.size(); ++i) {
+      EXPECT_GE(v[i], 0.0f);
+      EXPECT_LE(v[i], 1.0f);
+      if (i > 0) EXPECT_GE(v[i], v[i - 1] - 1e-6f) << filter << " at x = " << vs.samples[i].p.x;
+    }
+  }
+}
+
+TEST(Lam, UnoccludedPointsAreFullyLit) {
+  // No caster at all: an empty shadow region, V = 1 without any lookup.
+  {
+    Scene scene = ground_scene({}, rect_light_down({0, kH, 0}, kw, kw));
+    EXPECT_TRUE(lam::fit_shadow_region(scene, scene.lights[0]).empty);
+    ViewSamples vs = ground_line(-3.5f, 3.5f, 200);
+    for (float x : run_lam(scene, vs, 64, {})) EXPECT_EQ(x, 1.0f);
+  }
+  // A caster whose shadow falls elsewhere: points of the LDI outside the shadow (on the
+  // ground around it and on the caster's lit top) see every light sample.
+  {
+    Scene scene = ground_scene({object(quad_y(kh, 0.5f, 1.0f, -0.25f, 0.25f))}, rect_light_down({0, kH, 0}, kw, kw));
+    ASSERT_FALSE(lam::fit_shadow_region(scene, scene.lights[0]).empty);
+    for (const char* filter : {"nearest", "bilinear"}) {
+      // The shadow covers x in [0.5, 2.5], z in [-1, 1] on the ground; the region (the
+      // caster's window grown by the light) reaches x in [0, 3], z in [-1.5, 1.5] there.
+      ViewSamples vs = ground_line(0.02f, 0.45f, 100, 0.0f);
+      ViewSamples side = ground_line(0.6f, 2.4f, 200, 1.25f);
+      ViewSamples top = ground_line(0.52f, 0.98f, 50, 0.1f);
+      for (auto& s : top.samples) s.p.y = kh;
+      for (const ViewSamples* more : {&side, &top}) vs.samples.insert(vs.samples.end(), more->samples.begin(), more->samples.end());
+      const lam::ShadowRegion r = lam::fit_shadow_region(scene, scene.lights[0]);
+      EXPECT_NEAR(r.u0, -1.5f, 1e-4f);  // u = -x / z here (the view's right axis is -x)
+      EXPECT_NEAR(r.u1, 0.0f, 1e-4f);
+      std::vector<float> v = run_lam(scene, vs, 64, {std::string("filter=") + filter});
+      for (size_t i = 0; i < v.size(); ++i) EXPECT_EQ(v[i], 1.0f) << filter << " " << vs.samples[i].p.x;
+    }
+  }
+}
+
+TEST(Lam, ShadowRegionIsTheCastersShadowNotTheWholeGround) {
+  const Scene scene = edge_scene();
+  const lam::ShadowRegion r = lam::fit_shadow_region(scene, scene.lights[0]);
+  ASSERT_FALSE(r.empty);
+  // The occluder spans u in [-1.5, 0], v in [-1, 1] at depth 1; the light's half-extent
+  // 0.5 over depth 1 grows that by 0.5. (The 8 x 8 ground alone casts nothing: the light is
+  // above its plane and nothing lies below it.)
+  const float span = std::max(r.u1 - r.u0, r.v1 - r.v0);
+  EXPECT_NEAR(span, 3.0f, 1e-3f);
+  EXPECT_NEAR(r.near, kH - kh, 1e-4f);
+  EXPECT_NEAR(r.far, kH, 1e-4f);
+}
+
+TEST(Lam, CameraChangeReusesTheLdi) {
+  Scene scene = edge_scene();
+  scene.camera = top_camera(32);
+  RenderSettings settings;
+  settings.method = "lam";
+  settings.light_samples = 16;
+  Renderer renderer(scene, settings);
+  RenderResult a = renderer.render();
+  EXPECT_EQ(a.stats.prepare_count, 1u);
+  EXPECT_GT(a.stats.phase("precompute"), 0.0);
+  EXPECT_TRUE(a.stats.extra.contains("depth_complexity"));
+  uint64_t prepared = a.stats.prepare_count;
+  for (float height : {3.0f, 5.0f}) {
+    renderer.set_camera(top_camera(48, height, 50.0f));
+    RenderResult b = renderer.render();
+    prepared += b.stats.prepare_count;
+    EXPECT_EQ(b.stats.phase("precompute"), 0.0);
+    EXPECT_GT(b.stats.phase("display"), 0.0);
+    EXPECT_EQ(b.visibility.width(), 48);
+    // The LDI's statistics are reported with every frame.
+    EXPECT_TRUE(b.stats.extra.contains("depth_complexity"));
+    EXPECT_GT(b.stats.memory_bytes, 0u);
+  }
+  EXPECT_EQ(prepared, 1u);
+}
+
+TEST(Lam, DepthComplexityIsReportedPerSampleCount) {
+  const Scene scene = edge_scene();
+  MethodStats st;
+  run_lam(scene, ground_line(-1, 1, 10), 32, {}, &st);
+  const auto& dc = st.extra.at("depth_complexity");
+  ASSERT_EQ(dc.size(), 32u);
+  double prev = 0;
+  for (size_t k = 0; k < dc.size(); ++k) {
+    EXPECT_EQ(dc[k].at("samples").get<int>(), static_cast<int>(k + 1));
+    double c = dc[k].at("depth_complexity").get<double>();
+    // Layers are only ever added, but new non-empty texels can lower the average a little.
+    EXPECT_GE(c, 1.0);
+    EXPECT_LE(c, 2.5);  // the occluder over the ground: at most two surfaces anywhere
+    prev = c;
+  }
+  EXPECT_GT(prev, 1.0);  // the ground under the occluder's penumbra is a second layer
+  EXPECT_GT(st.phase("precompute"), 0.0);
+  EXPECT_GT(st.phase("display"), 0.0);
+}
+
+TEST(Lam, ResultsDoNotDependOnTheThreadCount) {
+  Scene scene = ground_scene({object(box({-0.4f, 0.3f, -0.3f}, {0.2f, 0.9f, 0.4f})),
+                              object(quad_y(1.2f, 0.1f, 0.8f, -0.6f, 0.2f))},
+                             rect_light_down({0.2f, kH, 0.1f}, 1.2f, 0.8f));
+  ViewSamples vs = ground_line(-1.5f, 1.5f, 500, 0.05f);
+  std::vector<float> one;
+  {
+    ThreadLimit limit(1);
+    one = run_lam(scene, vs, 32, {});
+  }
+  std::vector<float> all = run_lam(scene, vs, 32, {});
+  EXPECT_EQ(one, all);
+}
+
+}  // namespace
+}  // namespace penumbra

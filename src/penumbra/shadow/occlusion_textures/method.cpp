@@ -1,0 +1,78 @@
+// Method `occlusion-textures` (eisemann2006): plausible soft shadows from pre-filtered
+// occlusion textures. The work is in occlusion_textures.h/.cpp and prefilter.h/.cpp; this
+// file is the ShadowMethod wrapper and the parameter table.
+#include "penumbra/core/progress.h"
+#include "penumbra/shadow/occlusion_textures/occlusion_textures.h"
+#include "penumbra/shadow/shadow_method.h"
+
+namespace penumbra {
+namespace {
+
+occlusion::Options options_from(const ParamSet& p) {
+  occlusion::Options o;
+  o.slices = p.get_int("slices");
+  o.resolution = p.get_int("resolution");
+  o.prefilter = occlusion::parse_prefilter(p.get_string("prefilter"));
+  o.sat_precision = occlusion::parse_sat_precision(p.get_string("sat_precision"));
+  o.combine = occlusion::parse_combine(p.get_string("combine"));
+  o.thin_fix = p.get_bool("thin_fix");
+  o.fade = p.get_float("fade");
+  o.cop_distance = p.get_float("cop_distance");
+  o.cull_planar = p.get_bool("cull_planar");
+  return o;
+}
+
+class OcclusionTexturesMethod final : public ShadowMethod {
+ public:
+  explicit OcclusionTexturesMethod(const ParamSet& p) : options_(options_from(p)), textures_(options_) {}
+
+  void prepare(const ShadowContext& ctx) override {
+    stats_.prepare_count++;
+    textures_.build(*ctx.scene, *ctx.light, &stats_);
+    stats_.extra["slices"] = options_.slices;
+    stats_.extra["resolution"] = options_.resolution;
+    stats_.extra["prefilter"] = occlusion::to_string(options_.prefilter);
+  }
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    textures_.shade(vs, out.visibility, &stats_);
+    if (ctx.progress) ctx.progress->add(vs.size());
+  }
+
+ private:
+  occlusion::Options options_;
+  occlusion::OcclusionTextures textures_;
+};
+
+const MethodRegistration registration({
+    "occlusion-textures",
+    "eisemann2006: the scene sliced parallel to the light into pre-filtered occlusion textures, "
+    "combined by probability (rect lights; disks as their bounding square)",
+    {
+        {"slices", ParamType::Int, 16, "number of slices (occlusion textures) between the casters' nearest and farthest depth", {}, 1, 32},
+        {"resolution", ParamType::Int, 512, "occlusion texture side in texels (a power of two)", {}, 16, 4096},
+        {"prefilter", ParamType::String, "nbuffer",
+         "box filtering of the textures (§3.2): 'mipmap' (trilinear, anisotropic), 'nbuffer' (N-buffers) or 'sat' "
+         "(summed-area tables, exact)",
+         {"mipmap", "nbuffer", "sat"}},
+        {"sat_precision", ParamType::String, "uint32", "summed-area table entries: 'uint32' (exact counts) or 'double'",
+         {"uint32", "double"}},
+        {"combine", ParamType::String, "product",
+         "how slices combine: 'product' (eq. 5, V = prod(1 - I_k)), 'sum' (1 - sum I_k) or 'max' (1 - max I_k)",
+         {"product", "sum", "max"}},
+        {"thin_fix", ParamType::Bool, true, "also fill each slice's coverage into the next slice farther away (thin occluders, §3.4)", {}},
+        {"fade", ParamType::Float, 1.0,
+         "the slice just above a point fades in linearly over this many slice thicknesses (self-shadowing, §3.4; 0 = no fade)",
+         {}, 0, 16},
+        {"cop_distance", ParamType::Float, 0.0,
+         "distance d of the centre of projection behind the light (world units); 0 = the largest d whose frustum contains "
+         "the casters",
+         {}, 0, 1e6},
+        {"cull_planar", ParamType::Bool, true,
+         "leave out planar objects that cannot shadow anything (the light and every other object on one side: ground planes)", {}},
+    },
+    [](const ParamSet& p) { return std::make_unique<OcclusionTexturesMethod>(p); },
+});
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,416 @@
+#include "penumbra/shadow/occlusion_textures/occlusion_textures.h"
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <cmath>
+
+#include <tbb/enumerable_thread_specific.h>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/timer.h"
+
+namespace penumbra::occlusion {
+
+Prefilter parse_prefilter(const std::string& s) {
+  if (s == "mipmap") return Prefilter::Mipmap;
+  if (s == "nbuffer") return Prefilter::NBuffer;
+  if (s == "sat") return Prefilter::Sat;
+  throw Error("occlusion-textures: prefilter '{}' must be mipmap, nbuffer or sat", s);
+}
+SatPrecision parse_sat_precision(const std::string& s) {
+  if (s == "uint32") return SatPrecision::UInt32;
+  if (s == "double") return SatPrecision::Double;
+  throw Error("occlusion-textures: sat_precision '{}' must be uint32 or double", s);
+}
+Combine parse_combine(const std::string& s) {
+  if (s == "product") return Combine::Product;
+  if (s == "sum") return Combine::Sum;
+  if (s == "max") return Combine::Max;
+  throw Error("occlusion-textures: combine '{}' must be product, sum or max", s);
+}
+const char* to_string(Prefilter p) {
+  switch (p) {
+    case Prefilter::Mipmap: return "mipmap";
+    case Prefilter::NBuffer: return "nbuffer";
+    case Prefilter::Sat: return "sat";
+  }
+  return "?";
+}
+const char* to_string(Combine c) {
+  switch (c) {
+    case Combine::Product: return "product";
+    case Combine::Sum: return "sum";
+    case Combine::Max: return "max";
+  }
+  return "?";
+}
+
+LightRect light_rect(const AreaLight& light) {
+  LightRect r;
+  r.center = light.center;
+  r.right = light.frame.s;
+  r.up = light.frame.t;
+  r.forward = light.frame.n;
+  if (light.shape == LightShape::Rect) {
+    r.width = light.size.x;
+    r.height = light.size.y;
+  } else {  // a disk, or a sphere's disk facing frame.n: the bounding square
+    r.width = r.height = 2 * light.radius;
+  }
+  return r;
+}
+
+namespace {
+
+// Whether object `i` is planar and cannot shadow anything: the whole light lies strictly on
+// one side of its plane and no vertex of any other object lies strictly on the other side.
+// A segment from a point to the light then crosses the plane only at that point if it lies
+// on the plane, and never otherwise (a ground plane under the light, a wall behind it).
+bool is_planar_non_caster(const Scene& scene, size_t i, const LightRect& light) {
+  const TriangleMesh& m = scene.objects[i].mesh;
+  if (m.triangle_count() == 0) return true;
+  // The plane of the largest triangle.
+  Vec3f normal;
+  float best = 0;
+  for (size_t t = 0; t < m.triangle_count(); ++t) {
+    Vec3f c = cross(m.vertex(t, 1) - m.vertex(t, 0), m.vertex(t, 2) - m.vertex(t, 0));
+    float a = length_squared(c);
+    if (a > best) {
+      best = a;
+      normal = c;
+    }
+  }
+  if (!(best > 0)) return false;
+  normal = normalize(normal);
+  const Bounds3f b = m.bounds();
+  const float offset = dot(normal, m.vertex(0, 0));
+  const float tol = 1e-5f * (length(b.diagonal()) + max_component(vmax(vmax(b.hi, -b.lo), Vec3f(0.0f))));
+  for (Vec3f p : m.positions)
+    if (std::abs(dot(normal, p) - offset) > tol) return false;
+  // The light's corners: all strictly on one side.
+  int side = 0;
+  for (int c = 0; c < 4; ++c) {
+    Vec3f corner = light.center + light.right * (((c & 1) ? 0.5f : -0.5f) * light.width) +
+                   light.up * (((c & 2) ? 0.5f : -0.5f) * light.height);
+    float s = dot(normal, corner) - offset;
+    int cs = s > tol ? 1 : (s < -tol ? -1 : 0);
+    if (cs == 0 || (side != 0 && cs != side)) return false;
+    side = cs;
+  }
+  for (size_t j = 0; j < scene.objects.size(); ++j) {
+    if (j == i) continue;
+    for (Vec3f p : scene.objects[j].mesh.positions)
+      if (side * (dot(normal, p) - offset) < -tol) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+OcclusionTextures::OcclusionTextures(const Options& options) : options_(options) {
+  if (options.slices < 1 || options.slices > 32)
+    throw Error("occlusion-textures: slices = {} must be in [1, 32]", options.slices);
+  if (options.resolution < 16 || options.resolution > 4096 || !std::has_single_bit(static_cast<unsigned>(options.resolution)))
+    throw Error("occlusion-textures: resolution = {} must be a power of two in [16, 4096]", options.resolution);
+  if (!(options.fade >= 0)) throw Error("occlusion-textures: fade = {} must be >= 0", options.fade);
+  if (!(options.cop_distance >= 0)) throw Error("occlusion-textures: cop_distance = {} must be >= 0", options.cop_distance);
+}
+
+void OcclusionTextures::build(const Scene& scene, const AreaLight& light, MethodStats* stats) {
+  Timer timer;
+  light_ = light_rect(light);
+  const int S = options_.slices, R = options_.resolution;
+
+  // Casters: every object but the planar ones that cannot shadow anything.
+  culled_.clear();
+  triangles_.clear();
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const SceneObject& o = scene.objects[i];
+    if (options_.cull_planar && is_planar_non_caster(scene, i, light_)) {
+      culled_.push_back(static_cast<uint32_t>(i));
+      continue;
+    }
+    append_raster_triangles(o.mesh, o.material.opacity, static_cast<uint32_t>(i), &triangles_);
+  }
+
+  // The casters' depth range, and the largest d for which the frustum from E = C - d forward
+  // through the light's edges contains every caster vertex in front of the light: a vertex at
+  // depth z and lateral offset |u| > w/2 needs (w/2)(z + d)/d >= |u|, d <= z / (2|u|/w - 1).
+  const float hw = 0.5f * light_.width, hh = 0.5f * light_.height;
+  const float z_eps = 1e-5f * std::max(light_.width, light_.height);
+  float zmin = kInfinity, zmax = -kInfinity, d_fit = kInfinity;
+  for (size_t i = 0, c = 0; i < scene.objects.size(); ++i) {
+    if (c < culled_.size() && culled_[c] == i) {
+      ++c;
+      continue;
+    }
+    for (Vec3f p : scene.objects[i].mesh.positions) {
+      const Vec3f q = p - light_.center;
+      const float z = dot(q, light_.forward);
+      if (!(z > z_eps)) continue;
+      zmin = std::min(zmin, z);
+      zmax = std::max(zmax, z);
+      const float au = std::abs(dot(q, light_.right)), av = std::abs(dot(q, light_.up));
+      if (au > hw) d_fit = std::min(d_fit, z / (au / hw - 1));
+      if (av > hh) d_fit = std::min(d_fit, z / (av / hh - 1));
+    }
+  }
+  has_casters_ = zmax > 0;
+  masks_.width = masks_.height = 0;
+  masks_.masks.clear();
+  if (!has_casters_) {
+    stats->add_phase("slicing", timer.elapsed_ms());
+    stats->add_phase("filtering", 0.0);
+    return;
+  }
+  const float bottom = zmax;
+  top_ = std::max(z_eps, std::min(zmin, bottom * (1 - 1e-3f)));
+  thickness_ = (bottom - top_) / float(S);
+  const float d_min = 0.02f * std::max(light_.width, light_.height), d_max = std::max(2 * bottom, d_min);
+  d_ = options_.cop_distance > 0 ? options_.cop_distance : std::clamp(d_fit * (1 - 1e-3f), d_min, d_max);
+  scale_.resize(S);
+  for (int k = 0; k < S; ++k) scale_[k] = d_ / (plane(k) + d_);
+  R_ = float(R);
+  kx_ = R_ / light_.width;
+  ky_ = R_ / light_.height;
+  inv_fade_ = options_.fade > 0 ? 1.0f / (options_.fade * thickness_) : kInfinity;
+
+  // One perspective pass from E, the window at depth d being the light itself.
+  const Vec3f eye = light_.center - light_.forward * d_;
+  const float near = (d_ + top_) * (1 - 1e-5f), far = (d_ + bottom) * (1 + 1e-5f);
+  const float sx = hw * near / d_, sy = hh * near / d_;
+  view_ = LightView::frustum(eye, light_.forward, light_.up, -sx, sx, -sy, sy, near, far, R, R);
+  rasterizer_.depth_bin_masks(triangles_, view_, RasterFilter{}, DepthBins{d_ + top_, thickness_, S}, &masks_);
+  if (options_.thin_fix && S > 1) {
+    // Thin occluders (Fig. 6): what a slice holds is also written into the next slice
+    // farther from the light, closing the gaps through surfaces cut by a slice plane.
+    const uint32_t all = S == 32 ? ~0u : (1u << S) - 1;
+    parallel_for(masks_.masks.size(), 65536, [&](size_t b, size_t e) {
+      uint32_t* m = masks_.masks.data();
+      for (size_t i = b; i < e; ++i) m[i] |= (m[i] << 1) & all;
+    });
+  }
+  stats->add_phase("slicing", timer.elapsed_ms());
+
+  timer.reset();
+  const CoverageStack stack{R, R, S, masks_.masks};
+  switch (options_.prefilter) {
+    case Prefilter::Mipmap: mipmap_.build(stack); break;
+    case Prefilter::NBuffer: nbuffer_.build(stack); break;
+    case Prefilter::Sat:
+      if (options_.sat_precision == SatPrecision::UInt32)
+        sat32_.build(stack);
+      else
+        sat64_.build(stack);
+      break;
+  }
+  stats->add_phase("filtering", timer.elapsed_ms());
+  stats->memory_bytes = std::max<uint64_t>(stats->memory_bytes, texture_bytes());
+  stats->extra["cop_distance"] = d_;
+  stats->extra["depth_range"] = {top_, bottom};
+  stats->extra["caster_triangles"] = triangles_.size();
+  nlohmann::json culled = nlohmann::json::array();
+  for (uint32_t i : culled_) culled.push_back(scene.objects[i].name);
+  stats->extra["culled_objects"] = culled;
+}
+
+size_t OcclusionTextures::texture_bytes() const {
+  size_t filter = 0;
+  switch (options_.prefilter) {
+    case Prefilter::Mipmap: filter = mipmap_.memory_bytes(); break;
+    case Prefilter::NBuffer: filter = nbuffer_.memory_bytes(); break;
+    case Prefilter::Sat:
+      filter = options_.sat_precision == SatPrecision::UInt32 ? sat32_.memory_bytes() : sat64_.memory_bytes();
+      break;
+  }
+  return filter + masks_.masks.size() * sizeof(uint32_t);
+}
+
+template <class Fn>
+decltype(auto) OcclusionTextures::dispatch(Fn&& fn) const {
+  switch (options_.prefilter) {
+    case Prefilter::Mipmap: return fn(mipmap_);
+    case Prefilter::NBuffer: return fn(nbuffer_);
+    case Prefilter::Sat: break;
+  }
+  if (options_.sat_precision == SatPrecision::UInt32) return fn(sat32_);
+  return fn(sat64_);
+}
+
+float OcclusionTextures::box(int k, float x0, float y0, float x1, float y1, LookupCounters* counters) const {
+  LookupCounters local;
+  LookupCounters& n = counters ? *counters : local;
+  return dispatch([&](const auto& f) { return f.box(k, x0, y0, x1, y1, n); });
+}
+
+inline float OcclusionTextures::combine(float product, float sum, float largest) const {
+  switch (options_.combine) {
+    case Combine::Product: return product;
+    case Combine::Sum: return std::max(0.0f, 1.0f - sum);
+    case Combine::Max: return 1.0f - largest;
+  }
+  return product;
+}
+
+// Points in the light's frame, structure of arrays; compacted slice by slice as points drop
+// out (a slice at or beyond a point's depth, and every farther slice, casts nothing on it).
+struct OcclusionTextures::Batch {
+  std::vector<float> u, v, z, inv_z, product, sum, largest;
+  std::vector<uint32_t> target;  // where the point's V goes
+  std::vector<float> cx, cy, side, occlusion;
+  size_t size = 0;
+  void resize(size_t n) {
+    for (auto* a : {&u, &v, &z, &inv_z, &product, &sum, &largest, &cx, &cy, &side, &occlusion}) a->resize(n);
+    target.resize(n);
+    size = n;
+  }
+  void set(size_t i, const LightRect& light, const LightView& view, Vec3f p, uint32_t to) {
+    const Vec3f q = p - light.center;
+    u[i] = dot(q, view.right());
+    v[i] = dot(q, view.up());
+    z[i] = dot(q, light.forward);
+    inv_z[i] = 1.0f / z[i];
+    product[i] = 1.0f;
+    sum[i] = largest[i] = 0.0f;
+    target[i] = to;
+  }
+};
+
+// V for every point of the batch into out[target]. For slice k and a point P at depth z > zp
+// (zp = plane(k)): the light seen from P cuts plane k in a square of t x size(light), t =
+// (z - zp) / z (eq. 4), centred where P-C crosses the plane; in texels its side is
+// t R d / (zp + d) and its centre is R/2 + u (zp / z) (d / (zp + d)) R / width (and likewise
+// in y, rows downward). The slice just above P fades in over `fade` slice thicknesses (§3.4).
+template <class F>
+void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> out, LookupCounters& n) const {
+  size_t m = b.size;
+  auto finish = [&](size_t i) {
+    out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? combine(b.product[i], b.sum[i], b.largest[i]) : 1.0f);
+  };
+  for (int k = 0; k < options_.slices && m > 0 && has_casters_; ++k) {
+    const float zp = plane(k);
+    // Drop the points this slice does not lie above (compacting the arrays in place).
+    size_t kept = 0;
+    for (size_t i = 0; i < m; ++i) {
+      if (!(zp < b.z[i])) {
+        finish(i);
+        continue;
+      }
+      if (kept != i) {
+        b.u[kept] = b.u[i]; b.v[kept] = b.v[i]; b.z[kept] = b.z[i]; b.inv_z[kept] = b.inv_z[i];
+        b.product[kept] = b.product[i]; b.sum[kept] = b.sum[i]; b.largest[kept] = b.largest[i];
+        b.target[kept] = b.target[i];
+      }
+      ++kept;
+    }
+    m = kept;
+    if (m == 0) break;
+    const float scale = scale_[k], half_r = 0.5f * R_, kx = kx_, ky = ky_, side_scale = scale * R_;
+    {
+      const float* __restrict u = b.u.data();
+      const float* __restrict v = b.v.data();
+      const float* __restrict z = b.z.data();
+      const float* __restrict inv_z = b.inv_z.data();
+      float* __restrict cx = b.cx.data();
+      float* __restrict cy = b.cy.data();
+      float* __restrict side = b.side.data();
+      for (size_t i = 0; i < m; ++i) {
+        const float a = scale * zp * inv_z[i];
+        cx[i] = half_r + u[i] * a * kx;
+        cy[i] = half_r - v[i] * a * ky;
+        side[i] = std::max(1.0f, (z[i] - zp) * inv_z[i] * side_scale);
+      }
+    }
+    filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
+    {
+      const float* __restrict z = b.z.data();
+      const float* __restrict occ = b.occlusion.data();
+      float* __restrict product = b.product.data();
+      float* __restrict sum = b.sum.data();
+      float* __restrict largest = b.largest.data();
+      const float inv_fade = inv_fade_;
+      for (size_t i = 0; i < m; ++i) {
+        const float o = std::min(1.0f, (z[i] - zp) * inv_fade) * occ[i];
+        product[i] *= 1.0f - o;  // eq. 5
+        sum[i] += o;
+        largest[i] = std::max(largest[i], o);
+      }
+    }
+  }
+  for (size_t i = 0; i < m; ++i) finish(i);
+}
+
+float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
+  LookupCounters local;
+  LookupCounters& n = counters ? *counters : local;
+  Batch b;
+  b.resize(1);
+  b.set(0, light_, view_, p, 0);
+  float v = 0;
+  dispatch([&](const auto& f) { shade_batch(f, b, std::span<float>(&v, 1), n); });
+  return v;
+}
+
+// Shading walks the image in 16 x 16 pixel tiles and, within a tile, slice by slice: the
+// kernels of a tile's samples on one slice cover a small patch of one texture plane that
+// stays in cache, and the per-sample arithmetic runs over arrays (vectorised).
+template <class F>
+void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::span<float> visibility,
+                                   LookupCounters& total) const {
+  const int W = vs.width, H = vs.height;
+  // row[y] = the first sample of image row y (samples are grouped by pixel in scanline order);
+  // a tile finds its samples in each row by binary search.
+  std::vector<uint32_t> row(static_cast<size_t>(H) + 1, 0);
+  {
+    size_t i = 0;
+    for (int y = 0; y <= H; ++y) {
+      const uint64_t start = static_cast<uint64_t>(y) * W;
+      while (i < vs.size() && vs.samples[i].pixel < start) ++i;
+      row[y] = static_cast<uint32_t>(i);
+    }
+  }
+  auto first_at_or_after = [&](int y, int x) {
+    const uint32_t pixel = static_cast<uint32_t>(y * W + x);
+    const ViewSample* b = vs.samples.data() + row[y];
+    const ViewSample* e = vs.samples.data() + row[y + 1];
+    return static_cast<uint32_t>(
+        std::lower_bound(b, e, pixel, [](const ViewSample& s, uint32_t p) { return s.pixel < p; }) - vs.samples.data());
+  };
+  std::atomic<uint64_t> lookups{0}, reads{0};
+  tbb::enumerable_thread_specific<Batch> batches;
+  constexpr int kTile = 16;
+  parallel_for_tiles(W, H, kTile, [&](int x0, int y0, int x1, int y1) {
+    Batch& b = batches.local();
+    uint32_t range[kTile][2];
+    size_t n = 0;
+    for (int y = y0; y < y1; ++y) {
+      range[y - y0][0] = first_at_or_after(y, x0);
+      range[y - y0][1] = x1 < W ? first_at_or_after(y, x1) : row[y + 1];
+      n += range[y - y0][1] - range[y - y0][0];
+    }
+    b.resize(n);
+    size_t j = 0;
+    for (int y = y0; y < y1; ++y)
+      for (uint32_t i = range[y - y0][0]; i < range[y - y0][1]; ++i) b.set(j++, light_, view_, vs.samples[i].p, i);
+    LookupCounters counters;
+    shade_batch(filter, b, visibility, counters);
+    lookups.fetch_add(counters.lookups, std::memory_order_relaxed);
+    reads.fetch_add(counters.reads, std::memory_order_relaxed);
+  });
+  total.lookups += lookups.load();
+  total.reads += reads.load();
+}
+
+void OcclusionTextures::shade(const ViewSamples& vs, std::span<float> visibility, MethodStats* stats) const {
+  Timer timer;
+  LookupCounters n;
+  dispatch([&](const auto& f) { shade_with(f, vs, visibility, n); });
+  stats->add_phase("shading", timer.elapsed_ms());
+  stats->texels_visited += n.reads;
+  const uint64_t before = stats->extra.contains("lookups") ? stats->extra["lookups"].get<uint64_t>() : 0;
+  stats->extra["lookups"] = before + n.lookups;
+}
+
+}  // namespace penumbra::occlusion

@@ -1,0 +1,127 @@
+// Occlusion textures (eisemann2006): the scene cut into S slices parallel to the light,
+// each projected onto its far plane as a binary occlusion texture, pre-filtered so that one
+// lookup gives the box-filtered coverage over any kernel (§3.2), combined over slices by
+// the probabilistic product of eq. 5. Docs: docs/methods/occlusion-textures.md.
+//
+// Light frame: the light's centre C, its axes right/up (the rect's sides; for a disk, its
+// bounding square) and forward = the emitting normal. The depth of a point is its distance
+// from the light plane along forward, z = dot(p - C, forward).
+//
+// Slicing (§3.4): slice k spans depths [top + k T, top + (k + 1) T], T = (bottom - top) / S,
+// where [top, bottom] is the depth range of the casters. Its texture lies on its far
+// ("bottom") plane, at depth plane(k) = top + (k + 1) T. One perspective rasterization from
+// the centre of projection E = C - d forward (a distance d behind the light, its frustum's
+// window exactly the light: Fig. 4-5) writes one bit per slice and texel; d is the largest
+// distance for which the frustum still contains every caster (fitted) or a parameter.
+//
+// Shading a point P (u, v, z) (eq. 4, §3.4-3.5): for each slice k whose plane lies between
+// the light and P, the light seen from P cuts plane(k) in a rectangle of size t x size(light),
+// t = (z - plane(k)) / z (eq. 4), centred where the segment P-C crosses the plane. Its texel
+// footprint is t W d / (plane(k) + d) texels wide (independent of the light's size), and
+// one filtered lookup gives the occluded fraction I_k. V = prod_k (1 - w_k I_k) (eq. 5), or
+// 1 - sum, or 1 - max. The slice containing P is skipped; w_k fades the slice just above P
+// in linearly over `fade` slice thicknesses below its plane (self-shadowing, §3.4).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "penumbra/raster/light_view.h"
+#include "penumbra/raster/raster_triangle.h"
+#include "penumbra/raster/rasterizer.h"
+#include "penumbra/scene/scene.h"
+#include "penumbra/shadow/occlusion_textures/prefilter.h"
+#include "penumbra/shadow/stats.h"
+#include "penumbra/shadow/view_samples.h"
+
+namespace penumbra::occlusion {
+
+enum class Prefilter { Mipmap, NBuffer, Sat };
+enum class SatPrecision { UInt32, Double };
+enum class Combine { Product, Sum, Max };
+
+Prefilter parse_prefilter(const std::string& s);
+SatPrecision parse_sat_precision(const std::string& s);
+Combine parse_combine(const std::string& s);
+const char* to_string(Prefilter p);
+const char* to_string(Combine c);
+
+struct Options {
+  int slices = 16;         // S, 1..32
+  int resolution = 512;    // texture side, a power of two in [16, 4096]
+  Prefilter prefilter = Prefilter::NBuffer;
+  SatPrecision sat_precision = SatPrecision::UInt32;
+  Combine combine = Combine::Product;
+  bool thin_fix = true;    // also fill the next slice farther from the light (§3.4, Fig. 6)
+  float fade = 1.0f;       // fade-in length of the slice just above a point, in slice thicknesses
+  float cop_distance = 0;  // d in world units; 0 = fitted to the casters
+  bool cull_planar = true; // skip planar objects that cannot shadow anything (ground planes)
+};
+
+// The light as a rectangle: a rect light itself, a disk (or a sphere's disk facing
+// frame.n) as its bounding square.
+struct LightRect {
+  Vec3f center, right, up, forward;
+  float width = 1, height = 1;  // along right, up
+};
+LightRect light_rect(const AreaLight& light);
+
+class OcclusionTextures {
+ public:
+  explicit OcclusionTextures(const Options& options);
+
+  // Slices the scene for `light` and pre-filters the textures. Records the phases
+  // "slicing" and "filtering" and the memory in *stats.
+  void build(const Scene& scene, const AreaLight& light, MethodStats* stats);
+  // V for every view sample; records the phase "shading" and the lookups.
+  void shade(const ViewSamples& samples, std::span<float> visibility, MethodStats* stats) const;
+  // V at one point, and the lookups it made.
+  float visibility(Vec3f p, LookupCounters* counters = nullptr) const;
+
+  // What build() chose (for tests, statistics and the docs).
+  bool has_casters() const { return has_casters_; }
+  const LightRect& light() const { return light_; }
+  const LightView& view() const { return view_; }
+  float cop_distance() const { return d_; }
+  float top() const { return top_; }
+  float thickness() const { return thickness_; }
+  int slices() const { return options_.slices; }
+  float plane(int k) const { return top_ + float(k + 1) * thickness_; }
+  const DepthBinMasks& coverage() const { return masks_; }
+  // Objects left out as planar non-casters.
+  const std::vector<uint32_t>& culled_objects() const { return culled_; }
+  // The pre-filtered mean coverage of slice k over a texel-space rectangle.
+  float box(int k, float x0, float y0, float x1, float y1, LookupCounters* counters = nullptr) const;
+  size_t texture_bytes() const;
+
+ private:
+  struct Batch;
+  template <class F>
+  void shade_batch(const F& filter, Batch& batch, std::span<float> out, LookupCounters& n) const;
+  float combine(float product, float sum, float largest) const;
+  template <class F>
+  void shade_with(const F& filter, const ViewSamples& samples, std::span<float> visibility,
+                  LookupCounters& total) const;
+  template <class Fn>
+  decltype(auto) dispatch(Fn&& fn) const;
+
+  Options options_;
+  LightRect light_;
+  bool has_casters_ = false;
+  float d_ = 1, top_ = 0, thickness_ = 1;
+  std::vector<float> scale_;  // per slice: d / (plane(k) + d), texel footprint per world unit
+  float R_ = 1, kx_ = 1, ky_ = 1, inv_fade_ = 1;  // texture side; texels per world unit at the light; 1 / fade length
+  LightView view_;
+  std::vector<uint32_t> culled_;
+  std::vector<RasterTriangle> triangles_;
+  Rasterizer rasterizer_;
+  DepthBinMasks masks_;
+  MipmapFilter mipmap_;
+  NBufferFilter nbuffer_;
+  SatFilter<uint32_t> sat32_;
+  SatFilter<double> sat64_;
+};
+
+}  // namespace penumbra::occlusion

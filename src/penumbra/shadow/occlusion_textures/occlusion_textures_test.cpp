@@ -1,0 +1,317 @@
+#include "penumbra/shadow/occlusion_textures/occlusion_textures.h"
+
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <map>
+
+#include "penumbra/core/error.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/test_scenes.h"
+
+namespace penumbra {
+namespace {
+
+using occlusion::LookupCounters;
+using occlusion::OcclusionTextures;
+using occlusion::Options;
+
+// An axis-aligned rectangle in x and z.
+struct RectXZ {
+  double x0, x1, z0, z1;
+};
+
+double overlap(double a0, double a1, double b0, double b1) { return std::max(0.0, std::min(a1, b1) - std::max(a0, b0)); }
+
+// The closed-form visibility of a 1 x 1 rect light centred at (0, 2, 0), facing down, from a
+// ground point (px, 0, pz) past an opaque rectangle parallel to it at height `height`: the
+// rectangle seen from P, projected onto the light's plane, hides the overlap with the light.
+double closed_form_v(double px, double pz, const RectXZ& r, double height) {
+  const double s = 2.0 / height;  // a point at `height` maps to P + (X - P) s on the light plane
+  const double ox = overlap(px + (r.x0 - px) * s, px + (r.x1 - px) * s, -0.5, 0.5);
+  const double oz = overlap(pz + (r.z0 - pz) * s, pz + (r.z1 - pz) * s, -0.5, 0.5);
+  return 1.0 - ox * oz;
+}
+
+// With the light at height 2 looking down (right = -x, up = +z in the light's view), d = 2 and
+// R = 256 texels, a point at depth z below the light lands on texel x = 128 - x (2 / (z + 2))
+// 256, y = 128 - z_world (2 / (z + 2)) 256: the world coordinate of texel boundary i is
+// (128 - i) (z + 2) / 512 (exact in binary for the depths used here).
+double texel_edge(int i, double depth) { return (128 - i) * (depth + 2.0) / 512.0; }
+
+RectXZ aligned_rect(int x_texel0, int x_texel1, int y_texel0, int y_texel1, double depth) {
+  return {texel_edge(x_texel1, depth), texel_edge(x_texel0, depth), texel_edge(y_texel1, depth),
+          texel_edge(y_texel0, depth)};
+}
+
+SceneObject quad(const RectXZ& r, double height) {
+  return testing::object(testing::quad_y(float(height), float(r.x0), float(r.x1), float(r.z0), float(r.z1)));
+}
+
+struct MethodRun {
+  Scene scene;
+  std::unique_ptr<RayTracer> tracer;
+  ViewSamples vs;
+  std::vector<float> v;
+  MethodStats stats;
+};
+
+// Renders V with the method through the registry (prepare + evaluate on the camera pass).
+MethodRun run_method(Scene scene, const std::vector<std::string>& params) {
+  MethodRun r;
+  r.scene = std::move(scene);
+  r.tracer = std::make_unique<RayTracer>(r.scene);
+  r.vs = camera_pass(r.scene, *r.tracer, 0);
+  auto method = create_method("occlusion-textures", r.scene, params);
+  ShadowContext ctx;
+  ctx.scene = &r.scene;
+  ctx.light = &r.scene.lights[0];
+  ctx.tracer = r.tracer.get();
+  r.v.assign(r.vs.size(), -1.0f);
+  std::vector<Vec3f> e(r.vs.size());
+  ShadowOutput out{r.v, e};
+  method->prepare(ctx);
+  method->evaluate(ctx, r.vs, out);
+  r.stats = method->stats();
+  return r;
+}
+
+TEST(OcclusionTextures, PlanarOccluderGivesTheClosedFormPenumbraWithSummedAreaTables) {
+  // eisemann2006 §3.1: a planar occluder parallel to the light shadows a point by exactly the
+  // box-filtered coverage of its plane (eq. 4). With the occluder's edges on texel boundaries
+  // its occlusion texture is its exact indicator, and the SAT box filter is exact: V must be
+  // the closed-form penumbra of a rectangle.
+  const RectXZ occ = aligned_rect(96, 160, 100, 150, 1.0);  // at height 1: depth 1 below the light
+  Scene scene = testing::ground_scene({quad(occ, 1.0)}, testing::rect_light_down({0, 2, 0}, 1, 1), 96);
+  scene.camera.fov_y = 40;  // the ground within about 1.45 of the centre
+  MethodRun r = run_method(scene, {"prefilter=sat", "cop_distance=2", "resolution=256", "slices=4"});
+  EXPECT_EQ(r.stats.extra["culled_objects"].size(), 1u);  // the ground casts nothing
+  int checked = 0, penumbra = 0;
+  double worst = 0;
+  for (size_t i = 0; i < r.vs.size(); ++i) {
+    const ViewSample& s = r.vs.samples[i];
+    if (s.object != 0) continue;  // ground samples only
+    const double expect = closed_form_v(s.p.x, s.p.z, occ, 1.0);
+    worst = std::max(worst, std::abs(r.v[i] - expect));
+    ++checked;
+    penumbra += expect > 0.02 && expect < 0.98;
+  }
+  EXPECT_LT(worst, 2e-4);
+  EXPECT_GT(checked, 8000);
+  EXPECT_GT(penumbra, 1500);
+  // The same with double tables, and through visibility() one point at a time.
+  MethodRun r64 = run_method(scene, {"prefilter=sat", "sat_precision=double", "cop_distance=2", "resolution=256", "slices=4"});
+  for (size_t i = 0; i < r.vs.size(); ++i) EXPECT_NEAR(r64.v[i], r.v[i], 1e-5);
+  Options o;
+  o.prefilter = occlusion::Prefilter::Sat;
+  o.cop_distance = 2;
+  o.resolution = 256;
+  o.slices = 4;
+  OcclusionTextures ot(o);
+  MethodStats stats;
+  ot.build(scene, scene.lights[0], &stats);
+  EXPECT_FLOAT_EQ(ot.plane(3), 1.0f);  // the occluder's plane is the last slice's
+  for (float x : {-0.6f, -0.3f, 0.0f, 0.2f, 0.45f})
+    for (float z : {-0.5f, -0.1f, 0.3f}) EXPECT_NEAR(ot.visibility({x, 0, z}), closed_form_v(x, z, occ, 1.0), 2e-4);
+}
+
+TEST(OcclusionTextures, NBuffersAndMipmapsApproximateTheClosedForm) {
+  // The paper's quality order (Fig. 2): SAT exact, N-buffers close, mipmaps blocky.
+  const RectXZ occ = aligned_rect(96, 160, 100, 150, 1.0);
+  Scene scene = testing::ground_scene({quad(occ, 1.0)}, testing::rect_light_down({0, 2, 0}, 1, 1), 64);
+  scene.camera.fov_y = 40;
+  std::map<std::string, double> error;
+  for (const char* prefilter : {"sat", "nbuffer", "mipmap"}) {
+    MethodRun r = run_method(scene, {fmt::format("prefilter={}", prefilter), "cop_distance=2", "resolution=256"});
+    double sum = 0;
+    int n = 0;
+    for (size_t i = 0; i < r.vs.size(); ++i) {
+      const ViewSample& s = r.vs.samples[i];
+      if (s.object != 0) continue;
+      sum += std::abs(r.v[i] - closed_form_v(s.p.x, s.p.z, occ, 1.0));
+      ++n;
+    }
+    error[prefilter] = sum / n;
+  }
+  // Measured 0.013 (N-buffers) and 0.033 (mipmaps).
+  EXPECT_LT(error["sat"], 1e-4);
+  EXPECT_LT(error["nbuffer"], 0.02);
+  EXPECT_LT(error["mipmap"], 0.05);
+  EXPECT_LT(error["nbuffer"], error["mipmap"]);
+}
+
+TEST(OcclusionTextures, SlicesCombineByTheirProduct) {
+  // eq. 5: two occluders in different slices, covering disjoint parts of the light:
+  // V = (1 - I1)(1 - I2) with I_k the box-filtered coverage of each alone ('product'),
+  // 1 - I1 - I2 ('sum', here the true visibility) and 1 - max(I1, I2) ('max').
+  // Occluder 1 lies at depth 0.5, the top of slice 0, and is projected from the centre of
+  // projection onto that slice's far plane at depth 0.625 (lateral scale 2.625 / 2.5);
+  // occluder 2 lies on the last slice's plane, depth 1.
+  const RectXZ occ1 = aligned_rect(40, 90, 100, 156, 0.5);
+  const RectXZ occ2 = aligned_rect(150, 200, 110, 146, 1.0);
+  const double k1 = 2.625 / 2.5;
+  const RectXZ occ1_on_plane{occ1.x0 * k1, occ1.x1 * k1, occ1.z0 * k1, occ1.z1 * k1};
+  Scene scene = testing::ground_scene({quad(occ1, 1.5), quad(occ2, 1.0)}, testing::rect_light_down({0, 2, 0}, 1, 1), 64);
+  scene.camera.fov_y = 20;  // the ground within 0.7 of the centre: the two shadows never overlap on the light
+  for (const char* combine : {"product", "sum", "max"}) {
+    MethodRun r = run_method(scene, {"prefilter=sat", "cop_distance=2", "resolution=256", "slices=4", "thin_fix=false",
+                               fmt::format("combine={}", combine)});
+    int both = 0;
+    for (size_t i = 0; i < r.vs.size(); ++i) {
+      const ViewSample& s = r.vs.samples[i];
+      if (s.object != 0) continue;
+      const double i1 = 1 - closed_form_v(s.p.x, s.p.z, occ1_on_plane, 2.0 - 0.625);
+      const double i2 = 1 - closed_form_v(s.p.x, s.p.z, occ2, 1.0);
+      const std::string c = combine;
+      const double expect = c == "product" ? (1 - i1) * (1 - i2) : c == "sum" ? 1 - i1 - i2 : 1 - std::max(i1, i2);
+      ASSERT_NEAR(r.v[i], expect, 3e-4) << combine << " at " << s.p.x << ", " << s.p.z;
+      both += i1 > 0.05 && i2 > 0.05;
+    }
+    EXPECT_GT(both, 300);  // points that both occluders shadow
+  }
+}
+
+TEST(OcclusionTextures, LookupsPerPointDoNotDependOnTheLightSize) {
+  // The cost of shading (eisemann2006 §4: "output sensitive") is one filtered lookup per slice
+  // between the point and the light, whatever the light's size: the kernel grows, the lookup
+  // does not. Light sizes 0.3 to 3 (10x); the camera sees only points inside the slicing
+  // frustum at every size, so no kernel is cut by the texture's border.
+  for (const char* prefilter : {"nbuffer", "mipmap", "sat"}) {
+    std::vector<double> lookups, reads, mean_v;
+    for (float size : {0.3f, 1.0f, 3.0f}) {
+      Scene scene = testing::ground_scene({testing::object(testing::box({-0.15f, 0, -0.15f}, {0.15f, 0.6f, 0.15f})),
+                                           testing::object(testing::quad_y(1.2f, -0.3f, 0.1f, -0.05f, 0.3f))},
+                                          testing::rect_light_down({0.05f, 2, 0}, size, size), 48);
+      scene.camera = testing::top_camera(48, 4.0f, 5.0f);
+      MethodRun r = run_method(scene, {fmt::format("prefilter={}", prefilter)});
+      const double n = double(r.vs.size());
+      lookups.push_back(r.stats.extra["lookups"].get<double>() / n);
+      reads.push_back(double(r.stats.texels_visited) / n);
+      double v = 0;
+      for (float x : r.v) v += x;
+      mean_v.push_back(v / n);
+    }
+    EXPECT_GT(lookups[0], 2.0) << prefilter;
+    for (int i = 1; i < 3; ++i) {
+      EXPECT_EQ(lookups[i], lookups[0]) << prefilter;
+      EXPECT_EQ(reads[i], reads[0]) << prefilter;
+    }
+    EXPECT_EQ(reads[0], lookups[0] * (std::string(prefilter) == "sat" ? 16 : 8)) << prefilter;
+    // ...while the shadows do change: bigger lights, softer and lighter shadows.
+    EXPECT_LT(mean_v[0] + 0.05, mean_v[2]) << prefilter;
+  }
+}
+
+TEST(OcclusionTextures, ThinOccluderFixAlsoFillsTheNextSlice) {
+  // A tilted quad crosses every slice; with the fix each slice's coverage is also written
+  // into the next slice farther from the light (§3.4, Fig. 6).
+  TriangleMesh tilted;
+  tilted.positions = {{-0.4f, 1.6f, -0.3f}, {0.4f, 0.4f, -0.3f}, {0.4f, 0.4f, 0.3f}, {-0.4f, 1.6f, 0.3f}};
+  tilted.indices = {0, 1, 2, 0, 2, 3};
+  Scene scene = testing::ground_scene({testing::object(tilted)}, testing::rect_light_down({0, 2, 0}, 1, 1));
+  Options o;
+  o.slices = 8;
+  o.resolution = 128;
+  o.thin_fix = false;
+  OcclusionTextures plain(o);
+  o.thin_fix = true;
+  OcclusionTextures fixed(o);
+  MethodStats stats;
+  plain.build(scene, scene.lights[0], &stats);
+  fixed.build(scene, scene.lights[0], &stats);
+  int covered = 0;
+  for (size_t i = 0; i < plain.coverage().masks.size(); ++i) {
+    const uint32_t m = plain.coverage().masks[i];
+    EXPECT_EQ(fixed.coverage().masks[i], m | ((m << 1) & 0xffu));
+    covered += m != 0;
+  }
+  EXPECT_GT(covered, 1000);
+}
+
+TEST(OcclusionTextures, TheSliceJustAbovePointFadesIn) {
+  // §3.4: the slice containing P is not used, and the slice just above fades in linearly over
+  // `fade` slice thicknesses below its plane. One occluder on the last slice's plane (depth
+  // 1); points straight below at depth 1 + e see it with weight e / (fade T).
+  const RectXZ occ{-0.4, 0.4, -0.4, 0.4};
+  Scene scene = testing::ground_scene({quad(occ, 1.0), testing::object(testing::box({-2, 0, -2}, {-1.9f, 0.2f, -1.9f}))},
+                                      testing::rect_light_down({0, 2, 0}, 0.2f, 0.2f));
+  // The small box standing on the ground far away stretches the casters' depth range to
+  // [1, 2]: with 4 slices, T = 0.25.
+  Options o;
+  o.slices = 4;
+  o.prefilter = occlusion::Prefilter::Sat;
+  OcclusionTextures ot(o);
+  MethodStats stats;
+  ot.build(scene, scene.lights[0], &stats);
+  ASSERT_NEAR(ot.top(), 1.0f, 1e-6f);
+  ASSERT_NEAR(ot.thickness(), 0.25f, 1e-6f);
+  // Slice 0 = [1, 1.25] holds the occluder, its texture on plane 1.25. Just below the plane
+  // the occluder is hidden (its own slice); below 1.25 it fades in over one thickness.
+  EXPECT_NEAR(ot.visibility({0, 2 - 1.1f, 0}), 1.0f, 1e-6f);
+  EXPECT_NEAR(ot.visibility({0, 2 - 1.25f - 0.0625f, 0}), 0.75f, 1e-3f);  // a quarter of the way
+  EXPECT_NEAR(ot.visibility({0, 2 - 1.25f - 0.125f, 0}), 0.5f, 1e-3f);
+  EXPECT_NEAR(ot.visibility({0, 2 - 1.6f, 0}), 0.0f, 1e-6f);
+  o.fade = 0;  // no fade: full weight as soon as the point is past the plane
+  OcclusionTextures hard(o);
+  hard.build(scene, scene.lights[0], &stats);
+  EXPECT_NEAR(hard.visibility({0, 2 - 1.26f, 0}), 0.0f, 1e-6f);
+}
+
+TEST(OcclusionTextures, GroundPlanesAreLeftOutUnlessSomethingLiesBeneath) {
+  Scene scene = testing::ground_scene({testing::object(testing::box({-0.2f, 0, -0.2f}, {0.2f, 0.4f, 0.2f}))},
+                                      testing::rect_light_down({0, 2, 0}, 1, 1));
+  Options o;
+  OcclusionTextures ot(o);
+  MethodStats stats;
+  ot.build(scene, scene.lights[0], &stats);
+  ASSERT_EQ(ot.culled_objects().size(), 1u);
+  EXPECT_EQ(ot.culled_objects()[0], 0u);
+  EXPECT_NEAR(ot.plane(o.slices - 1), 2.0f, 1e-5f);  // the box reaches the ground: depth 2
+  // Something below the ground: the ground may shadow it, so it is kept.
+  scene.objects.push_back(testing::object(testing::box({-0.1f, -0.5f, -0.1f}, {0.1f, -0.3f, 0.1f})));
+  ot.build(scene, scene.lights[0], &stats);
+  EXPECT_TRUE(ot.culled_objects().empty());
+  // A light crossing the ground's plane: kept too.
+  scene.objects.pop_back();
+  scene.lights[0].center = {0, 0.2f, 0};
+  scene.lights[0].frame = Frame::from_zx({1, 0, 0}, {0, 1, 0});
+  ot.build(scene, scene.lights[0], &stats);
+  EXPECT_TRUE(ot.culled_objects().empty());
+}
+
+TEST(OcclusionTextures, DiskLightsUseTheirBoundingSquare) {
+  Scene rect = testing::ground_scene({testing::object(testing::box({-0.2f, 0.5f, -0.2f}, {0.2f, 0.7f, 0.2f}))},
+                                     testing::rect_light_down({0, 2, 0}, 0.8f, 0.8f), 32);
+  Scene disk = rect;
+  disk.lights[0].shape = LightShape::Disk;
+  disk.lights[0].radius = 0.4f;
+  MethodRun a = run_method(rect, {}), b = run_method(disk, {});
+  ASSERT_EQ(a.v.size(), b.v.size());
+  for (size_t i = 0; i < a.v.size(); ++i) EXPECT_EQ(a.v[i], b.v[i]);
+}
+
+TEST(OcclusionTextures, PointsBehindTheLightAndScenesWithoutCastersAreHandled) {
+  Scene scene = testing::ground_scene({}, testing::rect_light_down({0, 2, 0}, 1, 1), 16);
+  MethodRun r = run_method(scene, {});
+  for (float v : r.v) EXPECT_EQ(v, 1.0f);  // only the ground: nothing casts
+  Options o;
+  OcclusionTextures ot(o);
+  MethodStats stats;
+  ot.build(scene, scene.lights[0], &stats);
+  EXPECT_FALSE(ot.has_casters());
+  EXPECT_EQ(ot.visibility({0, 3, 0}), 0.0f);  // above the light, which faces down
+}
+
+TEST(OcclusionTextures, BadParametersAreRejected) {
+  Scene scene = testing::ground_scene({}, testing::rect_light_down({0, 2, 0}, 1, 1), 16);
+  EXPECT_THROW(create_method("occlusion-textures", scene, {"resolution=500"}), Error);
+  EXPECT_THROW(create_method("occlusion-textures", scene, {"slices=33"}), Error);
+  EXPECT_THROW(create_method("occlusion-textures", scene, {"prefilter=gauss"}), Error);
+  EXPECT_NO_THROW(create_method("occlusion-textures", scene, {"slices=4", "prefilter=mipmap", "combine=max"}));
+}
+
+}  // namespace
+}  // namespace penumbra
