@@ -22,7 +22,8 @@ methods_available() {
   registered=$("$penumbra" methods | awk 'NF && $1 !~ /^`/ {print $1}')
   IFS=, read -ra want <<< "$1"
   for m in "${want[@]}"; do
-    if grep -qxF "$m" <<< "$registered"; then
+    # A method spec ("pcss:variant=xie2007") exists when its method does.
+    if grep -qxF "${m%%:*}" <<< "$registered"; then
       methods+="${methods:+,}$m"
     else
       missing+="${missing:+, }$m"

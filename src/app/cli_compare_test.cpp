@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdlib>
+#include <fstream>
 
 #include "penumbra/testing/compare_fixture.h"
 #include "penumbra/testing/xml_check.h"
@@ -76,6 +77,10 @@ TEST_F(CliCompare, BadArgumentsAreOneLineErrors) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--plot nope: unknown column"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir_ / "x"));
+  std::ofstream(dir_ / "file") << "x";
+  r = run("compare scenes/contact.json --methods hard --no-cache -o " + path("file"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("cannot create the output folder"), std::string::npos) << r.err;
 }
 
 TEST_F(CliCompare, SweepWritesCsvAndPlots) {

@@ -65,6 +65,7 @@ int run_compare(const CompareCliOptions& o) {
   co.cache_dir = o.no_cache ? std::filesystem::path() : o.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(o.cache_dir);
   std::string out = o.output.empty() ? fmt::format("compare-{}", std::filesystem::path(o.scene).stem().string()) : o.output;
 
+  make_output_folder(out);  // before any render: a bad -o fails at once
   Comparison c = run_comparison(setup, co);
   c.command = command_line();
   ReportOptions ro;

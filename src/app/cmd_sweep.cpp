@@ -71,6 +71,7 @@ int run_sweep_cli(const SweepCliOptions& o) {
   so.progress = !o.quiet;
   if (o.pages) so.pages_dir = std::filesystem::path(out) / "pages";
 
+  make_output_folder(out);  // before any render: a bad -o fails at once
   Sweep s = run_sweep(setup, so);
   s.command = command_line();
   SweepPlotOptions po;

@@ -36,6 +36,12 @@ void check_output_path(const std::string& path, const std::vector<std::string>& 
   if (!parent.empty() && !fs::is_directory(parent)) throw Error("{}: folder {} does not exist", path, parent.string());
 }
 
+void make_output_folder(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir)) throw Error("{}: cannot create the output folder{}", dir, ec ? ": " + ec.message() : std::string(" (a file of that name exists)"));
+}
+
 std::string command_line() {
   std::ifstream f("/proc/self/cmdline", std::ios::binary);
   std::string all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());

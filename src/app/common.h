@@ -15,6 +15,9 @@ namespace penumbra::app {
 void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples);
 // Checks an output path before any work: a known extension and an existing folder.
 void check_output_path(const std::string& path, const std::vector<std::string>& extensions);
+// Creates the output folder `dir` (and its parents); throws naming it if that fails or
+// it is a file.
+void make_output_folder(const std::string& dir);
 // The command line of this process, as typed (arguments with spaces quoted), for reports.
 std::string command_line();
 // The --stats-json document of one render.

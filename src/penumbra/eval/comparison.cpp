@@ -1,6 +1,7 @@
 #include "penumbra/eval/comparison.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <ctime>
 #include <fstream>
@@ -152,12 +153,13 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
   for (const std::string& name : options.methods) {
     MethodRun run;
     run.method = name;
-    const MethodInfo& info = MethodRegistry::get(name);
+    const MethodSpec spec = parse_method_spec(name);
+    const MethodInfo& info = MethodRegistry::get(spec.name);
     run.light_samples = info.samples_light ? setup.light_samples : 0;
     try {
       RenderSettings settings;
-      settings.method = name;
-      settings.params = setup.overrides_for(name);
+      settings.method = spec.name;
+      settings.params = setup.overrides_for(spec);
       settings.light_samples = setup.light_samples;
       settings.seed = setup.seed;
       settings.progress_bar = bar;
@@ -363,6 +365,13 @@ std::string comparison_csv(const Comparison& c) {
   return out.str();
 }
 
+std::string image_file_stem(const std::string& label) {
+  std::string out;
+  for (char ch : label)
+    out += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.' || ch == '=') ? ch : '_';
+  return out;
+}
+
 void write_comparison(const Comparison& c, const fs::path& dir, const ReportOptions& options) {
   fs::create_directories(dir);
   if (options.write_images) {
@@ -371,7 +380,7 @@ void write_comparison(const Comparison& c, const fs::path& dir, const ReportOpti
       write_image((dir / "images" / "ground-truth.exr").string(), c.truth.color, {{"V", &c.truth.visibility}});
     for (const MethodRun& r : c.runs)
       if (r.ok && !r.color.empty())
-        write_image((dir / "images" / (r.method + ".exr")).string(), r.color, {{"V", &r.visibility}});
+        write_image((dir / "images" / (image_file_stem(r.method) + ".exr")).string(), r.color, {{"V", &r.visibility}});
   }
   write_text_file_atomic(dir / "results.json", comparison_json(c).dump(2) + "\n");
   write_text_file_atomic(dir / "results.csv", comparison_csv(c));

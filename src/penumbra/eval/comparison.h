@@ -23,7 +23,7 @@ namespace penumbra {
 class Progress;
 
 struct CompareOptions {
-  std::vector<std::string> methods;  // registered names (expand_method_list)
+  std::vector<std::string> methods;  // names or method specs (expand_method_list)
   bool ground_truth = true;          // false: timings only, no error metrics
   std::filesystem::path cache_dir;   // reference cache; empty: always render it
   int runs = 1;                      // timed renders per method; the median is reported
@@ -43,7 +43,7 @@ struct RenderTimes {
 };
 
 struct MethodRun {
-  std::string method;
+  std::string method;           // its label in the --methods list ("pcss:variant=xie2007")
   bool ok = false;
   std::string error;            // the exception's message when !ok
   nlohmann::json params;        // resolved parameters
@@ -113,6 +113,10 @@ struct ReportOptions {
   bool write_images = true;  // also DIR/images/<method>.exr (colour + V) for `penumbra diff`
 };
 
+// The file name of a method's image under DIR/images/: its label with characters other
+// than letters, digits and "-_.=" replaced by '_' ("pcss:variant=xie2007" ->
+// "pcss_variant=xie2007").
+std::string image_file_stem(const std::string& label);
 // Writes DIR/index.html, DIR/results.json, DIR/results.csv (and DIR/images/). Creates DIR.
 void write_comparison(const Comparison& c, const std::filesystem::path& dir, const ReportOptions& options = {});
 

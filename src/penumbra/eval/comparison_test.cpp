@@ -106,6 +106,21 @@ TEST(Comparison, AFailingMethodIsReportedAndTheOthersStillRun) {
   while (std::getline(lines, line)) EXPECT_EQ(static_cast<size_t>(std::count(line.begin(), line.end(), ',')), fields) << line;
 }
 
+TEST(Comparison, VariantsOfOneMethodSideBySide) {
+  CompareOptions o;
+  o.methods = {"single-sample", "single-sample:combine=multiply", "single-sample:combine=bogus"};
+  o.ground_truth = false;
+  Comparison c = run_comparison(tiny_contact_setup(), o);
+  ASSERT_EQ(c.runs.size(), 3u);
+  EXPECT_TRUE(c.runs[0].ok);
+  EXPECT_TRUE(c.runs[1].ok);
+  EXPECT_EQ(c.runs[0].params["combine"], "min");
+  EXPECT_EQ(c.runs[1].params["combine"], "multiply");
+  EXPECT_EQ(c.runs[1].method, "single-sample:combine=multiply");
+  EXPECT_FALSE(c.runs[2].ok);  // a bad value fails that variant only
+  EXPECT_NE(c.runs[2].error.find("bogus"), std::string::npos) << c.runs[2].error;
+}
+
 TEST(Comparison, UnknownPlainParameterFailsBeforeRendering) {
   CompareOptions o;
   o.methods = {"hard"};

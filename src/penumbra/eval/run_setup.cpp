@@ -111,6 +111,22 @@ std::vector<std::string> split_list(const std::string& text, char sep) {
   return out;
 }
 
+MethodSpec parse_method_spec(const std::string& spec) {
+  MethodSpec m;
+  m.label = spec;
+  std::vector<std::string> parts = split_list(spec, ':');
+  if (parts.empty()) throw Error("--methods: empty method name");
+  m.name = MethodRegistry::get(parts[0]).name;  // throws listing the known methods
+  for (size_t i = 1; i < parts.size(); ++i) {
+    auto eq = parts[i].find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw Error("--methods {}: '{}' is not key=value (write method:key=value:key=value)", spec, parts[i]);
+    m.params.push_back(parts[i]);
+  }
+  if (m.params.empty()) m.label = m.name;  // "pcss:" is "pcss"
+  return m;
+}
+
 std::vector<std::string> expand_method_list(const std::vector<std::string>& names) {
   std::vector<std::string> out;
   auto add = [&](const std::string& n) {
@@ -121,7 +137,7 @@ std::vector<std::string> expand_method_list(const std::vector<std::string>& name
       if (n == "all") {
         for (const MethodInfo* m : MethodRegistry::all()) add(m->name);
       } else {
-        add(MethodRegistry::get(n).name);  // throws listing the known methods
+        add(parse_method_spec(n).label);  // throws listing the known methods
       }
     }
   }
@@ -228,13 +244,19 @@ std::vector<std::string> RunSetup::overrides_for(const std::string& method, bool
   return plain;
 }
 
+std::vector<std::string> RunSetup::overrides_for(const MethodSpec& spec) const {
+  std::vector<std::string> o = overrides_for(spec.name);
+  o.insert(o.end(), spec.params.begin(), spec.params.end());
+  return o;
+}
+
 void RunSetup::check_plain_params(const std::vector<std::string>& methods) const {
   for (const std::string& kv : method_params) {
     std::string key = kv.substr(0, kv.find('='));
     if (key.find('.') != std::string::npos) continue;
     bool declared = false;
     for (const std::string& m : methods) {
-      const MethodInfo& info = MethodRegistry::get(m);
+      const MethodInfo& info = MethodRegistry::get(parse_method_spec(m).name);
       declared = declared || std::any_of(info.params.begin(), info.params.end(),
                                          [&](const ParamSpec& p) { return p.name == key; });
     }

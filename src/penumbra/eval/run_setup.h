@@ -20,6 +20,17 @@
 
 namespace penumbra {
 
+// One entry of a --methods list: a registered method, optionally with parameters of its own,
+// "name:key=value:key=value" (e.g. "pcss:variant=xie2007"), so that variants of one method
+// compare side by side. The label (the spec as written) names it in tables and plots.
+struct MethodSpec {
+  std::string label;                // "pcss:variant=xie2007"
+  std::string name;                 // "pcss"
+  std::vector<std::string> params;  // {"variant=xie2007"}
+};
+// Throws naming the spec for an unknown method or a parameter that is not key=value.
+MethodSpec parse_method_spec(const std::string& spec);
+
 struct RunSetup {
   nlohmann::json scene_doc = nlohmann::json::object();  // the scene file, as rewritten by settings
   std::filesystem::path scene_path;                      // messages; relative mesh paths
@@ -36,11 +47,15 @@ struct RunSetup {
   void apply(const std::string& key, const std::string& value);
   void apply(const std::string& key_eq_value);  // "key=value"
 
-  // The parameter overrides for `method`, as create_method takes them ("key=value"):
-  // plain keys the method declares, then "method.key" ones. With explicit_only, only the
-  // keys addressed to the method by name (the ground truth takes those alone).
+  // The parameter overrides for `method` (a registered name), as create_method takes them
+  // ("key=value"): plain keys the method declares, then "method.key" ones. With
+  // explicit_only, only the keys addressed to the method by name (the ground truth takes
+  // those alone).
   std::vector<std::string> overrides_for(const std::string& method, bool explicit_only = false) const;
-  // Throws unless every plain parameter key is declared by at least one of `methods`.
+  // The same for a method spec: its method's overrides, then the spec's own parameters.
+  std::vector<std::string> overrides_for(const MethodSpec& spec) const;
+  // Throws unless every plain parameter key is declared by at least one of `methods`
+  // (method specs: their methods count).
   void check_plain_params(const std::vector<std::string>& methods) const;
 
   // Parses the (rewritten) document into a Scene.
@@ -54,8 +69,9 @@ struct RunSetup {
 // The settings keys that are not method parameters, for messages and docs.
 const std::vector<std::string>& run_setting_keys();
 
-// Expands a --methods list: "all" (every registered method), names, or a mix; keeps the
-// order given, drops repeats, and throws naming an unknown method.
+// Expands a --methods list: "all" (every registered method), names, method specs
+// ("pcss:variant=xie2007"), or a mix; keeps the order given, drops repeats, and throws
+// naming an unknown method.
 std::vector<std::string> expand_method_list(const std::vector<std::string>& names);
 // Splits "a,b,c" at commas (empty items dropped).
 std::vector<std::string> split_list(const std::string& text, char sep = ',');

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "penumbra/core/error.h"
+#include "penumbra/eval/comparison.h"
 #include "penumbra/shadow/shadow_method.h"
 
 namespace penumbra {
@@ -140,6 +141,28 @@ TEST(RunSetup, MethodParametersPlainAndNamed) {
   EXPECT_NE(error_of([&] { s.check_plain_params({"hard", "single-sample"}); })
                 .find("no compared method has a parameter 'sampling'"),
             std::string::npos);
+}
+
+TEST(RunSetup, MethodSpecsCarryTheirOwnParameters) {
+  MethodSpec m = parse_method_spec("single-sample:combine=add:diameter=diagonal");
+  EXPECT_EQ(m.name, "single-sample");
+  EXPECT_EQ(m.label, "single-sample:combine=add:diameter=diagonal");
+  EXPECT_EQ(m.params, (std::vector<std::string>{"combine=add", "diameter=diagonal"}));
+  EXPECT_EQ(parse_method_spec("hard").label, "hard");
+  EXPECT_TRUE(parse_method_spec("hard").params.empty());
+  EXPECT_NE(error_of([] { parse_method_spec("nope:x=1"); }).find("unknown shadow method 'nope'"), std::string::npos);
+  EXPECT_NE(error_of([] { parse_method_spec("hard:x"); }).find("'x' is not key=value"), std::string::npos);
+  // The spec's own parameters come after the run's, so they win.
+  RunSetup s = three_lights();
+  s.apply("single-sample.combine", "multiply");
+  EXPECT_EQ(s.overrides_for(parse_method_spec("single-sample:combine=add")),
+            (std::vector<std::string>{"combine=multiply", "combine=add"}));
+  // A spec counts as its method for plain parameters.
+  s.apply("sampling", "area");
+  EXPECT_NO_THROW(s.check_plain_params({"reference:sampling=solid-angle"}));
+  EXPECT_EQ(expand_method_list({"hard,single-sample:combine=add,single-sample"}),
+            (std::vector<std::string>{"hard", "single-sample:combine=add", "single-sample"}));
+  EXPECT_EQ(image_file_stem("pcss:variant=xie2007"), "pcss_variant=xie2007");
 }
 
 TEST(RunSetup, MethodLists) {

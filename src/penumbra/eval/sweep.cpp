@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -130,6 +131,22 @@ Sweep run_sweep(const RunSetup& base, const SweepOptions& options) {
   return s;
 }
 
+std::vector<std::pair<std::string, double>> flatten_numbers(const json& j, const std::string& prefix) {
+  std::vector<std::pair<std::string, double>> out;
+  std::function<void(const json&, const std::string&)> walk = [&](const json& v, const std::string& key) {
+    if (v.is_number()) {
+      out.emplace_back(key, v.get<double>());
+    } else if (v.is_object()) {
+      for (auto it = v.begin(); it != v.end(); ++it) walk(it.value(), key + "." + it.key());
+    } else if (v.is_array() && !v.empty()) {
+      walk(v.back(), key);  // a curve's final value
+    }
+  };
+  if (j.is_object())
+    for (auto it = j.begin(); it != j.end(); ++it) walk(it.value(), prefix + "." + it.key());
+  return out;
+}
+
 double sweep_value(const SweepRow& row, const std::string& column) {
   const MethodRun& r = row.run;
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -157,9 +174,8 @@ double sweep_value(const SweepRow& row, const std::string& column) {
     return nan;
   }
   if (column.rfind("extra.", 0) == 0) {
-    std::string key = column.substr(6);
-    if (r.stats.extra.is_object() && r.stats.extra.contains(key) && r.stats.extra[key].is_number())
-      return r.stats.extra[key].get<double>();
+    for (const auto& [k, v] : flatten_numbers(r.stats.extra, "extra"))
+      if (k == column) return v;
     return nan;
   }
   throw Error("unknown sweep column '{}'", column);
@@ -185,9 +201,7 @@ std::vector<std::string> sweep_columns(const Sweep& s) {
   for (const SweepRow& row : s.rows)
     for (const auto& [n, t] : row.run.stats.phases_ms) add("phase_" + n + "_ms");
   for (const SweepRow& row : s.rows)
-    if (row.run.stats.extra.is_object())
-      for (auto it = row.run.stats.extra.begin(); it != row.run.stats.extra.end(); ++it)
-        if (it.value().is_number()) add("extra." + it.key());
+    for (const auto& [k, v] : flatten_numbers(row.run.stats.extra, "extra")) add(k);
   return cols;
 }
 
@@ -297,10 +311,10 @@ std::vector<fs::path> write_sweep(const Sweep& s, const fs::path& dir, const Swe
     check_sweep_column(c);
     plots.emplace_back(safe_name(c), c);
   }
-  // Every number a method reports in its stats' "extra" (e.g. an LDI's depth complexity)
-  // gets a plot of its own without being asked for.
+  // Every number a method reports at the top level of its stats' "extra" (e.g. a hit
+  // rate) gets a plot of its own without being asked for; nested ones when asked.
   for (const auto& c : sweep_columns(s))
-    if (c.rfind("extra.", 0) == 0 && std::none_of(plots.begin(), plots.end(), [&](const auto& p) { return p.second == c; }))
+    if (c.rfind("extra.", 0) == 0 && c.find('.', 6) == std::string::npos && std::none_of(plots.begin(), plots.end(), [&](const auto& p) { return p.second == c; }))
       plots.emplace_back(safe_name(c), c);
   std::vector<fs::path> written;
   for (const auto& [stem, column] : plots) {

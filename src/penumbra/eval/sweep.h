@@ -50,6 +50,11 @@ struct Sweep {
 
 Sweep run_sweep(const RunSetup& base, const SweepOptions& options);
 
+// The numbers in a method's MethodStats::extra as columns: "<prefix>.<key>", nested objects
+// as "<prefix>.<key>.<key>", an array as its last element (a curve's final value, e.g.
+// lam's depth_complexity per light sample); strings and booleans are left out.
+std::vector<std::pair<std::string, double>> flatten_numbers(const nlohmann::json& j, const std::string& prefix);
+
 // The numeric columns a row offers (for --plot): v_mae, v_rmse, v_max, v_mean_signed,
 // color_psnr, flip, total_ms, camera_pass_ms, shadow_ms, speedup, rays_traced,
 // rays_per_view_sample, texels_visited, memory_bytes, ground_truth_ms, phase_<name>_ms
@@ -72,8 +77,9 @@ std::string sweep_plot(const Sweep& s, const std::string& column, const SweepPlo
 
 // Writes DIR/sweep.csv, DIR/sweep.json and the plots: error.svg (v_mae, with a ground
 // truth), time.svg (shadow_ms), rays.svg (when any method traced rays), one <column>.svg
-// per extra plot asked for and one extra.<key>.svg per number a method reported in its
-// MethodStats::extra. Returns the plot files written.
+// per extra plot asked for and one extra.<key>.svg per number a method reported at the
+// top level of its MethodStats::extra (nested ones, extra.<key>.<key>, when asked for).
+// Returns the plot files written.
 std::vector<std::filesystem::path> write_sweep(const Sweep& s, const std::filesystem::path& dir,
                                                const SweepPlotOptions& options = {});
 

@@ -136,7 +136,10 @@ TEST(Sweep, NumbersAMethodReportsInExtraArePlottedUnasked) {
     row.run.method = "lam";
     row.run.ok = true;
     row.run.times.shadow_ms = 1 + i;
-    row.run.stats.extra = {{"ldi_depth_complexity", 1.5 + i}, {"note", "text is not plotted"}};
+    row.run.stats.extra = {{"ldi_depth_complexity", 1.5 + i},
+                           {"note", "text is not plotted"},
+                           {"ldi", {{"layers", 100 * (i + 1)}, {"flag", true}}},
+                           {"curve", json::array({{{"samples", 1}, {"dc", 1.0}}, {{"samples", 4}, {"dc", 1.25 + i}}})}};
     s.rows.push_back(row);
   }
   auto plots = write_sweep(s, dir.path());
@@ -146,6 +149,16 @@ TEST(Sweep, NumbersAMethodReportsInExtraArePlottedUnasked) {
   std::string csv = testing::slurp(dir / "sweep.csv");
   EXPECT_NE(csv.find(",extra.ldi_depth_complexity"), std::string::npos) << csv;
   EXPECT_EQ(csv.find("note"), std::string::npos) << csv;
+  EXPECT_EQ(csv.find("flag"), std::string::npos) << csv;
+  // Nested numbers are columns (an array: its last element), plotted when asked for.
+  EXPECT_NE(csv.find(",extra.ldi.layers"), std::string::npos) << csv;
+  EXPECT_EQ(sweep_value(s.rows[1], "extra.curve.dc"), 2.25);
+  EXPECT_EQ(sweep_value(s.rows[1], "extra.curve.samples"), 4);
+  EXPECT_EQ(sweep_value(s.rows[0], "extra.ldi.layers"), 100);
+  EXPECT_TRUE(std::isnan(sweep_value(s.rows[0], "extra.ldi.flag")));
+  auto more = write_sweep(s, dir / "more", {.extra_plots = {"extra.curve.dc"}});
+  EXPECT_EQ(more.back().filename(), "extra.ldi_depth_complexity.svg");
+  EXPECT_EQ(more[1].filename(), "extra.curve.dc.svg");
   std::string problem;
   EXPECT_TRUE(testing::xml_well_formed(testing::slurp(plots[1]), &problem)) << problem;
 }
