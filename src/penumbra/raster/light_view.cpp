@@ -57,23 +57,18 @@ LightView LightView::perspective(Vec3f eye, Vec3f dir, Vec3f up, float fov_y_deg
   return frustum(eye, dir, up, -r, r, -t, t, near, far, width, height);
 }
 
-LightView LightView::frustum_fitted(Vec3f eye, Vec3f dir, Vec3f up, const Bounds3f& bounds,
-                                    int width, int height, float min_near) {
-  if (bounds.empty()) throw Error("LightView::frustum_fitted: empty bounds");
-  if (!(min_near > 0)) throw Error("LightView::frustum_fitted: min_near must be positive (got {})", min_near);
-  Vec3f right, upv, fwd;
-  view_axes(dir, up, &right, &upv, &fwd);
-  // The part of the box in front of the plane z = min_near is a convex polytope; its extreme
-  // x/z and y/z are reached at its vertices: box corners in front of the plane and the points
-  // where box edges cross it.
+BoxPartBeyondNear box_part_beyond_near(const Bounds3f& bounds, Vec3f eye, Vec3f right, Vec3f up,
+                                       Vec3f forward, float min_near) {
+  BoxPartBeyondNear part;
+  if (bounds.empty()) return part;
   Vec3f corner[8];
   for (int i = 0; i < 8; ++i) {
     Vec3f d = bounds.corner(i) - eye;
-    corner[i] = {dot(d, right), dot(d, upv), dot(d, fwd)};
+    corner[i] = {dot(d, right), dot(d, up), dot(d, forward)};
   }
-  std::vector<Vec3f> pts;
   for (int i = 0; i < 8; ++i) {
-    if (corner[i].z >= min_near) pts.push_back(corner[i]);
+    if (corner[i].z >= min_near) part.points[part.count++] = corner[i];
+    // Each of the 12 edges once, from its corner with the lower index.
     for (int axis = 0; axis < 3; ++axis) {
       int j = i | (1 << axis);
       if (j == i) continue;
@@ -82,13 +77,24 @@ LightView LightView::frustum_fitted(Vec3f eye, Vec3f dir, Vec3f up, const Bounds
         float s = zi / (zi - zj);
         Vec3f p = corner[i] + (corner[j] - corner[i]) * s;
         p.z = min_near;
-        pts.push_back(p);
+        part.points[part.count++] = p;
       }
     }
   }
-  if (pts.empty()) throw Error("LightView::frustum_fitted: the bounds lie entirely within min_near of the eye or behind it");
+  return part;
+}
+
+LightView LightView::frustum_fitted(Vec3f eye, Vec3f dir, Vec3f up, const Bounds3f& bounds,
+                                    int width, int height, float min_near) {
+  if (bounds.empty()) throw Error("LightView::frustum_fitted: empty bounds");
+  if (!(min_near > 0)) throw Error("LightView::frustum_fitted: min_near must be positive (got {})", min_near);
+  Vec3f right, upv, fwd;
+  view_axes(dir, up, &right, &upv, &fwd);
+  const BoxPartBeyondNear part = box_part_beyond_near(bounds, eye, right, upv, fwd, min_near);
+  if (part.count == 0) throw Error("LightView::frustum_fitted: the bounds lie entirely within min_near of the eye or behind it");
   float near = kInfinity, far = 0, sx0 = kInfinity, sx1 = -kInfinity, sy0 = kInfinity, sy1 = -kInfinity;
-  for (Vec3f p : pts) {
+  for (int i = 0; i < part.count; ++i) {
+    const Vec3f p = part.points[i];
     near = std::min(near, p.z);
     far = std::max(far, p.z);
     sx0 = std::min(sx0, p.x / p.z); sx1 = std::max(sx1, p.x / p.z);

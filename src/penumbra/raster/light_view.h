@@ -17,11 +17,25 @@
 //   orthographic view d is affine in z as well.
 #pragma once
 
+#include <array>
+
 #include "penumbra/core/math.h"
 
 namespace penumbra {
 
 enum class ProjectionKind { Perspective, Orthographic };
+
+// The part of a box at linear depth >= min_near of a view frame (eye; right, up, forward) is
+// a convex polytope; its vertices are the box corners beyond the plane z = min_near and the
+// points where box edges cross that plane (at most 8 + 12). Every extreme of z, x/z and y/z
+// over the part is reached at one of them, so fitting a frustum or projecting the box's
+// window needs these points only. Points are (x, y, z) view coordinates.
+struct BoxPartBeyondNear {
+  std::array<Vec3f, 20> points;
+  int count = 0;
+};
+BoxPartBeyondNear box_part_beyond_near(const Bounds3f& bounds, Vec3f eye, Vec3f right, Vec3f up,
+                                       Vec3f forward, float min_near);
 
 class LightView {
  public:

@@ -113,6 +113,33 @@ TEST(LightView, FittedFrustumKeepsThePartBeyondMinNear) {
   EXPECT_THROW(LightView::frustum_fitted({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, behind, 8, 8, 0.1f), Error);
 }
 
+TEST(LightView, BoxPartBeyondNearIsTheClippedBoxsVertices) {
+  // A box 1 <= z <= 3 in front of an eye looking down the z axis (view frame = world frame).
+  Bounds3f b;
+  b.extend({-1, -2, 1});
+  b.extend({1, 2, 3});
+  const Vec3f eye{0, 0, 0}, right{1, 0, 0}, up{0, 1, 0}, forward{0, 0, 1};
+  // Wholly beyond the plane: its 8 corners, nothing else.
+  BoxPartBeyondNear all = box_part_beyond_near(b, eye, right, up, forward, 0.5f);
+  EXPECT_EQ(all.count, 8);
+  // Cut at z = 2: the 4 far corners and the 4 crossings of the edges along z, all at z >= 2,
+  // spanning x in [-1, 1] and y in [-2, 2].
+  BoxPartBeyondNear cut = box_part_beyond_near(b, eye, right, up, forward, 2.0f);
+  ASSERT_EQ(cut.count, 8);
+  int on_plane = 0;
+  for (int i = 0; i < cut.count; ++i) {
+    const Vec3f p = cut.points[i];
+    EXPECT_GE(p.z, 2.0f);
+    EXPECT_EQ(std::abs(p.x), 1.0f);
+    EXPECT_EQ(std::abs(p.y), 2.0f);
+    on_plane += p.z == 2.0f;
+  }
+  EXPECT_EQ(on_plane, 4);
+  // Wholly before the plane, and an empty box: no points.
+  EXPECT_EQ(box_part_beyond_near(b, eye, right, up, forward, 3.5f).count, 0);
+  EXPECT_EQ(box_part_beyond_near(Bounds3f{}, eye, right, up, forward, 0.5f).count, 0);
+}
+
 TEST(LightView, OrthographicFittedContainsTheBounds) {
   Bounds3f b;
   b.extend({-3, 0, 2});

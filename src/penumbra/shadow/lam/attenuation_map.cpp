@@ -45,32 +45,14 @@ struct ViewBox {
 
 ViewBox project_box(const Bounds3f& b, const LightAxes& a, float min_near) {
   ViewBox box;
-  if (b.empty()) return box;
-  Vec3f corner[8];
-  for (int i = 0; i < 8; ++i) {
-    Vec3f d = b.corner(i) - a.eye;
-    corner[i] = {dot(d, a.right), dot(d, a.up), dot(d, a.forward)};
-  }
-  auto add = [&](Vec3f p) {
+  const BoxPartBeyondNear part = box_part_beyond_near(b, a.eye, a.right, a.up, a.forward, min_near);
+  for (int i = 0; i < part.count; ++i) {
+    const Vec3f p = part.points[i];
     box.empty = false;
     box.z0 = std::min(box.z0, p.z);
     box.z1 = std::max(box.z1, p.z);
     box.u0 = std::min(box.u0, p.x / p.z); box.u1 = std::max(box.u1, p.x / p.z);
     box.v0 = std::min(box.v0, p.y / p.z); box.v1 = std::max(box.v1, p.y / p.z);
-  };
-  for (int i = 0; i < 8; ++i) {
-    if (corner[i].z >= min_near) add(corner[i]);
-    for (int axis = 0; axis < 3; ++axis) {
-      int j = i | (1 << axis);
-      if (j == i) continue;
-      float zi = corner[i].z - min_near, zj = corner[j].z - min_near;
-      if ((zi < 0) != (zj < 0)) {
-        float s = zi / (zi - zj);
-        Vec3f p = corner[i] + (corner[j] - corner[i]) * s;
-        p.z = min_near;
-        add(p);
-      }
-    }
   }
   return box;
 }
