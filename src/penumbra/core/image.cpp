@@ -85,7 +85,15 @@ void write_exr(const std::string& path, const Image& img, const std::vector<Name
 }
 
 void write_png(const std::string& path, const Image& img, bool linear) {
+  const std::vector<unsigned char> png = encode_png(img, linear);
+  write_text_file_atomic(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+}
+
+}  // namespace
+
+std::vector<unsigned char> encode_png(const Image& img, bool linear) {
   const int w = img.width(), h = img.height();
+  if (w <= 0 || h <= 0) throw Error("encode_png: empty image");
   const int comp = img.channels() >= 3 ? 3 : 1;
   std::vector<unsigned char> bytes(static_cast<size_t>(w) * h * comp);
   for (size_t i = 0; i < img.pixel_count(); ++i)
@@ -94,13 +102,16 @@ void write_png(const std::string& path, const Image& img, bool linear) {
       float e = linear ? clamp01(v) : linear_to_srgb(v);
       bytes[i * comp + c] = static_cast<unsigned char>(std::lround(e * 255.0f));
     }
-  AtomicFile out(path);
-  if (!stbi_write_png(out.tmp().c_str(), w, h, comp, bytes.data(), w * comp))
-    throw Error("{}: cannot write PNG", path);
-  out.commit();
+  std::vector<unsigned char> png;
+  auto sink = [](void* ctx, void* data, int size) {
+    auto* out = static_cast<std::vector<unsigned char>*>(ctx);
+    const auto* d = static_cast<const unsigned char*>(data);
+    out->insert(out->end(), d, d + size);
+  };
+  if (!stbi_write_png_to_func(sink, &png, w, h, comp, bytes.data(), w * comp))
+    throw Error("encode_png: cannot encode a {}x{} image", w, h);
+  return png;
 }
-
-}  // namespace
 
 void write_image(const std::string& path, const Image& img, const std::vector<NamedChannel>& extra,
                  bool linear_png) {

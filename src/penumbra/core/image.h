@@ -53,6 +53,11 @@ struct NamedChannel {
 void write_image(const std::string& path, const Image& rgb_or_grey,
                  const std::vector<NamedChannel>& extra = {}, bool linear_png = false);
 
+// An 8-bit PNG in memory: 1-channel images as grey, 3+ channels as RGB. Values are linear
+// and pass through the sRGB curve unless `linear` (then they are written as they are,
+// clamped to [0,1]): the bytes write_image() writes to a .png file.
+std::vector<unsigned char> encode_png(const Image& image, bool linear = false);
+
 // Reads .exr (the R,G,B channels, or Y/V when it has one channel) or .png/.jpg (sRGB
 // decoded to linear unless `linear_png`). Errors name the file.
 Image read_image(const std::string& path, bool linear_png = false);

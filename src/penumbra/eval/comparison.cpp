@@ -15,6 +15,7 @@
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/eval/report_util.h"
 #include "penumbra/eval/flip.h"
 #include "penumbra/render/renderer.h"
 
@@ -313,26 +314,6 @@ json comparison_json(const Comparison& c) {
   }
   return j;
 }
-
-namespace {
-
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char ch : s) {
-    if (ch == '"') out += '"';
-    out += ch;
-  }
-  return out + "\"";
-}
-
-std::string csv_number(double v) {
-  if (std::isnan(v)) return "";
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  return fmt::format("{}", v);  // shortest representation that reads back exactly
-}
-
-}  // namespace
 
 std::string comparison_csv(const Comparison& c) {
   std::vector<std::string> phases;

@@ -3,7 +3,6 @@
 #include <cmath>
 
 #include <fmt/format.h>
-#include <stb_image_write.h>  // the implementation is compiled in core/image.cpp
 
 namespace penumbra {
 
@@ -35,31 +34,25 @@ std::string base64_encode(const void* data, size_t size) {
   return out;
 }
 
-std::vector<unsigned char> encode_png(const Image& img, bool linear) {
-  const int w = img.width(), h = img.height();
-  if (w <= 0 || h <= 0) throw Error("encode_png: empty image");
-  const int comp = img.channels() >= 3 ? 3 : 1;
-  std::vector<unsigned char> bytes(static_cast<size_t>(w) * h * comp);
-  for (size_t i = 0; i < img.pixel_count(); ++i)
-    for (int c = 0; c < comp; ++c) {
-      float v = img.pixel(i)[c];
-      float e = linear ? clamp01(v) : linear_to_srgb(v);
-      bytes[i * comp + c] = static_cast<unsigned char>(std::lround(e * 255.0f));
-    }
-  std::vector<unsigned char> png;
-  auto sink = [](void* ctx, void* data, int size) {
-    auto* out = static_cast<std::vector<unsigned char>*>(ctx);
-    const auto* d = static_cast<const unsigned char*>(data);
-    out->insert(out->end(), d, d + size);
-  };
-  if (!stbi_write_png_to_func(sink, &png, w, h, comp, bytes.data(), w * comp))
-    throw Error("encode_png: cannot encode a {}x{} image", w, h);
-  return png;
-}
-
 std::string png_data_uri(const Image& image, bool linear) {
   std::vector<unsigned char> png = encode_png(image, linear);
   return "data:image/png;base64," + base64_encode(png.data(), png.size());
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char ch : s) {
+    if (ch == '"') out += '"';
+    out += ch;
+  }
+  return out + "\"";
+}
+
+std::string csv_number(double v) {
+  if (std::isnan(v)) return "";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return fmt::format("{}", v);  // shortest representation that reads back exactly
 }
 
 std::string xml_escape(std::string_view s) {

@@ -15,12 +15,13 @@ namespace penumbra {
 std::string base64_encode(const void* data, size_t size);
 inline std::string base64_encode(std::string_view s) { return base64_encode(s.data(), s.size()); }
 
-// An 8-bit PNG in memory: 1-channel images as grey, 3+ channels as RGB. Values are linear
-// and pass through the sRGB curve unless `linear` (then they are written as they are,
-// clamped to [0,1]) -- the same bytes write_image() writes to a .png file.
-std::vector<unsigned char> encode_png(const Image& image, bool linear = false);
-// "data:image/png;base64,..." of encode_png().
+// "data:image/png;base64,..." of encode_png() (core/image.h).
 std::string png_data_uri(const Image& image, bool linear = false);
+
+// A CSV field (RFC 4180): quoted, with quotes doubled, when it holds a comma, quote or newline.
+std::string csv_field(const std::string& s);
+// A number for CSV: the shortest text that reads back exactly; "" for NaN, "inf", "-inf".
+std::string csv_number(double v);
 
 // Escapes & < > " ' for HTML/XML text and attribute values.
 std::string xml_escape(std::string_view s);

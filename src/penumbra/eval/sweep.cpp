@@ -12,6 +12,7 @@
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/eval/report_util.h"
 #include "penumbra/eval/svg_plot.h"
 
 namespace penumbra {
@@ -35,22 +36,6 @@ std::string safe_name(const std::string& s) {
   std::string out;
   for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_' || c == '=') ? c : '_';
   return out;
-}
-
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char ch : s) {
-    if (ch == '"') out += '"';
-    out += ch;
-  }
-  return out + "\"";
-}
-
-std::string csv_number(double v) {
-  if (std::isnan(v)) return "";
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  return fmt::format("{}", v);
 }
 
 const std::vector<std::string>& base_columns() {
