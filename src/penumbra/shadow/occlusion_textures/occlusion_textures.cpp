@@ -219,6 +219,9 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   stats->extra["cop_distance"] = d_;
   stats->extra["depth_range"] = {top_, bottom};
   stats->extra["caster_triangles"] = triangles_.size();
+  // Fragments of the slicing pass: they grow with the texels the casters cover, i.e. as the
+  // light (to which the texture is fitted, §3.4) shrinks relative to the casters.
+  stats->extra["slicing_fragments"] = rasterizer_.stats().fragments;
   nlohmann::json culled = nlohmann::json::array();
   for (uint32_t i : culled_) culled.push_back(scene.objects[i].name);
   stats->extra["culled_objects"] = culled;
