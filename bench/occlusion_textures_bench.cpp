@@ -4,7 +4,8 @@
 // pass runs once per scene, outside the timed loop. Counters: the per-phase times of the
 // frames (ms, wall clock), the process CPU time per frame (all threads), filtered lookups
 // and texels read per view sample (and lookups whose kernel lies outside the texture or is
-// cut to a strip by its border), texture memory, the centre of projection's distance d.
+// cut to a strip by its border), texture memory, the centre of projection's distance d, the
+// fragments of the slicing pass.
 //
 //   cmake --build build --target occlusion_textures_bench -j2
 //   build/occlusion_textures_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -125,6 +126,7 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
   state.counters["strips_per_sample"] = static_cast<double>(strips) / samples;
   state.counters["texture_MB"] = static_cast<double>(method->stats().memory_bytes) / (1024.0 * 1024.0);
   state.counters["d"] = method->stats().extra.value("cop_distance", 0.0);
+  state.counters["fragments"] = method->stats().extra.value("slicing_fragments", 0.0);
 }
 
 // eisemann2006 Fig. 2's speed column: building each pre-filter for the 16 occlusion

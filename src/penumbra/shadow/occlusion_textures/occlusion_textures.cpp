@@ -219,6 +219,9 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   stats->extra["cop_distance"] = d_;
   stats->extra["depth_range"] = {top_, bottom};
   stats->extra["caster_triangles"] = triangles_.size();
+  // Fragments of the slicing pass: they grow with the texels the casters cover, i.e. as the
+  // light (to which the texture is fitted, §3.4) shrinks relative to the casters.
+  stats->extra["slicing_fragments"] = rasterizer_.stats().fragments;
   nlohmann::json culled = nlohmann::json::array();
   for (uint32_t i : culled_) culled.push_back(scene.objects[i].name);
   stats->extra["culled_objects"] = culled;
@@ -271,6 +274,9 @@ struct OcclusionTextures::Batch {
   std::vector<uint8_t> above;     // slices above each point
   std::vector<float> u, v, z, inv_z, product, sum, largest, cx, cy, side, occlusion;  // sorted
   std::vector<uint32_t> target;                                                    // sorted
+  // One slice's kernels that meet the texture: their index among the points, centre and side.
+  std::vector<uint32_t> meets;
+  std::vector<float> meets_cx, meets_cy, meets_side;
   void reset(size_t n) {
     points.resize(n);
     targets.resize(n);
@@ -304,6 +310,51 @@ PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const fl
   }
 }
 
+// Whether a kernel meets the R x R texture (the same test as the filters' clipping; outside
+// counts as empty, prefilter.h).
+inline bool meets_texture(float cx, float cy, float side, float R) {
+  const float half = 0.5f * std::max(side, 1.0f);
+  const float x0 = cx - half, x1 = cx + half, y0 = cy - half, y1 = cy + half;
+  return (std::min(x1, R) - std::max(x0, 0.0f) > 0) & (std::min(y1, R) - std::max(y0, 0.0f) > 0);
+}
+
+// How many of the m kernels meet the texture.
+PENUMBRA_OT_CLONES size_t count_meeting_texture(size_t m, const float* __restrict cx, const float* __restrict cy,
+                                                const float* __restrict side, float R) {
+  size_t a = 0;
+  for (size_t i = 0; i < m; ++i) a += meets_texture(cx[i], cy[i], side[i], R);
+  return a;
+}
+
+// The kernels that meet the texture: their indices into meets[], their centres and sides
+// gathered; returns how many.
+PENUMBRA_OT_CLONES size_t kernels_meeting_texture(size_t m, const float* __restrict cx, const float* __restrict cy,
+                                                  const float* __restrict side, float R, uint32_t* __restrict meets,
+                                                  float* __restrict mx, float* __restrict my, float* __restrict ms) {
+  size_t a = 0;
+  for (size_t i = 0; i < m; ++i) {
+    meets[a] = static_cast<uint32_t>(i);
+    mx[a] = cx[i];
+    my[a] = cy[i];
+    ms[a] = side[i];
+    a += meets_texture(cx[i], cy[i], side[i], R);
+  }
+  return a;
+}
+
+// accumulate() for the kernels meets[0..a) (occ[j] belongs to point meets[j]).
+PENUMBRA_OT_CLONES void accumulate_at(size_t a, const uint32_t* __restrict meets, const float* __restrict z,
+                                      const float* __restrict occ, float zp, float inv_fade, float* __restrict product,
+                                      float* __restrict sum, float* __restrict largest) {
+  for (size_t j = 0; j < a; ++j) {
+    const uint32_t i = meets[j];
+    const float o = std::min(1.0f, (z[i] - zp) * inv_fade) * occ[j];
+    product[i] *= 1.0f - o;  // eq. 5
+    sum[i] += o;
+    largest[i] = std::max(largest[i], o);
+  }
+}
+
 }  // namespace
 
 // V for every point of the batch into out[target]. For slice k and a point P at depth z > zp
@@ -311,14 +362,19 @@ PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const fl
 // (z - zp) / z (eq. 4), centred where P-C crosses the plane; in texels its side is
 // t R d / (zp + d) and its centre is R/2 + u (zp / z) (d / (zp + d)) R / width (and likewise
 // in y, rows downward). The slice just above P fades in over `fade` slice thicknesses (§3.4);
-// the slice containing P and those below are not looked up.
+// the slice containing P and those below are not looked up. Kernels entirely outside the
+// texture (points outside the slicing frustum, on the slices nearest to them) are 0 without a
+// lookup: with a small light most of a wide receiver lies outside the frustum fitted to the
+// light (§3.4), and filtering those zeros was what made small lights slower to shade.
 template <class F>
 void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> out, LookupCounters& n) const {
   const size_t count = b.points.size();
   const int S = options_.slices;
-  for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion})
+  for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion,
+                  &b.meets_cx, &b.meets_cy, &b.meets_side})
     a->resize(count);
   b.target.resize(count);
+  b.meets.resize(count);
   b.above.resize(count);
   // Slices above each point, and a counting sort by that number, descending.
   uint32_t bucket[33] = {};
@@ -357,8 +413,24 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
     const float zp = plane(k);
     kernels(m, b.u.data(), b.v.data(), b.z.data(), b.inv_z.data(), zp, scale_[k], R_, kx_, ky_, b.cx.data(), b.cy.data(),
             b.side.data());
-    filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
-    accumulate(m, b.z.data(), b.occlusion.data(), zp, inv_fade_, b.product.data(), b.sum.data(), b.largest.data());
+    // Kernels outside the texture are 0. When more than a quarter of them are, the others are
+    // gathered and filtered alone; otherwise the filter's own clipping gives the zeros (a
+    // gather and scatter would cost more than it saves).
+    const size_t inside = count_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), R_);
+    if (4 * inside >= 3 * m) {
+      filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
+      accumulate(m, b.z.data(), b.occlusion.data(), zp, inv_fade_, b.product.data(), b.sum.data(), b.largest.data());
+    } else {
+      const size_t a = kernels_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), R_, b.meets.data(),
+                                               b.meets_cx.data(), b.meets_cy.data(), b.meets_side.data());
+      n.lookups += m - a;  // lookups of 0 outside the texture, not made
+      n.outside += m - a;
+      if (a > 0) {
+        filter.squares(k, a, b.meets_cx.data(), b.meets_cy.data(), b.meets_side.data(), b.occlusion.data(), n);
+        accumulate_at(a, b.meets.data(), b.z.data(), b.occlusion.data(), zp, inv_fade_, b.product.data(), b.sum.data(),
+                      b.largest.data());
+      }
+    }
   }
   for (size_t i = 0; i < count; ++i)
     out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? combine(b.product[i], b.sum[i], b.largest[i]) : 1.0f);

@@ -205,6 +205,46 @@ TEST(OcclusionTextures, LookupsPerPointDoNotDependOnTheLightSize) {
   }
 }
 
+TEST(OcclusionTextures, KernelsOutsideTheTextureAreZeroWithoutALookup) {
+  // A small light fitted with the slicing frustum (§3.4): most of the ground lies outside it,
+  // and the kernels of those points on the slices nearest to them miss the texture. They are
+  // skipped (no texel read); every point's V is still eq. 5 over box() lookups of its kernels.
+  Scene scene = testing::ground_scene({testing::object(testing::box({-0.3f, 0.2f, -0.3f}, {0.3f, 0.9f, 0.3f}))},
+                                      testing::rect_light_down({0.1f, 2, 0}, 0.2f, 0.2f), 48);
+  for (const char* prefilter : {"nbuffer", "mipmap", "sat"}) {
+    MethodRun r = run_method(scene, {fmt::format("prefilter={}", prefilter), "slices=8", "resolution=128"});
+    const double lookups = r.stats.extra["lookups"].get<double>(), outside = r.stats.extra["lookups_outside"].get<double>();
+    EXPECT_GT(outside, 0.3 * lookups) << prefilter;
+    // 16 texels per summed-area lookup made (the pyramids' border strips read more, prefilter.h).
+    if (std::string(prefilter) == "sat") EXPECT_EQ(double(r.stats.texels_visited), (lookups - outside) * 16);
+    Options o;
+    o.slices = 8;
+    o.resolution = 128;
+    o.prefilter = occlusion::parse_prefilter(prefilter);
+    OcclusionTextures ot(o);
+    MethodStats stats;
+    ot.build(scene, scene.lights[0], &stats);
+    const float R = 128, d = ot.cop_distance();
+    const occlusion::LightRect& light = ot.light();
+    int shadowed = 0;
+    for (size_t i = 0; i < r.vs.size(); ++i) {
+      const Vec3f q = r.vs.samples[i].p - light.center;
+      const float u = dot(q, ot.view().right()), v = dot(q, ot.view().up()), z = dot(q, light.forward);
+      double expect = 1;
+      for (int k = 0; k < ot.slices() && ot.plane(k) < z; ++k) {
+        const float zp = ot.plane(k), scale = d / (zp + d);
+        const float cx = R / 2 + u * (zp / z) * scale * R / light.width, cy = R / 2 - v * (zp / z) * scale * R / light.height;
+        const float half = 0.5f * std::max(1.0f, (z - zp) / z * scale * R);
+        const float fade = std::min(1.0f, (z - zp) / ot.thickness());
+        expect *= 1 - fade * ot.box(k, cx - half, cy - half, cx + half, cy + half);
+      }
+      ASSERT_NEAR(r.v[i], expect, 2e-3) << prefilter << " at " << r.vs.samples[i].p.x << ", " << r.vs.samples[i].p.z;
+      shadowed += expect < 0.5;
+    }
+    EXPECT_GT(shadowed, 20) << prefilter;
+  }
+}
+
 TEST(OcclusionTextures, ThinOccluderFixAlsoFillsTheNextSlice) {
   // A tilted quad crosses every slice; with the fix each slice's coverage is also written
   // into the next slice farther from the light (§3.4, Fig. 6).
