@@ -426,8 +426,9 @@ class AliasFreeSoft final : public AliasFreeBase {
           // p (almost) in the triangle's plane sees it edge-on: the cone from p over it is flat
           // and its edge planes are rounding noise, so it casts nothing (a segment from p
           // crosses that plane next to p, away from the triangle, unless p touches it).
-          const float flat = kFlat * t.normal_len * length(to_p);
-          if (t.closed ? !(side > flat) : !(std::abs(side) > flat)) continue;
+          const float flat2 = kFlat * kFlat * t.normal_len * t.normal_len * dot(to_p, to_p);
+          if (t.closed ? !(side > 0) : side == 0) continue;
+          if (!(side * side > flat2)) continue;
           uint64_t* m = blocked.data() + static_cast<size_t>(slot) * words;
           const Vec2f rot = jitter ? rotation[slot] : Vec2f{1, 0};
           // Behind the supporting plane as seen from p: the other side.
@@ -445,7 +446,14 @@ class AliasFreeSoft final : public AliasFreeBase {
           bool any = true;
           for (int i = 0; i < 3 && any; ++i) {
             const Vec3f e = edge_plane(t.v[i] - p, t.v[(i + 1) % 3] - t.v[i], side > 0);
-            cnt.exact_bits += lut.mask(rotate(Vec2f{dot(e, ls), dot(e, lt)}, rot), dot(e, c - p), edge);
+            const Vec2f g = rotate(Vec2f{dot(e, ls), dot(e, lt)}, rot);
+            const float h = dot(e, c - p);
+            // Most edge planes leave the whole light on one side (the sample is far outside
+            // or well inside this edge's wedge): decided without a lookup.
+            const int whole = lut.side_of_disk(g, h);
+            if (whole < 0) any = false;
+            if (whole != 0) continue;
+            cnt.exact_bits += lut.mask(g, h, edge);
             cnt.plane_lookups++;
             uint64_t left = 0;
             for (int w = 0; w < words; ++w) left |= (hidden[w] &= edge[w]);

@@ -60,6 +60,7 @@ PlaneMaskLut::PlaneMaskLut(std::span<const Vec2f> samples, int angle_bins, int d
     rmax = std::max(rmax, std::sqrt(u.x * u.x + u.y * u.y));
   }
   max_distance_ = rmax * (1 + 1e-4f) + 1e-6f;
+  max_distance2_ = max_distance_ * max_distance_;
   all_.assign(words_, ~0ull);
   if (n % 64) all_.back() = (1ull << (n % 64)) - 1;
   if (!has_table()) return;

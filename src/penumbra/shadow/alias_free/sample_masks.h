@@ -67,12 +67,23 @@ class PlaneMaskLut {
   // The mask with every sample set.
   const uint64_t* all() const { return all_.data(); }
 
+  // Where the line g . u + h = 0 misses the samples' disk: -1 when no sample is on the
+  // positive side, +1 when all are, 0 when it may cut them (then use mask()). No square root,
+  // no table access: the common cases of the per-(sample, caster) test end here.
+  int side_of_disk(Vec2f g, float h) const {
+    const float g2 = g.x * g.x + g.y * g.y, reach2 = g2 * max_distance2_;
+    if (h * h > reach2 || (g2 == 0 && h != 0)) return h > 0 ? 1 : -1;
+    if (g2 == 0) return -1;  // g = 0, h = 0: nothing strictly positive
+    return 0;
+  }
+
  private:
   std::vector<float> ux_, uy_;
   std::vector<uint64_t> all_;
   int words_ = 1;
   int angle_bins_ = 0, distance_bins_ = 0;
   float max_distance_ = 1;  // samples lie within this distance of the centre (padded)
+  float max_distance2_ = 1;
   // Per cell (angle-major): words_ sure bits, then words_ unsure bits.
   std::vector<uint64_t> cells_;
 };
