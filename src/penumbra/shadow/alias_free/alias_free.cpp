@@ -22,6 +22,7 @@
 #include <bit>
 #include <cmath>
 #include <optional>
+#include <unordered_map>
 
 #include <tbb/enumerable_thread_specific.h>
 
@@ -126,6 +127,63 @@ class AliasFreeBase : public ShadowMethod {
     return true;
   }
 
+  // §3: the shadow bit of every listed slot for the point light at c (1 = some caster blocks
+  // the segment from the slot's point to c). Closed meshes cast with their triangles facing
+  // away from c only (§3.3). Sets extra.casters; adds to *counters and *memory.
+  std::vector<uint8_t> center_shadow(const Scene& scene, Vec3f c, Counters* counters, size_t* memory) {
+    // The casters and their four planes (§3.3), oriented so that "inside" is positive.
+    struct Planes {
+      Vec3f support;  // p is behind the caster when dot(support, p - v0) > 0
+      Vec3f v0;
+      Vec3f edge[3];  // p is inside the pyramid when dot(edge[i], p - c) >= 0 for all i
+    };
+    std::vector<RasterTriangle> casters;
+    std::vector<Planes> planes;
+    {
+      ScopedPhase phase(stats_, "casters");
+      for (const RasterTriangle& t : triangles_) {
+        if (!(t.opacity > 0)) continue;
+        const Vec3f n = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]);
+        const float side = dot(n, c - t.p[0]);
+        // §3.3: a closed mesh casts with its light back-facing triangles only.
+        if (scene.objects[t.object].closed ? !(side < 0) : side == 0) continue;
+        Planes pl;
+        pl.support = side > 0 ? -n : n;
+        pl.v0 = t.p[0];
+        for (int i = 0; i < 3; ++i) pl.edge[i] = edge_plane(t.p[i] - c, t.p[(i + 1) % 3] - t.p[i], side > 0);
+        casters.push_back(t);
+        planes.push_back(pl);
+      }
+    }
+    std::vector<uint8_t> shadowed(lists_.slots(), 0);  // the shadow bits, apart from positions
+    tbb::enumerable_thread_specific<Counters> local;
+    {
+      ScopedPhase phase(stats_, "raster_center");
+      rasterizer_.triangles(casters, view_, RasterFilter{}, [&](int x, int y, uint32_t index) {
+        Counters& cnt = local.local();
+        cnt.texel_visits++;
+        const uint32_t begin = lists_.begin(x, y), end = lists_.end(x, y);
+        if (begin == end) {
+          cnt.empty_visits++;  // §4.3: texels with empty lists do no work
+          return;
+        }
+        const Planes& pl = planes[index];
+        for (uint32_t slot = begin; slot < end; ++slot) {
+          if (shadowed[slot]) continue;
+          cnt.sample_tests++;
+          const Vec3f p = lists_.positions[slot];
+          if (!(dot(pl.support, p - pl.v0) > 0)) continue;
+          const Vec3f d = p - c;
+          if (dot(pl.edge[0], d) >= 0 && dot(pl.edge[1], d) >= 0 && dot(pl.edge[2], d) >= 0) shadowed[slot] = 1;
+        }
+      });
+    }
+    for (const Counters& c2 : local) counters->add(c2);
+    stats_.extra["casters"] = casters.size();
+    *memory += shadowed.size() + planes.size() * sizeof(Planes) + casters.size() * sizeof(RasterTriangle);
+    return shadowed;
+  }
+
   void report(const Counters& c, uint64_t casters, uint64_t extra_memory) {
     stats_.texels_visited += c.texel_visits;
     stats_.extra["casters"] = casters;
@@ -183,58 +241,12 @@ class AliasFreeHard final : public AliasFreeBase {
         if (!listed[id]) out.visibility[id] = 1.0f;
     }
 
-    // The casters and their four planes (§3.3), oriented so that "inside" is positive.
-    struct Planes {
-      Vec3f support;  // p is behind the caster when dot(support, p - v0) > 0
-      Vec3f v0;
-      Vec3f edge[3];  // p is inside the pyramid when dot(edge[i], p - c) >= 0 for all i
-    };
-    std::vector<RasterTriangle> casters;
-    std::vector<Planes> planes;
-    {
-      ScopedPhase phase(stats_, "casters");
-      for (const RasterTriangle& t : triangles_) {
-        if (!(t.opacity > 0)) continue;
-        const Vec3f n = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]);
-        const float side = dot(n, c - t.p[0]);
-        // §3.3: a closed mesh casts with its light back-facing triangles only.
-        if (scene.objects[t.object].closed ? !(side < 0) : side == 0) continue;
-        Planes pl;
-        pl.support = side > 0 ? -n : n;
-        pl.v0 = t.p[0];
-        for (int i = 0; i < 3; ++i) pl.edge[i] = edge_plane(t.p[i] - c, t.p[(i + 1) % 3] - t.p[i], side > 0);
-        casters.push_back(t);
-        planes.push_back(pl);
-      }
-    }
-    std::vector<uint8_t> shadowed(lists_.slots(), 0);  // the shadow bits, apart from positions
-    tbb::enumerable_thread_specific<Counters> counters;
-    {
-      ScopedPhase phase(stats_, "raster");
-      rasterizer_.triangles(casters, view_, RasterFilter{}, [&](int x, int y, uint32_t index) {
-        Counters& cnt = counters.local();
-        cnt.texel_visits++;
-        const uint32_t begin = lists_.begin(x, y), end = lists_.end(x, y);
-        if (begin == end) {
-          cnt.empty_visits++;  // §4.3: texels with empty lists do no work
-          return;
-        }
-        const Planes& pl = planes[index];
-        for (uint32_t slot = begin; slot < end; ++slot) {
-          if (shadowed[slot]) continue;
-          cnt.sample_tests++;
-          const Vec3f p = lists_.positions[slot];
-          if (!(dot(pl.support, p - pl.v0) > 0)) continue;
-          const Vec3f d = p - c;
-          if (dot(pl.edge[0], d) >= 0 && dot(pl.edge[1], d) >= 0 && dot(pl.edge[2], d) >= 0) shadowed[slot] = 1;
-        }
-      });
-    }
+    Counters total;
+    size_t memory = 0;
+    const std::vector<uint8_t> shadowed = center_shadow(scene, c, &total, &memory);
     for (size_t slot = 0; slot < lists_.slots(); ++slot)
       if (shadowed[slot]) out.visibility[lists_.sample[slot]] = 0.0f;
-    Counters total;
-    for (const Counters& c2 : counters) total.add(c2);
-    report(total, casters.size(), shadowed.size() + planes.size() * sizeof(Planes));
+    report(total, static_cast<uint64_t>(stats_.extra.value("casters", 0)), memory);
     finish(ctx, vs);
   }
 
@@ -254,7 +266,44 @@ class AliasFreeSoft final : public AliasFreeBase {
         use_lut_(p.get_bool("lut")),
         lut_resolution_(p.get_int("lut_resolution")),
         jitter_(p.get_bool("jitter")),
-        restrict_(p.get_bool("restrict")) {}
+        restrict_(p.get_bool("restrict")),
+        silhouettes_(p.get_bool("silhouettes")) {}
+
+  // §4.3 "Restrict computations": the edges of the casters, welded by position, with the
+  // normals of their (first two) faces, for the silhouette test of each frame.
+  void prepare(const ShadowContext& ctx) override {
+    AliasFreeBase::prepare(ctx);
+    edges_.clear();
+    if (!silhouettes_) return;
+    ScopedPhase phase(stats_, "edges");
+    struct Key {
+      uint32_t x, y, z;
+      bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+    };
+    struct KeyHash {
+      size_t operator()(const Key& k) const { return hash_combine(hash_combine(k.x, k.y), k.z); }
+    };
+    std::unordered_map<Key, uint32_t, KeyHash> vertex_ids;
+    std::unordered_map<uint64_t, uint32_t> edge_ids;
+    auto vertex_id = [&](Vec3f p) {
+      const Key k{std::bit_cast<uint32_t>(p.x), std::bit_cast<uint32_t>(p.y), std::bit_cast<uint32_t>(p.z)};
+      return vertex_ids.emplace(k, static_cast<uint32_t>(vertex_ids.size())).first->second;
+    };
+    for (const RasterTriangle& t : triangles_) {
+      if (!(t.opacity > 0)) continue;
+      const Vec3f n = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]);
+      const uint32_t id[3] = {vertex_id(t.p[0]), vertex_id(t.p[1]), vertex_id(t.p[2])};
+      for (int i = 0; i < 3; ++i) {
+        const uint32_t a = id[i], b = id[(i + 1) % 3];
+        const uint64_t key = (static_cast<uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+        auto [it, fresh] = edge_ids.emplace(key, static_cast<uint32_t>(edges_.size()));
+        if (fresh) edges_.push_back({t.p[i], t.p[(i + 1) % 3], {n, n}, 0});
+        SilhouetteEdge& e = edges_[it->second];
+        if (e.faces < 2) e.normal[e.faces] = n;
+        e.faces++;
+      }
+    }
+  }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
     const AreaLight& light = *ctx.light;
@@ -294,6 +343,10 @@ class AliasFreeSoft final : public AliasFreeBase {
     std::vector<Vec2f> rotation(jitter ? slots : 0);
     // The per-slot masks of blocked light samples, apart from the positions (§3.1).
     std::vector<uint64_t> blocked(slots * words, 0);
+    // Slots whose every light sample is blocked (no further tests), and slots whose own
+    // tangent plane cuts the light (their V is not the centre's even away from every
+    // silhouette edge: always tested in full).
+    std::vector<uint8_t> full(slots, 0), own_plane_cuts(slots, 0);
     {
       ScopedPhase phase(stats_, "init");
       parallel_for(slots, 1024, [&](size_t begin, size_t end) {
@@ -303,14 +356,18 @@ class AliasFreeSoft final : public AliasFreeBase {
             const float a = 2 * kPi * Rng(ctx.seed, 0x4a495454u + ctx.light_index, s.pixel, ctx.frame).next_float();
             rotation[slot] = {std::cos(a), std::sin(a)};
           }
+          Vec2f g{dot(s.ng, ls), dot(s.ng, lt)};
+          if (jitter) g = rotate(g, rotation[slot]);
+          const float h = dot(s.ng, c - s.p);
+          own_plane_cuts[slot] = lut.side_of_disk(g, h) == 0;
           // A sample on a closed mesh sees nothing behind its own tangent plane (the shadow
           // ray would start inside the object): those bits start blocked.
           if (!scene.objects[s.object].closed) continue;
           uint64_t* m = blocked.data() + slot * words;
-          Vec2f g{dot(s.ng, ls), dot(s.ng, lt)};
-          if (jitter) g = rotate(g, rotation[slot]);
-          lut.exact(g, dot(s.ng, c - s.p), m);
-          for (int w = 0; w < words; ++w) m[w] = ~m[w] & lut.all()[w];
+          lut.exact(g, h, m);
+          uint64_t left = 0;
+          for (int w = 0; w < words; ++w) left |= (m[w] = ~m[w] & lut.all()[w]) ^ lut.all()[w];
+          full[slot] = left == 0;
         }
       });
     }
@@ -327,6 +384,7 @@ class AliasFreeSoft final : public AliasFreeBase {
       size_t support_mask = 0;  // closed, without jitter: index into support_masks
     };
     std::vector<Caster> casters;
+    std::vector<uint8_t> stencil;  // silhouette edges' regions (empty: no restriction)
     std::vector<uint64_t> support_masks;
     uint64_t front_facing = 0;
     ConvexPolygons regions;
@@ -399,10 +457,40 @@ class AliasFreeSoft final : public AliasFreeBase {
         casters.push_back(cs);
         regions.add(polygon);
       }
+
+      // §4.3: penumbrae are cast only by silhouette edges (an edge whose two faces do not
+      // face the same way for every point of the light's disk, or a boundary edge). A sample
+      // outside every silhouette edge's influence region sees all the light or none of it:
+      // its V is the centre's (a hard shadow bit), unless its own plane cuts the light.
+      if (silhouettes_) {
+        ConvexPolygons edge_regions;
+        for (const SilhouetteEdge& e : edges_) {
+          bool silhouette = e.faces != 2;
+          if (!silhouette) {
+            int side[2];
+            for (int f = 0; f < 2; ++f)
+              side[f] = lut.side_of_disk({dot(e.normal[f], ls), dot(e.normal[f], lt)}, dot(e.normal[f], c - e.a));
+            silhouette = side[0] == 0 || side[1] == 0 || side[0] != side[1];
+          }
+          if (!silhouette) continue;
+          if (view_.linear_depth(e.a) <= 0 && view_.linear_depth(e.b) <= 0) continue;
+          const Vec3f v[3] = {e.a, e.b, e.b};
+          if (!influence.region(v, &polygon)) polygon.assign(whole, whole + 4);
+          edge_regions.add(polygon);
+        }
+        stats_.extra["silhouette_edges"] = edge_regions.size();
+        stats_.extra["edges"] = edges_.size();
+        stencil.assign(static_cast<size_t>(view_.width()) * view_.height(), 0);
+        rasterizer_.polygons(edge_regions, view_.width(), view_.height(),
+                             [&](int x, int y, uint32_t) { stencil[lists_.texel(x, y)] = 1; });
+      }
     }
 
+    Counters center_counters;
+    size_t center_memory = 0;
+    const std::vector<uint8_t> center =
+        silhouettes_ ? center_shadow(scene, c, &center_counters, &center_memory) : std::vector<uint8_t>();
     tbb::enumerable_thread_specific<Counters> counters;
-    std::vector<uint8_t> full(slots, 0);
     {
       ScopedPhase phase(stats_, "raster");
       rasterizer_.polygons(regions, view_.width(), view_.height(), [&](int x, int y, uint32_t index) {
@@ -414,9 +502,11 @@ class AliasFreeSoft final : public AliasFreeBase {
           return;
         }
         const Caster& t = casters[index];
+        const bool near_silhouette = stencil.empty() || stencil[lists_.texel(x, y)];
         uint64_t hidden[afsm::kMaxLightSamples / 64], edge[afsm::kMaxLightSamples / 64];
         for (uint32_t slot = begin; slot < end; ++slot) {
           if (full[slot]) continue;  // every light sample already blocked (umbra)
+          if (!near_silhouette && !own_plane_cuts[slot]) continue;  // V is the centre's
           cnt.sample_tests++;
           const Vec3f p = lists_.positions[slot];
           const Vec3f to_p = p - t.v[0];
@@ -467,6 +557,19 @@ class AliasFreeSoft final : public AliasFreeBase {
         }
       });
     }
+    if (!stencil.empty()) {
+      // Away from every silhouette edge: all of the light or none, as the centre.
+      uint64_t hard = 0;
+      for (size_t texel = 0; texel < stencil.size(); ++texel) {
+        if (stencil[texel]) continue;
+        for (uint32_t slot = lists_.first[texel]; slot < lists_.first[texel + 1]; ++slot) {
+          if (own_plane_cuts[slot] || !center[slot]) continue;
+          std::copy_n(lut.all(), words, blocked.data() + static_cast<size_t>(slot) * words);
+          ++hard;
+        }
+      }
+      stats_.extra["hard_shadowed_samples"] = hard;
+    }
     {
       ScopedPhase phase(stats_, "resolve");
       const float inv = 1.0f / static_cast<float>(n);
@@ -477,9 +580,9 @@ class AliasFreeSoft final : public AliasFreeBase {
         out.visibility[lists_.sample[slot]] = 1.0f - static_cast<float>(count) * inv;
       }
     }
-    Counters total;
+    Counters total = center_counters;
     for (const Counters& c2 : counters) total.add(c2);
-    report(total, casters.size(),
+    report(total, casters.size(), center_memory + stencil.size() +
            blocked.size() * sizeof(uint64_t) + support_masks.size() * sizeof(uint64_t) + rotation.size() * sizeof(Vec2f) + casters.size() * sizeof(Caster) +
                regions.vertices.size() * sizeof(Vec2f) + lut.memory_bytes());
     stats_.extra["light_samples"] = n;
@@ -500,7 +603,14 @@ class AliasFreeSoft final : public AliasFreeBase {
   int lut_resolution_;
   bool jitter_;
   bool restrict_;
+  bool silhouettes_;
   std::optional<afsm::PlaneMaskLut> lut_;
+  struct SilhouetteEdge {
+    Vec3f a, b;
+    Vec3f normal[2];  // of its first two faces (winding normals)
+    int faces = 0;
+  };
+  std::vector<SilhouetteEdge> edges_;
 };
 
 std::vector<ParamSpec> view_specs() {
@@ -535,6 +645,11 @@ std::vector<ParamSpec> soft_specs() {
                    {}, 4, 1024});
   specs.push_back({"jitter", ParamType::Bool, false,
                    "rotate the sample pattern per pixel (disk and sphere lights, §4.2): noise instead of banding",
+                   {}});
+  specs.push_back({"silhouettes", ParamType::Bool, false,
+                   "test light samples only inside silhouette edges' influence regions (§4.3); elsewhere V is the "
+                   "light centre's hard shadow (same result). Off by default: with the shipped scenes' large lights "
+                   "every listed sample lies in some silhouette edge's region, so it only adds the edge pass",
                    {}});
   specs.push_back({"restrict", ParamType::Bool, true,
                    "skip casters whose influence region's bounding box holds no listed sample (§4.3)", {}});

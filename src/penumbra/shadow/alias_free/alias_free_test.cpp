@@ -306,6 +306,8 @@ TEST_P(AliasFreeScenes, SoftEqualsEmbreeToTheSameLightPoints) {
   // A penumbra exists.
   EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 50);
   EXPECT_GT(stats.extra["plane_lookups"].get<uint64_t>(), 0u);
+  // The silhouette-edge restriction changes the work, not the result.
+  EXPECT_EQ(v, run_method(r, "afsm", n, {"resolution=192", "silhouettes=true"}));
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, AliasFreeScenes, ::testing::Values("bunny", "knot", "contact"));
@@ -336,11 +338,19 @@ TEST(AliasFreeShapes, SoftEqualsEmbreeForRectDiskAndSphere) {
   }
 }
 
-TEST(AliasFreeShapes, TableAndExactTestsAgreeAndRestrictionChangesNothing) {
+TEST(AliasFreeShapes, TableAndExactTestsAgreeAndRestrictionsChangeNothing) {
   const SceneRun r = build_scene_run(shapes_scene(LightShape::Disk));
   const std::vector<float> lut = run_method(r, "afsm", 128, {"resolution=96"});
   EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=96", "lut=false"}));
   EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=96", "restrict=false"}));
+  MethodStats stats;
+  EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=96", "silhouettes=true"}, &stats));
+  // The small scene has samples away from every silhouette edge: they take the centre's bit.
+  EXPECT_GT(stats.extra["silhouette_edges"].get<int>(), 0);
+  EXPECT_LT(stats.extra["silhouette_edges"].get<int>(), stats.extra["edges"].get<int>());
+  // With per-pixel rotation too.
+  EXPECT_EQ(run_method(r, "afsm", 128, {"resolution=96", "jitter=true"}),
+            run_method(r, "afsm", 128, {"resolution=96", "jitter=true", "silhouettes=true"}));
   // The map resolution changes the work, not the result.
   EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=37"}));
 }
