@@ -1,8 +1,8 @@
 // Alias-free shadow maps and sample-based soft visibility (sintorn2008), side by side with
 // `multi-view-sm` (one shadow map per light sample) and `reference` (Embree rays) at the
-// same number N of light samples: the paper's Fig. 12 (time vs light samples), Fig. 13
-// (time vs light size) and triangle-count scaling (knot tessellations), on knot.json at
-// 256^2 view samples.
+// same number N of light samples: the paper's Fig. 13 (time vs light samples, against one
+// shadow map per sample), Fig. 12 (time vs light size) and Fig. 11 (triangle count: knot
+// tessellations), on knot.json at 256^2 view samples.
 //
 //   cmake --build build --target alias_free_bench -j2
 //   build/alias_free_bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
@@ -80,14 +80,14 @@ void add(const std::string& name, const std::string& method, int spp, std::vecto
 
 void register_all() {
   const std::vector<std::string> soft = {"afsm", "multi-view-sm", "reference"};
-  // Fig. 12: time vs light samples.
+  // Fig. 13: time vs light samples.
   for (int n : {64, 128, 256, 512, 1024})
     for (const std::string& m : soft) add("samples/" + m + "/" + std::to_string(n), m, n, {});
-  // Fig. 13: time vs light size (N = 256).
+  // Fig. 12: time vs light size (N = 256).
   for (const char* scale : {"0.25", "0.5", "1", "2"})
     for (const std::string& m : soft)
       add(std::string("light_size_scale/") + m + "/" + scale, m, 256, {std::string("light.size_scale=") + scale});
-  // Triangle count: knot tessellations (rings along the curve x 16 sides x 2), N = 256.
+  // Fig. 11, triangle count: knot tessellations (rings along the curve x 16 sides x 2), N = 256.
   for (int segments : {100, 200, 400, 800, 1600})
     for (const std::string& m : soft)
       add("knot_segments/" + m + "/" + std::to_string(segments), m, 256,
