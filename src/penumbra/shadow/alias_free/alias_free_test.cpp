@@ -57,7 +57,9 @@ TEST(AliasFreeLut, LookupEqualsExactClassificationOnRandomPlanes) {
           }
         }
         // The table decides most samples itself at 128 bins.
-        if (bins == 128) EXPECT_LT(tested, 0.1 * planes * n) << n;
+        if (bins == 128) {
+          EXPECT_LT(tested, 0.1 * planes * n) << n;
+        }
       }
     }
   }
@@ -308,7 +310,9 @@ TEST_P(AliasFreeScenes, SoftEqualsEmbreeToTheSameLightPoints) {
   EXPECT_GT(stats.extra["plane_lookups"].get<uint64_t>(), 0u);
   // The silhouette-edge restriction changes the work, not the result (not on the bunny,
   // whose 70k triangles would double the test's time).
-  if (GetParam() != "bunny") EXPECT_EQ(v, run_method(r, "afsm", n, {"resolution=192", "silhouettes=true"}));
+  if (GetParam() != "bunny") {
+    EXPECT_EQ(v, run_method(r, "afsm", n, {"resolution=192", "silhouettes=true"}));
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, AliasFreeScenes, ::testing::Values("bunny", "knot", "contact"));
