@@ -98,6 +98,25 @@ TEST_F(Cli, RenderWritesAnImageWithSoftShadows) {
   EXPECT_EQ(img.height(), 8);
 }
 
+TEST_F(Cli, RenderAccumulatesFramesAndBendsNormals) {
+  std::string scene = tiny_scene();
+  fs::path one = dir_ / "one.exr", four = dir_ / "four.exr", stats = dir_ / "stats.json";
+  ASSERT_EQ(run(fmt::format("render {} -m afsm --spp 64 -o {} --quiet", scene, one.string())).exit_code, 0);
+  CliRun r = run(fmt::format("render {} -m afsm --spp 64 --frames 4 --coherent-shading -o {} --stats-json {} --quiet",
+                             scene, four.string(), stats.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto j = nlohmann::json::parse(slurp(stats));
+  EXPECT_EQ(j["frames"], 4);
+  EXPECT_EQ(j["coherent_shading"], true);
+  // Each frame draws new light samples: the average differs from one frame.
+  EXPECT_NE(read_exr_channel(one.string(), "V").data(), read_exr_channel(four.string(), "V").data());
+  // Bad values are one-line errors naming the value.
+  r = run(fmt::format("render {} -m afsm --spp 2000 -o {} --quiet", scene, one.string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("2000"), std::string::npos) << r.err;
+  EXPECT_NE(run(fmt::format("render {} -m afsm --frames 0 -o {} --quiet", scene, one.string())).exit_code, 0);
+}
+
 TEST_F(Cli, BadSceneIsOneLineErrorNamingFileAndKeyAndWritesNothing) {
   std::string scene = tiny_scene(R"(, "colour": [1, 0, 0])");
   fs::path out = dir_ / "never.png";

@@ -1,4 +1,4 @@
-// penumbra render SCENE [-m METHOD] [--spp N] [--resolution WxH] [-o OUT] ...
+// penumbra render SCENE [-m METHOD] [--spp N] [--frames K] [--resolution WxH] [-o OUT] ...
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -26,6 +26,8 @@ struct RenderOptions {
   std::string stats_json;
   uint64_t seed = 0;
   int threads = 0;
+  int frames = 1;
+  bool coherent_shading = false;
   std::vector<std::string> params;
   bool quiet = false;
 };
@@ -45,6 +47,8 @@ int run_render(const RenderOptions& o) {
   settings.params = o.params;
   settings.light_samples = o.spp;
   settings.seed = o.seed;
+  settings.frames = o.frames;
+  settings.coherent_shading = o.coherent_shading;
   settings.progress = !o.quiet;
   RenderResult r = render_scene(scene, settings);
 
@@ -79,6 +83,12 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
   cmd->add_option("--stats-json", o->stats_json, "write timings and counters as JSON");
   cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  cmd->add_option("--frames", o->frames,
+                  "progressive accumulation: average this many frames, each with new light samples (sintorn2008 §4.2)")
+      ->capture_default_str()->check(CLI::Range(1, 100000));
+  cmd->add_flag("--coherent-shading", o->coherent_shading,
+                "bend the shading of smooth closed meshes toward their faces (sintorn2008 §4.3, c = 3): no light on "
+                "light back-facing triangles");
   cmd->add_option("-p,--param", o->params, "method parameter key=value (repeatable)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
   return [o] { return run_render(*o); };

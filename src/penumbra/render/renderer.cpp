@@ -8,6 +8,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/render/coherent_shading.h"
 
 namespace penumbra {
 
@@ -99,7 +100,7 @@ RenderResult Renderer::render() {
   std::vector<float> vis(n);
   std::vector<Vec3f> irr(n);
   const size_t lights = scene_.lights.size();
-  Progress own_progress(settings_.method, n * lights, settings_.progress && !settings_.progress_bar);
+  Progress own_progress(settings_.method, n * lights * std::max(1, settings_.frames), settings_.progress && !settings_.progress_bar);
   Progress& progress = settings_.progress_bar ? *settings_.progress_bar : own_progress;
   for (size_t l = 0; l < lights; ++l) {
     const AreaLight& light = scene_.lights[l];
@@ -118,9 +119,29 @@ RenderResult Renderer::render() {
       prepared_[l] = true;
     }
     ShadowOutput out{std::span<float>(vis), std::span<Vec3f>(irr)};
-    std::fill(vis.begin(), vis.end(), 1.0f);
-    method.evaluate(ctx, vs, out);
+    const int frames = std::max(1, settings_.frames);
+    std::vector<float> vis_sum(frames > 1 ? n : 0, 0.0f);
+    std::vector<Vec3f> irr_sum(frames > 1 ? n : 0, Vec3f(0.0f));
+    for (int f = 0; f < frames; ++f) {
+      ctx.frame = f;
+      std::fill(vis.begin(), vis.end(), 1.0f);
+      method.evaluate(ctx, vs, out);
+      if (frames == 1) break;
+      for (size_t i = 0; i < n; ++i) {
+        vis_sum[i] += vis[i];
+        irr_sum[i] += irr[i];
+      }
+    }
+    if (frames > 1) {
+      const float inv = 1.0f / static_cast<float>(frames);
+      for (size_t i = 0; i < n; ++i) {
+        vis[i] = vis_sum[i] * inv;
+        irr[i] = irr_sum[i] * inv;
+      }
+    }
     const bool has_e = method.computes_irradiance();
+    const CoherentShading coherent = settings_.coherent_shading && !has_e ? CoherentShading(scene_, light.center)
+                                                                          : CoherentShading();
     {
       ScopedPhase phase(method.stats(), "compose");
       parallel_for(n, 4096, [&](size_t b, size_t e) {
@@ -130,7 +151,7 @@ RenderResult Renderer::render() {
           float v = clamp01(vis[i]);
           // A method that gives only V is multiplied with the closed-form unshadowed
           // irradiance; Lambertian: L = albedo / pi * E.
-          Vec3f E = has_e ? irr[i] : e0 * v;
+          Vec3f E = has_e ? irr[i] : e0 * (v * coherent.factor(s, light.center));
           radiance[i] += s.albedo * E * kInvPi;
           float w = luminance(e0);
           v_weighted[i] += w * v;

@@ -17,6 +17,15 @@ struct RenderSettings {
   std::vector<std::string> params;  // "key=value" overrides
   int light_samples = 256;          // --spp
   uint64_t seed = 0;
+  // Progressive accumulation (sintorn2008 §4.2, Fig. 7): V and E are averaged over this many
+  // evaluations with ShadowContext::frame = 0, 1, ...; methods that sample the light draw new
+  // samples per frame. The light-space structures are prepared once.
+  int frames = 1;
+  // Coherent shading (sintorn2008 §4.3 "Shading", Fig. 8): blend the shading normal's cosine
+  // toward the smallest cosine of the faces around the triangle's vertices (bent normals,
+  // c = 3), so light does not leak onto the light back-facing side of smooth meshes near
+  // shadow borders. Applies to methods that give V (compose multiplies the closed form).
+  bool coherent_shading = false;
   bool progress = false;            // a progress bar on stderr (when it is a terminal)
   // A bar owned by the caller (a comparison of several renders) to advance instead of
   // drawing one per render; `progress` is then ignored. Not owned.

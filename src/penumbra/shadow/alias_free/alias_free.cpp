@@ -1,0 +1,669 @@
+// Methods `afsm-hard` and `afsm` (sintorn2008): alias-free shadow maps and sample-based
+// soft visibility. Instead of sampling the casters at the light's texel centres (a shadow
+// map), the *view samples* are listed at the light's texels (texel_lists.h) and every caster
+// is rasterized conservatively over them; each (listed sample, caster) pair is then decided
+// exactly in world space. Nothing is resampled, so there is no aliasing and no depth bias.
+//
+// afsm-hard (§3): one point, the light's centre. A caster's shadow volume is the intersection
+// of four half-spaces: behind its supporting plane, and inside the three planes through the
+// light and an edge (§3.3). On a closed mesh only light back-facing triangles cast and light
+// back-facing view samples are in shadow by their own surface (§3.3: no bias, no acne).
+//
+// afsm (§4): N light samples as bits. A caster is rasterized over its influence region
+// (influence_region.h), and for each listed sample p the light samples it hides are the AND
+// of four plane masks (sample_masks.h): behind its supporting plane as seen from p, inside
+// the planes through p and each edge (§4.2, Fig. 6). The masks OR into p's mask; V is the
+// fraction of unset bits.
+//
+// Both run on the CPU: the conservative rasterizer bins and walks texels in parallel tiles,
+// all calls for one texel come from one thread, so the per-slot state needs no atomics.
+// docs/methods/alias-free.md.
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <optional>
+#include <unordered_map>
+
+#include <tbb/enumerable_thread_specific.h>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/raster/conservative.h"
+#include "penumbra/raster/raster_triangle.h"
+#include "penumbra/raster/shadow_view.h"
+#include "penumbra/shadow/alias_free/influence_region.h"
+#include "penumbra/shadow/alias_free/sample_masks.h"
+#include "penumbra/shadow/alias_free/texel_lists.h"
+#include "penumbra/shadow/shadow_method.h"
+#include "penumbra/trace/ray_tracer.h"
+
+namespace penumbra {
+namespace {
+
+using afsm::TexelLists;
+
+// Sine of the angle under which a view sample must see a caster's plane for the caster to
+// be tested against it (afsm): below, the cone from the sample over the triangle is flat.
+constexpr float kFlat = 1e-5f;
+
+// The plane through an apex x (the light's centre, a view sample) and the triangle edge
+// from v_i to v_i + d (d = v_{i+1} - v_i, the triangle wound v_0 v_1 v_2), as its normal,
+// pointing into the cone from x over the triangle. a = v_i - x. The orientation needs no
+// test against the third vertex: det[a, d, v_{i+2} - v_i] = -dot(n, x - v_i) for every
+// edge (n = the winding normal), so it follows from the apex's side of the triangle alone,
+// the same for all three edges even where x sees the triangle almost edge-on (where a
+// per-edge test of the third vertex is rounding noise). Using the exact edge vector d
+// rather than (v_{i+1} - x) keeps the plane accurate for small, distant triangles.
+inline Vec3f edge_plane(Vec3f a, Vec3f d, bool apex_in_front) { return apex_in_front ? cross(d, a) : cross(a, d); }
+
+struct Counters {
+  uint64_t texel_visits = 0;   // (covered texel, caster) pairs
+  uint64_t empty_visits = 0;   // ... whose texel lists no sample (skipped at once)
+  uint64_t sample_tests = 0;   // (listed sample, caster) tests
+  uint64_t plane_lookups = 0;  // plane -> mask lookups (afsm)
+  uint64_t exact_bits = 0;     // light samples tested exactly inside lookups (afsm)
+  void add(const Counters& o) {
+    texel_visits += o.texel_visits;
+    empty_visits += o.empty_visits;
+    sample_tests += o.sample_tests;
+    plane_lookups += o.plane_lookups;
+    exact_bits += o.exact_bits;
+  }
+};
+
+// What both methods share: the casters, the light view fitted to the listed view samples
+// (§4.3 "Parametrization") and the lists.
+class AliasFreeBase : public ShadowMethod {
+ public:
+  explicit AliasFreeBase(const ParamSet& p) : resolution_(p.get_int("resolution")), max_fov_(p.get_float("max_fov")) {}
+
+  void prepare(const ShadowContext& ctx) override {
+    ScopedPhase phase(stats_, "gather");
+    stats_.prepare_count++;
+    triangles_ = gather_raster_triangles(*ctx.scene);
+    scene_bounds_ = ctx.scene->bounds();
+  }
+
+ protected:
+  // Lists the given view samples (ids into vs) at the texels of a view from the light's
+  // centre along its axis, fitted to them. False if none lies in front of the light.
+  bool build_lists(const Scene& scene, const AreaLight& light, const ViewSamples& vs, const std::vector<uint32_t>& ids) {
+    if (ids.empty()) return false;
+    ScopedPhase phase(stats_, "lists");
+    // Each sample is listed and tested at the point a shadow ray toward the light's centre
+    // starts from: moved off its surface along ng by the ray tracer's margin
+    // (offset_ray_origin), toward the light. This is the plane offset of §3.3 in its
+    // receiver form: the surface a sample lies on (its own triangle, a coplanar neighbour,
+    // a touching face) is decided the way a shadow ray decides it, so the method agrees
+    // with rays to the same light points sample for sample, and no bias is ever tuned.
+    std::vector<Vec3f> points(ids.size());
+    for (size_t i = 0; i < ids.size(); ++i) {
+      const ViewSample& s = vs.samples[ids[i]];
+      // (On a closed mesh, out of the object, where every ray that is not blocked by the
+      // object itself starts.)
+      points[i] = offset_ray_origin(s.p, s.ng, scene.objects[s.object].closed ? s.ng : light.center - s.p);
+    }
+    ShadowViewFit fit;
+    fit.resolution = resolution_;
+    fit.max_fov = max_fov_;
+    try {
+      view_ = fit_shadow_view(light.center, light.frame.n, light.frame.t, points, scene_bounds_, fit);
+    } catch (const Error&) {
+      return false;  // no receiver in front of the light's centre
+    }
+    lists_ = afsm::build_texel_lists(view_, points, ids);
+    const TexelLists::Occupancy occ = lists_.occupancy();
+    stats_.extra["map_width"] = lists_.width;
+    stats_.extra["map_height"] = lists_.height;
+    stats_.extra["listed_samples"] = lists_.slots();
+    stats_.extra["uncovered_samples"] = lists_.uncovered;
+    stats_.extra["lists_occupied"] = occ.occupied;
+    stats_.extra["lists_occupied_fraction"] =
+        static_cast<double>(occ.occupied) / (static_cast<double>(lists_.width) * lists_.height);
+    stats_.extra["list_average"] = occ.average;
+    stats_.extra["list_max"] = occ.longest;
+    return true;
+  }
+
+  // §3: the shadow bit of every listed slot for the point light at c (1 = some caster blocks
+  // the segment from the slot's point to c). Closed meshes cast with their triangles facing
+  // away from c only (§3.3). Sets extra.casters; adds to *counters and *memory.
+  std::vector<uint8_t> center_shadow(const Scene& scene, Vec3f c, Counters* counters, size_t* memory) {
+    // The casters and their four planes (§3.3), oriented so that "inside" is positive.
+    struct Planes {
+      Vec3f support;  // p is behind the caster when dot(support, p - v0) > 0
+      Vec3f v0;
+      Vec3f edge[3];  // p is inside the pyramid when dot(edge[i], p - c) >= 0 for all i
+    };
+    std::vector<RasterTriangle> casters;
+    std::vector<Planes> planes;
+    {
+      ScopedPhase phase(stats_, "casters");
+      for (const RasterTriangle& t : triangles_) {
+        if (!(t.opacity > 0)) continue;
+        const Vec3f n = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]);
+        const float side = dot(n, c - t.p[0]);
+        // §3.3: a closed mesh casts with its light back-facing triangles only.
+        if (scene.objects[t.object].closed ? !(side < 0) : side == 0) continue;
+        Planes pl;
+        pl.support = side > 0 ? -n : n;
+        pl.v0 = t.p[0];
+        for (int i = 0; i < 3; ++i) pl.edge[i] = edge_plane(t.p[i] - c, t.p[(i + 1) % 3] - t.p[i], side > 0);
+        casters.push_back(t);
+        planes.push_back(pl);
+      }
+    }
+    std::vector<uint8_t> shadowed(lists_.slots(), 0);  // the shadow bits, apart from positions
+    tbb::enumerable_thread_specific<Counters> local;
+    {
+      ScopedPhase phase(stats_, "raster_center");
+      rasterizer_.triangles(casters, view_, RasterFilter{}, [&](int x, int y, uint32_t index) {
+        Counters& cnt = local.local();
+        cnt.texel_visits++;
+        const uint32_t begin = lists_.begin(x, y), end = lists_.end(x, y);
+        if (begin == end) {
+          cnt.empty_visits++;  // §4.3: texels with empty lists do no work
+          return;
+        }
+        const Planes& pl = planes[index];
+        for (uint32_t slot = begin; slot < end; ++slot) {
+          if (shadowed[slot]) continue;
+          cnt.sample_tests++;
+          const Vec3f p = lists_.positions[slot];
+          if (!(dot(pl.support, p - pl.v0) > 0)) continue;
+          const Vec3f d = p - c;
+          if (dot(pl.edge[0], d) >= 0 && dot(pl.edge[1], d) >= 0 && dot(pl.edge[2], d) >= 0) shadowed[slot] = 1;
+        }
+      });
+    }
+    for (const Counters& c2 : local) counters->add(c2);
+    stats_.extra["casters"] = casters.size();
+    *memory += shadowed.size() + planes.size() * sizeof(Planes) + casters.size() * sizeof(RasterTriangle);
+    return shadowed;
+  }
+
+  void report(const Counters& c, uint64_t casters, uint64_t extra_memory) {
+    stats_.texels_visited += c.texel_visits;
+    stats_.extra["casters"] = casters;
+    stats_.extra["texel_visits"] = c.texel_visits;
+    stats_.extra["empty_texel_visits"] = c.empty_visits;
+    stats_.extra["sample_tests"] = c.sample_tests;
+    stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, lists_.memory_bytes() + extra_memory);
+  }
+
+  int resolution_;
+  float max_fov_;
+  std::vector<RasterTriangle> triangles_;
+  Bounds3f scene_bounds_;
+  LightView view_;
+  TexelLists lists_;
+  ConservativeRasterizer rasterizer_;
+};
+
+// In front of the light's emitting plane (rect, disk; for a sphere, of the disk facing the
+// scene that its samples lie on): other points see no light sample (V = 0, as `reference`).
+bool in_front_of_light(const AreaLight& light, Vec3f p) { return dot(p - light.center, light.frame.n) > 0.0f; }
+
+// ---------------------------------------------------------------------------------------
+// afsm-hard
+
+class AliasFreeHard final : public AliasFreeBase {
+ public:
+  using AliasFreeBase::AliasFreeBase;
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    const AreaLight& light = *ctx.light;
+    const Vec3f c = light.center;
+    const Scene& scene = *ctx.scene;
+    std::fill(out.visibility.begin(), out.visibility.end(), 0.0f);
+    // §3.1: only visible, light front-facing samples are listed; on a closed mesh a light
+    // back-facing one is in its own shadow (§3.3). An open surface has no inside: the shadow
+    // ray leaves it on the light's side, so its samples are listed whatever their facing.
+    std::vector<uint32_t> ids;
+    for (size_t k = 0; k < vs.size(); ++k) {
+      const ViewSample& s = vs.samples[k];
+      if (!in_front_of_light(light, s.p)) continue;
+      if (scene.objects[s.object].closed && !(dot(s.ng, c - s.p) > 0)) continue;
+      ids.push_back(static_cast<uint32_t>(k));
+    }
+    if (!build_lists(scene, light, vs, ids)) {
+      finish(ctx, vs);
+      return;
+    }
+    for (size_t slot = 0; slot < lists_.slots(); ++slot) out.visibility[lists_.sample[slot]] = 1.0f;
+    // Uncovered samples (outside the fitted window) are lit, as in a shadow map.
+    {
+      std::vector<char> listed(vs.size(), 0);
+      for (uint32_t id : lists_.sample) listed[id] = 1;
+      for (uint32_t id : ids)
+        if (!listed[id]) out.visibility[id] = 1.0f;
+    }
+
+    Counters total;
+    size_t memory = 0;
+    const std::vector<uint8_t> shadowed = center_shadow(scene, c, &total, &memory);
+    for (size_t slot = 0; slot < lists_.slots(); ++slot)
+      if (shadowed[slot]) out.visibility[lists_.sample[slot]] = 0.0f;
+    report(total, static_cast<uint64_t>(stats_.extra.value("casters", 0)), memory);
+    finish(ctx, vs);
+  }
+
+ private:
+  void finish(const ShadowContext& ctx, const ViewSamples& vs) {
+    if (ctx.progress) ctx.progress->add(vs.size());
+  }
+};
+
+// ---------------------------------------------------------------------------------------
+// afsm
+
+class AliasFreeSoft final : public AliasFreeBase {
+ public:
+  explicit AliasFreeSoft(const ParamSet& p)
+      : AliasFreeBase(p),
+        use_lut_(p.get_bool("lut")),
+        lut_resolution_(p.get_int("lut_resolution")),
+        jitter_(p.get_bool("jitter")),
+        restrict_(p.get_bool("restrict")),
+        silhouettes_(p.get_bool("silhouettes")) {}
+
+  // §4.3 "Restrict computations": the edges of the casters, welded by position, with the
+  // normals of their (first two) faces, for the silhouette test of each frame.
+  void prepare(const ShadowContext& ctx) override {
+    AliasFreeBase::prepare(ctx);
+    edges_.clear();
+    if (!silhouettes_) return;
+    ScopedPhase phase(stats_, "edges");
+    struct Key {
+      uint32_t x, y, z;
+      bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+    };
+    struct KeyHash {
+      size_t operator()(const Key& k) const { return hash_combine(hash_combine(k.x, k.y), k.z); }
+    };
+    std::unordered_map<Key, uint32_t, KeyHash> vertex_ids;
+    std::unordered_map<uint64_t, uint32_t> edge_ids;
+    auto vertex_id = [&](Vec3f p) {
+      const Key k{std::bit_cast<uint32_t>(p.x), std::bit_cast<uint32_t>(p.y), std::bit_cast<uint32_t>(p.z)};
+      return vertex_ids.emplace(k, static_cast<uint32_t>(vertex_ids.size())).first->second;
+    };
+    for (const RasterTriangle& t : triangles_) {
+      if (!(t.opacity > 0)) continue;
+      const Vec3f n = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]);
+      const uint32_t id[3] = {vertex_id(t.p[0]), vertex_id(t.p[1]), vertex_id(t.p[2])};
+      for (int i = 0; i < 3; ++i) {
+        const uint32_t a = id[i], b = id[(i + 1) % 3];
+        const uint64_t key = (static_cast<uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+        auto [it, fresh] = edge_ids.emplace(key, static_cast<uint32_t>(edges_.size()));
+        if (fresh) edges_.push_back({t.p[i], t.p[(i + 1) % 3], {n, n}, 0});
+        SilhouetteEdge& e = edges_[it->second];
+        if (e.faces < 2) e.normal[e.faces] = n;
+        e.faces++;
+      }
+    }
+  }
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    const AreaLight& light = *ctx.light;
+    const Scene& scene = *ctx.scene;
+    const int n = ctx.light_samples;
+    std::fill(out.visibility.begin(), out.visibility.end(), 0.0f);
+    afsm::LightSamples samples;
+    {
+      ScopedPhase phase(stats_, "lut");
+      samples = afsm::make_light_samples(light, n, ctx.seed, ctx.light_index, ctx.frame);
+      const int bins = use_lut_ ? lut_resolution_ : 0;
+      lut_.emplace(samples.local, bins, bins);
+    }
+    const afsm::PlaneMaskLut& lut = *lut_;
+    const int words = lut.words();
+    const float R = samples.radius;
+    const Vec3f c = samples.center, ls = samples.s * R, lt = samples.t * R;
+
+    std::vector<uint32_t> ids;
+    for (size_t k = 0; k < vs.size(); ++k)
+      if (in_front_of_light(light, vs.samples[k].p)) ids.push_back(static_cast<uint32_t>(k));
+    if (!build_lists(scene, light, vs, ids)) {
+      if (ctx.progress) ctx.progress->add(vs.size());
+      return;
+    }
+    {
+      std::vector<char> listed(vs.size(), 0);
+      for (uint32_t id : lists_.sample) listed[id] = 1;
+      for (uint32_t id : ids)
+        if (!listed[id]) out.visibility[id] = 1.0f;  // outside the fitted window: lit
+    }
+    const size_t slots = lists_.slots();
+
+    // §4.2: per-pixel rotation of the pattern for symmetric lights (disk, sphere): rotating
+    // the samples by alpha equals rotating each plane's line by -alpha.
+    const bool jitter = jitter_ && light.shape != LightShape::Rect;
+    std::vector<Vec2f> rotation(jitter ? slots : 0);
+    // The per-slot masks of blocked light samples, apart from the positions (§3.1).
+    std::vector<uint64_t> blocked(slots * words, 0);
+    // Slots whose every light sample is blocked (no further tests), and slots whose own
+    // tangent plane cuts the light (their V is not the centre's even away from every
+    // silhouette edge: always tested in full).
+    std::vector<uint8_t> full(slots, 0), own_plane_cuts(slots, 0);
+    {
+      ScopedPhase phase(stats_, "init");
+      parallel_for(slots, 1024, [&](size_t begin, size_t end) {
+        for (size_t slot = begin; slot < end; ++slot) {
+          const ViewSample& s = vs.samples[lists_.sample[slot]];
+          if (jitter) {
+            const float a = 2 * kPi * Rng(ctx.seed, 0x4a495454u + ctx.light_index, s.pixel, ctx.frame).next_float();
+            rotation[slot] = {std::cos(a), std::sin(a)};
+          }
+          Vec2f g{dot(s.ng, ls), dot(s.ng, lt)};
+          if (jitter) g = rotate(g, rotation[slot]);
+          const float h = dot(s.ng, c - s.p);
+          own_plane_cuts[slot] = lut.side_of_disk(g, h) == 0;
+          // A sample on a closed mesh sees nothing behind its own tangent plane (the shadow
+          // ray would start inside the object): those bits start blocked.
+          if (!scene.objects[s.object].closed) continue;
+          uint64_t* m = blocked.data() + slot * words;
+          lut.exact(g, h, m);
+          uint64_t left = 0;
+          for (int w = 0; w < words; ++w) left |= (m[w] = ~m[w] & lut.all()[w]) ^ lut.all()[w];
+          full[slot] = left == 0;
+        }
+      });
+    }
+
+    // The casters (every triangle: which side faces which light sample differs per sample)
+    // and their influence regions (§4.1).
+    struct Caster {
+      Vec3f v[3];
+      Vec3f normal;     // cross(v1 - v0, v2 - v0)
+      float normal_len;
+      Vec2f support_g;  // the supporting plane as a line on the light: g . u + h
+      float support_h;
+      bool closed;
+      size_t support_mask = 0;  // closed, without jitter: index into support_masks
+    };
+    std::vector<Caster> casters;
+    std::vector<uint8_t> stencil;  // silhouette edges' regions (empty: no restriction)
+    std::vector<uint64_t> support_masks;
+    uint64_t front_facing = 0;
+    ConvexPolygons regions;
+    uint64_t skipped = 0, unbounded = 0;
+    {
+      ScopedPhase phase(stats_, "regions");
+      float far_depth = 0;
+      for (const Vec3f& p : lists_.positions) far_depth = std::max(far_depth, view_.linear_depth(p));
+      far_depth = far_depth * (1 + 1e-4f) + 1e-6f;
+      const afsm::InfluenceRegions influence(light, view_, far_depth);
+      if (restrict_) lists_.build_summed_area();
+      std::vector<Vec2f> polygon;
+      const Vec2f whole[4] = {{0, 0}, {float(view_.width()), 0}, {float(view_.width()), float(view_.height())},
+                              {0, float(view_.height())}};
+      std::vector<uint64_t> behind(words);
+      for (const RasterTriangle& t : triangles_) {
+        if (!(t.opacity > 0)) continue;
+        // A triangle entirely behind the light's sample plane blocks nothing in front of it.
+        const float z0 = view_.linear_depth(t.p[0]), z1 = view_.linear_depth(t.p[1]), z2 = view_.linear_depth(t.p[2]);
+        if (z0 <= 0 && z1 <= 0 && z2 <= 0) continue;
+        Caster cs;
+        for (int i = 0; i < 3; ++i) cs.v[i] = t.p[i];
+        cs.normal = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]);
+        cs.normal_len = length(cs.normal);
+        cs.support_g = {dot(cs.normal, ls), dot(cs.normal, lt)};
+        cs.support_h = dot(cs.normal, c - t.p[0]);
+        cs.closed = scene.objects[t.object].closed;
+        if (cs.closed) {
+          // A closed mesh's triangle casts only toward the light samples behind it (it faces
+          // away from them), whatever p: that set is p's supporting-plane mask, computed once.
+          // None behind: it never casts (conservative back-face culling, §4.3 after [ED07]).
+          // With per-pixel rotation the mask is rotated per sample: only the rotation-
+          // invariant test (the samples' disk against the plane) is done here.
+          bool casts;
+          if (jitter) {
+            const float len = std::sqrt(dot(cs.support_g, cs.support_g));
+            casts = cs.support_h < len * 1.0001f;
+          } else {
+            lut.mask(cs.support_g * -1.0f, -cs.support_h, behind.data());
+            uint64_t any = 0;
+            for (uint64_t w : behind) any |= w;
+            casts = any != 0;
+          }
+          if (!casts) {
+            front_facing++;
+            continue;
+          }
+        }
+        if (!influence.region(t.p, &polygon)) {
+          polygon.assign(whole, whole + 4);
+          unbounded++;
+        }
+        if (restrict_) {
+          // §4.3: a caster whose region covers no list does nothing.
+          float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+          for (Vec2f q : polygon) {
+            x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+          }
+          auto to_int = [](float f) { return static_cast<int>(std::clamp(f, -1e9f, 1e9f)); };
+          if (lists_.count_in(to_int(std::floor(x0)) - 1, to_int(std::floor(y0)) - 1, to_int(std::floor(x1)) + 2,
+                              to_int(std::floor(y1)) + 2) == 0) {
+            skipped++;
+            continue;
+          }
+        }
+        if (cs.closed && !jitter) {
+          cs.support_mask = support_masks.size() / words;
+          support_masks.insert(support_masks.end(), behind.begin(), behind.end());
+        }
+        casters.push_back(cs);
+        regions.add(polygon);
+      }
+
+      // §4.3: penumbrae are cast only by silhouette edges (an edge whose two faces do not
+      // face the same way for every point of the light's disk, or a boundary edge). A sample
+      // outside every silhouette edge's influence region sees all the light or none of it:
+      // its V is the centre's (a hard shadow bit), unless its own plane cuts the light.
+      if (silhouettes_) {
+        ConvexPolygons edge_regions;
+        for (const SilhouetteEdge& e : edges_) {
+          bool silhouette = e.faces != 2;
+          if (!silhouette) {
+            int side[2];
+            for (int f = 0; f < 2; ++f)
+              side[f] = lut.side_of_disk({dot(e.normal[f], ls), dot(e.normal[f], lt)}, dot(e.normal[f], c - e.a));
+            silhouette = side[0] == 0 || side[1] == 0 || side[0] != side[1];
+          }
+          if (!silhouette) continue;
+          if (view_.linear_depth(e.a) <= 0 && view_.linear_depth(e.b) <= 0) continue;
+          const Vec3f v[3] = {e.a, e.b, e.b};
+          if (!influence.region(v, &polygon)) polygon.assign(whole, whole + 4);
+          edge_regions.add(polygon);
+        }
+        stats_.extra["silhouette_edges"] = edge_regions.size();
+        stats_.extra["edges"] = edges_.size();
+        stencil.assign(static_cast<size_t>(view_.width()) * view_.height(), 0);
+        rasterizer_.polygons(edge_regions, view_.width(), view_.height(),
+                             [&](int x, int y, uint32_t) { stencil[lists_.texel(x, y)] = 1; });
+      }
+    }
+
+    Counters center_counters;
+    size_t center_memory = 0;
+    const std::vector<uint8_t> center =
+        silhouettes_ ? center_shadow(scene, c, &center_counters, &center_memory) : std::vector<uint8_t>();
+    tbb::enumerable_thread_specific<Counters> counters;
+    {
+      ScopedPhase phase(stats_, "raster");
+      rasterizer_.polygons(regions, view_.width(), view_.height(), [&](int x, int y, uint32_t index) {
+        Counters& cnt = counters.local();
+        cnt.texel_visits++;
+        const uint32_t begin = lists_.begin(x, y), end = lists_.end(x, y);
+        if (begin == end) {
+          cnt.empty_visits++;
+          return;
+        }
+        const Caster& t = casters[index];
+        const bool near_silhouette = stencil.empty() || stencil[lists_.texel(x, y)];
+        uint64_t hidden[afsm::kMaxLightSamples / 64], edge[afsm::kMaxLightSamples / 64];
+        for (uint32_t slot = begin; slot < end; ++slot) {
+          if (full[slot]) continue;  // every light sample already blocked (umbra)
+          if (!near_silhouette && !own_plane_cuts[slot]) continue;  // V is the centre's
+          cnt.sample_tests++;
+          const Vec3f p = lists_.positions[slot];
+          const Vec3f to_p = p - t.v[0];
+          const float side = dot(t.normal, to_p);
+          // A closed mesh blocks a light sample only with the triangles facing away from it
+          // (§3.3 per light sample): those with p in front. An open one blocks from either side.
+          // p (almost) in the triangle's plane sees it edge-on: the cone from p over it is flat
+          // and its edge planes are rounding noise, so it casts nothing (a segment from p
+          // crosses that plane next to p, away from the triangle, unless p touches it).
+          const float flat2 = kFlat * kFlat * t.normal_len * t.normal_len * dot(to_p, to_p);
+          if (t.closed ? !(side > 0) : side == 0) continue;
+          if (!(side * side > flat2)) continue;
+          uint64_t* m = blocked.data() + static_cast<size_t>(slot) * words;
+          const Vec2f rot = jitter ? rotation[slot] : Vec2f{1, 0};
+          // Behind the supporting plane as seen from p: the other side.
+          if (t.closed && !jitter) {
+            std::copy_n(support_masks.data() + t.support_mask * words, words, hidden);
+          } else {
+            const float sign = side > 0 ? -1.0f : 1.0f;
+            cnt.exact_bits += lut.mask(rotate(t.support_g * sign, rot), t.support_h * sign, hidden);
+            cnt.plane_lookups++;
+          }
+          uint64_t fresh = 0;
+          for (int w = 0; w < words; ++w) fresh |= hidden[w] & ~m[w];
+          if (!fresh) continue;  // nothing this caster could add
+          // Inside the planes through p and each edge (Fig. 6), oriented toward the third vertex.
+          bool any = true;
+          for (int i = 0; i < 3 && any; ++i) {
+            const Vec3f e = edge_plane(t.v[i] - p, t.v[(i + 1) % 3] - t.v[i], side > 0);
+            const Vec2f g = rotate(Vec2f{dot(e, ls), dot(e, lt)}, rot);
+            const float h = dot(e, c - p);
+            // Most edge planes leave the whole light on one side (the sample is far outside
+            // or well inside this edge's wedge): decided without a lookup.
+            const int whole = lut.side_of_disk(g, h);
+            if (whole < 0) any = false;
+            if (whole != 0) continue;
+            cnt.exact_bits += lut.mask(g, h, edge);
+            cnt.plane_lookups++;
+            uint64_t left = 0;
+            for (int w = 0; w < words; ++w) left |= (hidden[w] &= edge[w]);
+            any = left != 0;
+          }
+          if (any) {
+            uint64_t missing = 0;
+            for (int w = 0; w < words; ++w) missing |= lut.all()[w] & ~(m[w] |= hidden[w]);
+            full[slot] = missing == 0;
+          }
+        }
+      });
+    }
+    if (!stencil.empty()) {
+      // Away from every silhouette edge: all of the light or none, as the centre.
+      uint64_t hard = 0;
+      for (size_t texel = 0; texel < stencil.size(); ++texel) {
+        if (stencil[texel]) continue;
+        for (uint32_t slot = lists_.first[texel]; slot < lists_.first[texel + 1]; ++slot) {
+          if (own_plane_cuts[slot] || !center[slot]) continue;
+          std::copy_n(lut.all(), words, blocked.data() + static_cast<size_t>(slot) * words);
+          ++hard;
+        }
+      }
+      stats_.extra["hard_shadowed_samples"] = hard;
+    }
+    {
+      ScopedPhase phase(stats_, "resolve");
+      const float inv = 1.0f / static_cast<float>(n);
+      for (size_t slot = 0; slot < slots; ++slot) {
+        const uint64_t* m = blocked.data() + slot * words;
+        int count = 0;
+        for (int w = 0; w < words; ++w) count += std::popcount(m[w]);
+        out.visibility[lists_.sample[slot]] = 1.0f - static_cast<float>(count) * inv;
+      }
+    }
+    Counters total = center_counters;
+    for (const Counters& c2 : counters) total.add(c2);
+    report(total, casters.size(), center_memory + stencil.size() +
+           blocked.size() * sizeof(uint64_t) + support_masks.size() * sizeof(uint64_t) + rotation.size() * sizeof(Vec2f) + casters.size() * sizeof(Caster) +
+               regions.vertices.size() * sizeof(Vec2f) + lut.memory_bytes());
+    stats_.extra["light_samples"] = n;
+    stats_.extra["casters_skipped"] = skipped;
+    stats_.extra["casters_facing_the_whole_light"] = front_facing;
+    stats_.extra["unbounded_regions"] = unbounded;
+    stats_.extra["plane_lookups"] = total.plane_lookups;
+    stats_.extra["exact_sample_tests"] = total.exact_bits;
+    stats_.extra["lut_bytes"] = lut.memory_bytes();
+    if (ctx.progress) ctx.progress->add(vs.size());
+  }
+
+ private:
+  // g rotated by -alpha, (cos alpha, sin alpha) = r.
+  static Vec2f rotate(Vec2f g, Vec2f r) { return {r.x * g.x + r.y * g.y, -r.y * g.x + r.x * g.y}; }
+
+  bool use_lut_;
+  int lut_resolution_;
+  bool jitter_;
+  bool restrict_;
+  bool silhouettes_;
+  std::optional<afsm::PlaneMaskLut> lut_;
+  struct SilhouetteEdge {
+    Vec3f a, b;
+    Vec3f normal[2];  // of its first two faces (winding normals)
+    int faces = 0;
+  };
+  std::vector<SilhouetteEdge> edges_;
+};
+
+std::vector<ParamSpec> view_specs() {
+  return {
+      {"resolution", ParamType::Int, 512,
+       "texels along the longer side of the light's image holding the view-sample lists (fitted to the listed "
+       "samples, §4.3); affects speed only, never the result",
+       {}, 8, 8192},
+      {"max_fov", ParamType::Float, 120.0,
+       "widest field of view of the light's image (degrees); samples outside it are not listed and count as lit",
+       {}, 1, 179},
+  };
+}
+
+const MethodRegistration hard_registration({
+    "afsm-hard",
+    "alias-free shadow map (sintorn2008 §3): exact hard shadows from the light's centre, view samples listed per "
+    "light texel, casters rasterized conservatively",
+    view_specs(),
+    [](const ParamSet& p) { return std::make_unique<AliasFreeHard>(p); },
+    /*samples_light=*/false,
+});
+
+std::vector<ParamSpec> soft_specs() {
+  std::vector<ParamSpec> specs = view_specs();
+  specs.push_back({"lut", ParamType::Bool, true,
+                   "look plane masks up in a table (sure bits from the table, the band of unsure samples tested "
+                   "exactly: same result); false: test every light sample exactly",
+                   {}});
+  specs.push_back({"lut_resolution", ParamType::Int, 128,
+                   "table cells along each axis (line angle and distance); more cells, fewer exact tests, more memory",
+                   {}, 4, 1024});
+  specs.push_back({"jitter", ParamType::Bool, false,
+                   "rotate the sample pattern per pixel (disk and sphere lights, §4.2): noise instead of banding",
+                   {}});
+  specs.push_back({"silhouettes", ParamType::Bool, false,
+                   "test light samples only inside silhouette edges' influence regions (§4.3); elsewhere V is the "
+                   "light centre's hard shadow (same result). Off by default: with the shipped scenes' large lights "
+                   "every listed sample lies in some silhouette edge's region, so it only adds the edge pass",
+                   {}});
+  specs.push_back({"restrict", ParamType::Bool, true,
+                   "skip casters whose influence region's bounding box holds no listed sample (§4.3)", {}});
+  return specs;
+}
+
+const MethodRegistration soft_registration({
+    "afsm",
+    "sample-based soft visibility (sintorn2008 §4): per view sample a bitmask of --spp (<= 1024) fixed light "
+    "samples, exact per sample; influence regions rasterized conservatively",
+    soft_specs(),
+    [](const ParamSet& p) { return std::make_unique<AliasFreeSoft>(p); },
+    /*samples_light=*/true,
+});
+
+}  // namespace
+}  // namespace penumbra

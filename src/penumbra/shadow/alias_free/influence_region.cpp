@@ -1,0 +1,79 @@
+#include "penumbra/shadow/alias_free/influence_region.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace penumbra::afsm {
+namespace {
+
+// A projection through a vertex farther than this (far-plane distance over the vertex's
+// distance in front of the light point) is treated as unbounded: the region would span
+// thousands of images anyway, and float coordinates lose the texel.
+constexpr float kMaxStretch = 1e4f;
+
+float cross2(Vec2f o, Vec2f a, Vec2f b) { return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x); }
+
+}  // namespace
+
+InfluenceRegions::InfluenceRegions(const AreaLight& light, const LightView& view, float far_depth)
+    : light_(light), view_(view), far_(far_depth) {
+  if (light.shape != LightShape::Sphere) outline_ = light.outline(8);
+}
+
+bool InfluenceRegions::region(const Vec3f v[3], std::vector<Vec2f>* out) const {
+  out->clear();
+  const Vec3f c = light_.center, axis = view_.forward();
+  Vec3f hexagon[6];
+  for (int k = 0; k < 3; ++k) {
+    std::span<const Vec3f> polygon = outline_;
+    if (light_.shape == LightShape::Sphere) {
+      // The silhouette of the ball seen from v: a circle of radius r' around c + u R^2 / d
+      // in the plane perpendicular to u; its circumscribed hexagon.
+      const Vec3f to_v = v[k] - c;
+      const float d = length(to_v), r = light_.radius;
+      if (!(d > r * 1.001f)) return false;
+      const Vec3f u = to_v / d;
+      const Vec3f m = c + u * (r * r / d);
+      const float rho = r * std::sqrt(std::max(0.0f, 1 - (r * r) / (d * d))) / std::cos(kPi / 6);
+      Vec3f a, b;
+      coordinate_system(u, &a, &b);
+      for (int j = 0; j < 6; ++j) {
+        const float phi = j * (kPi / 3);
+        hexagon[j] = m + (a * std::cos(phi) + b * std::sin(phi)) * rho;
+      }
+      polygon = std::span<const Vec3f>(hexagon, 6);
+    }
+    const float zv = dot(v[k] - c, axis);
+    for (const Vec3f& q : polygon) {
+      const float zq = dot(q - c, axis);
+      const float ahead = zv - zq, reach = far_ - zq;
+      if (!(ahead > 0) || !(reach < kMaxStretch * ahead)) return false;
+      const Vec3f f = q + (v[k] - q) * (reach / ahead);
+      const Vec3f t = view_.to_texel(f);
+      if (!std::isfinite(t.x) || !std::isfinite(t.y)) return false;
+      out->push_back({t.x, t.y});
+    }
+  }
+  convex_hull(out);
+  return true;
+}
+
+void convex_hull(std::vector<Vec2f>* points) {
+  std::vector<Vec2f>& p = *points;
+  if (p.size() < 3) return;
+  std::sort(p.begin(), p.end(), [](Vec2f a, Vec2f b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+  std::vector<Vec2f> hull(2 * p.size());
+  size_t k = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    while (k >= 2 && cross2(hull[k - 2], hull[k - 1], p[i]) <= 0) --k;
+    hull[k++] = p[i];
+  }
+  for (size_t i = p.size() - 1, lower = k + 1; i-- > 0;) {
+    while (k >= lower && cross2(hull[k - 2], hull[k - 1], p[i]) <= 0) --k;
+    hull[k++] = p[i];
+  }
+  hull.resize(k > 1 ? k - 1 : k);
+  p = std::move(hull);
+}
+
+}  // namespace penumbra::afsm

@@ -1,0 +1,47 @@
+// A triangle's influence region (sintorn2008 §4.1): the part of the light's image where a
+// view sample can lie if the triangle blocks some point of the light from it.
+//
+// On a far plane (linear depth F from the light's centre, beyond every listed view sample)
+// it is contained in the convex hull of the light's bounding polygon projected through each
+// vertex: a point f on the far plane is shadowed from light point q by triangle point x when
+// q, x, f are collinear; f depends affinely on q for fixed x and projectively on x for fixed
+// q, so f lies in the hull of the 3 x (polygon vertices) projections. Every view sample in
+// front of the far plane that the triangle shadows projects (from the light's centre) into
+// the hull of the triangle's own projection and that region, and the triangle's projection
+// from the centre is itself inside the region (the centre is a point of the light).
+// The light's bounding polygon: the rect's corners; the disk's circumscribed 8-gon; for a
+// sphere, per vertex, the regular hexagon around the silhouette circle seen from that vertex
+// (sintorn2008 §4.1), which bounds every point of the ball.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/raster/light_view.h"
+#include "penumbra/scene/light.h"
+
+namespace penumbra::afsm {
+
+class InfluenceRegions {
+ public:
+  // view: the light's image (eye at the light's centre, looking along frame.n);
+  // far_depth: linear depth of the far plane (>= every listed view sample).
+  InfluenceRegions(const AreaLight& light, const LightView& view, float far_depth);
+  // The region of triangle v[3] as a convex polygon in texel space (appended to *out after
+  // clearing it). False when the region is unbounded (a vertex too close to, or behind, the
+  // light's points): the caller must treat the whole image as covered.
+  bool region(const Vec3f v[3], std::vector<Vec2f>* out) const;
+
+ private:
+  const AreaLight& light_;
+  const LightView& view_;
+  float far_;
+  std::vector<Vec3f> outline_;  // rect / disk: the bounding polygon (world)
+};
+
+// Andrew's monotone chain: the convex hull of `points`, counter-clockwise (y up) without
+// collinear points; in place.
+void convex_hull(std::vector<Vec2f>* points);
+
+}  // namespace penumbra::afsm

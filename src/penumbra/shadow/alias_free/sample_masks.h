@@ -1,0 +1,98 @@
+// The light samples of sintorn2008 §4.2 as bits of a mask, and the lookup table from a plane
+// to the mask of the samples on its positive side.
+//
+// Every light this method handles is sampled on a plane through the light's centre (rect and
+// disk: the emitter; sphere: the disk facing frame.n, as AreaLight::sample_area does), so a
+// plane in space meets the samples' plane in a line: the paper's "two angles and a distance"
+// reduce to one angle and a distance. Samples are stored in the light's (s, t) coordinates
+// divided by the light's extent radius (so they lie in the unit disk); a plane
+// n . x + w > 0 becomes the line g . u + h > 0 with g = R (n.s, n.t), h = n . c + w.
+//
+// The table (PlaneMaskLut) is indexed by the line's direction (a pseudo-angle of g) and its
+// signed distance from the centre. Each cell stores the samples that are on the positive side
+// of *every* line of the cell ("sure") and those that some line of the cell puts on either
+// side ("unsure", a thin band of samples around the cell's lines); a lookup ORs the sure mask
+// with an exact test of the unsure samples only. The result equals the exact classification
+// bit for bit (the table's discretization costs time, never accuracy): this is the paper's
+// "exact-test fallback" made per sample instead of per table.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/scene/light.h"
+
+namespace penumbra::afsm {
+
+inline constexpr int kMaxLightSamples = 1024;
+
+// The N light points of one frame: stratified on [0,1)^2 (LightSampleSet, fixed for every
+// view sample as in agrawala2000 §3 / sintorn2008 §4.2), mapped by AreaLight::sample_area.
+struct LightSamples {
+  std::vector<Vec3f> points;  // world space
+  std::vector<Vec2f> local;   // (q - c) . (s, t) / radius
+  Vec3f center, s, t, n;      // the light's centre and frame
+  float radius = 1;           // AreaLight::extent_radius()
+  int size() const { return static_cast<int>(points.size()); }
+};
+// Frame `frame`'s samples of light `light_index` (keyed by seed, light and frame only).
+LightSamples make_light_samples(const AreaLight& light, int n, uint64_t seed, int light_index, int frame);
+
+// Words of 64 bits for n samples.
+inline int mask_words(int n) { return (n + 63) / 64; }
+
+class PlaneMaskLut {
+ public:
+  // angle_bins x distance_bins cells; 0 bins = no table (every lookup tests every sample).
+  PlaneMaskLut(std::span<const Vec2f> samples, int angle_bins, int distance_bins);
+
+  int size() const { return static_cast<int>(ux_.size()); }
+  int words() const { return words_; }
+  bool has_table() const { return angle_bins_ > 0; }
+  size_t memory_bytes() const;
+
+  // out[words()] = the samples u with g . u + h > 0 (table plus exact test of the unsure
+  // samples; equal to exact() bit for bit). Returns the number of samples tested exactly.
+  int lookup(Vec2f g, float h, uint64_t* out) const;
+  // The same by testing every sample.
+  void exact(Vec2f g, float h, uint64_t* out) const;
+  // Both, by has_table().
+  int mask(Vec2f g, float h, uint64_t* out) const {
+    if (has_table()) return lookup(g, h, out);
+    exact(g, h, out);
+    return size();
+  }
+  // The mask with every sample set.
+  const uint64_t* all() const { return all_.data(); }
+
+  // Where the line g . u + h = 0 misses the samples' disk: -1 when no sample is on the
+  // positive side, +1 when all are, 0 when it may cut them (then use mask()). No square root,
+  // no table access: the common cases of the per-(sample, caster) test end here.
+  int side_of_disk(Vec2f g, float h) const {
+    const float g2 = g.x * g.x + g.y * g.y, reach2 = g2 * max_distance2_;
+    if (h * h > reach2 || (g2 == 0 && h != 0)) return h > 0 ? 1 : -1;
+    if (g2 == 0) return -1;  // g = 0, h = 0: nothing strictly positive
+    return 0;
+  }
+
+ private:
+  std::vector<float> ux_, uy_;
+  std::vector<uint64_t> all_;
+  int words_ = 1;
+  int angle_bins_ = 0, distance_bins_ = 0;
+  float max_distance_ = 1;  // samples lie within this distance of the centre (padded)
+  float max_distance2_ = 1;
+  // Per cell (angle-major): words_ sure bits, then words_ unsure bits.
+  std::vector<uint64_t> cells_;
+};
+
+// A monotone stand-in for atan2 on [0, 4) (the "diamond angle"): cheaper than atan2, and
+// the table's angle bins are uniform in it.
+inline float diamond_angle(float x, float y) {
+  if (y >= 0) return x >= 0 ? y / (x + y) : 1 - x / (-x + y);
+  return x < 0 ? 2 - y / (-x - y) : 3 + x / (x - y);
+}
+
+}  // namespace penumbra::afsm

@@ -1,0 +1,88 @@
+#include "penumbra/shadow/alias_free/texel_lists.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+
+namespace penumbra::afsm {
+
+TexelLists build_texel_lists(const LightView& view, std::span<const Vec3f> points, std::span<const uint32_t> ids) {
+  if (points.size() != ids.size()) throw Error("build_texel_lists: {} points, {} ids", points.size(), ids.size());
+  TexelLists lists;
+  lists.width = view.width();
+  lists.height = view.height();
+  const size_t texels = static_cast<size_t>(lists.width) * lists.height;
+  // Pass 1: each point's texel (or none), in parallel.
+  constexpr uint32_t kNone = ~0u;
+  std::vector<uint32_t> texel_of(points.size());
+  parallel_for(points.size(), 4096, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      const Vec3f t = view.to_texel(points[i]);
+      const bool in = t.z >= view.near() && t.x >= 0 && t.y >= 0 && t.x < lists.width && t.y < lists.height;
+      texel_of[i] = in ? static_cast<uint32_t>(lists.texel(static_cast<int>(t.x), static_cast<int>(t.y))) : kNone;
+    }
+  });
+  // Pass 2: counts, exclusive prefix sum.
+  lists.first.assign(texels + 1, 0);
+  for (uint32_t t : texel_of)
+    if (t != kNone) lists.first[t + 1]++;
+    else lists.uncovered++;
+  for (size_t i = 0; i < texels; ++i) lists.first[i + 1] += lists.first[i];
+  // Pass 3: scatter, in input order within a texel (deterministic).
+  const size_t slots = lists.first[texels];
+  lists.positions.resize(slots);
+  lists.sample.resize(slots);
+  std::vector<uint32_t> cursor(lists.first.begin(), lists.first.end() - 1);
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (texel_of[i] == kNone) continue;
+    const uint32_t slot = cursor[texel_of[i]]++;
+    lists.positions[slot] = points[i];
+    lists.sample[slot] = ids[i];
+  }
+  return lists;
+}
+
+size_t TexelLists::memory_bytes() const {
+  return first.size() * sizeof(uint32_t) + positions.size() * sizeof(Vec3f) + sample.size() * sizeof(uint32_t) +
+         summed_.size() * sizeof(uint32_t);
+}
+
+TexelLists::Occupancy TexelLists::occupancy() const {
+  Occupancy o;
+  const size_t texels = first.empty() ? 0 : first.size() - 1;
+  for (size_t i = 0; i < texels; ++i) {
+    const size_t len = first[i + 1] - first[i];
+    if (len == 0) continue;
+    o.occupied++;
+    o.longest = std::max(o.longest, len);
+  }
+  o.average = o.occupied ? static_cast<double>(slots()) / o.occupied : 0.0;
+  return o;
+}
+
+void TexelLists::build_summed_area() {
+  const size_t w1 = static_cast<size_t>(width) + 1;
+  summed_.assign(w1 * (height + 1), 0);
+  for (int y = 0; y < height; ++y) {
+    uint32_t row = 0;
+    for (int x = 0; x < width; ++x) {
+      row += end(x, y) - begin(x, y);
+      summed_[(y + 1) * w1 + x + 1] = summed_[y * w1 + x + 1] + row;
+    }
+  }
+}
+
+uint64_t TexelLists::count_in(int x0, int y0, int x1, int y1) const {
+  x0 = std::clamp(x0, 0, width);
+  x1 = std::clamp(x1, 0, width);
+  y0 = std::clamp(y0, 0, height);
+  y1 = std::clamp(y1, 0, height);
+  if (x0 >= x1 || y0 >= y1) return 0;
+  const size_t w1 = static_cast<size_t>(width) + 1;
+  return static_cast<uint64_t>(summed_[y1 * w1 + x1]) - summed_[y0 * w1 + x1] - summed_[y1 * w1 + x0] +
+         summed_[y0 * w1 + x0];
+}
+
+}  // namespace penumbra::afsm

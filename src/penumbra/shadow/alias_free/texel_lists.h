@@ -1,0 +1,51 @@
+// The alias-free shadow map's lists (sintorn2008 §3.1): each view sample is projected into
+// the light's image and listed at the texel it falls in. Built as on the GPU, without
+// dynamic allocation: a count per texel, an exclusive prefix sum (each texel's first slot),
+// then a scatter of the samples into flat arrays. A slot's position and the view sample it
+// came from are stored apart from the per-slot shadow state (a bit or a mask, owned by the
+// method), as the paper keeps positions and shadow bits in separate arrays.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/raster/light_view.h"
+
+namespace penumbra::afsm {
+
+struct TexelLists {
+  int width = 0, height = 0;
+  std::vector<uint32_t> first;      // width * height + 1: texel i's slots are [first[i], first[i+1])
+  std::vector<Vec3f> positions;     // per slot
+  std::vector<uint32_t> sample;     // per slot: the index given with the point
+  size_t uncovered = 0;             // points outside the view (not listed)
+
+  size_t slots() const { return positions.size(); }
+  size_t texel(int x, int y) const { return static_cast<size_t>(y) * width + x; }
+  uint32_t begin(int x, int y) const { return first[texel(x, y)]; }
+  uint32_t end(int x, int y) const { return first[texel(x, y) + 1]; }
+  size_t memory_bytes() const;
+
+  // Fig. 9's inlay: texels with a non-empty list, their average and the longest list.
+  struct Occupancy {
+    size_t occupied = 0;
+    double average = 0;
+    size_t longest = 0;
+  };
+  Occupancy occupancy() const;
+  // Number of slots in the texel rectangle [x0, x1) x [y0, y1) (clamped to the image), in
+  // constant time from a summed-area table (built on first use by build_summed_area()).
+  void build_summed_area();
+  uint64_t count_in(int x0, int y0, int x1, int y1) const;
+
+ private:
+  std::vector<uint32_t> summed_;  // (width + 1) x (height + 1)
+};
+
+// Lists `points` (ids[i] names points[i]) at the texels of `view` they project into; points
+// behind the near plane or outside the image are counted in `uncovered`.
+TexelLists build_texel_lists(const LightView& view, std::span<const Vec3f> points, std::span<const uint32_t> ids);
+
+}  // namespace penumbra::afsm
