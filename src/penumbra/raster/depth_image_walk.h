@@ -27,6 +27,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <type_traits>
 #include <utility>
 
 #include "penumbra/core/math.h"
@@ -107,6 +108,10 @@ struct DepthWalkTexel {
   float t_enter = 0, t_exit = 0;  // the segment's crossing of the (closed) texel, inside [t0, t1]
   float d_enter = 0, d_exit = 0;  // the ray's depth at t_enter and t_exit
   DepthRange range;               // the texel's range in the pyramid
+  // The part of the crossing the ancestors' min/max clipping left (= [t_enter, t_exit]
+  // without clipping): with walk_depth_image_with_skips, these parts and the skipped spans
+  // tile [t0, t1] in order.
+  float t_clip_enter = 0, t_clip_exit = 0;
 };
 
 // An inner node about to be descended.
@@ -143,39 +148,89 @@ struct DepthWalkCounters {
   }
 };
 
+// Why a span of the segment was not walked down to texels (walk_depth_image_with_skips).
+enum class SkipReason {
+  InFront,  // the ray is nearer the eye than every surface of the node (minus the tolerance)
+  Behind,   // the ray is farther than every surface of the node (plus the tolerance)
+  Empty,    // the node holds no surface
+  Outside,  // the segment is outside the image
+  Pruned,   // the node visitor answered Skip
+};
+
+struct DepthWalkSkip {
+  float t_enter = 0, t_exit = 0;
+  SkipReason reason = SkipReason::Empty;
+  int level = 0;  // of the node skipped (-1: outside the image)
+};
+
+// The default skip visitor: ignore (compiled away).
+struct IgnoreSkips {
+  void operator()(const DepthWalkSkip&) const {}
+};
+
 // The default node visitor: always descend.
 struct DescendEveryNode {
   NodeStep operator()(const DepthWalkNode&) const { return NodeStep::Descend; }
 };
 
-// Walks `seg` (from t0 to t1) through `pyramid`, front to back. Returns true when a visitor
-// stopped the walk. `counters` (optional) are incremented.
-template <class LeafVisitor, class NodeVisitor = DescendEveryNode>
-bool walk_depth_image(const MinMaxPyramid& pyramid, const DepthImageSegment& seg,
-                      const DepthWalkOptions& opt, LeafVisitor&& leaf, NodeVisitor&& node = {},
-                      DepthWalkCounters* counters = nullptr) {
+// Walks `seg` (from t0 to t1) through `pyramid`, front to back, and reports, besides the
+// texels, every span of [t0, t1] it did not descend into, with the reason
+// (skip(const DepthWalkSkip&), in order with the texels' clipped parts): what a caller needs
+// to know where the ray passed behind or in front of the image's surfaces (agrawala2000
+// §5.1.2, occlusion intervals and clear miss). Returns true when a visitor stopped the walk.
+template <class LeafVisitor, class NodeVisitor, class SkipVisitor>
+bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageSegment& seg,
+                                 const DepthWalkOptions& opt, LeafVisitor&& leaf, NodeVisitor&& node,
+                                 SkipVisitor&& skip, DepthWalkCounters* counters = nullptr) {
+  constexpr bool kSkips = !std::is_same_v<std::decay_t<SkipVisitor>, IgnoreSkips>;
   struct Entry {
-    int level, x, y;
+    int level, x, y;  // level -1: a deferred skip span (reason in x)
     float ta, tb;
   };
-  // Depth-first with at most 3 siblings left pending per level: 3 * 32 + 1 entries cover any
-  // image the rasterizer can make (16384^2: 15 levels).
-  Entry stack[128];
+  // Depth-first with at most 3 siblings and one deferred span pending per level: 4 * 32 + 2
+  // entries cover any image the rasterizer can make (16384^2: 15 levels).
+  Entry stack[160];
   int top = 0;
   const int W = pyramid.width(0), H = pyramid.height(0);
   const float tol = opt.tolerance;
   uint64_t n_nodes = 0, n_texels = 0;
   bool stopped = false;
+  auto report = [&](float a, float b, SkipReason why, int level) {
+    if constexpr (kSkips) {
+      if (a <= b) skip(DepthWalkSkip{a, b, why, level});
+    }
+  };
+  // Which side of [lo, hi] the ray is on at t (outside the widened range).
+  auto side = [&](float t, const DepthRange& r) {
+    return seg.depth_at(t) < 0.5f * (r.lo + r.hi) ? SkipReason::InFront : SkipReason::Behind;
+  };
 
   float ta = seg.t0, tb = seg.t1;
-  if (seg.clip_to_box(0, 0, float(W), float(H), &ta, &tb)) stack[top++] = {pyramid.levels() - 1, 0, 0, ta, tb};
+  if (seg.clip_to_box(0, 0, float(W), float(H), &ta, &tb)) {
+    if constexpr (kSkips) {
+      if (ta > seg.t0) report(seg.t0, ta, SkipReason::Outside, -1);
+      if (tb < seg.t1) stack[top++] = {-1, int(SkipReason::Outside), 0, tb, seg.t1};
+    }
+    stack[top++] = {pyramid.levels() - 1, 0, 0, ta, tb};
+  } else {
+    report(seg.t0, seg.t1, SkipReason::Outside, -1);
+  }
 
   while (top > 0) {
     Entry e = stack[--top];
+    if constexpr (kSkips) {
+      if (e.level < 0) {
+        report(e.ta, e.tb, SkipReason(e.x), e.y);
+        continue;
+      }
+    }
     ++n_nodes;
     if (e.level == 0) {
       DepthRange r = pyramid.level(0)[static_cast<size_t>(e.y) * W + e.x];
-      if (r.empty()) continue;
+      if (r.empty()) {
+        report(e.ta, e.tb, SkipReason::Empty, 0);
+        continue;
+      }
       // The whole crossing of the texel (ancestors' clipping only removed parts where the
       // ray is outside their ranges, hence outside this texel's).
       float la = seg.t0, lb = seg.t1;
@@ -191,8 +246,13 @@ bool walk_depth_image(const MinMaxPyramid& pyramid, const DepthImageSegment& seg
       t.d_enter = seg.depth_at(la);
       t.d_exit = seg.depth_at(lb);
       t.range = r;
+      t.t_clip_enter = e.ta;
+      t.t_clip_exit = e.tb;
       float dlo = std::min(t.d_enter, t.d_exit), dhi = std::max(t.d_enter, t.d_exit);
-      if (!(r.lo - tol <= dhi && dlo <= r.hi + tol)) continue;
+      if (!(r.lo - tol <= dhi && dlo <= r.hi + tol)) {
+        report(e.ta, e.tb, side(0.5f * (e.ta + e.tb), r), 0);
+        continue;
+      }
       ++n_texels;
       if (leaf(static_cast<const DepthWalkTexel&>(t)) == WalkStep::Stop) {
         stopped = true;
@@ -201,17 +261,24 @@ bool walk_depth_image(const MinMaxPyramid& pyramid, const DepthImageSegment& seg
       continue;
     }
     DepthRange r = pyramid.range(e.level, e.x, e.y);
-    if (r.empty()) continue;
+    if (r.empty()) {
+      report(e.ta, e.tb, SkipReason::Empty, e.level);
+      continue;
+    }
     float a = e.ta, b = e.tb;
     DepthRange box_ray = seg.depth_over(a, b), ray = box_ray;
     if (opt.minmax_clipping) {
       // What is left lies inside the widened range by construction; testing the depths
       // again would reject single-point overlaps through rounding.
-      if (!seg.clip_to_depth(r.lo - tol, r.hi + tol, &a, &b)) continue;
+      if (!seg.clip_to_depth(r.lo - tol, r.hi + tol, &a, &b)) {
+        report(e.ta, e.tb, side(0.5f * (e.ta + e.tb), r), e.level);
+        continue;
+      }
       ray = seg.depth_over(a, b);
       ray.lo = std::max(ray.lo, r.lo - tol);
       ray.hi = std::min(ray.hi, r.hi + tol);
     } else if (!(r.lo - tol <= ray.hi && ray.lo <= r.hi + tol)) {
+      report(e.ta, e.tb, side(0.5f * (e.ta + e.tb), r), e.level);
       continue;
     }
     DepthWalkNode n;
@@ -224,10 +291,18 @@ bool walk_depth_image(const MinMaxPyramid& pyramid, const DepthImageSegment& seg
     n.box_ray = box_ray;
     n.range = r;
     NodeStep step = node(static_cast<const DepthWalkNode&>(n));
-    if (step == NodeStep::Skip) continue;
+    if (step == NodeStep::Skip) {
+      report(e.ta, e.tb, SkipReason::Pruned, e.level);
+      continue;
+    }
     if (step == NodeStep::Stop) {
       stopped = true;
       break;
+    }
+    if constexpr (kSkips) {
+      // The clipped-off ends: before the children now, after them later.
+      if (a > e.ta) report(e.ta, a, side(e.ta, r), e.level);
+      if (b < e.tb) stack[top++] = {-1, int(side(e.tb, r)), e.level, b, e.tb};
     }
     // Children in the order the segment enters them.
     const int cl = e.level - 1, cw = pyramid.width(cl), ch = pyramid.height(cl);
@@ -254,6 +329,16 @@ bool walk_depth_image(const MinMaxPyramid& pyramid, const DepthImageSegment& seg
     counters->texels += n_texels;
   }
   return stopped;
+}
+
+// Walks `seg` (from t0 to t1) through `pyramid`, front to back. Returns true when a visitor
+// stopped the walk. `counters` (optional) are incremented.
+template <class LeafVisitor, class NodeVisitor = DescendEveryNode>
+bool walk_depth_image(const MinMaxPyramid& pyramid, const DepthImageSegment& seg,
+                      const DepthWalkOptions& opt, LeafVisitor&& leaf, NodeVisitor&& node = {},
+                      DepthWalkCounters* counters = nullptr) {
+  return walk_depth_image_with_skips(pyramid, seg, opt, std::forward<LeafVisitor>(leaf),
+                                     std::forward<NodeVisitor>(node), IgnoreSkips{}, counters);
 }
 
 }  // namespace penumbra

@@ -220,6 +220,67 @@ TEST(DepthImageWalk, LeafAndNodeVisitorsStopAndPrune) {
   EXPECT_EQ(n1, 64);
 }
 
+TEST(DepthImageWalk, SkippedSpansAndTexelsTileTheSegmentInOrder) {
+  Rng rng(21);
+  int behind = 0, in_front = 0, checked = 0;
+  for (auto [W, H] : {std::pair{64, 64}, std::pair{37, 23}}) {
+    std::vector<DepthRange> texels = random_texels(W, H, rng);
+    MinMaxPyramid pyr(W, H, texels);
+    for (int i = 0; i < 400; ++i) {
+      DepthImageSegment seg = random_segment(W, H, rng);
+      if (seg.p0.x == seg.p1.x && seg.p0.y == seg.p1.y) continue;
+      for (bool clipping : {true, false}) {
+        DepthWalkOptions opt;
+        opt.minmax_clipping = clipping;
+        opt.tolerance = 0.01f * rng.next_float();
+        std::vector<std::pair<float, float>> spans;
+        std::vector<int> leaf_count_before;
+        walk_depth_image_with_skips(
+            pyr, seg, opt,
+            [&](const DepthWalkTexel& t) {
+              EXPECT_GE(t.t_clip_enter, t.t_enter - 1e-5f);
+              EXPECT_LE(t.t_clip_exit, t.t_exit + 1e-5f);
+              spans.push_back({t.t_clip_enter, t.t_clip_exit});
+              return WalkStep::Continue;
+            },
+            DescendEveryNode{},
+            [&](const DepthWalkSkip& s) {
+              spans.push_back({s.t_enter, s.t_exit});
+              if (s.reason != SkipReason::Behind && s.reason != SkipReason::InFront) return;
+              // At the span's middle the ray is on the reported side of the texel there.
+              float tm = 0.5f * (s.t_enter + s.t_exit);
+              Vec2f p = seg.at(tm);
+              int x = std::clamp(int(p.x), 0, W - 1), y = std::clamp(int(p.y), 0, H - 1);
+              const DepthRange& r = texels[size_t(y) * W + x];
+              float fx = p.x - std::floor(p.x), fy = p.y - std::floor(p.y);
+              if (r.empty() || fx < 1e-3f || fx > 1 - 1e-3f || fy < 1e-3f || fy > 1 - 1e-3f) return;
+              ++checked;
+              if (s.reason == SkipReason::Behind) {
+                ++behind;
+                EXPECT_GT(seg.depth_at(tm), r.hi + opt.tolerance - 1e-5f);
+              } else {
+                ++in_front;
+                EXPECT_LT(seg.depth_at(tm), r.lo - opt.tolerance + 1e-5f);
+              }
+            });
+        ASSERT_FALSE(spans.empty());
+        EXPECT_NEAR(spans.front().first, seg.t0, 1e-5f);
+        EXPECT_NEAR(spans.back().second, seg.t1, 1e-5f);
+        for (size_t k = 1; k < spans.size(); ++k) {
+          // Contiguous, except zero-length touches of texel corners and edges.
+          if (spans[k].second - spans[k].first < 1e-5f) continue;
+          float prev_end = spans[k - 1].second;
+          for (size_t j = k - 1; j > 0 && spans[j].second - spans[j].first < 1e-5f; --j) prev_end = std::max(prev_end, spans[j - 1].second);
+          EXPECT_NEAR(spans[k].first, prev_end, 1e-4f) << "span " << k << " of " << spans.size();
+        }
+      }
+    }
+  }
+  EXPECT_GT(behind, 100);
+  EXPECT_GT(in_front, 100);
+  EXPECT_GT(checked, 300);
+}
+
 TEST(DepthImageWalk, ProjectedSegmentsMatchTheViewAndClipAtNear) {
   Rng rng(9);
   LightView persp = LightView::perspective({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 60, 200, 150, 0.5f, 20);
