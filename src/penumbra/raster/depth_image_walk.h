@@ -200,13 +200,29 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
       if (a <= b) skip(DepthWalkSkip{a, b, why, level});
     }
   };
+  // Clipping with the segment's reciprocal slopes computed once (the walk's inner loop
+  // clips up to four children per node).
+  const float dx = seg.p1.x - seg.p0.x, dy = seg.p1.y - seg.p0.y, dd = seg.d1 - seg.d0;
+  const float ix = dx != 0 ? 1.0f / dx : 0.0f, iy = dy != 0 ? 1.0f / dy : 0.0f, id = dd != 0 ? 1.0f / dd : 0.0f;
+  auto clip_axis = [](float p, float d, float inv, float lo, float hi, float* a, float* b) {
+    if (d == 0) return p >= lo && p <= hi && *a <= *b;
+    float u = (lo - p) * inv, v = (hi - p) * inv;
+    if (u > v) std::swap(u, v);
+    *a = std::max(*a, u);
+    *b = std::min(*b, v);
+    return *a <= *b;
+  };
+  auto clip_box = [&](float x0, float y0, float x1, float y1, float* a, float* b) {
+    return clip_axis(seg.p0.x, dx, ix, x0, x1, a, b) && clip_axis(seg.p0.y, dy, iy, y0, y1, a, b);
+  };
+  auto clip_depth = [&](float lo, float hi, float* a, float* b) { return clip_axis(seg.d0, dd, id, lo, hi, a, b); };
   // Which side of [lo, hi] the ray is on at t (outside the widened range).
   auto side = [&](float t, const DepthRange& r) {
     return seg.depth_at(t) < 0.5f * (r.lo + r.hi) ? SkipReason::InFront : SkipReason::Behind;
   };
 
   float ta = seg.t0, tb = seg.t1;
-  if (seg.clip_to_box(0, 0, float(W), float(H), &ta, &tb)) {
+  if (clip_box(0, 0, float(W), float(H), &ta, &tb)) {
     if constexpr (kSkips) {
       if (ta > seg.t0) report(seg.t0, ta, SkipReason::Outside, -1);
       if (tb < seg.t1) stack[top++] = {-1, int(SkipReason::Outside), 0, tb, seg.t1};
@@ -234,7 +250,7 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
       // The whole crossing of the texel (ancestors' clipping only removed parts where the
       // ray is outside their ranges, hence outside this texel's).
       float la = seg.t0, lb = seg.t1;
-      if (!seg.clip_to_box(float(e.x), float(e.y), float(e.x + 1), float(e.y + 1), &la, &lb)) {
+      if (!clip_box(float(e.x), float(e.y), float(e.x + 1), float(e.y + 1), &la, &lb)) {
         la = e.ta;  // rounding: keep what the parent passed down
         lb = e.tb;
       }
@@ -270,7 +286,7 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
     if (opt.minmax_clipping) {
       // What is left lies inside the widened range by construction; testing the depths
       // again would reject single-point overlaps through rounding.
-      if (!seg.clip_to_depth(r.lo - tol, r.hi + tol, &a, &b)) {
+      if (!clip_depth(r.lo - tol, r.hi + tol, &a, &b)) {
         report(e.ta, e.tb, side(0.5f * (e.ta + e.tb), r), e.level);
         continue;
       }
@@ -313,7 +329,7 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
         float x0 = float(cx << cl), y0 = float(cy << cl);
         float x1 = float(std::min(W, (cx + 1) << cl)), y1 = float(std::min(H, (cy + 1) << cl));
         float ka = a, kb = b;
-        if (!seg.clip_to_box(x0, y0, x1, y1, &ka, &kb)) continue;
+        if (!clip_box(x0, y0, x1, y1, &ka, &kb)) continue;
         Entry k{cl, cx, cy, ka, kb};
         int i = nk++;
         while (i > 0 && (kids[i - 1].ta > ka || (kids[i - 1].ta == ka && kids[i - 1].tb > kb))) {

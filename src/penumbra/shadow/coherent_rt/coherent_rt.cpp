@@ -57,6 +57,7 @@ class CoherentRayTracing final : public ShadowMethod {
     image_options_.resolution = p.get_int("resolution");
     image_options_.gap_bias = p.get_float("gap_bias");
     image_options_.shadow_bias = p.get_float("shadow_bias");
+    image_options_.slope_bias = p.get_float("slope_bias");
     trace_options_.minmax_clipping = p.get_bool("minmax_clipping");
     trace_options_.connectedness = p.get_bool("connectedness");
     trace_options_.clear_miss = p.get_bool("clear_miss");
@@ -67,6 +68,7 @@ class CoherentRayTracing final : public ShadowMethod {
     sampling_.reset_distance = p.get_float("reset_distance");
     sampling_.shortcut = p.get_bool("shortcut");
     tile_ = p.get_int("tile");
+    own_plane_ = p.get_bool("own_plane");
     if (tile_ & (tile_ - 1)) throw Error("coherent-rt: tile={} must be a power of two", tile_);
   }
 
@@ -119,13 +121,13 @@ class CoherentRayTracing final : public ShadowMethod {
     std::mutex mutex;
     TraceCounters trace_total;
     SoftShadCounters sample_total;
-    uint64_t geometry_rays = 0;
+    uint64_t geometry_rays = 0, own_plane_total = 0;
     parallel_for_tiles(W, H, tile_, [&](int x0, int y0, int x1, int y1) {
       SoftShad sampler(light, cols, rows, sampling_);
       TraceScratch scratch;
       TraceCounters tc;
       SoftShadCounters sc;
-      uint64_t grays = 0;
+      uint64_t grays = 0, own_plane_cells = 0;
       std::vector<Vec2f> u(n);
       std::vector<Vec3f> q(n);
       size_t done = 0;
@@ -149,9 +151,18 @@ class CoherentRayTracing final : public ShadowMethod {
             u[i] = grid.sample(i, rng.next_2d());
             q[i] = light.sample_area(u[i]);
           }
+          // penumbra's addition: on a closed mesh, light behind the point's own plane is
+          // hidden by the solid itself (ng faces the camera, i.e. out of the solid); no ray.
+          const bool solid = own_plane_ && !geometry_ && s.object < ctx.scene->objects.size() &&
+                             ctx.scene->objects[s.object].closed;
           auto trace = [&](int j) {
-            const ShadowRay sr = shadow_ray_to(s.p, s.ng, q[j]);
             RayAnswer a;
+            if (solid && dot(q[j] - s.p, s.ng) <= 0) {
+              a.blocked = true;
+              ++own_plane_cells;
+              return a;
+            }
+            const ShadowRay sr = shadow_ray_to(s.p, s.ng, q[j]);
             if (geometry_) {
               ++grays;
               Ray r{sr.org, sr.dir, sr.tnear, sr.tfar};
@@ -191,8 +202,11 @@ class CoherentRayTracing final : public ShadowMethod {
       trace_total.add(tc);
       sample_total.add(sc);
       geometry_rays += grays;
+      own_plane_total += own_plane_cells;
     });
-    stats_.rays_traced += sample_total.rays;
+    // Rays actually traced (cells the sampler asked for, less those the own-plane test answered).
+    const uint64_t traced = geometry_ ? geometry_rays : trace_total.rays;
+    stats_.rays_traced += traced;
     stats_.texels_visited += trace_total.walk.nodes;
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, memory_bytes_);
     const double points = std::max<double>(1, sample_total.points);
@@ -201,8 +215,10 @@ class CoherentRayTracing final : public ShadowMethod {
     extra["tracer"] = geometry_ ? "geometry" : "depth-images";
     extra["light_samples"] = n;
     extra["points"] = sample_total.points;
-    extra["rays_per_point"] = sample_total.rays / points;
-    extra["ray_fraction"] = sample_total.rays / (points * n);
+    extra["rays_per_point"] = traced / points;
+    extra["ray_fraction"] = traced / (points * n);
+    extra["cells_evaluated_per_point"] = sample_total.rays / points;
+    extra["own_plane_cells_per_point"] = own_plane_total / points;
     if (sampling_.coherence)
       extra["coherence"] = {{"resets", sample_total.resets},
                             {"predicted_wrong_per_point", sample_total.predicted_wrong / points},
@@ -224,6 +240,7 @@ class CoherentRayTracing final : public ShadowMethod {
   bool geometry_ = false;
   std::string views_;
   int tile_ = 32;
+  bool own_plane_ = true;
   ReferenceImageOptions image_options_;
   TraceOptions trace_options_;
   SoftShadOptions sampling_;
@@ -250,6 +267,9 @@ const MethodRegistration registration({
          {}, 0, 1e6},
         {"shadow_bias", ParamType::Float, 1.5,
          "floors are pushed back by shadow_bias texel widths (against self-shadowing)", {}, 0, 1e6},
+        {"slope_bias", ParamType::Float, 0.25,
+         "plus slope_bias times the texel's largest depth step to a connected neighbour (grazing surfaces)", {}, 0,
+         1e6},
         {"minmax_clipping", ParamType::Bool, true, "§5.1.1: clip the epipolar segment to each node's depth range", {}},
         {"connectedness", ParamType::Bool, true,
          "§5.1.1: report 'blocked' at connected inner nodes (not used with coherence, which needs blocker points)", {}},
@@ -260,12 +280,18 @@ const MethodRegistration registration({
         {"coherence", ParamType::Bool, true,
          "§5.2: coherence-based light sampling (SoftShad); false traces every light cell", {}},
         {"sub_grid", ParamType::Int, 3, "§5.2.2: blocker-point sub-cells per light cell along each axis", {}, 1, 16},
-        {"shortcut", ParamType::Bool, true,
-         "§5.2.2: a light cell whose sample shares a sub-cell with a blocker point is blocked without a ray", {}},
+        {"shortcut", ParamType::Bool, false,
+         "§5.2.2: a light cell whose sample shares a sub-cell with a blocker point is blocked without a ray (off by "
+         "default: measured to darken penumbrae, docs/methods/coherent-rt.md)",
+         {}},
         {"reset_distance", ParamType::Float, 0.02,
          "§5.2.1: drop the prediction when consecutive points are farther apart than this times the distance to "
          "the light",
          {}, 0, 1e6},
+        {"own_plane", ParamType::Bool, true,
+         "depth images: on closed meshes, light behind the point's own plane is blocked without a ray (penumbra's "
+         "addition, against leaks along edges within the shadow bias)",
+         {}},
         {"tile", ParamType::Int, 32, "image tiles shaded in Hilbert order, each with its own prediction (power of two)",
          {}, 1, 1024},
     },

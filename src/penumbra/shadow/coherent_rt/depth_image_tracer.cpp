@@ -123,7 +123,9 @@ TraceResult DepthImageTracer::trace(Vec3f p, Vec3f q, bool need_point, TraceScra
     order[nvalid++] = k;
   }
   // §5.1.2 (after Chang): shortest clipped epipolar segment first.
-  if (options_.ranking) std::stable_sort(order, order + nvalid, [&](int a, int b) { return length[a] < length[b]; });
+  if (options_.ranking)
+    for (int i = 1; i < nvalid; ++i)  // insertion sort: a handful of maps, stable, no allocation
+      for (int j = i; j > 0 && length[order[j]] < length[order[j - 1]]; --j) std::swap(order[j], order[j - 1]);
 
   DepthWalkOptions wopt;
   wopt.minmax_clipping = options_.minmax_clipping;

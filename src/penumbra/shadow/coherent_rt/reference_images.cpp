@@ -83,8 +83,6 @@ ReferenceImage build_reference_image(std::span<const RasterTriangle> tris, const
         size_t i = map.index(x, y);
         if (map.triangle[i] == kNoTriangle) continue;
         float z = map.z[i];
-        float texel = view.texel_world_size(z);
-        img.floor[i] = view.window_depth(z + options.shadow_bias * texel);
         uint8_t links = 0;
         for (int k = 0; k < 8; ++k) {
           int nx = x + kNeighbourDx[k], ny = y + kNeighbourDy[k];
@@ -97,6 +95,21 @@ ReferenceImage build_reference_image(std::span<const RasterTriangle> tris, const
           if (std::abs(z - zj) <= gap) links |= uint8_t(1u << k);
         }
         img.links[i] = links;
+      }
+  });
+  // Floors, pushed back by the shadow bias plus, slope-scaled, the largest depth step to a
+  // connected neighbour (a surface seen at a grazing angle moves that much per texel, so a
+  // point anywhere in the texel lies up to about that far behind the sampled depth).
+  tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < W; ++x) {
+        size_t i = map.index(x, y);
+        if (map.triangle[i] == kNoTriangle) continue;
+        const float z = map.z[i];
+        float step = 0;
+        for (int k = 0; k < 4; ++k)
+          if (img.links[i] & (1u << k)) step = std::max(step, std::abs(map.z[map.index(x + kNeighbourDx[k], y + kNeighbourDy[k])] - z));
+        img.floor[i] = view.window_depth(z + options.shadow_bias * view.texel_world_size(z) + options.slope_bias * step);
       }
   });
   // Texel ranges: the floor and the walls to connected neighbours.

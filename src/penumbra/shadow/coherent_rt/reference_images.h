@@ -7,7 +7,9 @@
 // its sampled depth z_i pushed back by the shadow bias; two adjacent texels are connected
 // by a wall when their depths differ by at most the gap bias. Both biases are given in
 // texels: multiples of the texel's world size at its depth (LightView::texel_world_size),
-// so they follow the map's resolution and perspective. All depths the walk compares are
+// so they follow the map's resolution and perspective; a slope-scaled part of the shadow
+// bias (the depth step to the neighbours) keeps surfaces seen at grazing angles from
+// shadowing themselves. All depths the walk compares are
 // window depths (affine along an epipolar segment; raster.md conventions).
 //
 // The pyramid's texel range spans the texel's floor and the walls to its connected
@@ -45,6 +47,8 @@ struct ReferenceImageOptions {
   int resolution = 1024;     // texels along the longer side of each view
   float gap_bias = 4.0f;     // texels: adjacent depths within gap_bias * texel size are connected
   float shadow_bias = 1.5f;  // texels: floors pushed back by shadow_bias * texel size
+  // plus slope_bias times the largest depth step to a connected edge neighbour
+  float slope_bias = 0.25f;
 };
 
 // One reference view.
