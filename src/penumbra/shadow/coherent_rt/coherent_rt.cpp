@@ -63,6 +63,7 @@ class CoherentRayTracing final : public ShadowMethod {
     trace_options_.clear_miss = p.get_bool("clear_miss");
     trace_options_.occlusion_intervals = p.get_bool("occlusion_intervals");
     trace_options_.ranking = p.get_bool("ranking");
+    trace_options_.hidden_blocks = p.get_bool("hidden_blocks");
     sampling_.coherence = p.get_bool("coherence");
     sampling_.sub_grid = p.get_int("sub_grid");
     sampling_.reset_distance = p.get_float("reset_distance");
@@ -230,6 +231,7 @@ class CoherentRayTracing final : public ShadowMethod {
                                {"clear_miss_fraction", trace_total.clear_misses / rays},
                                {"intervals_exhausted_fraction", trace_total.intervals_exhausted / rays},
                                {"connected_hit_fraction", trace_total.connected_hits / rays},
+                               {"hidden_everywhere_fraction", trace_total.hidden_everywhere / rays},
                                {"nodes_per_ray", trace_total.walk.nodes / rays},
                                {"texels_per_ray", trace_total.walk.texels / rays}};
     const std::string suffix = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
@@ -277,6 +279,10 @@ const MethodRegistration registration({
         {"occlusion_intervals", ParamType::Bool, true,
          "§5.1.2: later maps trace only the parts of the ray hidden in the earlier ones", {}},
         {"ranking", ParamType::Bool, true, "§5.1.2: maps in increasing order of clipped epipolar length", {}},
+        {"hidden_blocks", ParamType::Bool, false,
+         "a ray hidden behind surfaces in every map without an intersection is blocked (false: unblocked, as in "
+         "§5.1.2)",
+         {}},
         {"coherence", ParamType::Bool, true,
          "§5.2: coherence-based light sampling (SoftShad); false traces every light cell", {}},
         {"sub_grid", ParamType::Int, 3, "§5.2.2: blocker-point sub-cells per light cell along each axis", {}, 1, 16},

@@ -12,6 +12,7 @@ void TraceCounters::add(const TraceCounters& o) {
   clear_misses += o.clear_misses;
   intervals_exhausted += o.intervals_exhausted;
   connected_hits += o.connected_hits;
+  hidden_everywhere += o.hidden_everywhere;
   walk.add(o.walk);
 }
 
@@ -138,6 +139,7 @@ TraceResult DepthImageTracer::trace(Vec3f p, Vec3f q, bool need_point, TraceScra
   intervals.clear();
   intervals.push_back({0.0f, 1.0f});
   bool whole_ray = true;  // whether `intervals` is still the whole ray
+  bool ended = false;  // by a clear miss or when no occlusion interval was left
   for (int i = 0; i < nvalid && !result.blocked; ++i) {
     const ReferenceImage& img = images_[order[i]];
     const ProjectedSegment& pk = ps[order[i]];
@@ -173,13 +175,25 @@ TraceResult DepthImageTracer::trace(Vec3f p, Vec3f q, bool need_point, TraceScra
     if (options_.occlusion_intervals) {
       if (next.empty()) {
         ++(whole_ray ? c.clear_misses : c.intervals_exhausted);
+        ended = true;
         break;
       }
       std::swap(intervals, next);
       whole_ray = false;
     } else if (options_.clear_miss && next.empty()) {
       ++c.clear_misses;
+      ended = true;
       break;
+    }
+  }
+  // Parts of the ray hidden behind surfaces in every map and no intersection found: the
+  // paper's answer is "unblocked" (§5.1.2); hidden_blocks answers "blocked" instead.
+  if (!result.blocked && !ended && options_.occlusion_intervals && nvalid > 0) {
+    ++c.hidden_everywhere;
+    if (options_.hidden_blocks) {
+      result.blocked = true;
+      result.has_point = true;
+      result.point = p + (q - p) * (0.5f * (intervals.front().a + intervals.front().b));
     }
   }
   c.blocked = result.blocked;

@@ -34,6 +34,9 @@ struct TraceOptions {
   bool clear_miss = true;
   bool occlusion_intervals = true;
   bool ranking = true;
+  // A ray whose occlusion intervals survive every map without an intersection (hidden
+  // behind surfaces in all of them): unblocked as in the paper (false), or blocked.
+  bool hidden_blocks = false;
 };
 
 struct TraceCounters {
@@ -43,6 +46,7 @@ struct TraceCounters {
   uint64_t clear_misses = 0;         // rays ended by a map that saw all of them (§5.1.2)
   uint64_t intervals_exhausted = 0;  // rays ended when no occlusion interval was left
   uint64_t connected_hits = 0;       // rays blocked at an inner node (connectedness)
+  uint64_t hidden_everywhere = 0;    // rays with parts hidden in every map, no intersection
   DepthWalkCounters walk;
   void add(const TraceCounters& o);
 };
