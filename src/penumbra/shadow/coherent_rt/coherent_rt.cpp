@@ -116,8 +116,18 @@ class CoherentRayTracing final : public ShadowMethod {
     // View samples of each pixel: [first[pixel], first[pixel + 1]).
     const int W = std::max(1, vs.width), H = std::max(1, vs.height);
     std::vector<uint32_t> first(static_cast<size_t>(W) * H + 1, 0);
-    for (const ViewSample& s : vs.samples) first[s.pixel + 1]++;
+    for (const ViewSample& s : vs.samples) {
+      if (s.pixel >= first.size() - 1)
+        throw Error("coherent-rt: view sample pixel {} outside the {}x{} image", s.pixel, vs.width, vs.height);
+      first[s.pixel + 1]++;
+    }
     for (size_t i = 1; i < first.size(); ++i) first[i] += first[i - 1];
+    // Sample indices grouped by pixel (a counting sort; the camera pass already groups them).
+    std::vector<uint32_t> by_pixel(vs.size());
+    {
+      std::vector<uint32_t> next(first.begin(), first.end() - 1);
+      for (uint32_t k = 0; k < vs.size(); ++k) by_pixel[next[vs.samples[k].pixel]++] = k;
+    }
 
     std::mutex mutex;
     TraceCounters trace_total;
@@ -138,7 +148,8 @@ class CoherentRayTracing final : public ShadowMethod {
         const int x = x0 + hx, y = y0 + hy;
         if (x >= x1 || y >= y1) continue;
         const size_t pixel = static_cast<size_t>(y) * W + x;
-        for (uint32_t k = first[pixel]; k < first[pixel + 1]; ++k) {
+        for (uint32_t slot = first[pixel]; slot < first[pixel + 1]; ++slot) {
+          const uint32_t k = by_pixel[slot];
           const ViewSample& s = vs.samples[k];
           ++done;
           if (!light.faces(s.p)) {
