@@ -1,0 +1,320 @@
+// Method `coherent-rt`: coherence-based ray tracing of depth images (agrawala2000 §5), the
+// high-quality half of the paper's lighting workflow. prepare() renders a few reference
+// depth images of the scene from points on the light (default: its 4 corners) and builds
+// their floors-and-walls surfaces, min/max quadtrees and connectedness quadtrees
+// (reference_images.h). evaluate() shades the view samples tile by tile, along a Hilbert
+// curve inside each tile so consecutive points are close (the coherent order of §5.2), and
+// samples each point's light with SoftShad (§5.2, soft_shad.h): only the light cells whose
+// visibility the earlier points cannot predict get a shadow ray. Rays go through the depth
+// images (depth_image_tracer.h, §5.1) or, with tracer=geometry, through the real geometry
+// on Embree (the paper's suggestion that a geometric ray tracer can use the same sampler).
+// Irradiance is eq. 1 over the light cells' samples (area sampling). docs/methods/coherent-rt.md
+// maps the paper to this code.
+#include <mutex>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/raster/raster_triangle.h"
+#include "penumbra/shadow/coherent_rt/depth_image_tracer.h"
+#include "penumbra/shadow/coherent_rt/reference_images.h"
+#include "penumbra/shadow/coherent_rt/soft_shad.h"
+#include "penumbra/shadow/shadow_method.h"
+#include "penumbra/trace/ray_tracer.h"
+
+namespace penumbra {
+namespace {
+
+using namespace coherent_rt;
+
+// Point d of the Hilbert curve filling an n x n square (n a power of two).
+void hilbert_point(int n, int d, int* x, int* y) {
+  int px = 0, py = 0;
+  for (int s = 1; s < n; s *= 2) {
+    int rx = 1 & (d / 2), ry = 1 & (d ^ rx);
+    if (ry == 0) {
+      if (rx == 1) {
+        px = s - 1 - px;
+        py = s - 1 - py;
+      }
+      std::swap(px, py);
+    }
+    px += s * rx;
+    py += s * ry;
+    d /= 4;
+  }
+  *x = px;
+  *y = py;
+}
+
+class CoherentRayTracing final : public ShadowMethod {
+ public:
+  explicit CoherentRayTracing(const ParamSet& p) {
+    geometry_ = p.get_string("tracer") == "geometry";
+    views_ = p.get_string("views");
+    image_options_.resolution = p.get_int("resolution");
+    image_options_.gap_bias = p.get_float("gap_bias");
+    image_options_.shadow_bias = p.get_float("shadow_bias");
+    image_options_.slope_bias = p.get_float("slope_bias");
+    trace_options_.minmax_clipping = p.get_bool("minmax_clipping");
+    trace_options_.connectedness = p.get_bool("connectedness");
+    trace_options_.clear_miss = p.get_bool("clear_miss");
+    trace_options_.occlusion_intervals = p.get_bool("occlusion_intervals");
+    trace_options_.ranking = p.get_bool("ranking");
+    trace_options_.hidden_blocks = p.get_bool("hidden_blocks");
+    sampling_.coherence = p.get_bool("coherence");
+    sampling_.sub_grid = p.get_int("sub_grid");
+    sampling_.reset_distance = p.get_float("reset_distance");
+    sampling_.shortcut = p.get_bool("shortcut");
+    tile_ = p.get_int("tile");
+    own_plane_ = p.get_bool("own_plane");
+    if (tile_ & (tile_ - 1)) throw Error("coherent-rt: tile={} must be a power of two", tile_);
+  }
+
+  bool computes_irradiance() const override { return true; }
+
+  void prepare(const ShadowContext& ctx) override {
+    stats_.prepare_count++;
+    if (ctx.light->shape != LightShape::Rect)
+      throw Error("coherent-rt: light {} is a {}; only rect lights are supported", ctx.light_index,
+                  to_string(ctx.light->shape));
+    images_.clear();
+    extra_ = nlohmann::json::object();
+    if (geometry_) return;
+    ScopedPhase phase(stats_, "precompute");
+    Timer t_gather;
+    const std::vector<RasterTriangle> tris = gather_raster_triangles(*ctx.scene);
+    const double gather_ms = t_gather.elapsed_ms();
+    BuildTimes times;
+    nlohmann::json views = nlohmann::json::array();
+    for (Vec3f eye : view_points(*ctx.light, views_)) {
+      const LightView view = reference_view(*ctx.scene, *ctx.light, eye, image_options_.resolution);
+      images_.push_back(build_reference_image(tris, view, image_options_, &times));
+      views.push_back({{"width", view.width()}, {"height", view.height()}, {"near", view.near()}, {"far", view.far()}});
+    }
+    size_t bytes = 0;
+    for (const ReferenceImage& img : images_) bytes += img.memory_bytes();
+    memory_bytes_ = bytes;
+    extra_["views"] = std::move(views);
+    extra_["precompute_ms"] = {{"gather", gather_ms},
+                               {"raster", times.raster_ms},
+                               {"floors_walls", times.floors_ms},
+                               {"quadtrees", times.pyramid_ms}};
+  }
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    ScopedPhase phase(stats_, "trace");
+    const AreaLight& light = *ctx.light;
+    if (geometry_ && !ctx.tracer) throw Error("coherent-rt: tracer=geometry needs the Embree scene");
+    const int n = std::max(1, ctx.light_samples);
+    int cols = 1, rows = 1;
+    stratification_grid(n, &cols, &rows);
+    const StratifiedGrid grid(n);
+    const DepthImageTracer tracer(images_, trace_options_);
+    // View samples of each pixel: [first[pixel], first[pixel + 1]).
+    const int W = std::max(1, vs.width), H = std::max(1, vs.height);
+    std::vector<uint32_t> first(static_cast<size_t>(W) * H + 1, 0);
+    for (const ViewSample& s : vs.samples) {
+      if (s.pixel >= first.size() - 1)
+        throw Error("coherent-rt: view sample pixel {} outside the {}x{} image", s.pixel, vs.width, vs.height);
+      first[s.pixel + 1]++;
+    }
+    for (size_t i = 1; i < first.size(); ++i) first[i] += first[i - 1];
+    // Sample indices grouped by pixel (a counting sort; the camera pass already groups them).
+    std::vector<uint32_t> by_pixel(vs.size());
+    {
+      std::vector<uint32_t> next(first.begin(), first.end() - 1);
+      for (uint32_t k = 0; k < vs.size(); ++k) by_pixel[next[vs.samples[k].pixel]++] = k;
+    }
+
+    std::mutex mutex;
+    TraceCounters trace_total;
+    SoftShadCounters sample_total;
+    uint64_t geometry_rays = 0, own_plane_total = 0;
+    parallel_for_tiles(W, H, tile_, [&](int x0, int y0, int x1, int y1) {
+      SoftShad sampler(light, cols, rows, sampling_);
+      TraceScratch scratch;
+      TraceCounters tc;
+      SoftShadCounters sc;
+      uint64_t grays = 0, own_plane_cells = 0;
+      std::vector<Vec2f> u(n);
+      std::vector<Vec3f> q(n);
+      size_t done = 0;
+      for (int d = 0; d < tile_ * tile_; ++d) {
+        int hx, hy;
+        hilbert_point(tile_, d, &hx, &hy);
+        const int x = x0 + hx, y = y0 + hy;
+        if (x >= x1 || y >= y1) continue;
+        const size_t pixel = static_cast<size_t>(y) * W + x;
+        for (uint32_t slot = first[pixel]; slot < first[pixel + 1]; ++slot) {
+          const uint32_t k = by_pixel[slot];
+          const ViewSample& s = vs.samples[k];
+          ++done;
+          if (!light.faces(s.p)) {
+            out.visibility[k] = 0;
+            out.irradiance[k] = Vec3f(0.0f);
+            continue;
+          }
+          // The reference's per-point samples: keyed by (seed, light, view sample, frame).
+          Rng rng(ctx.seed, 0x52454600u + ctx.light_index, k, ctx.frame);
+          for (int i = 0; i < n; ++i) {
+            u[i] = grid.sample(i, rng.next_2d());
+            q[i] = light.sample_area(u[i]);
+          }
+          // penumbra's addition: on a closed mesh, light behind the point's own plane is
+          // hidden by the solid itself (ng faces the camera, i.e. out of the solid); no ray.
+          const bool solid = own_plane_ && !geometry_ && s.object < ctx.scene->objects.size() &&
+                             ctx.scene->objects[s.object].closed;
+          auto trace = [&](int j) {
+            RayAnswer a;
+            if (solid && dot(q[j] - s.p, s.ng) <= 0) {
+              a.blocked = true;
+              ++own_plane_cells;
+              return a;
+            }
+            const ShadowRay sr = shadow_ray_to(s.p, s.ng, q[j]);
+            if (geometry_) {
+              ++grays;
+              Ray r{sr.org, sr.dir, sr.tnear, sr.tfar};
+              Hit h;
+              if (ctx.tracer->intersect(r, &h)) {
+                a.blocked = a.has_point = true;
+                a.point = sr.org + sr.dir * h.t;
+              }
+            } else {
+              TraceResult t = tracer.trace(sr.org, q[j], sampling_.coherence, scratch, &tc);
+              a.blocked = t.blocked;
+              a.has_point = t.has_point;
+              a.point = t.point;
+            }
+            return a;
+          };
+          sampler.shade(s.p, u.data(), trace, &sc);
+          // Eq. 1 with area sampling; V = the visible fraction of the light's area (eq. 2).
+          const std::vector<uint8_t>& vis = sampler.visible();
+          double e = 0;
+          int visible = 0;
+          for (int j = 0; j < n; ++j) {
+            if (!vis[j]) continue;
+            ++visible;
+            Vec3f dv = q[j] - s.p;
+            float d2 = length_squared(dv);
+            Vec3f w = dv / std::sqrt(d2);
+            float cos_l = std::max(0.0f, -dot(w, light.frame.n));
+            e += std::max(0.0f, dot(s.ns, w)) * cos_l / d2;
+          }
+          out.visibility[k] = static_cast<float>(visible) / n;
+          out.irradiance[k] = light.radiance * static_cast<float>(e * light.area() / n);
+        }
+      }
+      if (ctx.progress) ctx.progress->add(done);
+      std::lock_guard<std::mutex> lock(mutex);
+      trace_total.add(tc);
+      sample_total.add(sc);
+      geometry_rays += grays;
+      own_plane_total += own_plane_cells;
+    });
+    // Rays actually traced (cells the sampler asked for, less those the own-plane test answered).
+    const uint64_t traced = geometry_ ? geometry_rays : trace_total.rays;
+    stats_.rays_traced += traced;
+    stats_.texels_visited += trace_total.walk.nodes;
+    stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, memory_bytes_);
+    const double points = std::max<double>(1, sample_total.points);
+    const double rays = std::max<double>(1, trace_total.rays);
+    nlohmann::json extra = extra_;
+    extra["tracer"] = geometry_ ? "geometry" : "depth-images";
+    extra["light_samples"] = n;
+    extra["points"] = sample_total.points;
+    extra["rays_per_point"] = traced / points;
+    extra["ray_fraction"] = traced / (points * n);
+    extra["cells_evaluated_per_point"] = sample_total.rays / points;
+    extra["own_plane_cells_per_point"] = own_plane_total / points;
+    if (sampling_.coherence)
+      extra["coherence"] = {{"resets", sample_total.resets},
+                            {"predicted_wrong_per_point", sample_total.predicted_wrong / points},
+                            {"shortcut_cells_per_point", sample_total.shortcut_cells / points},
+                            {"blocker_points_per_point", sample_total.blocker_points / points}};
+    if (!geometry_)
+      extra["depth_images"] = {{"maps_per_ray", trace_total.maps_walked / rays},
+                               {"blocked_fraction", trace_total.blocked / rays},
+                               {"clear_miss_fraction", trace_total.clear_misses / rays},
+                               {"intervals_exhausted_fraction", trace_total.intervals_exhausted / rays},
+                               {"connected_hit_fraction", trace_total.connected_hits / rays},
+                               {"hidden_everywhere_fraction", trace_total.hidden_everywhere / rays},
+                               {"nodes_per_ray", trace_total.walk.nodes / rays},
+                               {"texels_per_ray", trace_total.walk.texels / rays}};
+    const std::string suffix = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
+    for (auto it = extra.begin(); it != extra.end(); ++it) stats_.extra[it.key() + suffix] = it.value();
+  }
+
+ private:
+  bool geometry_ = false;
+  std::string views_;
+  int tile_ = 32;
+  bool own_plane_ = true;
+  ReferenceImageOptions image_options_;
+  TraceOptions trace_options_;
+  SoftShadOptions sampling_;
+  std::vector<ReferenceImage> images_;
+  size_t memory_bytes_ = 0;
+  nlohmann::json extra_ = nlohmann::json::object();
+};
+
+const MethodRegistration registration({
+    "coherent-rt",
+    "coherence-based ray tracing of depth images (agrawala2000 §5): shadow rays through a few reference depth "
+    "images (min/max quadtrees, floors and walls), traced only where light visibility changes (--spp light cells)",
+    {
+        {"tracer", ParamType::String, "depth-images",
+         "what shadow rays are traced through: 'depth-images' (§5.1) or 'geometry' (Embree, the same sampler)",
+         {"depth-images", "geometry"}},
+        {"views", ParamType::String, "corners",
+         "reference depth images: from the light's 4 'corners', its 'center', or 'corners+center'",
+         {"corners", "center", "corners+center"}},
+        {"resolution", ParamType::Int, 1024, "texels along the longer side of each reference image", {}, 4, 8192},
+        {"gap_bias", ParamType::Float, 4.0,
+         "adjacent texels are one surface (joined by a wall) when their depths differ by at most gap_bias texel "
+         "widths (§5.1)",
+         {}, 0, 1e6},
+        {"shadow_bias", ParamType::Float, 1.5,
+         "floors are pushed back by shadow_bias texel widths (against self-shadowing)", {}, 0, 1e6},
+        {"slope_bias", ParamType::Float, 0.25,
+         "plus slope_bias times the texel's largest depth step to a connected neighbour (grazing surfaces)", {}, 0,
+         1e6},
+        {"minmax_clipping", ParamType::Bool, true, "§5.1.1: clip the epipolar segment to each node's depth range", {}},
+        {"connectedness", ParamType::Bool, true,
+         "§5.1.1: report 'blocked' at connected inner nodes (not used with coherence, which needs blocker points)", {}},
+        {"clear_miss", ParamType::Bool, true, "§5.1.2: a map that sees the whole ray ends it, unblocked", {}},
+        {"occlusion_intervals", ParamType::Bool, true,
+         "§5.1.2: later maps trace only the parts of the ray hidden in the earlier ones", {}},
+        {"ranking", ParamType::Bool, true, "§5.1.2: maps in increasing order of clipped epipolar length", {}},
+        {"hidden_blocks", ParamType::Bool, false,
+         "a ray hidden behind surfaces in every map without an intersection is blocked (false: unblocked, as in "
+         "§5.1.2)",
+         {}},
+        {"coherence", ParamType::Bool, true,
+         "§5.2: coherence-based light sampling (SoftShad); false traces every light cell", {}},
+        {"sub_grid", ParamType::Int, 3, "§5.2.2: blocker-point sub-cells per light cell along each axis", {}, 1, 16},
+        {"shortcut", ParamType::Bool, false,
+         "§5.2.2: a light cell whose sample shares a sub-cell with a blocker point is blocked without a ray (off by "
+         "default: measured to darken penumbrae, docs/methods/coherent-rt.md)",
+         {}},
+        {"reset_distance", ParamType::Float, 0.02,
+         "§5.2.1: drop the prediction when consecutive points are farther apart than this times the distance to "
+         "the light",
+         {}, 0, 1e6},
+        {"own_plane", ParamType::Bool, true,
+         "depth images: on closed meshes, light behind the point's own plane is blocked without a ray (penumbra's "
+         "addition, against leaks along edges within the shadow bias)",
+         {}},
+        {"tile", ParamType::Int, 32, "image tiles shaded in Hilbert order, each with its own prediction (power of two)",
+         {}, 1, 1024},
+    },
+    [](const ParamSet& p) { return std::make_unique<CoherentRayTracing>(p); },
+    /*samples_light=*/true,
+});
+
+}  // namespace
+}  // namespace penumbra

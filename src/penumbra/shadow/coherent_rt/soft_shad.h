@@ -1,0 +1,138 @@
+// Coherence-based light sampling, agrawala2000 §5.2 (procedure SoftShad). The light's
+// stratified cells form a cols x rows visibility image; surface points are shaded one
+// after another in a coherent order, and the visibility image of point p_i is predicted
+// from the blocker points found for earlier points, projected from p_i onto the light.
+// Only cells where the prediction is uncertain are traced (cellsTodo: cells on the light's
+// border and cells whose 8 neighbours do not all share their predicted value); when a traced
+// ray disagrees with the prediction, its 8 neighbours still trusted (cellsUsePrev) are
+// traced too (8-connected flood). Everything else keeps the predicted value.
+//
+// The blocker points list (§5.2.2) holds the blocker of each blocked ray traced; on each
+// prediction it is pruned to points that project onto the light and to one point per cell
+// of a 3 x 3 (sub_grid) grid inside each light cell; a light cell whose jittered sample
+// falls in a sub-cell holding a blocker point is done (blocked) without a ray. The
+// prediction is dropped (every cell traced) when p_i is farther from p_{i-1} than
+// reset_distance times p_i's distance to the light's centre (§5.2.1), and for the first
+// point; otherwise an empty list predicts the whole light visible and only its border is
+// traced (§5.2.1's missed-blocker argument).
+//
+// Only planar lights with an affine map from the unit square (rect lights) are supported:
+// a blocker point projects through p_i onto the light's plane and back to the square.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/scene/light.h"
+
+namespace penumbra::coherent_rt {
+
+struct SoftShadOptions {
+  bool coherence = true;        // off: every cell traced (plain stratified sampling)
+  int sub_grid = 3;             // blocker-point sub-cells per light cell along each axis
+  float reset_distance = 0.02f; // relative to the distance to the light's centre
+  bool shortcut = true;         // the sub-grid shortcut of §5.2.2
+};
+
+struct SoftShadCounters {
+  uint64_t points = 0;
+  uint64_t rays = 0;            // shadow rays traced
+  uint64_t resets = 0;          // points shaded without a prediction
+  uint64_t predicted_wrong = 0; // traced rays that disagreed with the prediction
+  uint64_t shortcut_cells = 0;  // cells done by the sub-grid shortcut (§5.2.2)
+  uint64_t blocker_points = 0;  // sum over points of the pruned list's size
+  void add(const SoftShadCounters& o);
+};
+
+// A traced ray's answer: blocked, and if so the blocker point when known.
+struct RayAnswer {
+  bool blocked = false;
+  bool has_point = false;
+  Vec3f point;
+};
+
+class SoftShad {
+ public:
+  // cols x rows cells (stratification_grid of the light sample count).
+  SoftShad(const AreaLight& light, int cols, int rows, const SoftShadOptions& options);
+
+  // Forget the prediction (e.g. at the start of a tile).
+  void reset() { blockers_.clear(); has_prev_ = false; }
+
+  // Light visibility of point p: samples[j] is cell j's jittered sample on the unit square
+  // (cell j = (j % cols, j / cols)); trace(j) traces the ray to it and returns a RayAnswer.
+  // On return visible()[j] is 1 where cell j is unblocked.
+  template <class Trace>
+  void shade(Vec3f p, const Vec2f* samples, Trace&& trace, SoftShadCounters* counters);
+
+  const std::vector<uint8_t>& visible() const { return visible_; }
+  size_t blocker_count() const { return blockers_.size(); }
+
+ private:
+  enum State : uint8_t { kUsePrev, kTodo, kDone };
+  // Where the line from p through b meets the light's plane, on the unit square; false if
+  // it does not (b not between p and the light's plane) or misses the square.
+  bool project(Vec3f p, Vec3f b, Vec2f* u) const;
+  int sub_index(Vec2f u) const {
+    int sx = std::min(scols_ - 1, static_cast<int>(u.x * scols_));
+    int sy = std::min(srows_ - 1, static_cast<int>(u.y * srows_));
+    return sy * scols_ + sx;
+  }
+  void predict(Vec3f p, const Vec2f* samples, SoftShadCounters* c);
+  void add_blocker(Vec3f p, Vec3f b);
+
+  const AreaLight* light_;
+  int cols_, rows_, scols_, srows_;
+  SoftShadOptions options_;
+  std::vector<Vec3f> blockers_;
+  std::vector<uint32_t> stamp_;  // per sub-cell: the prediction generation that holds a point
+  uint32_t generation_ = 0;
+  std::vector<uint8_t> visible_, predicted_blocked_;
+  std::vector<State> state_;
+  std::vector<int> queue_;
+  Vec3f prev_;
+  bool has_prev_ = false;
+};
+
+template <class Trace>
+void SoftShad::shade(Vec3f p, const Vec2f* samples, Trace&& trace, SoftShadCounters* c) {
+  const int n = cols_ * rows_;
+  ++c->points;
+  queue_.clear();
+  if (!options_.coherence) {
+    for (int j = 0; j < n; ++j) {
+      RayAnswer a = trace(j);
+      visible_[j] = !a.blocked;
+    }
+    c->rays += n;
+    return;
+  }
+  predict(p, samples, c);
+  // SoftShad lines 5-14.
+  for (size_t head = 0; head < queue_.size(); ++head) {
+    const int j = queue_[head];
+    RayAnswer a = trace(j);
+    ++c->rays;
+    if (a.blocked && a.has_point) add_blocker(p, a.point);
+    const uint8_t vis = !a.blocked;
+    if (vis != visible_[j]) {
+      ++c->predicted_wrong;
+      visible_[j] = vis;
+      const int cx = j % cols_, cy = j / cols_;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          int x = cx + dx, y = cy + dy;
+          if (x < 0 || y < 0 || x >= cols_ || y >= rows_) continue;
+          int k = y * cols_ + x;
+          if (state_[k] == kUsePrev) {
+            state_[k] = kTodo;
+            queue_.push_back(k);
+          }
+        }
+    }
+    state_[j] = kDone;
+  }
+}
+
+}  // namespace penumbra::coherent_rt
