@@ -27,7 +27,7 @@
 namespace penumbra {
 namespace {
 
-constexpr int kResolution = 256;
+constexpr int kResolution = 128;
 
 struct Fixture {
   Scene scene;

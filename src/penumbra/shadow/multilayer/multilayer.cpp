@@ -35,6 +35,7 @@ class MultilayerMethod final : public ShadowMethod {
     options_.resolution = p.get_int("resolution");
     options_.max_fov = p.get_float("max_fov");
     options_.push_back = p.get_bool("push_back");
+    fit_shadowable_ = p.get_bool("fit_shadowable");
     z_thresh_ = p.get_float("z_thresh");
     z_thresh_texels_ = p.get_float("z_thresh_texels");
     trace_.self_bias = p.get_float("self_bias");
@@ -63,7 +64,7 @@ class MultilayerMethod final : public ShadowMethod {
     for (const ViewSample& s : vs.samples)
       if (dot(s.p - light.center, light.frame.n) > 0) receivers.push_back(s.p);
     if (receivers.empty()) return;
-    build(light, receivers);
+    build(*ctx.scene, light, receivers);
     const multilayer::TraceSetup setup = multilayer::make_trace_setup(
         view_.view, kind_ == Kind::Opaque ? opaque_.z_min : transparent_.z_min, resolved_trace_);
 
@@ -124,13 +125,15 @@ class MultilayerMethod final : public ShadowMethod {
 
   // Builds the map for these receivers (xie2007 §4.2 / §5.1), unless the one built last
   // already serves them (same light, same receiver bounds).
-  void build(const AreaLight& light, const std::vector<Vec3f>& receivers) {
+  void build(const Scene& scene, const AreaLight& light, const std::vector<Vec3f>& receivers) {
     Bounds3f rb;
     for (Vec3f p : receivers) rb.extend(p);
     if (built_ && rb.lo == receiver_bounds_.lo && rb.hi == receiver_bounds_.hi) return;
     ScopedPhase phase(stats_, "build");
     Timer t_view;
-    view_ = multilayer::light_centre_view(light, receivers, scene_bounds_, options_);
+    const std::vector<Vec3f> fitted =
+        fit_shadowable_ ? multilayer::shadowable_receivers(scene, light, receivers) : receivers;
+    view_ = multilayer::light_centre_view(light, fitted, scene_bounds_, options_);
     const double view_ms = t_view.elapsed_ms();
     Timer t_raster;
     float z_min;
@@ -171,6 +174,8 @@ class MultilayerMethod final : public ShadowMethod {
           {"max_layers_in_a_texel", max_layers},
           {"bytes", memory_bytes()},
           {"push_back", view_.push_back},
+          {"receivers", receivers.size()},
+          {"receivers_fitted", fitted.size()},
           {"half_fov_degrees", view_.half_fov_deg},
           {"z_min", z_min},
           {"z_thresh", resolved_trace_.z_thresh}}},
@@ -189,6 +194,7 @@ class MultilayerMethod final : public ShadowMethod {
   std::vector<RasterTriangle> triangles_;
   Bounds3f scene_bounds_, receiver_bounds_;
   bool built_ = false;
+  bool fit_shadowable_ = true;
   Rasterizer rasterizer_;
   OpaqueLayerMap opaque_;
   TransparentMap transparent_;
@@ -204,6 +210,10 @@ std::vector<ParamSpec> common_specs() {
       {"push_back", ParamType::Bool, true,
        "push the light-centre eye back by d = light_radius / tan(fov/2) (xie2007 eq. 4) so casters outside the "
        "centre's frustum stay in the map",
+       {}},
+      {"fit_shadowable", ParamType::Bool, true,
+       "fit the map to the receivers some caster can shadow (penumbra's addition; false: every receiver, so the "
+       "ground's far parts stretch the view toward max_fov)",
        {}},
       {"z_thresh", ParamType::Float, 0.0,
        "depth threshold in light-view (camera) space, world units (xie2007 §6.1): a layer at z blocks a ray whose "

@@ -34,6 +34,92 @@ CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> rece
   return out;
 }
 
+namespace {
+
+// Whether every vertex of the mesh lies on one plane (within 1e-5 of its size); *n, *d: the
+// plane dot(n, x) = d.
+bool planar(const TriangleMesh& m, Vec3f* n, float* d) {
+  const Bounds3f b = m.bounds();
+  const float eps = 1e-5f * std::max(1e-12f, length(b.diagonal()));
+  for (size_t t = 0; 3 * t + 2 < m.indices.size(); ++t) {
+    const Vec3f a = m.positions[m.indices[3 * t]], e1 = m.positions[m.indices[3 * t + 1]] - a,
+                e2 = m.positions[m.indices[3 * t + 2]] - a;
+    const Vec3f c = cross(e1, e2);
+    if (length(c) <= eps * eps) continue;
+    *n = normalize(c);
+    *d = dot(*n, a);
+    for (Vec3f p : m.positions)
+      if (std::abs(dot(*n, p) - *d) > eps) return false;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::vector<Vec3f> shadowable_receivers(const Scene& scene, const AreaLight& light, std::span<const Vec3f> receivers) {
+  std::vector<Bounds3f> casters;
+  for (const SceneObject& o : scene.objects) {
+    Vec3f n;
+    float d = 0;
+    if (o.mesh.positions.empty()) continue;
+    if (planar(o.mesh, &n, &d)) {
+      // A plane shadows only what lies on the side away from (part of) the light.
+      const float side = dot(n, light.center) - d;
+      bool behind = false;
+      const float tol = -1e-4f * std::abs(side);
+      for (Vec3f q : light.outline(16)) behind |= (dot(n, q) - d) * side < tol;  // light straddles the plane
+      for (size_t i = 0; i < receivers.size() && !behind; ++i) behind = (dot(n, receivers[i]) - d) * side < tol;
+      if (!behind) continue;
+    }
+    casters.push_back(o.mesh.bounds());
+  }
+  const std::vector<Vec3f> outline = light.outline(16);
+  std::vector<uint8_t> keep(receivers.size(), 0);
+  parallel_for(receivers.size(), 1024, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      const Vec3f p = receivers[i];
+      const Vec3f a = normalize(light.center - p);
+      Vec3f u, v;
+      coordinate_system(a, &u, &v);
+      auto window = [&](Vec3f x, float* wx, float* wy) {
+        const Vec3f dx = x - p;
+        const float z = dot(dx, a);
+        if (!(z > 1e-6f)) return false;
+        *wx = dot(dx, u) / z;
+        *wy = dot(dx, v) / z;
+        return true;
+      };
+      float lx0 = kInfinity, lx1 = -kInfinity, ly0 = kInfinity, ly1 = -kInfinity;
+      bool ok = true;
+      for (Vec3f q : outline) {
+        float x = 0, y = 0;
+        if (!window(q, &x, &y)) { ok = false; break; }
+        lx0 = std::min(lx0, x), lx1 = std::max(lx1, x), ly0 = std::min(ly0, y), ly1 = std::max(ly1, y);
+      }
+      if (!ok) { keep[i] = 1; continue; }
+      for (const Bounds3f& box : casters) {
+        float bx0 = kInfinity, bx1 = -kInfinity, by0 = kInfinity, by1 = -kInfinity;
+        bool front = true;
+        for (int c = 0; c < 8 && front; ++c) {
+          float x = 0, y = 0;
+          front = window(box.corner(c), &x, &y);
+          bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y), by1 = std::max(by1, y);
+        }
+        if (!front || (bx0 <= lx1 && lx0 <= bx1 && by0 <= ly1 && ly0 <= by1)) {
+          keep[i] = 1;
+          break;
+        }
+      }
+    }
+  });
+  std::vector<Vec3f> out;
+  for (size_t i = 0; i < receivers.size(); ++i)
+    if (keep[i]) out.push_back(receivers[i]);
+  if (out.empty()) out.assign(receivers.begin(), receivers.end());
+  return out;
+}
+
 size_t OpaqueLayerMap::memory_bytes() const {
   size_t pyr = 0;
   for (int l = 0; l < pyramid.levels(); ++l) pyr += pyramid.level(l).size() * sizeof(DepthRange);

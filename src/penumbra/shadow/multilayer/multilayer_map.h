@@ -13,6 +13,7 @@
 #include "penumbra/raster/raster_triangle.h"
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/scene/light.h"
+#include "penumbra/scene/scene.h"
 #include "penumbra/shadow/multilayer/transparent_layers.h"
 
 namespace penumbra::multilayer {
@@ -39,6 +40,16 @@ struct CentreView {
 // Without push_back: the view fitted at the centre to the receivers alone.
 CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> receivers, const Bounds3f& casters,
                              const ViewOptions& options);
+
+// The receivers that some caster can shadow (penumbra's addition, so the map's texels go
+// where shadows can fall: on the shipped scenes the camera sees an 8 x 8 ground plane whose
+// far parts would stretch the view to max_fov). Casters are the objects' bounding boxes,
+// less planar objects with no receiver behind them (a ground plane shadows nothing above
+// it). A receiver p is kept when some box meets the cone from p to the light, tested
+// conservatively in a gnomonic projection around the direction from p to the light's
+// centre: the box's corners' window against the light outline's (a box with a corner not in
+// front of p keeps p). Returns all receivers when none is kept (a view must still exist).
+std::vector<Vec3f> shadowable_receivers(const Scene& scene, const AreaLight& light, std::span<const Vec3f> receivers);
 
 // MLSM: k nearest distinct surfaces per texel (raster layered_depth_map) and their quadtree.
 // Pyramids are over window depth (affine along a projected segment: the walker's

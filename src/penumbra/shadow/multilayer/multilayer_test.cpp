@@ -174,6 +174,19 @@ TEST(Multilayer, PushBackKeepsOccludersOutsideTheCentreFrustum) {
   }
 }
 
+TEST(Multilayer, TheMapIsFittedToTheReceiversACasterCanShadow) {
+  // Ground, a box under the light; receivers under the box and far away on the ground.
+  std::vector<SceneObject> occluders;
+  occluders.push_back(testing::object(testing::box({-0.2f, 0.5f, -0.2f}, {0.2f, 0.9f, 0.2f})));
+  const Scene scene = testing::ground_scene(std::move(occluders), testing::rect_light_down({0, 2, 0}, 0.5f, 0.5f));
+  const std::vector<Vec3f> receivers = {{0, 0, 0}, {0.3f, 0, 0}, {3.5f, 0, 3.5f}, {-3.5f, 0, 0}, {0, 0.9f, 0}};
+  const std::vector<Vec3f> kept = multilayer::shadowable_receivers(scene, scene.lights[0], receivers);
+  ASSERT_EQ(kept.size(), 3u);  // the ground plane itself shadows nothing above it
+  EXPECT_EQ(kept[0], receivers[0]);
+  EXPECT_EQ(kept[1], receivers[1]);
+  EXPECT_EQ(kept[2], receivers[4]);  // the box's top: the box's own bounds contain it
+}
+
 Scene shipped(const char* name, int res) {
   Scene s = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name);
   s.camera.width = s.camera.height = res;
