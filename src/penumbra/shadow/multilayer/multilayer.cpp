@@ -131,9 +131,11 @@ class MultilayerMethod final : public ShadowMethod {
     if (built_ && rb.lo == receiver_bounds_.lo && rb.hi == receiver_bounds_.hi) return;
     ScopedPhase phase(stats_, "build");
     Timer t_view;
+    const std::vector<Bounds3f> boxes = multilayer::caster_boxes(scene, light, receivers);
     const std::vector<Vec3f> fitted =
-        fit_shadowable_ ? multilayer::shadowable_receivers(scene, light, receivers) : receivers;
-    view_ = multilayer::light_centre_view(light, fitted, scene_bounds_, options_);
+        fit_shadowable_ ? multilayer::shadowable_receivers(boxes, light, receivers) : receivers;
+    view_ = multilayer::light_centre_view(light, fitted, scene_bounds_, options_,
+                                          fit_shadowable_ ? std::span<const Bounds3f>(boxes) : std::span<const Bounds3f>());
     const double view_ms = t_view.elapsed_ms();
     Timer t_raster;
     float z_min;

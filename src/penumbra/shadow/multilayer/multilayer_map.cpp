@@ -10,7 +10,7 @@
 namespace penumbra::multilayer {
 
 CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> receivers, const Bounds3f& casters,
-                             const ViewOptions& options) {
+                             const ViewOptions& options, std::span<const Bounds3f> caster_boxes) {
   ShadowViewFit fit;
   fit.resolution = options.resolution;
   fit.max_fov = options.max_fov;
@@ -26,7 +26,29 @@ CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> rece
   out.push_back = light.extent_radius() / edge;  // eq. 4: light_radius / tan(fov / 2)
   const Vec3f eye = light.center - dir * out.push_back;
   std::vector<Vec3f> points(receivers.begin(), receivers.end());
-  for (Vec3f q : light.outline(32)) points.push_back(q);
+  const std::vector<Vec3f> outline = light.outline(32);
+  float z_c = -kInfinity;
+  if (!caster_boxes.empty()) {
+    z_c = kInfinity;
+    for (const Bounds3f& b : caster_boxes)
+      for (int c = 0; c < 8; ++c) z_c = std::min(z_c, dot(b.corner(c) - eye, dir));
+  }
+  float z_light = kInfinity;
+  for (Vec3f q : outline) z_light = std::min(z_light, dot(q - eye, dir));
+  if (!(z_c > z_light)) {
+    for (Vec3f q : outline) points.push_back(q);
+  } else {
+    // The segments' crossings of depth z_c, for every receiver beyond it.
+    for (Vec3f r : receivers) {
+      const float zr = dot(r - eye, dir);
+      if (!(zr > z_c)) continue;
+      for (Vec3f q : outline) {
+        const float zq = dot(q - eye, dir);
+        const float t = (zr - z_c) / (zr - zq);
+        points.push_back(r + (q - r) * t);
+      }
+    }
+  }
   // The light itself must not be clipped by the near plane: fit keeps near in front of the
   // casters and receivers; with the light's outline among the receivers it is in front of
   // the light too (at depth ~d).
@@ -57,7 +79,7 @@ bool planar(const TriangleMesh& m, Vec3f* n, float* d) {
 
 }  // namespace
 
-std::vector<Vec3f> shadowable_receivers(const Scene& scene, const AreaLight& light, std::span<const Vec3f> receivers) {
+std::vector<Bounds3f> caster_boxes(const Scene& scene, const AreaLight& light, std::span<const Vec3f> receivers) {
   std::vector<Bounds3f> casters;
   for (const SceneObject& o : scene.objects) {
     Vec3f n;
@@ -74,6 +96,11 @@ std::vector<Vec3f> shadowable_receivers(const Scene& scene, const AreaLight& lig
     }
     casters.push_back(o.mesh.bounds());
   }
+  return casters;
+}
+
+std::vector<Vec3f> shadowable_receivers(std::span<const Bounds3f> casters, const AreaLight& light,
+                                       std::span<const Vec3f> receivers) {
   const std::vector<Vec3f> outline = light.outline(16);
   std::vector<uint8_t> keep(receivers.size(), 0);
   parallel_for(receivers.size(), 1024, [&](size_t b, size_t e) {

@@ -38,8 +38,20 @@ struct CentreView {
 // view is then fitted to the receivers and the light's outline (so the window keeps the
 // whole light inside; fit_shadow_view's near plane stays in front of every caster).
 // Without push_back: the view fitted at the centre to the receivers alone.
+//
+// With `caster_boxes` (the boxes of everything that can shadow, caster_boxes() below), the
+// pushed view is fitted tighter: casters lie no nearer than z_c, the boxes' smallest depth in
+// that view, so only the parts of the receiver-to-light segments beyond z_c need to be
+// inside. For a receiver r those parts project inside the windows of r and of the points where
+// the segments from r to the outline's vertices cross depth z_c (the light lies in a plane of
+// constant depth, so the crossings of the segments to the whole light are the polygon of those
+// points). The light itself may then fall outside the window; no caster does.
 CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> receivers, const Bounds3f& casters,
-                             const ViewOptions& options);
+                             const ViewOptions& options, std::span<const Bounds3f> caster_boxes = {});
+
+// The bounding boxes of the objects that can shadow some receiver: every object's, less
+// planar objects with no receiver behind them (a ground plane shadows nothing above it).
+std::vector<Bounds3f> caster_boxes(const Scene& scene, const AreaLight& light, std::span<const Vec3f> receivers);
 
 // The receivers that some caster can shadow (penumbra's addition, so the map's texels go
 // where shadows can fall: on the shipped scenes the camera sees an 8 x 8 ground plane whose
@@ -49,7 +61,8 @@ CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> rece
 // conservatively in a gnomonic projection around the direction from p to the light's
 // centre: the box's corners' window against the light outline's (a box with a corner not in
 // front of p keeps p). Returns all receivers when none is kept (a view must still exist).
-std::vector<Vec3f> shadowable_receivers(const Scene& scene, const AreaLight& light, std::span<const Vec3f> receivers);
+std::vector<Vec3f> shadowable_receivers(std::span<const Bounds3f> casters, const AreaLight& light,
+                                       std::span<const Vec3f> receivers);
 
 // MLSM: k nearest distinct surfaces per texel (raster layered_depth_map) and their quadtree.
 // Pyramids are over window depth (affine along a projected segment: the walker's

@@ -180,7 +180,8 @@ TEST(Multilayer, TheMapIsFittedToTheReceiversACasterCanShadow) {
   occluders.push_back(testing::object(testing::box({-0.2f, 0.5f, -0.2f}, {0.2f, 0.9f, 0.2f})));
   const Scene scene = testing::ground_scene(std::move(occluders), testing::rect_light_down({0, 2, 0}, 0.5f, 0.5f));
   const std::vector<Vec3f> receivers = {{0, 0, 0}, {0.3f, 0, 0}, {3.5f, 0, 3.5f}, {-3.5f, 0, 0}, {0, 0.9f, 0}};
-  const std::vector<Vec3f> kept = multilayer::shadowable_receivers(scene, scene.lights[0], receivers);
+  const std::vector<Vec3f> kept = multilayer::shadowable_receivers(
+      multilayer::caster_boxes(scene, scene.lights[0], receivers), scene.lights[0], receivers);
   ASSERT_EQ(kept.size(), 3u);  // the ground plane itself shadows nothing above it
   EXPECT_EQ(kept[0], receivers[0]);
   EXPECT_EQ(kept[1], receivers[1]);
