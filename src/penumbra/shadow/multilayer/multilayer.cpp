@@ -1,0 +1,275 @@
+// Methods `mlsm` and `mtsm`: soft shadows by ray tracing multilayer (transparent) shadow
+// maps (xie2007). One map from the light's centre, pushed back by eq. 4 (§6.2), holds either
+// the k nearest surfaces per texel (MLSM, §4.2) or every surface compressed deep-shadow style
+// into (z_i, v_i, count_i) layers (MTSM, §5.1); N stochastic light samples per view sample
+// are traced through it, hierarchically over its min/max quadtree (§4.3, §5.2). V is the
+// area-weighted mean transmittance, with the same light sampling as `reference`.
+// docs/methods/multilayer.md maps the paper to this code.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <mutex>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/raster/shadow_view.h"
+#include "penumbra/shadow/multilayer/multilayer_map.h"
+#include "penumbra/shadow/multilayer/multilayer_trace.h"
+#include "penumbra/shadow/shadow_method.h"
+
+namespace penumbra {
+namespace {
+
+using multilayer::OpaqueLayerMap;
+using multilayer::TransparentMap;
+
+enum class Kind { Opaque, Transparent };
+
+class MultilayerMethod final : public ShadowMethod {
+ public:
+  MultilayerMethod(const ParamSet& p, Kind kind) : kind_(kind) {
+    options_.resolution = p.get_int("resolution");
+    options_.max_fov = p.get_float("max_fov");
+    options_.push_back = p.get_bool("push_back");
+    fit_shadowable_ = p.get_bool("fit_shadowable");
+    z_thresh_ = p.get_float("z_thresh");
+    z_thresh_texels_ = p.get_float("z_thresh_texels");
+    trace_.self_bias = p.get_float("self_bias");
+    if (kind_ == Kind::Opaque) {
+      layers_ = p.get_int("layers");
+    } else {
+      compression_.resets = p.get_int("resets");
+      compression_.error = p.get_float("error");
+      trace_.stop_below = p.get_float("stop_below");
+    }
+  }
+
+  void prepare(const ShadowContext& ctx) override {
+    stats_.prepare_count++;
+    ScopedPhase phase(stats_, "gather");
+    triangles_ = gather_raster_triangles(*ctx.scene);
+    scene_bounds_ = ctx.scene->bounds();
+    built_ = false;
+  }
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    const AreaLight& light = *ctx.light;
+    std::fill(out.visibility.begin(), out.visibility.end(), 0.0f);
+    std::vector<Vec3f> receivers;
+    receivers.reserve(vs.size());
+    for (const ViewSample& s : vs.samples)
+      if (dot(s.p - light.center, light.frame.n) > 0) receivers.push_back(s.p);
+    if (receivers.empty()) return;
+    build(*ctx.scene, light, receivers);
+    const multilayer::TraceSetup setup = multilayer::make_trace_setup(
+        view_.view, kind_ == Kind::Opaque ? opaque_.z_min : transparent_.z_min, resolved_trace_);
+
+    ScopedPhase phase(stats_, "trace");
+    const int n = std::max(1, ctx.light_samples);
+    const StratifiedGrid grid(n);
+    const Scene& scene = *ctx.scene;
+    multilayer::TraceCounters total;
+    std::mutex total_mutex;
+    parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
+      multilayer::TraceCounters local;
+      for (size_t k = begin; k < end; ++k) {
+        const ViewSample& s = vs.samples[k];
+        // Keyed by (seed, light, view sample, frame): independent of thread count. The same
+        // stream as `reference` (reference.cpp): at equal seed both draw the same light
+        // samples, so their difference is the map's error, not noise.
+        Rng rng(ctx.seed, 0x52454600u + ctx.light_index, k, ctx.frame);
+        const LightPointSampler sampler(light, s.p);
+        if (!sampler.valid()) continue;  // p sees no part of the emitting side: V = 0
+        const multilayer::RayReceiver r{s.p, s.ng, s.object < scene.objects.size() && scene.objects[s.object].closed};
+        double v = 0, wsum = 0;
+        for (int i = 0; i < n; ++i) {
+          AreaLight::DirectionSample ds;
+          if (!sampler.sample(grid.sample(i, rng.next_2d()), &ds)) continue;
+          const Vec3f q = s.p + ds.dir * ds.dist;
+          const float t = kind_ == Kind::Opaque ? multilayer::trace_opaque(setup, opaque_, r, q, &local)
+                                                : multilayer::trace_transparent(setup, transparent_, r, q, &local);
+          v += t * ds.area_weight;
+          wsum += ds.area_weight;
+        }
+        out.visibility[k] = wsum > 0 ? static_cast<float>(v / wsum) : 0.0f;
+      }
+      {
+        std::lock_guard<std::mutex> lock(total_mutex);
+        total.add(local);
+      }
+      if (ctx.progress) ctx.progress->add(end - begin);
+    });
+    stats_.rays_traced += total.rays;
+    stats_.texels_visited += total.texels;
+    stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, memory_bytes());
+    const std::string suffix = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
+    nlohmann::json e = build_extra_;
+    e["trace"] = {{"rays", total.rays},
+                  {"nodes_per_ray", total.rays ? double(total.nodes) / total.rays : 0.0},
+                  {"texels_per_ray", total.rays ? double(total.texels) / total.rays : 0.0},
+                  {"layers_tested_per_ray", total.rays ? double(total.layers_tested) / total.rays : 0.0},
+                  {"layer_hits", total.layer_hits}};
+    for (auto it = e.begin(); it != e.end(); ++it) stats_.extra[it.key() + suffix] = it.value();
+  }
+
+  const multilayer::CentreView& view() const { return view_; }
+
+ private:
+  size_t memory_bytes() const {
+    return kind_ == Kind::Opaque ? opaque_.memory_bytes() : transparent_.memory_bytes();
+  }
+
+  // Builds the map for these receivers (xie2007 §4.2 / §5.1), unless the one built last
+  // already serves them (same light, same receiver bounds).
+  void build(const Scene& scene, const AreaLight& light, const std::vector<Vec3f>& receivers) {
+    Bounds3f rb;
+    for (Vec3f p : receivers) rb.extend(p);
+    if (built_ && rb.lo == receiver_bounds_.lo && rb.hi == receiver_bounds_.hi) return;
+    ScopedPhase phase(stats_, "build");
+    Timer t_view;
+    const std::vector<Bounds3f> boxes = multilayer::caster_boxes(scene, light, receivers);
+    const std::vector<Vec3f> fitted =
+        fit_shadowable_ ? multilayer::shadowable_receivers(boxes, light, receivers) : receivers;
+    view_ = multilayer::light_centre_view(light, fitted, scene_bounds_, options_,
+                                          fit_shadowable_ ? std::span<const Bounds3f>(boxes) : std::span<const Bounds3f>());
+    const double view_ms = t_view.elapsed_ms();
+    Timer t_raster;
+    float z_min;
+    if (kind_ == Kind::Opaque) {
+      multilayer::build_opaque_layer_map(rasterizer_, triangles_, view_.view, layers_, &opaque_);
+      z_min = opaque_.z_min;
+    } else {
+      multilayer::build_transparent_map(rasterizer_, triangles_, view_.view, compression_, &transparent_);
+      z_min = transparent_.z_min;
+    }
+    const double raster_ms = t_raster.elapsed_ms();
+    // z_thresh in camera space (xie2007 §6.1); the automatic value is z_thresh_texels texel
+    // widths at the geometric mean of the map's nearest depth and the farthest receiver.
+    resolved_trace_ = trace_;
+    const float zmid = std::isfinite(z_min) ? std::sqrt(std::max(z_min, view_.view.near()) * view_.view.far())
+                                            : view_.view.far();
+    resolved_trace_.z_thresh = z_thresh_ > 0 ? z_thresh_ : z_thresh_texels_ * view_.view.texel_world_size(zmid);
+    receiver_bounds_ = rb;
+    built_ = true;
+
+    // Statistics of the map: layers used per covered texel, memory.
+    uint64_t covered = 0, layer_total = 0, max_layers = 0;
+    const int w = view_.view.width(), h = view_.view.height();
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        uint64_t c = kind_ == Kind::Opaque ? opaque_.layers.count(x, y) : transparent_.layers.at(x, y).size();
+        if (c) ++covered;
+        layer_total += c;
+        max_layers = std::max(max_layers, c);
+      }
+    build_extra_ = {
+        {"map",
+         {{"width", w},
+          {"height", h},
+          {"covered_texels", covered},
+          {"layers", layer_total},
+          {"layers_per_covered_texel", covered ? double(layer_total) / covered : 0.0},
+          {"max_layers_in_a_texel", max_layers},
+          {"bytes", memory_bytes()},
+          {"push_back", view_.push_back},
+          {"receivers", receivers.size()},
+          {"receivers_fitted", fitted.size()},
+          {"half_fov_degrees", view_.half_fov_deg},
+          {"z_min", z_min},
+          {"z_thresh", resolved_trace_.z_thresh}}},
+        {"build_ms", {{"view", view_ms}, {"raster_and_layers", raster_ms}}},
+    };
+    if (kind_ == Kind::Transparent) build_extra_["map"]["fragments"] = transparent_.fragments;
+  }
+
+  Kind kind_;
+  multilayer::ViewOptions options_;
+  multilayer::CentreView view_;
+  int layers_ = 5;
+  multilayer::CompressionOptions compression_;
+  float z_thresh_ = 0, z_thresh_texels_ = 1.0f;
+  multilayer::TraceParams trace_, resolved_trace_;
+  std::vector<RasterTriangle> triangles_;
+  Bounds3f scene_bounds_, receiver_bounds_;
+  bool built_ = false;
+  bool fit_shadowable_ = true;
+  Rasterizer rasterizer_;
+  OpaqueLayerMap opaque_;
+  TransparentMap transparent_;
+  nlohmann::json build_extra_ = nlohmann::json::object();
+};
+
+std::vector<ParamSpec> common_specs() {
+  return {
+      {"resolution", ParamType::Int, 1024,
+       "texels along the longer side of the light-centre map (square texels; fitted to the receivers and the light)",
+       {}, 16, 16384},
+      {"max_fov", ParamType::Float, 120.0, "largest field of view of the map, degrees", {}, 1, 179},
+      {"push_back", ParamType::Bool, true,
+       "push the light-centre eye back by d = light_radius / tan(fov/2) (xie2007 eq. 4) so casters outside the "
+       "centre's frustum stay in the map",
+       {}},
+      {"fit_shadowable", ParamType::Bool, true,
+       "fit the map to the receivers some caster can shadow (penumbra's addition; false: every receiver, so the "
+       "ground's far parts stretch the view toward max_fov)",
+       {}},
+      {"z_thresh", ParamType::Float, 0.0,
+       "depth threshold in light-view (camera) space, world units (xie2007 §6.1): a layer at z blocks a ray whose "
+       "depth over the texel overlaps [z - z_thresh, z + z_thresh]; 0 = z_thresh_texels texel widths",
+       {}, 0, 1e30},
+      {"z_thresh_texels", ParamType::Float, 1.0,
+       "the automatic z_thresh in texel widths, at the geometric mean of the map's nearest depth and its far plane",
+       {}, 0, 1e6},
+      {"self_bias", ParamType::Float, 0.5,
+       "texel widths (at the receiver) around the receiver's own tangent plane where layer samples are ignored "
+       "(its own surface is in the map)",
+       {}, 0, 1e6},
+  };
+}
+
+std::vector<ParamSpec> mlsm_specs() {
+  std::vector<ParamSpec> s = common_specs();
+  s.push_back({"layers", ParamType::Int, 5, "k: nearest distinct surfaces kept per texel (xie2007 §4.2)", {}, 1, 255});
+  return s;
+}
+
+std::vector<ParamSpec> mtsm_specs() {
+  std::vector<ParamSpec> s = common_specs();
+  s.push_back({"resets", ParamType::Int, 4,
+               "times a texel's accumulated visibility may reach 0 and restart at 1 (xie2007 §5.1): layers behind an "
+               "opaque run; on opaque scenes resets + 1 plays the role of mlsm's layers",
+               {}, 0, 254});
+  s.push_back({"error", ParamType::Float, 0.02,
+               "deep-shadow compression tolerance: largest deviation of the compressed visibility from the "
+               "original along the light-centre ray",
+               {}, 0, 1});
+  s.push_back({"stop_below", ParamType::Float, 1e-3,
+               "a ray whose accumulated visibility falls below this is blocked and stops (xie2007 §5.2 threshold)",
+               {}, 0, 1});
+  return s;
+}
+
+const MethodRegistration mlsm_registration({
+    "mlsm",
+    "ray tracing a k-layer shadow map from the (pushed-back) light centre (xie2007 §4): --spp stochastic rays per "
+    "point through a min/max quadtree",
+    mlsm_specs(),
+    [](const ParamSet& p) { return std::make_unique<MultilayerMethod>(p, Kind::Opaque); },
+    /*samples_light=*/true,
+});
+
+const MethodRegistration mtsm_registration({
+    "mtsm",
+    "ray tracing a multilayer transparent shadow map (xie2007 §5): deep-shadow layers (z, v, count) per texel, "
+    "visibility accumulated along --spp stochastic rays per point",
+    mtsm_specs(),
+    [](const ParamSet& p) { return std::make_unique<MultilayerMethod>(p, Kind::Transparent); },
+    /*samples_light=*/true,
+});
+
+}  // namespace
+}  // namespace penumbra

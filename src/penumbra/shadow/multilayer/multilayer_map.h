@@ -1,0 +1,90 @@
+// The light-space structures of `mlsm` and `mtsm` (xie2007 §4-5): one view from the light's
+// centre, pushed back by eq. 4 so that it sees everything any point of the light sees, and
+// either a k-layer depth map (MLSM, §4.2) or per-texel compressed transparent layers (MTSM,
+// §5.1), each with a min/max quadtree over all of a texel's layers (§4.3).
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "penumbra/raster/depth_map.h"
+#include "penumbra/raster/light_view.h"
+#include "penumbra/raster/minmax_pyramid.h"
+#include "penumbra/raster/raster_triangle.h"
+#include "penumbra/raster/rasterizer.h"
+#include "penumbra/scene/light.h"
+#include "penumbra/scene/scene.h"
+#include "penumbra/shadow/multilayer/transparent_layers.h"
+
+namespace penumbra::multilayer {
+
+struct ViewOptions {
+  int resolution = 1024;    // texels along the longer side (square texels)
+  float max_fov = 120.0f;   // degrees, as the shadow-map baselines
+  bool push_back = true;    // xie2007 eq. 4
+};
+
+struct CentreView {
+  LightView view;
+  float push_back = 0;      // d of eq. 4, world units (0 without push-back)
+  float half_fov_deg = 0;   // the half angle eq. 4 used
+};
+
+// xie2007 §6.2, eq. 4: the light-centre view, with the eye pushed back along -n by
+// d = light_radius / tan(fov / 2), where fov is the field of view of the view fitted at the
+// centre to the receivers: from there the frustum of the same angle contains the whole light,
+// so every segment from a receiver to a light point lies inside it (both ends do, and the
+// frustum is convex) and no caster that could block such a segment is clipped. The pushed
+// view is then fitted to the receivers and the light's outline (so the window keeps the
+// whole light inside; fit_shadow_view's near plane stays in front of every caster).
+// Without push_back: the view fitted at the centre to the receivers alone.
+//
+// With `caster_boxes` (the boxes of everything that can shadow, caster_boxes() below), the
+// pushed view is fitted tighter: casters lie no nearer than z_c, the boxes' smallest depth in
+// that view, so only the parts of the receiver-to-light segments beyond z_c need to be
+// inside. For a receiver r those parts project inside the windows of r and of the points where
+// the segments from r to the outline's vertices cross depth z_c (the light lies in a plane of
+// constant depth, so the crossings of the segments to the whole light are the polygon of those
+// points). The light itself may then fall outside the window; no caster does.
+CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> receivers, const Bounds3f& casters,
+                             const ViewOptions& options, std::span<const Bounds3f> caster_boxes = {});
+
+// The bounding boxes of the objects that can shadow some receiver: every object's, less
+// planar objects with no receiver behind them (a ground plane shadows nothing above it).
+std::vector<Bounds3f> caster_boxes(const Scene& scene, const AreaLight& light, std::span<const Vec3f> receivers);
+
+// The receivers that some caster can shadow (penumbra's addition, so the map's texels go
+// where shadows can fall: on the shipped scenes the camera sees an 8 x 8 ground plane whose
+// far parts would stretch the view to max_fov). Casters are the objects' bounding boxes,
+// less planar objects with no receiver behind them (a ground plane shadows nothing above
+// it). A receiver p is kept when some box meets the cone from p to the light, tested
+// conservatively in a gnomonic projection around the direction from p to the light's
+// centre: the box's corners' window against the light outline's (a box with a corner not in
+// front of p keeps p). Returns all receivers when none is kept (a view must still exist).
+std::vector<Vec3f> shadowable_receivers(std::span<const Bounds3f> casters, const AreaLight& light,
+                                       std::span<const Vec3f> receivers);
+
+// MLSM: k nearest distinct surfaces per texel (raster layered_depth_map) and their quadtree.
+// Pyramids are over window depth (affine along a projected segment: the walker's
+// contract); z_min is the smallest linear depth in the map.
+struct OpaqueLayerMap {
+  LayeredDepthMap layers;
+  MinMaxPyramid pyramid;
+  float z_min = kInfinity;
+  size_t memory_bytes() const;
+};
+void build_opaque_layer_map(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view,
+                            int k, OpaqueLayerMap* out);
+
+// MTSM: every fragment of each light-centre ray, compressed per texel (§5.1), and its quadtree.
+struct TransparentMap {
+  TransparentLayerMap layers;
+  MinMaxPyramid pyramid;
+  float z_min = kInfinity;
+  size_t fragments = 0;  // before compression
+  size_t memory_bytes() const;
+};
+void build_transparent_map(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view,
+                           const CompressionOptions& options, TransparentMap* out);
+
+}  // namespace penumbra::multilayer

@@ -1,0 +1,90 @@
+// The per-texel layer lists of a multilayer transparent shadow map (xie2007 §5.1): each
+// light-centre ray's fragments (depth, opacity), compressed deep-shadow style into a few
+// layers (z_i, v_i, count_i), and the hit rules of both multilayer maps (§4.3, §5.2, §6.1).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "penumbra/raster/fragment_lists.h"
+#include "penumbra/raster/minmax_pyramid.h"
+
+namespace penumbra::multilayer {
+
+// One compressed layer: the `count` original samples between the previous control vertex
+// and this one (xie2007 §5.1). z_first is the depth of the first of them and z the depth of
+// the last (the control vertex): the paper infers the first from z_{i-1}; storing it places
+// the estimated samples count evenly spaced depths over [z_first, z] exactly where the
+// run of samples starts (it costs 4 bytes a layer). v is the accumulated visibility after the
+// layer (since the last reset, below), and transmit the per-sample transmittance
+// (v / v_before)^(1 / count) that one crossing of one estimated sample multiplies in (eq. 3
+// applied multiplicatively, so a ray crossing some samples of a run and not others is
+// attenuated by exactly the ones it crosses).
+struct TransparentLayer {
+  float z_first = 0;
+  float z = 0;
+  float v = 1;
+  float transmit = 1;
+  uint32_t count = 1;
+  uint32_t triangle = 0;  // the last sample's triangle (the rasterizer's list), for the receiver's own surface
+};
+
+struct CompressionOptions {
+  // Largest deviation of the piecewise-linear visibility between control vertices from
+  // the true (step) visibility of the original samples (Lokovic & Veach 2000's error bound).
+  float error = 0.02f;
+  // Times the accumulated visibility may reach (near) zero and restart at 1 (xie2007 §5.1):
+  // the samples behind a fully opaque run can still block rays from other light points.
+  int resets = 4;
+  // Visibility at or below this counts as zero (a reset point).
+  float zero = 1e-4f;
+};
+
+// Compresses one texel's fragments (sorted by z) into layers appended to `out`; returns how
+// many it appended. Greedy deep-shadow compression: a run of samples is extended while a
+// straight line from the previous control vertex to the candidate end stays within
+// options.error of the visibility just before and just after every sample in the run (the
+// slope-interval test of Lokovic & Veach 2000 §4.2); a run also ends where the visibility
+// reaches zero, after which the visibility resets to 1 up to options.resets times.
+uint32_t compress_fragments(std::span<const Fragment> fragments, const CompressionOptions& options,
+                            std::vector<TransparentLayer>* out);
+
+// Flat storage of every texel's layers (texel i owns layers[offsets[i], offsets[i+1])).
+struct TransparentLayerMap {
+  int width = 0, height = 0;
+  std::vector<uint32_t> offsets;
+  std::vector<TransparentLayer> layers;
+
+  size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
+  std::span<const TransparentLayer> at(int x, int y) const {
+    size_t i = index(x, y);
+    return {layers.data() + offsets[i], offsets[i + 1] - offsets[i]};
+  }
+  size_t memory_bytes() const {
+    return offsets.size() * sizeof(uint32_t) + layers.size() * sizeof(TransparentLayer);
+  }
+  // Per-texel depth ranges [first sample, last layer] for a MinMaxPyramid.
+  std::vector<DepthRange> texel_ranges() const;
+};
+
+// ---- Hit rules (xie2007 §4.3 and §6.1): all depths are linear (light-view) depths. ----
+
+// A ray whose depth over a texel is [lo, hi] (lo <= hi) hits an opaque layer at depth z when
+// [z - z_thresh, z + z_thresh] overlaps it.
+inline bool layer_overlaps(float z, float z_thresh, float lo, float hi) {
+  return z - z_thresh <= hi && lo <= z + z_thresh;
+}
+
+// How many of a transparent layer's `count` estimated samples (evenly spaced over
+// [z_first, z]) lie in the depth interval [a, b] (xie2007 §5.2: "report a hit if the ray
+// intersects with any bucket boundary"); the caller widens the ray's interval over a texel
+// by z_thresh. The first of them is written to *first (when any).
+uint32_t samples_in(const TransparentLayer& layer, float a, float b, float* first = nullptr);
+// The depth of estimated sample m of a layer.
+inline float sample_depth(const TransparentLayer& layer, uint32_t m) {
+  return layer.count <= 1 ? layer.z
+                          : layer.z_first + (layer.z - layer.z_first) * (static_cast<float>(m) / (layer.count - 1));
+}
+
+}  // namespace penumbra::multilayer
