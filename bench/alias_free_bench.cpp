@@ -15,6 +15,7 @@
 #include <map>
 #include <memory>
 
+#include "bench_fixture.h"
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/render/renderer.h"
 
@@ -23,46 +24,20 @@ namespace {
 
 constexpr int kResolution = 256;
 
-struct Fixture {
-  Scene scene;
-  std::unique_ptr<RayTracer> tracer;
-  ViewSamples vs;
-};
-
-// knot.json at kResolution^2 with the given settings ("light.size_scale=2", ...).
-Fixture& fixture(const std::vector<std::string>& settings) {
-  static std::map<std::vector<std::string>, std::unique_ptr<Fixture>> cache;
-  auto& f = cache[settings];
-  if (!f) {
-    RunSetup setup = RunSetup::from_file(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/knot.json");
-    setup.apply("resolution", std::to_string(kResolution));
-    for (const std::string& s : settings) setup.apply(s);
-    f = std::make_unique<Fixture>();
-    f->scene = setup.load();
-    f->tracer = std::make_unique<RayTracer>(f->scene);
-    f->vs = camera_pass(f->scene, *f->tracer, 0);
-  }
-  return *f;
-}
-
 void run(benchmark::State& state, const std::string& method, int spp, const std::vector<std::string>& settings) {
-  Fixture& f = fixture(settings);
-  ShadowContext ctx;
-  ctx.scene = &f.scene;
-  ctx.light = &f.scene.lights[0];
-  ctx.tracer = f.tracer.get();
-  ctx.light_samples = spp;
+  bench::SceneFixture& f = bench::scene_fixture("knot", kResolution, settings);
+  const ShadowContext ctx = bench::shadow_context(f, spp);
   auto m = create_method(method, f.scene, {});
   m->prepare(ctx);
-  std::vector<float> v(f.vs.size());
-  std::vector<Vec3f> e(f.vs.size());
+  std::vector<float> v(f.view_samples.size());
+  std::vector<Vec3f> e(f.view_samples.size());
   ShadowOutput out{v, e};
   for (auto _ : state) {
     m->stats() = MethodStats{};
-    m->evaluate(ctx, f.vs, out);
+    m->evaluate(ctx, f.view_samples, out);
   }
   state.counters["triangles"] = static_cast<double>(f.scene.triangle_count());
-  state.counters["view_samples"] = static_cast<double>(f.vs.size());
+  state.counters["view_samples"] = static_cast<double>(f.view_samples.size());
   const nlohmann::json& x = m->stats().extra;
   for (const char* key : {"sample_tests", "texel_visits", "casters", "casters_skipped", "list_average", "list_max",
                           "exact_sample_tests"})
@@ -99,11 +74,4 @@ void register_all() {
 }  // namespace
 }  // namespace penumbra
 
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  penumbra::register_all();
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return penumbra::bench::run_benchmarks(argc, argv, penumbra::register_all); }

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 
+#include "bench_fixture.h"
 #include "penumbra/render/renderer.h"
 
 namespace penumbra {
@@ -72,10 +73,4 @@ void register_all() {
 }  // namespace
 }  // namespace penumbra
 
-int main(int argc, char** argv) {
-  penumbra::register_all();
-  benchmark::Initialize(&argc, argv);
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return penumbra::bench::run_benchmarks(argc, argv, penumbra::register_all); }

@@ -22,6 +22,7 @@
 #include <map>
 #include <memory>
 
+#include "bench_fixture.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/render/renderer.h"
 
@@ -31,26 +32,6 @@ namespace {
 int resolution() {
   const char* r = std::getenv("PENUMBRA_BENCH_RESOLUTION");
   return r ? std::atoi(r) : 256;
-}
-
-struct Fixture {
-  Scene scene;
-  std::unique_ptr<RayTracer> tracer;
-  ViewSamples vs;
-};
-
-Fixture& fixture(const std::string& name) {
-  static std::map<std::string, std::unique_ptr<Fixture>> cache;
-  auto& f = cache[name];
-  if (!f) {
-    f = std::make_unique<Fixture>();
-    f->scene = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name + ".json");
-    f->scene.camera.width = f->scene.camera.height = resolution();
-    f->scene.camera.samples_per_pixel = 1;
-    f->tracer = std::make_unique<RayTracer>(f->scene);
-    f->vs = camera_pass(f->scene, *f->tracer, 0);
-  }
-  return *f;
 }
 
 struct Variant {
@@ -77,8 +58,10 @@ std::map<std::string, double>& measured_ms() {
   return m;
 }
 
+bench::SceneFixture& fixture(const std::string& name) { return bench::scene_fixture(name, resolution()); }
+
 void BM_Shade(benchmark::State& state, const std::string& scene, const Variant& variant, int spp) {
-  Fixture& f = fixture(scene);
+  bench::SceneFixture& f = fixture(scene);
   ShadowContext ctx;
   ctx.scene = &f.scene;
   ctx.light = &f.scene.lights[0];
@@ -88,21 +71,21 @@ void BM_Shade(benchmark::State& state, const std::string& scene, const Variant& 
   Timer tp;
   m->prepare(ctx);
   const double prepare_ms = tp.elapsed_ms();
-  std::vector<float> v(f.vs.size());
-  std::vector<Vec3f> e(f.vs.size());
+  std::vector<float> v(f.view_samples.size());
+  std::vector<Vec3f> e(f.view_samples.size());
   ShadowOutput out{v, e};
   double ms = 0;
   for (auto _ : state) {
     m->stats() = MethodStats{};
     Timer t;
-    m->evaluate(ctx, f.vs, out);
+    m->evaluate(ctx, f.view_samples, out);
     ms = t.elapsed_ms();
   }
   const std::string key = scene + "/" + std::to_string(spp) + "/";
   measured_ms()[key + variant.name] = ms;
   const MethodStats& st = m->stats();
   state.counters["prepare_ms"] = prepare_ms;
-  state.counters["rays_per_point"] = static_cast<double>(st.rays_traced) / std::max<size_t>(1, f.vs.size());
+  state.counters["rays_per_point"] = static_cast<double>(st.rays_traced) / std::max<size_t>(1, f.view_samples.size());
   for (const char* base : {"reference", "none"}) {
     auto it = measured_ms().find(key + base);
     if (it != measured_ms().end() && ms > 0) state.counters[std::string("speedup_vs_") + base] = it->second / ms;
@@ -128,11 +111,4 @@ void register_all() {
 }  // namespace
 }  // namespace penumbra
 
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  penumbra::register_all();
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return penumbra::bench::run_benchmarks(argc, argv, penumbra::register_all); }

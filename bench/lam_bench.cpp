@@ -20,6 +20,7 @@
 #include <map>
 #include <memory>
 
+#include "bench_fixture.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/render/renderer.h"
 
@@ -28,44 +29,17 @@ namespace {
 
 constexpr int kResolution = 512;
 
-struct Fixture {
-  Scene scene;
-  std::unique_ptr<RayTracer> tracer;
-  ViewSamples vs;
-};
-
-Fixture& fixture(const std::string& name) {
-  static std::map<std::string, std::unique_ptr<Fixture>> cache;
-  auto& f = cache[name];
-  if (!f) {
-    f = std::make_unique<Fixture>();
-    f->scene = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name + ".json");
-    f->scene.camera.width = f->scene.camera.height = kResolution;
-    f->scene.camera.samples_per_pixel = 1;
-    f->tracer = std::make_unique<RayTracer>(f->scene);
-    f->vs = camera_pass(f->scene, *f->tracer, 0);
-  }
-  return *f;
-}
-
-ShadowContext context(Fixture& f, int spp) {
-  ShadowContext ctx;
-  ctx.scene = &f.scene;
-  ctx.light = &f.scene.lights[0];
-  ctx.tracer = f.tracer.get();
-  ctx.light_samples = spp;
-  return ctx;
-}
-
 std::map<std::string, double>& display_ms() {
   static std::map<std::string, double> m;
   return m;
 }
 
+bench::SceneFixture& fixture(const std::string& name) { return bench::scene_fixture(name, kResolution); }
+
 void BM_LamPrecompute(benchmark::State& state, const std::string& name) {
-  Fixture& f = fixture(name);
+  bench::SceneFixture& f = fixture(name);
   const int spp = static_cast<int>(state.range(0));
-  const ShadowContext ctx = context(f, spp);
+  const ShadowContext ctx = bench::shadow_context(f, spp);
   nlohmann::json extra;
   for (auto _ : state) {
     auto m = create_method("lam", f.scene, {});
@@ -73,7 +47,7 @@ void BM_LamPrecompute(benchmark::State& state, const std::string& name) {
     // evaluate() attaches the LDI's statistics; one sample is enough.
     state.PauseTiming();
     ViewSamples one;
-    one.samples.push_back(f.vs.samples[0]);
+    one.samples.push_back(f.view_samples.samples[0]);
     std::vector<float> v(1);
     std::vector<Vec3f> e(1);
     ShadowOutput out{v, e};
@@ -89,22 +63,22 @@ void BM_LamPrecompute(benchmark::State& state, const std::string& name) {
 }
 
 void BM_LamDisplay(benchmark::State& state, const std::string& name, const std::string& filter) {
-  Fixture& f = fixture(name);
-  const ShadowContext ctx = context(f, 64);
+  bench::SceneFixture& f = fixture(name);
+  const ShadowContext ctx = bench::shadow_context(f, 64);
   auto m = create_method("lam", f.scene, {"filter=" + filter});
   m->prepare(ctx);
-  std::vector<float> v(f.vs.size());
-  std::vector<Vec3f> e(f.vs.size());
+  std::vector<float> v(f.view_samples.size());
+  std::vector<Vec3f> e(f.view_samples.size());
   ShadowOutput out{v, e};
-  for (auto _ : state) m->evaluate(ctx, f.vs, out);
-  state.counters["view_samples"] = static_cast<double>(f.vs.size());
+  for (auto _ : state) m->evaluate(ctx, f.view_samples, out);
+  state.counters["view_samples"] = static_cast<double>(f.view_samples.size());
   if (filter == "bilinear") {
     // Recorded for the reference ratio below (the last repetition's mean).
     double total = 0;
     int n = 0;
     for (int i = 0; i < 20; ++i, ++n) {
       Timer t;
-      m->evaluate(ctx, f.vs, out);
+      m->evaluate(ctx, f.view_samples, out);
       total += t.elapsed_ms();
     }
     display_ms()[name] = total / n;
@@ -112,7 +86,7 @@ void BM_LamDisplay(benchmark::State& state, const std::string& name, const std::
 }
 
 void BM_LamFrame(benchmark::State& state, const std::string& name) {
-  Fixture& f = fixture(name);
+  bench::SceneFixture& f = fixture(name);
   RenderSettings settings;
   settings.method = "lam";
   settings.light_samples = 64;
@@ -133,17 +107,17 @@ void BM_LamFrame(benchmark::State& state, const std::string& name) {
 }
 
 void BM_Reference256(benchmark::State& state, const std::string& name) {
-  Fixture& f = fixture(name);
-  const ShadowContext ctx = context(f, 256);
+  bench::SceneFixture& f = fixture(name);
+  const ShadowContext ctx = bench::shadow_context(f, 256);
   auto m = create_method("reference", f.scene, {});
   m->prepare(ctx);
-  std::vector<float> v(f.vs.size());
-  std::vector<Vec3f> e(f.vs.size());
+  std::vector<float> v(f.view_samples.size());
+  std::vector<Vec3f> e(f.view_samples.size());
   ShadowOutput out{v, e};
   double ms = 0;
   for (auto _ : state) {
     Timer t;
-    m->evaluate(ctx, f.vs, out);
+    m->evaluate(ctx, f.view_samples, out);
     ms = t.elapsed_ms();
   }
   auto it = display_ms().find(name);
@@ -171,11 +145,4 @@ void register_all() {
 }  // namespace
 }  // namespace penumbra
 
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  penumbra::register_all();
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return penumbra::bench::run_benchmarks(argc, argv, penumbra::register_all); }

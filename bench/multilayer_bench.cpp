@@ -21,6 +21,7 @@
 #include <map>
 #include <memory>
 
+#include "bench_fixture.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/render/renderer.h"
 
@@ -29,53 +30,26 @@ namespace {
 
 constexpr int kResolution = 128;
 
-struct Fixture {
-  Scene scene;
-  std::unique_ptr<RayTracer> tracer;
-  ViewSamples vs;
-};
-
-Fixture& fixture(const std::string& name) {
-  static std::map<std::string, std::unique_ptr<Fixture>> cache;
-  auto& f = cache[name];
-  if (!f) {
-    f = std::make_unique<Fixture>();
-    f->scene = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name + ".json");
-    f->scene.camera.width = f->scene.camera.height = kResolution;
-    f->scene.camera.samples_per_pixel = 1;
-    f->tracer = std::make_unique<RayTracer>(f->scene);
-    f->vs = camera_pass(f->scene, *f->tracer, 0);
-  }
-  return *f;
-}
-
-ShadowContext context(Fixture& f, int spp) {
-  ShadowContext ctx;
-  ctx.scene = &f.scene;
-  ctx.light = &f.scene.lights[0];
-  ctx.tracer = f.tracer.get();
-  ctx.light_samples = spp;
-  return ctx;
-}
-
 std::map<std::string, double>& reference_ms() {
   static std::map<std::string, double> m;
   return m;
 }
 
+bench::SceneFixture& fixture(const std::string& name) { return bench::scene_fixture(name, kResolution); }
+
 void BM_Shadow(benchmark::State& state, const std::string& scene, const std::string& method, int spp) {
-  Fixture& f = fixture(scene);
-  const ShadowContext ctx = context(f, spp);
+  bench::SceneFixture& f = fixture(scene);
+  const ShadowContext ctx = bench::shadow_context(f, spp);
   auto m = create_method(method, f.scene, {});
   m->prepare(ctx);
-  std::vector<float> v(f.vs.size());
-  std::vector<Vec3f> e(f.vs.size());
+  std::vector<float> v(f.view_samples.size());
+  std::vector<Vec3f> e(f.view_samples.size());
   ShadowOutput out{v, e};
-  m->evaluate(ctx, f.vs, out);  // builds the map (not timed)
+  m->evaluate(ctx, f.view_samples, out);  // builds the map (not timed)
   std::vector<double> times;
   for (auto _ : state) {
     Timer t;
-    m->evaluate(ctx, f.vs, out);
+    m->evaluate(ctx, f.view_samples, out);
     times.push_back(t.elapsed_ms());
   }
   std::sort(times.begin(), times.end());
@@ -83,25 +57,25 @@ void BM_Shadow(benchmark::State& state, const std::string& scene, const std::str
   if (method == "reference") reference_ms()[scene] = median;
   auto it = reference_ms().find(scene);
   if (it != reference_ms().end()) state.counters["over_reference"] = median / it->second;
-  state.counters["view_samples"] = static_cast<double>(f.vs.size());
+  state.counters["view_samples"] = static_cast<double>(f.view_samples.size());
   state.counters["rays_per_ms"] = m->stats().rays_traced / std::max(1e-9, m->stats().phase("trace") + m->stats().phase("display"));
   const auto& extra = m->stats().extra;
   if (extra.contains("trace")) state.counters["texels_per_ray"] = extra["trace"]["texels_per_ray"].get<double>();
 }
 
 void BM_Build(benchmark::State& state, const std::string& scene, const std::string& method) {
-  Fixture& f = fixture(scene);
-  const ShadowContext ctx = context(f, 1);
+  bench::SceneFixture& f = fixture(scene);
+  const ShadowContext ctx = bench::shadow_context(f, 1);
   const int k = static_cast<int>(state.range(0));
   const std::string key = method == "mlsm" ? "layers=" : "resets=";
   double bytes = 0;
   for (auto _ : state) {
     auto m = create_method(method, f.scene, {key + std::to_string(method == "mlsm" ? k : k - 1)});
     m->prepare(ctx);
-    std::vector<float> v(f.vs.size());
-    std::vector<Vec3f> e(f.vs.size());
+    std::vector<float> v(f.view_samples.size());
+    std::vector<Vec3f> e(f.view_samples.size());
     ShadowOutput out{v, e};
-    m->evaluate(ctx, f.vs, out);  // builds, then traces 1 sample per point (not counted)
+    m->evaluate(ctx, f.view_samples, out);  // builds, then traces 1 sample per point (not counted)
     state.SetIterationTime(m->stats().phase("build") / 1000.0);
     bytes = static_cast<double>(m->stats().memory_bytes);
   }
@@ -124,11 +98,4 @@ void register_all() {
 }  // namespace
 }  // namespace penumbra
 
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  penumbra::register_all();
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return penumbra::bench::run_benchmarks(argc, argv, penumbra::register_all); }

@@ -14,8 +14,6 @@
 //   OT_THREADS=1 build/occlusion_textures_bench ...   (one thread: per-phase CPU times)
 //   OT_PARAMS=thin_fix=false build/occlusion_textures_bench ...   (one more method parameter)
 #include <benchmark/benchmark.h>
-#include <sys/resource.h>
-#include <time.h>
 
 #include <cstdlib>
 #include <map>
@@ -24,6 +22,7 @@
 
 #include <fmt/format.h>
 
+#include "bench_fixture.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/occlusion_textures/occlusion_textures.h"
@@ -33,45 +32,13 @@ namespace {
 
 constexpr int kResolution = 512;
 
-// CPU time of the whole process (every thread), ms: on a shared machine, wall time includes
-// waiting for the cores; this does not.
-double cpu_ms(int who) {
-  rusage u;
-  getrusage(who, &u);
-  return (u.ru_utime.tv_sec + u.ru_stime.tv_sec) * 1e3 + (u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-3;
-}
-double process_cpu_ms() { return cpu_ms(RUSAGE_SELF); }
-// This thread's CPU time, ms (clock_gettime: ns resolution, where getrusage counts ticks).
-double thread_cpu_ms() {
-  timespec t;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-}
 constexpr float kLightScales[] = {0.25f, 0.5f, 1.0f, 2.5f};
 
-struct Fixture {
-  Scene scene;
-  std::unique_ptr<RayTracer> tracer;
-  ViewSamples vs;
-};
-
-Fixture& fixture(const std::string& name) {
-  static std::map<std::string, std::unique_ptr<Fixture>> cache;
-  auto& f = cache[name];
-  if (!f) {
-    f = std::make_unique<Fixture>();
-    f->scene = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name + ".json");
-    f->scene.camera.width = f->scene.camera.height = kResolution;
-    f->scene.camera.samples_per_pixel = 1;
-    f->tracer = std::make_unique<RayTracer>(f->scene);
-    f->vs = camera_pass(f->scene, *f->tracer, 0);  // the light's size changes nothing here
-  }
-  return *f;
-}
+bench::SceneFixture& fixture(const std::string& name) { return bench::scene_fixture(name, kResolution); }
 
 void BM_OcclusionTextures(benchmark::State& state, const std::string& name, const std::string& prefilter,
                           int slices, float light_scale) {
-  Fixture& f = fixture(name);
+  bench::SceneFixture& f = fixture(name);
   Scene scene = f.scene;  // a copy with the light scaled
   AreaLight& light = scene.lights[0];
   light.size = light.size * light_scale;
@@ -83,8 +50,8 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
   ctx.scene = &scene;
   ctx.light = &light;
   ctx.tracer = f.tracer.get();
-  std::vector<float> v(f.vs.size());
-  std::vector<Vec3f> e(f.vs.size());
+  std::vector<float> v(f.view_samples.size());
+  std::vector<Vec3f> e(f.view_samples.size());
   ShadowOutput out{v, e};
   MethodStats sum;  // phase times and texel reads summed over frames
   uint64_t lookups = 0, outside = 0, strips = 0;
@@ -93,14 +60,14 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
   // of the work alone, however loaded the machine (the least of the frames is reported).
   const bool one_thread = std::getenv("OT_THREADS") && std::atoi(std::getenv("OT_THREADS")) == 1;
   double prepare_min = 1e300, evaluate_min = 1e300;
-  const double cpu0 = process_cpu_ms();
+  const double cpu0 = bench::process_cpu_ms();
   for (auto _ : state) {
     method->stats() = MethodStats{};
-    const double t0 = thread_cpu_ms();
+    const double t0 = bench::thread_cpu_ms();
     method->prepare(ctx);
-    const double t1 = thread_cpu_ms();
-    method->evaluate(ctx, f.vs, out);
-    const double t2 = thread_cpu_ms();
+    const double t1 = bench::thread_cpu_ms();
+    method->evaluate(ctx, f.view_samples, out);
+    const double t2 = bench::thread_cpu_ms();
     prepare_min = std::min(prepare_min, t1 - t0);
     evaluate_min = std::min(evaluate_min, t2 - t1);
     benchmark::DoNotOptimize(v.data());
@@ -111,7 +78,7 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
     ++frames;
   }
   const double n = static_cast<double>(std::max<int64_t>(1, frames));
-  state.counters["cpu_ms"] = (process_cpu_ms() - cpu0) / n;
+  state.counters["cpu_ms"] = (bench::process_cpu_ms() - cpu0) / n;
   if (one_thread) {
     state.counters["prepare_cpu_min_ms"] = prepare_min;
     state.counters["evaluate_cpu_min_ms"] = evaluate_min;
@@ -119,7 +86,7 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
   state.counters["slicing_ms"] = sum.phase("slicing") / n;
   state.counters["filtering_ms"] = sum.phase("filtering") / n;
   state.counters["shading_ms"] = sum.phase("shading") / n;
-  const double samples = static_cast<double>(f.vs.size()) * n;
+  const double samples = static_cast<double>(f.view_samples.size()) * n;
   state.counters["lookups_per_sample"] = static_cast<double>(lookups) / samples;
   state.counters["texels_per_sample"] = static_cast<double>(sum.texels_visited) / samples;
   state.counters["outside_per_sample"] = static_cast<double>(outside) / samples;
@@ -133,7 +100,7 @@ void BM_OcclusionTextures(benchmark::State& state, const std::string& name, cons
 // textures of the bunny (the coverage of the scene's own light), at 256^2 and 512^2.
 template <class Filter>
 void BM_Prefilter(benchmark::State& state, int resolution) {
-  Fixture& f = fixture("bunny");
+  bench::SceneFixture& f = fixture("bunny");
   occlusion::Options o;
   o.resolution = resolution;
   o.prefilter = occlusion::Prefilter::Mipmap;
@@ -144,9 +111,9 @@ void BM_Prefilter(benchmark::State& state, int resolution) {
   Filter filter;
   double cpu_min = 1e300;
   for (auto _ : state) {
-    const double t0 = thread_cpu_ms();
+    const double t0 = bench::thread_cpu_ms();
     filter.build(stack);
-    cpu_min = std::min(cpu_min, thread_cpu_ms() - t0);
+    cpu_min = std::min(cpu_min, bench::thread_cpu_ms() - t0);
     benchmark::DoNotOptimize(&filter);
   }
   state.counters["texture_MB"] = static_cast<double>(filter.memory_bytes()) / (1024.0 * 1024.0);
@@ -179,12 +146,4 @@ void register_all() {
 }  // namespace
 }  // namespace penumbra
 
-int main(int argc, char** argv) {
-  // OT_THREADS=n limits the worker threads (1: per-phase CPU times, see BM_OcclusionTextures).
-  penumbra::ThreadLimit limit(std::getenv("OT_THREADS") ? std::atoi(std::getenv("OT_THREADS")) : 0);
-  penumbra::register_all();
-  benchmark::Initialize(&argc, argv);
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return penumbra::bench::run_benchmarks(argc, argv, penumbra::register_all); }
