@@ -79,8 +79,10 @@ TEST(EllipsoidLight, EveryMethodHandlesItOrSaysSo) {
     }
     mae /= truth.size();
     std::printf("%-22s mean |V - reference| %.4f\n", info->name.c_str(), mae);
-    // Loose: the approximate methods differ from the truth, but not like a wrong light.
-    EXPECT_LT(mae, 0.15) << info->name;
+    // Loose: the approximate methods differ from the truth, but not like a wrong light
+    // (single-sample, parker1998's one-sample approximation, is off by 0.25 here with a sphere
+    // light of the ellipsoid's largest radius too; the others are within 0.05).
+    EXPECT_LT(mae, info->name == "single-sample" ? 0.3 : 0.1) << info->name;
   }
 }
 
