@@ -188,7 +188,7 @@ LightPointSampler::LightPointSampler(const AreaLight& light, Vec3f p) : light_(&
     ellipse_ = light.contour_toward(p);
     if (!(ellipse_.area > 0)) return;
     dist2_ = length_squared(ellipse_.center - p);
-    cos_max_ = std::abs(dot(normalize(ellipse_.center - p), ellipse_.normal));  // at the centre
+    contour_cos_ = std::abs(dot(normalize(ellipse_.center - p), ellipse_.normal));
     mode_ = Mode::Ellipse;
     return;
   }
@@ -286,7 +286,7 @@ bool LightPointSampler::sample(Vec2f u, AreaLight::DirectionSample* out) const {
       out->pdf = dist * dist / (ellipse_.area * cos_l);
       // Uniform solid angle over the cone relative to this density, up to a constant (the
       // estimate is self-normalised): 1/pdf, scaled to about 1 by the centre's value.
-      out->area_weight = cos_l * dist2_ / (dist * dist * cos_max_);
+      out->area_weight = cos_l * dist2_ / (dist * dist * contour_cos_);
       return true;
     }
   }

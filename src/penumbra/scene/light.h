@@ -124,8 +124,10 @@ class LightPointSampler {
   // Cone toward a sphere.
   Frame cone_frame_;
   float cos_max_ = 1, dist2_ = 0;
-  // Area sampling of an ellipsoid's central ellipse toward p.
+  // Area sampling of an ellipsoid's contour ellipse seen from p; the squared distance to its
+  // centre is dist2_, the cosine there (to scale the weights to about 1) contour_cos_.
   AreaLight::Ellipse ellipse_;
+  float contour_cos_ = 1;
 };
 
 }  // namespace penumbra
