@@ -58,7 +58,7 @@ json& lights_of(json& doc, const std::string& key) {
   return doc["lights"];
 }
 
-// Multiplies every light's size by s (rect: both sides; disk and sphere: the radius).
+// Multiplies every light's size by s (rect: both sides; disk and sphere: the radius; ellipsoid: its radii).
 void scale_light(json& light, double s, const std::string& key) {
   std::string type = light.value("type", "");
   if (type == "rect") {
@@ -68,19 +68,31 @@ void scale_light(json& light, double s, const std::string& key) {
   } else if (type == "disk" || type == "sphere") {
     if (!light.contains("radius") || !light["radius"].is_number()) throw Error("{}: a {} light without a radius", key, type);
     light["radius"] = light["radius"].get<double>() * s;
+  } else if (type == "ellipsoid") {
+    if (!light.contains("radii") || !light["radii"].is_array() || light["radii"].size() != 3)
+      throw Error("{}: an ellipsoid light without three radii", key);
+    for (auto& r : light["radii"]) {
+      if (!r.is_number()) throw Error("{}: an ellipsoid light without three radii", key);
+      r = r.get<double>() * s;
+    }
   } else {
     throw Error("{}: unknown light type '{}'", key, type);
   }
 }
 
 // The light's "size" as a sweep sees it: rect, its width (size[0]); disk and sphere, the
-// diameter. Its "radius": the largest distance from the centre to a point of the light
-// (AreaLight::extent_radius: the rect's half diagonal).
+// diameter; ellipsoid, twice its largest semi-axis. Its "radius": the largest distance from
+// the centre to a point of the light (AreaLight::extent_radius: the rect's half diagonal).
 double light_measure(const json& light, bool radius) {
   std::string type = light.value("type", "");
   if (type == "rect") {
     double w = light["size"][0].get<double>(), h = light["size"][1].get<double>();
     return radius ? 0.5 * std::hypot(w, h) : w;
+  }
+  if (type == "ellipsoid") {
+    double r = 0;
+    for (const auto& x : light["radii"]) r = std::max(r, x.get<double>());
+    return radius ? r : 2 * r;
   }
   double r = light["radius"].get<double>();
   return radius ? r : 2 * r;

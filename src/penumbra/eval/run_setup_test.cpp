@@ -106,6 +106,23 @@ TEST(RunSetup, LightSizeIsTheWidthOrDiameter) {
   EXPECT_NEAR(scene.lights[2].radius, 0.6f, 1e-6f);
 }
 
+TEST(RunSetup, EllipsoidLightsScaleAllThreeRadii) {
+  RunSetup s = three_lights();
+  s.scene_doc["lights"] = json::parse(
+      R"([{"type": "ellipsoid", "center": [0, 2, 0], "radii": [0.4, 0.2, 0.1], "normal": [0, -1, 0]}])");
+  RunSetup scaled = s;
+  scaled.apply("light.size_scale", "2");
+  EXPECT_NEAR(scaled.load().lights[0].radii.y, 0.4f, 1e-6f);
+  RunSetup sized = s;
+  sized.apply("light.size", "1.2");  // twice the largest semi-axis
+  const AreaLight l = sized.load().lights[0];
+  EXPECT_NEAR(l.radii.x, 0.6f, 1e-6f);
+  EXPECT_NEAR(l.radii.z, 0.15f, 1e-6f);
+  RunSetup radius = s;
+  radius.apply("light.radius", "0.3");
+  EXPECT_NEAR(radius.load().lights[0].extent_radius(), 0.3f, 1e-6f);
+}
+
 TEST(RunSetup, GeneratorParameters) {
   RunSetup s = RunSetup::from_file(scene_file("plant"));
   s.apply("generator.leaves", "10");

@@ -173,6 +173,13 @@ Vec2f JsonValue::positive_vec2() const {
   return v;
 }
 
+Vec3f JsonValue::positive_vec3() const {
+  Vec3f v;
+  read_numbers(*this, 3, "three positive numbers", &v.x);
+  if (!(v.x > 0) || !(v.y > 0) || !(v.z > 0)) fail_expected("three positive numbers");
+  return v;
+}
+
 float JsonValue::number_or(std::string_view key, float fallback) const {
   return has(key) ? (*this)[key].number() : fallback;
 }

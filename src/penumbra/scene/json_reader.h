@@ -59,6 +59,7 @@ class JsonValue {
   Vec3f direction() const;                     // three numbers, not all zero
   Vec3f color() const;                         // three numbers >= 0
   Vec2f positive_vec2() const;                 // two numbers > 0
+  Vec3f positive_vec3() const;                 // three numbers > 0
 
   // --- optional members: the reader applied to the member if present, else `fallback`.
   float number_or(std::string_view key, float fallback) const;

@@ -12,18 +12,29 @@ const char* to_string(LightShape s) {
     case LightShape::Rect: return "rect";
     case LightShape::Disk: return "disk";
     case LightShape::Sphere: return "sphere";
+    case LightShape::Ellipsoid: return "ellipsoid";
   }
   return "?";
 }
 
 float AreaLight::area() const {
-  if (shape == LightShape::Rect) return size.x * size.y;
-  return kPi * radius * radius;
+  switch (shape) {
+    case LightShape::Rect: return size.x * size.y;
+    case LightShape::Disk:
+    case LightShape::Sphere: return kPi * radius * radius;
+    case LightShape::Ellipsoid: return kPi * radii.x * radii.y;
+  }
+  return 0.0f;
 }
 
 float AreaLight::diameter() const {
-  if (shape == LightShape::Rect) return std::sqrt(size.x * size.x + size.y * size.y);
-  return 2.0f * radius;
+  switch (shape) {
+    case LightShape::Rect: return std::sqrt(size.x * size.x + size.y * size.y);
+    case LightShape::Disk:
+    case LightShape::Sphere: return 2.0f * radius;
+    case LightShape::Ellipsoid: return 2.0f * std::max(radii.x, std::max(radii.y, radii.z));
+  }
+  return 0.0f;
 }
 
 float AreaLight::extent_radius() const { return 0.5f * diameter(); }
@@ -32,10 +43,58 @@ Vec3f AreaLight::sample_area(Vec2f u) const {
   if (shape == LightShape::Rect)
     return center + frame.s * ((u.x - 0.5f) * size.x) + frame.t * ((u.y - 0.5f) * size.y);
   Vec2f d = square_to_disk_concentric(u);
+  if (shape == LightShape::Ellipsoid) return center + frame.s * (d.x * radii.x) + frame.t * (d.y * radii.y);
   return center + frame.s * (d.x * radius) + frame.t * (d.y * radius);
 }
 
+Vec3f AreaLight::from_unit_sphere(Vec3f x) const {
+  return center + frame.s * (x.x * radii.x) + frame.t * (x.y * radii.y) + frame.n * (x.z * radii.z);
+}
+
+Vec3f AreaLight::to_unit_sphere(Vec3f p) const {
+  const Vec3f l = frame.to_local(p - center);
+  return {l.x / radii.x, l.y / radii.y, l.z / radii.z};
+}
+
+AreaLight::Ellipse AreaLight::section_toward(Vec3f p) const {
+  // The unit sphere's central disk perpendicular to A^-1(p), mapped by A.
+  const Vec3f axis = to_unit_sphere(p);
+  const Frame f = length_squared(axis) < 1e-20f ? Frame() : Frame::from_z(axis);
+  auto linear = [&](Vec3f x) { return from_unit_sphere(x) - center; };
+  Ellipse e;
+  e.center = center;
+  e.a = linear(f.s);
+  e.b = linear(f.t);
+  const Vec3f n = cross(e.a, e.b);
+  const float len = length(n);
+  e.normal = n / len;
+  e.area = kPi * len;
+  return e;
+}
+
+AreaLight::Ellipse AreaLight::contour_toward(Vec3f p) const {
+  const Vec3f pu = to_unit_sphere(p);
+  const float d2 = std::max(length_squared(pu), 1.0f);
+  const Frame f = Frame::from_z(pu);
+  const float rho = std::sqrt(std::max(0.0f, 1 - 1 / d2));
+  auto linear = [&](Vec3f x) { return from_unit_sphere(x) - center; };
+  Ellipse e;
+  e.center = from_unit_sphere(pu / d2);
+  e.a = linear(f.s * rho);
+  e.b = linear(f.t * rho);
+  const Vec3f n = cross(e.a, e.b);
+  const float len = length(n);
+  e.normal = len > 0 ? n / len : f.n;
+  e.area = kPi * len;
+  return e;
+}
+
 Vec3f AreaLight::sample_area_toward(Vec2f u, Vec3f p) const {
+  if (shape == LightShape::Ellipsoid) {
+    const Ellipse e = section_toward(p);
+    const Vec2f d = square_to_disk_concentric(u);
+    return center + e.a * d.x + e.b * d.y;
+  }
   if (shape != LightShape::Sphere) return sample_area(u);
   Vec3f axis = p - center;
   if (length_squared(axis) < 1e-20f) return sample_area(u);
@@ -46,6 +105,7 @@ Vec3f AreaLight::sample_area_toward(Vec2f u, Vec3f p) const {
 
 bool AreaLight::faces(Vec3f p) const {
   if (shape == LightShape::Sphere) return length_squared(p - center) > radius * radius;
+  if (shape == LightShape::Ellipsoid) return length_squared(to_unit_sphere(p)) > 1.0f;
   return dot(p - center, frame.n) > 0.0f;
 }
 
@@ -93,12 +153,15 @@ std::vector<Vec3f> AreaLight::outline(int segments) const {
     Vec3f hs = frame.s * (0.5f * size.x), ht = frame.t * (0.5f * size.y);
     return {center - hs - ht, center + hs - ht, center + hs + ht, center - hs + ht};
   }
-  // A polygon circumscribing the circle, so it contains the whole light.
-  float r = radius / std::cos(kPi / segments);
+  // A polygon circumscribing the circle, so it contains the whole light (for an ellipsoid,
+  // A of the unit circle's: affine maps keep convexity and containment).
+  const float r = 1.0f / std::cos(kPi / segments);
+  const float rs = shape == LightShape::Ellipsoid ? radii.x : radius;
+  const float rt = shape == LightShape::Ellipsoid ? radii.y : radius;
   std::vector<Vec3f> poly;
   for (int i = 0; i < segments; ++i) {
     float phi = 2 * kPi * i / segments;
-    poly.push_back(center + frame.s * (r * std::cos(phi)) + frame.t * (r * std::sin(phi)));
+    poly.push_back(center + frame.s * (rs * r * std::cos(phi)) + frame.t * (rt * r * std::sin(phi)));
   }
   return poly;
 }
@@ -116,6 +179,17 @@ LightPointSampler::LightPointSampler(const AreaLight& light, Vec3f p) : light_(&
     cos_max_ = std::sqrt(std::max(0.0f, 1 - light.radius * light.radius / dist2_));
     cone_frame_ = Frame::from_z(to_c / std::sqrt(dist2_));
     mode_ = Mode::Cone;
+    return;
+  }
+  if (light.shape == LightShape::Ellipsoid) {
+    // Uniform area samples on the contour ellipse: the directions cover exactly the tangent
+    // cone (the irradiance estimate is unbiased), and the weights below make V the fraction of
+    // the cone's solid angle p sees, as the cone does for a sphere.
+    ellipse_ = light.contour_toward(p);
+    if (!(ellipse_.area > 0)) return;
+    dist2_ = length_squared(ellipse_.center - p);
+    contour_cos_ = std::abs(dot(normalize(ellipse_.center - p), ellipse_.normal));
+    mode_ = Mode::Ellipse;
     return;
   }
   mode_ = Mode::Area;
@@ -200,6 +274,21 @@ bool LightPointSampler::sample(Vec2f u, AreaLight::DirectionSample* out) const {
       out->area_weight = 1.0f;
       return true;
     }
+    case Mode::Ellipse: {
+      const Vec2f e = square_to_disk_concentric(u);
+      const Vec3f d = ellipse_.center + ellipse_.a * e.x + ellipse_.b * e.y - p_;
+      const float dist = length(d);
+      if (dist < 1e-12f) return false;
+      out->dir = d / dist;
+      out->dist = dist;
+      const float cos_l = std::abs(dot(out->dir, ellipse_.normal));
+      if (cos_l < 1e-8f) return false;
+      out->pdf = dist * dist / (ellipse_.area * cos_l);
+      // Uniform solid angle over the cone relative to this density, up to a constant (the
+      // estimate is self-normalised): 1/pdf, scaled to about 1 by the centre's value.
+      out->area_weight = cos_l * dist2_ / (dist * dist * contour_cos_);
+      return true;
+    }
   }
   return false;
 }
@@ -216,6 +305,21 @@ float AreaLight::unshadowed_irradiance_scalar(Vec3f p, Vec3f n) const {
     for (int i = 0; i < segs; ++i) {
       float phi = 2 * kPi * i / segs;
       poly.push_back(center + frame.s * (r * std::cos(phi)) + frame.t * (r * std::sin(phi)));
+    }
+    return static_cast<float>(polygon_irradiance(poly, p, n));
+  }
+  if (shape == LightShape::Ellipsoid) {
+    // The tangent cone from p: in the unit sphere's space the silhouette seen from p' =
+    // A^-1(p) is the circle of radius sqrt(1 - 1/d'^2) around p'/d'^2 perpendicular to p';
+    // A maps it onto the ellipsoid's contour seen from p (affine maps keep lines through p
+    // and tangency). A 256-gon inscribed in it, rescaled to the ellipse's area as for disks.
+    const Ellipse e = contour_toward(p);
+    const int segs = 256;
+    const float scale = std::sqrt((2 * kPi / segs) / std::sin(2 * kPi / segs));
+    std::vector<Vec3f> poly;
+    for (int i = 0; i < segs; ++i) {
+      const float phi = 2 * kPi * i / segs;
+      poly.push_back(e.center + (e.a * std::cos(phi) + e.b * std::sin(phi)) * scale);
     }
     return static_cast<float>(polygon_irradiance(poly, p, n));
   }

@@ -1,5 +1,11 @@
-// Area lights: rectangles, disks and spheres of uniform radiance. Visibility V is the
-// fraction of the light's area a point sees (agrawala2000 eq. 2); irradiance E is eq. 1.
+// Area lights: rectangles, disks, spheres and ellipsoids of uniform radiance. Visibility V
+// is the fraction of the light's area a point sees (agrawala2000 eq. 2); irradiance E is eq. 1.
+//
+// An ellipsoid is the image of the unit sphere under the affine map A: x -> center +
+// R S x (R = frame, S = diag(radii)); every sphere quantity is carried over through A
+// (sintorn2008 §4.1: "a virtual scaling of the entire scene allows us to reestablish a
+// spherical light source"): its sampled disk is A of the unit sphere's, i.e. a central
+// ellipse, and its outline is A of the unit sphere's outline polygon.
 #pragma once
 
 #include <string>
@@ -9,7 +15,7 @@
 
 namespace penumbra {
 
-enum class LightShape { Rect, Disk, Sphere };
+enum class LightShape { Rect, Disk, Sphere, Ellipsoid };
 const char* to_string(LightShape s);
 
 struct AreaLight {
@@ -18,13 +24,19 @@ struct AreaLight {
   // frame.n is the emitting normal (rect, disk; one-sided), frame.s the rect's `u` axis.
   // For a sphere, frame.n points from the light toward the scene (set by the loader),
   // which is the axis of the disk that light-space methods sample.
+  // For an ellipsoid, the frame of its semi-axes (radii.x along s, .y along t, .z along n),
+  // given by the scene; light-space methods sample its central ellipse facing frame.n.
   Frame frame;
   Vec2f size{1, 1};     // rect: full width (along s) and height (along t)
   float radius = 0.5f;  // disk, sphere
+  Vec3f radii{0.5f, 0.5f, 0.5f};  // ellipsoid: semi-axes along frame.s, frame.t, frame.n
   Vec3f radiance{1, 1, 1};
 
-  float area() const;  // rect and disk: the emitting area; sphere: its cross-section disk
-  // Diameter of the light: rect, the diagonal; disk and sphere, 2r (parker1998's D).
+  // rect and disk: the emitting area; sphere: its cross-section disk; ellipsoid: its central
+  // ellipse facing frame.n (pi radii.x radii.y).
+  float area() const;
+  // Diameter of the light: rect, the diagonal; disk and sphere, 2r (parker1998's D);
+  // ellipsoid, twice its largest semi-axis.
   float diameter() const;
   // Largest distance from the centre to a point of the light (the "light radius" of
   // xie2007 eq. 4 and sintorn2008).
@@ -34,12 +46,31 @@ struct AreaLight {
   // the disk through its centre perpendicular to frame.n (what a light-space method sees).
   Vec3f sample_area(Vec2f u) const;
   // For a sphere, the disk perpendicular to the direction toward `p` (the silhouette seen
-  // from p); identical to sample_area for rect and disk.
+  // from p); for an ellipsoid, A of the unit sphere's disk toward A^-1(p) (the central
+  // ellipse conjugate to the direction of p); identical to sample_area for rect and disk.
   Vec3f sample_area_toward(Vec2f u, Vec3f p) const;
+
+  // Ellipsoid only: the affine map A from the unit sphere to the light, and its inverse.
+  Vec3f from_unit_sphere(Vec3f x) const;
+  Vec3f to_unit_sphere(Vec3f p) const;
+  // Ellipsoid only: a planar ellipse center + a x + b y, (x, y) in the unit disk; normal =
+  // unit normal of its plane, area = pi |a x b|.
+  struct Ellipse {
+    Vec3f center, a, b, normal;
+    float area = 0;
+  };
+  // The central ellipse sample_area_toward(., p) samples.
+  Ellipse section_toward(Vec3f p) const;
+  // The contour seen from p (p outside): A of the unit sphere's silhouette circle seen from
+  // A^-1(p), the circle of radius sqrt(1 - 1/d^2) around A^-1(p)/d^2 (d = |A^-1(p)|). The
+  // cone from p over it is the ellipsoid's tangent cone: every ray through it hits the
+  // ellipsoid and every ray that hits the ellipsoid crosses it.
+  Ellipse contour_toward(Vec3f p) const;
 
   // Sample a direction from p toward the light, uniform in solid angle where possible
   // (spherical rectangles, Urena et al. 2013, for rects; cones for spheres; area
-  // sampling for disks converted to solid angle). Returns false if p sees no part of
+  // sampling for disks converted to solid angle; for ellipsoids area sampling of the contour
+  // ellipse, weighted to the fraction of the tangent cone's solid angle as for spheres). Returns false if p sees no part of
   // the emitting side. *dir is unit, *dist the distance to the light point, *pdf the
   // solid-angle density, *area_weight = (area pdf)/(solid-angle pdf) for self-normalised
   // estimates of area-fraction visibility.
@@ -55,15 +86,20 @@ struct AreaLight {
   // Unshadowed irradiance at p with normal n (closed form): Lambert's polygon formula for
   // rects (clipped to n's hemisphere), disks as a 256-gon (error < 1e-4 relative), and
   // pi * L * sin^2(alpha) * cos(theta) for spheres entirely above the horizon (numeric
-  // quadrature across the horizon). Per colour channel: radiance times the scalar.
+  // quadrature across the horizon). Ellipsoids: the surface integral of cos cos / r^2 over
+  // the elements facing p equals the projected solid angle of the tangent cone from p (a
+  // convex emitter of uniform radiance), whose contour is A of the unit sphere's silhouette
+  // circle seen from A^-1(p): Lambert's formula on a 256-gon of that ellipse (rescaled to
+  // its area), clipped to n's hemisphere. Per colour channel: radiance times the scalar.
   float unshadowed_irradiance_scalar(Vec3f p, Vec3f n) const;
   Vec3f unshadowed_irradiance(Vec3f p, Vec3f n) const { return radiance * unshadowed_irradiance_scalar(p, n); }
 
   // The light's outline as a convex polygon in world space (rect: 4 corners in
   // counter-clockwise order around frame.n; disk: `segments`-gon circumscribing the disk;
-  // sphere: circumscribed polygon of the disk facing frame.n).
+  // sphere: circumscribed polygon of the disk facing frame.n; ellipsoid: A of the unit
+  // sphere's polygon, which circumscribes its central ellipse facing frame.n).
   std::vector<Vec3f> outline(int segments = 16) const;
-  // Whether the emitting side faces p (always true for spheres).
+  // Whether the emitting side faces p (spheres and ellipsoids: whether p is outside).
   bool faces(Vec3f p) const;
 };
 
@@ -78,7 +114,7 @@ class LightPointSampler {
   bool sample(Vec2f u, AreaLight::DirectionSample* out) const;
 
  private:
-  enum class Mode { None, SphericalRect, Cone, Area };
+  enum class Mode { None, SphericalRect, Cone, Area, Ellipse };
   const AreaLight* light_;
   Vec3f p_;
   Mode mode_ = Mode::None;
@@ -88,6 +124,10 @@ class LightPointSampler {
   // Cone toward a sphere.
   Frame cone_frame_;
   float cos_max_ = 1, dist2_ = 0;
+  // Area sampling of an ellipsoid's contour ellipse seen from p; the squared distance to its
+  // centre is dist2_, the cosine there (to scale the weights to about 1) contour_cos_.
+  AreaLight::Ellipse ellipse_;
+  float contour_cos_ = 1;
 };
 
 }  // namespace penumbra

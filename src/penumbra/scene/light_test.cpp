@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "penumbra/core/rng.h"
 #include "penumbra/core/sampling.h"
 
 namespace penumbra {
@@ -171,6 +172,174 @@ TEST(AreaLight, DiskAndSphereEstimatorsConvergeToClosedForms) {
     double expected = l->unshadowed_irradiance_scalar(p, n);
     EXPECT_NEAR(e / N, expected, 5e-3 * expected) << to_string(l->shape);
   }
+}
+
+// ---- ellipsoid ------------------------------------------------------------------------
+
+AreaLight ellipsoid(Vec3f center, Vec3f radii, Frame frame) {
+  AreaLight l;
+  l.shape = LightShape::Ellipsoid;
+  l.center = center;
+  l.radii = radii;
+  l.frame = frame;
+  return l;
+}
+
+// A squashed, tilted ellipsoid over the origin.
+AreaLight squashed() {
+  return ellipsoid({0.2f, 1.6f, -0.1f}, {0.8f, 0.3f, 0.15f},
+                   Frame::from_zx(normalize(Vec3f(0.3f, -1, 0.2f)), normalize(Vec3f(1, 0.1f, 0.4f))));
+}
+
+// Brute force: L = 1, the integral of cos_p cos_l / r^2 over the surface elements facing p
+// (the visible ones: the ellipsoid is convex), by stratified Monte Carlo (k x 2k jittered
+// strata, uniform on the unit sphere) mapped by A: dA = r_s r_t r_n |S^-1 u| dA_unit, normal
+// R S^-1 u / |S^-1 u|. In double: the integrand is steep next to the surface.
+double surface_irradiance_mc(const AreaLight& l, Vec3f p, Vec3f n, int k, uint64_t seed) {
+  Rng rng(seed);
+  const double rad[3] = {l.radii.x, l.radii.y, l.radii.z};
+  const Vec3f axes[3] = {l.frame.s, l.frame.t, l.frame.n};
+  double sum = 0;
+  for (int i = 0; i < k; ++i)
+    for (int j = 0; j < 2 * k; ++j) {
+      const Vec2f u = rng.next_2d();
+      const double z = 1 - 2 * (i + u.x) / k, r = std::sqrt(std::max(0.0, 1 - z * z)), phi = kPi * (j + u.y) / k;
+      const double x[3] = {r * std::cos(phi), r * std::sin(phi), z};
+      double m[3], lm = 0;
+      for (int a = 0; a < 3; ++a) lm += (m[a] = x[a] / rad[a]) * m[a];
+      lm = std::sqrt(lm);
+      double d[3], nw[3], r2 = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double pc = c == 0 ? p.x : c == 1 ? p.y : p.z;
+        const double cc = c == 0 ? l.center.x : c == 1 ? l.center.y : l.center.z;
+        double q = cc, nn = 0;
+        for (int a = 0; a < 3; ++a) {
+          const float ax = c == 0 ? axes[a].x : c == 1 ? axes[a].y : axes[a].z;
+          q += ax * x[a] * rad[a];
+          nn += ax * m[a] / lm;
+        }
+        d[c] = q - pc;
+        nw[c] = nn;
+        r2 += d[c] * d[c];
+      }
+      const double rr = std::sqrt(r2);
+      const double cos_p = (d[0] * n.x + d[1] * n.y + d[2] * n.z) / rr;
+      const double cos_l = -(d[0] * nw[0] + d[1] * nw[1] + d[2] * nw[2]) / rr;
+      if (cos_p > 0 && cos_l > 0) sum += cos_p * cos_l / r2 * rad[0] * rad[1] * rad[2] * lm;
+    }
+  return sum * 4 * kPi / (2.0 * k * k);
+}
+
+TEST(AreaLightEllipsoid, EqualRadiiGiveTheSphere) {
+  AreaLight sphere;
+  sphere.shape = LightShape::Sphere;
+  sphere.center = {-0.3f, 1.8f, 0.2f};
+  sphere.radius = 0.5f;
+  sphere.frame = Frame::from_z(normalize(Vec3f(0.1f, -1, 0.05f)));
+  const AreaLight e = ellipsoid(sphere.center, Vec3f(0.5f), sphere.frame);
+  EXPECT_FLOAT_EQ(e.area(), sphere.area());
+  EXPECT_FLOAT_EQ(e.diameter(), sphere.diameter());
+  EXPECT_FLOAT_EQ(e.extent_radius(), sphere.extent_radius());
+  Rng rng(5);
+  for (int i = 0; i < 20; ++i) {
+    const Vec2f u = rng.next_2d();
+    EXPECT_LT(length(e.sample_area(u) - sphere.sample_area(u)), 1e-5f);
+  }
+  const std::vector<Vec3f> a = e.outline(12), b = sphere.outline(12);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_LT(length(a[i] - b[i]), 1e-5f);
+  EXPECT_TRUE(e.faces({0, 0, 0}));
+  EXPECT_FALSE(e.faces(sphere.center + Vec3f(0.49f, 0, 0)));
+  // Irradiance: the closed form where the sphere is above the horizon (1e-3), its
+  // quadrature where it straddles it.
+  const Vec3f p(0.4f, 0, -0.3f);
+  for (Vec3f n : {Vec3f(0, 1, 0), normalize(Vec3f(0.3f, 1, 0.2f)), normalize(Vec3f(1, 0.6f, 0))}) {
+    const double expected = sphere.unshadowed_irradiance_scalar(p, n);
+    EXPECT_NEAR(e.unshadowed_irradiance_scalar(p, n), expected, 1e-3 * expected) << n.x;
+  }
+  const Vec3f straddle = normalize(Vec3f(-1, 0.05f, 0.0f));
+  const double expected = sphere.unshadowed_irradiance_scalar(p, straddle);
+  ASSERT_GT(expected, 0);
+  EXPECT_NEAR(e.unshadowed_irradiance_scalar(p, straddle), expected, 5e-3 * expected);
+}
+
+TEST(AreaLightEllipsoid, IrradianceEqualsTheSurfaceIntegral) {
+  const AreaLight l = squashed();
+  struct Case { Vec3f p, n; };
+  const Case cases[] = {
+      {{0, 0, 0}, {0, 1, 0}},
+      {{0.9f, 0.2f, -0.6f}, normalize(Vec3f(-0.3f, 1, 0.2f))},
+      {{-0.5f, 1.5f, 0.3f}, {1, 0, 0}},               // beside it, facing it
+      {{0.2f, 1.4f, -0.1f}, normalize(Vec3f(1, 0.1f, 0))},  // under it, the horizon cuts it
+  };
+  for (const Case& c : cases) {
+    ASSERT_TRUE(l.faces(c.p));
+    const double mc = surface_irradiance_mc(l, c.p, c.n, 1500, 7);
+    const double e = l.unshadowed_irradiance_scalar(c.p, c.n);
+    ASSERT_GT(mc, 1e-3);
+    EXPECT_NEAR(e, mc, 5e-3 * mc) << c.p.x << " " << c.p.y;
+  }
+  // Inside: nothing.
+  EXPECT_EQ(l.unshadowed_irradiance_scalar(l.center, {0, 1, 0}), 0.0f);
+}
+
+TEST(AreaLightEllipsoid, SamplesLieOnTheEllipsoidsSections) {
+  const AreaLight l = squashed();
+  EXPECT_FLOAT_EQ(l.area(), kPi * 0.8f * 0.3f);
+  EXPECT_FLOAT_EQ(l.diameter(), 1.6f);
+  Rng rng(9);
+  const Vec3f p(0.4f, 0, -0.3f);
+  const Vec3f pu = l.to_unit_sphere(p);
+  EXPECT_LT(length(l.from_unit_sphere(pu) - p), 1e-5f);
+  const std::vector<Vec3f> outline = l.outline(8);
+  for (int i = 0; i < 500; ++i) {
+    const Vec2f u = rng.next_2d();
+    // sample_area: the central ellipse facing frame.n, inside the outline polygon.
+    const Vec3f q = l.sample_area(u);
+    const Vec3f qu = l.to_unit_sphere(q);
+    EXPECT_NEAR(qu.z, 0.0f, 1e-5f);
+    EXPECT_LE(qu.x * qu.x + qu.y * qu.y, 1 + 1e-5f);
+    const Vec3f ql = l.frame.to_local(q - l.center);
+    for (size_t k = 0; k < outline.size(); ++k) {
+      const Vec3f a = l.frame.to_local(outline[k] - l.center), b = l.frame.to_local(outline[(k + 1) % outline.size()] - l.center);
+      EXPECT_GE((b.x - a.x) * (ql.y - a.y) - (b.y - a.y) * (ql.x - a.x), -1e-5f);
+    }
+    // sample_area_toward: the unit sphere's central disk perpendicular to A^-1(p), mapped.
+    const Vec3f t = l.to_unit_sphere(l.sample_area_toward(u, p));
+    EXPECT_NEAR(dot(t, normalize(pu)), 0.0f, 1e-5f);
+    EXPECT_LE(length(t), 1 + 1e-5f);
+  }
+}
+
+TEST(AreaLightEllipsoid, EstimatorConvergesToClosedFormAndCoversTheEllipsoid) {
+  const AreaLight l = squashed();
+  const Vec3f p(0.4f, 0, -0.3f), n = normalize(Vec3f(0.3f, 1, 0.2f));
+  LightPointSampler sampler(l, p);
+  ASSERT_TRUE(sampler.valid());
+  Rng rng(23);
+  const int N = 4096;
+  StratifiedGrid grid(N);
+  double e = 0, wsum = 0;
+  const Vec3f pu = l.to_unit_sphere(p);
+  for (int i = 0; i < N; ++i) {
+    AreaLight::DirectionSample ds;
+    ASSERT_TRUE(sampler.sample(grid.sample(i, rng.next_2d()), &ds));
+    e += std::max(0.0f, dot(n, ds.dir)) / ds.pdf;
+    wsum += ds.area_weight;
+    // The ray hits the ellipsoid (in the unit sphere's space: |pu + t du|^2 = 1 has roots),
+    // and its end point lies inside it.
+    const Vec3f du = l.to_unit_sphere(p + ds.dir) - pu;
+    const float b = dot(pu, du), a = dot(du, du), c = dot(pu, pu) - 1;
+    EXPECT_GE(b * b - a * c, -1e-4f * a);
+    EXPECT_LE(length(l.to_unit_sphere(p + ds.dir * ds.dist)), 1 + 1e-4f);
+  }
+  const double expected = l.unshadowed_irradiance_scalar(p, n);
+  EXPECT_NEAR(e / N, expected, 5e-3 * expected);
+  // The weights are 1/pdf up to a constant (self-normalised): about 1.
+  EXPECT_GT(wsum / N, 0.7);
+  EXPECT_LT(wsum / N, 1.3);
+  // Inside the ellipsoid nothing is sampled.
+  EXPECT_FALSE(LightPointSampler(l, l.center + Vec3f(0.05f, 0, 0)).valid());
 }
 
 TEST(AreaLight, OneSidedLightsDoNotLightTheirBack) {

@@ -103,7 +103,7 @@ class SceneParser {
 
   AreaLight read_light(const JsonValue& v) {
     v.expect_object();
-    std::string type = v["type"].one_of({"rect", "disk", "sphere"});
+    std::string type = v["type"].one_of({"rect", "disk", "sphere", "ellipsoid"});
     AreaLight l;
     if (type == "rect") {
       v.expect_object({"type", "center", "normal", "u", "size", "radiance"});
@@ -113,6 +113,11 @@ class SceneParser {
       v.expect_object({"type", "center", "normal", "u", "radius", "radiance"});
       l.shape = LightShape::Disk;
       l.radius = v["radius"].positive();
+    } else if (type == "ellipsoid") {
+      // Semi-axes along u, normal x u and normal; light-space methods look along normal.
+      v.expect_object({"type", "center", "radii", "u", "normal", "radiance"});
+      l.shape = LightShape::Ellipsoid;
+      l.radii = v["radii"].positive_vec3();
     } else {
       v.expect_object({"type", "center", "radius", "radiance"});
       l.shape = LightShape::Sphere;

@@ -77,6 +77,44 @@ TEST(SceneFile, LightsAndMethods) {
   EXPECT_EQ(s.method_params["lam"]["samples"], 64);
 }
 
+TEST(SceneFile, EllipsoidLight) {
+  json d = minimal_doc();
+  d["lights"] = json::parse(R"([
+    {"type": "ellipsoid", "center": [0, 3, 0], "radii": [0.8, 0.3, 0.2], "u": [1, 0, 1], "normal": [0, -2, 0],
+     "radiance": [2, 2, 2]}
+  ])");
+  Scene s = parse_scene(d, kOrigin);
+  const AreaLight& l = s.lights[0];
+  EXPECT_EQ(l.shape, LightShape::Ellipsoid);
+  expect_near(l.radii, {0.8f, 0.3f, 0.2f});
+  expect_near(l.frame.n, {0, -1, 0});  // the given axis (not reset toward the scene)
+  expect_near(l.frame.s, normalize(Vec3f(1, 0, 1)));
+  EXPECT_FLOAT_EQ(l.diameter(), 1.6f);
+  // Without u: any frame around normal.
+  d["lights"][0].erase("u");
+  expect_near(parse_scene(d, kOrigin).lights[0].frame.n, {0, -1, 0});
+
+  auto error_with = [&](const char* light_json) {
+    json e = minimal_doc();
+    e["lights"] = json::array({json::parse(light_json)});
+    return error_message([&] { parse_scene(e, kOrigin); });
+  };
+  EXPECT_EQ(error_with(R"({"type": "ellipsoid", "center": [0, 3, 0], "normal": [0, -1, 0]})"),
+            "scenes/t.json: lights[0].radii: required key is missing");
+  EXPECT_EQ(error_with(R"({"type": "ellipsoid", "center": [0, 3, 0], "radii": [1, -1, 1], "normal": [0, -1, 0]})"),
+            "scenes/t.json: lights[0].radii: expected three positive numbers, got [1,-1,1]");
+  EXPECT_EQ(error_with(R"({"type": "ellipsoid", "center": [0, 3, 0], "radii": [1, 1], "normal": [0, -1, 0]})"),
+            "scenes/t.json: lights[0].radii: expected three positive numbers, got [1,1]");
+  EXPECT_EQ(error_with(R"({"type": "ellipsoid", "center": [0, 3, 0], "radii": [1, 1, 1]})"),
+            "scenes/t.json: lights[0].normal: required key is missing");
+  EXPECT_EQ(error_with(R"({"type": "ellipsoid", "center": [0, 3, 0], "radii": [1, 1, 1], "normal": [0, -1, 0],
+                           "radius": 1})").substr(0, 44),
+            "scenes/t.json: lights[0].radius: unknown key");
+  EXPECT_EQ(error_with(R"({"type": "ellipsoid", "center": [0, 3, 0], "radii": [1, 1, 1], "normal": [0, -1, 0],
+                           "u": [0, 2, 0]})"),
+            "scenes/t.json: lights[0].u: must not be parallel to normal");
+}
+
 TEST(SceneFile, TransformsScaleThenRotateXYZThenTranslate) {
   json d = minimal_doc();
   // The UV sphere's vertex 0 is its north pole (0, r, 0).

@@ -46,6 +46,18 @@ inline AreaLight rect_light_down(Vec3f center, float w, float h, Vec3f radiance 
   return l;
 }
 
+// An ellipsoid light centred at `center` with semi-axes radii (along x, z, -y: its frame.n
+// points down at the ground, the axis light-space methods look along).
+inline AreaLight ellipsoid_light_down(Vec3f center, Vec3f radii, Vec3f radiance = Vec3f(1.0f)) {
+  AreaLight l;
+  l.shape = LightShape::Ellipsoid;
+  l.center = center;
+  l.frame = Frame::from_zx({0, -1, 0}, {1, 0, 0});
+  l.radii = radii;
+  l.radiance = radiance;
+  return l;
+}
+
 // A camera straight above the origin looking down at the ground (image x = world x,
 // image rows = world +z going down the image).
 inline Camera top_camera(int res, float height = 4.0f, float fov = 60.0f) {

@@ -338,8 +338,9 @@ class AliasFreeSoft final : public AliasFreeBase {
     const size_t slots = lists_.slots();
 
     // §4.2: per-pixel rotation of the pattern for symmetric lights (disk, sphere): rotating
-    // the samples by alpha equals rotating each plane's line by -alpha.
-    const bool jitter = jitter_ && light.shape != LightShape::Rect;
+    // the samples by alpha equals rotating each plane's line by -alpha. A rect's or an
+    // ellipsoid's samples (on its central ellipse) would leave the light: no rotation.
+    const bool jitter = jitter_ && (light.shape == LightShape::Disk || light.shape == LightShape::Sphere);
     std::vector<Vec2f> rotation(jitter ? slots : 0);
     // The per-slot masks of blocked light samples, apart from the positions (§3.1).
     std::vector<uint64_t> blocked(slots * words, 0);
@@ -644,7 +645,8 @@ std::vector<ParamSpec> soft_specs() {
                    "table cells along each axis (line angle and distance); more cells, fewer exact tests, more memory",
                    {}, 4, 1024});
   specs.push_back({"jitter", ParamType::Bool, false,
-                   "rotate the sample pattern per pixel (disk and sphere lights, §4.2): noise instead of banding",
+                   "rotate the sample pattern per pixel (disk and sphere lights, §4.2; ignored for rect and "
+                   "ellipsoid lights): noise instead of banding",
                    {}});
   specs.push_back({"silhouettes", ParamType::Bool, false,
                    "test light samples only inside silhouette edges' influence regions (§4.3); elsewhere V is the "

@@ -135,10 +135,13 @@ bool inside_convex(const std::vector<Vec2f>& poly, Vec2f p, float tol) {
 }
 
 TEST(AliasFreeRegion, HoldsEveryPointTheTriangleShadows) {
-  for (LightShape shape : {LightShape::Rect, LightShape::Disk, LightShape::Sphere}) {
+  for (LightShape shape : {LightShape::Rect, LightShape::Disk, LightShape::Sphere, LightShape::Ellipsoid}) {
     AreaLight light = rect_light_down({0.2f, 3, -0.1f}, 1.2f, 0.8f);
     light.shape = shape;
     light.radius = 0.5f;
+    light.radii = {0.7f, 0.3f, 0.4f};
+    // A tilted ellipsoid: its axes are not the view's.
+    if (shape == LightShape::Ellipsoid) light.frame = Frame::from_zx(normalize(Vec3f(0.2f, -1, 0.1f)), {1, 0.3f, 0.5f});
     const LightView view =
         LightView::perspective(light.center, light.frame.n, light.frame.t, 100, 256, 256, 0.05f, 10);
     const float far_depth = 3.5f;
@@ -152,12 +155,12 @@ TEST(AliasFreeRegion, HoldsEveryPointTheTriangleShadows) {
       for (Vec3f& p : v) p = base + Vec3f(rng.next_float() - 0.5f, rng.next_float() * 0.4f - 0.2f, rng.next_float() - 0.5f);
       ASSERT_TRUE(regions.region(v, &poly));
       for (int k = 0; k < 200; ++k) {
-        // A light point: on the light (rect, disk) or anywhere in the ball (sphere).
+        // A light point: on the light (rect, disk) or anywhere in the ball (sphere, ellipsoid).
         Vec3f q;
-        if (shape == LightShape::Sphere) {
+        if (shape == LightShape::Sphere || shape == LightShape::Ellipsoid) {
           do q = Vec3f(rng.next_float() * 2 - 1, rng.next_float() * 2 - 1, rng.next_float() * 2 - 1);
           while (length(q) > 1);
-          q = light.center + q * light.radius;
+          q = shape == LightShape::Sphere ? light.center + q * light.radius : light.from_unit_sphere(q);
         } else {
           q = light.sample_area(rng.next_2d());
         }
@@ -322,13 +325,14 @@ Scene shapes_scene(LightShape shape) {
   AreaLight light = rect_light_down({0.3f, 2.2f, 0.1f}, 1.0f, 0.6f);
   light.shape = shape;
   light.radius = 0.45f;
+  light.radii = {0.6f, 0.25f, 0.2f};  // ellipsoid: long along x, flat along its axis (down)
   Scene s = ground_scene({object(quad_y(0.9f, -1.0f, 0.2f, -0.6f, 0.4f)), object(box({0.4f, 0, -0.5f}, {0.9f, 0.6f, 0.2f}))},
                          light, 80);
   return s;
 }
 
-TEST(AliasFreeShapes, SoftEqualsEmbreeForRectDiskAndSphere) {
-  for (LightShape shape : {LightShape::Rect, LightShape::Disk, LightShape::Sphere}) {
+TEST(AliasFreeShapes, SoftEqualsEmbreeForRectDiskSphereAndEllipsoid) {
+  for (LightShape shape : {LightShape::Rect, LightShape::Disk, LightShape::Sphere, LightShape::Ellipsoid}) {
     const SceneRun r = build_scene_run(shapes_scene(shape));
     ASSERT_TRUE(r.scene.objects[2].closed);
     for (int n : {64, 256}) {
@@ -341,6 +345,48 @@ TEST(AliasFreeShapes, SoftEqualsEmbreeForRectDiskAndSphere) {
     const Agreement hard = agreement(run_method(r, "afsm-hard", 1, {"resolution=128"}), embree_hard(r));
     EXPECT_GE(hard.equal_fraction, 0.999) << to_string(shape);
   }
+}
+
+TEST(AliasFreeShapes, EllipsoidWithEqualRadiiIsTheSphere) {
+  // The sphere's frame is set toward the scene by Scene::finalize; the ellipsoid takes it.
+  const SceneRun sphere = build_scene_run(shapes_scene(LightShape::Sphere));
+  Scene scene = shapes_scene(LightShape::Sphere);
+  AreaLight& l = scene.lights[0];
+  l.shape = LightShape::Ellipsoid;
+  l.radii = Vec3f(l.radius);
+  const SceneRun ellipsoid = build_scene_run(std::move(scene));
+  const std::vector<float> v = run_method(sphere, "afsm", 128, {"resolution=128"});
+  EXPECT_EQ(v, run_method(ellipsoid, "afsm", 128, {"resolution=128"}));
+  EXPECT_EQ(v, run_method(ellipsoid, "afsm", 128, {"resolution=128", "lut=false", "silhouettes=true"}));
+  EXPECT_EQ(run_method(sphere, "afsm-hard", 1, {"resolution=128"}), run_method(ellipsoid, "afsm-hard", 1, {"resolution=128"}));
+  EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 50);
+}
+
+TEST(AliasFreeShapes, EllipsoidTiltedAgainstEmbreeAndTheTableAgrees) {
+  // A tilted, elongated ellipsoid whose axes are not the view's: the scaled-space regions
+  // still hold every shadowed sample, with or without the table and the restrictions.
+  Scene scene = shapes_scene(LightShape::Ellipsoid);
+  AreaLight& l = scene.lights[0];
+  l.radii = {0.7f, 0.2f, 0.35f};
+  l.frame = Frame::from_zx(normalize(Vec3f(0.25f, -1, -0.15f)), {1, 0.2f, 0.6f});
+  const SceneRun r = build_scene_run(std::move(scene));
+  const int n = 128;
+  // A wide field of view: every sample in front of the tilted light is listed (the method
+  // counts samples outside the fitted window as lit, as a shadow map does).
+  MethodStats stats;
+  const std::vector<float> v = run_method(r, "afsm", n, {"resolution=128", "max_fov=170"}, &stats);
+  EXPECT_EQ(stats.extra["uncovered_samples"].get<size_t>(), 0u);
+  const afsm::LightSamples pts = afsm::make_light_samples(r.scene.lights[0], n, 0, 0, 0);
+  const Agreement g = agreement(v, embree_to_points(r, pts.points));
+  std::printf("afsm N=%d vs Embree to the same points, tilted ellipsoid: %.5f equal, max |dV| %.5f\n", n,
+              g.equal_fraction, g.max_diff);
+  EXPECT_GE(g.equal_fraction, 0.995);
+  EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f);
+  EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 50);
+  EXPECT_EQ(v, run_method(r, "afsm", n, {"resolution=128", "max_fov=170", "lut=false", "restrict=false"}));
+  EXPECT_EQ(v, run_method(r, "afsm", n, {"resolution=128", "max_fov=170", "silhouettes=true"}));
+  // Jitter needs a rotation-symmetric light: ignored for an ellipsoid.
+  EXPECT_EQ(v, run_method(r, "afsm", n, {"resolution=128", "max_fov=170", "jitter=true"}));
 }
 
 TEST(AliasFreeShapes, TableAndExactTestsAgreeAndRestrictionsChangeNothing) {

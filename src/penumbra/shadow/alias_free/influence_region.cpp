@@ -17,7 +17,7 @@ float cross2(Vec2f o, Vec2f a, Vec2f b) { return (a.x - o.x) * (b.y - o.y) - (a.
 
 InfluenceRegions::InfluenceRegions(const AreaLight& light, const LightView& view, float far_depth)
     : light_(light), view_(view), far_(far_depth) {
-  if (light.shape != LightShape::Sphere) outline_ = light.outline(8);
+  if (light.shape == LightShape::Rect || light.shape == LightShape::Disk) outline_ = light.outline(8);
 }
 
 bool InfluenceRegions::region(const Vec3f v[3], std::vector<Vec2f>* out) const {
@@ -26,20 +26,29 @@ bool InfluenceRegions::region(const Vec3f v[3], std::vector<Vec2f>* out) const {
   Vec3f hexagon[6];
   for (int k = 0; k < 3; ++k) {
     std::span<const Vec3f> polygon = outline_;
-    if (light_.shape == LightShape::Sphere) {
+    if (light_.shape == LightShape::Sphere || light_.shape == LightShape::Ellipsoid) {
       // The silhouette of the ball seen from v: a circle of radius r' around c + u R^2 / d
-      // in the plane perpendicular to u; its circumscribed hexagon.
-      const Vec3f to_v = v[k] - c;
-      const float d = length(to_v), r = light_.radius;
+      // in the plane perpendicular to u; its circumscribed hexagon. An ellipsoid is scaled to
+      // the unit sphere first (§4.1, "a virtual scaling of the entire scene"): the hexagon is
+      // built around the unit ball seen from A^-1(v) and mapped back with A. The cone from
+      // A^-1(v) over it holds the unit ball, so its image, the cone from v over the mapped
+      // hexagon, holds the ellipsoid; and the projection through v onto the far plane below
+      // commutes with A (lines to lines, planes to planes, parallel planes stay parallel), so
+      // the region is A of the one computed in the scaled scene.
+      const bool ellipsoid = light_.shape == LightShape::Ellipsoid;
+      const Vec3f cc = ellipsoid ? Vec3f(0.0f) : c;
+      const Vec3f to_v = (ellipsoid ? light_.to_unit_sphere(v[k]) : v[k]) - cc;
+      const float d = length(to_v), r = ellipsoid ? 1.0f : light_.radius;
       if (!(d > r * 1.001f)) return false;
       const Vec3f u = to_v / d;
-      const Vec3f m = c + u * (r * r / d);
+      const Vec3f m = cc + u * (r * r / d);
       const float rho = r * std::sqrt(std::max(0.0f, 1 - (r * r) / (d * d))) / std::cos(kPi / 6);
       Vec3f a, b;
       coordinate_system(u, &a, &b);
       for (int j = 0; j < 6; ++j) {
         const float phi = j * (kPi / 3);
         hexagon[j] = m + (a * std::cos(phi) + b * std::sin(phi)) * rho;
+        if (ellipsoid) hexagon[j] = light_.from_unit_sphere(hexagon[j]);
       }
       polygon = std::span<const Vec3f>(hexagon, 6);
     }

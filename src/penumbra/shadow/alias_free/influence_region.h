@@ -11,7 +11,8 @@
 // from the centre is itself inside the region (the centre is a point of the light).
 // The light's bounding polygon: the rect's corners; the disk's circumscribed 8-gon; for a
 // sphere, per vertex, the regular hexagon around the silhouette circle seen from that vertex
-// (sintorn2008 §4.1), which bounds every point of the ball.
+// (sintorn2008 §4.1), which bounds every point of the ball; for an ellipsoid, the same
+// hexagon in the space scaled to the unit sphere, mapped back (§4.1, AreaLight's map A).
 #pragma once
 
 #include <span>

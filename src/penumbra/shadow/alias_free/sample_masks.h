@@ -2,7 +2,8 @@
 // to the mask of the samples on its positive side.
 //
 // Every light this method handles is sampled on a plane through the light's centre (rect and
-// disk: the emitter; sphere: the disk facing frame.n, as AreaLight::sample_area does), so a
+// disk: the emitter; sphere: the disk facing frame.n, as AreaLight::sample_area does;
+// ellipsoid: A of that disk, its central ellipse facing frame.n), so a
 // plane in space meets the samples' plane in a line: the paper's "two angles and a distance"
 // reduce to one angle and a distance. Samples are stored in the light's (s, t) coordinates
 // divided by the light's extent radius (so they lie in the unit disk); a plane

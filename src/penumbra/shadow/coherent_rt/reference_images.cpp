@@ -29,8 +29,10 @@ std::vector<Vec3f> view_points(const AreaLight& light, const std::string& views)
       ht = light.frame.t * (0.5f * light.size.y);
       for (int k = 0; k < 4; ++k) out.push_back(light.center + hs * ((k & 1) ? 1.0f : -1.0f) + ht * ((k & 2) ? 1.0f : -1.0f));
     } else {
-      hs = light.frame.s * light.radius;
-      ht = light.frame.t * light.radius;
+      // A disk, or the disk (ellipse) of a sphere (ellipsoid) facing frame.n.
+      const bool ellipsoid = light.shape == LightShape::Ellipsoid;
+      hs = light.frame.s * (ellipsoid ? light.radii.x : light.radius);
+      ht = light.frame.t * (ellipsoid ? light.radii.y : light.radius);
       out = {light.center + hs, light.center - hs, light.center + ht, light.center - ht};
     }
   }

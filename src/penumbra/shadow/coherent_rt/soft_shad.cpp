@@ -16,7 +16,7 @@ void SoftShadCounters::add(const SoftShadCounters& o) {
 SoftShad::SoftShad(const AreaLight& light, int cols, int rows, const SoftShadOptions& options)
     : light_(&light), cols_(cols), rows_(rows), options_(options) {
   if (light.shape != LightShape::Rect)
-    throw Error("coherent-rt: coherence sampling needs a rect light (this one is a {})", to_string(light.shape));
+    throw Error("coherent-rt: coherence sampling does not support {} lights; only rect lights", to_string(light.shape));
   if (options.sub_grid < 1) throw Error("coherent-rt: sub_grid {} must be at least 1", options.sub_grid);
   scols_ = cols * options.sub_grid;
   srows_ = rows * options.sub_grid;

@@ -56,6 +56,9 @@ LightRect light_rect(const AreaLight& light) {
   if (light.shape == LightShape::Rect) {
     r.width = light.size.x;
     r.height = light.size.y;
+  } else if (light.shape == LightShape::Ellipsoid) {  // the bounding rect of its central ellipse
+    r.width = 2 * light.radii.x;
+    r.height = 2 * light.radii.y;
   } else {  // a disk, or a sphere's disk facing frame.n: the bounding square
     r.width = r.height = 2 * light.radius;
   }

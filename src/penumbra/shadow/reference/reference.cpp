@@ -47,6 +47,15 @@ class ReferenceMethod final : public ShadowMethod {
         Rng rng(ctx.seed, 0x52454600u + ctx.light_index, k, ctx.frame);
         int m = 0;
         const LightPointSampler sampler(light, s.p);
+        // Area mode: the emitter's normal and area (a sphere's disk faces p: cos 1; an
+        // ellipsoid's central ellipse toward p has its own plane).
+        Vec3f emit_n = light.frame.n;
+        float emit_area = light.area();
+        if (light.shape == LightShape::Ellipsoid && light.faces(s.p)) {
+          const AreaLight::Ellipse e = light.section_toward(s.p);
+          emit_n = e.normal;
+          emit_area = e.area;
+        }
         const bool use_solid_angle = solid_angle_ && sampler.valid();
         for (int i = 0; i < n; ++i) {
           Vec2f u = grid.sample(i, rng.next_2d());
@@ -61,9 +70,11 @@ class ReferenceMethod final : public ShadowMethod {
             Vec3f d = q - s.p;
             float dist2 = length_squared(d);
             Vec3f w = d / std::sqrt(dist2);
-            float cos_l = light.shape == LightShape::Sphere ? 1.0f : std::max(0.0f, -dot(w, light.frame.n));
+            float cos_l = light.shape == LightShape::Sphere      ? 1.0f
+                          : light.shape == LightShape::Ellipsoid ? std::abs(dot(w, emit_n))
+                                                                 : std::max(0.0f, -dot(w, light.frame.n));
             batch[m] = shadow_ray_to(s.p, s.ng, q);
-            cosine[m] = std::max(0.0f, dot(s.ns, w)) * cos_l * light.area() / dist2;
+            cosine[m] = std::max(0.0f, dot(s.ns, w)) * cos_l * emit_area / dist2;
             weight[m] = 1.0f;
           }
           ++m;

@@ -185,7 +185,9 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     const AreaLight& l = *ctx.light;
     // parker1998 uses the light's diameter D. A rect has none: its diagonal over-states
     // the penumbra, the diameter of the disk of equal area matches its mean width.
-    diameter_ = (l.shape == LightShape::Rect && equal_area_) ? 2.0f * std::sqrt(l.area() / kPi) : l.diameter();
+    // An ellipsoid, likewise: the disk of its central ellipse's area, or its longest axis.
+    const bool elongated = l.shape == LightShape::Rect || l.shape == LightShape::Ellipsoid;
+    diameter_ = (elongated && equal_area_) ? 2.0f * std::sqrt(l.area() / kPi) : l.diameter();
     diameter_ *= diameter_scale_;
     // The search runs in a frame centred on the light with z toward the scene: every
     // shadow ray ends at its origin and runs roughly along -z, and the contour triangles
@@ -803,7 +805,8 @@ const MethodRegistration registration({
       "how several occluders combine: min (the paper's choice, never too dark), multiply, add",
       {"min", "multiply", "add"}},
      {"diameter", ParamType::String, "equal-area",
-      "light diameter D of a rect light: 'equal-area' (disk of the same area) or 'diagonal'",
+      "light diameter D of a rect or ellipsoid light: 'equal-area' (disk of the same area as the rect or the "
+      "ellipsoid's central ellipse) or 'diagonal' (the rect's diagonal, the ellipsoid's longest axis)",
       {"equal-area", "diagonal"}},
      {"diameter_scale", ParamType::Float, 1.0, "multiplies D (widens or narrows every penumbra)", {}, 0.0, 100.0},
      {"candidates", ParamType::String, "contour",
