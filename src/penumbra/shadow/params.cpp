@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "penumbra/core/error.h"
 
 namespace penumbra {
@@ -42,7 +44,9 @@ void ParamSet::set(const std::string& key, const nlohmann::json& value, const st
       break;
     case ParamType::Float:
       if (!value.is_number() || !std::isfinite(value.get<double>()))
-        throw Error("{}: expected a finite number, got {}", at, value.dump());
+        // JSON has no NaN or infinity (dump() would print "null"): show the number itself.
+        throw Error("{}: expected a finite number, got {}", at,
+                    value.is_number() ? fmt::format("{}", value.get<double>()) : value.dump());
       v = value.get<double>();
       break;
     case ParamType::Bool:

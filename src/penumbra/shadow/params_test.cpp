@@ -47,6 +47,8 @@ TEST(ParamSet, BadValuesNameTheMethodKeyAndValue) {
   EXPECT_NE(message_of([&] { p.set_from_string("samples", "0"); }).find("outside"), std::string::npos);
   EXPECT_NE(message_of([&] { p.set_from_string("epsilon", "abc"); }).find("'abc'"), std::string::npos);
   EXPECT_NE(message_of([&] { p.set_from_string("bilinear", "maybe"); }).find("bool"), std::string::npos);
+  EXPECT_NE(message_of([&] { p.set_from_string("epsilon", "nan"); }).find("finite number, got nan"), std::string::npos);
+  EXPECT_NE(message_of([&] { p.set_from_string("epsilon", "inf"); }).find("finite number, got inf"), std::string::npos);
   EXPECT_NE(message_of([&] { p.set_from_string("mode", "avg"); }).find("not one of min, max"), std::string::npos);
   EXPECT_NE(message_of([&] { p.set_from_json({{"samples", "many"}}, "x.json: methods"); }).find("x.json: methods"),
             std::string::npos);
