@@ -32,20 +32,8 @@ void check_resolution(int width, int height) {
 
 LightView LightView::frustum(Vec3f eye, Vec3f dir, Vec3f up, float l, float r, float b, float t,
                              float near, float far, int width, int height) {
-  check_resolution(width, height);
   if (!(near > 0) || !(far > near)) throw Error("LightView: need 0 < near < far (got {}, {})", near, far);
-  if (!(r > l) || !(t > b)) throw Error("LightView: empty window [{}, {}] x [{}, {}]", l, r, b, t);
-  LightView v;
-  v.kind_ = ProjectionKind::Perspective;
-  v.width_ = width;
-  v.height_ = height;
-  v.near_ = near;
-  v.far_ = far;
-  v.l_ = l; v.r_ = r; v.b_ = b; v.t_ = t;
-  v.eye_ = eye;
-  view_axes(dir, up, &v.right_, &v.up_, &v.forward_);
-  v.finish();
-  return v;
+  return make(ProjectionKind::Perspective, eye, dir, up, l, r, b, t, near, far, width, height);
 }
 
 LightView LightView::perspective(Vec3f eye, Vec3f dir, Vec3f up, float fov_y_deg, int width,
@@ -110,20 +98,8 @@ LightView LightView::frustum_fitted(Vec3f eye, Vec3f dir, Vec3f up, const Bounds
 
 LightView LightView::orthographic(Vec3f eye, Vec3f dir, Vec3f up, float l, float r, float b,
                                   float t, float near, float far, int width, int height) {
-  check_resolution(width, height);
   if (!(far > near)) throw Error("LightView: need near < far (got {}, {})", near, far);
-  if (!(r > l) || !(t > b)) throw Error("LightView: empty window [{}, {}] x [{}, {}]", l, r, b, t);
-  LightView v;
-  v.kind_ = ProjectionKind::Orthographic;
-  v.width_ = width;
-  v.height_ = height;
-  v.near_ = near;
-  v.far_ = far;
-  v.l_ = l; v.r_ = r; v.b_ = b; v.t_ = t;
-  v.eye_ = eye;
-  view_axes(dir, up, &v.right_, &v.up_, &v.forward_);
-  v.finish();
-  return v;
+  return make(ProjectionKind::Orthographic, eye, dir, up, l, r, b, t, near, far, width, height);
 }
 
 LightView LightView::orthographic_fitted(Vec3f dir, Vec3f up, const Bounds3f& bounds, int width,
@@ -143,6 +119,23 @@ LightView LightView::orthographic_fitted(Vec3f dir, Vec3f up, const Bounds3f& bo
   float pad = extent * 1e-5f;
   return orthographic(eye, dir, up, x0 - pad, x1 + pad, y0 - pad, y1 + pad, z0 - pad, z1 + pad,
                       width, height);
+}
+
+LightView LightView::make(ProjectionKind kind, Vec3f eye, Vec3f dir, Vec3f up, float l, float r,
+                          float b, float t, float near, float far, int width, int height) {
+  check_resolution(width, height);
+  if (!(r > l) || !(t > b)) throw Error("LightView: empty window [{}, {}] x [{}, {}]", l, r, b, t);
+  LightView v;
+  v.kind_ = kind;
+  v.width_ = width;
+  v.height_ = height;
+  v.near_ = near;
+  v.far_ = far;
+  v.l_ = l; v.r_ = r; v.b_ = b; v.t_ = t;
+  v.eye_ = eye;
+  view_axes(dir, up, &v.right_, &v.up_, &v.forward_);
+  v.finish();
+  return v;
 }
 
 void LightView::finish() {

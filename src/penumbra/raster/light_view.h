@@ -116,6 +116,10 @@ class LightView {
   float texel_world_size(float z) const;
 
  private:
+  // frustum() and orthographic() after their own depth checks: checks the resolution and
+  // the window, sets the fields, derives the matrices (finish()).
+  static LightView make(ProjectionKind kind, Vec3f eye, Vec3f dir, Vec3f up, float l, float r,
+                        float b, float t, float near, float far, int width, int height);
   void finish();
 
   ProjectionKind kind_ = ProjectionKind::Perspective;
