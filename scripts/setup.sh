@@ -22,6 +22,7 @@ packages=(
   libembree-dev libtbb-dev libassimp-dev libopenexr-dev libstb-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libhwy-dev     # Highway: portable SIMD with run-time dispatch (SSE4, AVX2, AVX-512)
   glmark2-data   # the full Stanford bunny at /usr/share/glmark2/models/bunny.obj
 )
 if [ "$with_test_tools" -eq 1 ]; then
