@@ -46,7 +46,11 @@ TEST_F(CliCompare, CompareWritesThePageJsonCsvAndImages) {
                         "images/single-sample.exr"})
     EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
   EXPECT_FALSE(fs::exists(dir_ / "out" / "images" / "hard.exr"));
+  // The equal-quality column in the summary, the error-time charts beside the page.
+  EXPECT_NE(r.out.find("eq-speedup"), std::string::npos) << r.out;
+  for (const char* f : {"error-time.svg", "flip-time.svg"}) EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
   json j = json::parse(slurp(dir_ / "out" / "results.json"));
+  EXPECT_TRUE(j["reference_ladder"].is_object());
   EXPECT_NE(j["command"].get<std::string>().find("compare scenes/contact.json"), std::string::npos);
   EXPECT_EQ(j["spp"], 4);
   EXPECT_EQ(j["ground_truth"]["spp"], 16);
@@ -109,6 +113,21 @@ TEST_F(CliCompare, BenchWritesJsonAndMarkdown) {
   std::string md = slurp(dir_ / "b" / "bench-results.md");
   EXPECT_NE(md.find("| `hard` |"), std::string::npos) << md;
   EXPECT_NE(r.out.find("| `hard` |"), std::string::npos) << r.out;  // the table on stdout too
+}
+
+TEST_F(CliCompare, BenchPerfSuiteErrorsAreOneLine) {
+  CliRun r = run("bench --suite perf --spp 4 -o " + path("p"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--spp 4: the perf suite's targets fix their own light samples"), std::string::npos) << r.err;
+  r = run("bench --suite perf --scenes contact -o " + path("p"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("none of the suite's targets is left after --methods and --scenes (targets on bunny, plant)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  r = run("bench --suite slow -o " + path("p"));
+  EXPECT_NE(r.exit_code, 0);  // CLI11's own exit code for a value not in the list
+  EXPECT_NE(r.err.find("--suite"), std::string::npos) << r.err;
 }
 
 }  // namespace

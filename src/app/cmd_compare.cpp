@@ -30,13 +30,23 @@ struct CompareCliOptions {
   bool no_cache = false;
   float heatmap_scale = 0;
   bool no_images = false;
+  bool no_equal_quality = false;
   int threads = 0;
   bool quiet = false;
 };
 
 // A few columns of the table on stdout, for a terminal user.
+// An equal-quality point as text: "63.2", ">= 1024", "<= 1" (with "x" for a speed-up).
+std::string equal_quality_text(const EqualQuality& q, double v, const char* unit) {
+  if (std::isnan(v)) return "-";
+  const char* bound = q.bound == QualityBound::kAtLeast ? ">=" : q.bound == QualityBound::kAtMost ? "<=" : "";
+  return bound + format_significant(v, 3) + unit;
+}
+
 void print_summary(const Comparison& c) {
-  std::printf("%-20s %11s %9s %8s %11s %9s\n", "method", "mean|dV|", "PSNR dB", "FLIP", "shadow ms", "speed-up");
+  std::printf("%-20s %11s %9s %8s %11s %9s", "method", "mean|dV|", "PSNR dB", "FLIP", "shadow ms", "speed-up");
+  if (c.has_ladder) std::printf(" %10s %10s", "eq-|dV|spp", "eq-speedup");
+  std::printf("\n");
   for (const MethodRun& r : c.runs) {
     if (!r.ok) {
       std::printf("%-20s failed: %s\n", r.method.c_str(), r.error.c_str());
@@ -44,9 +54,13 @@ void print_summary(const Comparison& c) {
     }
     auto num = [](double v, int digits) { return std::isnan(v) ? std::string("-") : format_significant(v, digits); };
     std::string psnr = std::isnan(r.color_psnr) ? "-" : std::isinf(r.color_psnr) ? "inf" : fmt::format("{:.2f}", r.color_psnr);
-    std::printf("%-20s %11s %9s %8s %11s %9s\n", r.method.c_str(), num(r.v.mae, 3).c_str(), psnr.c_str(),
+    std::printf("%-20s %11s %9s %8s %11s %9s", r.method.c_str(), num(r.v.mae, 3).c_str(), psnr.c_str(),
                 num(r.flip, 3).c_str(), num(r.times.shadow_ms, 4).c_str(),
                 std::isnan(r.speedup) ? "-" : (format_significant(r.speedup, 3) + "x").c_str());
+    if (c.has_ladder)
+      std::printf(" %10s %10s", equal_quality_text(r.eq_v, r.eq_v.samples, "").c_str(),
+                  equal_quality_text(r.eq_v, r.eq_v.speedup, "x").c_str());
+    std::printf("\n");
   }
 }
 
@@ -62,6 +76,7 @@ int run_compare(const CompareCliOptions& o) {
   co.methods = expand_method_list(o.methods);
   co.runs = o.runs;
   co.progress = !o.quiet;
+  co.equal_quality = !o.no_equal_quality;
   co.cache_dir = o.no_cache ? std::filesystem::path() : o.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(o.cache_dir);
   std::string out = o.output.empty() ? fmt::format("compare-{}", std::filesystem::path(o.scene).stem().string()) : o.output;
 
@@ -106,6 +121,8 @@ const CommandRegistration registration("compare", 50, [](CLI::App& app) {
   cmd->add_option("--heatmap-scale", o->heatmap_scale, "|dV| at the end of the heat-map colour scales (0: automatic)")
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_flag("--no-images", o->no_images, "do not write DIR/images/*.exr");
+  cmd->add_flag("--no-equal-quality", o->no_equal_quality,
+                "do not render the reference ladder (1, 2, 4, ... light samples) for the equal-quality columns");
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
   return [o] { return run_compare(*o); };

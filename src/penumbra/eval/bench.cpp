@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -17,9 +18,66 @@ namespace penumbra {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+const std::vector<PerfTarget>& perf_targets() {
+  using K = PerfTarget::Kind;
+  static const std::vector<PerfTarget> targets = [] {
+    std::vector<PerfTarget> t;
+    for (const char* scene : {"bunny", "plant"}) {
+      // sintorn2008's point: its cost barely grows with the light samples, so at high counts it wins.
+      t.push_back({"afsm", scene, 1024, 0, K::kSpeedup, "shadow_ms", 2.0, {}});
+      t.push_back({"afsm", scene, 256, 0, K::kSpeedup, "shadow_ms", 1.0, {}});
+      for (const char* m : {"mlsm", "mtsm", "coherent-rt", "multi-view-sm"})
+        t.push_back({m, scene, 256, 0, K::kSpeedup, "shadow_ms", 1.0, {}});
+    }
+    // lam: one render of a 512^2 frame with 64 light samples times both the precompute
+    // (prepare) and the display (evaluate).
+    t.push_back({"lam", "bunny", 64, 512, K::kTime, "phase:display", 5.0, {}});
+    t.push_back({"lam", "bunny", 64, 512, K::kTime, "phase:precompute", 500.0, {}});
+    // 60 fps: the whole 512^2 frame, camera pass and compose included.
+    for (const char* m : {"hard", "shadow-map", "pcss", "single-sample", "occlusion-textures"})
+      t.push_back({m, "bunny", 256, 512, K::kTime, "total_ms", 16.0, {}});
+    return t;
+  }();
+  return targets;
+}
+
+namespace {
+
+int target_resolution(const PerfTarget& t, int suite_resolution) {
+  return t.resolution > 0 ? t.resolution : suite_resolution;
+}
+
+std::string measure_name(const std::string& measure) {
+  if (measure == "total_ms") return "whole frame";
+  if (measure.rfind("phase:", 0) == 0) return measure.substr(6);
+  return measure;
+}
+
+}  // namespace
+
+std::string perf_target_label(const PerfTarget& t, int suite_resolution) {
+  const int res = target_resolution(t, suite_resolution);
+  std::string params;
+  for (const auto& p : t.params) params += ", " + p;
+  if (t.kind == PerfTarget::Kind::kSpeedup)
+    return fmt::format("{}, {} spp, {} {}²{}: speed-up over reference ≥ {}×", t.method, t.light_samples, t.scene, res,
+                       params, fmt::format("{:g}", t.goal));
+  return fmt::format("{}, {} spp, {} {}²{}: {} < {} ms", t.method, t.light_samples, t.scene, res, params,
+                     measure_name(t.measure), fmt::format("{:g}", t.goal));
+}
+
 BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
   BenchSuite s;
   s.name = name;
+  if (name == "perf") {
+    s.scenes = {scenes_dir / "bunny.json", scenes_dir / "plant.json"};
+    s.resolution = 256;
+    s.light_samples = 256;
+    s.runs = 5;
+    s.warmup_runs = 1;
+    s.targets = perf_targets();
+    return s;
+  }
   for (const char* scene : {"bunny", "contact", "furball", "knot", "plant"})
     s.scenes.push_back(scenes_dir / (std::string(scene) + ".json"));
   if (name == "quick") {
@@ -33,16 +91,229 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     s.runs = 5;
     s.warmup_runs = 1;
   } else {
-    throw Error("--suite {}: unknown suite (quick, full)", name);
+    throw Error("--suite {}: unknown suite (quick, full, perf)", name);
   }
   return s;
 }
+
+namespace {
+
+json scene_entry(const Comparison& c, const std::string& name) {
+  json ms = json::array();
+  for (const MethodRun& r : c.runs) {
+    json m = {{"method", r.method}, {"ok", r.ok}};
+    if (!r.ok) {
+      m["error"] = r.error;
+    } else {
+      m["shadow_ms"] = r.times.shadow_ms;
+      m["total_ms"] = r.times.total_ms;
+      m["camera_pass_ms"] = r.times.camera_pass_ms;
+      m["run_shadow_ms"] = r.run_shadow_ms;
+      m["run_total_ms"] = r.run_total_ms;
+      m["speedup"] = json_number(r.speedup);
+      m["light_samples"] = r.light_samples;
+      m["rays_traced"] = r.stats.rays_traced;
+      m["memory_bytes"] = r.stats.memory_bytes;
+      json phases = json::object();
+      for (const auto& [n, t] : r.stats.phases_ms) phases[n] = t;
+      m["phases_ms"] = phases;
+    }
+    ms.push_back(m);
+  }
+  return {{"scene", c.scene},
+          {"name", name},
+          {"resolution", {c.width, c.height}},
+          {"triangles", c.triangles},
+          {"speedup_basis", c.speedup_basis},
+          {"reference_shadow_ms", c.speedup_basis_ms},
+          {"methods", ms}};
+}
+
+// The value of a time target in every timed run of `r`: its whole frame or one phase.
+std::vector<double> measured_runs(const MethodRun& r, const std::string& measure) {
+  if (measure == "total_ms") return r.run_total_ms;
+  if (measure == "shadow_ms") return r.run_shadow_ms;
+  std::vector<double> v;
+  const std::string phase = measure.rfind("phase:", 0) == 0 ? measure.substr(6) : measure;
+  for (const auto& phases : r.run_phases_ms) {
+    double t = std::numeric_limits<double>::quiet_NaN();
+    for (const auto& [n, ms] : phases)
+      if (n == phase) t = std::isnan(t) ? ms : t + ms;
+    v.push_back(t);
+  }
+  return v;
+}
+
+// The target suite: the targets grouped by scene and settings, each group one comparison of
+// its methods and `reference`, every run of each interleaved.
+json run_targets(const BenchOptions& o, const std::string& started, const Timer& wall) {
+  const BenchSuite& suite = o.suite;
+  struct Group {
+    std::string scene_name, label;
+    fs::path scene;
+    int light_samples = 0, resolution = 0;
+    std::vector<std::string> params, methods;
+    std::vector<size_t> targets;
+    RunSetup setup;
+  };
+  std::vector<Group> groups;
+  std::vector<PerfTarget> targets;
+  for (const PerfTarget& t : suite.targets) {
+    if (!o.methods.empty() && std::find(o.methods.begin(), o.methods.end(), t.method) == o.methods.end()) continue;
+    auto file = std::find_if(suite.scenes.begin(), suite.scenes.end(),
+                             [&](const fs::path& f) { return f.stem().string() == t.scene; });
+    if (file == suite.scenes.end()) continue;  // its scene is not in this run (--scenes)
+    const int res = target_resolution(t, suite.resolution);
+    auto g = std::find_if(groups.begin(), groups.end(), [&](const Group& g) {
+      return g.scene_name == t.scene && g.light_samples == t.light_samples && g.resolution == res &&
+             g.params == t.params;
+    });
+    if (g == groups.end()) {
+      Group ng;
+      ng.scene_name = t.scene;
+      ng.scene = *file;
+      ng.light_samples = t.light_samples;
+      ng.resolution = res;
+      ng.params = t.params;
+      ng.label = fmt::format("{} {}² {} spp", t.scene, res, t.light_samples);
+      groups.push_back(std::move(ng));
+      g = groups.end() - 1;
+    }
+    if (t.kind == PerfTarget::Kind::kSpeedup && std::find(g->methods.begin(), g->methods.end(), "reference") == g->methods.end())
+      g->methods.insert(g->methods.begin(), "reference");
+    if (std::find(g->methods.begin(), g->methods.end(), t.method) == g->methods.end()) g->methods.push_back(t.method);
+    g->targets.push_back(targets.size());
+    targets.push_back(t);
+  }
+  if (targets.empty()) throw Error("bench: none of the suite's targets is left after --methods and --scenes (targets on {})",
+                [&] {
+                  std::string names;
+                  for (const PerfTarget& t : suite.targets)
+                    if (names.find(t.scene) == std::string::npos) names += (names.empty() ? "" : ", ") + t.scene;
+                  return names;
+                }());
+
+  // Every group's setup before any render: a missing scene or bad setting fails at once.
+  for (Group& g : groups) {
+    g.setup = RunSetup::from_file(g.scene);
+    g.setup.apply("resolution", std::to_string(g.resolution));
+    g.setup.apply("spp", std::to_string(g.light_samples));
+    for (const std::string& kv : o.params) g.setup.apply(kv);
+    for (const std::string& kv : g.params) g.setup.apply(kv);
+    g.setup.check_plain_params(g.methods);
+  }
+  CompareOptions co;
+  co.ground_truth = false;
+  co.runs = suite.runs;
+  co.warmup_runs = suite.warmup_runs;
+  co.keep_images = false;
+  co.interleave = true;
+  uint64_t total = 0;
+  for (const Group& g : groups) {
+    co.methods = g.methods;
+    total += comparison_progress_units(g.setup, co);
+  }
+  Progress bar("bench", total, o.progress);
+  co.progress_bar = &bar;
+
+  json scenes = json::array(), results = json::array();
+  std::vector<json> target_results(targets.size());
+  for (const Group& g : groups) {
+    co.methods = g.methods;
+    Comparison c;
+    std::string group_error;
+    try {
+      c = run_comparison(g.setup, co);
+      scenes.push_back(scene_entry(c, g.label));
+    } catch (const std::exception& e) {
+      group_error = e.what();
+      scenes.push_back({{"scene", g.scene.string()}, {"name", g.label}, {"error", group_error}, {"methods", json::array()}});
+    }
+    for (size_t ti : g.targets) {
+      const PerfTarget& t = targets[ti];
+      json tr = {{"target", perf_target_label(t, suite.resolution)},
+                 {"method", t.method},
+                 {"scene", t.scene},
+                 {"group", g.label},
+                 {"light_samples", t.light_samples},
+                 {"resolution", g.resolution},
+                 {"kind", t.kind == PerfTarget::Kind::kSpeedup ? "speedup" : "time"},
+                 {"measure", t.measure},
+                 {"goal", t.goal},
+                 {"params", t.params}};
+      const MethodRun* run = nullptr;
+      const MethodRun* ref = nullptr;
+      for (const MethodRun& r : c.runs) {
+        if (r.method == t.method) run = &r;
+        if (r.method == "reference") ref = &r;
+      }
+      std::string error = group_error;
+      if (error.empty() && (!run || !run->ok)) error = run ? run->error : "not run";
+      if (error.empty() && t.kind == PerfTarget::Kind::kSpeedup && (!ref || !ref->ok))
+        error = "reference failed: " + (ref ? ref->error : std::string("not run"));
+      if (!error.empty()) {
+        tr["value"] = nullptr;
+        tr["result"] = "FAILED";
+        tr["error"] = error;
+      } else if (t.kind == PerfTarget::Kind::kSpeedup) {
+        // Medians of runs taken side by side (interleaved): reference's / the method's.
+        tr["value"] = json_number(run->speedup);
+        tr["method_ms"] = run->times.shadow_ms;
+        tr["reference_ms"] = ref->times.shadow_ms;
+        tr["run_method_ms"] = run->run_shadow_ms;
+        tr["run_reference_ms"] = ref->run_shadow_ms;
+        tr["result"] = run->speedup >= t.goal ? "PASS" : "MISS";
+      } else {
+        std::vector<double> v = measured_runs(*run, t.measure);
+        const bool measured = !v.empty() && std::none_of(v.begin(), v.end(), [](double x) { return std::isnan(x); });
+        if (!measured) {
+          tr["value"] = nullptr;
+          tr["result"] = "FAILED";
+          tr["error"] = fmt::format("{} reports no {}", t.method, measure_name(t.measure));
+        } else {
+          const double med = median_of(v);
+          tr["value"] = med;
+          tr["run_values"] = v;
+          tr["result"] = med < t.goal ? "PASS" : "MISS";
+        }
+      }
+      target_results[ti] = tr;
+    }
+  }
+  bar.finish();
+  for (json& tr : target_results) results.push_back(std::move(tr));
+  std::vector<std::string> methods = {"reference"};
+  for (const PerfTarget& t : targets)
+    if (std::find(methods.begin(), methods.end(), t.method) == methods.end()) methods.push_back(t.method);
+  return {{"suite", suite.name},
+          {"settings",
+           {{"resolution", suite.resolution},
+            {"spp", suite.light_samples},
+            {"runs", suite.runs},
+            {"warmup_runs", suite.warmup_runs},
+            {"params", o.params},
+            {"interleaved", true}}},
+          {"timing",
+           "speed-up targets: reference's median shadow_ms / the method's, their runs interleaved (method, "
+           "reference, method, ...) in one process; time targets: the median over the runs of the whole frame "
+           "(total_ms, camera pass included) or of one phase"},
+          {"methods", methods},
+          {"machine", machine_json()},
+          {"started", started},
+          {"wall_ms", wall.elapsed_ms()},
+          {"command", o.command},
+          {"targets", results},
+          {"scenes", scenes}};
+}
+
+}  // namespace
 
 json run_bench(const BenchOptions& o) {
   Timer wall;
   const BenchSuite& suite = o.suite;
   if (suite.scenes.empty()) throw Error("bench: no scenes");
   const std::string started = local_time_iso();
+  if (!suite.targets.empty()) return run_targets(o, started, wall);
   // The reference first: it is what every other row is measured against.
   std::vector<std::string> methods = {"reference"};
   for (const auto& m : o.methods)
@@ -84,33 +355,7 @@ json run_bench(const BenchOptions& o) {
                         {"methods", ms}});
       continue;
     }
-    json ms = json::array();
-    for (const MethodRun& r : c.runs) {
-      json m = {{"method", r.method}, {"ok", r.ok}};
-      if (!r.ok) {
-        m["error"] = r.error;
-      } else {
-        m["shadow_ms"] = r.times.shadow_ms;
-        m["total_ms"] = r.times.total_ms;
-        m["camera_pass_ms"] = r.times.camera_pass_ms;
-        m["run_shadow_ms"] = r.run_shadow_ms;
-        m["speedup"] = json_number(r.speedup);
-        m["light_samples"] = r.light_samples;
-        m["rays_traced"] = r.stats.rays_traced;
-        m["memory_bytes"] = r.stats.memory_bytes;
-        json phases = json::object();
-        for (const auto& [n, t] : r.stats.phases_ms) phases[n] = t;
-        m["phases_ms"] = phases;
-      }
-      ms.push_back(m);
-    }
-    scenes.push_back({{"scene", c.scene},
-                      {"name", fs::path(c.scene).stem().string()},
-                      {"resolution", {c.width, c.height}},
-                      {"triangles", c.triangles},
-                      {"speedup_basis", c.speedup_basis},
-                      {"reference_shadow_ms", c.speedup_basis_ms},
-                      {"methods", ms}});
+    scenes.push_back(scene_entry(c, fs::path(c.scene).stem().string()));
   }
   bar.finish();
   return {{"suite", suite.name},
@@ -135,11 +380,39 @@ std::string bench_markdown(const json& r) {
   std::ostringstream md;
   const json& st = r.at("settings");
   const json& mc = r.at("machine");
-  md << fmt::format("Suite `{}`: {}×{} pixels, {} light samples, median of {} runs after {} warm-up; {}, {} threads, {}, "
-                    "{}; {}.\n\n",
-                    r.value("suite", "?"), st.value("resolution", 0), st.value("resolution", 0), st.value("spp", 0),
-                    st.value("runs", 0), st.value("warmup_runs", 0), mc.value("cpu", "?"), mc.value("threads", 0),
-                    mc.value("compiler", "?"), mc.value("build", "?"), r.value("started", "?"));
+  if (r.contains("targets")) {
+    md << fmt::format("Suite `{}`: the speed-up targets at {}×{} pixels, the time targets at their own size; light "
+                      "samples per target; median of {} runs after {} warm-up, every method's runs interleaved with "
+                      "the others' of its scene; {}, {} threads, {}, {}; {}.\n\n",
+                      r.value("suite", "?"), st.value("resolution", 0), st.value("resolution", 0), st.value("runs", 0),
+                      st.value("warmup_runs", 0), mc.value("cpu", "?"), mc.value("threads", 0),
+                      mc.value("compiler", "?"), mc.value("build", "?"), r.value("started", "?"));
+  } else {
+    md << fmt::format("Suite `{}`: {}×{} pixels, {} light samples, median of {} runs after {} warm-up; {}, {} threads, "
+                      "{}, {}; {}.\n\n",
+                      r.value("suite", "?"), st.value("resolution", 0), st.value("resolution", 0), st.value("spp", 0),
+                      st.value("runs", 0), st.value("warmup_runs", 0), mc.value("cpu", "?"), mc.value("threads", 0),
+                      mc.value("compiler", "?"), mc.value("build", "?"), r.value("started", "?"));
+  }
+  if (r.contains("targets")) {
+    md << "Targets (issue 14): speed-ups are reference's median shadow time / the method's, their runs "
+          "interleaved in this process; times are medians of the whole frame (camera pass included) or of one "
+          "phase.\n\n| target | measured | result |\n|---|---:|---|\n";
+    int pass = 0, all = 0;
+    for (const json& t : r.at("targets")) {
+      std::string value = "—";
+      if (t.contains("value") && t["value"].is_number()) {
+        double v = t["value"].get<double>();
+        value = t.value("kind", "") == "speedup" ? format_significant(v, 3) + "×" : format_significant(v, 3) + " ms";
+      }
+      std::string result = t.value("result", "?");
+      if (t.contains("error")) result += ": " + t.value("error", "");
+      md << "| " << t.value("target", "?") << " | " << value << " | **" << result << "** |\n";
+      pass += t.value("result", "") == "PASS" ? 1 : 0;
+      ++all;
+    }
+    md << "\n" << pass << " of " << all << " targets met.\n\n";
+  }
   md << "Each cell: the method's shadow time (total − camera pass − compose) in ms, and in brackets its "
         "speed-up over `reference` (Embree ray tracing at the same light samples) on that scene.\n\n";
   md << "| method |";

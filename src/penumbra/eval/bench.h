@@ -12,22 +12,50 @@
 
 namespace penumbra {
 
+// One target of the perf suite (issue 14 part 2): a method on a scene at fixed settings, and
+// the goal it must reach: a speed-up over `reference` at the same light samples, measured side
+// by side in the same run, or an absolute time.
+struct PerfTarget {
+  enum class Kind { kSpeedup, kTime };
+  std::string method;              // "afsm"
+  std::string scene;               // a scene of the suite folder ("bunny")
+  int light_samples = 256;
+  int resolution = 0;              // square; 0: the suite's resolution (the ratio targets, 256^2)
+  Kind kind = Kind::kSpeedup;
+  // kTime: what is timed: "total_ms" (the whole frame, camera pass included) or "phase:<name>"
+  // (one of the method's phases, e.g. "phase:display"); kSpeedup: the shadow time.
+  std::string measure = "shadow_ms";
+  double goal = 1;                 // kSpeedup: the least speed-up; kTime: the most ms (below it)
+  std::vector<std::string> params; // settings of this target (RunSetup::apply)
+};
+
+// The targets of issue 14 part 2, in the order the issue names them.
+const std::vector<PerfTarget>& perf_targets();
+// "afsm, 1024 spp, bunny: speed-up over reference >= 2x" and the like.
+std::string perf_target_label(const PerfTarget& t, int suite_resolution);
+
 struct BenchSuite {
-  std::string name;                               // "quick", "full" or "custom"
+  std::string name;                               // "quick", "full", "perf" or "custom"
   std::vector<std::filesystem::path> scenes;      // scene files
   int resolution = 128;                           // square images
   int light_samples = 16;
   int runs = 3;                                   // timed runs (median)
   int warmup_runs = 1;
+  // Non-empty: a target suite (perf): every target's method and reference are run on its
+  // scene, interleaved, and the result is PASS or MISS per target.
+  std::vector<PerfTarget> targets;
 };
 
 // quick: 128^2, 16 light samples, 3 runs; full: 512^2, 256 light samples, 5 runs; both on
-// bunny, contact, furball, knot and plant from `scenes_dir`.
+// bunny, contact, furball, knot and plant from `scenes_dir`. perf: perf_targets() on bunny and
+// plant, 256^2 for the ratio targets (the time targets fix their own 512^2), 5 runs.
 BenchSuite bench_suite(const std::string& name, const std::filesystem::path& scenes_dir);
 
 struct BenchOptions {
   BenchSuite suite;
-  std::vector<std::string> methods;  // "reference" is added first when missing
+  // "reference" is added first when missing. A target suite: only the targets of these
+  // methods (empty: every target).
+  std::vector<std::string> methods;
   std::vector<std::string> params;   // run settings (RunSetup::apply), e.g. "lam.samples=64"
   bool progress = false;
   std::string command;               // recorded in the results
@@ -35,7 +63,8 @@ struct BenchOptions {
 
 // Runs the suite; returns the bench-results.json document.
 nlohmann::json run_bench(const BenchOptions& options);
-// The Markdown table: one row per method, one column per scene, "time ms (speed-up x)".
+// The Markdown table: one row per method, one column per scene, "time ms (speed-up x)"; for a
+// target suite, first the targets with their measured value and PASS or MISS.
 std::string bench_markdown(const nlohmann::json& results);
 
 }  // namespace penumbra

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "penumbra/core/error.h"
+#include "penumbra/shadow/shadow_method.h"
 #include "penumbra/testing/compare_fixture.h"
 
 namespace penumbra {
@@ -32,6 +33,90 @@ TEST(Bench, SuitesAreDefined) {
   EXPECT_EQ(f.light_samples, 256);
   EXPECT_GE(f.runs, 3);
   EXPECT_THROW(bench_suite("huge", "scenes"), Error);
+  EXPECT_TRUE(q.targets.empty());
+}
+
+// The perf suite lists the targets of issue 14 part 2, no more and no fewer (not a timing test).
+TEST(Bench, PerfSuiteListsTheTargetsOfTheIssue) {
+  BenchSuite p = bench_suite("perf", "scenes");
+  EXPECT_EQ(p.resolution, 256);  // the ratio targets' default
+  ASSERT_EQ(p.scenes.size(), 2u);
+  EXPECT_EQ(p.scenes[0].stem(), "bunny");
+  EXPECT_EQ(p.scenes[1].stem(), "plant");
+  EXPECT_GE(p.runs, 3);
+  using K = PerfTarget::Kind;
+  // (method, scene, light samples, resolution, kind, measure, goal)
+  using Row = std::tuple<std::string, std::string, int, int, K, std::string, double>;
+  std::vector<Row> expected;
+  for (std::string scene : {"bunny", "plant"}) {
+    expected.push_back({"afsm", scene, 1024, 0, K::kSpeedup, "shadow_ms", 2.0});
+    expected.push_back({"afsm", scene, 256, 0, K::kSpeedup, "shadow_ms", 1.0});
+    for (std::string m : {"mlsm", "mtsm", "coherent-rt", "multi-view-sm"})
+      expected.push_back({m, scene, 256, 0, K::kSpeedup, "shadow_ms", 1.0});
+  }
+  expected.push_back({"lam", "bunny", 64, 512, K::kTime, "phase:display", 5.0});
+  expected.push_back({"lam", "bunny", 64, 512, K::kTime, "phase:precompute", 500.0});
+  for (std::string m : {"hard", "shadow-map", "pcss", "single-sample", "occlusion-textures"})
+    expected.push_back({m, "bunny", 256, 512, K::kTime, "total_ms", 16.0});
+  std::vector<Row> listed;
+  for (const PerfTarget& t : p.targets) {
+    listed.push_back({t.method, t.scene, t.light_samples, t.resolution, t.kind, t.measure, t.goal});
+    EXPECT_NO_THROW(MethodRegistry::get(t.method)) << t.method;  // a registered method
+    EXPECT_TRUE(t.params.empty());
+  }
+  EXPECT_EQ(listed, expected);
+  EXPECT_EQ(perf_target_label(p.targets[0], 256), "afsm, 1024 spp, bunny 256²: speed-up over reference ≥ 2×");
+  EXPECT_EQ(perf_target_label(p.targets.back(), 256), "occlusion-textures, 256 spp, bunny 512²: whole frame < 16 ms");
+  EXPECT_EQ(perf_target_label(p.targets[12], 256), "lam, 64 spp, bunny 512²: display < 5 ms");
+}
+
+TEST(Bench, TargetsArePassedOrMissedFromOneInterleavedRun) {
+  using K = PerfTarget::Kind;
+  BenchOptions o;
+  o.suite = tiny_suite();
+  o.suite.resolution = 16;
+  o.suite.runs = 3;
+  o.suite.warmup_runs = 0;
+  o.suite.targets = {
+      {"hard", "contact", 4, 0, K::kSpeedup, "shadow_ms", 1e-9, {}},          // surely met
+      {"single-sample", "contact", 4, 0, K::kSpeedup, "shadow_ms", 1e9, {}},  // surely missed
+      {"hard", "contact", 4, 20, K::kTime, "total_ms", 1e9, {}},              // its own resolution
+      {"hard", "contact", 4, 20, K::kTime, "phase:nope", 1, {}},              // no such phase
+      {"hard", "bunny", 4, 0, K::kTime, "total_ms", 1, {}},                   // scene not in this run
+  };
+  json r = run_bench(o);
+  ASSERT_TRUE(r.contains("targets"));
+  const json& t = r["targets"];
+  ASSERT_EQ(t.size(), 4u);
+  EXPECT_EQ(t[0]["result"], "PASS");
+  EXPECT_EQ(t[1]["result"], "MISS");
+  EXPECT_EQ(t[2]["result"], "PASS");
+  EXPECT_EQ(t[3]["result"], "FAILED");
+  EXPECT_NE(t[3]["error"].get<std::string>().find("no nope"), std::string::npos) << t[3].dump();
+  // The ratio: medians of the method's and the reference's runs, three each.
+  ASSERT_EQ(t[0]["run_method_ms"].size(), 3u);
+  ASSERT_EQ(t[0]["run_reference_ms"].size(), 3u);
+  EXPECT_NEAR(t[0]["value"].get<double>(), t[0]["reference_ms"].get<double>() / t[0]["method_ms"].get<double>(), 1e-9);
+  EXPECT_EQ(t[0]["group"], "contact 16² 4 spp");
+  EXPECT_EQ(t[2]["resolution"], 20);
+  EXPECT_EQ(t[2]["run_values"].size(), 3u);
+  // Two groups (16^2 with the reference, 20^2 without).
+  ASSERT_EQ(r["scenes"].size(), 2u);
+  EXPECT_EQ(r["scenes"][0]["methods"].size(), 3u);  // reference, hard, single-sample
+  EXPECT_EQ(r["scenes"][1]["methods"].size(), 1u);
+  EXPECT_EQ(r["scenes"][1]["resolution"], json({20, 20}));
+  std::string md = bench_markdown(r);
+  EXPECT_NE(md.find("| hard, 4 spp, contact 16²: speed-up over reference ≥ "), std::string::npos) << md;
+  EXPECT_NE(md.find("**MISS**"), std::string::npos);
+  EXPECT_NE(md.find("2 of 4 targets met"), std::string::npos) << md;
+
+  // --methods keeps those methods' targets only.
+  o.methods = {"single-sample"};
+  json only = run_bench(o);
+  ASSERT_EQ(only["targets"].size(), 1u);
+  EXPECT_EQ(only["targets"][0]["method"], "single-sample");
+  o.methods = {"afsm"};
+  EXPECT_THROW(run_bench(o), Error);  // no target left
 }
 
 TEST(Bench, RatiosToTheReferenceMeasuredInTheSameRun) {

@@ -69,16 +69,6 @@ json machine_json() {
 
 namespace {
 
-double shadow_ms(const RenderResult& r) {
-  return std::max(0.0, r.total_ms - r.camera_pass_ms - r.stats.phase("compose"));
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[(v.size() - 1) / 2];
-}
-
 // A comparison's progress: each render is given a budget of view samples x lights (the
 // most the renderer can report); what it did not report is added when it finishes.
 class Budget {
@@ -107,6 +97,16 @@ uint64_t render_units(const RunSetup& setup) {
 }
 
 }  // namespace
+
+double shadow_time_ms(const RenderResult& r) {
+  return std::max(0.0, r.total_ms - r.camera_pass_ms - r.stats.phase("compose"));
+}
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[(v.size() - 1) / 2];
+}
 
 uint64_t comparison_progress_units(const RunSetup& setup, const CompareOptions& options) {
   const int runs = std::max(1, options.runs) + std::max(0, options.warmup_runs);
@@ -151,78 +151,130 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
   Image truth_display;
   if (c.has_ground_truth) truth_display = display_srgb(c.truth.color);
 
-  for (const std::string& name : options.methods) {
+  // Every method's renders, in the order of the schedule: all runs of one method in a row,
+  // or (interleave) run i of every method before run i+1 of any.
+  struct Pending {
     MethodRun run;
-    run.method = name;
+    RenderSettings settings;
+    std::vector<RenderResult> results;
+    bool failed = false;
+  };
+  std::vector<Pending> pending(options.methods.size());
+  for (size_t k = 0; k < options.methods.size(); ++k) {
+    Pending& p = pending[k];
+    const std::string& name = options.methods[k];
+    p.run.method = name;
     const MethodSpec spec = parse_method_spec(name);
     const MethodInfo& info = MethodRegistry::get(spec.name);
-    run.light_samples = info.samples_light ? setup.light_samples : 0;
+    p.run.light_samples = info.samples_light ? setup.light_samples : 0;
+    p.settings.method = spec.name;
+    p.settings.params = setup.overrides_for(spec);
+    p.settings.light_samples = setup.light_samples;
+    p.settings.seed = setup.seed;
+    p.settings.progress_bar = bar;
+  }
+  std::vector<std::pair<size_t, int>> schedule;  // (method, render)
+  if (options.interleave) {
+    for (int i = 0; i < runs; ++i)
+      for (size_t k = 0; k < pending.size(); ++k) schedule.emplace_back(k, i);
+  } else {
+    for (size_t k = 0; k < pending.size(); ++k)
+      for (int i = 0; i < runs; ++i) schedule.emplace_back(k, i);
+  }
+  for (auto [k, i] : schedule) {
+    Pending& p = pending[k];
+    budget.begin(fmt::format("compare: {}", p.run.method), per_render);
+    if (p.failed) {  // a run that will not happen counts as done
+      budget.end();
+      continue;
+    }
     try {
-      RenderSettings settings;
-      settings.method = spec.name;
-      settings.params = setup.overrides_for(spec);
-      settings.light_samples = setup.light_samples;
-      settings.seed = setup.seed;
-      settings.progress_bar = bar;
-      std::vector<RenderResult> results;
-      for (int i = 0; i < runs; ++i) {
-        budget.begin(fmt::format("compare: {}", name), per_render);
-        try {
-          results.push_back(render_scene(scene, settings));
-        } catch (...) {
-          // The runs that will not happen count as done.
-          budget.begin(fmt::format("compare: {}", name), per_render * (runs - i - 1));
-          budget.end();
-          throw;
-        }
-        budget.end();
-        // Only the first run's images are kept (they are the same every run).
-        if (i > 0) {
-          results.back().color = Image();
-          results.back().visibility = Image();
-        }
-      }
-      // Warm-up renders are dropped (the first of them holds the images).
-      const int warmups = std::max(0, options.warmup_runs);
-      if (warmups > 0) {
-        Image color = std::move(results.front().color), vis = std::move(results.front().visibility);
-        results.erase(results.begin(), results.begin() + warmups);
-        results.front().color = std::move(color);
-        results.front().visibility = std::move(vis);
-      }
-      std::vector<double> times;
-      for (const auto& r : results) times.push_back(shadow_ms(r));
-      double med = median(times);
-      size_t pick = 0;
-      for (size_t i = 0; i < results.size(); ++i)
-        if (times[i] == med) pick = i;
-      const RenderResult& m = results[pick];
-      run.times = {m.total_ms, m.camera_pass_ms, med};
-      run.run_shadow_ms = times;
-      run.stats = m.stats;
-      run.params = m.resolved_params;
-      run.view_samples = m.view_sample_count;
-      RenderResult& first = results.front();
-      if (c.has_ground_truth) {
-        run.v = compare_images(first.visibility, c.truth.visibility);
-        run.color_psnr = compare_images(display_srgb(first.color), truth_display).psnr;
-        run.flip = flip(first.color, c.truth.color).mean;
-      } else {
-        run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = std::numeric_limits<double>::quiet_NaN();
-        run.v.psnr = std::numeric_limits<double>::quiet_NaN();
-      }
-      if (options.keep_images) {
-        run.color = std::move(first.color);
-        run.visibility = std::move(first.visibility);
-      }
-      run.ok = true;
+      p.results.push_back(render_scene(scene, p.settings));
     } catch (const std::exception& e) {
+      p.failed = true;
+      p.run.error = e.what();
+      p.results.clear();
+    }
+    budget.end();
+    // Only the first run's images are kept (they are the same every run).
+    if (!p.failed && i > 0) {
+      p.results.back().color = Image();
+      p.results.back().visibility = Image();
+    }
+  }
+
+  for (Pending& p : pending) {
+    MethodRun& run = p.run;
+    if (p.failed) {
       run.ok = false;
-      run.error = e.what();
       run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = run.v.psnr =
           std::numeric_limits<double>::quiet_NaN();
+      c.runs.push_back(std::move(run));
+      continue;
     }
+    std::vector<RenderResult>& results = p.results;
+    // Warm-up renders are dropped (the first of them holds the images).
+    const int warmups = std::max(0, options.warmup_runs);
+    if (warmups > 0) {
+      Image color = std::move(results.front().color), vis = std::move(results.front().visibility);
+      results.erase(results.begin(), results.begin() + warmups);
+      results.front().color = std::move(color);
+      results.front().visibility = std::move(vis);
+    }
+    std::vector<double> times;
+    for (const auto& r : results) {
+      times.push_back(shadow_time_ms(r));
+      run.run_total_ms.push_back(r.total_ms);
+      run.run_phases_ms.push_back(r.stats.phases_ms);
+    }
+    double med = median_of(times);
+    size_t pick = 0;
+    for (size_t i = 0; i < results.size(); ++i)
+      if (times[i] == med) pick = i;
+    const RenderResult& m = results[pick];
+    run.times = {m.total_ms, m.camera_pass_ms, med};
+    run.run_shadow_ms = times;
+    run.stats = m.stats;
+    run.params = m.resolved_params;
+    run.view_samples = m.view_sample_count;
+    RenderResult& first = results.front();
+    if (c.has_ground_truth) {
+      run.v = compare_images(first.visibility, c.truth.visibility);
+      run.color_psnr = compare_images(display_srgb(first.color), truth_display).psnr;
+      run.flip = flip(first.color, c.truth.color).mean;
+    } else {
+      run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = std::numeric_limits<double>::quiet_NaN();
+      run.v.psnr = std::numeric_limits<double>::quiet_NaN();
+    }
+    if (options.keep_images) {
+      run.color = std::move(first.color);
+      run.visibility = std::move(first.visibility);
+    }
+    run.ok = true;
+    results.clear();
     c.runs.push_back(std::move(run));
+  }
+
+  // Equal quality: the reference ladder, rendered as far as the best method needs.
+  if (c.has_ground_truth && options.equal_quality) {
+    double best_v = std::numeric_limits<double>::quiet_NaN(), best_flip = best_v;
+    for (const MethodRun& r : c.runs) {
+      if (!r.ok) continue;
+      if (std::isfinite(r.v.mae) && !(r.v.mae >= best_v)) best_v = r.v.mae;
+      if (std::isfinite(r.flip) && !(r.flip >= best_flip)) best_flip = r.flip;
+    }
+    if (std::isfinite(best_v) || std::isfinite(best_flip)) {
+      c.ladder = render_reference_ladder(setup, scene, c.truth, best_v, best_flip, options.cache_dir, options.runs,
+                                         options.warmup_runs, bar);
+      c.has_ladder = true;
+      const std::vector<LadderPoint> v_points = ladder_points(c.ladder, "v_mae");
+      const std::vector<LadderPoint> flip_points = ladder_points(c.ladder, "flip");
+      for (MethodRun& r : c.runs) {
+        if (!r.ok) continue;
+        r.eq_v = equal_quality_search(v_points, r.v.mae, r.times.shadow_ms);
+        r.eq_flip = equal_quality_search(flip_points, r.flip, r.times.shadow_ms);
+      }
+    }
   }
   own.finish();
 
@@ -271,6 +323,14 @@ json comparison_json(const Comparison& c) {
       m["shadow_ms"] = r.times.shadow_ms;
       m["run_shadow_ms"] = r.run_shadow_ms;
       m["speedup"] = json_number(r.speedup);
+      for (auto [prefix, q] : {std::pair{"eq_v", &r.eq_v}, std::pair{"eq_flip", &r.eq_flip}}) {
+        const std::string p = prefix;
+        m[p + "_spp"] = json_number(q->samples);
+        m[p + "_bound"] = q->bound == QualityBound::kNone ? json(nullptr) : json(bound_name(q->bound));
+        m[p + "_reference_ms"] = json_number(q->reference_ms);
+        m[p + "_speedup"] = json_number(q->speedup);
+      }
+      m["run_total_ms"] = r.run_total_ms;
       m["rays_traced"] = r.stats.rays_traced;
       m["rays_per_view_sample"] = json_number(rays_per_view_sample(r));
       m["texels_visited"] = r.stats.texels_visited;
@@ -312,6 +372,28 @@ json comparison_json(const Comparison& c) {
   } else {
     j["ground_truth"] = nullptr;
   }
+  if (c.has_ladder) {
+    json rungs = json::array();
+    for (const LadderRung& r : c.ladder.rungs)
+      rungs.push_back({{"spp", r.light_samples},
+                       {"v_mae", json_number(r.v_mae)},
+                       {"flip", json_number(r.flip)},
+                       {"shadow_ms", r.shadow_ms},
+                       {"total_ms", r.total_ms},
+                       {"camera_pass_ms", r.camera_pass_ms},
+                       {"run_shadow_ms", r.run_shadow_ms},
+                       {"cached", r.from_cache},
+                       {"cache_key", r.key}});
+    j["reference_ladder"] = {{"method", "reference"},
+                             {"seed", c.ladder.seed},
+                             {"max_spp", c.ladder.max_samples},
+                             {"interpolation",
+                              "log-log: between the first rung at least as good as the method and the rung before "
+                              "it, log(spp) and log(shadow_ms) linear in log(error)"},
+                             {"rungs", rungs}};
+  } else {
+    j["reference_ladder"] = nullptr;
+  }
   return j;
 }
 
@@ -322,13 +404,14 @@ std::string comparison_csv(const Comparison& c) {
       if (std::find(phases.begin(), phases.end(), n) == phases.end()) phases.push_back(n);
   std::ostringstream out;
   out << "method,ok,error,light_samples,v_mae,v_rmse,v_max,v_mean_signed,color_psnr,flip,total_ms,camera_pass_ms,"
-         "shadow_ms,speedup,rays_traced,rays_per_view_sample,texels_visited,memory_bytes";
+         "shadow_ms,speedup,rays_traced,rays_per_view_sample,texels_visited,memory_bytes,eq_v_spp,eq_v_bound,"
+         "eq_v_reference_ms,eq_v_speedup,eq_flip_spp,eq_flip_bound,eq_flip_reference_ms,eq_flip_speedup";
   for (const auto& p : phases) out << "," << csv_field("phase_" + p + "_ms");
   out << "\n";
   for (const MethodRun& r : c.runs) {
     out << csv_field(r.method) << "," << (r.ok ? "true" : "false") << "," << csv_field(r.error);
     if (!r.ok) {
-      out << std::string(15 + phases.size(), ',') << "\n";
+      out << std::string(23 + phases.size(), ',') << "\n";
       continue;
     }
     out << "," << r.light_samples << "," << csv_number(r.v.mae) << "," << csv_number(r.v.rmse) << ","
@@ -336,6 +419,9 @@ std::string comparison_csv(const Comparison& c) {
         << csv_number(r.flip) << "," << csv_number(r.times.total_ms) << "," << csv_number(r.times.camera_pass_ms)
         << "," << csv_number(r.times.shadow_ms) << "," << csv_number(r.speedup) << "," << r.stats.rays_traced << ","
         << csv_number(rays_per_view_sample(r)) << "," << r.stats.texels_visited << "," << r.stats.memory_bytes;
+    for (const EqualQuality* q : {&r.eq_v, &r.eq_flip})
+      out << "," << csv_number(q->samples) << "," << (q->bound == QualityBound::kNone ? "" : bound_name(q->bound)) << ","
+          << csv_number(q->reference_ms) << "," << csv_number(q->speedup);
     for (const auto& p : phases) {
       bool has = std::any_of(r.stats.phases_ms.begin(), r.stats.phases_ms.end(),
                              [&](const auto& e) { return e.first == p; });
@@ -365,6 +451,10 @@ void write_comparison(const Comparison& c, const fs::path& dir, const ReportOpti
   }
   write_text_file_atomic(dir / "results.json", comparison_json(c).dump(2) + "\n");
   write_text_file_atomic(dir / "results.csv", comparison_csv(c));
+  if (c.has_ground_truth) {
+    write_text_file_atomic(dir / "error-time.svg", error_time_svg(c, "v_mae"));
+    write_text_file_atomic(dir / "flip-time.svg", error_time_svg(c, "flip"));
+  }
   write_text_file_atomic(dir / "index.html", comparison_html(c, options));
 }
 

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "penumbra/core/image.h"
+#include "penumbra/eval/equal_quality.h"
 #include "penumbra/eval/metrics.h"
 #include "penumbra/eval/reference_cache.h"
 #include "penumbra/eval/run_setup.h"
@@ -21,6 +22,7 @@
 namespace penumbra {
 
 class Progress;
+struct RenderResult;
 
 struct CompareOptions {
   std::vector<std::string> methods;  // names or method specs (expand_method_list)
@@ -28,6 +30,13 @@ struct CompareOptions {
   std::filesystem::path cache_dir;   // reference cache; empty: always render it
   int runs = 1;                      // timed renders per method; the median is reported
   int warmup_runs = 0;               // untimed renders per method before the timed ones
+  // Run i of every method before run i+1 of any (method A, B, C, A, B, C, ...) instead of all
+  // runs of one method in a row: ratios between methods are then measured side by side, and
+  // a change of the machine's load during the comparison reaches every method alike.
+  bool interleave = false;
+  // With a ground truth: render the reference ladder (1, 2, 4, ... light samples, cached) and
+  // give each method its equal-quality point (eval/equal_quality.h).
+  bool equal_quality = true;
   bool keep_images = true;           // keep each method's colour and V images
   bool progress = false;             // one progress bar on stderr over the whole comparison
   // A bar owned by the caller (a sweep over several comparisons); overrides `progress`.
@@ -51,6 +60,8 @@ struct MethodRun {
   Image color, visibility;      // when keep_images
   RenderTimes times;            // of the median run (by shadow_ms)
   std::vector<double> run_shadow_ms;  // every timed run
+  std::vector<double> run_total_ms;   // every timed run: the whole render
+  std::vector<std::vector<std::pair<std::string, double>>> run_phases_ms;  // every timed run
   MethodStats stats;            // of the median run: phases, rays, memory, extra
   size_t view_samples = 0;
   // Against the ground truth (NaN without one).
@@ -58,6 +69,9 @@ struct MethodRun {
   double color_psnr = std::numeric_limits<double>::quiet_NaN();  // dB, displayed (sRGB) colour
   double flip = std::numeric_limits<double>::quiet_NaN();        // mean FLIP of the colour image
   double speedup = std::numeric_limits<double>::quiet_NaN();     // basis shadow_ms / this shadow_ms
+  // At equal quality (with a reference ladder): the reference's light samples and time where
+  // its mean |dV| (eq_v) or FLIP (eq_flip) equals this method's, and the speed-up over it.
+  EqualQuality eq_v, eq_flip;
 };
 
 struct Comparison {
@@ -70,6 +84,8 @@ struct Comparison {
   std::vector<std::string> params;  // the run's method parameter settings
   bool has_ground_truth = false;
   GroundTruth truth;
+  bool has_ladder = false;
+  ReferenceLadder ladder;       // the reference at 1, 2, 4, ... light samples (equal quality)
   std::vector<MethodRun> runs;  // in the order of CompareOptions::methods
   // What speedup divides: "reference" (the reference method at --spp in this run) or
   // "ground truth" (the ground truth's render, when `reference` is not compared).
@@ -82,6 +98,10 @@ struct Comparison {
 };
 
 Comparison run_comparison(const RunSetup& setup, const CompareOptions& options);
+// A render's shadow time: total - camera pass - compose (the method's prepare + evaluate).
+double shadow_time_ms(const RenderResult& r);
+// The median (the lower one of an even count); 0 for none.
+double median_of(std::vector<double> v);
 // Shadow rays traced per view sample (over all lights): agrawala2000's "average rays
 // traced" per shading point; NaN when there are no view samples.
 double rays_per_view_sample(const MethodRun& r);
@@ -119,6 +139,11 @@ struct ReportOptions {
 std::string image_file_stem(const std::string& label);
 // Writes DIR/index.html, DIR/results.json, DIR/results.csv (and DIR/images/). Creates DIR.
 void write_comparison(const Comparison& c, const std::filesystem::path& dir, const ReportOptions& options = {});
+
+// The error-time chart (report_html.cpp): `metric` ("v_mae" or "flip", log) against the shadow
+// time (log), every method a point and the reference ladder a curve, its rungs labelled by
+// their light samples. The methods are the same points whether there is a ladder or not.
+std::string error_time_svg(const Comparison& c, const std::string& metric);
 
 // The self-contained HTML page (report_html.cpp).
 std::string comparison_html(const Comparison& c, const ReportOptions& options = {});

@@ -184,6 +184,31 @@ TEST(Comparison, MedianOfSeveralRunsAndWarmups) {
   EXPECT_EQ(comparison_progress_units(tiny_contact_setup(), o), 32u * 32u * 4u);
 }
 
+TEST(Comparison, InterleavedRunsKeepEveryMethodsMediansAndImages) {
+  CompareOptions o;
+  o.methods = {"reference", "hard", "hard:bogus=1"};
+  o.ground_truth = false;
+  o.runs = 3;
+  o.warmup_runs = 1;
+  o.interleave = true;
+  Comparison c = run_comparison(tiny_contact_setup(), o);
+  ASSERT_EQ(c.runs.size(), 3u);
+  for (int k = 0; k < 2; ++k) {
+    const MethodRun& r = c.runs[k];
+    ASSERT_TRUE(r.ok) << r.error;
+    ASSERT_EQ(r.run_shadow_ms.size(), 3u);
+    ASSERT_EQ(r.run_total_ms.size(), 3u);
+    ASSERT_EQ(r.run_phases_ms.size(), 3u);
+    std::vector<double> t = r.run_shadow_ms;
+    std::sort(t.begin(), t.end());
+    EXPECT_EQ(r.times.shadow_ms, t[1]);
+    EXPECT_FALSE(r.color.empty());
+  }
+  EXPECT_FALSE(c.runs[2].ok);  // a failing method fails alone
+  EXPECT_NE(c.runs[2].error.find("bogus"), std::string::npos);
+  EXPECT_NEAR(c.runs[1].speedup, c.runs[0].times.shadow_ms / c.runs[1].times.shadow_ms, 1e-9);
+}
+
 TEST(Comparison, SpeedupAgainstTheGroundTruthWithoutTheReferenceMethod) {
   TempDir dir;
   CompareOptions o;

@@ -183,6 +183,52 @@ GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const fs::pa
   return gt;
 }
 
+uint64_t ladder_seed(uint64_t seed) { return seed ^ 0xd1b54a32d192ed03ull; }
+
+std::string ladder_rung_key(const RunSetup& setup, int light_samples) {
+  json doc = {{"format", kCacheFormat},
+              {"ladder_of", ground_truth_key(setup)},
+              {"spp", light_samples},
+              {"seed", ladder_seed(setup.seed)}};
+  std::string text = doc.dump();
+  return fmt::format("{:016x}{:016x}", fnv1a(text, 0xcbf29ce484222325ull, false),
+                     fnv1a(text, 0x84222325cbf29ce4ull, true));
+}
+
+namespace {
+fs::path ladder_path(const fs::path& dir, const std::string& key) {
+  return dir / fmt::format("reference-ladder-{}.json", key);
+}
+}  // namespace
+
+json load_ladder_rung(const fs::path& cache_dir, const std::string& key) {
+  if (cache_dir.empty()) return nullptr;
+  fs::path p = ladder_path(cache_dir, key);
+  std::error_code ec;
+  if (!fs::exists(p, ec)) return nullptr;
+  try {
+    json entry = json::parse(read_text_file(p));
+    if (!entry.is_object() || entry.value("key", "") != key) return nullptr;
+    fs::last_write_time(p, fs::file_time_type::clock::now(), ec);  // least recently used goes first
+    return entry;
+  } catch (const std::exception&) {
+    return nullptr;  // a damaged entry is rendered again and overwritten
+  }
+}
+
+void store_ladder_rung(const fs::path& cache_dir, const std::string& key, const json& entry) {
+  if (cache_dir.empty()) return;
+  try {
+    fs::create_directories(cache_dir);
+    json e = entry;
+    e["key"] = key;
+    write_text_file_atomic(ladder_path(cache_dir, key), e.dump(1) + "\n");
+  } catch (const std::exception& ex) {
+    std::fprintf(stderr, "penumbra: warning: reference cache %s not written: %s\n", cache_dir.string().c_str(),
+                 ex.what());
+  }
+}
+
 void prune_cache(const fs::path& cache_dir, uintmax_t max_bytes) {
   struct Entry {
     fs::file_time_type time;

@@ -53,6 +53,20 @@ bool ground_truth_cached(const RunSetup& setup, const std::filesystem::path& cac
 GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const std::filesystem::path& cache_dir,
                          Progress* progress = nullptr);
 
+// --- The reference ladder of the equal-quality search (eval/equal_quality.h): the reference
+// at 1, 2, 4, ... light samples measured against the ground truth. Its entries hold numbers
+// only (errors and times, reference-ladder-<key>.json, a few hundred bytes), keyed by the
+// ground truth's key (so everything that changes the ground truth changes them), the rung's
+// light samples and its seed: rungs of different sample counts never collide.
+
+// The ladder renders with a seed of its own, distinct from the methods' and the ground truth's.
+uint64_t ladder_seed(uint64_t seed);
+std::string ladder_rung_key(const RunSetup& setup, int light_samples);
+// The cached entry (the object store_ladder_rung wrote), or null when absent or damaged.
+nlohmann::json load_ladder_rung(const std::filesystem::path& cache_dir, const std::string& key);
+// Writes the entry; a cache that cannot be written is reported on stderr and skipped.
+void store_ladder_rung(const std::filesystem::path& cache_dir, const std::string& key, const nlohmann::json& entry);
+
 // Removes the oldest cache entries until the folder holds at most `max_bytes`.
 void prune_cache(const std::filesystem::path& cache_dir, uintmax_t max_bytes);
 

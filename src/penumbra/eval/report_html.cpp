@@ -16,6 +16,7 @@
 #include "penumbra/eval/heatmap.h"
 #include "penumbra/eval/metrics.h"
 #include "penumbra/eval/report_util.h"
+#include "penumbra/eval/svg_plot.h"
 
 namespace penumbra {
 
@@ -47,6 +48,7 @@ struct Column {
   std::string key, header, tip;
   enum class Better { kNone, kLower, kHigher, kLowerAbs } better = Better::kNone;
   bool needs_truth = false;
+  bool needs_ladder = false;  // the equal-quality columns
 };
 
 const std::vector<Column>& columns() {
@@ -62,6 +64,15 @@ const std::vector<Column>& columns() {
       {"shadow_ms", "shadow ms", "the method's own time: total − camera pass − compose (median of the runs)",
        B::kLower},
       {"speedup", "speed-up", "time of the basis (see above) / this method's shadow time", B::kHigher},
+      {"eq_v_spp", "ref. spp at equal |ΔV|",
+       "light samples the reference needs for this method's mean |ΔV| (reference ladder 1, 2, 4, ..., interpolated "
+       "log-log); ≥: the method beats every rung; ≤: worse than the reference at 1 sample",
+       B::kNone, true, true},
+      {"eq_v_speedup", "speed-up at equal |ΔV|",
+       "the reference's shadow time at that many samples (interpolated from the ladder's times) / this method's",
+       B::kHigher, true, true},
+      {"eq_flip_spp", "ref. spp at equal FLIP", "as for mean |ΔV|, with FLIP", B::kNone, true, true},
+      {"eq_flip_speedup", "speed-up at equal FLIP", "as for mean |ΔV|, with FLIP", B::kHigher, true, true},
       {"camera_pass_ms", "camera ms", "camera pass (primary rays on Embree), the same work for every method"},
       {"total_ms", "total ms", "the whole render: camera pass, every phase, compose"},
       {"rays_traced", "rays", "shadow rays traced through geometry or depth images"},
@@ -80,6 +91,10 @@ double run_value(const MethodRun& r, const std::string& key) {
   if (key == "flip") return r.flip;
   if (key == "shadow_ms") return r.times.shadow_ms;
   if (key == "speedup") return r.speedup;
+  if (key == "eq_v_spp") return r.eq_v.samples;
+  if (key == "eq_v_speedup") return r.eq_v.speedup;
+  if (key == "eq_flip_spp") return r.eq_flip.samples;
+  if (key == "eq_flip_speedup") return r.eq_flip.speedup;
   if (key == "camera_pass_ms") return r.times.camera_pass_ms;
   if (key == "total_ms") return r.times.total_ms;
   if (key == "rays_traced") return static_cast<double>(r.stats.rays_traced);
@@ -95,10 +110,35 @@ json run_json_value(const MethodRun& r, const std::string& key) {
   return json_number(run_value(r, key));
 }
 
+// A (possibly interpolated) sample count: whole numbers from 100 on, else 3 significant
+// digits without trailing zeros ("4", "63.2", "1.5", "1024").
+std::string format_light_samples(double v) {
+  return v >= 100 ? fmt::format("{:.0f}", v) : fmt::format("{:.3g}", v);
+}
+
+// The equal-quality point a column shows (null for other columns).
+const EqualQuality* equal_quality_of(const MethodRun& r, const std::string& key) {
+  if (key.rfind("eq_v_", 0) == 0) return &r.eq_v;
+  if (key.rfind("eq_flip_", 0) == 0) return &r.eq_flip;
+  return nullptr;
+}
+
+// Whether a value may be the best of its column: an equal-quality speed-up that is only an
+// upper bound (the method is worse than the reference at 1 sample) is not.
+bool rankable(const MethodRun& r, const std::string& key) {
+  const EqualQuality* q = equal_quality_of(r, key);
+  return !q || q->bound != QualityBound::kAtMost;
+}
+
 std::string display(const MethodRun& r, const std::string& key) {
   double v = run_value(r, key);
   if (key == "light_samples") return r.light_samples > 0 ? std::to_string(r.light_samples) : "—";
   if (std::isnan(v)) return "—";
+  if (const EqualQuality* q = equal_quality_of(r, key)) {
+    const std::string bound = q->bound == QualityBound::kAtLeast ? "≥ " : q->bound == QualityBound::kAtMost ? "≤ " : "";
+    const bool speedup = key.size() > 8 && key.substr(key.size() - 8) == "_speedup";
+    return bound + (speedup ? format_significant(v, 3) + "×" : format_light_samples(v));
+  }
   if (key == "color_psnr") return std::isinf(v) ? "∞" : fmt::format("{:.2f}", v);
   if (key == "speedup") return format_significant(v, 3) + "×";
   if (key == "rays_traced") return format_grouped(r.stats.rays_traced);
@@ -324,6 +364,35 @@ const char* kScript = R"JS(
 
 }  // namespace
 
+std::string error_time_svg(const Comparison& c, const std::string& metric) {
+  const bool v = metric != "flip";
+  Plot p;
+  p.title = v ? "mean |ΔV| against time" : "FLIP against time";
+  p.x_label = "shadow time (ms)";
+  p.y_label = v ? "mean |ΔV|" : "mean FLIP";
+  p.log_x = p.log_y = true;
+  if (c.has_ladder && !c.ladder.rungs.empty()) {
+    PlotSeries ladder;
+    ladder.name = fmt::format("reference, 1–{} spp", c.ladder.rungs.back().light_samples);
+    for (const LadderRung& r : c.ladder.rungs) {
+      ladder.x.push_back(r.shadow_ms);
+      ladder.y.push_back(v ? r.v_mae : r.flip);
+      ladder.labels.push_back(std::to_string(r.light_samples));
+    }
+    p.series.push_back(std::move(ladder));
+  }
+  for (const MethodRun& r : c.runs) {
+    if (!r.ok) continue;
+    PlotSeries s;
+    s.name = r.method;
+    s.x = {r.times.shadow_ms};
+    s.y = {v ? r.v.mae : r.flip};
+    s.line = false;
+    p.series.push_back(std::move(s));
+  }
+  return plot_svg(p);
+}
+
 float comparison_heatmap_scale(const Comparison& c, const ReportOptions& options) {
   if (options.heatmap_scale > 0) return options.heatmap_scale;
   // Each method's 99th percentile of |dV|; the scale is the lower median of these, so
@@ -414,14 +483,14 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
   });
   std::vector<const Column*> cols;
   for (const Column& col : columns())
-    if (!col.needs_truth || truth) cols.push_back(&col);
+    if ((!col.needs_truth || truth) && (!col.needs_ladder || c.has_ladder)) cols.push_back(&col);
   // The best value of each column among the methods that ran.
   std::map<std::string, double> best;
   for (const Column* col : cols) {
     if (col->better == Column::Better::kNone) continue;
     double b = std::numeric_limits<double>::quiet_NaN();
     for (const MethodRun& r : c.runs) {
-      if (!r.ok) continue;
+      if (!r.ok || !rankable(r, col->key)) continue;
       double v = run_value(r, col->key);
       if (std::isnan(v)) continue;
       if (col->better == Column::Better::kLowerAbs) v = std::abs(v);
@@ -447,7 +516,8 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
     for (const Column* col : cols) {
       double v = run_value(*r, col->key);
       bool is_best = false;
-      if (col->better != Column::Better::kNone && !std::isnan(v) && !std::isnan(best[col->key])) {
+      if (col->better != Column::Better::kNone && !std::isnan(v) && !std::isnan(best[col->key]) &&
+          rankable(*r, col->key)) {
         double cmp = col->better == Column::Better::kLowerAbs ? std::abs(v) : v;
         is_best = cmp == best[col->key];
       }
@@ -460,6 +530,43 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
     h << "<td class=\"phases\">" << phases << "</td></tr>\n";
   }
   h << "</tbody>\n</table></div>\n";
+
+  // --- equal quality: the ladder and the error-time charts
+  if (c.has_ladder && !c.ladder.rungs.empty()) {
+    const LadderRung& last = c.ladder.rungs.back();
+    bool cached = false;
+    for (const LadderRung& r : c.ladder.rungs) cached = cached || r.from_cache;
+    h << "<h2>Equal quality</h2>\n<p class=\"meta\">The <b>reference ladder</b>: the reference at 1, 2, 4, …, "
+      << last.light_samples << " light samples (with a seed of its own; rendered as far as the best method needed, at "
+      << "most the ground truth's " << c.ladder.max_samples << "), measured against the ground truth like every "
+      << "method. A method's <i>equal-quality</i> point is where the ladder's error equals the method's: the first "
+      << "rung at least as good as the method and the one before it bracket it, and the light samples and the "
+      << "reference's shadow time are interpolated between them, straight lines in log-log. ≥ N: the method is "
+      << "better than every rung; ≤ 1: the reference at one sample is already as good. The speed-up at equal "
+      << "quality is that reference time / the method's shadow time"
+      << (cached ? " (ladder times from the run that rendered them, kept in the reference cache)" : "")
+      << ".</p>\n<table id=\"ladder\"><thead><tr><th>light samples</th><th>mean |ΔV|</th><th>FLIP</th>"
+      << "<th>shadow ms</th></tr></thead>\n<tbody>\n";
+    for (const LadderRung& r : c.ladder.rungs)
+      h << "<tr><td>" << r.light_samples << "</td><td>" << format_significant(r.v_mae, 3) << "</td><td>"
+        << format_significant(r.flip, 3) << "</td><td>" << format_significant(r.shadow_ms, 3) << "</td></tr>\n";
+    h << "</tbody></table>\n";
+  }
+  if (truth) {
+    // Inline SVG (without its XML declaration): the page stays one file.
+    auto inline_svg = [](std::string svg) {
+      if (svg.rfind("<?xml", 0) == 0) svg.erase(0, svg.find('\n') + 1);
+      // HTML knows <svg> without its namespace attribute (and the page names no URL).
+      const std::string ns = " xmlns=\"http://www.w3.org/2000/svg\"";
+      if (size_t p = svg.find(ns); p != std::string::npos) svg.erase(p, ns.size());
+      return svg;
+    };
+    h << "<h2>Error against time</h2>\n<p class=\"meta\">Every method a point (its shadow time and error against "
+         "the ground truth), the reference ladder a curve labelled with its light samples: for a time budget, the "
+         "lowest point left of it is the best method. Also <code>error-time.svg</code> and "
+         "<code>flip-time.svg</code>.</p>\n<div class=\"row\">"
+      << inline_svg(error_time_svg(c, "v_mae")) << inline_svg(error_time_svg(c, "flip")) << "</div>\n";
+  }
 
   // --- images
   h << "<h2>Images</h2>\n<div class=\"toolbar\"><span id=\"zoom-status\"></span>"

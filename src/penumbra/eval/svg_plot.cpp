@@ -178,6 +178,7 @@ std::string plot_svg(const Plot& p) {
       pts.clear();
     };
     std::vector<std::pair<double, double>> marks;
+    std::vector<std::string> mark_labels;
     for (size_t i = 0; i < ser.x.size() && i < ser.y.size(); ++i) {
       if (!usable(ser.x[i], p.log_x && !categorical) || !usable(ser.y[i], p.log_y)) {
         flush();
@@ -185,6 +186,8 @@ std::string plot_svg(const Plot& p) {
       }
       pts.emplace_back(tx(ser.x[i]), ty(ser.y[i]));
       marks.push_back(pts.back());
+      mark_labels.push_back(i < ser.labels.size() ? ser.labels[i] : std::string());
+      if (!ser.line) pts.clear();
     }
     flush();
     for (auto [x, y] : marks) {
@@ -194,6 +197,10 @@ std::string plot_svg(const Plot& p) {
       else if (m == "diamond") s << fmt::format("<polygon points=\"{:.1f},{:.1f} {:.1f},{:.1f} {:.1f},{:.1f} {:.1f},{:.1f}\"/>\n", x, y - 4.5, x + 4.5, y, x, y + 4.5, x - 4.5, y);
       else s << fmt::format("<polygon points=\"{:.1f},{:.1f} {:.1f},{:.1f} {:.1f},{:.1f}\"/>\n", x, y - 4.5, x + 4.5, y + 4, x - 4.5, y + 4);
     }
+    for (size_t i = 0; i < marks.size(); ++i)
+      if (!mark_labels[i].empty())
+        s << fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"10\" stroke=\"none\">{}</text>\n",
+                         marks[i].first + 5, marks[i].second - 5, xml_escape(mark_labels[i]));
     s << "</g>\n";
   }
   // Legend.

@@ -11,6 +11,8 @@ namespace penumbra {
 struct PlotSeries {
   std::string name;
   std::vector<double> x, y;  // equal lengths; NaN y values leave a gap in the line
+  std::vector<std::string> labels;  // optional: a small text beside each point (empty: none)
+  bool line = true;                 // false: markers only
 };
 
 struct Plot {

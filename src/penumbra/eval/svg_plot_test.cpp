@@ -84,5 +84,23 @@ TEST(XmlCheck, CatchesBrokenDocuments) {
   EXPECT_FALSE(testing::xml_well_formed("<a>", &problem));
 }
 
+TEST(SvgPlot, PointLabelsAndMarkersOnlySeries) {
+  Plot p;
+  p.log_x = p.log_y = true;
+  PlotSeries curve{"ladder", {1, 2, 4}, {0.1, 0.07, 0.05}};
+  curve.labels = {"1", "2", "4 & more"};
+  PlotSeries point{"method", {3}, {0.06}};
+  point.line = false;
+  PlotSeries scatter{"scatter", {1, 2}, {0.2, 0.3}};
+  scatter.line = false;
+  p.series = {curve, point, scatter};
+  std::string svg = plot_svg(p), problem;
+  EXPECT_TRUE(testing::xml_well_formed(svg, &problem)) << problem;
+  EXPECT_EQ(count(svg, "<polyline"), 1);  // the curve only
+  EXPECT_NE(svg.find(">4 &amp; more</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">2</text>"), std::string::npos);
+  EXPECT_EQ(count(svg, "<circle"), 3 + 1 + 2 + 3);  // markers, then one per legend entry
+}
+
 }  // namespace
 }  // namespace penumbra

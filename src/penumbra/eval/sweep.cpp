@@ -85,6 +85,7 @@ Sweep run_sweep(const RunSetup& base, const SweepOptions& options) {
   co.runs = options.runs;
   co.warmup_runs = options.warmup_runs;
   co.keep_images = !options.pages_dir.empty();
+  co.equal_quality = false;  // a sweep's values would each render a reference ladder
   uint64_t total = 0;
   for (const auto& setup : setups) total += comparison_progress_units(setup, co);
   Progress bar(fmt::format("sweep {}", options.key), total, options.progress);
