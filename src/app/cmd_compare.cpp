@@ -36,11 +36,11 @@ struct CompareCliOptions {
 };
 
 // A few columns of the table on stdout, for a terminal user.
-// An equal-quality point as text: "63.2", ">= 1024", "<= 1" (with "x" for a speed-up).
-std::string equal_quality_text(const EqualQuality& q, double v, const char* unit) {
+// An equal-quality point as text: "63.2", ">=1024", "<=1", or a speed-up "0.83x", ">=2.1x".
+std::string equal_quality_text(const EqualQuality& q, double v, bool speedup) {
   if (std::isnan(v)) return "-";
-  const char* bound = q.bound == QualityBound::kAtLeast ? ">=" : q.bound == QualityBound::kAtMost ? "<=" : "";
-  return bound + format_significant(v, 3) + unit;
+  const std::string bound = q.bound == QualityBound::kAtLeast ? ">=" : q.bound == QualityBound::kAtMost ? "<=" : "";
+  return bound + (speedup ? format_significant(v, 3) + "x" : format_light_samples(v));
 }
 
 void print_summary(const Comparison& c) {
@@ -58,8 +58,8 @@ void print_summary(const Comparison& c) {
                 num(r.flip, 3).c_str(), num(r.times.shadow_ms, 4).c_str(),
                 std::isnan(r.speedup) ? "-" : (format_significant(r.speedup, 3) + "x").c_str());
     if (c.has_ladder)
-      std::printf(" %10s %10s", equal_quality_text(r.eq_v, r.eq_v.samples, "").c_str(),
-                  equal_quality_text(r.eq_v, r.eq_v.speedup, "x").c_str());
+      std::printf(" %10s %10s", equal_quality_text(r.eq_v, r.eq_v.samples, false).c_str(),
+                  equal_quality_text(r.eq_v, r.eq_v.speedup, true).c_str());
     std::printf("\n");
   }
 }

@@ -110,12 +110,6 @@ json run_json_value(const MethodRun& r, const std::string& key) {
   return json_number(run_value(r, key));
 }
 
-// A (possibly interpolated) sample count: whole numbers from 100 on, else 3 significant
-// digits without trailing zeros ("4", "63.2", "1.5", "1024").
-std::string format_light_samples(double v) {
-  return v >= 100 ? fmt::format("{:.0f}", v) : fmt::format("{:.3g}", v);
-}
-
 // The equal-quality point a column shows (null for other columns).
 const EqualQuality* equal_quality_of(const MethodRun& r, const std::string& key) {
   if (key.rfind("eq_v_", 0) == 0) return &r.eq_v;

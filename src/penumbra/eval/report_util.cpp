@@ -85,6 +85,10 @@ std::string format_significant(double v, int digits) {
   return s;
 }
 
+std::string format_light_samples(double v) {
+  return v >= 100 ? fmt::format("{:.0f}", v) : fmt::format("{:.3g}", v);
+}
+
 std::string format_grouped(uint64_t v) {
   std::string digits = std::to_string(v), out;
   int n = static_cast<int>(digits.size());

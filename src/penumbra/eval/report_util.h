@@ -29,6 +29,9 @@ std::string xml_escape(std::string_view s);
 // `v` with `digits` significant digits, in fixed notation for 1e-4 <= |v| < 1e15 and
 // scientific otherwise; "0" for 0, "inf", "-inf", "nan".
 std::string format_significant(double v, int digits = 3);
+// A sample count, possibly interpolated: whole from 100 on, else 3 significant digits without
+// trailing zeros ("4", "63.2", "1.5", "1024").
+std::string format_light_samples(double v);
 // 12345678 -> "12,345,678".
 std::string format_grouped(uint64_t v);
 // Bytes as "512 B", "1.50 KiB", "3.25 MiB", "1.00 GiB".

@@ -60,6 +60,11 @@ TEST(ReportUtil, Formatting) {
   EXPECT_EQ(format_bytes(512), "512 B");
   EXPECT_EQ(format_bytes(1536), "1.50 KiB");
   EXPECT_EQ(format_bytes(3u << 20), "3.00 MiB");
+  EXPECT_EQ(format_light_samples(4), "4");
+  EXPECT_EQ(format_light_samples(63.24), "63.2");
+  EXPECT_EQ(format_light_samples(1.5), "1.5");
+  EXPECT_EQ(format_light_samples(1024), "1024");
+  EXPECT_EQ(format_light_samples(181.6), "182");
 }
 
 }  // namespace
