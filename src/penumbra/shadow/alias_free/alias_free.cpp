@@ -64,12 +64,16 @@ struct Counters {
   uint64_t sample_tests = 0;   // (listed sample, caster) tests
   uint64_t plane_lookups = 0;  // plane -> mask lookups (afsm)
   uint64_t exact_bits = 0;     // light samples tested exactly inside lookups (afsm)
+  uint64_t grid_pairs = 0;     // (sample, caster) pairs decided on the sample grid (afsm)
+  uint64_t grid_tests = 0;     // light samples tested exactly there
   void add(const Counters& o) {
     texel_visits += o.texel_visits;
     empty_visits += o.empty_visits;
     sample_tests += o.sample_tests;
     plane_lookups += o.plane_lookups;
     exact_bits += o.exact_bits;
+    grid_pairs += o.grid_pairs;
+    grid_tests += o.grid_tests;
   }
 };
 
@@ -318,6 +322,9 @@ class AliasFreeSoft final : public AliasFreeBase {
       lut_.emplace(samples.local, bins, bins);
     }
     const afsm::PlaneMaskLut& lut = *lut_;
+    const afsm::SampleGrid grid(samples.local);
+    // Above this many cells under a projected triangle, its masks are cheaper.
+    const int max_grid_cells = std::max(4, grid.cells_x() * grid.cells_x() / 4);
     const int words = lut.words();
     const float R = samples.radius;
     const Vec3f c = samples.center, ls = samples.s * R, lt = samples.t * R;
@@ -522,29 +529,70 @@ class AliasFreeSoft final : public AliasFreeBase {
           if (!(side * side > flat2)) continue;
           uint64_t* m = blocked.data() + static_cast<size_t>(slot) * words;
           const Vec2f rot = jitter ? rotation[slot] : Vec2f{1, 0};
+          // The planes through p and each edge (Fig. 6), oriented toward the third vertex, as
+          // lines on the light. Most leave the whole light on one side (the sample is far
+          // outside or well inside this edge's wedge): decided without a lookup.
+          afsm::Line edges[3];
+          int cutting = 0;
+          bool misses = false;
+          for (int i = 0; i < 3; ++i) {
+            const Vec3f e = edge_plane(t.v[i] - p, t.v[(i + 1) % 3] - t.v[i], side > 0);
+            edges[i] = {rotate(Vec2f{dot(e, ls), dot(e, lt)}, rot), dot(e, c - p)};
+            const int whole = lut.side_of_disk(edges[i].g, edges[i].h);
+            if (whole < 0) {
+              misses = true;
+              break;
+            }
+            cutting += whole == 0;
+          }
+          if (misses) continue;  // no light sample inside this edge's plane
           // Behind the supporting plane as seen from p: the other side.
-          if (t.closed && !jitter) {
-            std::copy_n(support_masks.data() + t.support_mask * words, words, hidden);
+          const float sign = side > 0 ? -1.0f : 1.0f;
+          const bool support_known = t.closed && !jitter;
+          const uint64_t* support = support_masks.data() + t.support_mask * words;
+          const afsm::Line behind{rotate(t.support_g * sign, rot), t.support_h * sign};
+          afsm::SampleGrid::Range cells;
+          if (cutting == 3 && grid.triangle_cells(edges, max_grid_cells, &cells)) {
+            // The triangle projects onto the light as a small triangle: test the samples of
+            // the cells under its bounding box, each exactly as the masks would (same bits).
+            cnt.grid_pairs++;
+            bool added = false;
+            for (int y = cells.y0; y <= cells.y1; ++y) {
+              for (uint32_t k = grid.row_begin(y, cells.x0), k_end = grid.row_end(y, cells.x1); k < k_end; ++k) {
+                const uint32_t i = grid.index()[k];
+                const uint64_t bit = 1ull << (i & 63);
+                if (m[i >> 6] & bit) continue;
+                cnt.grid_tests++;
+                const float ux = grid.x()[k], uy = grid.y()[k];
+                if (support_known ? !(support[i >> 6] & bit) : !afsm::above(ux, uy, behind.g, behind.h)) continue;
+                if (afsm::above(ux, uy, edges[0].g, edges[0].h) && afsm::above(ux, uy, edges[1].g, edges[1].h) &&
+                    afsm::above(ux, uy, edges[2].g, edges[2].h)) {
+                  m[i >> 6] |= bit;
+                  added = true;
+                }
+              }
+            }
+            if (added) {
+              uint64_t missing = 0;
+              for (int w = 0; w < words; ++w) missing |= lut.all()[w] & ~m[w];
+              full[slot] = missing == 0;
+            }
+            continue;
+          }
+          // Otherwise the masks of §4.2: the supporting plane's, then AND each cutting edge's.
+          if (support_known) {
+            std::copy_n(support, words, hidden);
           } else {
-            const float sign = side > 0 ? -1.0f : 1.0f;
-            cnt.exact_bits += lut.mask(rotate(t.support_g * sign, rot), t.support_h * sign, hidden);
+            cnt.exact_bits += lut.mask(behind.g, behind.h, hidden);
             cnt.plane_lookups++;
           }
           uint64_t fresh = 0;
           for (int w = 0; w < words; ++w) fresh |= hidden[w] & ~m[w];
           if (!fresh) continue;  // nothing this caster could add
-          // Inside the planes through p and each edge (Fig. 6), oriented toward the third vertex.
           bool any = true;
           for (int i = 0; i < 3 && any; ++i) {
-            const Vec3f e = edge_plane(t.v[i] - p, t.v[(i + 1) % 3] - t.v[i], side > 0);
-            const Vec2f g = rotate(Vec2f{dot(e, ls), dot(e, lt)}, rot);
-            const float h = dot(e, c - p);
-            // Most edge planes leave the whole light on one side (the sample is far outside
-            // or well inside this edge's wedge): decided without a lookup.
-            const int whole = lut.side_of_disk(g, h);
-            if (whole < 0) any = false;
-            if (whole != 0) continue;
-            cnt.exact_bits += lut.mask(g, h, edge);
+            if (lut.side_of_disk(edges[i].g, edges[i].h) != 0) continue;  // the whole light inside
+            cnt.exact_bits += lut.mask(edges[i].g, edges[i].h, edge);
             cnt.plane_lookups++;
             uint64_t left = 0;
             for (int w = 0; w < words; ++w) left |= (hidden[w] &= edge[w]);
@@ -592,6 +640,8 @@ class AliasFreeSoft final : public AliasFreeBase {
     stats_.extra["unbounded_regions"] = unbounded;
     stats_.extra["plane_lookups"] = total.plane_lookups;
     stats_.extra["exact_sample_tests"] = total.exact_bits;
+    stats_.extra["grid_pairs"] = total.grid_pairs;
+    stats_.extra["grid_sample_tests"] = total.grid_tests;
     stats_.extra["lut_bytes"] = lut.memory_bytes();
     if (ctx.progress) ctx.progress->add(vs.size());
   }

@@ -65,6 +65,58 @@ TEST(AliasFreeLut, LookupEqualsExactClassificationOnRandomPlanes) {
   }
 }
 
+TEST(AliasFreeGrid, CellsHoldEverySampleInsideTheThreeLines) {
+  for (int n : {64, 100, 256, 1024}) {
+    for (LightShape shape : {LightShape::Rect, LightShape::Disk}) {
+      AreaLight light = rect_light_down({0, 2, 0}, 1.5f, 0.7f);
+      light.shape = shape;
+      const afsm::LightSamples samples = afsm::make_light_samples(light, n, 3, 0, 0);
+      // The method's grid (about a sample per cell) and a fine one (a thousandth), where the
+      // bounds' rounding decides more cells.
+      for (float per_cell : {1.0f, 1e-3f}) {
+        const afsm::SampleGrid grid(samples.local, per_cell);
+        Rng rng(17, n);
+        long bounded = 0, inside = 0;
+        for (int i = 0; i < 20000; ++i) {
+          // A triangle around a random point, from a sample's size to the light's; every
+          // third one has its lines through sample points (on the rounding edge).
+          const Vec2f centre{rng.next_float() * 2.4f - 1.2f, rng.next_float() * 2.4f - 1.2f};
+          const float size = std::pow(10.0f, -3 + 3.3f * rng.next_float());
+          Vec2f v[3];
+          for (Vec2f& q : v) {
+            q = centre + Vec2f{rng.next_float() - 0.5f, rng.next_float() - 0.5f} * size;
+            if (i % 3 == 0) q = samples.local[std::min(n - 1, static_cast<int>(rng.next_float() * n))];
+          }
+          const float orientation = cross(v[1] - v[0], v[2] - v[0]) > 0 ? 1.0f : -1.0f;
+          afsm::Line lines[3];
+          for (int k = 0; k < 3; ++k) {
+            const Vec2f a = v[k], b = v[(k + 1) % 3];
+            const Vec2f g{-(b.y - a.y) * orientation, (b.x - a.x) * orientation};  // inward normal
+            const float scale = 0.01f + 10 * rng.next_float();
+            lines[k] = {g * scale, -dot(g, a) * scale};
+          }
+          afsm::SampleGrid::Range r;
+          if (!grid.triangle_cells(lines, grid.cells_x() * grid.cells_x(), &r)) continue;
+          ++bounded;
+          std::vector<char> candidate(n, 0);
+          for (int y = r.y0; y <= r.y1; ++y)
+            for (uint32_t k = grid.row_begin(y, r.x0); k < grid.row_end(y, r.x1); ++k) candidate[grid.index()[k]] = 1;
+          for (int s = 0; s < n; ++s) {
+            const Vec2f u = samples.local[s];
+            bool in = true;
+            for (const afsm::Line& l : lines) in = in && afsm::above(u.x, u.y, l.g, l.h);
+            if (!in) continue;
+            ++inside;
+            ASSERT_TRUE(candidate[s]) << "n " << n << " triangle " << i << " sample " << s;
+          }
+        }
+        EXPECT_GT(bounded, 15000) << n;  // non-degenerate triangles are bounded
+        EXPECT_GT(inside, 1000) << n;    // and hold samples
+      }
+    }
+  }
+}
+
 TEST(AliasFreeLut, SamplesAreTheLightsAreaPoints) {
   AreaLight light = rect_light_down({0, 2, 0}, 1.5f, 0.7f);
   const afsm::LightSamples s = afsm::make_light_samples(light, 256, 3, 0, 0);
