@@ -85,4 +85,94 @@ uint64_t TexelLists::count_in(int x0, int y0, int x1, int y1) const {
          summed_[y0 * w1 + x0];
 }
 
+DepthSlabs split_by_depth(TexelLists* lists, std::span<const float> depth, int slabs) {
+  const size_t slots = lists->slots();
+  if (depth.size() != slots) throw Error("split_by_depth: {} depths for {} slots", depth.size(), slots);
+  DepthSlabs out;
+  out.texels = lists->first.empty() ? 0 : lists->first.size() - 1;
+  // Slab boundaries at depth quantiles (equal slot counts); equal depths stay in one slab.
+  std::vector<float> sorted(depth.begin(), depth.end());
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<float> upper;  // slab k holds depths <= upper[k] (and > upper[k - 1])
+  slabs = std::max(1, slabs);
+  for (int k = 1; k <= slabs && !sorted.empty(); ++k) {
+    const float u = sorted[std::min(slots - 1, (slots * k + slabs - 1) / slabs - 1)];
+    if (upper.empty() || u > upper.back()) upper.push_back(u);
+  }
+  if (upper.empty()) upper.push_back(0);
+  upper.back() = kInfinity;
+  out.count = static_cast<int>(upper.size());
+  std::vector<uint8_t> slab(slots);
+  out.far.assign(out.count, 0.0f);
+  for (size_t i = 0; i < slots; ++i) {
+    slab[i] = static_cast<uint8_t>(std::lower_bound(upper.begin(), upper.end(), depth[i]) - upper.begin());
+    out.far[slab[i]] = std::max(out.far[slab[i]], depth[i]);
+  }
+  for (float& f : out.far) f = f * (1 + 1e-4f) + 1e-6f;
+  // Per texel: count per slab, then a stable scatter of its slots by slab.
+  out.bounds.assign((out.count + 1) * out.texels, 0);
+  std::vector<Vec3f> positions(slots);
+  std::vector<uint32_t> sample(slots);
+  std::vector<uint32_t> cursor(out.count);
+  for (size_t t = 0; t < out.texels; ++t) {
+    const uint32_t b = lists->first[t], e = lists->first[t + 1];
+    std::fill(cursor.begin(), cursor.end(), 0u);
+    for (uint32_t i = b; i < e; ++i) cursor[slab[i]]++;
+    uint32_t at = b;
+    for (int k = 0; k < out.count; ++k) {
+      out.bounds[k * out.texels + t] = at;
+      const uint32_t n = cursor[k];
+      cursor[k] = at;
+      at += n;
+    }
+    out.bounds[out.count * out.texels + t] = e;
+    for (uint32_t i = b; i < e; ++i) {
+      const uint32_t to = cursor[slab[i]]++;
+      positions[to] = lists->positions[i];
+      sample[to] = lists->sample[i];
+    }
+  }
+  lists->positions = std::move(positions);
+  lists->sample = std::move(sample);
+  out.width = lists->width, out.height = lists->height;
+  out.row_words = (lists->width + 63) / 64;
+  out.occupancy.assign(static_cast<size_t>(out.count) * lists->height * out.row_words, 0);
+  for (int k = 0; k < out.count; ++k)
+    for (int y = 0; y < lists->height; ++y) {
+      uint64_t* row = out.occupancy.data() + (static_cast<size_t>(k) * lists->height + y) * out.row_words;
+      for (int x = 0; x < lists->width; ++x) {
+        const size_t t = static_cast<size_t>(y) * lists->width + x;
+        if (out.end(k, t) > out.begin(k, t)) row[x >> 6] |= 1ull << (x & 63);
+      }
+    }
+  return out;
+}
+
+void DepthSlabs::build_summed_areas() {
+  const size_t w1 = static_cast<size_t>(width) + 1, plane = w1 * (height + 1);
+  summed_.assign(count * plane, 0);
+  for (int k = 0; k < count; ++k) {
+    uint32_t* s = summed_.data() + k * plane;
+    for (int y = 0; y < height; ++y) {
+      uint32_t row = 0;
+      for (int x = 0; x < width; ++x) {
+        const size_t t = static_cast<size_t>(y) * width + x;
+        row += end(k, t) - begin(k, t);
+        s[(y + 1) * w1 + x + 1] = s[y * w1 + x + 1] + row;
+      }
+    }
+  }
+}
+
+uint64_t DepthSlabs::count_in(int k, int x0, int y0, int x1, int y1) const {
+  x0 = std::clamp(x0, 0, width);
+  x1 = std::clamp(x1, 0, width);
+  y0 = std::clamp(y0, 0, height);
+  y1 = std::clamp(y1, 0, height);
+  if (x0 >= x1 || y0 >= y1) return 0;
+  const size_t w1 = static_cast<size_t>(width) + 1;
+  const uint32_t* s = summed_.data() + k * w1 * (height + 1);
+  return static_cast<uint64_t>(s[y1 * w1 + x1]) - s[y0 * w1 + x1] - s[y1 * w1 + x0] + s[y0 * w1 + x0];
+}
+
 }  // namespace penumbra::afsm
