@@ -343,15 +343,16 @@ class AliasFreeSoft final : public AliasFreeBase {
       for (uint32_t id : ids)
         if (!listed[id]) out.visibility[id] = 1.0f;  // outside the fitted window: lit
     }
-    const size_t slots = lists_.slots();
     // §4.3 "Parametrization", per slab of depth: each slab's regions end at its own far plane.
+    // From here on slots are the slabs' (slab-major); lists_ keeps its own order.
     afsm::DepthSlabs slabs;
     {
       ScopedPhase phase(stats_, "slabs");
-      std::vector<float> depth(slots);
-      for (size_t slot = 0; slot < slots; ++slot) depth[slot] = view_.linear_depth(lists_.positions[slot]);
-      slabs = afsm::split_by_depth(&lists_, depth, slabs_);
+      std::vector<float> depth(lists_.slots());
+      for (size_t slot = 0; slot < depth.size(); ++slot) depth[slot] = view_.linear_depth(lists_.positions[slot]);
+      slabs = afsm::split_by_depth(lists_, depth, slabs_);
     }
+    const size_t slots = slabs.slots();
 
     // §4.2: per-pixel rotation of the pattern for symmetric lights (disk, sphere): rotating
     // the samples by alpha equals rotating each plane's line by -alpha. A rect's or an
@@ -360,15 +361,15 @@ class AliasFreeSoft final : public AliasFreeBase {
     std::vector<Vec2f> rotation(jitter ? slots : 0);
     // The per-slot masks of blocked light samples, apart from the positions (§3.1).
     std::vector<uint64_t> blocked(slots * words, 0);
-    // Slots whose every light sample is blocked (no further tests), and slots whose own
-    // tangent plane cuts the light (their V is not the centre's even away from every
-    // silhouette edge: always tested in full).
-    std::vector<uint8_t> full(slots, 0), own_plane_cuts(slots, 0);
+    // Slots settled: every light sample blocked (no test can add one), or V known otherwise
+    // (silhouettes=true, away from every silhouette edge); and slots whose own tangent plane
+    // cuts the light (their V is not the centre's even away from every silhouette edge).
+    std::vector<uint8_t> settled(slots, 0), own_plane_cuts(slots, 0);
     {
       ScopedPhase phase(stats_, "init");
       parallel_for(slots, 1024, [&](size_t begin, size_t end) {
         for (size_t slot = begin; slot < end; ++slot) {
-          const ViewSample& s = vs.samples[lists_.sample[slot]];
+          const ViewSample& s = vs.samples[slabs.sample[slot]];
           if (jitter) {
             const float a = 2 * kPi * Rng(ctx.seed, 0x4a495454u + ctx.light_index, s.pixel, ctx.frame).next_float();
             rotation[slot] = {std::cos(a), std::sin(a)};
@@ -384,7 +385,7 @@ class AliasFreeSoft final : public AliasFreeBase {
           lut.exact(g, h, m);
           uint64_t left = 0;
           for (int w = 0; w < words; ++w) left |= (m[w] = ~m[w] & lut.all()[w]) ^ lut.all()[w];
-          full[slot] = left == 0;
+          settled[slot] = left == 0;
         }
       });
     }
@@ -410,7 +411,7 @@ class AliasFreeSoft final : public AliasFreeBase {
     std::vector<std::vector<uint32_t>> region_caster(slabs.count);
     uint64_t skipped = 0, unbounded = 0;
     float far_depth = 0;
-    for (const Vec3f& p : lists_.positions) far_depth = std::max(far_depth, view_.linear_depth(p));
+    for (const Vec3f& p : slabs.positions) far_depth = std::max(far_depth, view_.linear_depth(p));
     far_depth = far_depth * (1 + 1e-4f) + 1e-6f;
     const Vec2f whole[4] = {{0, 0}, {float(view_.width()), 0}, {float(view_.width()), float(view_.height())},
                             {0, float(view_.height())}};
@@ -538,20 +539,34 @@ class AliasFreeSoft final : public AliasFreeBase {
 
     Counters center_counters;
     size_t center_memory = 0;
-    const std::vector<uint8_t> center =
-        silhouettes_ ? center_shadow(scene, c, &center_counters, &center_memory) : std::vector<uint8_t>();
+    if (silhouettes_) {
+      // Away from every silhouette edge: all of the light or none, as the centre (its hard
+      // shadow bit, afsm-hard's pass over the lists in their own order); those slots settle.
+      const std::vector<uint8_t> center = center_shadow(scene, c, &center_counters, &center_memory);
+      uint64_t hard = 0;
+      for (int k = 0; k < slabs.count; ++k)
+        for (size_t texel = 0; texel < slabs.texels; ++texel) {
+          if (stencil[texel]) continue;
+          for (uint32_t slot = slabs.begin(k, texel); slot < slabs.end(k, texel); ++slot) {
+            if (own_plane_cuts[slot]) continue;
+            settled[slot] = 1;
+            if (!center[slabs.list_slot[slot]]) continue;
+            std::copy_n(lut.all(), words, blocked.data() + static_cast<size_t>(slot) * words);
+            ++hard;
+          }
+        }
+      stats_.extra["hard_shadowed_samples"] = hard;
+    }
     tbb::enumerable_thread_specific<Counters> counters;
     {
       ScopedPhase phase(stats_, "raster");
-      // The (listed sample, caster) test of §4.2 for the samples [begin, end) of one texel.
-      auto test = [&](Counters& cnt, size_t texel, uint32_t begin, uint32_t end, const Caster& t) {
-        const bool near_silhouette = stencil.empty() || stencil[texel];
+      // The (listed sample, caster) test of §4.2 for the slots [begin, end).
+      auto test = [&](Counters& cnt, uint32_t begin, uint32_t end, const Caster& t) {
         uint64_t hidden[afsm::kMaxLightSamples / 64], edge[afsm::kMaxLightSamples / 64];
         for (uint32_t slot = begin; slot < end; ++slot) {
-          if (full[slot]) continue;  // every light sample already blocked (umbra)
-          if (!near_silhouette && !own_plane_cuts[slot]) continue;  // V is the centre's
+          if (settled[slot]) continue;  // every light sample already blocked (umbra), or V known
           cnt.sample_tests++;
-          const Vec3f p = lists_.positions[slot];
+          const Vec3f p = slabs.positions[slot];
           const Vec3f to_p = p - t.v[0];
           const float side = dot(t.normal, to_p);
           // A closed mesh blocks a light sample only with the triangles facing away from it
@@ -610,7 +625,7 @@ class AliasFreeSoft final : public AliasFreeBase {
             if (added) {
               uint64_t missing = 0;
               for (int w = 0; w < words; ++w) missing |= lut.all()[w] & ~m[w];
-              full[slot] = missing == 0;
+              settled[slot] = missing == 0;
             }
             continue;
           }
@@ -636,7 +651,7 @@ class AliasFreeSoft final : public AliasFreeBase {
           if (any) {
             uint64_t missing = 0;
             for (int w = 0; w < words; ++w) missing |= lut.all()[w] & ~(m[w] |= hidden[w]);
-            full[slot] = missing == 0;
+            settled[slot] = missing == 0;
           }
         }
       };
@@ -644,30 +659,17 @@ class AliasFreeSoft final : public AliasFreeBase {
         const std::vector<uint32_t>& caster_of = region_caster[slab];
         rasterizer_.polygon_spans(regions[slab], view_.width(), view_.height(),
                                   [&](int y, int x0, int x1, uint32_t index) {
+          // The samples of slab `slab` in texels [x0, x1) of row y are one range of slots.
+          const uint32_t begin = slabs.begin(slab, lists_.texel(x0, y)), end = slabs.end(slab, lists_.texel(x1 - 1, y));
           Counters& cnt = counters.local();
-          const Caster& t = casters[caster_of[index]];
           cnt.texel_visits += x1 - x0;
-          cnt.empty_visits += x1 - x0;  // less the occupied ones below
-          afsm::for_each_set(slabs.occupied(slab, y), x0, x1, [&](int x) {
-            cnt.empty_visits--;
-            const size_t texel = lists_.texel(x, y);
-            test(cnt, texel, slabs.begin(slab, texel), slabs.end(slab, texel), t);
-          });
+          if (begin == end) {
+            cnt.empty_visits += x1 - x0;
+            return;
+          }
+          test(cnt, begin, end, casters[caster_of[index]]);
         });
       }
-    }
-    if (!stencil.empty()) {
-      // Away from every silhouette edge: all of the light or none, as the centre.
-      uint64_t hard = 0;
-      for (size_t texel = 0; texel < stencil.size(); ++texel) {
-        if (stencil[texel]) continue;
-        for (uint32_t slot = lists_.first[texel]; slot < lists_.first[texel + 1]; ++slot) {
-          if (own_plane_cuts[slot] || !center[slot]) continue;
-          std::copy_n(lut.all(), words, blocked.data() + static_cast<size_t>(slot) * words);
-          ++hard;
-        }
-      }
-      stats_.extra["hard_shadowed_samples"] = hard;
     }
     {
       ScopedPhase phase(stats_, "resolve");
@@ -676,14 +678,14 @@ class AliasFreeSoft final : public AliasFreeBase {
         const uint64_t* m = blocked.data() + slot * words;
         int count = 0;
         for (int w = 0; w < words; ++w) count += std::popcount(m[w]);
-        out.visibility[lists_.sample[slot]] = 1.0f - static_cast<float>(count) * inv;
+        out.visibility[slabs.sample[slot]] = 1.0f - static_cast<float>(count) * inv;
       }
     }
     Counters total = center_counters;
     for (const Counters& c2 : counters) total.add(c2);
     report(total, casters.size(), center_memory + stencil.size() +
            blocked.size() * sizeof(uint64_t) + support_masks.size() * sizeof(uint64_t) + rotation.size() * sizeof(Vec2f) + casters.size() * sizeof(Caster) +
-               slabs.bounds.size() * sizeof(uint32_t) + lut.memory_bytes());
+               slabs.memory_bytes() + lut.memory_bytes());
     stats_.extra["light_samples"] = n;
     stats_.extra["casters_skipped"] = skipped;
     stats_.extra["casters_facing_the_whole_light"] = front_facing;

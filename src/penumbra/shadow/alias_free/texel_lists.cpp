@@ -85,16 +85,17 @@ uint64_t TexelLists::count_in(int x0, int y0, int x1, int y1) const {
          summed_[y0 * w1 + x0];
 }
 
-DepthSlabs split_by_depth(TexelLists* lists, std::span<const float> depth, int slabs) {
-  const size_t slots = lists->slots();
+DepthSlabs split_by_depth(const TexelLists& lists, std::span<const float> depth, int slabs) {
+  const size_t slots = lists.slots();
   if (depth.size() != slots) throw Error("split_by_depth: {} depths for {} slots", depth.size(), slots);
   DepthSlabs out;
-  out.texels = lists->first.empty() ? 0 : lists->first.size() - 1;
+  out.width = lists.width, out.height = lists.height;
+  out.texels = lists.first.empty() ? 0 : lists.first.size() - 1;
   // Slab boundaries at depth quantiles (equal slot counts); equal depths stay in one slab.
   std::vector<float> sorted(depth.begin(), depth.end());
   std::sort(sorted.begin(), sorted.end());
   std::vector<float> upper;  // slab k holds depths <= upper[k] (and > upper[k - 1])
-  slabs = std::max(1, slabs);
+  slabs = std::clamp(slabs, 1, 255);
   for (int k = 1; k <= slabs && !sorted.empty(); ++k) {
     const float u = sorted[std::min(slots - 1, (slots * k + slabs - 1) / slabs - 1)];
     if (upper.empty() || u > upper.back()) upper.push_back(u);
@@ -109,43 +110,31 @@ DepthSlabs split_by_depth(TexelLists* lists, std::span<const float> depth, int s
     out.far[slab[i]] = std::max(out.far[slab[i]], depth[i]);
   }
   for (float& f : out.far) f = f * (1 + 1e-4f) + 1e-6f;
-  // Per texel: count per slab, then a stable scatter of its slots by slab.
-  out.bounds.assign((out.count + 1) * out.texels, 0);
-  std::vector<Vec3f> positions(slots);
-  std::vector<uint32_t> sample(slots);
-  std::vector<uint32_t> cursor(out.count);
+  // Count per (slab, texel), exclusive prefix sum in slab-major order, then scatter in list
+  // order (each texel's list is walked in order, so a (slab, texel) keeps its list order).
+  out.bounds.assign(out.count * out.texels + 1, 0);
+  for (size_t t = 0; t < out.texels; ++t)
+    for (uint32_t i = lists.first[t]; i < lists.first[t + 1]; ++i) out.bounds[slab[i] * out.texels + t + 1]++;
+  for (size_t i = 1; i < out.bounds.size(); ++i) out.bounds[i] += out.bounds[i - 1];
+  out.positions.resize(slots);
+  out.sample.resize(slots);
+  out.list_slot.resize(slots);
   for (size_t t = 0; t < out.texels; ++t) {
-    const uint32_t b = lists->first[t], e = lists->first[t + 1];
-    std::fill(cursor.begin(), cursor.end(), 0u);
-    for (uint32_t i = b; i < e; ++i) cursor[slab[i]]++;
-    uint32_t at = b;
-    for (int k = 0; k < out.count; ++k) {
-      out.bounds[k * out.texels + t] = at;
-      const uint32_t n = cursor[k];
-      cursor[k] = at;
-      at += n;
-    }
-    out.bounds[out.count * out.texels + t] = e;
-    for (uint32_t i = b; i < e; ++i) {
+    uint32_t cursor[256];  // per slab met in this texel
+    for (uint32_t i = lists.first[t]; i < lists.first[t + 1]; ++i) cursor[slab[i]] = out.bounds[slab[i] * out.texels + t];
+    for (uint32_t i = lists.first[t]; i < lists.first[t + 1]; ++i) {
       const uint32_t to = cursor[slab[i]]++;
-      positions[to] = lists->positions[i];
-      sample[to] = lists->sample[i];
+      out.positions[to] = lists.positions[i];
+      out.sample[to] = lists.sample[i];
+      out.list_slot[to] = i;
     }
   }
-  lists->positions = std::move(positions);
-  lists->sample = std::move(sample);
-  out.width = lists->width, out.height = lists->height;
-  out.row_words = (lists->width + 63) / 64;
-  out.occupancy.assign(static_cast<size_t>(out.count) * lists->height * out.row_words, 0);
-  for (int k = 0; k < out.count; ++k)
-    for (int y = 0; y < lists->height; ++y) {
-      uint64_t* row = out.occupancy.data() + (static_cast<size_t>(k) * lists->height + y) * out.row_words;
-      for (int x = 0; x < lists->width; ++x) {
-        const size_t t = static_cast<size_t>(y) * lists->width + x;
-        if (out.end(k, t) > out.begin(k, t)) row[x >> 6] |= 1ull << (x & 63);
-      }
-    }
   return out;
+}
+
+size_t DepthSlabs::memory_bytes() const {
+  return bounds.size() * sizeof(uint32_t) + positions.size() * sizeof(Vec3f) +
+         (sample.size() + list_slot.size() + summed_.size()) * sizeof(uint32_t);
 }
 
 void DepthSlabs::build_summed_areas() {

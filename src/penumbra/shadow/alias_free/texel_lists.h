@@ -6,7 +6,6 @@
 // method), as the paper keeps positions and shadow bits in separate arrays.
 #pragma once
 
-#include <bit>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -49,47 +48,35 @@ struct TexelLists {
 // "Parametrization", which fits one far plane to the farthest view sample to keep the
 // influence regions small): a caster's influence region on slab k's own far plane holds
 // every sample of slab k it can shadow, and is smaller than the region on the farthest
-// plane; casters wholly behind a slab's samples cannot shadow them at all. Each texel's
-// slots are ordered by slab (input order inside a slab); slab k of texel t is
-// [begin(k, t), end(k, t)).
+// plane; casters wholly behind a slab's samples cannot shadow them at all. The slots are
+// copied in slab-major, then texel (row-major), then list order, so that the samples of
+// slab k in a row span of texels [x0, x1) are one range of slots:
+// [begin(k, texel(x0, y)), end(k, texel(x1 - 1, y))).
 struct DepthSlabs {
   int count = 0;
   int width = 0, height = 0;
   size_t texels = 0;
-  std::vector<float> far;         // per slab: its farthest sample's depth, padded
-  std::vector<uint32_t> bounds;   // (count + 1) x texels, slab-major
+  std::vector<float> far;            // per slab: its farthest sample's depth, padded
+  std::vector<uint32_t> bounds;      // count x texels + 1: slab k, texel t starts at bounds[k * texels + t]
+  std::vector<Vec3f> positions;      // per slot (slab order)
+  std::vector<uint32_t> sample;      // per slot: the list's id (TexelLists::sample)
+  std::vector<uint32_t> list_slot;   // per slot: its slot in the TexelLists
+  size_t slots() const { return positions.size(); }
   uint32_t begin(int k, size_t texel) const { return bounds[k * texels + texel]; }
-  uint32_t end(int k, size_t texel) const { return bounds[(k + 1) * texels + texel]; }
-  // Bit x of occupied(k, y)[x / 64]: texel (x, y) lists a sample of slab k. A rasterized span
-  // visits only those (§4.3: texels with empty lists do no work).
-  int row_words = 0;
-  std::vector<uint64_t> occupancy;  // count x height x row_words
-  const uint64_t* occupied(int k, int y) const {
-    return occupancy.data() + (static_cast<size_t>(k) * height + y) * row_words;
-  }
+  uint32_t end(int k, size_t texel) const { return bounds[k * texels + texel + 1]; }
   // Slots of slab k in the texel rectangle [x0, x1) x [y0, y1) (clamped), from summed-area
   // tables (build_summed_areas()).
   void build_summed_areas();
   uint64_t count_in(int k, int x0, int y0, int x1, int y1) const;
+  size_t memory_bytes() const;
 
  private:
   std::vector<uint32_t> summed_;  // count x (width + 1) x (height + 1)
 };
 
-// Splits `lists` into up to `slabs` slabs holding about equal numbers of slots (`depth`: each
-// slot's linear depth from the light), reordering each texel's slots by slab.
-DepthSlabs split_by_depth(TexelLists* lists, std::span<const float> depth, int slabs);
-
-// Calls fn(x) for every set bit x in [x0, x1) of a row bitset.
-template <class Fn>
-inline void for_each_set(const uint64_t* row, int x0, int x1, Fn&& fn) {
-  for (int w = x0 >> 6, w_end = (x1 + 63) >> 6; w < w_end; ++w) {
-    uint64_t bits = row[w];
-    if (w == x0 >> 6) bits &= ~0ull << (x0 & 63);
-    if (w == (x1 - 1) >> 6 && (x1 & 63)) bits &= ~0ull >> (64 - (x1 & 63));
-    for (; bits; bits &= bits - 1) fn(w * 64 + std::countr_zero(bits));
-  }
-}
+// Splits the lists into up to `slabs` slabs holding about equal numbers of slots (`depth`:
+// each list slot's linear depth from the light).
+DepthSlabs split_by_depth(const TexelLists& lists, std::span<const float> depth, int slabs);
 
 // Lists `points` (ids[i] names points[i]) at the texels of `view` they project into; points
 // behind the near plane or outside the image are counted in `uncovered`.
