@@ -34,6 +34,7 @@
 #include "penumbra/raster/raster_triangle.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/alias_free/influence_region.h"
+#include "penumbra/shadow/alias_free/pair_filter.h"
 #include "penumbra/shadow/alias_free/sample_masks.h"
 #include "penumbra/shadow/alias_free/texel_lists.h"
 #include "penumbra/shadow/shadow_method.h"
@@ -364,7 +365,9 @@ class AliasFreeSoft final : public AliasFreeBase {
     // Slots settled: every light sample blocked (no test can add one), or V known otherwise
     // (silhouettes=true, away from every silhouette edge); and slots whose own tangent plane
     // cuts the light (their V is not the centre's even away from every silhouette edge).
-    std::vector<uint8_t> settled(slots, 0), own_plane_cuts(slots, 0);
+    // (settled is padded to whole SIMD vectors for pair_filter.)
+    std::vector<uint32_t> settled(slots + afsm::kPairPadding, 0);
+    std::vector<uint8_t> own_plane_cuts(slots, 0);
     {
       ScopedPhase phase(stats_, "init");
       parallel_for(slots, 1024, [&](size_t begin, size_t end) {
@@ -557,52 +560,71 @@ class AliasFreeSoft final : public AliasFreeBase {
         }
       stats_.extra["hard_shadowed_samples"] = hard;
     }
+    // The same in the form pair_filter takes: samples as padded arrays, casters set up once.
+    std::vector<float> sample_x(slots + afsm::kPairPadding, 0), sample_y(sample_x), sample_z(sample_x);
+    std::vector<float> rot_c(jitter ? slots + afsm::kPairPadding : 0), rot_s(rot_c);
+    for (size_t slot = 0; slot < slots; ++slot) {
+      const Vec3f p = slabs.positions[slot];
+      sample_x[slot] = p.x, sample_y[slot] = p.y, sample_z[slot] = p.z;
+      if (jitter) rot_c[slot] = rotation[slot].x, rot_s[slot] = rotation[slot].y;
+    }
+    const afsm::PairSamples pair_samples{sample_x.data(), sample_y.data(), sample_z.data(), settled.data(),
+                                         jitter ? rot_c.data() : nullptr, jitter ? rot_s.data() : nullptr};
+    const afsm::PairLight pair_light{{c.x, c.y, c.z}, {ls.x, ls.y, ls.z},   {lt.x, lt.y, lt.z},
+                                     lut.max_distance2(), grid.geometry(), max_grid_cells};
+    std::vector<afsm::PairCaster> pair_casters(casters.size());
+    for (size_t i = 0; i < casters.size(); ++i) {
+      const Caster& t = casters[i];
+      afsm::PairCaster& pc = pair_casters[i];
+      for (int k = 0; k < 3; ++k) {
+        const Vec3f d = t.v[(k + 1) % 3] - t.v[k];
+        for (int j = 0; j < 3; ++j) pc.v[k][j] = t.v[k][j], pc.d[k][j] = d[j];
+      }
+      for (int j = 0; j < 3; ++j) pc.normal[j] = t.normal[j];
+      // p (almost) in the triangle's plane sees it edge-on: the cone from p over it is flat and
+      // its edge planes are rounding noise, so it casts nothing (a segment from p crosses that
+      // plane next to p, away from the triangle, unless p touches it).
+      pc.flat_scale = kFlat * kFlat * t.normal_len * t.normal_len;
+      // A closed mesh blocks a light sample only with the triangles facing away from it (§3.3
+      // per light sample): those with p in front. An open one blocks from either side.
+      pc.closed = t.closed;
+    }
     tbb::enumerable_thread_specific<Counters> counters;
     {
       ScopedPhase phase(stats_, "raster");
       // The (listed sample, caster) test of §4.2 for the slots [begin, end).
-      auto test = [&](Counters& cnt, uint32_t begin, uint32_t end, const Caster& t) {
+      // The (listed sample, caster) test of §4.2 for the slots [begin, end): the SIMD part
+      // (pair_filter.h) settles most pairs; the rest are decided here.
+      tbb::enumerable_thread_specific<std::vector<afsm::PairSurvivor>> survivor_buffers;
+      auto test = [&](Counters& cnt, uint32_t begin, uint32_t end, uint32_t caster) {
+        const Caster& t = casters[caster];
+        std::vector<afsm::PairSurvivor>& survivors = survivor_buffers.local();
+        if (survivors.size() < end - begin) survivors.resize(end - begin);
+        size_t tested = 0;
+        const size_t count =
+            afsm::filter_pairs(pair_light, pair_casters[caster], pair_samples, begin, end, survivors.data(), &tested);
+        cnt.sample_tests += tested;
         uint64_t hidden[afsm::kMaxLightSamples / 64], edge[afsm::kMaxLightSamples / 64];
-        for (uint32_t slot = begin; slot < end; ++slot) {
-          if (settled[slot]) continue;  // every light sample already blocked (umbra), or V known
-          cnt.sample_tests++;
-          const Vec3f p = slabs.positions[slot];
-          const Vec3f to_p = p - t.v[0];
-          const float side = dot(t.normal, to_p);
-          // A closed mesh blocks a light sample only with the triangles facing away from it
-          // (§3.3 per light sample): those with p in front. An open one blocks from either side.
-          // p (almost) in the triangle's plane sees it edge-on: the cone from p over it is flat
-          // and its edge planes are rounding noise, so it casts nothing (a segment from p
-          // crosses that plane next to p, away from the triangle, unless p touches it).
-          const float flat2 = kFlat * kFlat * t.normal_len * t.normal_len * dot(to_p, to_p);
-          if (t.closed ? !(side > 0) : side == 0) continue;
-          if (!(side * side > flat2)) continue;
+        for (size_t j = 0; j < count; ++j) {
+          const uint32_t slot = survivors[j].slot;
+          const float side = survivors[j].side;
+          const afsm::Line* edges = survivors[j].edges;
           uint64_t* m = blocked.data() + static_cast<size_t>(slot) * words;
           const Vec2f rot = jitter ? rotation[slot] : Vec2f{1, 0};
-          // The planes through p and each edge (Fig. 6), oriented toward the third vertex, as
-          // lines on the light. Most leave the whole light on one side (the sample is far
-          // outside or well inside this edge's wedge): decided without a lookup.
-          afsm::Line edges[3];
-          int cutting = 0;
-          bool misses = false;
-          for (int i = 0; i < 3; ++i) {
-            const Vec3f e = edge_plane(t.v[i] - p, t.v[(i + 1) % 3] - t.v[i], side > 0);
-            edges[i] = {rotate(Vec2f{dot(e, ls), dot(e, lt)}, rot), dot(e, c - p)};
-            const int whole = lut.side_of_disk(edges[i].g, edges[i].h);
-            if (whole < 0) {
-              misses = true;
-              break;
-            }
-            cutting += whole == 0;
-          }
-          if (misses) continue;  // no light sample inside this edge's plane
           // Behind the supporting plane as seen from p: the other side.
           const float sign = side > 0 ? -1.0f : 1.0f;
           const bool support_known = t.closed && !jitter;
           const uint64_t* support = support_masks.data() + t.support_mask * words;
           const afsm::Line behind{rotate(t.support_g * sign, rot), t.support_h * sign};
-          afsm::SampleGrid::Range cells;
-          if (cutting == 3 && grid.triangle_cells(edges, max_grid_cells, &cells)) {
+          afsm::SampleGrid::Range cells{survivors[j].x0, survivors[j].y0, survivors[j].x1, survivors[j].y1};
+          bool on_grid = survivors[j].on_grid;
+          if (!on_grid) {
+            // Not decided in float (lines nearly parallel, or a big triangle): in double.
+            int cutting = 0;
+            for (int i = 0; i < 3; ++i) cutting += lut.side_of_disk(edges[i].g, edges[i].h) == 0;
+            on_grid = cutting == 3 && grid.triangle_cells(edges, max_grid_cells, &cells);
+          }
+          if (on_grid) {
             // The triangle projects onto the light as a small triangle: test the samples of
             // the cells under its bounding box, each exactly as the masks would (same bits).
             cnt.grid_pairs++;
@@ -667,7 +689,7 @@ class AliasFreeSoft final : public AliasFreeBase {
             cnt.empty_visits += x1 - x0;
             return;
           }
-          test(cnt, begin, end, casters[caster_of[index]]);
+          test(cnt, begin, end, caster_of[index]);
         });
       }
     }

@@ -156,7 +156,9 @@ SampleGrid::SampleGrid(std::span<const Vec2f> samples, float per_cell) {
   const int n = static_cast<int>(samples.size());
   if (n < 1 || n > kMaxLightSamples) throw Error("afsm: {} light samples (must be in [1, {}])", n, kMaxLightSamples);
   cells_ = std::max(1, static_cast<int>(std::lround(std::sqrt(n / std::max(per_cell, 1e-3f)))));
-  float x1 = -kInfinity, y1 = -kInfinity;
+  float& x1 = x1_;
+  float& y1 = y1_;
+  x1 = -kInfinity, y1 = -kInfinity;
   x0_ = kInfinity, y0_ = kInfinity;
   reach_ = 0;
   for (Vec2f u : samples) {

@@ -75,6 +75,7 @@ class PlaneMaskLut {
     exact(g, h, out);
     return size();
   }
+  float max_distance2() const { return max_distance2_; }
   // The mask with every sample set.
   const uint64_t* all() const { return all_.data(); }
 
@@ -120,6 +121,14 @@ class SampleGrid {
   bool triangle_cells(const Line lines[3], int max_cells, Range* out) const;
 
   int cells_x() const { return cells_; }
+  // The grid's placement (for the SIMD form of triangle_cells in pair_filter): the samples
+  // lie in [x0, x1] x [y0, y1]; a coordinate u is in column cell_x(u) (likewise rows);
+  // reach = max |u.x|, |u.y|.
+  struct Geometry {
+    float x0, y0, x1, y1, inv_w, inv_h, reach;
+    int cells;
+  };
+  Geometry geometry() const { return {x0_, y0_, x1_, y1_, inv_w_, inv_h_, static_cast<float>(reach_), cells_}; }
   // The samples of cells [x0, x1] of row y are slots [row_begin(y, x0), row_end(y, x1)) of
   // index(), x(), y() (row-major cell order).
   uint32_t row_begin(int y, int x0) const { return first_[static_cast<size_t>(y) * cells_ + x0]; }
@@ -133,7 +142,7 @@ class SampleGrid {
   int cell_y(float uy) const;
 
   int cells_ = 1;
-  float x0_ = 0, y0_ = 0, inv_w_ = 1, inv_h_ = 1;
+  float x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0, inv_w_ = 1, inv_h_ = 1;
   double reach_ = 1;  // max |u.x|, |u.y| over the samples
   std::vector<uint32_t> first_;  // cells_^2 + 1
   std::vector<uint16_t> index_;
