@@ -13,6 +13,7 @@
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/alias_free/influence_region.h"
+#include "penumbra/shadow/alias_free/pair_filter.h"
 #include "penumbra/shadow/alias_free/sample_masks.h"
 #include "penumbra/shadow/alias_free/texel_lists.h"
 #include "penumbra/shadow/shadow_method.h"
@@ -116,6 +117,99 @@ TEST(AliasFreeGrid, CellsHoldEverySampleInsideTheThreeLines) {
       }
     }
   }
+}
+
+TEST(AliasFreePairs, SimdFilterEqualsTheScalarTest) {
+  // Random casters and samples around a rect light: filter_pairs keeps exactly the pairs the
+  // scalar test keeps, with bit-equal lines, and its cell ranges hold every sample inside.
+  AreaLight light = rect_light_down({0, 2, 0}, 1.5f, 1.5f);
+  const afsm::LightSamples samples = afsm::make_light_samples(light, 256, 3, 0, 0);
+  const afsm::PlaneMaskLut lut(samples.local, 0, 0);
+  const afsm::SampleGrid grid(samples.local);
+  const float R = samples.radius;
+  const Vec3f c = samples.center, ls = samples.s * R, lt = samples.t * R;
+  const int max_cells = 16;
+  const afsm::PairLight pl{{c.x, c.y, c.z}, {ls.x, ls.y, ls.z}, {lt.x, lt.y, lt.z},
+                           lut.max_distance2(), grid.geometry(), max_cells};
+  Rng rng(23);
+  const size_t n = 203;  // not a multiple of any vector width
+  std::vector<float> x(n + afsm::kPairPadding), y(x), z(x);
+  std::vector<uint32_t> settled(n + afsm::kPairPadding, 0);
+  for (size_t i = 0; i < n; ++i) {
+    x[i] = rng.next_float() * 4 - 2, y[i] = rng.next_float() * 0.6f, z[i] = rng.next_float() * 4 - 2;
+    settled[i] = i % 17 == 0;
+  }
+  const afsm::PairSamples ps{x.data(), y.data(), z.data(), settled.data(), nullptr, nullptr};
+  std::vector<afsm::PairSurvivor> out(n);
+  long kept = 0, on_grid = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    Vec3f v[3];
+    const Vec3f centre{rng.next_float() * 3 - 1.5f, 0.4f + rng.next_float() * 1.2f, rng.next_float() * 3 - 1.5f};
+    const float size = trial % 2 ? 0.02f : 0.3f;
+    for (Vec3f& q : v) q = centre + Vec3f(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f) * size;
+    afsm::PairCaster pc;
+    const Vec3f normal = cross(v[1] - v[0], v[2] - v[0]);
+    for (int k = 0; k < 3; ++k) {
+      const Vec3f d = v[(k + 1) % 3] - v[k];
+      for (int j = 0; j < 3; ++j) pc.v[k][j] = v[k][j], pc.d[k][j] = d[j];
+      pc.normal[k] = normal[k];
+    }
+    const float normal_len = length(normal);
+    pc.flat_scale = 1e-5f * 1e-5f * normal_len * normal_len;
+    pc.closed = trial % 3 == 0;
+    size_t tested = 0;
+    const size_t count = afsm::filter_pairs(pl, pc, ps, 0, static_cast<uint32_t>(n), out.data(), &tested);
+    size_t j = 0, expect_tested = 0;
+    for (uint32_t slot = 0; slot < n; ++slot) {
+      if (settled[slot]) continue;
+      ++expect_tested;
+      // The scalar test (alias_free.cpp before the SIMD form).
+      const Vec3f p{x[slot], y[slot], z[slot]};
+      const Vec3f to_p = p - v[0];
+      const float side = dot(normal, to_p);
+      const float flat2 = 1e-5f * 1e-5f * normal_len * normal_len * dot(to_p, to_p);
+      bool keep = (pc.closed ? side > 0 : side != 0) && side * side > flat2;
+      afsm::Line lines[3];
+      for (int k = 0; k < 3 && keep; ++k) {
+        const Vec3f a = v[k] - p, d = v[(k + 1) % 3] - v[k];
+        const Vec3f e = side > 0 ? cross(d, a) : cross(a, d);
+        lines[k] = {{dot(e, ls), dot(e, lt)}, dot(e, c - p)};
+        keep = lut.side_of_disk(lines[k].g, lines[k].h) >= 0;
+      }
+      std::vector<int> inside;
+      for (int s = 0; s < samples.size() && keep; ++s) {
+        const Vec2f u = samples.local[s];
+        bool in = true;
+        for (const afsm::Line& l : lines) in = in && afsm::above(u.x, u.y, l.g, l.h);
+        if (in) inside.push_back(s);
+      }
+      if (!keep) continue;
+      // The filter may drop a kept pair only when its triangle is beside every sample.
+      if (j == count || out[j].slot != slot) {
+        EXPECT_TRUE(inside.empty()) << "trial " << trial << " slot " << slot;
+        continue;
+      }
+      const afsm::PairSurvivor& o = out[j++];
+      ++kept;
+      EXPECT_EQ(o.side, side);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(o.edges[k].g.x, lines[k].g.x) << trial;
+        EXPECT_EQ(o.edges[k].g.y, lines[k].g.y) << trial;
+        EXPECT_EQ(o.edges[k].h, lines[k].h) << trial;
+      }
+      if (!o.on_grid) continue;
+      ++on_grid;
+      EXPECT_LE((o.x1 - o.x0 + 1) * (o.y1 - o.y0 + 1), max_cells);
+      std::set<int> cells;
+      for (int cy = o.y0; cy <= o.y1; ++cy)
+        for (uint32_t k = grid.row_begin(cy, o.x0); k < grid.row_end(cy, o.x1); ++k) cells.insert(grid.index()[k]);
+      for (int s : inside) EXPECT_TRUE(cells.count(s)) << "trial " << trial << " sample " << s;
+    }
+    EXPECT_EQ(j, count) << trial;  // no survivor the scalar test drops
+    EXPECT_EQ(tested, expect_tested);
+  }
+  EXPECT_GT(kept, 1000);
+  EXPECT_GT(on_grid, 300);
 }
 
 TEST(AliasFreeLut, SamplesAreTheLightsAreaPoints) {
