@@ -326,7 +326,7 @@ class AliasFreeSoft final : public AliasFreeBase {
     const afsm::PlaneMaskLut& lut = *lut_;
     const afsm::SampleGrid grid(samples.local);
     // Above this many cells under a projected triangle, its masks are cheaper.
-    const int max_grid_cells = std::max(4, grid.cells_x() * grid.cells_x() / 4);
+    const int max_grid_cells = std::max(16, grid.cells_x() * grid.cells_x() / 4);
     const int words = lut.words();
     const float R = samples.radius;
     const Vec3f c = samples.center, ls = samples.s * R, lt = samples.t * R;
@@ -629,21 +629,36 @@ class AliasFreeSoft final : public AliasFreeBase {
             // the cells under its bounding box, each exactly as the masks would (same bits).
             cnt.grid_pairs++;
             bool added = false;
-            for (int y = cells.y0; y <= cells.y1; ++y) {
-              for (uint32_t k = grid.row_begin(y, cells.x0), k_end = grid.row_end(y, cells.x1); k < k_end; ++k) {
-                const uint32_t i = grid.index()[k];
-                const uint64_t bit = 1ull << (i & 63);
-                if (m[i >> 6] & bit) continue;
-                cnt.grid_tests++;
-                const float ux = grid.x()[k], uy = grid.y()[k];
-                if (support_known ? !(support[i >> 6] & bit) : !afsm::above(ux, uy, behind.g, behind.h)) continue;
-                if (afsm::above(ux, uy, edges[0].g, edges[0].h) && afsm::above(ux, uy, edges[1].g, edges[1].h) &&
-                    afsm::above(ux, uy, edges[2].g, edges[2].h)) {
-                  m[i >> 6] |= bit;
-                  added = true;
+            uint64_t candidates = 0;
+            for (int y = cells.y0; y <= cells.y1; ++y) candidates += grid.row_end(y, cells.x1) - grid.row_begin(y, cells.x0);
+            // Inside the three edge planes (SIMD over the cells' samples where there are
+            // many), then behind the caster, then not yet blocked.
+            uint32_t inside[afsm::kMaxLightSamples];
+            size_t inside_count = 0;
+            if (candidates > 8) {
+              inside_count = afsm::inside_cells(grid, cells, edges, inside);
+            } else {
+              for (int y = cells.y0; y <= cells.y1; ++y)
+                for (uint32_t k = grid.row_begin(y, cells.x0), k_end = grid.row_end(y, cells.x1); k < k_end; ++k) {
+                  const float ux = grid.x()[k], uy = grid.y()[k];
+                  if (afsm::above(ux, uy, edges[0].g, edges[0].h) & afsm::above(ux, uy, edges[1].g, edges[1].h) &
+                      afsm::above(ux, uy, edges[2].g, edges[2].h))
+                    inside[inside_count++] = k;
                 }
+            }
+            for (size_t q = 0; q < inside_count; ++q) {
+              const uint32_t k = inside[q];
+              const uint32_t i = grid.index()[k];
+              const uint64_t bit = 1ull << (i & 63);
+              if (support_known ? !(support[i >> 6] & bit)
+                                : !afsm::above(grid.x()[k], grid.y()[k], behind.g, behind.h))
+                continue;
+              if (!(m[i >> 6] & bit)) {
+                m[i >> 6] |= bit;
+                added = true;
               }
             }
+            cnt.grid_tests += candidates;
             if (added) {
               uint64_t missing = 0;
               for (int w = 0; w < words; ++w) missing |= lut.all()[w] & ~m[w];

@@ -5,7 +5,9 @@
 
 #include "penumbra/shadow/alias_free/pair_filter.h"
 
+#include <bit>
 #include <cmath>
+#include <cstring>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "penumbra/shadow/alias_free/pair_filter.cpp"
@@ -175,6 +177,33 @@ size_t FilterPairs(const PairLight& light, const PairCaster& t, const PairSample
   return n_out;
 }
 
+size_t InsideCells(const SampleGrid& grid, const SampleGrid::Range& r, const Line edges[3], uint32_t* out) {
+  const hn::ScalableTag<float> d;
+  using V = hn::Vec<decltype(d)>;
+  const size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d);
+  V gx[3], gy[3], h[3];
+  for (int k = 0; k < 3; ++k)
+    gx[k] = hn::Set(d, edges[k].g.x), gy[k] = hn::Set(d, edges[k].g.y), h[k] = hn::Set(d, edges[k].h);
+  size_t n = 0;
+  for (int y = r.y0; y <= r.y1; ++y) {
+    const uint32_t k_end = grid.row_end(y, r.x1);
+    for (uint32_t k = grid.row_begin(y, r.x0); k < k_end; k += static_cast<uint32_t>(lanes)) {
+      const V ux = hn::LoadU(d, grid.x() + k), uy = hn::LoadU(d, grid.y() + k);
+      auto inside = hn::FirstN(d, k_end - k);
+      for (int j = 0; j < 3; ++j)  // above(): (ux g.x + uy g.y) + h > 0
+        inside = hn::And(inside, hn::Gt(hn::Add(hn::Add(hn::Mul(ux, gx[j]), hn::Mul(uy, gy[j])), h[j]), zero));
+      // (The set lanes one by one: a compressing store to memory is slow on some CPUs.)
+      uint8_t bits[8] = {};
+      hn::StoreMaskBits(d, inside, bits);
+      uint64_t word;
+      std::memcpy(&word, bits, sizeof(word));
+      for (; word; word &= word - 1) out[n++] = k + static_cast<uint32_t>(std::countr_zero(word));
+    }
+  }
+  return n;
+}
+
 // NOLINTNEXTLINE(google-readability-namespace-comments)
 }  // namespace HWY_NAMESPACE
 }  // namespace penumbra::afsm
@@ -184,6 +213,11 @@ HWY_AFTER_NAMESPACE();
 namespace penumbra::afsm {
 
 HWY_EXPORT(FilterPairs);
+HWY_EXPORT(InsideCells);
+
+size_t inside_cells(const SampleGrid& grid, const SampleGrid::Range& r, const Line edges[3], uint32_t* out) {
+  return HWY_DYNAMIC_DISPATCH(InsideCells)(grid, r, edges, out);
+}
 
 size_t filter_pairs(const PairLight& light, const PairCaster& caster, const PairSamples& samples, uint32_t begin,
                     uint32_t end, PairSurvivor* out, size_t* tested) {

@@ -57,6 +57,11 @@ struct PairSurvivor {
 size_t filter_pairs(const PairLight& light, const PairCaster& caster, const PairSamples& samples, uint32_t begin,
                     uint32_t end, PairSurvivor* out, size_t* tested);
 
+// The grid positions k (SampleGrid's order) in cells r whose samples are on the positive side
+// of all three lines by `above` (the same float operations), written to out (room for every
+// sample of the grid); returns how many. The grid's arrays are padded (SampleGrid).
+size_t inside_cells(const SampleGrid& grid, const SampleGrid::Range& r, const Line edges[3], uint32_t* out);
+
 // Lanes of the widest vector the dispatched target has (padding of PairSamples' arrays).
 inline constexpr size_t kPairPadding = 64;
 

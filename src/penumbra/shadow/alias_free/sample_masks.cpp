@@ -176,7 +176,8 @@ SampleGrid::SampleGrid(std::span<const Vec2f> samples, float per_cell) {
   }
   for (size_t c = 1; c < first_.size(); ++c) first_[c] += first_[c - 1];
   std::vector<uint32_t> next(first_.begin(), first_.end() - 1);
-  index_.resize(n), x_.resize(n), y_.resize(n);
+  // (x_ and y_ padded for whole SIMD vectors: pair_filter's inside_cells.)
+  index_.resize(n), x_.resize(n + 64, 0.0f), y_.resize(n + 64, 0.0f);
   for (int i = 0; i < n; ++i) {
     const uint32_t at = next[cell[i]]++;
     index_[at] = static_cast<uint16_t>(i);
