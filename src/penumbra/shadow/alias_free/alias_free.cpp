@@ -571,7 +571,7 @@ class AliasFreeSoft final : public AliasFreeBase {
     const afsm::PairSamples pair_samples{sample_x.data(), sample_y.data(), sample_z.data(), settled.data(),
                                          jitter ? rot_c.data() : nullptr, jitter ? rot_s.data() : nullptr};
     const afsm::PairLight pair_light{{c.x, c.y, c.z}, {ls.x, ls.y, ls.z},   {lt.x, lt.y, lt.z},
-                                     lut.max_distance2(), grid.geometry(), max_grid_cells};
+                                     lut.max_distance2(), grid.geometry(), max_grid_cells, &grid};
     std::vector<afsm::PairCaster> pair_casters(casters.size());
     for (size_t i = 0; i < casters.size(); ++i) {
       const Caster& t = casters[i];

@@ -130,7 +130,7 @@ TEST(AliasFreePairs, SimdFilterEqualsTheScalarTest) {
   const Vec3f c = samples.center, ls = samples.s * R, lt = samples.t * R;
   const int max_cells = 16;
   const afsm::PairLight pl{{c.x, c.y, c.z}, {ls.x, ls.y, ls.z}, {lt.x, lt.y, lt.z},
-                           lut.max_distance2(), grid.geometry(), max_cells};
+                           lut.max_distance2(), grid.geometry(), max_cells, &grid};
   Rng rng(23);
   const size_t n = 203;  // not a multiple of any vector width
   std::vector<float> x(n + afsm::kPairPadding), y(x), z(x);

@@ -148,6 +148,43 @@ size_t FilterPairs(const PairLight& light, const PairCaster& t, const PairSample
     const V cy0 = to_cell(by0, grid_y0, inv_h), cy1 = to_cell(by1, grid_y0, inv_h);
     const V cell_count = hn::Mul(hn::Add(hn::Sub(cx1, cx0), hn::Set(d, 1.0f)), hn::Add(hn::Sub(cy1, cy0), hn::Set(d, 1.0f)));
     const auto on_grid = hn::And(bounded, hn::Not(hn::Gt(cell_count, max_cells)));
+    // Small ranges (one or two rows of at most 4 samples each): test their samples here, so
+    // that only pairs with a sample inside all three lines go on (most tiny projected
+    // triangles fall between the samples).
+    auto small = hn::And(on_grid, hn::Not(hn::Gt(hn::Sub(cy1, cy0), hn::Set(d, 1.0f))));
+    if (!hn::AllFalse(d, small)) {
+      const hn::RebindToSigned<decltype(d)> di;
+      using VI = hn::Vec<decltype(di)>;
+      const int32_t* first = reinterpret_cast<const int32_t*>(light.samples->first());
+      const VI cells = hn::Set(di, grid.cells), one = hn::Set(di, 1), four = hn::Set(di, 4);
+      const auto small_i = hn::RebindMask(di, small);
+      const VI ix0 = hn::ConvertTo(di, cx0), ix1 = hn::ConvertTo(di, cx1), iy0 = hn::ConvertTo(di, cy0),
+               iy1 = hn::ConvertTo(di, cy1);
+      const VI zero_i = hn::Zero(di);
+      const VI base0 = hn::IfThenElseZero(small_i, hn::Mul(iy0, cells));
+      const auto two_rows = hn::And(small_i, hn::Gt(iy1, iy0));
+      const VI base1 = hn::IfThenElse(two_rows, hn::Add(base0, cells), base0);
+      const VI col0 = hn::IfThenElseZero(small_i, ix0), col1 = hn::IfThenElseZero(small_i, hn::Add(ix1, one));
+      const VI kb[2] = {hn::GatherIndex(di, first, hn::Add(base0, col0)), hn::GatherIndex(di, first, hn::Add(base1, col0))};
+      const VI ke0 = hn::GatherIndex(di, first, hn::Add(base0, col1));
+      const VI ke[2] = {ke0, hn::IfThenElse(two_rows, hn::GatherIndex(di, first, hn::Add(base1, col1)), kb[1])};
+      const VI count[2] = {hn::Sub(ke[0], kb[0]), hn::Sub(ke[1], kb[1])};
+      auto tested_here = hn::And(small_i, hn::And(hn::Not(hn::Gt(count[0], four)), hn::Not(hn::Gt(count[1], four))));
+      auto any_inside = hn::Not(hn::Gt(one, zero_i));  // all false
+      for (int row = 0; row < 2; ++row)
+        for (int j = 0; j < 4; ++j) {
+          const auto valid = hn::And(tested_here, hn::Gt(count[row], hn::Set(di, j)));
+          if (hn::AllFalse(di, valid)) break;
+          const VI k = hn::IfThenElseZero(valid, hn::Add(kb[row], hn::Set(di, j)));
+          const V ux = hn::GatherIndex(d, light.samples->x(), k), uy = hn::GatherIndex(d, light.samples->y(), k);
+          auto in = hn::RebindMask(d, valid);
+          for (int e = 0; e < 3; ++e)  // above(): (ux g.x + uy g.y) + h > 0
+            in = hn::And(in, hn::Gt(hn::Add(hn::Add(hn::Mul(ux, g[e][0]), hn::Mul(uy, g[e][1])), h[e]), zero));
+          any_inside = hn::Or(any_inside, hn::RebindMask(di, in));
+        }
+      active = hn::AndNot(hn::RebindMask(d, hn::AndNot(any_inside, tested_here)), active);
+      if (hn::AllFalse(d, active)) continue;
+    }
     hn::Store(cx0, d, lane_cell[0]);
     hn::Store(cy0, d, lane_cell[1]);
     hn::Store(cx1, d, lane_cell[2]);

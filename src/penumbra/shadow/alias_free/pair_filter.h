@@ -22,6 +22,7 @@ struct PairLight {
   float max_distance2;
   SampleGrid::Geometry grid;  // the samples' grid (SampleGrid::triangle_cells in SIMD)
   int max_grid_cells;         // above: the caller builds the masks plane by plane
+  const SampleGrid* samples;  // its cells, for the small ranges tested here
 };
 
 // One caster, set up once (triangle setup once per caster and span).
@@ -52,7 +53,9 @@ struct PairSurvivor {
 };
 
 // Survivors of slots [begin, end) written to out (room for end - begin); returns how many.
-// Pairs whose three lines bound a triangle missing every sample's cell are not survivors.
+// Pairs whose three lines bound a triangle with no sample inside are not survivors: beside
+// every sample, or (a range of at most 2 rows of 4 samples) none of its cells' samples
+// inside all three lines.
 // tested: the number of slots not settled.
 size_t filter_pairs(const PairLight& light, const PairCaster& caster, const PairSamples& samples, uint32_t begin,
                     uint32_t end, PairSurvivor* out, size_t* tested);

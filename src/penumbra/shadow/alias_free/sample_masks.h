@@ -134,6 +134,7 @@ class SampleGrid {
   uint32_t row_begin(int y, int x0) const { return first_[static_cast<size_t>(y) * cells_ + x0]; }
   uint32_t row_end(int y, int x1) const { return first_[static_cast<size_t>(y) * cells_ + x1 + 1]; }
   const uint16_t* index() const { return index_.data(); }  // the sample's bit
+  const uint32_t* first() const { return first_.data(); }   // row-major cells' first positions
   const float* x() const { return x_.data(); }
   const float* y() const { return y_.data(); }
 
