@@ -97,100 +97,104 @@ size_t FilterPairs(const PairLight& light, const PairCaster& t, const PairSample
     // |c| > 2^-12 B (B = the sum of its products' magnitudes, c's rounding <= 2^-23 B). A
     // vertex x = N / c is then within E = 2^-20 ((A + |x| B) / |c| + |x|) of the exact one
     // (A: N's products' magnitudes; 8 times the first-order rounding bound).
-    V hr[3];
-    for (int k = 0; k < 3; ++k) {
-      const V s_k = hn::Add(hn::Mul(hn::Add(hn::Abs(g[k][0]), hn::Abs(g[k][1])), reach), hn::Abs(h[k]));
-      hr[k] = hn::Add(h[k], hn::Mul(hn::Set(d, 0x1p-18f), s_k));
-    }
-    V c[3], b[3];
-    for (int k = 0; k < 3; ++k) {
-      const int j = (k + 1) % 3;
-      const V p0 = hn::Mul(g[k][0], g[j][1]), p1 = hn::Mul(g[k][1], g[j][0]);
-      c[k] = hn::Sub(p0, p1);
-      b[k] = hn::Add(hn::Abs(p0), hn::Abs(p1));
-    }
-    const V eps12 = hn::Set(d, 0x1p-12f), eps20 = hn::Set(d, 0x1p-20f);
-    auto bounded = hn::Or(hn::And(hn::And(hn::Gt(c[0], zero), hn::Gt(c[1], zero)), hn::Gt(c[2], zero)),
-                          hn::And(hn::And(hn::Lt(c[0], zero), hn::Lt(c[1], zero)), hn::Lt(c[2], zero)));
-    for (int k = 0; k < 3; ++k) bounded = hn::And(bounded, hn::Gt(hn::Abs(c[k]), hn::Mul(eps12, b[k])));
-    const V inf = hn::Set(d, HUGE_VALF);
-    V bx0 = inf, by0 = inf, bx1 = hn::Neg(inf), by1 = hn::Neg(inf);
-    for (int k = 0; k < 3; ++k) {
-      const int j = (k + 1) % 3;
-      const V qx0 = hn::Mul(hr[j], g[k][1]), qx1 = hn::Mul(hr[k], g[j][1]);
-      const V qy0 = hn::Mul(hr[k], g[j][0]), qy1 = hn::Mul(hr[j], g[k][0]);
-      const V x = hn::Div(hn::Sub(qx0, qx1), c[k]), y = hn::Div(hn::Sub(qy0, qy1), c[k]);
-      const V inv_c = hn::Div(hn::Set(d, 1.0f), hn::Abs(c[k]));
-      const V ex = hn::Mul(eps20, hn::Add(hn::Mul(hn::Add(hn::Add(hn::Abs(qx0), hn::Abs(qx1)),
-                                                           hn::Mul(hn::Abs(x), b[k])), inv_c), hn::Abs(x)));
-      const V ey = hn::Mul(eps20, hn::Add(hn::Mul(hn::Add(hn::Add(hn::Abs(qy0), hn::Abs(qy1)),
-                                                           hn::Mul(hn::Abs(y), b[k])), inv_c), hn::Abs(y)));
-      bx0 = hn::Min(bx0, hn::Sub(x, ex)), bx1 = hn::Max(bx1, hn::Add(x, ex));
-      by0 = hn::Min(by0, hn::Sub(y, ey)), by1 = hn::Max(by1, hn::Add(y, ey));
-    }
-    // Finite bounds only (x - x is 0 exactly for finite x, NaN otherwise).
-    bounded = hn::And(bounded, hn::Eq(hn::Sub(bx1, bx0), hn::Sub(bx1, bx0)));
-    bounded = hn::And(bounded, hn::Eq(hn::Sub(by1, by0), hn::Sub(by1, by0)));
-    bounded = hn::And(bounded, hn::Lt(hn::Abs(hn::Add(hn::Abs(bx0), hn::Abs(bx1))), inf));
-    bounded = hn::And(bounded, hn::Lt(hn::Abs(hn::Add(hn::Abs(by0), hn::Abs(by1))), inf));
-    bounded = hn::And(bounded, cuts);
-    // A bounded triangle beside every sample: nothing to test.
-    const auto beside = hn::Or(hn::Or(hn::Lt(bx1, grid_x0), hn::Gt(bx0, grid_x1)),
-                               hn::Or(hn::Lt(by1, grid_y0), hn::Gt(by0, grid_y1)));
-    active = hn::AndNot(hn::And(bounded, beside), active);
-    if (hn::AllFalse(d, active)) continue;
-    // SampleGrid::cell_x / cell_y (the same rounded operations: monotone, so a sample between
-    // two bounds is in a cell between theirs), clamped to the grid.
-    auto to_cell = [&](V u, V origin, V inv) {
-      return hn::Floor(hn::Min(hn::Max(hn::Mul(hn::Sub(u, origin), inv), zero), last_cell));
-    };
-    const V cx0 = to_cell(bx0, grid_x0, inv_w), cx1 = to_cell(bx1, grid_x0, inv_w);
-    const V cy0 = to_cell(by0, grid_y0, inv_h), cy1 = to_cell(by1, grid_y0, inv_h);
-    const V cell_count = hn::Mul(hn::Add(hn::Sub(cx1, cx0), hn::Set(d, 1.0f)), hn::Add(hn::Sub(cy1, cy0), hn::Set(d, 1.0f)));
-    const auto on_grid = hn::And(bounded, hn::Not(hn::Gt(cell_count, max_cells)));
-    // Small ranges (one or two rows of at most 4 samples each): test their samples here, so
-    // that only pairs with a sample inside all three lines go on (most tiny projected
-    // triangles fall between the samples).
-    auto small = hn::And(on_grid, hn::Not(hn::Gt(hn::Sub(cy1, cy0), hn::Set(d, 1.0f))));
-    if (!hn::AllFalse(d, small)) {
-      const hn::RebindToSigned<decltype(d)> di;
-      using VI = hn::Vec<decltype(di)>;
-      const int32_t* first = reinterpret_cast<const int32_t*>(light.samples->first());
-      const VI cells = hn::Set(di, grid.cells), one = hn::Set(di, 1), four = hn::Set(di, 4);
-      const auto small_i = hn::RebindMask(di, small);
-      const VI ix0 = hn::ConvertTo(di, cx0), ix1 = hn::ConvertTo(di, cx1), iy0 = hn::ConvertTo(di, cy0),
-               iy1 = hn::ConvertTo(di, cy1);
-      const VI zero_i = hn::Zero(di);
-      const VI base0 = hn::IfThenElseZero(small_i, hn::Mul(iy0, cells));
-      const auto two_rows = hn::And(small_i, hn::Gt(iy1, iy0));
-      const VI base1 = hn::IfThenElse(two_rows, hn::Add(base0, cells), base0);
-      const VI col0 = hn::IfThenElseZero(small_i, ix0), col1 = hn::IfThenElseZero(small_i, hn::Add(ix1, one));
-      const VI kb[2] = {hn::GatherIndex(di, first, hn::Add(base0, col0)), hn::GatherIndex(di, first, hn::Add(base1, col0))};
-      const VI ke0 = hn::GatherIndex(di, first, hn::Add(base0, col1));
-      const VI ke[2] = {ke0, hn::IfThenElse(two_rows, hn::GatherIndex(di, first, hn::Add(base1, col1)), kb[1])};
-      const VI count[2] = {hn::Sub(ke[0], kb[0]), hn::Sub(ke[1], kb[1])};
-      auto tested_here = hn::And(small_i, hn::And(hn::Not(hn::Gt(count[0], four)), hn::Not(hn::Gt(count[1], four))));
-      auto any_inside = hn::Not(hn::Gt(one, zero_i));  // all false
-      for (int row = 0; row < 2; ++row)
-        for (int j = 0; j < 4; ++j) {
-          const auto valid = hn::And(tested_here, hn::Gt(count[row], hn::Set(di, j)));
-          if (hn::AllFalse(di, valid)) break;
-          const VI k = hn::IfThenElseZero(valid, hn::Add(kb[row], hn::Set(di, j)));
-          const V ux = hn::GatherIndex(d, light.samples->x(), k), uy = hn::GatherIndex(d, light.samples->y(), k);
-          auto in = hn::RebindMask(d, valid);
-          for (int e = 0; e < 3; ++e)  // above(): (ux g.x + uy g.y) + h > 0
-            in = hn::And(in, hn::Gt(hn::Add(hn::Add(hn::Mul(ux, g[e][0]), hn::Mul(uy, g[e][1])), h[e]), zero));
-          any_inside = hn::Or(any_inside, hn::RebindMask(di, in));
-        }
-      active = hn::AndNot(hn::RebindMask(d, hn::AndNot(any_inside, tested_here)), active);
+    uint8_t grid_bits[kMaxLanes / 8] = {};  // lanes on the grid, with their cells
+    if (!hn::AllFalse(d, hn::And(active, cuts))) {
+      V hr[3];
+      for (int k = 0; k < 3; ++k) {
+        const V s_k = hn::Add(hn::Mul(hn::Add(hn::Abs(g[k][0]), hn::Abs(g[k][1])), reach), hn::Abs(h[k]));
+        hr[k] = hn::Add(h[k], hn::Mul(hn::Set(d, 0x1p-18f), s_k));
+      }
+      V c[3], b[3];
+      for (int k = 0; k < 3; ++k) {
+        const int j = (k + 1) % 3;
+        const V p0 = hn::Mul(g[k][0], g[j][1]), p1 = hn::Mul(g[k][1], g[j][0]);
+        c[k] = hn::Sub(p0, p1);
+        b[k] = hn::Add(hn::Abs(p0), hn::Abs(p1));
+      }
+      const V eps12 = hn::Set(d, 0x1p-12f), eps20 = hn::Set(d, 0x1p-20f);
+      auto bounded = hn::Or(hn::And(hn::And(hn::Gt(c[0], zero), hn::Gt(c[1], zero)), hn::Gt(c[2], zero)),
+                            hn::And(hn::And(hn::Lt(c[0], zero), hn::Lt(c[1], zero)), hn::Lt(c[2], zero)));
+      for (int k = 0; k < 3; ++k) bounded = hn::And(bounded, hn::Gt(hn::Abs(c[k]), hn::Mul(eps12, b[k])));
+      const V inf = hn::Set(d, HUGE_VALF);
+      V bx0 = inf, by0 = inf, bx1 = hn::Neg(inf), by1 = hn::Neg(inf);
+      for (int k = 0; k < 3; ++k) {
+        const int j = (k + 1) % 3;
+        const V qx0 = hn::Mul(hr[j], g[k][1]), qx1 = hn::Mul(hr[k], g[j][1]);
+        const V qy0 = hn::Mul(hr[k], g[j][0]), qy1 = hn::Mul(hr[j], g[k][0]);
+        // (x = N * (1 / c): one more rounding, 2^-24 |x|, well inside E's 2^-20 |x|.)
+        const V r = hn::Div(hn::Set(d, 1.0f), c[k]);
+        const V x = hn::Mul(hn::Sub(qx0, qx1), r), y = hn::Mul(hn::Sub(qy0, qy1), r);
+        const V inv_c = hn::Abs(r);
+        const V ex = hn::Mul(eps20, hn::Add(hn::Mul(hn::Add(hn::Add(hn::Abs(qx0), hn::Abs(qx1)),
+                                                             hn::Mul(hn::Abs(x), b[k])), inv_c), hn::Abs(x)));
+        const V ey = hn::Mul(eps20, hn::Add(hn::Mul(hn::Add(hn::Add(hn::Abs(qy0), hn::Abs(qy1)),
+                                                             hn::Mul(hn::Abs(y), b[k])), inv_c), hn::Abs(y)));
+        bx0 = hn::Min(bx0, hn::Sub(x, ex)), bx1 = hn::Max(bx1, hn::Add(x, ex));
+        by0 = hn::Min(by0, hn::Sub(y, ey)), by1 = hn::Max(by1, hn::Add(y, ey));
+      }
+      // Finite bounds only (x - x is 0 exactly for finite x, NaN otherwise).
+      bounded = hn::And(bounded, hn::Eq(hn::Sub(bx1, bx0), hn::Sub(bx1, bx0)));
+      bounded = hn::And(bounded, hn::Eq(hn::Sub(by1, by0), hn::Sub(by1, by0)));
+      bounded = hn::And(bounded, hn::Lt(hn::Abs(hn::Add(hn::Abs(bx0), hn::Abs(bx1))), inf));
+      bounded = hn::And(bounded, hn::Lt(hn::Abs(hn::Add(hn::Abs(by0), hn::Abs(by1))), inf));
+      bounded = hn::And(bounded, cuts);
+      // A bounded triangle beside every sample: nothing to test.
+      const auto beside = hn::Or(hn::Or(hn::Lt(bx1, grid_x0), hn::Gt(bx0, grid_x1)),
+                                 hn::Or(hn::Lt(by1, grid_y0), hn::Gt(by0, grid_y1)));
+      active = hn::AndNot(hn::And(bounded, beside), active);
       if (hn::AllFalse(d, active)) continue;
+      // SampleGrid::cell_x / cell_y (the same rounded operations: monotone, so a sample between
+      // two bounds is in a cell between theirs), clamped to the grid.
+      auto to_cell = [&](V u, V origin, V inv) {
+        return hn::Floor(hn::Min(hn::Max(hn::Mul(hn::Sub(u, origin), inv), zero), last_cell));
+      };
+      const V cx0 = to_cell(bx0, grid_x0, inv_w), cx1 = to_cell(bx1, grid_x0, inv_w);
+      const V cy0 = to_cell(by0, grid_y0, inv_h), cy1 = to_cell(by1, grid_y0, inv_h);
+      const V cell_count = hn::Mul(hn::Add(hn::Sub(cx1, cx0), hn::Set(d, 1.0f)), hn::Add(hn::Sub(cy1, cy0), hn::Set(d, 1.0f)));
+      const auto on_grid = hn::And(bounded, hn::Not(hn::Gt(cell_count, max_cells)));
+      // Small ranges (one or two rows of at most 4 samples each): test their samples here, so
+      // that only pairs with a sample inside all three lines go on (most tiny projected
+      // triangles fall between the samples).
+      auto small = hn::And(on_grid, hn::Not(hn::Gt(hn::Sub(cy1, cy0), hn::Set(d, 1.0f))));
+      if (!hn::AllFalse(d, small)) {
+        const hn::RebindToSigned<decltype(d)> di;
+        using VI = hn::Vec<decltype(di)>;
+        const int32_t* first = reinterpret_cast<const int32_t*>(light.samples->first());
+        const VI cells = hn::Set(di, grid.cells), one = hn::Set(di, 1), four = hn::Set(di, 4);
+        const auto small_i = hn::RebindMask(di, small);
+        const VI ix0 = hn::ConvertTo(di, cx0), ix1 = hn::ConvertTo(di, cx1), iy0 = hn::ConvertTo(di, cy0),
+                 iy1 = hn::ConvertTo(di, cy1);
+        const VI zero_i = hn::Zero(di);
+        const VI base0 = hn::IfThenElseZero(small_i, hn::Mul(iy0, cells));
+        const auto two_rows = hn::And(small_i, hn::Gt(iy1, iy0));
+        const VI base1 = hn::IfThenElse(two_rows, hn::Add(base0, cells), base0);
+        const VI col0 = hn::IfThenElseZero(small_i, ix0), col1 = hn::IfThenElseZero(small_i, hn::Add(ix1, one));
+        const VI kb[2] = {hn::GatherIndex(di, first, hn::Add(base0, col0)), hn::GatherIndex(di, first, hn::Add(base1, col0))};
+        const VI ke0 = hn::GatherIndex(di, first, hn::Add(base0, col1));
+        const VI ke[2] = {ke0, hn::IfThenElse(two_rows, hn::GatherIndex(di, first, hn::Add(base1, col1)), kb[1])};
+        const VI count[2] = {hn::Sub(ke[0], kb[0]), hn::Sub(ke[1], kb[1])};
+        auto tested_here = hn::And(small_i, hn::And(hn::Not(hn::Gt(count[0], four)), hn::Not(hn::Gt(count[1], four))));
+        auto any_inside = hn::Not(hn::Gt(one, zero_i));  // all false
+        for (int row = 0; row < 2; ++row)
+          for (int j = 0; j < 4; ++j) {
+            const auto valid = hn::And(tested_here, hn::Gt(count[row], hn::Set(di, j)));
+            if (hn::AllFalse(di, valid)) break;
+            const VI k = hn::IfThenElseZero(valid, hn::Add(kb[row], hn::Set(di, j)));
+            const V ux = hn::GatherIndex(d, light.samples->x(), k), uy = hn::GatherIndex(d, light.samples->y(), k);
+            auto in = hn::RebindMask(d, valid);
+            for (int e = 0; e < 3; ++e)  // above(): (ux g.x + uy g.y) + h > 0
+              in = hn::And(in, hn::Gt(hn::Add(hn::Add(hn::Mul(ux, g[e][0]), hn::Mul(uy, g[e][1])), h[e]), zero));
+            any_inside = hn::Or(any_inside, hn::RebindMask(di, in));
+          }
+        active = hn::AndNot(hn::RebindMask(d, hn::AndNot(any_inside, tested_here)), active);
+        if (hn::AllFalse(d, active)) continue;
+      }
+      hn::Store(cx0, d, lane_cell[0]);
+      hn::Store(cy0, d, lane_cell[1]);
+      hn::Store(cx1, d, lane_cell[2]);
+      hn::Store(cy1, d, lane_cell[3]);
+      hn::StoreMaskBits(d, on_grid, grid_bits);
     }
-    hn::Store(cx0, d, lane_cell[0]);
-    hn::Store(cy0, d, lane_cell[1]);
-    hn::Store(cx1, d, lane_cell[2]);
-    hn::Store(cy1, d, lane_cell[3]);
-    uint8_t grid_bits[kMaxLanes / 8] = {};
-    hn::StoreMaskBits(d, on_grid, grid_bits);
     hn::Store(side, d, lane_side);
     for (int k = 0; k < 3; ++k) {
       hn::Store(g[k][0], d, lane_g[k][0]);
@@ -206,8 +210,11 @@ size_t FilterPairs(const PairLight& light, const PairCaster& t, const PairSample
       o.side = lane_side[j];
       for (int k = 0; k < 3; ++k) o.edges[k] = {{lane_g[k][0][j], lane_g[k][1][j]}, lane_h[k][j]};
       o.on_grid = (grid_bits[j >> 3] >> (j & 7)) & 1;
-      o.x0 = static_cast<int32_t>(lane_cell[0][j]), o.y0 = static_cast<int32_t>(lane_cell[1][j]);
-      o.x1 = static_cast<int32_t>(lane_cell[2][j]), o.y1 = static_cast<int32_t>(lane_cell[3][j]);
+      o.x0 = o.y0 = 0, o.x1 = o.y1 = -1;
+      if (o.on_grid) {
+        o.x0 = static_cast<int32_t>(lane_cell[0][j]), o.y0 = static_cast<int32_t>(lane_cell[1][j]);
+        o.x1 = static_cast<int32_t>(lane_cell[2][j]), o.y1 = static_cast<int32_t>(lane_cell[3][j]);
+      }
     }
   }
   *tested = n_tested;
