@@ -692,9 +692,17 @@ class AliasFreeSoft final : public AliasFreeBase {
           }
         }
       };
-      for (int slab = 0; slab < slabs.count; ++slab) {
+      // The slabs' slots are disjoint: their passes run at once (each its own rasterizer,
+      // each parallel over its tiles), which keeps both cores busy where one slab's samples
+      // sit in a few tiles. Per texel the order of the casters stays the rasterizer's.
+      if (slab_rasterizers_.size() < static_cast<size_t>(slabs.count)) slab_rasterizers_.resize(slabs.count);
+      for (auto& r : slab_rasterizers_)
+        if (!r) r = std::make_unique<ConservativeRasterizer>(kSlabTile);
+      parallel_for(slabs.count, 1, [&](size_t slab_begin, size_t slab_end) {
+      for (size_t slab_index = slab_begin; slab_index < slab_end; ++slab_index) {
+        const int slab = static_cast<int>(slab_index);
         const std::vector<uint32_t>& caster_of = region_caster[slab];
-        rasterizer_.polygon_spans(regions[slab], view_.width(), view_.height(),
+        slab_rasterizers_[slab]->polygon_spans(regions[slab], view_.width(), view_.height(),
                                   [&](int y, int x0, int x1, uint32_t index) {
           // The samples of slab `slab` in texels [x0, x1) of row y are one range of slots.
           const uint32_t begin = slabs.begin(slab, lists_.texel(x0, y)), end = slabs.end(slab, lists_.texel(x1 - 1, y));
@@ -707,6 +715,7 @@ class AliasFreeSoft final : public AliasFreeBase {
           test(cnt, begin, end, caster_of[index]);
         });
       }
+      });
     }
     {
       ScopedPhase phase(stats_, "resolve");
@@ -747,6 +756,9 @@ class AliasFreeSoft final : public AliasFreeBase {
   int slabs_;
   bool silhouettes_;
   std::optional<afsm::PlaneMaskLut> lut_;
+  // One rasterizer per depth slab (their passes run at once), with small tiles (balance).
+  static constexpr int kSlabTile = 32;
+  std::vector<std::unique_ptr<ConservativeRasterizer>> slab_rasterizers_;
   struct SilhouetteEdge {
     Vec3f a, b;
     Vec3f normal[2];  // of its first two faces (winding normals)
