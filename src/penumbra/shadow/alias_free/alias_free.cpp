@@ -729,9 +729,15 @@ class AliasFreeSoft final : public AliasFreeBase {
     }
     Counters total = center_counters;
     for (const Counters& c2 : counters) total.add(c2);
-    report(total, casters.size(), center_memory + stencil.size() +
-           blocked.size() * sizeof(uint64_t) + support_masks.size() * sizeof(uint64_t) + rotation.size() * sizeof(Vec2f) + casters.size() * sizeof(Caster) +
-               slabs.memory_bytes() + lut.memory_bytes());
+    size_t region_bytes = 0;
+    for (int k = 0; k < slabs.count; ++k)
+      region_bytes += regions[k].vertices.size() * sizeof(Vec2f) + region_caster[k].size() * sizeof(uint32_t);
+    report(total, casters.size(),
+           center_memory + stencil.size() + blocked.size() * sizeof(uint64_t) +
+               support_masks.size() * sizeof(uint64_t) + rotation.size() * sizeof(Vec2f) +
+               casters.size() * (sizeof(Caster) + sizeof(afsm::PairCaster)) + settled.size() * sizeof(uint32_t) +
+               (sample_x.size() * 3 + rot_c.size() * 2) * sizeof(float) + region_bytes + slabs.memory_bytes() +
+               lut.memory_bytes());
     stats_.extra["light_samples"] = n;
     stats_.extra["casters_skipped"] = skipped;
     stats_.extra["casters_facing_the_whole_light"] = front_facing;
