@@ -635,7 +635,7 @@ class AliasFreeSoft final : public AliasFreeBase {
             // many), then behind the caster, then not yet blocked.
             uint32_t inside[afsm::kMaxLightSamples];
             size_t inside_count = 0;
-            if (candidates > 8) {
+            if (candidates > 2) {
               inside_count = afsm::inside_cells(grid, cells, edges, inside);
             } else {
               for (int y = cells.y0; y <= cells.y1; ++y)
