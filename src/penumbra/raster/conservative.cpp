@@ -56,7 +56,8 @@ bool set_up(const std::vector<Point2>& pts, uint32_t first, uint32_t count, uint
   return true;
 }
 
-// Reports every texel of [rx0, rx1) x [ry0, ry1) whose square meets the polygon.
+// Reports the texels of [rx0, rx1) x [ry0, ry1) whose square meets the polygon, as one span
+// [x0, x1) per row y: fn(y, x0, x1).
 template <class Fn>
 void cover(const CoverItem& it, const Point2* p, int rx0, int ry0, int rx1, int ry1, Fn&& fn) {
   const int x0 = std::max(rx0, it.x0), x1 = std::min(rx1, it.x1);
@@ -88,7 +89,7 @@ void cover(const CoverItem& it, const Point2* p, int rx0, int ry0, int rx1, int 
       else if (K < 0)
         hi = lo - 1;
     }
-    for (int x = static_cast<int>(lo); x <= static_cast<int>(hi) && lo <= hi; ++x) fn(x, y);
+    if (lo <= hi) fn(y, static_cast<int>(lo), static_cast<int>(hi) + 1);
   }
 }
 
@@ -108,15 +109,22 @@ struct ConservativeRasterizer::Impl {
     if (chunk_points.size() < chunks) chunk_points.resize(chunks);
   }
   void cover_tiles(const TileGrid& grid, const CoverageCallback& covered) {
+    cover_tile_spans(grid, [&](int y, int x0, int x1, uint32_t index) {
+      for (int x = x0; x < x1; ++x) covered(x, y, index);
+    });
+  }
+  template <class Fn>
+  void cover_tile_spans(const TileGrid& grid, Fn&& span) {
     raster_internal::for_each_tile(grid, [&](int tile) {
       const int x0 = grid.x0(tile), y0 = grid.y0(tile), x1 = grid.x1(tile), y1 = grid.y1(tile);
       for (const CoverItem& it : binner.tile(tile)) {
         const Point2* p = chunk_points[it.chunk].data() + it.first;
         const uint32_t index = it.index;
-        cover(it, p, x0, y0, x1, y1, [&](int x, int y) { covered(x, y, index); });
+        cover(it, p, x0, y0, x1, y1, [&](int y, int sx0, int sx1) { span(y, sx0, sx1, index); });
       }
     });
   }
+  void bin_polygons(const ConvexPolygons& polys, const TileGrid& grid, int width, int height);
 };
 
 ConservativeRasterizer::ConservativeRasterizer(int tile_size)
@@ -131,9 +139,23 @@ void ConservativeRasterizer::polygons(const ConvexPolygons& polys, int width, in
                                       const CoverageCallback& covered) {
   if (width < 1 || height < 1) throw Error("ConservativeRasterizer: empty image {}x{}", width, height);
   TileGrid grid(width, height, raster_internal::tile_shift(tile_size_));
-  impl_->prepare_chunks(polys.size());
-  impl_->binner.run(polys.size(), kChunkSize, grid, [&](size_t chunk, size_t begin, size_t end, std::vector<CoverItem>& out) {
-    std::vector<Point2>& pts = impl_->chunk_points[chunk];
+  impl_->bin_polygons(polys, grid, width, height);
+  impl_->cover_tiles(grid, covered);
+}
+
+void ConservativeRasterizer::polygon_spans(const ConvexPolygons& polys, int width, int height,
+                                           const SpanCallback& covered) {
+  if (width < 1 || height < 1) throw Error("ConservativeRasterizer: empty image {}x{}", width, height);
+  TileGrid grid(width, height, raster_internal::tile_shift(tile_size_));
+  impl_->bin_polygons(polys, grid, width, height);
+  impl_->cover_tile_spans(grid, covered);
+}
+
+void ConservativeRasterizer::Impl::bin_polygons(const ConvexPolygons& polys, const TileGrid& grid, int width,
+                                                int height) {
+  prepare_chunks(polys.size());
+  binner.run(polys.size(), kChunkSize, grid, [&](size_t chunk, size_t begin, size_t end, std::vector<CoverItem>& out) {
+    std::vector<Point2>& pts = chunk_points[chunk];
     pts.clear();
     for (size_t i = begin; i < end; ++i) {
       uint32_t first = static_cast<uint32_t>(pts.size());
@@ -146,7 +168,6 @@ void ConservativeRasterizer::polygons(const ConvexPolygons& polys, int width, in
         pts.resize(first);
     }
   });
-  impl_->cover_tiles(grid, covered);
 }
 
 void ConservativeRasterizer::triangles(std::span<const RasterTriangle> tris, const LightView& view,

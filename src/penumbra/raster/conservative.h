@@ -44,6 +44,8 @@ struct ConvexPolygons {
 // calls for one texel come from the same thread, in polygon order: per-texel data (a view-
 // sample list, sintorn2008 §3) can be updated without atomics or locks.
 using CoverageCallback = std::function<void(int x, int y, uint32_t index)>;
+// The same coverage as spans: texels [x0, x1) of row y, once per (row of a tile, polygon).
+using SpanCallback = std::function<void(int y, int x0, int x1, uint32_t index)>;
 
 class ConservativeRasterizer {
  public:
@@ -55,6 +57,8 @@ class ConservativeRasterizer {
 
   // Every texel of a width x height image each polygon touches; index = polygon index.
   void polygons(const ConvexPolygons& polygons, int width, int height, const CoverageCallback& covered);
+  // The same texels, one call per row span inside a tile (fewer calls for wide polygons).
+  void polygon_spans(const ConvexPolygons& polygons, int width, int height, const SpanCallback& covered);
   // Every texel each triangle's projection touches, after clipping to the near and far planes
   // (only the part in front of the near plane counts); index = triangle index.
   void triangles(std::span<const RasterTriangle> triangles, const LightView& view,

@@ -127,6 +127,13 @@ TEST(Conservative, CoversExactlyTheTexelsRandomPolygonsTouch) {
   }
   EXPECT_GT(overlapping, 5000);
   EXPECT_LT(touching_only, overlapping / 100);
+  // The span form reports the same texels, each once, in the same order per texel.
+  Coverage spans(W, H);
+  ConservativeRasterizer(16).polygon_spans(polys, W, H, [&](int y, int x0, int x1, uint32_t index) {
+    ASSERT_LT(x0, x1);
+    for (int x = x0; x < x1; ++x) spans.callback()(x, y, index);
+  });
+  EXPECT_EQ(spans.texels, cov.texels);
 }
 
 TEST(Conservative, DegeneratePolygonsCoverWhatTheyTouch) {

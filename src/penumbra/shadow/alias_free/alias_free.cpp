@@ -34,6 +34,7 @@
 #include "penumbra/raster/raster_triangle.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/alias_free/influence_region.h"
+#include "penumbra/shadow/alias_free/pair_filter.h"
 #include "penumbra/shadow/alias_free/sample_masks.h"
 #include "penumbra/shadow/alias_free/texel_lists.h"
 #include "penumbra/shadow/shadow_method.h"
@@ -64,12 +65,16 @@ struct Counters {
   uint64_t sample_tests = 0;   // (listed sample, caster) tests
   uint64_t plane_lookups = 0;  // plane -> mask lookups (afsm)
   uint64_t exact_bits = 0;     // light samples tested exactly inside lookups (afsm)
+  uint64_t grid_pairs = 0;     // (sample, caster) pairs decided on the sample grid (afsm)
+  uint64_t grid_tests = 0;     // light samples tested exactly there
   void add(const Counters& o) {
     texel_visits += o.texel_visits;
     empty_visits += o.empty_visits;
     sample_tests += o.sample_tests;
     plane_lookups += o.plane_lookups;
     exact_bits += o.exact_bits;
+    grid_pairs += o.grid_pairs;
+    grid_tests += o.grid_tests;
   }
 };
 
@@ -267,6 +272,7 @@ class AliasFreeSoft final : public AliasFreeBase {
         lut_resolution_(p.get_int("lut_resolution")),
         jitter_(p.get_bool("jitter")),
         restrict_(p.get_bool("restrict")),
+        slabs_(p.get_int("slabs")),
         silhouettes_(p.get_bool("silhouettes")) {}
 
   // §4.3 "Restrict computations": the edges of the casters, welded by position, with the
@@ -318,6 +324,9 @@ class AliasFreeSoft final : public AliasFreeBase {
       lut_.emplace(samples.local, bins, bins);
     }
     const afsm::PlaneMaskLut& lut = *lut_;
+    const afsm::SampleGrid grid(samples.local);
+    // Above this many cells under a projected triangle, its masks are cheaper.
+    const int max_grid_cells = std::max(16, grid.cells_x() * grid.cells_x() / 4);
     const int words = lut.words();
     const float R = samples.radius;
     const Vec3f c = samples.center, ls = samples.s * R, lt = samples.t * R;
@@ -335,7 +344,16 @@ class AliasFreeSoft final : public AliasFreeBase {
       for (uint32_t id : ids)
         if (!listed[id]) out.visibility[id] = 1.0f;  // outside the fitted window: lit
     }
-    const size_t slots = lists_.slots();
+    // §4.3 "Parametrization", per slab of depth: each slab's regions end at its own far plane.
+    // From here on slots are the slabs' (slab-major); lists_ keeps its own order.
+    afsm::DepthSlabs slabs;
+    {
+      ScopedPhase phase(stats_, "slabs");
+      std::vector<float> depth(lists_.slots());
+      for (size_t slot = 0; slot < depth.size(); ++slot) depth[slot] = view_.linear_depth(lists_.positions[slot]);
+      slabs = afsm::split_by_depth(lists_, depth, slabs_);
+    }
+    const size_t slots = slabs.slots();
 
     // §4.2: per-pixel rotation of the pattern for symmetric lights (disk, sphere): rotating
     // the samples by alpha equals rotating each plane's line by -alpha. A rect's or an
@@ -344,15 +362,17 @@ class AliasFreeSoft final : public AliasFreeBase {
     std::vector<Vec2f> rotation(jitter ? slots : 0);
     // The per-slot masks of blocked light samples, apart from the positions (§3.1).
     std::vector<uint64_t> blocked(slots * words, 0);
-    // Slots whose every light sample is blocked (no further tests), and slots whose own
-    // tangent plane cuts the light (their V is not the centre's even away from every
-    // silhouette edge: always tested in full).
-    std::vector<uint8_t> full(slots, 0), own_plane_cuts(slots, 0);
+    // Slots settled: every light sample blocked (no test can add one), or V known otherwise
+    // (silhouettes=true, away from every silhouette edge); and slots whose own tangent plane
+    // cuts the light (their V is not the centre's even away from every silhouette edge).
+    // (settled is padded to whole SIMD vectors for pair_filter.)
+    std::vector<uint32_t> settled(slots + afsm::kPairPadding, 0);
+    std::vector<uint8_t> own_plane_cuts(slots, 0);
     {
       ScopedPhase phase(stats_, "init");
       parallel_for(slots, 1024, [&](size_t begin, size_t end) {
         for (size_t slot = begin; slot < end; ++slot) {
-          const ViewSample& s = vs.samples[lists_.sample[slot]];
+          const ViewSample& s = vs.samples[slabs.sample[slot]];
           if (jitter) {
             const float a = 2 * kPi * Rng(ctx.seed, 0x4a495454u + ctx.light_index, s.pixel, ctx.frame).next_float();
             rotation[slot] = {std::cos(a), std::sin(a)};
@@ -368,7 +388,7 @@ class AliasFreeSoft final : public AliasFreeBase {
           lut.exact(g, h, m);
           uint64_t left = 0;
           for (int w = 0; w < words; ++w) left |= (m[w] = ~m[w] & lut.all()[w]) ^ lut.all()[w];
-          full[slot] = left == 0;
+          settled[slot] = left == 0;
         }
       });
     }
@@ -385,21 +405,21 @@ class AliasFreeSoft final : public AliasFreeBase {
       size_t support_mask = 0;  // closed, without jitter: index into support_masks
     };
     std::vector<Caster> casters;
-    std::vector<uint8_t> stencil;  // silhouette edges' regions (empty: no restriction)
+    std::vector<float> caster_near;  // per caster: its nearest vertex's depth from the light
+    std::vector<uint8_t> stencil;    // silhouette edges' regions (empty: no restriction)
     std::vector<uint64_t> support_masks;
     uint64_t front_facing = 0;
-    ConvexPolygons regions;
+    // Per slab: the casters' regions on its far plane, and which caster each region is.
+    std::vector<ConvexPolygons> regions(slabs.count);
+    std::vector<std::vector<uint32_t>> region_caster(slabs.count);
     uint64_t skipped = 0, unbounded = 0;
+    float far_depth = 0;
+    for (const Vec3f& p : slabs.positions) far_depth = std::max(far_depth, view_.linear_depth(p));
+    far_depth = far_depth * (1 + 1e-4f) + 1e-6f;
+    const Vec2f whole[4] = {{0, 0}, {float(view_.width()), 0}, {float(view_.width()), float(view_.height())},
+                            {0, float(view_.height())}};
     {
-      ScopedPhase phase(stats_, "regions");
-      float far_depth = 0;
-      for (const Vec3f& p : lists_.positions) far_depth = std::max(far_depth, view_.linear_depth(p));
-      far_depth = far_depth * (1 + 1e-4f) + 1e-6f;
-      const afsm::InfluenceRegions influence(light, view_, far_depth);
-      if (restrict_) lists_.build_summed_area();
-      std::vector<Vec2f> polygon;
-      const Vec2f whole[4] = {{0, 0}, {float(view_.width()), 0}, {float(view_.width()), float(view_.height())},
-                              {0, float(view_.height())}};
+      ScopedPhase phase(stats_, "casters");
       std::vector<uint64_t> behind(words);
       for (const RasterTriangle& t : triangles_) {
         if (!(t.opacity > 0)) continue;
@@ -433,30 +453,61 @@ class AliasFreeSoft final : public AliasFreeBase {
             front_facing++;
             continue;
           }
-        }
-        if (!influence.region(t.p, &polygon)) {
-          polygon.assign(whole, whole + 4);
-          unbounded++;
-        }
-        if (restrict_) {
-          // §4.3: a caster whose region covers no list does nothing.
-          float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
-          for (Vec2f q : polygon) {
-            x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+          if (!jitter) {
+            cs.support_mask = support_masks.size() / words;
+            support_masks.insert(support_masks.end(), behind.begin(), behind.end());
           }
-          auto to_int = [](float f) { return static_cast<int>(std::clamp(f, -1e9f, 1e9f)); };
-          if (lists_.count_in(to_int(std::floor(x0)) - 1, to_int(std::floor(y0)) - 1, to_int(std::floor(x1)) + 2,
-                              to_int(std::floor(y1)) + 2) == 0) {
+        }
+        casters.push_back(cs);
+        caster_near.push_back(std::min({z0, z1, z2}));
+      }
+    }
+    {
+      ScopedPhase phase(stats_, "regions");
+      if (restrict_) slabs.build_summed_areas();
+      // Each slab's regions on its own far plane (§4.1); a caster wholly deeper than every
+      // sample of a slab shadows none of them. Computed in parallel, kept in caster order.
+      for (int k = 0; k < slabs.count; ++k) {
+        const afsm::InfluenceRegions influence(light, view_, slabs.far[k]);
+        constexpr int kMaxVertices = 3 * 8;  // the hull of 3 x (rect 4, disk 8, sphere 6) points
+        std::vector<Vec2f> hulls(casters.size() * kMaxVertices);
+        std::vector<uint8_t> sizes(casters.size(), 0);  // 0: none, 255: unbounded (whole image)
+        parallel_for(casters.size(), 256, [&](size_t begin, size_t end) {
+          std::vector<Vec2f> polygon;
+          for (size_t i = begin; i < end; ++i) {
+            if (!(caster_near[i] < slabs.far[k])) continue;
+            if (!influence.region(casters[i].v, &polygon)) {
+              sizes[i] = 255;
+              continue;
+            }
+            if (restrict_) {
+              // §4.3: a caster whose region covers no list (of this slab) does nothing.
+              float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+              for (Vec2f q : polygon) {
+                x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+              }
+              auto to_int = [](float f) { return static_cast<int>(std::clamp(f, -1e9f, 1e9f)); };
+              if (slabs.count_in(k, to_int(std::floor(x0)) - 1, to_int(std::floor(y0)) - 1,
+                                 to_int(std::floor(x1)) + 2, to_int(std::floor(y1)) + 2) == 0)
+                continue;
+            }
+            sizes[i] = static_cast<uint8_t>(polygon.size());
+            std::copy(polygon.begin(), polygon.end(), hulls.begin() + i * kMaxVertices);
+          }
+        });
+        for (size_t i = 0; i < casters.size(); ++i) {
+          if (sizes[i] == 0) {
             skipped++;
             continue;
           }
+          if (sizes[i] == 255) {
+            regions[k].add(whole);
+            unbounded++;
+          } else {
+            regions[k].add(std::span<const Vec2f>(hulls.data() + i * kMaxVertices, sizes[i]));
+          }
+          region_caster[k].push_back(static_cast<uint32_t>(i));
         }
-        if (cs.closed && !jitter) {
-          cs.support_mask = support_masks.size() / words;
-          support_masks.insert(support_masks.end(), behind.begin(), behind.end());
-        }
-        casters.push_back(cs);
-        regions.add(polygon);
       }
 
       // §4.3: penumbrae are cast only by silhouette edges (an edge whose two faces do not
@@ -464,6 +515,8 @@ class AliasFreeSoft final : public AliasFreeBase {
       // outside every silhouette edge's influence region sees all the light or none of it:
       // its V is the centre's (a hard shadow bit), unless its own plane cuts the light.
       if (silhouettes_) {
+        const afsm::InfluenceRegions influence(light, view_, far_depth);
+        std::vector<Vec2f> polygon;
         ConvexPolygons edge_regions;
         for (const SilhouetteEdge& e : edges_) {
           bool silhouette = e.faces != 2;
@@ -489,62 +542,144 @@ class AliasFreeSoft final : public AliasFreeBase {
 
     Counters center_counters;
     size_t center_memory = 0;
-    const std::vector<uint8_t> center =
-        silhouettes_ ? center_shadow(scene, c, &center_counters, &center_memory) : std::vector<uint8_t>();
+    if (silhouettes_) {
+      // Away from every silhouette edge: all of the light or none, as the centre (its hard
+      // shadow bit, afsm-hard's pass over the lists in their own order); those slots settle.
+      const std::vector<uint8_t> center = center_shadow(scene, c, &center_counters, &center_memory);
+      uint64_t hard = 0;
+      for (int k = 0; k < slabs.count; ++k)
+        for (size_t texel = 0; texel < slabs.texels; ++texel) {
+          if (stencil[texel]) continue;
+          for (uint32_t slot = slabs.begin(k, texel); slot < slabs.end(k, texel); ++slot) {
+            if (own_plane_cuts[slot]) continue;
+            settled[slot] = 1;
+            if (!center[slabs.list_slot[slot]]) continue;
+            std::copy_n(lut.all(), words, blocked.data() + static_cast<size_t>(slot) * words);
+            ++hard;
+          }
+        }
+      stats_.extra["hard_shadowed_samples"] = hard;
+    }
+    // The same in the form pair_filter takes: samples as padded arrays, casters set up once.
+    std::vector<float> sample_x(slots + afsm::kPairPadding, 0), sample_y(sample_x), sample_z(sample_x);
+    std::vector<float> rot_c(jitter ? slots + afsm::kPairPadding : 0), rot_s(rot_c);
+    for (size_t slot = 0; slot < slots; ++slot) {
+      const Vec3f p = slabs.positions[slot];
+      sample_x[slot] = p.x, sample_y[slot] = p.y, sample_z[slot] = p.z;
+      if (jitter) rot_c[slot] = rotation[slot].x, rot_s[slot] = rotation[slot].y;
+    }
+    const afsm::PairSamples pair_samples{sample_x.data(), sample_y.data(), sample_z.data(), settled.data(),
+                                         jitter ? rot_c.data() : nullptr, jitter ? rot_s.data() : nullptr};
+    const afsm::PairLight pair_light{{c.x, c.y, c.z}, {ls.x, ls.y, ls.z},   {lt.x, lt.y, lt.z},
+                                     lut.max_distance2(), grid.geometry(), max_grid_cells, &grid};
+    std::vector<afsm::PairCaster> pair_casters(casters.size());
+    for (size_t i = 0; i < casters.size(); ++i) {
+      const Caster& t = casters[i];
+      afsm::PairCaster& pc = pair_casters[i];
+      for (int k = 0; k < 3; ++k) {
+        const Vec3f d = t.v[(k + 1) % 3] - t.v[k];
+        for (int j = 0; j < 3; ++j) pc.v[k][j] = t.v[k][j], pc.d[k][j] = d[j];
+      }
+      for (int j = 0; j < 3; ++j) pc.normal[j] = t.normal[j];
+      // p (almost) in the triangle's plane sees it edge-on: the cone from p over it is flat and
+      // its edge planes are rounding noise, so it casts nothing (a segment from p crosses that
+      // plane next to p, away from the triangle, unless p touches it).
+      pc.flat_scale = kFlat * kFlat * t.normal_len * t.normal_len;
+      // A closed mesh blocks a light sample only with the triangles facing away from it (§3.3
+      // per light sample): those with p in front. An open one blocks from either side.
+      pc.closed = t.closed;
+    }
     tbb::enumerable_thread_specific<Counters> counters;
     {
       ScopedPhase phase(stats_, "raster");
-      rasterizer_.polygons(regions, view_.width(), view_.height(), [&](int x, int y, uint32_t index) {
-        Counters& cnt = counters.local();
-        cnt.texel_visits++;
-        const uint32_t begin = lists_.begin(x, y), end = lists_.end(x, y);
-        if (begin == end) {
-          cnt.empty_visits++;
-          return;
-        }
-        const Caster& t = casters[index];
-        const bool near_silhouette = stencil.empty() || stencil[lists_.texel(x, y)];
+      // The (listed sample, caster) test of §4.2 for the slots [begin, end).
+      // The (listed sample, caster) test of §4.2 for the slots [begin, end): the SIMD part
+      // (pair_filter.h) settles most pairs; the rest are decided here.
+      tbb::enumerable_thread_specific<std::vector<afsm::PairSurvivor>> survivor_buffers;
+      auto test = [&](Counters& cnt, uint32_t begin, uint32_t end, uint32_t caster) {
+        const Caster& t = casters[caster];
+        std::vector<afsm::PairSurvivor>& survivors = survivor_buffers.local();
+        if (survivors.size() < end - begin) survivors.resize(end - begin);
+        size_t tested = 0;
+        const size_t count =
+            afsm::filter_pairs(pair_light, pair_casters[caster], pair_samples, begin, end, survivors.data(), &tested);
+        cnt.sample_tests += tested;
         uint64_t hidden[afsm::kMaxLightSamples / 64], edge[afsm::kMaxLightSamples / 64];
-        for (uint32_t slot = begin; slot < end; ++slot) {
-          if (full[slot]) continue;  // every light sample already blocked (umbra)
-          if (!near_silhouette && !own_plane_cuts[slot]) continue;  // V is the centre's
-          cnt.sample_tests++;
-          const Vec3f p = lists_.positions[slot];
-          const Vec3f to_p = p - t.v[0];
-          const float side = dot(t.normal, to_p);
-          // A closed mesh blocks a light sample only with the triangles facing away from it
-          // (§3.3 per light sample): those with p in front. An open one blocks from either side.
-          // p (almost) in the triangle's plane sees it edge-on: the cone from p over it is flat
-          // and its edge planes are rounding noise, so it casts nothing (a segment from p
-          // crosses that plane next to p, away from the triangle, unless p touches it).
-          const float flat2 = kFlat * kFlat * t.normal_len * t.normal_len * dot(to_p, to_p);
-          if (t.closed ? !(side > 0) : side == 0) continue;
-          if (!(side * side > flat2)) continue;
+        for (size_t j = 0; j < count; ++j) {
+          const uint32_t slot = survivors[j].slot;
+          const float side = survivors[j].side;
+          const afsm::Line* edges = survivors[j].edges;
           uint64_t* m = blocked.data() + static_cast<size_t>(slot) * words;
           const Vec2f rot = jitter ? rotation[slot] : Vec2f{1, 0};
           // Behind the supporting plane as seen from p: the other side.
-          if (t.closed && !jitter) {
-            std::copy_n(support_masks.data() + t.support_mask * words, words, hidden);
+          const float sign = side > 0 ? -1.0f : 1.0f;
+          const bool support_known = t.closed && !jitter;
+          const uint64_t* support = support_masks.data() + t.support_mask * words;
+          const afsm::Line behind{rotate(t.support_g * sign, rot), t.support_h * sign};
+          afsm::SampleGrid::Range cells{survivors[j].x0, survivors[j].y0, survivors[j].x1, survivors[j].y1};
+          bool on_grid = survivors[j].on_grid;
+          if (!on_grid) {
+            // Not decided in float (lines nearly parallel, or a big triangle): in double.
+            int cutting = 0;
+            for (int i = 0; i < 3; ++i) cutting += lut.side_of_disk(edges[i].g, edges[i].h) == 0;
+            on_grid = cutting == 3 && grid.triangle_cells(edges, max_grid_cells, &cells);
+          }
+          if (on_grid) {
+            // The triangle projects onto the light as a small triangle: test the samples of
+            // the cells under its bounding box, each exactly as the masks would (same bits).
+            cnt.grid_pairs++;
+            bool added = false;
+            uint64_t candidates = 0;
+            for (int y = cells.y0; y <= cells.y1; ++y) candidates += grid.row_end(y, cells.x1) - grid.row_begin(y, cells.x0);
+            // Inside the three edge planes (SIMD over the cells' samples where there are
+            // many), then behind the caster, then not yet blocked.
+            uint32_t inside[afsm::kMaxLightSamples];
+            size_t inside_count = 0;
+            if (candidates > 2) {
+              inside_count = afsm::inside_cells(grid, cells, edges, inside);
+            } else {
+              for (int y = cells.y0; y <= cells.y1; ++y)
+                for (uint32_t k = grid.row_begin(y, cells.x0), k_end = grid.row_end(y, cells.x1); k < k_end; ++k) {
+                  const float ux = grid.x()[k], uy = grid.y()[k];
+                  if (afsm::above(ux, uy, edges[0].g, edges[0].h) & afsm::above(ux, uy, edges[1].g, edges[1].h) &
+                      afsm::above(ux, uy, edges[2].g, edges[2].h))
+                    inside[inside_count++] = k;
+                }
+            }
+            for (size_t q = 0; q < inside_count; ++q) {
+              const uint32_t k = inside[q];
+              const uint32_t i = grid.index()[k];
+              const uint64_t bit = 1ull << (i & 63);
+              if (support_known ? !(support[i >> 6] & bit)
+                                : !afsm::above(grid.x()[k], grid.y()[k], behind.g, behind.h))
+                continue;
+              if (!(m[i >> 6] & bit)) {
+                m[i >> 6] |= bit;
+                added = true;
+              }
+            }
+            cnt.grid_tests += candidates;
+            if (added) {
+              uint64_t missing = 0;
+              for (int w = 0; w < words; ++w) missing |= lut.all()[w] & ~m[w];
+              settled[slot] = missing == 0;
+            }
+            continue;
+          }
+          // Otherwise the masks of §4.2: the supporting plane's, then AND each cutting edge's.
+          if (support_known) {
+            std::copy_n(support, words, hidden);
           } else {
-            const float sign = side > 0 ? -1.0f : 1.0f;
-            cnt.exact_bits += lut.mask(rotate(t.support_g * sign, rot), t.support_h * sign, hidden);
+            cnt.exact_bits += lut.mask(behind.g, behind.h, hidden);
             cnt.plane_lookups++;
           }
           uint64_t fresh = 0;
           for (int w = 0; w < words; ++w) fresh |= hidden[w] & ~m[w];
           if (!fresh) continue;  // nothing this caster could add
-          // Inside the planes through p and each edge (Fig. 6), oriented toward the third vertex.
           bool any = true;
           for (int i = 0; i < 3 && any; ++i) {
-            const Vec3f e = edge_plane(t.v[i] - p, t.v[(i + 1) % 3] - t.v[i], side > 0);
-            const Vec2f g = rotate(Vec2f{dot(e, ls), dot(e, lt)}, rot);
-            const float h = dot(e, c - p);
-            // Most edge planes leave the whole light on one side (the sample is far outside
-            // or well inside this edge's wedge): decided without a lookup.
-            const int whole = lut.side_of_disk(g, h);
-            if (whole < 0) any = false;
-            if (whole != 0) continue;
-            cnt.exact_bits += lut.mask(g, h, edge);
+            if (lut.side_of_disk(edges[i].g, edges[i].h) != 0) continue;  // the whole light inside
+            cnt.exact_bits += lut.mask(edges[i].g, edges[i].h, edge);
             cnt.plane_lookups++;
             uint64_t left = 0;
             for (int w = 0; w < words; ++w) left |= (hidden[w] &= edge[w]);
@@ -553,23 +688,34 @@ class AliasFreeSoft final : public AliasFreeBase {
           if (any) {
             uint64_t missing = 0;
             for (int w = 0; w < words; ++w) missing |= lut.all()[w] & ~(m[w] |= hidden[w]);
-            full[slot] = missing == 0;
+            settled[slot] = missing == 0;
           }
         }
-      });
-    }
-    if (!stencil.empty()) {
-      // Away from every silhouette edge: all of the light or none, as the centre.
-      uint64_t hard = 0;
-      for (size_t texel = 0; texel < stencil.size(); ++texel) {
-        if (stencil[texel]) continue;
-        for (uint32_t slot = lists_.first[texel]; slot < lists_.first[texel + 1]; ++slot) {
-          if (own_plane_cuts[slot] || !center[slot]) continue;
-          std::copy_n(lut.all(), words, blocked.data() + static_cast<size_t>(slot) * words);
-          ++hard;
-        }
+      };
+      // The slabs' slots are disjoint: their passes run at once (each its own rasterizer,
+      // each parallel over its tiles), which keeps both cores busy where one slab's samples
+      // sit in a few tiles. Per texel the order of the casters stays the rasterizer's.
+      if (slab_rasterizers_.size() < static_cast<size_t>(slabs.count)) slab_rasterizers_.resize(slabs.count);
+      for (auto& r : slab_rasterizers_)
+        if (!r) r = std::make_unique<ConservativeRasterizer>(kSlabTile);
+      parallel_for(slabs.count, 1, [&](size_t slab_begin, size_t slab_end) {
+      for (size_t slab_index = slab_begin; slab_index < slab_end; ++slab_index) {
+        const int slab = static_cast<int>(slab_index);
+        const std::vector<uint32_t>& caster_of = region_caster[slab];
+        slab_rasterizers_[slab]->polygon_spans(regions[slab], view_.width(), view_.height(),
+                                  [&](int y, int x0, int x1, uint32_t index) {
+          // The samples of slab `slab` in texels [x0, x1) of row y are one range of slots.
+          const uint32_t begin = slabs.begin(slab, lists_.texel(x0, y)), end = slabs.end(slab, lists_.texel(x1 - 1, y));
+          Counters& cnt = counters.local();
+          cnt.texel_visits += x1 - x0;
+          if (begin == end) {
+            cnt.empty_visits += x1 - x0;
+            return;
+          }
+          test(cnt, begin, end, caster_of[index]);
+        });
       }
-      stats_.extra["hard_shadowed_samples"] = hard;
+      });
     }
     {
       ScopedPhase phase(stats_, "resolve");
@@ -578,20 +724,29 @@ class AliasFreeSoft final : public AliasFreeBase {
         const uint64_t* m = blocked.data() + slot * words;
         int count = 0;
         for (int w = 0; w < words; ++w) count += std::popcount(m[w]);
-        out.visibility[lists_.sample[slot]] = 1.0f - static_cast<float>(count) * inv;
+        out.visibility[slabs.sample[slot]] = 1.0f - static_cast<float>(count) * inv;
       }
     }
     Counters total = center_counters;
     for (const Counters& c2 : counters) total.add(c2);
-    report(total, casters.size(), center_memory + stencil.size() +
-           blocked.size() * sizeof(uint64_t) + support_masks.size() * sizeof(uint64_t) + rotation.size() * sizeof(Vec2f) + casters.size() * sizeof(Caster) +
-               regions.vertices.size() * sizeof(Vec2f) + lut.memory_bytes());
+    size_t region_bytes = 0;
+    for (int k = 0; k < slabs.count; ++k)
+      region_bytes += regions[k].vertices.size() * sizeof(Vec2f) + region_caster[k].size() * sizeof(uint32_t);
+    report(total, casters.size(),
+           center_memory + stencil.size() + blocked.size() * sizeof(uint64_t) +
+               support_masks.size() * sizeof(uint64_t) + rotation.size() * sizeof(Vec2f) +
+               casters.size() * (sizeof(Caster) + sizeof(afsm::PairCaster)) + settled.size() * sizeof(uint32_t) +
+               (sample_x.size() * 3 + rot_c.size() * 2) * sizeof(float) + region_bytes + slabs.memory_bytes() +
+               lut.memory_bytes());
     stats_.extra["light_samples"] = n;
     stats_.extra["casters_skipped"] = skipped;
     stats_.extra["casters_facing_the_whole_light"] = front_facing;
     stats_.extra["unbounded_regions"] = unbounded;
+    stats_.extra["depth_slabs"] = slabs.count;
     stats_.extra["plane_lookups"] = total.plane_lookups;
     stats_.extra["exact_sample_tests"] = total.exact_bits;
+    stats_.extra["grid_pairs"] = total.grid_pairs;
+    stats_.extra["grid_sample_tests"] = total.grid_tests;
     stats_.extra["lut_bytes"] = lut.memory_bytes();
     if (ctx.progress) ctx.progress->add(vs.size());
   }
@@ -604,8 +759,12 @@ class AliasFreeSoft final : public AliasFreeBase {
   int lut_resolution_;
   bool jitter_;
   bool restrict_;
+  int slabs_;
   bool silhouettes_;
   std::optional<afsm::PlaneMaskLut> lut_;
+  // One rasterizer per depth slab (their passes run at once; 64-texel tiles measured best).
+  static constexpr int kSlabTile = 64;
+  std::vector<std::unique_ptr<ConservativeRasterizer>> slab_rasterizers_;
   struct SilhouetteEdge {
     Vec3f a, b;
     Vec3f normal[2];  // of its first two faces (winding normals)
@@ -653,6 +812,10 @@ std::vector<ParamSpec> soft_specs() {
                    "light centre's hard shadow (same result). Off by default: with the shipped scenes' large lights "
                    "every listed sample lies in some silhouette edge's region, so it only adds the edge pass",
                    {}});
+  specs.push_back({"slabs", ParamType::Int, 8,
+                   "depth slabs of the view-sample lists (equal sample counts); each slab's influence regions end "
+                   "at its own farthest sample (§4.3 far plane, per slab): smaller regions, same result",
+                   {}, 1, 64});
   specs.push_back({"restrict", ParamType::Bool, true,
                    "skip casters whose influence region's bounding box holds no listed sample (§4.3)", {}});
   return specs;

@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdio>
+#include <set>
 #include <string>
 
 #include "penumbra/core/error.h"
@@ -12,6 +13,7 @@
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/alias_free/influence_region.h"
+#include "penumbra/shadow/alias_free/pair_filter.h"
 #include "penumbra/shadow/alias_free/sample_masks.h"
 #include "penumbra/shadow/alias_free/texel_lists.h"
 #include "penumbra/shadow/shadow_method.h"
@@ -65,6 +67,151 @@ TEST(AliasFreeLut, LookupEqualsExactClassificationOnRandomPlanes) {
   }
 }
 
+TEST(AliasFreeGrid, CellsHoldEverySampleInsideTheThreeLines) {
+  for (int n : {64, 100, 256, 1024}) {
+    for (LightShape shape : {LightShape::Rect, LightShape::Disk}) {
+      AreaLight light = rect_light_down({0, 2, 0}, 1.5f, 0.7f);
+      light.shape = shape;
+      const afsm::LightSamples samples = afsm::make_light_samples(light, n, 3, 0, 0);
+      // The method's grid (about a sample per cell) and a fine one (a thousandth), where the
+      // bounds' rounding decides more cells.
+      for (float per_cell : {1.0f, 1e-3f}) {
+        const afsm::SampleGrid grid(samples.local, per_cell);
+        Rng rng(17, n);
+        long bounded = 0, inside = 0;
+        for (int i = 0; i < 20000; ++i) {
+          // A triangle around a random point, from a sample's size to the light's; every
+          // third one has its lines through sample points (on the rounding edge).
+          const Vec2f centre{rng.next_float() * 2.4f - 1.2f, rng.next_float() * 2.4f - 1.2f};
+          const float size = std::pow(10.0f, -3 + 3.3f * rng.next_float());
+          Vec2f v[3];
+          for (Vec2f& q : v) {
+            q = centre + Vec2f{rng.next_float() - 0.5f, rng.next_float() - 0.5f} * size;
+            if (i % 3 == 0) q = samples.local[std::min(n - 1, static_cast<int>(rng.next_float() * n))];
+          }
+          const float orientation = cross(v[1] - v[0], v[2] - v[0]) > 0 ? 1.0f : -1.0f;
+          afsm::Line lines[3];
+          for (int k = 0; k < 3; ++k) {
+            const Vec2f a = v[k], b = v[(k + 1) % 3];
+            const Vec2f g{-(b.y - a.y) * orientation, (b.x - a.x) * orientation};  // inward normal
+            const float scale = 0.01f + 10 * rng.next_float();
+            lines[k] = {g * scale, -dot(g, a) * scale};
+          }
+          afsm::SampleGrid::Range r;
+          if (!grid.triangle_cells(lines, grid.cells_x() * grid.cells_x(), &r)) continue;
+          ++bounded;
+          std::vector<char> candidate(n, 0);
+          for (int y = r.y0; y <= r.y1; ++y)
+            for (uint32_t k = grid.row_begin(y, r.x0); k < grid.row_end(y, r.x1); ++k) candidate[grid.index()[k]] = 1;
+          for (int s = 0; s < n; ++s) {
+            const Vec2f u = samples.local[s];
+            bool in = true;
+            for (const afsm::Line& l : lines) in = in && afsm::above(u.x, u.y, l.g, l.h);
+            if (!in) continue;
+            ++inside;
+            ASSERT_TRUE(candidate[s]) << "n " << n << " triangle " << i << " sample " << s;
+          }
+        }
+        EXPECT_GT(bounded, 15000) << n;  // non-degenerate triangles are bounded
+        EXPECT_GT(inside, 1000) << n;    // and hold samples
+      }
+    }
+  }
+}
+
+TEST(AliasFreePairs, SimdFilterEqualsTheScalarTest) {
+  // Random casters and samples around a rect light: filter_pairs keeps exactly the pairs the
+  // scalar test keeps, with bit-equal lines, and its cell ranges hold every sample inside.
+  AreaLight light = rect_light_down({0, 2, 0}, 1.5f, 1.5f);
+  const afsm::LightSamples samples = afsm::make_light_samples(light, 256, 3, 0, 0);
+  const afsm::PlaneMaskLut lut(samples.local, 0, 0);
+  const afsm::SampleGrid grid(samples.local);
+  const float R = samples.radius;
+  const Vec3f c = samples.center, ls = samples.s * R, lt = samples.t * R;
+  const int max_cells = 16;
+  const afsm::PairLight pl{{c.x, c.y, c.z}, {ls.x, ls.y, ls.z}, {lt.x, lt.y, lt.z},
+                           lut.max_distance2(), grid.geometry(), max_cells, &grid};
+  Rng rng(23);
+  const size_t n = 203;  // not a multiple of any vector width
+  std::vector<float> x(n + afsm::kPairPadding), y(x), z(x);
+  std::vector<uint32_t> settled(n + afsm::kPairPadding, 0);
+  for (size_t i = 0; i < n; ++i) {
+    x[i] = rng.next_float() * 4 - 2, y[i] = rng.next_float() * 0.6f, z[i] = rng.next_float() * 4 - 2;
+    settled[i] = i % 17 == 0;
+  }
+  const afsm::PairSamples ps{x.data(), y.data(), z.data(), settled.data(), nullptr, nullptr};
+  std::vector<afsm::PairSurvivor> out(n);
+  long kept = 0, on_grid = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    Vec3f v[3];
+    const Vec3f centre{rng.next_float() * 3 - 1.5f, 0.4f + rng.next_float() * 1.2f, rng.next_float() * 3 - 1.5f};
+    const float size = trial % 2 ? 0.02f : 0.3f;
+    for (Vec3f& q : v) q = centre + Vec3f(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f) * size;
+    afsm::PairCaster pc;
+    const Vec3f normal = cross(v[1] - v[0], v[2] - v[0]);
+    for (int k = 0; k < 3; ++k) {
+      const Vec3f d = v[(k + 1) % 3] - v[k];
+      for (int j = 0; j < 3; ++j) pc.v[k][j] = v[k][j], pc.d[k][j] = d[j];
+      pc.normal[k] = normal[k];
+    }
+    const float normal_len = length(normal);
+    pc.flat_scale = 1e-5f * 1e-5f * normal_len * normal_len;
+    pc.closed = trial % 3 == 0;
+    size_t tested = 0;
+    const size_t count = afsm::filter_pairs(pl, pc, ps, 0, static_cast<uint32_t>(n), out.data(), &tested);
+    size_t j = 0, expect_tested = 0;
+    for (uint32_t slot = 0; slot < n; ++slot) {
+      if (settled[slot]) continue;
+      ++expect_tested;
+      // The scalar test (alias_free.cpp before the SIMD form).
+      const Vec3f p{x[slot], y[slot], z[slot]};
+      const Vec3f to_p = p - v[0];
+      const float side = dot(normal, to_p);
+      const float flat2 = 1e-5f * 1e-5f * normal_len * normal_len * dot(to_p, to_p);
+      bool keep = (pc.closed ? side > 0 : side != 0) && side * side > flat2;
+      afsm::Line lines[3];
+      for (int k = 0; k < 3 && keep; ++k) {
+        const Vec3f a = v[k] - p, d = v[(k + 1) % 3] - v[k];
+        const Vec3f e = side > 0 ? cross(d, a) : cross(a, d);
+        lines[k] = {{dot(e, ls), dot(e, lt)}, dot(e, c - p)};
+        keep = lut.side_of_disk(lines[k].g, lines[k].h) >= 0;
+      }
+      std::vector<int> inside;
+      for (int s = 0; s < samples.size() && keep; ++s) {
+        const Vec2f u = samples.local[s];
+        bool in = true;
+        for (const afsm::Line& l : lines) in = in && afsm::above(u.x, u.y, l.g, l.h);
+        if (in) inside.push_back(s);
+      }
+      if (!keep) continue;
+      // The filter may drop a kept pair only when its triangle is beside every sample.
+      if (j == count || out[j].slot != slot) {
+        EXPECT_TRUE(inside.empty()) << "trial " << trial << " slot " << slot;
+        continue;
+      }
+      const afsm::PairSurvivor& o = out[j++];
+      ++kept;
+      EXPECT_EQ(o.side, side);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(o.edges[k].g.x, lines[k].g.x) << trial;
+        EXPECT_EQ(o.edges[k].g.y, lines[k].g.y) << trial;
+        EXPECT_EQ(o.edges[k].h, lines[k].h) << trial;
+      }
+      if (!o.on_grid) continue;
+      ++on_grid;
+      EXPECT_LE((o.x1 - o.x0 + 1) * (o.y1 - o.y0 + 1), max_cells);
+      std::set<int> cells;
+      for (int cy = o.y0; cy <= o.y1; ++cy)
+        for (uint32_t k = grid.row_begin(cy, o.x0); k < grid.row_end(cy, o.x1); ++k) cells.insert(grid.index()[k]);
+      for (int s : inside) EXPECT_TRUE(cells.count(s)) << "trial " << trial << " sample " << s;
+    }
+    EXPECT_EQ(j, count) << trial;  // no survivor the scalar test drops
+    EXPECT_EQ(tested, expect_tested);
+  }
+  EXPECT_GT(kept, 1000);
+  EXPECT_GT(on_grid, 300);
+}
+
 TEST(AliasFreeLut, SamplesAreTheLightsAreaPoints) {
   AreaLight light = rect_light_down({0, 2, 0}, 1.5f, 0.7f);
   const afsm::LightSamples s = afsm::make_light_samples(light, 256, 3, 0, 0);
@@ -116,6 +263,45 @@ TEST(AliasFreeLists, EverySampleIsListedOnceAtItsTexel) {
   const afsm::TexelLists::Occupancy occ = lists.occupancy();
   EXPECT_GT(occ.occupied, 0u);
   EXPECT_NEAR(occ.average * occ.occupied, lists.slots(), 1e-6);
+
+  // Depth slabs: every slot once, a (slab, texel)'s slots contiguous in slab-major then
+  // texel order, each slab nearer than the next and within its far plane, about equal slab
+  // sizes; the summed areas count them.
+  std::vector<float> depth(lists.slots());
+  for (size_t s = 0; s < lists.slots(); ++s) depth[s] = view.linear_depth(lists.positions[s]);
+  afsm::DepthSlabs slabs = afsm::split_by_depth(lists, depth, 4);
+  ASSERT_EQ(slabs.count, 4);
+  ASSERT_EQ(slabs.slots(), lists.slots());
+  slabs.build_summed_areas();
+  std::vector<int> listed(lists.slots(), 0);
+  std::vector<float> slab_min(4, kInfinity), slab_max(4, 0);
+  std::vector<size_t> slab_size(4, 0);
+  uint32_t next = 0;
+  for (int k = 0; k < 4; ++k)
+    for (int y = 0; y < lists.height; ++y)
+      for (int x = 0; x < lists.width; ++x) {
+        const size_t t = lists.texel(x, y);
+        ASSERT_EQ(slabs.begin(k, t), next);
+        EXPECT_EQ(slabs.count_in(k, x, y, x + 1, y + 1), slabs.end(k, t) - slabs.begin(k, t));
+        for (uint32_t s = slabs.begin(k, t); s < slabs.end(k, t); ++s, ++next) {
+          const uint32_t from = slabs.list_slot[s];
+          ASSERT_GE(from, lists.begin(x, y));  // from this texel's list
+          ASSERT_LT(from, lists.end(x, y));
+          if (s > slabs.begin(k, t)) EXPECT_GT(from, slabs.list_slot[s - 1]);  // in list order
+          EXPECT_EQ(slabs.sample[s], lists.sample[from]);
+          EXPECT_EQ(slabs.positions[s], lists.positions[from]);
+          listed[from]++;
+          EXPECT_LE(depth[from], slabs.far[k]);
+          slab_min[k] = std::min(slab_min[k], depth[from]), slab_max[k] = std::max(slab_max[k], depth[from]);
+          slab_size[k]++;
+        }
+      }
+  EXPECT_EQ(next, lists.slots());
+  for (int c : listed) EXPECT_EQ(c, 1);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_NEAR(static_cast<double>(slab_size[k]), lists.slots() / 4.0, 2.0);
+    if (k > 0) EXPECT_LT(slab_max[k - 1], slab_min[k]);
+  }
 }
 
 // ---- influence regions ---------------------------------------------------------------
@@ -394,6 +580,8 @@ TEST(AliasFreeShapes, TableAndExactTestsAgreeAndRestrictionsChangeNothing) {
   const std::vector<float> lut = run_method(r, "afsm", 128, {"resolution=96"});
   EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=96", "lut=false"}));
   EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=96", "restrict=false"}));
+  EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=96", "slabs=1"}));
+  EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=96", "slabs=64", "restrict=false"}));
   MethodStats stats;
   EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=96", "silhouettes=true"}, &stats));
   // The small scene has samples away from every silhouette edge: they take the centre's bit.

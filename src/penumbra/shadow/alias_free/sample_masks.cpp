@@ -117,7 +117,7 @@ void PlaneMaskLut::exact(Vec2f g, float h, uint64_t* out) const {
     const int base = w * 64, count = std::min(64, n - base);
     uint64_t bits = 0;
     for (int b = 0; b < count; ++b)
-      bits |= static_cast<uint64_t>(ux_[base + b] * g.x + uy_[base + b] * g.y + h > 0) << b;
+      bits |= static_cast<uint64_t>(above(ux_[base + b], uy_[base + b], g, h)) << b;
     out[w] = bits;
   }
 }
@@ -144,12 +144,99 @@ int PlaneMaskLut::lookup(Vec2f g, float h, uint64_t* out) const {
     uint64_t bits = sure[w];
     for (uint64_t u = unsure[w]; u; u &= u - 1) {
       const int i = w * 64 + std::countr_zero(u);
-      bits |= static_cast<uint64_t>(ux_[i] * g.x + uy_[i] * g.y + h > 0) << (i & 63);
+      bits |= static_cast<uint64_t>(above(ux_[i], uy_[i], g, h)) << (i & 63);
       ++tested;
     }
     out[w] = bits;
   }
   return tested;
+}
+
+SampleGrid::SampleGrid(std::span<const Vec2f> samples, float per_cell) {
+  const int n = static_cast<int>(samples.size());
+  if (n < 1 || n > kMaxLightSamples) throw Error("afsm: {} light samples (must be in [1, {}])", n, kMaxLightSamples);
+  cells_ = std::max(1, static_cast<int>(std::lround(std::sqrt(n / std::max(per_cell, 1e-3f)))));
+  float& x1 = x1_;
+  float& y1 = y1_;
+  x1 = -kInfinity, y1 = -kInfinity;
+  x0_ = kInfinity, y0_ = kInfinity;
+  reach_ = 0;
+  for (Vec2f u : samples) {
+    x0_ = std::min(x0_, u.x), y0_ = std::min(y0_, u.y), x1 = std::max(x1, u.x), y1 = std::max(y1, u.y);
+    reach_ = std::max({reach_, std::abs(double(u.x)), std::abs(double(u.y))});
+  }
+  inv_w_ = x1 > x0_ ? cells_ / (x1 - x0_) : 1.0f;
+  inv_h_ = y1 > y0_ ? cells_ / (y1 - y0_) : 1.0f;
+  // Counting sort by cell (row-major), samples in index order inside a cell.
+  std::vector<uint32_t> cell(n);
+  first_.assign(static_cast<size_t>(cells_) * cells_ + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    cell[i] = static_cast<uint32_t>(cell_y(samples[i].y) * cells_ + cell_x(samples[i].x));
+    first_[cell[i] + 1]++;
+  }
+  for (size_t c = 1; c < first_.size(); ++c) first_[c] += first_[c - 1];
+  std::vector<uint32_t> next(first_.begin(), first_.end() - 1);
+  // (x_ and y_ padded for whole SIMD vectors: pair_filter's inside_cells.)
+  index_.resize(n), x_.resize(n + 64, 0.0f), y_.resize(n + 64, 0.0f);
+  for (int i = 0; i < n; ++i) {
+    const uint32_t at = next[cell[i]]++;
+    index_[at] = static_cast<uint16_t>(i);
+    x_[at] = samples[i].x;
+    y_[at] = samples[i].y;
+  }
+}
+
+// Monotone in ux (a subtraction and a product by a positive constant, each rounded), so a
+// sample between two bounds lies in a cell between theirs.
+int SampleGrid::cell_x(float ux) const {
+  const float f = (ux - x0_) * inv_w_;
+  return f <= 0 ? 0 : f >= static_cast<float>(cells_ - 1) ? cells_ - 1 : static_cast<int>(f);
+}
+int SampleGrid::cell_y(float uy) const {
+  const float f = (uy - y0_) * inv_h_;
+  return f <= 0 ? 0 : f >= static_cast<float>(cells_ - 1) ? cells_ - 1 : static_cast<int>(f);
+}
+
+bool SampleGrid::triangle_cells(const Line lines[3], int max_cells, Range* out) const {
+  // above() computes g.x u.x + g.y u.y + h in float: at most 2 roundings of terms bounded by
+  // S = |g.x| reach + |g.y| reach + |h|, so a sample it puts on the positive side satisfies
+  // g . u + h >= -2^-22 S exactly. Relax each line by 2^-18 S and bound that triangle.
+  double gx[3], gy[3], h[3];
+  for (int k = 0; k < 3; ++k) {
+    gx[k] = lines[k].g.x, gy[k] = lines[k].g.y;
+    h[k] = double(lines[k].h) + 0x1p-18 * ((std::abs(gx[k]) + std::abs(gy[k])) * reach_ + std::abs(double(lines[k].h)));
+  }
+  // The positive sides meet in a bounded triangle (or nothing) iff the normals positively
+  // span the plane: the three cross products of consecutive normals share a strict sign
+  // (products of floats are exact in double, so the signs are exact).
+  double c[3];
+  for (int k = 0; k < 3; ++k) {
+    const int j = (k + 1) % 3;
+    c[k] = gx[k] * gy[j] - gy[k] * gx[j];
+  }
+  if (!((c[0] > 0 && c[1] > 0 && c[2] > 0) || (c[0] < 0 && c[1] < 0 && c[2] < 0))) return false;
+  double bx0 = kInfinity, by0 = kInfinity, bx1 = -kInfinity, by1 = -kInfinity;
+  for (int k = 0; k < 3; ++k) {
+    const int j = (k + 1) % 3;
+    const double x = (h[j] * gy[k] - h[k] * gy[j]) / c[k];
+    const double y = (h[k] * gx[j] - h[j] * gx[k]) / c[k];
+    bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y), by1 = std::max(by1, y);
+  }
+  if (!(bx1 - bx0 < 1e30 && by1 - by0 < 1e30)) return false;  // (nearly) parallel lines
+  // The vertices' own rounding (a few ulps of double) is far below the relaxation; widen by
+  // a float ulp more so that converting the bounds to float keeps them outside.
+  const double pad = 1e-6 * (1 + reach_);
+  bx0 -= pad, by0 -= pad, bx1 += pad, by1 += pad;
+  const double lo = -2 * reach_ - 1, hi = 2 * reach_ + 1;  // outside the samples: clamp
+  if (bx1 < -reach_ || by1 < -reach_ || bx0 > reach_ || by0 > reach_) {
+    *out = {0, 0, -1, -1};
+    return true;
+  }
+  out->x0 = cell_x(static_cast<float>(std::clamp(bx0, lo, hi)));
+  out->x1 = cell_x(static_cast<float>(std::clamp(bx1, lo, hi)));
+  out->y0 = cell_y(static_cast<float>(std::clamp(by0, lo, hi)));
+  out->y1 = cell_y(static_cast<float>(std::clamp(by1, lo, hi)));
+  return (out->x1 - out->x0 + 1) * (out->y1 - out->y0 + 1) <= max_cells;
 }
 
 }  // namespace penumbra::afsm

@@ -44,6 +44,16 @@ LightSamples make_light_samples(const AreaLight& light, int n, uint64_t seed, in
 // Words of 64 bits for n samples.
 inline int mask_words(int n) { return (n + 63) / 64; }
 
+// The exact test of one light sample u against the line g . u + h > 0, in float, written once
+// so that the table, the exact masks and the sample grid classify every sample the same way.
+inline bool above(float ux, float uy, Vec2f g, float h) { return ux * g.x + uy * g.y + h > 0; }
+
+// A line on the light's sample plane; a sample u is on its positive side when above(u, g, h).
+struct Line {
+  Vec2f g;
+  float h;
+};
+
 class PlaneMaskLut {
  public:
   // angle_bins x distance_bins cells; 0 bins = no table (every lookup tests every sample).
@@ -65,6 +75,7 @@ class PlaneMaskLut {
     exact(g, h, out);
     return size();
   }
+  float max_distance2() const { return max_distance2_; }
   // The mask with every sample set.
   const uint64_t* all() const { return all_.data(); }
 
@@ -87,6 +98,56 @@ class PlaneMaskLut {
   float max_distance2_ = 1;
   // Per cell (angle-major): words_ sure bits, then words_ unsure bits.
   std::vector<uint64_t> cells_;
+};
+
+// The light samples binned in a uniform grid of cells over their bounding box (CPU adaptation
+// of §4.2's lookup; docs/methods/alias-free.md): where a triangle seen from a view sample
+// projects onto the light as a small triangle (the common case with many small casters),
+// only the samples of the cells its bounding box touches are tested, with the same exact
+// test as the table (`above`), instead of building N-bit masks of three or four planes.
+class SampleGrid {
+ public:
+  // About `per_cell` samples per cell on average.
+  SampleGrid(std::span<const Vec2f> samples, float per_cell = 1);
+
+  // Cells [x0, x1] x [y0, y1] (inclusive) that hold every sample which may be on the positive
+  // side of all three lines by `above` (rounding included). False when the three lines do not
+  // bound a triangle (their positive sides are unbounded) or the bounding box reaches over
+  // more than `max_cells` cells: then the caller builds the masks plane by plane. An empty
+  // range (x0 > x1) means no sample can be on the positive side of all three.
+  struct Range {
+    int x0, y0, x1, y1;
+  };
+  bool triangle_cells(const Line lines[3], int max_cells, Range* out) const;
+
+  int cells_x() const { return cells_; }
+  // The grid's placement (for the SIMD form of triangle_cells in pair_filter): the samples
+  // lie in [x0, x1] x [y0, y1]; a coordinate u is in column cell_x(u) (likewise rows);
+  // reach = max |u.x|, |u.y|.
+  struct Geometry {
+    float x0, y0, x1, y1, inv_w, inv_h, reach;
+    int cells;
+  };
+  Geometry geometry() const { return {x0_, y0_, x1_, y1_, inv_w_, inv_h_, static_cast<float>(reach_), cells_}; }
+  // The samples of cells [x0, x1] of row y are slots [row_begin(y, x0), row_end(y, x1)) of
+  // index(), x(), y() (row-major cell order).
+  uint32_t row_begin(int y, int x0) const { return first_[static_cast<size_t>(y) * cells_ + x0]; }
+  uint32_t row_end(int y, int x1) const { return first_[static_cast<size_t>(y) * cells_ + x1 + 1]; }
+  const uint16_t* index() const { return index_.data(); }  // the sample's bit
+  const uint32_t* first() const { return first_.data(); }   // row-major cells' first positions
+  const float* x() const { return x_.data(); }
+  const float* y() const { return y_.data(); }
+
+ private:
+  int cell_x(float ux) const;
+  int cell_y(float uy) const;
+
+  int cells_ = 1;
+  float x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0, inv_w_ = 1, inv_h_ = 1;
+  double reach_ = 1;  // max |u.x|, |u.y| over the samples
+  std::vector<uint32_t> first_;  // cells_^2 + 1
+  std::vector<uint16_t> index_;
+  std::vector<float> x_, y_;
 };
 
 // A monotone stand-in for atan2 on [0, 4) (the "diamond angle"): cheaper than atan2, and

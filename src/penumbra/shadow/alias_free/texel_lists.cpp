@@ -85,4 +85,83 @@ uint64_t TexelLists::count_in(int x0, int y0, int x1, int y1) const {
          summed_[y0 * w1 + x0];
 }
 
+DepthSlabs split_by_depth(const TexelLists& lists, std::span<const float> depth, int slabs) {
+  const size_t slots = lists.slots();
+  if (depth.size() != slots) throw Error("split_by_depth: {} depths for {} slots", depth.size(), slots);
+  DepthSlabs out;
+  out.width = lists.width, out.height = lists.height;
+  out.texels = lists.first.empty() ? 0 : lists.first.size() - 1;
+  // Slab boundaries at depth quantiles (equal slot counts); equal depths stay in one slab.
+  std::vector<float> sorted(depth.begin(), depth.end());
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<float> upper;  // slab k holds depths <= upper[k] (and > upper[k - 1])
+  slabs = std::clamp(slabs, 1, 255);
+  for (int k = 1; k <= slabs && !sorted.empty(); ++k) {
+    const float u = sorted[std::min(slots - 1, (slots * k + slabs - 1) / slabs - 1)];
+    if (upper.empty() || u > upper.back()) upper.push_back(u);
+  }
+  if (upper.empty()) upper.push_back(0);
+  upper.back() = kInfinity;
+  out.count = static_cast<int>(upper.size());
+  std::vector<uint8_t> slab(slots);
+  out.far.assign(out.count, 0.0f);
+  for (size_t i = 0; i < slots; ++i) {
+    slab[i] = static_cast<uint8_t>(std::lower_bound(upper.begin(), upper.end(), depth[i]) - upper.begin());
+    out.far[slab[i]] = std::max(out.far[slab[i]], depth[i]);
+  }
+  for (float& f : out.far) f = f * (1 + 1e-4f) + 1e-6f;
+  // Count per (slab, texel), exclusive prefix sum in slab-major order, then scatter in list
+  // order (each texel's list is walked in order, so a (slab, texel) keeps its list order).
+  out.bounds.assign(out.count * out.texels + 1, 0);
+  for (size_t t = 0; t < out.texels; ++t)
+    for (uint32_t i = lists.first[t]; i < lists.first[t + 1]; ++i) out.bounds[slab[i] * out.texels + t + 1]++;
+  for (size_t i = 1; i < out.bounds.size(); ++i) out.bounds[i] += out.bounds[i - 1];
+  out.positions.resize(slots);
+  out.sample.resize(slots);
+  out.list_slot.resize(slots);
+  for (size_t t = 0; t < out.texels; ++t) {
+    uint32_t cursor[256];  // per slab met in this texel
+    for (uint32_t i = lists.first[t]; i < lists.first[t + 1]; ++i) cursor[slab[i]] = out.bounds[slab[i] * out.texels + t];
+    for (uint32_t i = lists.first[t]; i < lists.first[t + 1]; ++i) {
+      const uint32_t to = cursor[slab[i]]++;
+      out.positions[to] = lists.positions[i];
+      out.sample[to] = lists.sample[i];
+      out.list_slot[to] = i;
+    }
+  }
+  return out;
+}
+
+size_t DepthSlabs::memory_bytes() const {
+  return bounds.size() * sizeof(uint32_t) + positions.size() * sizeof(Vec3f) +
+         (sample.size() + list_slot.size() + summed_.size()) * sizeof(uint32_t);
+}
+
+void DepthSlabs::build_summed_areas() {
+  const size_t w1 = static_cast<size_t>(width) + 1, plane = w1 * (height + 1);
+  summed_.assign(count * plane, 0);
+  for (int k = 0; k < count; ++k) {
+    uint32_t* s = summed_.data() + k * plane;
+    for (int y = 0; y < height; ++y) {
+      uint32_t row = 0;
+      for (int x = 0; x < width; ++x) {
+        const size_t t = static_cast<size_t>(y) * width + x;
+        row += end(k, t) - begin(k, t);
+        s[(y + 1) * w1 + x + 1] = s[y * w1 + x + 1] + row;
+      }
+    }
+  }
+}
+
+uint64_t DepthSlabs::count_in(int k, int x0, int y0, int x1, int y1) const {
+  x0 = std::clamp(x0, 0, width);
+  x1 = std::clamp(x1, 0, width);
+  y0 = std::clamp(y0, 0, height);
+  y1 = std::clamp(y1, 0, height);
+  if (x0 >= x1 || y0 >= y1) return 0;
+  const size_t w1 = static_cast<size_t>(width) + 1;
+  const uint32_t* s = summed_.data() + k * w1 * (height + 1);
+  return static_cast<uint64_t>(s[y1 * w1 + x1]) - s[y0 * w1 + x1] - s[y1 * w1 + x0] + s[y0 * w1 + x0];
+}
+
 }  // namespace penumbra::afsm

@@ -44,6 +44,40 @@ struct TexelLists {
   std::vector<uint32_t> summed_;  // (width + 1) x (height + 1)
 };
 
+// The lists cut into slabs of depth from the light (CPU adaptation of sintorn2008 §4.3
+// "Parametrization", which fits one far plane to the farthest view sample to keep the
+// influence regions small): a caster's influence region on slab k's own far plane holds
+// every sample of slab k it can shadow, and is smaller than the region on the farthest
+// plane; casters wholly behind a slab's samples cannot shadow them at all. The slots are
+// copied in slab-major, then texel (row-major), then list order, so that the samples of
+// slab k in a row span of texels [x0, x1) are one range of slots:
+// [begin(k, texel(x0, y)), end(k, texel(x1 - 1, y))).
+struct DepthSlabs {
+  int count = 0;
+  int width = 0, height = 0;
+  size_t texels = 0;
+  std::vector<float> far;            // per slab: its farthest sample's depth, padded
+  std::vector<uint32_t> bounds;      // count x texels + 1: slab k, texel t starts at bounds[k * texels + t]
+  std::vector<Vec3f> positions;      // per slot (slab order)
+  std::vector<uint32_t> sample;      // per slot: the list's id (TexelLists::sample)
+  std::vector<uint32_t> list_slot;   // per slot: its slot in the TexelLists
+  size_t slots() const { return positions.size(); }
+  uint32_t begin(int k, size_t texel) const { return bounds[k * texels + texel]; }
+  uint32_t end(int k, size_t texel) const { return bounds[k * texels + texel + 1]; }
+  // Slots of slab k in the texel rectangle [x0, x1) x [y0, y1) (clamped), from summed-area
+  // tables (build_summed_areas()).
+  void build_summed_areas();
+  uint64_t count_in(int k, int x0, int y0, int x1, int y1) const;
+  size_t memory_bytes() const;
+
+ private:
+  std::vector<uint32_t> summed_;  // count x (width + 1) x (height + 1)
+};
+
+// Splits the lists into up to `slabs` slabs holding about equal numbers of slots (`depth`:
+// each list slot's linear depth from the light).
+DepthSlabs split_by_depth(const TexelLists& lists, std::span<const float> depth, int slabs);
+
 // Lists `points` (ids[i] names points[i]) at the texels of `view` they project into; points
 // behind the near plane or outside the image are counted in `uncovered`.
 TexelLists build_texel_lists(const LightView& view, std::span<const Vec3f> points, std::span<const uint32_t> ids);
