@@ -5,6 +5,8 @@
 // std::min/max), so every target gives the same bits.
 #include "penumbra/raster/depth_image_walk.h"
 
+#include <algorithm>
+
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "penumbra/raster/depth_image_walk.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -24,8 +26,11 @@ void SplitPacketNode(const PacketRays& rays, const PacketNodeInput& in, PacketNo
   const auto xm = hn::Set(d, in.xm), ym = hn::Set(d, in.ym);
   const auto all = hn::FirstN(d, static_cast<size_t>(N)), none = hn::FirstN(d, 0);
   const auto has_x1 = in.has_x1 ? all : none, has_y1 = in.has_y1 ? all : none;
-  for (int c = 0; c < 4; ++c) out->rays[c] = 0;
+  const auto inf = hn::Set(d, hwy::HighestValue<float>());
+  for (int c = 0; c < 4; ++c) out->rays[c] = 0, out->first[c] = hwy::HighestValue<float>();
   for (int i = 0; i < K; i += N) {
+    const uint8_t active_bits[8] = {static_cast<uint8_t>(in.rays >> i), 0, 0, 0, 0, 0, 0, 0};
+    const auto active = hn::LoadMaskBits(d, active_bits);
     const auto ta = hn::LoadU(d, in.ta + i), tb = hn::LoadU(d, in.tb + i);
     auto a = ta, b = tb;
     auto pass = all;
@@ -68,12 +73,13 @@ void SplitPacketNode(const PacketRays& rays, const PacketNodeInput& in, PacketNo
       const int cx = c & 1, cy = c >> 1;
       const auto u = hn::IfThenElse(hn::Lt(xa[cx], ya[cy]), ya[cy], xa[cx]);
       const auto v = hn::IfThenElse(hn::Lt(yb[cy], xb[cx]), yb[cy], xb[cx]);
-      const auto ok = hn::And(hn::And(pass, hn::And(xin[cx], yin[cy])), hn::Le(u, v));
+      const auto ok = hn::And(hn::And(hn::And(active, pass), hn::And(xin[cx], yin[cy])), hn::Le(u, v));
       hn::StoreU(u, d, out->ka[c] + i);
       hn::StoreU(v, d, out->kb[c] + i);
       uint8_t bits[8] = {0};
       hn::StoreMaskBits(d, ok, bits);
       out->rays[c] |= static_cast<uint32_t>(bits[0]) << i;
+      out->first[c] = std::min(out->first[c], hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(ok, u, inf))));
     }
   }
 }

@@ -429,6 +429,7 @@ struct PacketNodeInput {
   const float* ta;
   const float* tb;
   const float* pass;  // without min/max clipping: non-zero where the ray's depth overlaps the range
+  uint32_t rays;      // the rays that walk the node (bit i: lane i)
   float lo, hi;
   float xm, ym;
   bool has_x1, has_y1;
@@ -441,6 +442,7 @@ struct PacketNodeOutput {
   float a[kDepthWalkPacket], b[kDepthWalkPacket];
   float ka[4][kDepthWalkPacket], kb[4][kDepthWalkPacket];
   uint32_t rays[4];
+  float first[4];  // the smallest entry parameter over each child's rays (the packet's order)
 };
 // The node step of the single-ray walk (clip_axis of the depth, split_axis on both axes,
 // the children's clip) for every lane at once (SIMD, depth_image_walk.cpp): the same floats.
@@ -588,10 +590,10 @@ void walk_depth_image_packet(const MinMaxPyramid& pyramid, std::span<const Depth
     in.xm = float((cx0 + 1) << cl);
     in.ym = float((cy0 + 1) << cl);
     in.minmax_clipping = opt.minmax_clipping;
+    in.rays = m;
     depth_walk_detail::PacketNodeOutput& split = node_out;
     depth_walk_detail::split_packet_node(rays, in, &split);
-    uint32_t kin[4];
-    for (int c = 0; c < 4; ++c) kin[c] = split.rays[c] & m;
+    const uint32_t* kin = split.rays;
     const auto& ka = split.ka;
     const auto& kb = split.kb;
     // Children in the order of their earliest entry over the packet's rays.
@@ -599,8 +601,7 @@ void walk_depth_image_packet(const MinMaxPyramid& pyramid, std::span<const Depth
     float first[4];
     for (int c = 0; c < 4; ++c) {
       if (!kin[c]) continue;
-      float f = kInfinity;
-      for (uint32_t mm = kin[c]; mm; mm &= mm - 1) f = std::min(f, ka[c][__builtin_ctz(mm)]);
+      const float f = split.first[c];
       int k = nk++;
       while (k > 0 && first[k - 1] > f) {
         first[k] = first[k - 1];

@@ -165,14 +165,12 @@ void trace_packets(const TraceSetup& s, const Map& map, const RayReceiver& r, st
     for (size_t k = 0; k < count; ++k) {
       bool blocked = false;
       counters->rays++;
-      RaySetup one;
-      if (!setup_ray(s, map.z_min, r, q[first + k], &one, &blocked)) {
+      if (!setup_ray(s, map.z_min, r, q[first + k], &rs[walked], &blocked)) {
         out[first + k] = blocked ? 0.0f : 1.0f;
         continue;
       }
       out[first + k] = 1.0f;
-      rs[walked] = one;
-      segs[walked] = one.ps.segment;
+      segs[walked] = rs[walked].ps.segment;
       ray_of[walked++] = static_cast<int>(first + k);
     }
     walk_depth_image_packet(
