@@ -29,7 +29,8 @@ void SplitPacketNode(const PacketRays& rays, const PacketNodeInput& in, PacketNo
   const auto inf = hn::Set(d, hwy::HighestValue<float>());
   for (int c = 0; c < 4; ++c) out->rays[c] = 0, out->first[c] = hwy::HighestValue<float>();
   for (int i = 0; i < K; i += N) {
-    const uint8_t active_bits[8] = {static_cast<uint8_t>(in.rays >> i), 0, 0, 0, 0, 0, 0, 0};
+    const uint32_t lane_rays = in.rays >> i;
+    const uint8_t active_bits[8] = {static_cast<uint8_t>(lane_rays), static_cast<uint8_t>(lane_rays >> 8), 0, 0, 0, 0, 0, 0};
     const auto active = hn::LoadMaskBits(d, active_bits);
     const auto ta = hn::LoadU(d, in.ta + i), tb = hn::LoadU(d, in.tb + i);
     auto a = ta, b = tb;
@@ -78,7 +79,7 @@ void SplitPacketNode(const PacketRays& rays, const PacketNodeInput& in, PacketNo
       hn::StoreU(v, d, out->kb[c] + i);
       uint8_t bits[8] = {0};
       hn::StoreMaskBits(d, ok, bits);
-      out->rays[c] |= static_cast<uint32_t>(bits[0]) << i;
+      out->rays[c] |= (static_cast<uint32_t>(bits[0]) | static_cast<uint32_t>(bits[1]) << 8) << i;
       out->first[c] = std::min(out->first[c], hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(ok, u, inf))));
     }
   }

@@ -226,6 +226,7 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
   struct Entry {
     int level, x, y;  // level -1: a deferred skip span (reason in x)
     float ta, tb;
+    DepthRange range;  // the node's, read when it is pushed (its siblings' loads overlap)
   };
   // Depth-first with at most 3 siblings and one deferred span pending per level: 4 * 32 + 2
   // entries cover any image the rasterizer can make (16384^2: 15 levels).
@@ -269,9 +270,9 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
   if (clip_box(0, 0, float(W), float(H), &ta, &tb)) {
     if constexpr (kSkips) {
       if (ta > seg.t0) report(seg.t0, ta, SkipReason::Outside, -1);
-      if (tb < seg.t1) stack[top++] = {-1, int(SkipReason::Outside), 0, tb, seg.t1};
+      if (tb < seg.t1) stack[top++] = {-1, int(SkipReason::Outside), 0, tb, seg.t1, {}};
     }
-    stack[top++] = {n_levels - 1, 0, 0, ta, tb};
+    stack[top++] = {n_levels - 1, 0, 0, ta, tb, level_nodes[n_levels - 1][0]};
   } else {
     report(seg.t0, seg.t1, SkipReason::Outside, -1);
   }
@@ -286,7 +287,7 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
     }
     ++n_nodes;
     if (e.level == 0) {
-      DepthRange r = level_nodes[0][static_cast<size_t>(e.y) * W + e.x];
+      const DepthRange r = e.range;
       if (r.empty()) {
         report(e.ta, e.tb, SkipReason::Empty, 0);
         continue;
@@ -320,7 +321,7 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
       }
       continue;
     }
-    DepthRange r = level_nodes[e.level][static_cast<size_t>(e.y) * level_width[e.level] + e.x];
+    const DepthRange r = e.range;
     if (r.empty()) {
       report(e.ta, e.tb, SkipReason::Empty, e.level);
       continue;
@@ -362,7 +363,7 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
     if constexpr (kSkips) {
       // The clipped-off ends: before the children now, after them later.
       if (a > e.ta) report(e.ta, a, side(e.ta, r), e.level);
-      if (b < e.tb) stack[top++] = {-1, int(side(e.tb, r)), e.level, b, e.tb};
+      if (b < e.tb) stack[top++] = {-1, int(side(e.tb, r)), e.level, b, e.tb, {}};
     }
     // Children in the order the segment enters them. The node's interval [a, b] is already
     // clipped to its own box (and every child shares two of its edges), so a child's
@@ -371,6 +372,8 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
     // change nothing), for a quarter of the work.
     const int cl = e.level - 1, cx0 = 2 * e.x, cy0 = 2 * e.y;
     const bool has_x1 = cx0 + 1 < level_width[cl], has_y1 = cy0 + 1 < level_height[cl];
+    const DepthRange* child_nodes = level_nodes[cl];
+    const size_t child_width = static_cast<size_t>(level_width[cl]);
     float xa[2] = {a, a}, xb[2] = {b, b}, ya[2] = {a, a}, yb[2] = {b, b};
     bool xin[2] = {true, has_x1}, yin[2] = {true, has_y1};
     if (has_x1) split_axis(seg.p0.x, dx, ix, float((cx0 + 1) << cl), a, b, xa, xb, xin);
@@ -383,7 +386,7 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
         if (!xin[i]) continue;
         const float ka = std::max(xa[i], ya[j]), kb = std::min(xb[i], yb[j]);
         if (!(ka <= kb)) continue;
-        Entry k{cl, cx0 + i, cy0 + j, ka, kb};
+        Entry k{cl, cx0 + i, cy0 + j, ka, kb, child_nodes[static_cast<size_t>(cy0 + j) * child_width + cx0 + i]};
         int n = nk++;
         while (n > 0 && (kids[n - 1].ta > ka || (kids[n - 1].ta == ka && kids[n - 1].tb > kb))) {
           kids[n] = kids[n - 1];
@@ -412,7 +415,7 @@ bool walk_depth_image(const MinMaxPyramid& pyramid, const DepthImageSegment& seg
 }
 
 // Rays walked together by walk_depth_image_packet.
-inline constexpr int kDepthWalkPacket = 8;
+inline constexpr int kDepthWalkPacket = 16;
 
 namespace depth_walk_detail {
 
@@ -471,7 +474,8 @@ void walk_depth_image_packet(const MinMaxPyramid& pyramid, std::span<const Depth
   if (n <= 0 || pyramid.levels() == 0) return;
   struct Entry {
     int level, x, y;
-    uint32_t rays;  // bit i: ray i walks this node
+    uint32_t rays;     // bit i: ray i walks this node
+    DepthRange range;  // the node's, read when it is pushed
     float ta[K], tb[K];
   };
   // Depth-first with at most 3 siblings pending per level (32 levels at most).
@@ -500,8 +504,8 @@ void walk_depth_image_packet(const MinMaxPyramid& pyramid, std::span<const Depth
   float* dd = rays.dd;
   float* id = rays.id;
   depth_walk_detail::PacketNodeOutput node_out;
-  static constexpr auto kRayCount = [] {
-    std::array<uint8_t, 1u << K> c{};
+  static constexpr auto kRayCount = [] {  // rays in a byte of a mask
+    std::array<uint8_t, 256> c{};
     for (uint32_t v = 0; v < c.size(); ++v)
       for (uint32_t w = v; w; w &= w - 1) ++c[v];
     return c;
@@ -509,7 +513,7 @@ void walk_depth_image_packet(const MinMaxPyramid& pyramid, std::span<const Depth
   uint64_t n_nodes = 0, n_texels = 0;
   uint32_t live = 0;  // rays not stopped
   Entry& root = stack[top++];
-  root = {n_levels - 1, 0, 0, 0u, {}, {}};
+  root = {n_levels - 1, 0, 0, 0u, level_nodes[n_levels - 1][0], {}, {}};
   for (int i = 0; i < K; ++i) {
     const DepthImageSegment& sg = segs[i < n ? i : 0];
     px[i] = sg.p0.x, py[i] = sg.p0.y, d0[i] = sg.d0;
@@ -533,9 +537,9 @@ void walk_depth_image_packet(const MinMaxPyramid& pyramid, std::span<const Depth
     const Entry& e = stack[--top];
     uint32_t m = e.rays & live;
     if (!m) continue;
-    n_nodes += static_cast<uint64_t>(kRayCount[m]);
+    n_nodes += static_cast<uint64_t>(kRayCount[m & 0xff] + kRayCount[(m >> 8) & 0xff]);
     if (e.level == 0) {
-      const DepthRange r = level_nodes[0][static_cast<size_t>(e.y) * W + e.x];
+      const DepthRange r = e.range;
       if (r.empty()) continue;
       const int ex = e.x, ey = e.y;
       const float* cta = e.ta;
@@ -567,7 +571,7 @@ void walk_depth_image_packet(const MinMaxPyramid& pyramid, std::span<const Depth
       }
       continue;
     }
-    const DepthRange r = level_nodes[e.level][static_cast<size_t>(e.y) * level_width[e.level] + e.x];
+    const DepthRange r = e.range;
     if (r.empty()) continue;
     // Each ray's part of the node (min/max clipped, agrawala2000 §5.1.1, or overlap-tested)
     // and of its children, for all lanes at once.
@@ -618,6 +622,7 @@ void walk_depth_image_packet(const MinMaxPyramid& pyramid, std::span<const Depth
       ch.x = cx0 + (c & 1);
       ch.y = cy0 + (c >> 1);
       ch.rays = kin[c];
+      ch.range = level_nodes[cl][static_cast<size_t>(ch.y) * level_width[cl] + ch.x];
       for (int i = 0; i < K; ++i) ch.ta[i] = ka[c][i], ch.tb[i] = kb[c][i];
     }
   }
