@@ -378,7 +378,9 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
     bool xin[2] = {true, has_x1}, yin[2] = {true, has_y1};
     if (has_x1) split_axis(seg.p0.x, dx, ix, float((cx0 + 1) << cl), a, b, xa, xb, xin);
     if (has_y1) split_axis(seg.p0.y, dy, iy, float((cy0 + 1) << cl), a, b, ya, yb, yin);
-    Entry kids[4];
+    // Sorted straight into the stack, last to enter first: the stack top is the first child
+    // entered (by (ta, tb); among equal ones, the first in y-then-x order).
+    Entry* kids = stack + top;
     int nk = 0;
     for (int j = 0; j < 2; ++j) {
       if (!yin[j]) continue;
@@ -386,16 +388,16 @@ bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageS
         if (!xin[i]) continue;
         const float ka = std::max(xa[i], ya[j]), kb = std::min(xb[i], yb[j]);
         if (!(ka <= kb)) continue;
-        Entry k{cl, cx0 + i, cy0 + j, ka, kb, child_nodes[static_cast<size_t>(cy0 + j) * child_width + cx0 + i]};
+        const Entry k{cl, cx0 + i, cy0 + j, ka, kb, child_nodes[static_cast<size_t>(cy0 + j) * child_width + cx0 + i]};
         int n = nk++;
-        while (n > 0 && (kids[n - 1].ta > ka || (kids[n - 1].ta == ka && kids[n - 1].tb > kb))) {
+        while (n > 0 && (kids[n - 1].ta < ka || (kids[n - 1].ta == ka && kids[n - 1].tb <= kb))) {
           kids[n] = kids[n - 1];
           --n;
         }
         kids[n] = k;
       }
     }
-    for (int i = nk - 1; i >= 0; --i) stack[top++] = kids[i];
+    top += nk;
   }
   if (counters) {
     counters->nodes += n_nodes;
