@@ -1,9 +1,12 @@
 #include "penumbra/raster/depth_image_walk.h"
 
 #include <gtest/gtest.h>
+#include <hwy/highway.h>
+#include <hwy/targets.h>
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <tuple>
 #include <vector>
 
@@ -146,8 +149,9 @@ TEST(DepthImageWalk, VisitsExactlyTheTexelsOfABruteForceMarchFrontToBack) {
 // The packet walk gives every ray exactly the texels, crossings and depths the single-ray
 // walk gives it (bit for bit), for packets of rays from one point (the shadow rays of one
 // receiver) and of unrelated rays, with and without min/max clipping, and a ray stopped by
-// its leaf visitor gets no further texels while the others go on.
-TEST(DepthImageWalk, PacketsGiveEachRayTheSingleRayWalksTexels) {
+// its leaf visitor gets no further texels while the others go on; on every SIMD target this
+// build has and the CPU runs (the node step is dispatched at run time).
+void expect_packets_match_single_rays() {
   Rng rng(29);
   struct Leaf {
     int x, y;
@@ -221,6 +225,21 @@ TEST(DepthImageWalk, PacketsGiveEachRayTheSingleRayWalksTexels) {
   }
   EXPECT_GT(texels_seen, 3000);  // the test exercised something
   EXPECT_GT(stopped_rays, 20);
+}
+
+TEST(DepthImageWalk, PacketsGiveEachRayTheSingleRayWalksTexels) {
+  std::set<size_t> dispatched;
+  const std::vector<int64_t> targets = hwy::SupportedAndGeneratedTargets();
+  for (int64_t target : targets) {
+    SCOPED_TRACE(hwy::TargetName(target));
+    hwy::SetSupportedTargetsForTest(target);
+    hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+    dispatched.insert(hwy::GetChosenTarget().GetIndex());
+    expect_packets_match_single_rays();
+  }
+  hwy::SetSupportedTargetsForTest(0);
+  hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+  EXPECT_EQ(dispatched.size(), targets.size());  // each target was the one dispatched to
 }
 
 TEST(DepthImageWalk, MinMaxClippingVisitsFewerNodesForTheSameTexels) {
