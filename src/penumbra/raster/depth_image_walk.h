@@ -23,6 +23,10 @@
 // Visits are strictly front to back along t (t increasing): for texels, the order of their
 // entry parameter. Boxes are closed: a segment along a texel edge or through a corner
 // reaches the texels on both sides.
+//
+// walk_depth_image_packet (at the end) walks up to kDepthWalkPacket rays together (the shadow
+// rays of one receiver, which share the nodes down to it), with a SIMD node step: each ray
+// gets exactly the single-ray walk's texels, in an order that is not front to back.
 #pragma once
 
 #include <algorithm>
