@@ -76,6 +76,9 @@ class MultilayerMethod final : public ShadowMethod {
     std::mutex total_mutex;
     parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
       multilayer::TraceCounters local;
+      std::vector<Vec3f> q;
+      std::vector<float> weight, transmit;
+      q.reserve(n), weight.reserve(n), transmit.resize(n);
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
         // Keyed by (seed, light, view sample, frame): independent of thread count. The same
@@ -85,15 +88,22 @@ class MultilayerMethod final : public ShadowMethod {
         const LightPointSampler sampler(light, s.p);
         if (!sampler.valid()) continue;  // p sees no part of the emitting side: V = 0
         const multilayer::RayReceiver r{s.p, s.ng, s.object < scene.objects.size() && scene.objects[s.object].closed};
-        double v = 0, wsum = 0;
+        q.clear(), weight.clear();
         for (int i = 0; i < n; ++i) {
           AreaLight::DirectionSample ds;
           if (!sampler.sample(grid.sample(i, rng.next_2d()), &ds)) continue;
-          const Vec3f q = s.p + ds.dir * ds.dist;
-          const float t = kind_ == Kind::Opaque ? multilayer::trace_opaque(setup, opaque_, r, q, &local)
-                                                : multilayer::trace_transparent(setup, transparent_, r, q, &local);
-          v += t * ds.area_weight;
-          wsum += ds.area_weight;
+          q.push_back(s.p + ds.dir * ds.dist);
+          weight.push_back(ds.area_weight);
+        }
+        // The point's rays walk the map together (they share its quadtree down to s.p).
+        if (kind_ == Kind::Opaque)
+          multilayer::trace_opaque(setup, opaque_, r, q, transmit.data(), &local);
+        else
+          multilayer::trace_transparent(setup, transparent_, r, q, transmit.data(), &local);
+        double v = 0, wsum = 0;
+        for (size_t i = 0; i < q.size(); ++i) {
+          v += transmit[i] * weight[i];
+          wsum += weight[i];
         }
         out.visibility[k] = wsum > 0 ? static_cast<float>(v / wsum) : 0.0f;
       }

@@ -146,6 +146,45 @@ TEST(Multilayer, StackOfTransparentPlanesGivesOneMinusAToTheM) {
       }
 }
 
+// The packet traces (the rays of one receiver walked together) give each ray the
+// single-ray trace's transmittance: opaque exactly, transparent up to the order of the
+// product; more rays than one packet, receivers under and beside the stack.
+TEST(Multilayer, PacketTracesEqualTheSingleRayTraces) {
+  TestRig rig;
+  rig.add(testing::quad_y(0, -4, 4, -4, 4));
+  for (int i = 0; i < 4; ++i) rig.add(testing::quad_y(0.8f + 0.25f * i, -1.5f + 0.4f * i, 1.5f, -1.5f, 1.2f), 0.3f);
+  rig.add(testing::quad_y(1.9f, -0.3f, 0.3f, -0.3f, 0.3f));  // an opaque plate
+  rig.fit({{0.5f, 0, 0.3f}, {-0.5f, 0, -0.3f}, {0, 0, 0}, {2.5f, 0, 0}}, true);
+  multilayer::TransparentMap tmap;
+  multilayer::build_transparent_map(rig.raster, rig.tris, rig.view.view, CompressionOptions{}, &tmap);
+  multilayer::OpaqueLayerMap omap;
+  multilayer::build_opaque_layer_map(rig.raster, rig.tris, rig.view.view, 5, &omap);
+  const multilayer::TraceSetup tsetup = multilayer::make_trace_setup(rig.view.view, tmap.z_min, {});
+  const multilayer::TraceSetup osetup = multilayer::make_trace_setup(rig.view.view, omap.z_min, {});
+  std::vector<Vec3f> q;
+  for (int j = 0; j < 7; ++j)
+    for (int i = 0; i < 7; ++i) q.push_back({-0.99f + 0.33f * i, 3, -0.99f + 0.33f * j});  // 49 rays: 4 packets
+  int blocked = 0, partial = 0;
+  for (Vec3f p : {Vec3f{0.5f, 0, 0.3f}, Vec3f{-0.5f, 0, -0.3f}, Vec3f{0, 0, 0}, Vec3f{2.5f, 0, 0}}) {
+    const multilayer::RayReceiver r{p, {0, 1, 0}, false};
+    std::vector<float> tpacket(q.size()), opacket(q.size());
+    multilayer::TraceCounters c1, c2;
+    multilayer::trace_transparent(tsetup, tmap, r, q, tpacket.data(), &c1);
+    multilayer::trace_opaque(osetup, omap, r, q, opacket.data(), &c1);
+    for (size_t i = 0; i < q.size(); ++i) {
+      const float t = multilayer::trace_transparent(tsetup, tmap, r, q[i], &c2);
+      const float o = multilayer::trace_opaque(osetup, omap, r, q[i], &c2);
+      EXPECT_NEAR(tpacket[i], t, 1e-6f * t) << "p " << p.x << "," << p.z << " ray " << i;
+      EXPECT_EQ(opacket[i], o) << "p " << p.x << "," << p.z << " ray " << i;
+      blocked += o == 0;
+      partial += t > 0 && t < 0.99f;
+    }
+    EXPECT_EQ(c1.rays, c2.rays);
+  }
+  EXPECT_GT(blocked, 5);  // the test exercised something
+  EXPECT_GT(partial, 20);
+}
+
 TEST(Multilayer, PushBackKeepsOccludersOutsideTheCentreFrustum) {
   // Receivers in a small patch straight below the light: the centre's fitted frustum is a
   // few degrees wide. A plate near the light's corner, far outside it, blocks the rays from

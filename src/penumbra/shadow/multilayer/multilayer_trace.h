@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 
 #include "penumbra/core/math.h"
 #include "penumbra/raster/light_view.h"
@@ -63,5 +64,15 @@ float trace_opaque(const TraceSetup& setup, const OpaqueLayerMap& map, const Ray
 // unwidened, half-open depth interval over a texel holds them, so each is counted once.
 float trace_transparent(const TraceSetup& setup, const TransparentMap& map, const RayReceiver& r, Vec3f q,
                         TraceCounters* counters);
+
+// The rays from one receiver to the light points q[i], out[i] their transmittance: the
+// single-ray traces above, walked in packets (walk_depth_image_packet) so the nodes the rays
+// share, from the root down to the receiver's texel, are read and split once per packet. The
+// same texels reach the same leaf tests; only trace_transparent's product may differ in its
+// last bit, multiplied in another order.
+void trace_opaque(const TraceSetup& setup, const OpaqueLayerMap& map, const RayReceiver& r, std::span<const Vec3f> q,
+                  float* out, TraceCounters* counters);
+void trace_transparent(const TraceSetup& setup, const TransparentMap& map, const RayReceiver& r,
+                       std::span<const Vec3f> q, float* out, TraceCounters* counters);
 
 }  // namespace penumbra::multilayer
