@@ -171,13 +171,24 @@ bool AreaLight::sample_direction(Vec3f p, Vec2f u, DirectionSample* out) const {
   return sampler.valid() && sampler.sample(u, out);
 }
 
+namespace {
+void store(float out[3], Vec3f v) { out[0] = v.x; out[1] = v.y; out[2] = v.z; }
+Vec3f load(const float v[3]) { return {v[0], v[1], v[2]}; }
+}  // namespace
+
 LightPointSampler::LightPointSampler(const AreaLight& light, Vec3f p) : light_(&light), p_(p) {
   if (!light.faces(p)) return;
   if (light.shape == LightShape::Sphere) {
     Vec3f to_c = light.center - p;
     dist2_ = length_squared(to_c);
-    cos_max_ = std::sqrt(std::max(0.0f, 1 - light.radius * light.radius / dist2_));
-    cone_frame_ = Frame::from_z(to_c / std::sqrt(dist2_));
+    cone_.cos_max = std::sqrt(std::max(0.0f, 1 - light.radius * light.radius / dist2_));
+    const Frame f = Frame::from_z(to_c / std::sqrt(dist2_));
+    store(cone_.s, f.s);
+    store(cone_.t, f.t);
+    store(cone_.n, f.n);
+    store(cone_.to_center, to_c);
+    cone_.dist2_minus_r2 = dist2_ - light.radius * light.radius;
+    cone_.inv_pdf = 1.0f / cone_pdf(cone_.cos_max);
     mode_ = Mode::Cone;
     return;
   }
@@ -197,28 +208,56 @@ LightPointSampler::LightPointSampler(const AreaLight& light, Vec3f p) : light_(&
   // Spherical rectangle set-up (Urena, Fajardo, King 2013, "An Area-Preserving
   // Parametrization for Spherical Rectangles", Algorithm 1): the rectangle's frame with p
   // at the origin, the four corner planes and the solid angle.
+  light_kernels::SphericalRect& r = rect_;
   Vec3f ex = light.frame.s * light.size.x, ey = light.frame.t * light.size.y;
   Vec3f corner = light.center - ex * 0.5f - ey * 0.5f;
-  x_ = light.frame.s;
-  y_ = light.frame.t;
-  z_ = cross(x_, y_);
+  Vec3f x = light.frame.s, y = light.frame.t, z = cross(x, y);
   Vec3f d = corner - p;
-  z0_ = dot(d, z_);
-  if (z0_ > 0) { z_ = -z_; z0_ = -z0_; }
-  x0_ = dot(d, x_); y0_ = dot(d, y_);
-  x1_ = x0_ + light.size.x; y1_ = y0_ + light.size.y;
-  Vec3f v00(x0_, y0_, z0_), v01(x0_, y1_, z0_), v10(x1_, y0_, z0_), v11(x1_, y1_, z0_);
+  r.z0 = dot(d, z);
+  if (r.z0 > 0) { z = -z; r.z0 = -r.z0; }
+  store(r.x, x);
+  store(r.y, y);
+  store(r.z, z);
+  r.x0 = dot(d, x); r.y0 = dot(d, y);
+  r.x1 = r.x0 + light.size.x; r.y1 = r.y0 + light.size.y;
+  Vec3f v00(r.x0, r.y0, r.z0), v01(r.x0, r.y1, r.z0), v10(r.x1, r.y0, r.z0), v11(r.x1, r.y1, r.z0);
   Vec3f n0 = normalize(cross(v00, v10)), n1 = normalize(cross(v10, v11));
   Vec3f n2 = normalize(cross(v11, v01)), n3 = normalize(cross(v01, v00));
   float g0 = std::acos(std::clamp(-dot(n0, n1), -1.0f, 1.0f));
   float g1 = std::acos(std::clamp(-dot(n1, n2), -1.0f, 1.0f));
   float g2 = std::acos(std::clamp(-dot(n2, n3), -1.0f, 1.0f));
   float g3 = std::acos(std::clamp(-dot(n3, n0), -1.0f, 1.0f));
-  b0_ = n0.z; b1_ = n2.z;
-  k_ = 2 * kPi - g2 - g3;
-  solid_angle_ = g0 + g1 - k_;
+  r.b0 = n0.z; r.b1 = n2.z;
+  r.k = 2 * kPi - g2 - g3;
+  r.solid_angle = g0 + g1 - r.k;
+  r.inv_area = 1.0f / light.area();
   // Too small a solid angle for the parametrisation to be accurate: sample by area.
-  if (std::isfinite(solid_angle_) && solid_angle_ > 1e-5f && -z0_ > 1e-6f) mode_ = Mode::SphericalRect;
+  if (std::isfinite(r.solid_angle) && r.solid_angle > 1e-5f && -r.z0 > 1e-6f) mode_ = Mode::SphericalRect;
+}
+
+int LightPointSampler::sample_batch(const float* ux, const float* uy, int n, LightSampleBatch& out) const {
+  out.resize(n);
+  if (mode_ == Mode::SphericalRect) {
+    light_kernels::sample_spherical_rect(rect_, ux, uy, static_cast<size_t>(n), out);
+    return n;
+  }
+  if (mode_ == Mode::Cone) {
+    light_kernels::sample_cone(cone_, ux, uy, static_cast<size_t>(n), out);
+    return n;
+  }
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    AreaLight::DirectionSample ds;
+    if (!sample({ux[i], uy[i]}, &ds)) continue;
+    out.x[m] = ds.dir.x * ds.dist;
+    out.y[m] = ds.dir.y * ds.dist;
+    out.z[m] = ds.dir.z * ds.dist;
+    out.dist[m] = ds.dist;
+    out.inv_pdf[m] = 1.0f / ds.pdf;
+    out.area_weight[m] = ds.area_weight;
+    ++m;
+  }
+  return m;
 }
 
 bool LightPointSampler::sample(Vec2f u, AreaLight::DirectionSample* out) const {
@@ -227,37 +266,39 @@ bool LightPointSampler::sample(Vec2f u, AreaLight::DirectionSample* out) const {
     case Mode::None:
       return false;
     case Mode::Cone: {
-      Vec3f dir = cone_frame_.to_world(square_to_cone(u, cos_max_));
+      const Frame f(load(cone_.s), load(cone_.t), load(cone_.n));
+      Vec3f dir = f.to_world(square_to_cone(u, cone_.cos_max));
       // Distance to the near intersection with the sphere.
       float b = dot(dir, light.center - p_);
       float disc = b * b - (dist2_ - light.radius * light.radius);
       out->dir = dir;
       out->dist = b - std::sqrt(std::max(0.0f, disc));
-      out->pdf = cone_pdf(cos_max_);
+      out->pdf = cone_pdf(cone_.cos_max);
       out->area_weight = 1.0f;  // visibility of a sphere: the fraction of its solid angle
       return true;
     }
     case Mode::SphericalRect: {
-      float au = u.x * solid_angle_ + k_;
-      float fu = (std::cos(au) * b0_ - b1_) / std::sin(au);
-      float cu = std::copysign(1.0f, fu) / std::sqrt(fu * fu + b0_ * b0_);
+      const light_kernels::SphericalRect& r = rect_;
+      float au = u.x * r.solid_angle + r.k;
+      float fu = (std::cos(au) * r.b0 - r.b1) / std::sin(au);
+      float cu = std::copysign(1.0f, fu) / std::sqrt(fu * fu + r.b0 * r.b0);
       cu = std::clamp(cu, -1.0f, 1.0f);
-      float xu = -(cu * z0_) / std::sqrt(std::max(1e-12f, 1 - cu * cu));
-      xu = std::clamp(xu, x0_, x1_);
-      float d = std::sqrt(xu * xu + z0_ * z0_);
-      float h0 = y0_ / std::sqrt(d * d + y0_ * y0_), h1 = y1_ / std::sqrt(d * d + y1_ * y1_);
+      float xu = -(cu * r.z0) / std::sqrt(std::max(1e-12f, 1 - cu * cu));
+      xu = std::clamp(xu, r.x0, r.x1);
+      float d = std::sqrt(xu * xu + r.z0 * r.z0);
+      float h0 = r.y0 / std::sqrt(d * d + r.y0 * r.y0), h1 = r.y1 / std::sqrt(d * d + r.y1 * r.y1);
       float hv = h0 + u.y * (h1 - h0), hv2 = hv * hv;
-      float yv = hv2 < 1 - 1e-6f ? (hv * d) / std::sqrt(1 - hv2) : y1_;
-      yv = std::clamp(yv, y0_, y1_);
-      Vec3f q = p_ + x_ * xu + y_ * yv + z_ * z0_;
+      float yv = hv2 < 1 - 1e-6f ? (hv * d) / std::sqrt(1 - hv2) : r.y1;
+      yv = std::clamp(yv, r.y0, r.y1);
+      Vec3f q = p_ + load(r.x) * xu + load(r.y) * yv + load(r.z) * r.z0;
       Vec3f dq = q - p_;
       float dist = length(dq);
       out->dir = dq / dist;
       out->dist = dist;
-      out->pdf = 1.0f / solid_angle_;
+      out->pdf = 1.0f / r.solid_angle;
       float cos_l = std::abs(dot(out->dir, light.frame.n));
       // p_A expressed per solid angle: dist^2 / (A cos_l); its ratio to 1/Omega.
-      out->area_weight = cos_l > 1e-8f ? dist * dist / (light.area() * cos_l) * solid_angle_ : 0.0f;
+      out->area_weight = cos_l > 1e-8f ? dist * dist / (light.area() * cos_l) * r.solid_angle : 0.0f;
       return true;
     }
     case Mode::Area: {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/scene/light_batch.h"
 
 namespace penumbra {
 
@@ -112,18 +113,22 @@ class LightPointSampler {
   // False if p sees no part of the emitting side (sample() must not be called then).
   bool valid() const { return mode_ != Mode::None; }
   bool sample(Vec2f u, AreaLight::DirectionSample* out) const;
+  // The samples u_i = (ux[i], uy[i]), i < n, at once into `out` (structure of arrays; SIMD for
+  // rects and spheres, light_batch.h): the same directions as sample() up to rounding.
+  // Samples p cannot use are dropped and the rest packed in order; returns how many remain.
+  // ux and uy must be padded to a multiple of LightSampleBatch::kLanePad.
+  int sample_batch(const float* ux, const float* uy, int n, LightSampleBatch& out) const;
 
  private:
   enum class Mode { None, SphericalRect, Cone, Area, Ellipse };
   const AreaLight* light_;
   Vec3f p_;
   Mode mode_ = Mode::None;
-  // Spherical rectangle (Urena et al. 2013), in the rectangle's frame around p.
-  Vec3f x_, y_, z_;
-  float z0_ = 0, x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0, b0_ = 0, b1_ = 0, k_ = 0, solid_angle_ = 0;
-  // Cone toward a sphere.
-  Frame cone_frame_;
-  float cos_max_ = 1, dist2_ = 0;
+  // Spherical rectangle (Urena et al. 2013) in the rectangle's frame around p, and the cone
+  // toward a sphere: the set-up the SIMD kernels and sample() share.
+  light_kernels::SphericalRect rect_{};
+  light_kernels::Cone cone_{};
+  float dist2_ = 0;
   // Area sampling of an ellipsoid's contour ellipse seen from p; the squared distance to its
   // centre is dist2_, the cosine there (to scale the weights to about 1) contour_cos_.
   AreaLight::Ellipse ellipse_;

@@ -230,4 +230,52 @@ void RayTracer::transmittance(std::span<const ShadowRay> rays, std::span<float> 
   }
 }
 
+void RayTracer::transmittance_fan(Vec3f p, Vec3f ng, const float* x, const float* y, const float* z, size_t n,
+                                  float* out) const {
+  // The offset of offset_ray_origin, computed once for the fan.
+  const float scale = 1.0f + std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
+  const float eps = scale * 3.0e-5f;
+  const float len = length(ng);
+  const Vec3f n_unit = len > 0 ? ng / len : Vec3f(0, 0, 0);
+  // Incoherent streams of single rays (rtcOccluded1M): measured on bunny, plant and furball,
+  // Embree 3.13's 4/8/16-wide packets with a coherent context trace these fans 1.8-2.6x
+  // slower than single rays (docs/methods/reference.md), although the fan is as coherent
+  // as shadow rays get; the packet traversal pays for lanes that finish early.
+  constexpr size_t kChunk = 256;
+  RTCRay rays[kChunk];
+  RecentHits recent[kChunk];
+  for (size_t b = 0; b < n; b += kChunk) {
+    const size_t m = std::min(kChunk, n - b);
+    for (size_t i = 0; i < m; ++i) {
+      const float dx = x[b + i], dy = y[b + i], dz = z[b + i];
+      // offset_ray_origin: off the surface on the side the ray leaves into.
+      const float side = n_unit.x * dx + n_unit.y * dy + n_unit.z * dz >= 0 ? eps : -eps;
+      RTCRay& r = rays[i];
+      r.org_x = p.x + n_unit.x * side;
+      r.org_y = p.y + n_unit.y * side;
+      r.org_z = p.z + n_unit.z * side;
+      // Unnormalised direction to the light point: the segment is t in [0, 1), ending just
+      // short of the light as shadow_ray_to's does.
+      r.dir_x = p.x + dx - r.org_x;
+      r.dir_y = p.y + dy - r.org_y;
+      r.dir_z = p.z + dz - r.org_z;
+      r.tnear = 0.0f;
+      r.tfar = 1.0f - 1e-5f;
+      r.mask = 0xFFFFFFFFu;
+      r.flags = 0;
+      r.time = 0;
+      r.id = static_cast<unsigned>(i);
+      recent[i].count = recent[i].next = 0;
+      out[b + i] = 1.0f;
+    }
+    TransmittanceContext ctx;
+    rtcInitIntersectContext(&ctx.base);
+    ctx.transmittance = out + b;
+    ctx.recent = recent;
+    rtcOccluded1M(impl_->scene, &ctx.base, rays, static_cast<unsigned>(m), sizeof(RTCRay));
+    for (size_t i = 0; i < m; ++i)
+      if (rays[i].tfar == -kInfinity) out[b + i] = 0.0f;
+  }
+}
+
 }  // namespace penumbra

@@ -58,6 +58,12 @@ class RayTracer {
   // Batched versions over n rays (Embree rtcOccluded1M streams: 1.5-2x faster than single
   // rays for incoherent shadow rays). out[i] in {0,1} (occluded) or [0,1] (transmittance).
   void transmittance(std::span<const ShadowRay> rays, std::span<float> out) const;
+  // Transmittance of the segments from surface point p (geometric normal ng) to the points
+  // p + (x[i], y[i], z[i]), i < n: a fan of shadow rays toward a light's samples. They share
+  // one origin (offset as shadow_ray_to does, per ray) and need no ShadowRay set-up: the
+  // rays are written straight into Embree's stream layout. The arrays need no padding.
+  void transmittance_fan(Vec3f p, Vec3f ng, const float* x, const float* y, const float* z, size_t n,
+                         float* out) const;
 
   bool has_transparency() const { return has_transparency_; }
   size_t triangle_count() const { return triangle_count_; }

@@ -1,7 +1,8 @@
 // Method `reference`: the ground truth every method is measured against. Stochastic ray
-// tracing of the real geometry on Embree: N stratified light samples per view sample,
-// shadow rays in incoherent rtcOccluded1M streams, semi-transparent casters attenuating
-// by (1 - opacity) per crossing.
+// tracing of the real geometry on Embree: N stratified light samples per view sample, warped
+// together by SIMD kernels (scene/light_batch.h), their shadow rays written straight into
+// Embree's rtcOccluded1M streams (RayTracer::transmittance_fan), semi-transparent casters
+// attenuating by (1 - opacity) per crossing.
 //
 // Estimators (per view sample p with shading normal n, light samples i = 1..N):
 //   solid-angle sampling (default): directions w_i with density pdf_i over solid angle
@@ -38,54 +39,62 @@ class ReferenceMethod final : public ShadowMethod {
     std::atomic<uint64_t> rays{0};
     const StratifiedGrid grid(n);
     parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
-      std::vector<ShadowRay> batch(n);
-      std::vector<float> transmit(n), cosine(n), weight(n);
+      // Per task: the light samples of one point in structure-of-arrays form, warped by the
+      // SIMD kernels of scene/light_batch.h and traced as one fan (RayTracer::transmittance_fan).
+      const size_t padded = (n + LightSampleBatch::kLanePad - 1) / LightSampleBatch::kLanePad * LightSampleBatch::kLanePad;
+      std::vector<float> ux(padded, 0.0f), uy(padded, 0.0f), transmit(padded), cosine(padded);
+      LightSampleBatch batch;
+      batch.resize(n);
       uint64_t local_rays = 0;
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
         // Keyed by (seed, light, view sample, frame): independent of thread count.
         Rng rng(ctx.seed, 0x52454600u + ctx.light_index, k, ctx.frame);
-        int m = 0;
-        const LightPointSampler sampler(light, s.p);
-        // Area mode: the emitter's normal and area (a sphere's disk faces p: cos 1; an
-        // ellipsoid's central ellipse toward p has its own plane).
-        Vec3f emit_n = light.frame.n;
-        float emit_area = light.area();
-        if (light.shape == LightShape::Ellipsoid && light.faces(s.p)) {
-          const AreaLight::Ellipse e = light.section_toward(s.p);
-          emit_n = e.normal;
-          emit_area = e.area;
-        }
-        const bool use_solid_angle = solid_angle_ && sampler.valid();
         for (int i = 0; i < n; ++i) {
-          Vec2f u = grid.sample(i, rng.next_2d());
-          if (use_solid_angle) {
-            AreaLight::DirectionSample ds;
-            if (!sampler.sample(u, &ds)) continue;
-            batch[m] = shadow_ray_to(s.p, s.ng, s.p + ds.dir * ds.dist);
-            cosine[m] = std::max(0.0f, dot(s.ns, ds.dir)) / ds.pdf;
-            weight[m] = ds.area_weight;
-          } else {
-            Vec3f q = light.sample_area_toward(u, s.p);
-            Vec3f d = q - s.p;
-            float dist2 = length_squared(d);
-            Vec3f w = d / std::sqrt(dist2);
-            float cos_l = light.shape == LightShape::Sphere      ? 1.0f
-                          : light.shape == LightShape::Ellipsoid ? std::abs(dot(w, emit_n))
-                                                                 : std::max(0.0f, -dot(w, light.frame.n));
-            batch[m] = shadow_ray_to(s.p, s.ng, q);
-            cosine[m] = std::max(0.0f, dot(s.ns, w)) * cos_l * emit_area / dist2;
-            weight[m] = 1.0f;
-          }
-          ++m;
+          const Vec2f u = grid.sample(i, rng.next_2d());
+          ux[i] = u.x;
+          uy[i] = u.y;
         }
-        ctx.tracer->transmittance(std::span<const ShadowRay>(batch.data(), m), std::span<float>(transmit.data(), m));
+        const LightPointSampler sampler(light, s.p);
+        int m = 0;
+        if (solid_angle_ && sampler.valid()) {
+          m = sampler.sample_batch(ux.data(), uy.data(), n, batch);
+          for (int i = 0; i < m; ++i) {
+            const float cos_n = s.ns.x * batch.x[i] + s.ns.y * batch.y[i] + s.ns.z * batch.z[i];
+            cosine[i] = std::max(0.0f, cos_n) / batch.dist[i] * batch.inv_pdf[i];
+          }
+        } else {
+          // Area mode: the emitter's normal and area (a sphere's disk faces p: cos 1; an
+          // ellipsoid's central ellipse toward p has its own plane).
+          Vec3f emit_n = light.frame.n;
+          float emit_area = light.area();
+          if (light.shape == LightShape::Ellipsoid && light.faces(s.p)) {
+            const AreaLight::Ellipse e = light.section_toward(s.p);
+            emit_n = e.normal;
+            emit_area = e.area;
+          }
+          for (int i = 0; i < n; ++i) {
+            const Vec3f d = light.sample_area_toward({ux[i], uy[i]}, s.p) - s.p;
+            const float dist2 = length_squared(d);
+            const Vec3f w = d / std::sqrt(dist2);
+            const float cos_l = light.shape == LightShape::Sphere      ? 1.0f
+                                : light.shape == LightShape::Ellipsoid ? std::abs(dot(w, emit_n))
+                                                                       : std::max(0.0f, -dot(w, light.frame.n));
+            batch.x[i] = d.x;
+            batch.y[i] = d.y;
+            batch.z[i] = d.z;
+            batch.area_weight[i] = 1.0f;
+            cosine[i] = std::max(0.0f, dot(s.ns, w)) * cos_l * emit_area / dist2;
+          }
+          m = n;
+        }
+        ctx.tracer->transmittance_fan(s.p, s.ng, batch.x.data(), batch.y.data(), batch.z.data(), m, transmit.data());
         local_rays += m;
         double e = 0, v = 0, wsum = 0;
         for (int i = 0; i < m; ++i) {
           e += transmit[i] * cosine[i];
-          v += transmit[i] * weight[i];
-          wsum += weight[i];
+          v += transmit[i] * batch.area_weight[i];
+          wsum += batch.area_weight[i];
         }
         out.visibility[k] = wsum > 0 ? static_cast<float>(v / wsum) : 0.0f;
         out.irradiance[k] = light.radiance * static_cast<float>(e / n);

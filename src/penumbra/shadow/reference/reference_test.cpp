@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/testing/test_scenes.h"
@@ -125,6 +126,46 @@ TEST(Reference, SameSeedSameImageForAnyThreadCount) {
   int partial = 0;
   for (float v : a.visibility.data()) partial += (v > 0.05f && v < 0.95f);
   EXPECT_GT(partial, 10);
+}
+
+TEST(RayTracer, FanTransmittanceEqualsOneRayAtATime) {
+  // transmittance_fan (the reference's path: no ShadowRay set-up, unnormalised directions)
+  // answers what transmittance(shadow_ray_to(...)) answers, ray by ray, through opaque and
+  // semi-transparent casters, for fans of any length (chunks of 256, a ragged tail).
+  std::vector<SceneObject> objects;
+  objects.push_back(object(quad_y(0.6f, -0.4f, 0.3f, -0.5f, 0.2f)));
+  objects.push_back(object(quad_y(1.1f, -0.2f, 0.6f, -0.1f, 0.7f), Vec3f(0.5f), 0.35f));
+  objects.push_back(object(testing::box({0.3f, 0, -0.6f}, {0.5f, 0.4f, -0.3f})));
+  Scene scene = ground_scene(std::move(objects), rect_light_down({0, 2, 0}, 1.5f, 1.5f));
+  RayTracer tracer(scene);
+  Rng rng(11);
+  int rays = 0, equal = 0;
+  for (int point = 0; point < 40; ++point) {
+    const Vec2f u = rng.next_2d();
+    const Vec3f p(-1.0f + 2.0f * u.x, 0.0f, -1.0f + 2.0f * u.y);
+    const size_t n = point == 0 ? 300 : 1 + point * 7 % 61;
+    std::vector<float> x(n), y(n), z(n), fan(n);
+    std::vector<ShadowRay> one(n);
+    for (size_t i = 0; i < n; ++i) {
+      const Vec2f v = rng.next_2d();
+      const Vec3f q(-0.75f + 1.5f * v.x, 2.0f, -0.75f + 1.5f * v.y);
+      x[i] = q.x - p.x;
+      y[i] = q.y - p.y;
+      z[i] = q.z - p.z;
+      one[i] = shadow_ray_to(p, {0, 1, 0}, q);
+    }
+    std::vector<float> single(n);
+    tracer.transmittance(one, single);
+    tracer.transmittance_fan(p, {0, 1, 0}, x.data(), y.data(), z.data(), n, fan.data());
+    for (size_t i = 0; i < n; ++i) {
+      ++rays;
+      equal += std::abs(fan[i] - single[i]) <= 1e-6f;
+      EXPECT_GE(fan[i], 0.0f);
+      EXPECT_LE(fan[i], 1.0f);
+    }
+  }
+  // Rays grazing an edge may round differently; nothing else may differ.
+  EXPECT_GE(equal, rays - rays / 500) << equal << " of " << rays;
 }
 
 }  // namespace
