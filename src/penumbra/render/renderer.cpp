@@ -1,6 +1,7 @@
 #include "penumbra/render/renderer.h"
 
 #include <algorithm>
+#include <array>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
@@ -12,61 +13,119 @@
 
 namespace penumbra {
 
-ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t seed) {
+void CameraPass::run(const Scene& scene, const RayTracer& tracer, uint64_t seed, ViewSamples& vs) {
   const Camera& cam = scene.camera;
+  const CameraProjection projection(cam);
   const int spp = std::max(1, cam.samples_per_pixel);
-  ViewSamples vs;
   vs.width = cam.width;
   vs.height = cam.height;
   vs.samples_per_pixel = spp;
-  // Each row is traced into its own list, then rows are concatenated in order, so the
-  // sample order is scanline order whatever the thread count.
-  std::vector<std::vector<ViewSample>> rows(cam.height);
   const StratifiedGrid grid(spp);
-  parallel_for(cam.height, 1, [&](size_t y0, size_t y1) {
-    for (size_t y = y0; y < y1; ++y) {
-      auto& row = rows[y];
-      row.reserve(cam.width * spp);
-      for (int x = 0; x < cam.width; ++x) {
-        uint32_t pixel = static_cast<uint32_t>(y * cam.width + x);
-        Rng rng(seed, 0x43414dull /* "CAM" */, pixel);
-        for (int s = 0; s < spp; ++s) {
-          // One sample: the pixel centre. Several: stratified jitter inside the pixel.
-          Vec2f u = spp == 1 ? Vec2f(0.5f, 0.5f) : grid.sample(s, rng.next_2d());
-          Ray ray{cam.eye, cam.ray_direction(x + u.x, y + u.y), 0.0f, kInfinity};
-          Hit hit;
-          if (!tracer.intersect(ray, &hit)) continue;
-          const SceneObject& obj = scene.objects[hit.object];
-          const TriangleMesh& m = obj.mesh;
-          uint32_t i0 = m.indices[3 * hit.prim], i1 = m.indices[3 * hit.prim + 1], i2 = m.indices[3 * hit.prim + 2];
-          float w = 1.0f - hit.u - hit.v;
-          ViewSample v;
-          // Barycentric interpolation is more accurate than org + t * dir far from the eye.
-          v.p = m.positions[i0] * w + m.positions[i1] * hit.u + m.positions[i2] * hit.v;
-          Vec3f ng = normalize(cross(m.positions[i1] - m.positions[i0], m.positions[i2] - m.positions[i0]));
-          bool back = dot(ng, ray.dir) > 0;
-          v.ng = back ? -ng : ng;
-          if (!m.normals.empty()) {
-            Vec3f ns = m.normals[i0] * w + m.normals[i1] * hit.u + m.normals[i2] * hit.v;
-            float len = length(ns);
-            ns = len > 0 ? ns / len : v.ng;
-            v.ns = dot(ns, v.ng) < 0 ? -ns : ns;
-          } else {
-            v.ns = v.ng;
+  const size_t rows = static_cast<size_t>(cam.height), per_row = static_cast<size_t>(cam.width) * spp;
+  hits_.resize(rows * per_row);
+  row_offset_.assign(rows + 1, 0);
+  // The directions of row y's rays (ray r = pixel r / spp, sample r % spp) into dx, dy, dz:
+  // the pixel centres (a vectorised row), or stratified jitter inside each pixel.
+  auto row_directions = [&](size_t y, float* dx, float* dy, float* dz) {
+    if (spp == 1) {
+      projection.row_directions(static_cast<float>(y) + 0.5f, cam.width, dx, dy, dz);
+      return;
+    }
+    for (int x = 0; x < cam.width; ++x) {
+      Rng rng(seed, 0x43414dull /* "CAM" */, static_cast<uint32_t>(y * cam.width + x));
+      for (int s = 0; s < spp; ++s) {
+        const Vec2f u = grid.sample(s, rng.next_2d());
+        const Vec3f d = projection.ray_direction(x + u.x, y + u.y);
+        const size_t r = static_cast<size_t>(x) * spp + s;
+        dx[r] = d.x, dy[r] = d.y, dz[r] = d.z;
+      }
+    }
+  };
+  // Pass 1: trace the rays of 4 rows as one stream, ordered in 4 x 4 pixel tiles so that
+  // consecutive rays are close (Embree traces them as packets), keep each ray's hit in
+  // scanline order and count each row's hits.
+  constexpr size_t kTile = 4;
+  const size_t groups = (rows + kTile - 1) / kTile;
+  parallel_for(groups, 1, [&](size_t g0, size_t g1) {
+    std::vector<float> dx(kTile * per_row), dy(kTile * per_row), dz(kTile * per_row);
+    std::vector<Ray> rays(kTile * per_row);
+    std::vector<Hit> hits(kTile * per_row);
+    std::vector<uint32_t> slot(kTile * per_row);  // stream position -> ray index within the group's rows
+    for (size_t g = g0; g < g1; ++g) {
+      const size_t y_begin = g * kTile, y_end = std::min(rows, y_begin + kTile);
+      for (size_t y = y_begin; y < y_end; ++y) {
+        const size_t o = (y - y_begin) * per_row;
+        row_directions(y, dx.data() + o, dy.data() + o, dz.data() + o);
+      }
+      size_t i = 0;
+      for (size_t tx = 0; tx < per_row; tx += kTile * spp) {
+        const size_t tx_end = std::min(per_row, tx + kTile * spp);
+        for (size_t o = 0; o < (y_end - y_begin) * per_row; o += per_row) {
+          for (size_t r = o + tx; r < o + tx_end; ++r) {
+            rays[i] = Ray{cam.eye, Vec3f(dx[r], dy[r], dz[r]), 0.0f, kInfinity};
+            slot[i++] = static_cast<uint32_t>(r);
           }
-          v.albedo = (back && !obj.material.two_sided) ? Vec3f(0.0f) : obj.material.albedo;
-          v.object = hit.object;
-          v.prim = hit.prim;
-          v.pixel = pixel;
-          row.push_back(v);
         }
+      }
+      tracer.intersect(std::span(rays).first(i), std::span(hits).first(i), /*coherent=*/true);
+      RayHit* out = hits_.data() + y_begin * per_row;
+      for (size_t k = 0; k < i; ++k) {
+        const Hit& hit = hits[k];
+        out[slot[k]] = RayHit{hit.object, hit.prim, hit.u, hit.v};
+      }
+      for (size_t y = y_begin; y < y_end; ++y) {
+        const RayHit* row = hits_.data() + y * per_row;
+        size_t count = 0;
+        for (size_t r = 0; r < per_row; ++r) count += row[r].object != Hit::kMiss;
+        row_offset_[y + 1] = count;
       }
     }
   });
-  size_t total = 0;
-  for (auto& r : rows) total += r.size();
-  vs.samples.reserve(total);
-  for (auto& r : rows) vs.samples.insert(vs.samples.end(), r.begin(), r.end());
+  for (size_t y = 0; y < rows; ++y) row_offset_[y + 1] += row_offset_[y];
+  // Pass 2: the view samples, each row from its offset (scanline order whatever the thread count).
+  vs.samples.resize(row_offset_.back());
+  parallel_for(rows, 4, [&](size_t y0, size_t y1) {
+    std::vector<float> dx(per_row), dy(per_row), dz(per_row);
+    for (size_t y = y0; y < y1; ++y) {
+      if (row_offset_[y + 1] == row_offset_[y]) continue;
+      // The rays' directions again (cheaper than keeping them): which side each hit.
+      row_directions(y, dx.data(), dy.data(), dz.data());
+      ViewSample* out = vs.samples.data() + row_offset_[y];
+      const RayHit* in = hits_.data() + y * per_row;
+      for (size_t r = 0; r < per_row; ++r) {
+        const RayHit& hit = in[r];
+        if (hit.object == Hit::kMiss) continue;
+        const uint32_t object = hit.object;
+        const SceneObject& obj = scene.objects[object];
+        const TriangleMesh& m = obj.mesh;
+        const uint32_t i0 = m.indices[3 * hit.prim], i1 = m.indices[3 * hit.prim + 1], i2 = m.indices[3 * hit.prim + 2];
+        const float w = 1.0f - hit.u - hit.v;
+        ViewSample& v = *out++;
+        // Barycentric interpolation is more accurate than org + t * dir far from the eye.
+        v.p = m.positions[i0] * w + m.positions[i1] * hit.u + m.positions[i2] * hit.v;
+        const Vec3f ng = normalize(cross(m.positions[i1] - m.positions[i0], m.positions[i2] - m.positions[i0]));
+        const bool back = dot(ng, Vec3f(dx[r], dy[r], dz[r])) > 0;
+        v.ng = back ? -ng : ng;
+        if (!m.normals.empty()) {
+          Vec3f ns = m.normals[i0] * w + m.normals[i1] * hit.u + m.normals[i2] * hit.v;
+          const float len = length(ns);
+          ns = len > 0 ? ns / len : v.ng;
+          v.ns = dot(ns, v.ng) < 0 ? -ns : ns;
+        } else {
+          v.ns = v.ng;
+        }
+        v.albedo = (back && !obj.material.two_sided) ? Vec3f(0.0f) : obj.material.albedo;
+        v.object = object;
+        v.prim = hit.prim;
+        v.pixel = static_cast<uint32_t>(y * cam.width + r / spp);
+      }
+    }
+  });
+}
+
+ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t seed) {
+  ViewSamples vs;
+  CameraPass().run(scene, tracer, seed, vs);
   return vs;
 }
 
@@ -90,15 +149,23 @@ RenderResult Renderer::render() {
   RenderResult result;
   result.resolved_params = resolved_params_;
   Timer cam_timer;
-  ViewSamples vs = camera_pass(scene_, *tracer_, settings_.seed);
+  camera_pass_.run(scene_, *tracer_, settings_.seed, view_);
+  const ViewSamples& vs = view_;
   result.camera_pass_ms = cam_timer.elapsed_ms();
   result.view_sample_count = vs.size();
 
   const size_t n = vs.size();
-  std::vector<Vec3f> radiance(n, Vec3f(0.0f));
-  std::vector<float> v_weighted(n, 0.0f), v_weight(n, 0.0f), v_plain(n, 0.0f);
-  std::vector<float> vis(n);
-  std::vector<Vec3f> irr(n);
+  // Per-sample sums over the lights, in buffers kept between frames.
+  FrameBuffers& fb = frame_buffers_;
+  fb.radiance.assign(n, Vec3f(0.0f));
+  fb.v_weighted.assign(n, 0.0f);
+  fb.v_weight.assign(n, 0.0f);
+  fb.v_plain.assign(n, 0.0f);
+  fb.vis.resize(n);
+  fb.irr.resize(n);
+  std::vector<Vec3f>& radiance = fb.radiance;
+  std::vector<float>&v_weighted = fb.v_weighted, &v_weight = fb.v_weight, &v_plain = fb.v_plain, &vis = fb.vis;
+  std::vector<Vec3f>& irr = fb.irr;
   const size_t lights = scene_.lights.size();
   Progress own_progress(settings_.method, n * lights * std::max(1, settings_.frames), settings_.progress && !settings_.progress_bar);
   Progress& progress = settings_.progress_bar ? *settings_.progress_bar : own_progress;
@@ -145,9 +212,23 @@ RenderResult Renderer::render() {
     {
       ScopedPhase phase(method.stats(), "compose");
       parallel_for(n, 4096, [&](size_t b, size_t e) {
+        // The closed-form unshadowed irradiance, a chunk of samples at a time (SIMD for rects).
+        constexpr size_t kChunk = 256;
+        std::array<Vec3f, kChunk> points, normals;
+        std::array<float, kChunk> e_unit;
         for (size_t i = b; i < e; ++i) {
+          const size_t k = (i - b) % kChunk;
+          if (k == 0) {
+            const size_t count = std::min(kChunk, e - i);
+            for (size_t j = 0; j < count; ++j) {
+              points[j] = vs.samples[i + j].p;
+              normals[j] = vs.samples[i + j].ns;
+            }
+            light.unshadowed_irradiance_scalar(std::span(points).first(count), std::span(normals).first(count),
+                                               std::span(e_unit).first(count));
+          }
           const ViewSample& s = vs.samples[i];
-          Vec3f e0 = light.unshadowed_irradiance(s.p, s.ns);
+          const Vec3f e0 = light.radiance * e_unit[k];
           float v = clamp01(vis[i]);
           // A method that gives only V is multiplied with the closed-form unshadowed
           // irradiance; Lambertian: L = albedo / pi * E.
@@ -169,24 +250,29 @@ RenderResult Renderer::render() {
   // counting as background (black, fully lit).
   const int spp = vs.samples_per_pixel;
   result.color = Image(vs.width, vs.height, 3, 0.0f);
-  result.visibility = Image(vs.width, vs.height, 1, 0.0f);
-  std::vector<int> hits(static_cast<size_t>(vs.width) * vs.height, 0);
-  for (size_t i = 0; i < n; ++i) {
-    const uint32_t px = vs.samples[i].pixel;
-    // V of a sample over several lights: weighted by each light's unshadowed irradiance
-    // (a single light gives its V exactly).
-    float v = v_weight[i] > 0 ? v_weighted[i] / v_weight[i] : v_plain[i] / lights;
-    float* c = result.color.pixel(px);
-    c[0] += radiance[i].x; c[1] += radiance[i].y; c[2] += radiance[i].z;
-    result.visibility.data()[px] += v;
-    hits[px]++;
-  }
-  for (size_t px = 0; px < hits.size(); ++px) {
-    float inv = 1.0f / spp;
-    float* c = result.color.pixel(px);
-    c[0] *= inv; c[1] *= inv; c[2] *= inv;
-    result.visibility.data()[px] = (result.visibility.data()[px] + (spp - hits[px])) * inv;
-  }
+  result.visibility = Image(vs.width, vs.height, 1, 1.0f);  // pixels without hits stay 1
+  const float inv_spp = 1.0f / spp;
+  // In parallel over runs of samples that start at a pixel's first sample (the samples are
+  // grouped by pixel), so no two tasks touch one pixel.
+  parallel_for(n, 4096, [&](size_t b, size_t e) {
+    while (b > 0 && b < n && vs.samples[b].pixel == vs.samples[b - 1].pixel) ++b;
+    while (e < n && vs.samples[e].pixel == vs.samples[e - 1].pixel) ++e;
+    for (size_t i = b; i < e;) {
+      const uint32_t px = vs.samples[i].pixel;
+      Vec3f c(0.0f);
+      float v_sum = 0.0f;
+      int hits = 0;
+      for (; i < e && vs.samples[i].pixel == px; ++i, ++hits) {
+        // V of a sample over several lights: weighted by each light's unshadowed irradiance
+        // (a single light gives its V exactly).
+        v_sum += v_weight[i] > 0 ? v_weighted[i] / v_weight[i] : v_plain[i] / lights;
+        c += radiance[i];
+      }
+      float* out = result.color.pixel(px);
+      out[0] = c.x * inv_spp; out[1] = c.y * inv_spp; out[2] = c.z * inv_spp;
+      result.visibility.data()[px] = (v_sum + (spp - hits)) * inv_spp;
+    }
+  });
   result.total_ms = total.elapsed_ms();
   return result;
 }

@@ -43,7 +43,26 @@ struct RenderResult {
 };
 
 // The camera pass on Embree: primary rays through each pixel (jittered when the camera
-// asks for several samples per pixel), producing the view samples.
+// asks for several samples per pixel), producing the view samples in scanline order. The
+// rays of a row are traced as one Embree stream; a first pass keeps only each ray's hit (16
+// bytes), a second writes the view samples straight to their place. An instance keeps its
+// buffers, and `run` reuses those of `out`, so a renderer drawing frame after frame does not
+// fault in fresh pages for the 64-byte samples each time.
+class CameraPass {
+ public:
+  void run(const Scene& scene, const RayTracer& tracer, uint64_t seed, ViewSamples& out);
+
+ private:
+  struct RayHit {
+    uint32_t object;  // Hit::kMiss where the ray hit nothing
+    uint32_t prim;
+    float u, v;
+  };
+  std::vector<RayHit> hits_;        // per ray, in scanline order
+  std::vector<size_t> row_offset_;  // first view sample of each row, and the total
+};
+
+// One camera pass with fresh buffers.
 ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t seed);
 
 // Renders frames of one scene with one method, keeping the method's light-space
@@ -66,6 +85,12 @@ class Renderer {
   std::vector<std::unique_ptr<ShadowMethod>> methods_;
   std::vector<bool> prepared_;
   nlohmann::json resolved_params_;
+  CameraPass camera_pass_;
+  ViewSamples view_;  // the last camera pass's samples (their storage is reused)
+  struct FrameBuffers {  // per view sample, summed over the lights (reused between frames)
+    std::vector<Vec3f> radiance, irr;
+    std::vector<float> v_weighted, v_weight, v_plain, vis;
+  } frame_buffers_;
 };
 
 // One-call convenience: load nothing, render `scene` with `settings`.

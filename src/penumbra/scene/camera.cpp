@@ -1,5 +1,7 @@
 #include "penumbra/scene/camera.h"
 
+#include <cmath>
+
 namespace penumbra {
 
 Frame Camera::frame() const {
@@ -14,14 +16,39 @@ Frame Camera::frame() const {
   return Frame(s, cross(n, s), n);
 }
 
-Vec3f Camera::ray_direction(float px, float py) const {
-  Frame f = frame();
-  float tan_half = std::tan(radians(fov_y) * 0.5f);
-  float aspect = static_cast<float>(width) / static_cast<float>(height);
+Vec3f Camera::ray_direction(float px, float py) const { return CameraProjection(*this).ray_direction(px, py); }
+
+CameraProjection::CameraProjection(const Camera& camera)
+    : frame_(camera.frame()),
+      tan_half_(std::tan(radians(camera.fov_y) * 0.5f)),
+      aspect_(static_cast<float>(camera.width) / static_cast<float>(camera.height)),
+      width_(static_cast<float>(camera.width)),
+      height_(static_cast<float>(camera.height)) {}
+
+// Both functions below are compiled with the same flags (CMakeLists.txt: no contraction into
+// fused multiply-adds, no errno from sqrt), so the row loop vectorises and gives the same
+// floats as one ray at a time.
+Vec3f CameraProjection::ray_direction(float px, float py) const {
   // Image x grows to the right and y downward; camera-space y grows upward.
-  float x = (2.0f * px / width - 1.0f) * tan_half * aspect;
-  float y = (1.0f - 2.0f * py / height) * tan_half;
-  return normalize(f.s * x + f.t * y - f.n);
+  const float x = (2.0f * px / width_ - 1.0f) * tan_half_ * aspect_;
+  const float y = (1.0f - 2.0f * py / height_) * tan_half_;
+  return normalize(frame_.s * x + frame_.t * y - frame_.n);
+}
+
+void CameraProjection::row_directions(float py, int count, float* __restrict dx, float* __restrict dy,
+                                      float* __restrict dz) const {
+  const float y = (1.0f - 2.0f * py / height_) * tan_half_;
+  const Vec3f ty = frame_.t * y;
+  const Vec3f s = frame_.s, n = frame_.n;
+  for (int i = 0; i < count; ++i) {
+    // ray_direction's arithmetic, component by component, in the same order.
+    const float x = (2.0f * (static_cast<float>(i) + 0.5f) / width_ - 1.0f) * tan_half_ * aspect_;
+    const float vx = (s.x * x + ty.x) - n.x, vy = (s.y * x + ty.y) - n.y, vz = (s.z * x + ty.z) - n.z;
+    const float r = 1.0f / std::sqrt(vx * vx + vy * vy + vz * vz);
+    dx[i] = vx * r;
+    dy[i] = vy * r;
+    dz[i] = vz * r;
+  }
 }
 
 }  // namespace penumbra

@@ -17,4 +17,19 @@ struct Camera {
   Frame frame() const;  // s = right, t = up, n = backward (-view direction)
 };
 
+// Camera::ray_direction with the frame and the field-of-view scale computed once, for loops
+// over every pixel (the camera pass): the same arithmetic, so the same directions bit for bit.
+class CameraProjection {
+ public:
+  explicit CameraProjection(const Camera& camera);
+  Vec3f ray_direction(float px, float py) const;
+  // ray_direction(x + 0.5, py) for the pixel centres x = 0 .. count-1 of one row, into
+  // (dx[x], dy[x], dz[x]): the same floats, in a loop the compiler vectorises.
+  void row_directions(float py, int count, float* dx, float* dy, float* dz) const;
+
+ private:
+  Frame frame_;
+  float tan_half_, aspect_, width_, height_;
+};
+
 }  // namespace penumbra

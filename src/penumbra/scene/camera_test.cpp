@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 namespace penumbra {
 namespace {
 
@@ -43,6 +45,29 @@ TEST(Camera, VerticalViewStillHasAFrame) {
   EXPECT_NEAR(length(f.s), 1, 1e-5f);
   EXPECT_NEAR(dot(f.s, f.n), 0, 1e-5f);
   EXPECT_NEAR(f.n.y, 1, 1e-6f);
+}
+
+TEST(Camera, RowOfDirectionsEqualsOneAtATime) {
+  // The vectorised row (the camera pass's spp = 1 path) gives the very floats of
+  // ray_direction at each pixel centre, for odd widths and off-axis cameras.
+  Camera cam;
+  cam.eye = {0.4f, 1.5f, 3.0f};
+  cam.target = {0.0f, 0.4f, 0.0f};
+  cam.up = {0, 1, 0};
+  cam.fov_y = 37.0f;
+  cam.width = 203;
+  cam.height = 97;
+  const CameraProjection projection(cam);
+  std::vector<float> dx(cam.width), dy(cam.width), dz(cam.width);
+  for (int y : {0, 13, 96}) {
+    projection.row_directions(y + 0.5f, cam.width, dx.data(), dy.data(), dz.data());
+    for (int x = 0; x < cam.width; ++x) {
+      const Vec3f d = cam.ray_direction(x + 0.5f, y + 0.5f);
+      EXPECT_EQ(dx[x], d.x) << x << "," << y;
+      EXPECT_EQ(dy[x], d.y) << x << "," << y;
+      EXPECT_EQ(dz[x], d.z) << x << "," << y;
+    }
+  }
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 #include "penumbra/scene/light.h"
 
+#include <array>
 #include <cmath>
+#include <span>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/sampling.h"
@@ -113,40 +115,89 @@ namespace {
 
 // Irradiance factor of a convex polygon of unit radiance at p with normal n: Lambert's
 // formula E = 1/2 * sum_i theta_i (n . gamma_i) over the polygon clipped to n's
-// hemisphere (the part below the horizon contributes nothing).
-double polygon_irradiance(const std::vector<Vec3f>& poly, Vec3f p, Vec3f n) {
+// hemisphere (the part below the horizon contributes nothing). Called once per view sample
+// by the renderer's compose loop, so it works on the stack (kMaxPolygon vertices).
+constexpr size_t kMaxPolygon = 256;
+double polygon_irradiance(std::span<const Vec3f> poly, Vec3f p, Vec3f n) {
   struct V3 { double x, y, z; };
   auto sub = [](Vec3f a, Vec3f b) { return V3{double(a.x) - b.x, double(a.y) - b.y, double(a.z) - b.z}; };
   auto ddot = [](V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; };
+  if (poly.size() > kMaxPolygon) throw Error("polygon_irradiance: {} vertices (at most {})", poly.size(), kMaxPolygon);
   V3 nn{n.x, n.y, n.z};
-  // Clip against dot(v, n) >= 0 (Sutherland-Hodgman, one plane).
-  std::vector<V3> in, out;
-  for (Vec3f q : poly) in.push_back(sub(q, p));
-  for (size_t i = 0; i < in.size(); ++i) {
-    V3 a = in[i], b = in[(i + 1) % in.size()];
+  // Clip against dot(v, n) >= 0 (Sutherland-Hodgman, one plane: a convex polygon gains at
+  // most one vertex).
+  std::array<V3, kMaxPolygon> in;
+  std::array<V3, kMaxPolygon + 1> out;
+  const size_t count = poly.size();
+  size_t m = 0;
+  for (size_t i = 0; i < count; ++i) in[i] = sub(poly[i], p);
+  for (size_t i = 0; i < count; ++i) {
+    V3 a = in[i], b = in[(i + 1) % count];
     double da = ddot(a, nn), db = ddot(b, nn);
-    if (da >= 0) out.push_back(a);
+    if (da >= 0) out[m++] = a;
     if ((da >= 0) != (db >= 0)) {
       double t = da / (da - db);
-      out.push_back({a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)});
+      out[m++] = {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)};
     }
   }
-  if (out.size() < 3) return 0.0;
+  if (m < 3) return 0.0;
   double sum = 0;
-  for (size_t i = 0; i < out.size(); ++i) {
-    V3 a = out[i], b = out[(i + 1) % out.size()];
-    double la = std::sqrt(ddot(a, a)), lb = std::sqrt(ddot(b, b));
-    if (la < 1e-12 || lb < 1e-12) continue;
+  for (size_t i = 0; i < m; ++i) {
+    V3 a = out[i], b = out[(i + 1) % m];
     V3 c{a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
     double lc = std::sqrt(ddot(c, c));
-    if (lc < 1e-15) continue;
-    double theta = std::acos(std::clamp(ddot(a, b) / (la * lb), -1.0, 1.0));
+    if (lc < 1e-15) continue;  // an edge through p, or a degenerate one
+    // theta = atan2(|a x b|, a . b): accurate for the small angles of far lights, where
+    // acos(a . b / (|a| |b|)) loses half its digits (light_kernels::rect_irradiance does the same).
+    double theta = std::atan2(lc, ddot(a, b));
     sum += theta * ddot(c, nn) / lc;
   }
   return 0.5 * std::abs(sum);
 }
 
+// cos and sin of 2 pi i / 256, i < 256, computed once (as float, as the polygons use them).
+const std::array<Vec2f, 256>& unit_circle_256() {
+  static const std::array<Vec2f, 256> table = [] {
+    std::array<Vec2f, 256> t;
+    for (int i = 0; i < 256; ++i) {
+      const float phi = 2 * kPi * i / 256;
+      t[i] = Vec2f(std::cos(phi), std::sin(phi));
+    }
+    return t;
+  }();
+  return table;
+}
+
 }  // namespace
+
+void AreaLight::unshadowed_irradiance_scalar(std::span<const Vec3f> p, std::span<const Vec3f> n,
+                                             std::span<float> out) const {
+  if (n.size() < p.size() || out.size() < p.size())
+    throw Error("AreaLight::unshadowed_irradiance_scalar: {} points, {} normals, {} outputs", p.size(), n.size(),
+                out.size());
+  if (shape != LightShape::Rect) {
+    for (size_t i = 0; i < p.size(); ++i) out[i] = unshadowed_irradiance_scalar(p[i], n[i]);
+    return;
+  }
+  // Rects: the SIMD kernel (clipping included) over chunks of points in structure-of-arrays form.
+  const Vec3f hs = frame.s * (0.5f * size.x), ht = frame.t * (0.5f * size.y);
+  const Vec3f c[4] = {center - hs - ht, center + hs - ht, center + hs + ht, center - hs + ht};  // as outline()
+  double corners[4][3];
+  for (int k = 0; k < 4; ++k) corners[k][0] = c[k].x, corners[k][1] = c[k].y, corners[k][2] = c[k].z;
+  constexpr size_t kChunk = 256;
+  static_assert(kChunk % LightSampleBatch::kLanePad == 0);
+  alignas(64) float px[kChunk], py[kChunk], pz[kChunk], nx[kChunk], ny[kChunk], nz[kChunk], e[kChunk];
+  for (size_t begin = 0; begin < p.size(); begin += kChunk) {
+    const size_t count = std::min(kChunk, p.size() - begin);
+    const size_t padded = (count + LightSampleBatch::kLanePad - 1) / LightSampleBatch::kLanePad * LightSampleBatch::kLanePad;
+    for (size_t i = 0; i < padded; ++i) {
+      const Vec3f q = i < count ? p[begin + i] : Vec3f(0.0f), m = i < count ? n[begin + i] : Vec3f(0.0f);
+      px[i] = q.x, py[i] = q.y, pz[i] = q.z, nx[i] = m.x, ny[i] = m.y, nz[i] = m.z;
+    }
+    light_kernels::rect_irradiance(corners, px, py, pz, nx, ny, nz, padded, e);
+    for (size_t i = 0; i < count; ++i) out[begin + i] = faces(p[begin + i]) ? e[i] : 0.0f;
+  }
+}
 
 std::vector<Vec3f> AreaLight::outline(int segments) const {
   if (shape == LightShape::Rect) {
@@ -336,17 +387,19 @@ bool LightPointSampler::sample(Vec2f u, AreaLight::DirectionSample* out) const {
 
 float AreaLight::unshadowed_irradiance_scalar(Vec3f p, Vec3f n) const {
   if (!faces(p)) return 0.0f;
-  if (shape == LightShape::Rect) return static_cast<float>(polygon_irradiance(outline(), p, n));
+  if (shape == LightShape::Rect) {
+    const Vec3f hs = frame.s * (0.5f * size.x), ht = frame.t * (0.5f * size.y);
+    const Vec3f corners[4] = {center - hs - ht, center + hs - ht, center + hs + ht, center - hs + ht};  // as outline()
+    return static_cast<float>(polygon_irradiance(corners, p, n));
+  }
   if (shape == LightShape::Disk) {
     // A 256-gon inscribed in the disk, rescaled to the disk's area: the relative error
     // of the irradiance is below 1e-4 for any point.
     const int segs = 256;
     float r = radius * std::sqrt((2 * kPi / segs) / std::sin(2 * kPi / segs));
-    std::vector<Vec3f> poly;
-    for (int i = 0; i < segs; ++i) {
-      float phi = 2 * kPi * i / segs;
-      poly.push_back(center + frame.s * (r * std::cos(phi)) + frame.t * (r * std::sin(phi)));
-    }
+    std::array<Vec3f, segs> poly;
+    const auto& circle = unit_circle_256();
+    for (int i = 0; i < segs; ++i) poly[i] = center + frame.s * (r * circle[i].x) + frame.t * (r * circle[i].y);
     return static_cast<float>(polygon_irradiance(poly, p, n));
   }
   if (shape == LightShape::Ellipsoid) {
@@ -357,11 +410,9 @@ float AreaLight::unshadowed_irradiance_scalar(Vec3f p, Vec3f n) const {
     const Ellipse e = contour_toward(p);
     const int segs = 256;
     const float scale = std::sqrt((2 * kPi / segs) / std::sin(2 * kPi / segs));
-    std::vector<Vec3f> poly;
-    for (int i = 0; i < segs; ++i) {
-      const float phi = 2 * kPi * i / segs;
-      poly.push_back(e.center + (e.a * std::cos(phi) + e.b * std::sin(phi)) * scale);
-    }
+    std::array<Vec3f, segs> poly;
+    const auto& circle = unit_circle_256();
+    for (int i = 0; i < segs; ++i) poly[i] = e.center + (e.a * circle[i].x + e.b * circle[i].y) * scale;
     return static_cast<float>(polygon_irradiance(poly, p, n));
   }
   // Sphere: pi sin^2(alpha) cos(theta) when the whole cap is above the horizon.

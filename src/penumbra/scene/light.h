@@ -9,6 +9,7 @@
 #pragma once
 
 #include <string>
+#include <span>
 #include <vector>
 
 #include "penumbra/core/math.h"
@@ -94,6 +95,9 @@ struct AreaLight {
   // its area), clipped to n's hemisphere. Per colour channel: radiance times the scalar.
   float unshadowed_irradiance_scalar(Vec3f p, Vec3f n) const;
   Vec3f unshadowed_irradiance(Vec3f p, Vec3f n) const { return radiance * unshadowed_irradiance_scalar(p, n); }
+  // The same at many points, out[i] for (p[i], n[i]): equal up to rounding (SIMD for rects,
+  // light_kernels::rect_irradiance, in chunks; the other shapes one point at a time).
+  void unshadowed_irradiance_scalar(std::span<const Vec3f> p, std::span<const Vec3f> n, std::span<float> out) const;
 
   // The light's outline as a convex polygon in world space (rect: 4 corners in
   // counter-clockwise order around frame.n; disk: `segments`-gon circumscribing the disk;

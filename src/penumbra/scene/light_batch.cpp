@@ -103,6 +103,81 @@ void SampleCone(const Cone& c, const float* HWY_RESTRICT ux, const float* HWY_RE
   }
 }
 
+
+void RectIrradiance(const double (*corners)[3], const float* HWY_RESTRICT px, const float* HWY_RESTRICT py,
+                    const float* HWY_RESTRICT pz, const float* HWY_RESTRICT nx, const float* HWY_RESTRICT ny,
+                    const float* HWY_RESTRICT nz, size_t n, float* HWY_RESTRICT out) {
+  const hn::ScalableTag<double> d;
+  const hn::Rebind<float, decltype(d)> df;  // half-width float vectors, promoted to double
+  const size_t lanes = hn::Lanes(d);
+  const auto zero = hn::Zero(d), half_pi = hn::Set(d, 1.5707963267948966);
+  for (size_t i = 0; i < n; i += lanes) {
+    const auto x = hn::PromoteTo(d, hn::LoadU(df, px + i));
+    const auto y = hn::PromoteTo(d, hn::LoadU(df, py + i));
+    const auto z = hn::PromoteTo(d, hn::LoadU(df, pz + i));
+    const auto ux = hn::PromoteTo(d, hn::LoadU(df, nx + i));
+    const auto uy = hn::PromoteTo(d, hn::LoadU(df, ny + i));
+    const auto uz = hn::PromoteTo(d, hn::LoadU(df, nz + i));
+    // The corners relative to p, and their heights above p's horizon.
+    hn::Vec<decltype(d)> ax[4], ay[4], az[4], dn[4];
+    for (int k = 0; k < 4; ++k) {
+      ax[k] = hn::Sub(hn::Set(d, corners[k][0]), x);
+      ay[k] = hn::Sub(hn::Set(d, corners[k][1]), y);
+      az[k] = hn::Sub(hn::Set(d, corners[k][2]), z);
+      dn[k] = hn::Add(hn::Add(hn::Mul(ax[k], ux), hn::Mul(ay[k], uy)), hn::Mul(az[k], uz));
+    }
+    // One edge's term theta (n . gamma) / |gamma|, gamma = a x b, theta = atan2(|a x b|, a . b):
+    // accurate for the small angles of far lights, where acos(a . b / (|a| |b|)) loses half
+    // its digits. Edges through p (|gamma| ~ 0) contribute nothing, as in the scalar formula.
+    auto edge_term = [&](auto ax_, auto ay_, auto az_, auto bx, auto by, auto bz) {
+      const auto cx = hn::Sub(hn::Mul(ay_, bz), hn::Mul(az_, by));
+      const auto cy = hn::Sub(hn::Mul(az_, bx), hn::Mul(ax_, bz));
+      const auto cz = hn::Sub(hn::Mul(ax_, by), hn::Mul(ay_, bx));
+      const auto lc = hn::Sqrt(hn::Add(hn::Add(hn::Mul(cx, cx), hn::Mul(cy, cy)), hn::Mul(cz, cz)));
+      const auto ab = hn::Add(hn::Add(hn::Mul(ax_, bx), hn::Mul(ay_, by)), hn::Mul(az_, bz));
+      // atan2(lc, ab) for lc > 0: atan(lc / ab) when ab >= lc, else pi/2 - atan(ab / lc).
+      const auto small = hn::Ge(ab, lc);
+      const auto safe_lc = hn::Max(lc, hn::Set(d, 1e-300));
+      const auto q = hn::IfThenElse(small, hn::Div(lc, hn::Max(ab, hn::Set(d, 1e-300))), hn::Div(ab, safe_lc));
+      const auto at = hn::Atan(d, q);
+      const auto theta = hn::IfThenElse(small, at, hn::Sub(half_pi, at));
+      const auto cn = hn::Add(hn::Add(hn::Mul(cx, ux), hn::Mul(cy, uy)), hn::Mul(cz, uz));
+      return hn::IfThenElseZero(hn::Ge(lc, hn::Set(d, 1e-15)), hn::Div(hn::Mul(theta, cn), safe_lc));
+    };
+    // The rectangle clipped to the hemisphere of n (Sutherland-Hodgman against one plane, as
+    // the scalar formula, but edge by edge): an edge with both ends above counts whole, one
+    // crossing the horizon counts from its end above to the crossing, one below not at all;
+    // the clipped polygon's closing edge runs along the horizon from where the outline leaves
+    // the hemisphere to where it enters it again (a convex outline does each at most once).
+    auto sum = zero;
+    auto exit_x = zero, exit_y = zero, exit_z = zero, entry_x = zero, entry_y = zero, entry_z = zero;
+    auto has_exit = hn::Lt(zero, zero), has_entry = has_exit;
+    for (int k = 0; k < 4; ++k) {
+      const int l = (k + 1) & 3;
+      const auto above_a = hn::Ge(dn[k], zero), above_b = hn::Ge(dn[l], zero);
+      const auto crosses = hn::Xor(above_a, above_b);
+      const auto denom = hn::Sub(dn[k], dn[l]);
+      const auto t = hn::Div(dn[k], hn::IfThenElse(crosses, denom, hn::Set(d, 1.0)));
+      const auto ix = hn::Add(ax[k], hn::Mul(t, hn::Sub(ax[l], ax[k])));
+      const auto iy = hn::Add(ay[k], hn::Mul(t, hn::Sub(ay[l], ay[k])));
+      const auto iz = hn::Add(az[k], hn::Mul(t, hn::Sub(az[l], az[k])));
+      const auto term = edge_term(hn::IfThenElse(above_a, ax[k], ix), hn::IfThenElse(above_a, ay[k], iy),
+                                  hn::IfThenElse(above_a, az[k], iz), hn::IfThenElse(above_b, ax[l], ix),
+                                  hn::IfThenElse(above_b, ay[l], iy), hn::IfThenElse(above_b, az[l], iz));
+      sum = hn::Add(sum, hn::IfThenElseZero(hn::Or(above_a, above_b), term));
+      const auto leaves = hn::AndNot(above_b, above_a), enters = hn::AndNot(above_a, above_b);
+      exit_x = hn::IfThenElse(leaves, ix, exit_x), exit_y = hn::IfThenElse(leaves, iy, exit_y);
+      exit_z = hn::IfThenElse(leaves, iz, exit_z), has_exit = hn::Or(has_exit, leaves);
+      entry_x = hn::IfThenElse(enters, ix, entry_x), entry_y = hn::IfThenElse(enters, iy, entry_y);
+      entry_z = hn::IfThenElse(enters, iz, entry_z), has_entry = hn::Or(has_entry, enters);
+    }
+    const auto closing = edge_term(exit_x, exit_y, exit_z, entry_x, entry_y, entry_z);
+    sum = hn::Add(sum, hn::IfThenElseZero(hn::And(has_exit, has_entry), closing));
+    const auto e = hn::Mul(hn::Set(d, 0.5), hn::Abs(sum));
+    hn::StoreU(hn::DemoteTo(df, e), df, out + i);
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace light_kernels
 }  // namespace penumbra
@@ -120,6 +195,12 @@ void LightSampleBatch::resize(int n) {
 namespace light_kernels {
 HWY_EXPORT(SampleSphericalRect);
 HWY_EXPORT(SampleCone);
+HWY_EXPORT(RectIrradiance);
+
+void rect_irradiance(const double corners[4][3], const float* px, const float* py, const float* pz,
+                     const float* nx, const float* ny, const float* nz, size_t n, float* out) {
+  HWY_DYNAMIC_DISPATCH(RectIrradiance)(corners, px, py, pz, nx, ny, nz, n, out);
+}
 
 void sample_spherical_rect(const SphericalRect& rect, const float* ux, const float* uy, size_t n,
                            LightSampleBatch& out) {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace penumbra {
@@ -47,6 +48,15 @@ struct Cone {
 void sample_spherical_rect(const SphericalRect& rect, const float* ux, const float* uy, size_t n,
                            LightSampleBatch& out);
 void sample_cone(const Cone& cone, const float* ux, const float* uy, size_t n, LightSampleBatch& out);
+
+// Lambert's formula for a rectangle of unit radiance (corners in order around it) at n points
+// p_i = (px[i], py[i], pz[i]) with normals (nx[i], ny[i], nz[i]), the rectangle clipped to
+// n's hemisphere: out[i] = 1/2 |sum_k theta_k (n . gamma_k)|, in double precision (far lights
+// make the edge terms cancel). Whether the light faces p is the caller's test. Inputs are read
+// and outputs written in whole vectors: every array must be padded to a multiple of
+// LightSampleBatch::kLanePad.
+void rect_irradiance(const double corners[4][3], const float* px, const float* py, const float* pz,
+                     const float* nx, const float* ny, const float* nz, size_t n, float* out);
 
 }  // namespace light_kernels
 }  // namespace penumbra

@@ -30,6 +30,25 @@ AreaLight rect(Vec3f c, float w, float h) {
   return l;
 }
 
+// A disk tilted off the vertical and a sphere, both above the origin (the estimator and
+// batch tests' other shapes).
+AreaLight tilted_disk() {
+  AreaLight disk;
+  disk.shape = LightShape::Disk;
+  disk.center = {0.2f, 1.4f, 0.1f};
+  disk.frame = Frame::from_z(normalize(Vec3f(0.2f, -1, 0.1f)));
+  disk.radius = 0.6f;
+  return disk;
+}
+
+AreaLight sphere_light() {
+  AreaLight sphere;
+  sphere.shape = LightShape::Sphere;
+  sphere.center = {-0.3f, 1.8f, 0.2f};
+  sphere.radius = 0.5f;
+  return sphere;
+}
+
 TEST(AreaLight, RectIrradianceMatchesConfigurationFactor) {
   // A 2 x 1 light at height 1.5 centred over the origin: four corner rectangles.
   AreaLight l = rect({0, 1.5f, 0}, 2, 1);
@@ -147,15 +166,8 @@ TEST(AreaLight, SolidAngleEstimatorConvergesToClosedForm) {
 TEST(AreaLight, DiskAndSphereEstimatorsConvergeToClosedForms) {
   // The reference's estimators with 1024 stratified samples, for the other two shapes:
   // within 0.5% of the closed forms, on a tilted receiver.
-  AreaLight disk;
-  disk.shape = LightShape::Disk;
-  disk.center = {0.2f, 1.4f, 0.1f};
-  disk.frame = Frame::from_z(normalize(Vec3f(0.2f, -1, 0.1f)));
-  disk.radius = 0.6f;
-  AreaLight sphere;
-  sphere.shape = LightShape::Sphere;
-  sphere.center = {-0.3f, 1.8f, 0.2f};
-  sphere.radius = 0.5f;
+  AreaLight disk = tilted_disk();
+  AreaLight sphere = sphere_light();
   Vec3f p(0.4f, 0, -0.3f), n = normalize(Vec3f(0.3f, 1, 0.2f));
   for (const AreaLight* l : {&disk, &sphere}) {
     LightPointSampler sampler(*l, p);
@@ -231,10 +243,7 @@ double surface_irradiance_mc(const AreaLight& l, Vec3f p, Vec3f n, int k, uint64
 }
 
 TEST(AreaLightEllipsoid, EqualRadiiGiveTheSphere) {
-  AreaLight sphere;
-  sphere.shape = LightShape::Sphere;
-  sphere.center = {-0.3f, 1.8f, 0.2f};
-  sphere.radius = 0.5f;
+  AreaLight sphere = sphere_light();
   sphere.frame = Frame::from_z(normalize(Vec3f(0.1f, -1, 0.05f)));
   const AreaLight e = ellipsoid(sphere.center, Vec3f(0.5f), sphere.frame);
   EXPECT_FLOAT_EQ(e.area(), sphere.area());
@@ -356,15 +365,8 @@ TEST(LightPointSampler, BatchEqualsScalarSampleForEveryShape) {
   // same light points and weights as sample(), from points near, far, off to the side and
   // grazing, for every shape.
   AreaLight r = rect({0.1f, 1.5f, -0.2f}, 2.0f, 0.7f);
-  AreaLight sphere;
-  sphere.shape = LightShape::Sphere;
-  sphere.center = {-0.3f, 1.8f, 0.2f};
-  sphere.radius = 0.5f;
-  AreaLight disk;
-  disk.shape = LightShape::Disk;
-  disk.center = {0.2f, 1.4f, 0.1f};
-  disk.frame = Frame::from_z(normalize(Vec3f(0.2f, -1, 0.1f)));
-  disk.radius = 0.6f;
+  AreaLight sphere = sphere_light();
+  AreaLight disk = tilted_disk();
   const Vec3f points[] = {{0, 0, 0}, {3.0f, 1.2f, -2.0f}, {0.3f, 1.45f, 0.1f}, {-20, -5, 30}, {0.05f, 0.9f, -0.1f}};
   const int n = 37;  // not a multiple of any vector width
   std::vector<float> ux(48), uy(48);
@@ -400,6 +402,50 @@ TEST(LightPointSampler, BatchEqualsScalarSampleForEveryShape) {
       }
       EXPECT_EQ(k, m) << to_string(l->shape);
     }
+  }
+}
+
+TEST(AreaLight, BatchIrradianceEqualsScalarForEveryShape) {
+  // The many-point form (a SIMD kernel for rects, with the scalar clipping formula for points
+  // whose horizon cuts the light) equals the one-point form, for points under, beside, behind
+  // and far from each light, with normals facing it, tilted across it and away from it.
+  AreaLight r = rect({0.1f, 1.5f, -0.2f}, 2.0f, 0.7f);
+  AreaLight disk = tilted_disk();
+  AreaLight sphere = sphere_light();
+  Rng rng(23);
+  const size_t n = 301;  // not a multiple of any vector width, more than one chunk
+  std::vector<Vec3f> p(n), nrm(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Vec2f a = rng.next_2d(), b = rng.next_2d();
+    const float scale = i % 7 == 0 ? 40.0f : 3.0f;  // some far points
+    p[i] = Vec3f(scale * (a.x - 0.5f), 2.0f * a.y - 0.5f, scale * (b.x - 0.5f));
+    nrm[i] = i % 5 == 0 ? Vec3f(0, 1, 0) : square_to_cone(rng.next_2d(), -1.0f);  // uniform on the sphere
+  }
+  for (const AreaLight* l : {&r, &disk, &sphere}) {
+    std::vector<float> batch(n);
+    l->unshadowed_irradiance_scalar(p, nrm, batch);
+    int clipped = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const float one = l->unshadowed_irradiance_scalar(p[i], nrm[i]);
+      EXPECT_NEAR(batch[i], one, 1e-6f * std::max(one, 1e-3f)) << to_string(l->shape) << " point " << i;
+      clipped += one > 0 && nrm[i].y != 1.0f;
+    }
+    EXPECT_GT(clipped, 20) << to_string(l->shape);  // the tilted normals did cross the light
+  }
+}
+
+TEST(AreaLight, FarRectIrradianceKeepsItsDigits) {
+  // 1000 light widths away the four edge terms of Lambert's formula cancel to one part in
+  // 1e3, so both forms keep double precision through the sum (in float the result would be
+  // off by percents); the SIMD kernel must agree with the closed form as the scalar one does.
+  for (float h : {100.0f, 1000.0f, 5000.0f}) {
+    AreaLight l = rect({0, h, 0}, 1, 1);
+    const double expected = 4 * corner_rect_irradiance(0.5, 0.5, h);
+    EXPECT_NEAR(l.unshadowed_irradiance_scalar({0, 0, 0}, {0, 1, 0}), expected, 1e-5 * expected) << h;
+    std::vector<Vec3f> p(16, Vec3f(0.0f)), nrm(16, Vec3f(0, 1, 0));
+    std::vector<float> e(16);
+    l.unshadowed_irradiance_scalar(p, nrm, e);
+    EXPECT_NEAR(e[3], expected, 1e-5 * expected) << h;
   }
 }
 

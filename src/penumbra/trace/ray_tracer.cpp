@@ -161,10 +161,9 @@ RayTracer::RayTracer(const Scene& scene) : impl_(std::make_unique<Impl>()) {
 
 RayTracer::~RayTracer() = default;
 
-bool RayTracer::intersect(const Ray& ray, Hit* hit) const {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  RTCRayHit rh;
+namespace {
+// An Embree ray-hit record for `ray`, no hit yet.
+inline void fill_ray_hit(RTCRayHit& rh, const Ray& ray, unsigned id) {
   rh.ray.org_x = ray.org.x; rh.ray.org_y = ray.org.y; rh.ray.org_z = ray.org.z;
   rh.ray.dir_x = ray.dir.x; rh.ray.dir_y = ray.dir.y; rh.ray.dir_z = ray.dir.z;
   rh.ray.tnear = ray.tnear;
@@ -172,10 +171,13 @@ bool RayTracer::intersect(const Ray& ray, Hit* hit) const {
   rh.ray.mask = 0xFFFFFFFFu;
   rh.ray.flags = 0;
   rh.ray.time = 0;
-  rh.ray.id = 0;
+  rh.ray.id = id;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &ctx, &rh);
+}
+
+// The hit of a traced record (false, `hit` untouched, if the ray hit nothing).
+inline bool read_hit(const RTCRayHit& rh, Hit* hit) {
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
   hit->t = rh.ray.tfar;
   hit->object = rh.hit.geomID;
@@ -184,6 +186,37 @@ bool RayTracer::intersect(const Ray& ray, Hit* hit) const {
   hit->v = rh.hit.v;
   hit->ng = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
   return true;
+}
+}  // namespace
+
+bool RayTracer::intersect(const Ray& ray, Hit* hit) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh;
+  fill_ray_hit(rh, ray, 0);
+  rtcIntersect1(impl_->scene, &ctx, &rh);
+  return read_hit(rh, hit);
+}
+
+void RayTracer::intersect(std::span<const Ray> rays, std::span<Hit> hits, bool coherent) const {
+  if (hits.size() < rays.size()) throw Error("RayTracer::intersect: output too small");
+  constexpr size_t kChunk = 256;
+  RTCRayHit buf[kChunk];
+  for (size_t begin = 0; begin < rays.size(); begin += kChunk) {
+    const size_t n = std::min(kChunk, rays.size() - begin);
+    for (size_t i = 0; i < n; ++i) fill_ray_hit(buf[i], rays[begin + i], static_cast<unsigned>(i));
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    rtcIntersect1M(impl_->scene, &ctx, buf, static_cast<unsigned>(n), sizeof(RTCRayHit));
+    for (size_t i = 0; i < n; ++i) {
+      Hit& hit = hits[begin + i];
+      if (!read_hit(buf[i], &hit)) {
+        hit = Hit{};
+        hit.object = Hit::kMiss;
+      }
+    }
+  }
 }
 
 namespace {

@@ -168,5 +168,42 @@ TEST(RayTracer, FanTransmittanceEqualsOneRayAtATime) {
   EXPECT_GE(equal, rays - rays / 500) << equal << " of " << rays;
 }
 
+TEST(RayTracer, StreamIntersectEqualsOneRayAtATime) {
+  // intersect(span) (the camera pass's rtcIntersect1M streams) finds, ray by ray, the hit
+  // intersect(ray) finds, misses included, for any number of rays (chunks of 256, a ragged tail).
+  std::vector<SceneObject> objects;
+  objects.push_back(object(quad_y(0.6f, -0.4f, 0.3f, -0.5f, 0.2f)));
+  objects.push_back(object(testing::box({0.3f, 0, -0.6f}, {0.5f, 0.4f, -0.3f})));
+  Scene scene = ground_scene(std::move(objects), rect_light_down({0, 2, 0}, 1.5f, 1.5f));
+  RayTracer tracer(scene);
+  Rng rng(17);
+  const Vec3f eye(0.2f, 1.5f, 2.5f);
+  std::vector<Ray> rays(600);
+  for (Ray& r : rays) {
+    const Vec2f u = rng.next_2d();
+    // Directions toward the scene and some above it (misses).
+    r = Ray{eye, normalize(Vec3f(-2.0f + 4.0f * u.x, -2.5f + 3.5f * u.y, -2.5f)), 0.0f, kInfinity};
+  }
+  std::vector<Hit> hits(rays.size());
+  tracer.intersect(rays, hits);
+  int hit_count = 0, miss_count = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Hit one;
+    if (!tracer.intersect(rays[i], &one)) {
+      EXPECT_EQ(hits[i].object, Hit::kMiss) << "ray " << i;
+      ++miss_count;
+      continue;
+    }
+    ++hit_count;
+    EXPECT_EQ(hits[i].object, one.object) << "ray " << i;
+    EXPECT_EQ(hits[i].prim, one.prim) << "ray " << i;
+    EXPECT_FLOAT_EQ(hits[i].t, one.t) << "ray " << i;
+    EXPECT_FLOAT_EQ(hits[i].u, one.u) << "ray " << i;
+    EXPECT_FLOAT_EQ(hits[i].v, one.v) << "ray " << i;
+  }
+  EXPECT_GT(hit_count, 100);
+  EXPECT_GT(miss_count, 10);
+}
+
 }  // namespace
 }  // namespace penumbra
