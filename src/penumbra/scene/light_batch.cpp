@@ -150,6 +150,16 @@ void RectIrradiance(const double (*corners)[3], const float* HWY_RESTRICT px, co
     // the clipped polygon's closing edge runs along the horizon from where the outline leaves
     // the hemisphere to where it enters it again (a convex outline does each at most once).
     auto sum = zero;
+    const auto all_above = hn::And(hn::And(hn::Ge(dn[0], zero), hn::Ge(dn[1], zero)),
+                                   hn::And(hn::Ge(dn[2], zero), hn::Ge(dn[3], zero)));
+    if (hn::AllTrue(d, all_above)) {  // the common case: no lane's horizon cuts the light
+      for (int k = 0; k < 4; ++k) {
+        const int l = (k + 1) & 3;
+        sum = hn::Add(sum, edge_term(ax[k], ay[k], az[k], ax[l], ay[l], az[l]));
+      }
+      hn::StoreU(hn::DemoteTo(df, hn::Mul(hn::Set(d, 0.5), hn::Abs(sum))), df, out + i);
+      continue;
+    }
     auto exit_x = zero, exit_y = zero, exit_z = zero, entry_x = zero, entry_y = zero, entry_z = zero;
     auto has_exit = hn::Lt(zero, zero), has_entry = has_exit;
     for (int k = 0; k < 4; ++k) {

@@ -76,9 +76,14 @@ class MultilayerMethod final : public ShadowMethod {
     std::mutex total_mutex;
     parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
       multilayer::TraceCounters local;
-      std::vector<Vec3f> q;
-      std::vector<float> weight, transmit;
-      q.reserve(n), weight.reserve(n), transmit.resize(n);
+      // The point's light samples warped together (the SIMD kernels of scene/light_batch.h,
+      // as `reference` draws them).
+      const size_t padded = (n + LightSampleBatch::kLanePad - 1) / LightSampleBatch::kLanePad * LightSampleBatch::kLanePad;
+      std::vector<float> ux(padded, 0.0f), uy(padded, 0.0f);
+      LightSampleBatch batch;
+      batch.resize(n);
+      std::vector<Vec3f> q(n);
+      std::vector<float> transmit(n);
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
         // Keyed by (seed, light, view sample, frame): independent of thread count. The same
@@ -88,22 +93,23 @@ class MultilayerMethod final : public ShadowMethod {
         const LightPointSampler sampler(light, s.p);
         if (!sampler.valid()) continue;  // p sees no part of the emitting side: V = 0
         const multilayer::RayReceiver r{s.p, s.ng, s.object < scene.objects.size() && scene.objects[s.object].closed};
-        q.clear(), weight.clear();
         for (int i = 0; i < n; ++i) {
-          AreaLight::DirectionSample ds;
-          if (!sampler.sample(grid.sample(i, rng.next_2d()), &ds)) continue;
-          q.push_back(s.p + ds.dir * ds.dist);
-          weight.push_back(ds.area_weight);
+          const Vec2f u = grid.sample(i, rng.next_2d());
+          ux[i] = u.x;
+          uy[i] = u.y;
         }
+        const int m = sampler.sample_batch(ux.data(), uy.data(), n, batch);
+        for (int i = 0; i < m; ++i) q[i] = s.p + Vec3f(batch.x[i], batch.y[i], batch.z[i]);
+        const std::span<const Vec3f> points(q.data(), static_cast<size_t>(m));
         // The point's rays walk the map together (they share its quadtree down to s.p).
         if (kind_ == Kind::Opaque)
-          multilayer::trace_opaque(setup, opaque_, r, q, transmit.data(), &local);
+          multilayer::trace_opaque(setup, opaque_, r, points, transmit.data(), &local);
         else
-          multilayer::trace_transparent(setup, transparent_, r, q, transmit.data(), &local);
+          multilayer::trace_transparent(setup, transparent_, r, points, transmit.data(), &local);
         double v = 0, wsum = 0;
-        for (size_t i = 0; i < q.size(); ++i) {
-          v += transmit[i] * weight[i];
-          wsum += weight[i];
+        for (int i = 0; i < m; ++i) {
+          v += transmit[i] * batch.area_weight[i];
+          wsum += batch.area_weight[i];
         }
         out.visibility[k] = wsum > 0 ? static_cast<float>(v / wsum) : 0.0f;
       }
