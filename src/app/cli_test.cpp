@@ -128,6 +128,27 @@ TEST_F(Cli, BadSceneIsOneLineErrorNamingFileAndKeyAndWritesNothing) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+TEST_F(Cli, DeeplyNestedJsonIsOneLineErrorNotACrash) {
+  // 100,000 levels of brackets once overflowed the stack (printing the value for a message);
+  // the parser now refuses nesting deeper than kMaxJsonDepth while it reads, in a scene
+  // file and in a -p value alike.
+  const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+  fs::path out = dir_ / "never.png";
+  for (const std::string& scene : {write("nested.json", deep), write("nested_camera.json", "{\"camera\": " + deep + "}")}) {
+    CliRun r = run(fmt::format("render {} -o {}", scene, out.string()));
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find("nested deeper than 64 levels"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(".json"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+  CliRun r = run(fmt::format("scene plant --param leaves={} -o {}", std::string(5000, '[') + std::string(5000, ']'),
+                             (dir_ / "never.json").string()));
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("--param leaves: nested deeper than 64 levels"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "never.json"));
+}
+
 TEST_F(Cli, BadArgumentsAreRejected) {
   std::string scene = tiny_scene();
   CliRun r = run(fmt::format("render {} -m no-such-method -o {}", scene, (dir_ / "x.png").string()));

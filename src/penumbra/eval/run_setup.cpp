@@ -47,9 +47,8 @@ long long parse_int(const std::string& key, const std::string& value, long long 
 }
 
 // The value as JSON when it parses as JSON (3000, 0.5, true), else as a string.
-json json_value(const std::string& text) {
-  json v = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  return v.is_discarded() ? json(text) : v;
+json json_value(const std::string& key, const std::string& text) {
+  return parse_json_value_or_string(text, "--param " + key);
 }
 
 json& lights_of(json& doc, const std::string& key) {
@@ -211,7 +210,7 @@ void RunSetup::apply(const std::string& key, const std::string& value) {
         bool has = std::any_of(g.params.begin(), g.params.end(), [&](const GeneratorParam& p) { return p.name == param; });
         if (!has) continue;
         if (!obj.contains("params") || !obj["params"].is_object()) obj["params"] = json::object();
-        obj["params"][param] = json_value(value);
+        obj["params"][param] = json_value(key, value);
         ++changed;
       }
     }

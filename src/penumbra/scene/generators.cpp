@@ -97,8 +97,7 @@ json make_example_scene(const std::string& generator, const std::vector<std::str
     if (eq == std::string::npos || eq == 0) throw Error("--param {}: expected key=value", kv);
     std::string text = kv.substr(eq + 1);
     // "3000", "0.5", "true" are JSON; "abc" is not and stays a string.
-    json value = json::parse(text, nullptr, /*allow_exceptions=*/false);
-    user[kv.substr(0, eq)] = value.is_discarded() ? json(text) : value;
+    user[kv.substr(0, eq)] = parse_json_value_or_string(text, fmt::format("--param {}", kv.substr(0, eq)));
   }
   return g.example_scene(resolve_generator_params(g, user, fmt::format("scene {}", generator)));
 }

@@ -211,10 +211,15 @@ json parse_json_text(std::string_view text, const std::string& name) {
   auto element_done = [&stack] {
     if (!stack.empty() && stack.back().array) ++stack.back().index;
   };
+  auto too_deep = [&] {
+    if (static_cast<int>(stack.size()) >= kMaxJsonDepth)
+      throw Error("{}: {}{}nested deeper than {} levels of arrays and objects", name, path_of(stack.size(), ""),
+                  stack.empty() ? "" : ": ", kMaxJsonDepth);
+  };
   json::parser_callback_t cb = [&](int, json::parse_event_t ev, json& parsed) {
     switch (ev) {
-      case json::parse_event_t::object_start: stack.emplace_back(); break;
-      case json::parse_event_t::array_start: stack.emplace_back().array = true; break;
+      case json::parse_event_t::object_start: too_deep(); stack.emplace_back(); break;
+      case json::parse_event_t::array_start: too_deep(); stack.emplace_back().array = true; break;
       case json::parse_event_t::key: {
         std::string key = parsed.get<std::string>();
         if (!stack.back().keys.insert(key).second)
@@ -251,6 +256,16 @@ json parse_json_text(std::string_view text, const std::string& name) {
     std::string where = path_of(stack.size(), "");
     throw Error("{}: {}{}number out of range: {}", name, where, where.empty() ? "" : ": ", number);
   }
+}
+
+json parse_json_value_or_string(const std::string& text, const std::string& name) {
+  json::parser_callback_t cb = [&](int depth, json::parse_event_t ev, json&) {
+    if ((ev == json::parse_event_t::object_start || ev == json::parse_event_t::array_start) && depth >= kMaxJsonDepth)
+      throw Error("{}: nested deeper than {} levels of arrays and objects", name, kMaxJsonDepth);
+    return true;
+  };
+  json v = json::parse(text, cb, /*allow_exceptions=*/false);
+  return v.is_discarded() ? json(text) : v;
 }
 
 json read_json_file(const std::filesystem::path& path) {

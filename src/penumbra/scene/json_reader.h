@@ -71,9 +71,18 @@ class JsonValue {
   std::string context_, path_;
 };
 
-// Parses JSON text strictly: syntax errors and duplicate keys throw one-line Errors naming
-// `name` and the line and column ("scenes/x.json: line 3, column 7: syntax error ...").
+// Deepest nesting of arrays and objects any penumbra JSON input may have (scene files need
+// about 5): deeper text is refused while it is parsed, before anything recursive (printing a
+// value for a message, destroying it) could overflow the stack.
+constexpr int kMaxJsonDepth = 64;
+
+// Parses JSON text strictly: syntax errors, duplicate keys and nesting deeper than
+// kMaxJsonDepth throw one-line Errors naming `name` and the line and column
+// ("scenes/x.json: line 3, column 7: syntax error ...").
 nlohmann::json parse_json_text(std::string_view text, const std::string& name);
+// A command-line value ("-p key=value"): its JSON when it parses as JSON (3000, 0.5, true,
+// [1, 2]), else the text as a string; nesting deeper than kMaxJsonDepth throws, naming `name`.
+nlohmann::json parse_json_value_or_string(const std::string& text, const std::string& name);
 // Reads and parses a JSON file (errors name the file).
 nlohmann::json read_json_file(const std::filesystem::path& path);
 

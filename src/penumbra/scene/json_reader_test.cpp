@@ -33,6 +33,23 @@ TEST(JsonValue, NumbersMustBeFiniteFloats) {
   EXPECT_EQ(v["int"].integer(0, 5000), 1000);  // an integral float is an integer
 }
 
+TEST(JsonText, NestingIsLimitedWhileParsing) {
+  const auto nested = [](int levels) { return std::string(levels, '[') + std::string(levels, ']'); };
+  EXPECT_NO_THROW(parse_json_text(nested(kMaxJsonDepth), "f.json"));
+  EXPECT_EQ(error_message([&] { parse_json_text(nested(kMaxJsonDepth + 1), "f.json"); }),
+            "f.json: [0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0]"
+            "[0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0][0]: nested "
+            "deeper than 64 levels of arrays and objects");
+  EXPECT_NE(error_message([&] { parse_json_text(R"({"camera": )" + nested(100000) + "}", "f.json"); })
+                .find("f.json: camera[0]"),
+            std::string::npos);
+  // Command-line values: JSON where they parse, else strings, and never deeper than the limit.
+  EXPECT_EQ(parse_json_value_or_string("[1, 2]", "--param x"), json::array({1, 2}));
+  EXPECT_EQ(parse_json_value_or_string("abc", "--param x"), json("abc"));
+  EXPECT_EQ(error_message([&] { parse_json_value_or_string(nested(100000), "--param x"); }),
+            "--param x: nested deeper than 64 levels of arrays and objects");
+}
+
 TEST(JsonValue, LongValuesAreAbbreviated) {
   json big = json::array();
   for (int i = 0; i < 100; ++i) big.push_back(i);
