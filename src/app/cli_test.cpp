@@ -1,16 +1,20 @@
 // End-to-end tests of the `penumbra` tool: run the real binary on tiny scene files.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "penumbra/core/image.h"
 
@@ -147,6 +151,70 @@ TEST_F(Cli, DeeplyNestedJsonIsOneLineErrorNotACrash) {
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("--param leaves: nested deeper than 64 levels"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir_ / "never.json"));
+}
+
+// Starts the tool with `args` (no shell), lets it run `before`, sends `sig` and returns
+// (exit code, seconds from the signal to the exit); the exit code is -1 if it had not ended
+// 10 s after the signal (it is then killed).
+std::pair<int, double> interrupt_after(const std::vector<std::string>& args, std::chrono::milliseconds before, int sig,
+                                       const std::string& stderr_path) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    std::vector<char*> argv;
+    std::string cli = PENUMBRA_CLI;
+    argv.push_back(cli.data());
+    std::vector<std::string> copy = args;
+    for (std::string& a : copy) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    if (std::freopen(stderr_path.c_str(), "w", stderr) == nullptr) ::_exit(127);
+    if (std::freopen("/dev/null", "w", stdout) == nullptr) ::_exit(127);
+    ::execv(PENUMBRA_CLI, argv.data());
+    ::_exit(127);
+  }
+  std::this_thread::sleep_for(before);
+  ::kill(pid, sig);
+  const auto sent = std::chrono::steady_clock::now();
+  int status = 0;
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() - sent > std::chrono::seconds(10)) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      return {-1, 10.0};
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, seconds};
+}
+
+TEST_F(Cli, CtrlCStopsWithinASecondAndLeavesNothing) {
+  // A render that would take many seconds, and a comparison (its ground truth being
+  // rendered into a fresh cache), interrupted: exit 130 with one line, well within a second
+  // (the watchdog's limit), no output file, no temporary file, no cache entry.
+  const std::string scene = std::string(PENUMBRA_SOURCE_DIR) + "/scenes/contact.json";
+  const fs::path out = dir_ / "out.exr";
+  const fs::path cache = dir_ / "cache", cmp = dir_ / "cmp";
+  const std::vector<std::vector<std::string>> runs = {
+      {"render", scene, "-m", "reference", "--spp", "65536", "-o", out.string()},
+      {"compare", scene, "--methods", "hard", "--reference-spp", "65536", "--cache-dir", cache.string(), "-o",
+       cmp.string()},
+  };
+  for (int sig : {SIGINT, SIGTERM})
+    for (const auto& args : runs) {
+      SCOPED_TRACE(args[0] + (sig == SIGINT ? " SIGINT" : " SIGTERM"));
+      const auto [code, seconds] = interrupt_after(args, std::chrono::milliseconds(1500), sig, (dir_ / "err.txt").string());
+      const std::string err = slurp(dir_ / "err.txt");
+      EXPECT_EQ(code, 130) << err;
+      EXPECT_LT(seconds, 1.0);
+      EXPECT_NE(err.find("interrupted"), std::string::npos) << err;
+      EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+      EXPECT_FALSE(fs::exists(out));
+      EXPECT_FALSE(fs::exists(cmp / "index.html"));
+      for (const auto& e : fs::recursive_directory_iterator(dir_)) {
+        EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+        if (e.is_regular_file()) EXPECT_NE(e.path().extension(), ".exr") << e.path();
+      }
+    }
 }
 
 TEST_F(Cli, BadArgumentsAreRejected) {

@@ -9,6 +9,7 @@
 
 #include "app/command.h"
 #include "penumbra/core/error.h"
+#include "penumbra/core/interrupt.h"
 
 namespace penumbra::app {
 
@@ -53,9 +54,14 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  // Ctrl-C / SIGTERM: stop within a second, leave no output or temporary file (core/interrupt.h).
+  penumbra::install_interrupt_handlers();
   try {
     for (auto& [sub, run] : commands)
       if (sub && sub->parsed()) return run();
+  } catch (const penumbra::Interrupted&) {
+    std::fprintf(stderr, "penumbra: error: interrupted\n");
+    return 130;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "penumbra: error: %s\n", e.what());
     return 1;

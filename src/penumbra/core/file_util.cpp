@@ -9,19 +9,23 @@
 #include <unistd.h>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/interrupt.h"
 
 namespace penumbra {
 
 namespace fs = std::filesystem;
 
 AtomicFile::AtomicFile(fs::path path)
-    : path_(path.string()), tmp_(path_ + ".tmp-" + std::to_string(::getpid())) {}
+    : path_(path.string()), tmp_(path_ + ".tmp-" + std::to_string(::getpid())) {
+  register_temporary_file(tmp_);
+}
 
 AtomicFile::~AtomicFile() {
   if (!committed_) {
     std::error_code ec;
     fs::remove(tmp_, ec);
   }
+  unregister_temporary_file(tmp_);
 }
 
 void AtomicFile::commit() {

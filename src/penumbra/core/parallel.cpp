@@ -1,5 +1,7 @@
 #include "penumbra/core/parallel.h"
 
+#include "penumbra/core/interrupt.h"
+
 #include <algorithm>
 
 #include <tbb/blocked_range.h>
@@ -23,16 +25,22 @@ ThreadLimit::~ThreadLimit() = default;
 
 void parallel_for(size_t n, size_t grain, const std::function<void(size_t, size_t)>& body) {
   if (n == 0) return;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain == 0 ? 1 : grain),
-                    [&](const tbb::blocked_range<size_t>& r) { body(r.begin(), r.end()); });
+  throw_if_interrupted();
+  // Each chunk checks for Ctrl-C first (core/interrupt.h): the exception cancels the loop.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain == 0 ? 1 : grain), [&](const tbb::blocked_range<size_t>& r) {
+    throw_if_interrupted();
+    body(r.begin(), r.end());
+  });
 }
 
 void parallel_for_tiles(int width, int height, int tile,
                         const std::function<void(int, int, int, int)>& body) {
   if (width <= 0 || height <= 0) return;
   int tx = (width + tile - 1) / tile, ty = (height + tile - 1) / tile;
+  throw_if_interrupted();
   tbb::parallel_for(tbb::blocked_range2d<int>(0, ty, 1, 0, tx, 1),
                     [&](const tbb::blocked_range2d<int>& r) {
+                      throw_if_interrupted();
                       for (int j = r.rows().begin(); j < r.rows().end(); ++j)
                         for (int i = r.cols().begin(); i < r.cols().end(); ++i)
                           body(i * tile, j * tile, std::min(width, (i + 1) * tile),

@@ -1,5 +1,7 @@
 #include "penumbra/core/progress.h"
 
+#include "penumbra/core/interrupt.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,6 +20,7 @@ void Progress::set_label(std::string label) {
 }
 
 void Progress::add(uint64_t n) {
+  throw_if_interrupted();
   if (!enabled_) return;
   uint64_t done = done_.fetch_add(n) + n;
   uint64_t total = total_.load();

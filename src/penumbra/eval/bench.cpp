@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/eval/comparison.h"
@@ -225,6 +226,8 @@ json run_targets(const BenchOptions& o, const std::string& started, const Timer&
     try {
       c = run_comparison(g.setup, co);
       scenes.push_back(scene_entry(c, g.label));
+    } catch (const Interrupted&) {
+      throw;  // Ctrl-C ends the run, whatever this step would do with an error
     } catch (const std::exception& e) {
       group_error = e.what();
       scenes.push_back({{"scene", g.scene.string()}, {"name", g.label}, {"error", group_error}, {"methods", json::array()}});
@@ -345,6 +348,8 @@ json run_bench(const BenchOptions& o) {
     Comparison c;
     try {
       c = run_comparison(setups[i], co);
+    } catch (const Interrupted&) {
+      throw;  // Ctrl-C ends the run, whatever this step would do with an error
     } catch (const std::exception& e) {
       // A scene that cannot be loaded is reported; the other scenes still run.
       json ms = json::array();

@@ -13,6 +13,7 @@
 #include <tbb/global_control.h>
 
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/eval/report_util.h"
@@ -190,6 +191,8 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
     }
     try {
       p.results.push_back(render_scene(scene, p.settings));
+    } catch (const Interrupted&) {
+      throw;  // Ctrl-C ends the run, whatever this step would do with an error
     } catch (const std::exception& e) {
       p.failed = true;
       p.run.error = e.what();

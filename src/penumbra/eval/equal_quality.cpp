@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/eval/comparison.h"
 #include "penumbra/eval/flip.h"
@@ -80,6 +81,8 @@ ReferenceLadder render_reference_ladder(const RunSetup& setup, const Scene& scen
       try {
         rung = rung_from_json(cached);
         loaded = rung.light_samples == n;
+      } catch (const Interrupted&) {
+        throw;  // Ctrl-C ends the run, whatever this step would do with an error
       } catch (const std::exception&) {
         loaded = false;  // damaged: rendered again below
       }

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/json_reader.h"
@@ -121,6 +122,8 @@ bool load_cached(const fs::path& dir, const std::string& key, int width, int hei
     // Touch the entry so that pruning removes the least recently used first.
     fs::last_write_time(p.meta, fs::file_time_type::clock::now(), ec);
     return true;
+  } catch (const Interrupted&) {
+    throw;  // Ctrl-C ends the run, whatever this step would do with an error
   } catch (const std::exception&) {
     return false;  // a damaged entry is rendered again and overwritten
   }
@@ -175,6 +178,8 @@ GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const fs::pa
       write_text_file_atomic(p.meta, meta.dump(1) + "\n");
       gt.cache_file = p.exr;
       prune_cache(cache_dir, uintmax_t(2) << 30);
+    } catch (const Interrupted&) {
+      throw;  // Ctrl-C ends the run, whatever this step would do with an error
     } catch (const std::exception& e) {
       std::fprintf(stderr, "penumbra: warning: reference cache %s not written: %s\n", cache_dir.string().c_str(),
                    e.what());
@@ -211,6 +216,8 @@ json load_ladder_rung(const fs::path& cache_dir, const std::string& key) {
     if (!entry.is_object() || entry.value("key", "") != key) return nullptr;
     fs::last_write_time(p, fs::file_time_type::clock::now(), ec);  // least recently used goes first
     return entry;
+  } catch (const Interrupted&) {
+    throw;  // Ctrl-C ends the run, whatever this step would do with an error
   } catch (const std::exception&) {
     return nullptr;  // a damaged entry is rendered again and overwritten
   }
@@ -223,6 +230,8 @@ void store_ladder_rung(const fs::path& cache_dir, const std::string& key, const 
     json e = entry;
     e["key"] = key;
     write_text_file_atomic(ladder_path(cache_dir, key), e.dump(1) + "\n");
+  } catch (const Interrupted&) {
+    throw;  // Ctrl-C ends the run, whatever this step would do with an error
   } catch (const std::exception& ex) {
     std::fprintf(stderr, "penumbra: warning: reference cache %s not written: %s\n", cache_dir.string().c_str(),
                  ex.what());

@@ -8,6 +8,7 @@
 #include <regex>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/scene/generators.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/shadow/shadow_method.h"
@@ -38,6 +39,8 @@ long long parse_int(const std::string& key, const std::string& value, long long 
   double v = 0;
   try {
     v = parse_number(key, value);
+  } catch (const Interrupted&) {
+    throw;  // Ctrl-C ends the run, whatever this step would do with an error
   } catch (const Error&) {
     v = std::numeric_limits<double>::quiet_NaN();
   }

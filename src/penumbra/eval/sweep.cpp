@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/eval/report_util.h"
@@ -71,6 +72,8 @@ Sweep run_sweep(const RunSetup& base, const SweepOptions& options) {
     RunSetup setup = base;
     try {
       setup.apply(options.key, v);
+    } catch (const Interrupted&) {
+      throw;  // Ctrl-C ends the run, whatever this step would do with an error
     } catch (const Error& e) {
       throw Error("sweep: {}", e.what());
     }

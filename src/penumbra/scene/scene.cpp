@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/scene/generators.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/scene/mesh_import.h"
@@ -218,6 +219,8 @@ class SceneParser {
       SceneObject o;
       try {
         o.mesh = import_mesh(p);
+      } catch (const Interrupted&) {
+        throw;  // Ctrl-C ends the run, whatever this step would do with an error
       } catch (const Error& e) {
         mv.fail(e.what());
       }
@@ -255,6 +258,8 @@ class SceneParser {
       const GeneratorInfo* g = nullptr;
       try {
         g = &find_generator(gv.string());
+      } catch (const Interrupted&) {
+        throw;  // Ctrl-C ends the run, whatever this step would do with an error
       } catch (const Error& e) {
         gv.fail(e.what());
       }
@@ -263,6 +268,8 @@ class SceneParser {
       json params = resolve_generator_params(*g, pv);
       try {
         parts = g->generate(params);
+      } catch (const Interrupted&) {
+        throw;  // Ctrl-C ends the run, whatever this step would do with an error
       } catch (const Error& e) {
         pv.fail(e.what());
       }

@@ -27,6 +27,7 @@
 #include <tbb/enumerable_thread_specific.h>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/rng.h"
@@ -115,6 +116,8 @@ class AliasFreeBase : public ShadowMethod {
     fit.max_fov = max_fov_;
     try {
       view_ = fit_shadow_view(light.center, light.frame.n, light.frame.t, points, scene_bounds_, fit);
+    } catch (const Interrupted&) {
+      throw;  // Ctrl-C ends the run, whatever this step would do with an error
     } catch (const Error&) {
       return false;  // no receiver in front of the light's centre
     }

@@ -1,0 +1,80 @@
+#include "penumbra/core/interrupt.h"
+
+#include <semaphore.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <set>
+#include <thread>
+
+namespace penumbra {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+sem_t g_signalled;  // posted by the handler (sem_post is async-signal-safe)
+
+std::mutex& files_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::set<std::string>& files() {
+  static std::set<std::string> f;
+  return f;
+}
+
+extern "C" void on_signal(int) {
+  if (!g_interrupted.exchange(true)) sem_post(&g_signalled);
+}
+
+// Waits for the first signal, gives the run a second to unwind by itself, then removes what
+// is left and ends the process.
+void watchdog() {
+  while (sem_wait(&g_signalled) != 0) {
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(900));
+  {
+    std::unique_lock<std::mutex> lock(files_mutex(), std::try_to_lock);
+    if (lock.owns_lock())
+      for (const std::string& f : files()) ::unlink(f.c_str());
+  }
+  static const char msg[] = "penumbra: error: interrupted\n";
+  [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, msg, sizeof(msg) - 1);
+  ::_exit(130);
+}
+
+}  // namespace
+
+void install_interrupt_handlers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    sem_init(&g_signalled, 0, 0);
+    struct sigaction sa {};
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+    std::thread(watchdog).detach();
+  });
+}
+
+bool interrupted() { return g_interrupted.load(std::memory_order_relaxed); }
+
+void throw_if_interrupted() {
+  if (interrupted()) throw Interrupted();
+}
+
+void register_temporary_file(const std::string& path) {
+  std::lock_guard<std::mutex> lock(files_mutex());
+  files().insert(path);
+}
+
+void unregister_temporary_file(const std::string& path) {
+  std::lock_guard<std::mutex> lock(files_mutex());
+  files().erase(path);
+}
+
+}  // namespace penumbra
