@@ -3,7 +3,8 @@
 # Usage: scripts/setup.sh [--with-test-tools] [build-dir]   (default: build)
 #   --with-test-tools  also installs what some tests use but penumbra does not need:
 #                      chromium (the comparison page's headless-browser test; without it
-#                      that test skips with a message)
+#                      that test skips with a message), clang and its sanitizer and libFuzzer
+#                      runtimes (the second build of scripts/test.sh)
 # Safe to run again: apt-get skips what is installed, CMake rebuilds what changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -27,6 +28,7 @@ packages=(
 )
 if [ "$with_test_tools" -eq 1 ]; then
   packages+=(chromium)   # headless browser test of the `penumbra compare` page
+  packages+=(clang-14 libclang-rt-14-dev)   # the sanitizer and libFuzzer build (scripts/test.sh)
 fi
 missing=()
 for p in "${packages[@]}"; do

@@ -64,6 +64,40 @@ TEST_F(CliCompare, CompareWritesThePageJsonCsvAndImages) {
   EXPECT_TRUE(json::parse(slurp(dir_ / "out2" / "results.json"))["ground_truth"]["cached"].get<bool>());
 }
 
+TEST_F(CliCompare, TwoComparesSharingOneCacheAtOnceBothSucceed) {
+  // Two processes render the same ground truth into one fresh cache at the same time: both
+  // finish, the cache holds one entry (EXR + meta) per key and no temporary file, and a third
+  // run finds it. Entries are written to "<file>.tmp-<pid>" and renamed; the meta's checksum
+  // ties it to its EXR.
+  const std::string args = fmt::format("compare scenes/contact.json --methods hard --resolution 32 --reference-spp 64 "
+                                       "--cache-dir {} -q",
+                                       path("cache"));
+  const std::string cmd = fmt::format(
+      "cd {0} && {{ {1} {2} -o {3} >/dev/null 2>{3}.err & a=$!; {1} {2} -o {4} >/dev/null 2>{4}.err & b=$!; "
+      "wait $a && wait $b; }}",
+      PENUMBRA_SOURCE_DIR, PENUMBRA_CLI, args, path("a"), path("b"));
+  const int status = std::system(("bash -c '" + cmd + "'").c_str());
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp(path("a") + ".err") << slurp(path("b") + ".err");
+  for (const char* out : {"a", "b"}) {
+    ASSERT_TRUE(fs::exists(dir_ / out / "results.json")) << out;
+    EXPECT_TRUE(json::parse(slurp(dir_ / out / "results.json"))["ground_truth"].is_object());
+  }
+  int exr = 0, meta = 0;
+  for (const auto& e : fs::directory_iterator(dir_ / "cache")) {
+    const std::string name = e.path().filename().string();
+    EXPECT_EQ(name.find(".tmp-"), std::string::npos) << name;
+    // reference-<key>.exr and .json; the equal-quality ladder's rungs are reference-ladder-*.
+    if (name.rfind("reference-ladder-", 0) == 0) continue;
+    exr += e.path().extension() == ".exr";
+    meta += e.path().extension() == ".json";
+  }
+  EXPECT_EQ(exr, 1);
+  EXPECT_EQ(meta, 1);
+  CliRun third = run(args + " -o " + path("c"));
+  ASSERT_EQ(third.exit_code, 0) << third.err;
+  EXPECT_TRUE(json::parse(slurp(dir_ / "c" / "results.json"))["ground_truth"]["cached"].get<bool>());
+}
+
 TEST_F(CliCompare, BadArgumentsAreOneLineErrors) {
   CliRun r = run("compare scenes/contact.json --methods hard,nosuch -o " + path("x"));
   EXPECT_EQ(r.exit_code, 1);

@@ -217,6 +217,32 @@ TEST_F(Cli, CtrlCStopsWithinASecondAndLeavesNothing) {
     }
 }
 
+TEST_F(Cli, RendersTooLargeForMemoryAreRefusedUpFront) {
+  // 16384^2 with 4 camera samples: about 30 GiB of view samples, refused before anything is
+  // allocated (at once, whatever the method and its samples), naming the settings to lower.
+  const std::string scene = tiny_scene();
+  const fs::path out = dir_ / "never.exr";
+  CliRun r = run(fmt::format("render {} -m mlsm --spp 1024 --resolution 16384x16384 --pixel-samples 4 -o {}", scene,
+                             out.string()));
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("tiny.json: a 16384x16384 image with 4 camera sample(s) per pixel needs about"),
+            std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(80% of physical memory); lower camera.resolution"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  // An explicit limit: the 32 x 24 scene needs about 100 KiB.
+  r = run(fmt::format("render {} -m hard --memory-limit 10K -o {}", scene, out.string()));
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("over the memory limit of 0.0 GiB; lower"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  r = run(fmt::format("render {} -m hard --memory-limit 1G -q -o {}", scene, out.string()));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(out));
+  r = run(fmt::format("render {} -m hard --memory-limit lots -o {}", scene, (dir_ / "x.exr").string()));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "penumbra: error: --memory-limit lots: expected a size in bytes, or with K, M, G or T (e.g. 8G)\n");
+}
+
 TEST_F(Cli, BadArgumentsAreRejected) {
   std::string scene = tiny_scene();
   CliRun r = run(fmt::format("render {} -m no-such-method -o {}", scene, (dir_ / "x.png").string()));

@@ -29,6 +29,7 @@ struct RenderOptions {
   int frames = 1;
   bool coherent_shading = false;
   std::vector<std::string> params;
+  std::string memory_limit;
   bool quiet = false;
 };
 
@@ -50,6 +51,7 @@ int run_render(const RenderOptions& o) {
   settings.frames = o.frames;
   settings.coherent_shading = o.coherent_shading;
   settings.progress = !o.quiet;
+  if (!o.memory_limit.empty()) settings.memory_limit = parse_memory_size(o.memory_limit, "--memory-limit");
   RenderResult r = render_scene(scene, settings);
 
   write_image(out, r.color, {{"V", &r.visibility}});
@@ -90,6 +92,8 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
                 "bend the shading of smooth closed meshes toward their faces (sintorn2008 §4.3, c = 3): no light on "
                 "light back-facing triangles");
   cmd->add_option("-p,--param", o->params, "method parameter key=value (repeatable)");
+  cmd->add_option("--memory-limit", o->memory_limit,
+                  "refuse a render whose view samples and images would need more (e.g. 8G; default: 80% of physical memory)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
   return [o] { return run_render(*o); };
 });

@@ -77,4 +77,24 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
           {"stats", r.stats.to_json()}};
 }
 
+uint64_t parse_memory_size(const std::string& text, const std::string& option) {
+  size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  std::string unit = text.substr(used);
+  double scale = 1;
+  if (unit == "K" || unit == "k") scale = 1024.0;
+  else if (unit == "M" || unit == "m") scale = 1024.0 * 1024;
+  else if (unit == "G" || unit == "g") scale = 1024.0 * 1024 * 1024;
+  else if (unit == "T" || unit == "t") scale = 1024.0 * 1024 * 1024 * 1024;
+  else if (!unit.empty()) used = 0;
+  if (used == 0 || !(value > 0) || value * scale > 1.8e19)
+    throw Error("{} {}: expected a size in bytes, or with K, M, G or T (e.g. 8G)", option, text);
+  return static_cast<uint64_t>(value * scale);
+}
+
 }  // namespace penumbra::app

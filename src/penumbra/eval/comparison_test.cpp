@@ -2,10 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include <cmath>
 #include <map>
 #include <regex>
 
+#include "penumbra/core/file_util.h"
 #include "penumbra/eval/metrics.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/testing/compare_fixture.h"
@@ -161,6 +164,33 @@ TEST(Comparison, TheReferenceCacheIsHitTheSecondTime) {
   // No cache folder: always rendered.
   o.cache_dir.clear();
   EXPECT_FALSE(run_comparison(setup, o).truth.from_cache);
+}
+
+TEST(Comparison, ADamagedCacheEntryIsRenderedAgain) {
+  // A bit flipped inside the cached EXR (its pixels still decode) or a truncated file: the
+  // checksum in the meta file no longer matches, so the entry is a miss, rendered again and
+  // rewritten; the next run hits it.
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"hard"};
+  o.cache_dir = dir / "cache";
+  RunSetup setup = tiny_contact_setup();
+  const Comparison first = run_comparison(setup, o);
+  ASSERT_FALSE(first.truth.from_cache);
+  const std::filesystem::path exr = first.truth.cache_file;
+  for (int damage = 0; damage < 2; ++damage) {
+    std::string bytes = read_text_file(exr);
+    if (damage == 0) bytes[bytes.size() - 40] ^= 0x10;  // inside the last scanlines' data
+    else bytes.resize(bytes.size() / 2);
+    {
+      std::ofstream f(exr, std::ios::binary | std::ios::trunc);
+      f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    }
+    const Comparison again = run_comparison(setup, o);
+    EXPECT_FALSE(again.truth.from_cache) << damage;
+    EXPECT_EQ(again.truth.visibility.data(), first.truth.visibility.data()) << damage;
+    EXPECT_TRUE(run_comparison(setup, o).truth.from_cache) << damage;
+  }
 }
 
 TEST(Comparison, MedianOfSeveralRunsAndWarmups) {

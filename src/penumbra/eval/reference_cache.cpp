@@ -23,7 +23,8 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCacheFormat = 1;
+// 2: the meta file holds the EXR's checksum.
+constexpr int kCacheFormat = 2;
 
 uint64_t fnv1a(const std::string& s, uint64_t basis, bool reverse) {
   uint64_t h = basis;
@@ -33,6 +34,13 @@ uint64_t fnv1a(const std::string& s, uint64_t basis, bool reverse) {
     h *= 0x100000001b3ull;
   }
   return h;
+}
+
+// FNV-1a of a file's bytes (the cache's check that an EXR is the one its meta file
+// describes: a truncated, overwritten or bit-flipped entry reads as a miss).
+std::string file_checksum(const fs::path& p) {
+  const std::string bytes = read_text_file(p);
+  return fmt::format("{:016x}", fnv1a(bytes, 0xcbf29ce484222325ull, false));
 }
 
 // Size and modification time of a file; null when it cannot be read.
@@ -103,6 +111,7 @@ bool load_cached(const fs::path& dir, const std::string& key, int width, int hei
   try {
     json meta = json::parse(read_text_file(p.meta));
     if (meta.value("key", "") != key) return false;
+    if (meta.value("exr_checksum", "") != file_checksum(p.exr)) return false;
     Image color = read_image(p.exr.string());
     Image v = read_exr_channel(p.exr.string(), "V");
     if (color.width() != width || color.height() != height || v.width() != width || v.height() != height ||
@@ -174,6 +183,7 @@ GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const fs::pa
                    {"camera_pass_ms", gt.camera_pass_ms},
                    {"stats", gt.stats},
                    {"scene", setup.scene_path.string()},
+                   {"exr_checksum", file_checksum(p.exr)},
                    {"key_document", key_doc}};
       write_text_file_atomic(p.meta, meta.dump(1) + "\n");
       gt.cache_file = p.exr;

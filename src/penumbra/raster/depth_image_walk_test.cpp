@@ -89,7 +89,8 @@ DepthImageSegment random_segment(int W, int H, Rng& rng) {
 TEST(DepthImageWalk, VisitsExactlyTheTexelsOfABruteForceMarchFrontToBack) {
   Rng rng(11);
   int compared = 0, marginal_mismatches = 0, visits = 0;
-  for (auto [W, H] : {std::pair{64, 64}, std::pair{37, 23}, std::pair{1, 1}, std::pair{5, 1}, std::pair{100, 70}}) {
+  for (auto size : {std::pair{64, 64}, std::pair{37, 23}, std::pair{1, 1}, std::pair{5, 1}, std::pair{100, 70}}) {
+    const int W = size.first, H = size.second;  // plain locals: lambdas below capture them
     std::vector<DepthRange> texels = random_texels(W, H, rng);
     MinMaxPyramid pyr(W, H, texels);
     for (int i = 0; i < 300; ++i) {
@@ -323,7 +324,8 @@ TEST(DepthImageWalk, LeafAndNodeVisitorsStopAndPrune) {
 TEST(DepthImageWalk, SkippedSpansAndTexelsTileTheSegmentInOrder) {
   Rng rng(21);
   int behind = 0, in_front = 0, checked = 0;
-  for (auto [W, H] : {std::pair{64, 64}, std::pair{37, 23}}) {
+  for (auto size : {std::pair{64, 64}, std::pair{37, 23}}) {
+    const int W = size.first, H = size.second;  // plain locals: lambdas below capture them
     std::vector<DepthRange> texels = random_texels(W, H, rng);
     MinMaxPyramid pyr(W, H, texels);
     for (int i = 0; i < 400; ++i) {

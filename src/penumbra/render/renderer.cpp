@@ -1,7 +1,10 @@
 #include "penumbra/render/renderer.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
+#include <cstdint>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
@@ -129,8 +132,38 @@ ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t se
   return vs;
 }
 
+uint64_t estimate_render_memory(const Scene& scene, const RenderSettings& settings) {
+  const uint64_t pixels = static_cast<uint64_t>(scene.camera.width) * static_cast<uint64_t>(scene.camera.height);
+  const uint64_t rays = pixels * static_cast<uint64_t>(std::max(1, scene.camera.samples_per_pixel));
+  // CameraPass: a 16-byte hit per ray and a ViewSample per hit (every ray may hit); the
+  // compose's per-sample radiance, V sums, vis and irradiance (FrameBuffers: 40 bytes), twice
+  // that again for progressive frames; the colour and V images.
+  const uint64_t per_sample = sizeof(ViewSample) + 40 + (settings.frames > 1 ? 16 : 0);
+  return rays * (16 + per_sample) + pixels * 16;
+}
+
+uint64_t default_memory_limit() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return UINT64_MAX;
+  return static_cast<uint64_t>(pages) / 10 * 8 * static_cast<uint64_t>(page);
+}
+
+void check_render_memory(const Scene& scene, const RenderSettings& settings) {
+  const uint64_t limit = settings.memory_limit > 0 ? settings.memory_limit : default_memory_limit();
+  const uint64_t need = estimate_render_memory(scene, settings);
+  if (need <= limit) return;
+  const auto gib = [](uint64_t b) { return static_cast<double>(b) / (1024.0 * 1024.0 * 1024.0); };
+  throw Error(
+      "{}: a {}x{} image with {} camera sample(s) per pixel needs about {:.1f} GiB for its view samples, over the "
+      "memory limit of {:.1f} GiB{}; lower camera.resolution or camera.samples_per_pixel (--resolution, "
+      "--pixel-samples) or raise --memory-limit",
+      scene.source.string(), scene.camera.width, scene.camera.height, std::max(1, scene.camera.samples_per_pixel),
+      gib(need), gib(limit), settings.memory_limit > 0 ? "" : " (80% of physical memory)");
+}
+
 Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene), settings_(std::move(settings)) {
   if (scene_.lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
+  check_render_memory(scene_, settings_);
   tracer_ = std::make_unique<RayTracer>(scene_);
   for (size_t l = 0; l < scene_.lights.size(); ++l) {
     ParamSet resolved;

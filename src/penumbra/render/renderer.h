@@ -30,7 +30,20 @@ struct RenderSettings {
   // A bar owned by the caller (a comparison of several renders) to advance instead of
   // drawing one per render; `progress` is then ignored. Not owned.
   Progress* progress_bar = nullptr;
+  // Memory budget for the render, in bytes (0 = 80% of physical memory): a render whose
+  // estimate exceeds it is refused before anything is allocated (estimate_render_memory).
+  uint64_t memory_limit = 0;
 };
+
+// What a render of `scene` will allocate for its view samples and images: the camera pass
+// (a 16-byte hit per camera ray, a 64-byte view sample per hit), the per-sample sums of the
+// compose and the output images. A method's own maps and lists come on top (not estimated yet).
+uint64_t estimate_render_memory(const Scene& scene, const RenderSettings& settings);
+// 80% of the machine's physical memory.
+uint64_t default_memory_limit();
+// Throws an Error naming the scene, the estimate, the limit and the settings to lower when
+// the estimate exceeds settings.memory_limit (or the default).
+void check_render_memory(const Scene& scene, const RenderSettings& settings);
 
 struct RenderResult {
   Image color;       // linear RGB radiance (Lambertian: albedo / pi * E)

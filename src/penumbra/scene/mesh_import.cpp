@@ -5,6 +5,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include <cctype>
 #include <fstream>
 #include <string>
 
@@ -15,21 +16,53 @@ namespace penumbra {
 namespace fs = std::filesystem;
 
 namespace {
-// Assimp 5.2's PLY parser loops forever on a header that never reaches "end_header"
-// (a truncated or mistyped file): reading fails and is retried. Check the header first,
-// so a bad file is an error and not a hang.
+// A header line for a message: printable ASCII only, at most 60 characters.
+std::string abbreviate_line(const std::string& line) {
+  std::string out;
+  for (char c : line) {
+    if (out.size() >= 60) return out + "...";
+    out += (c >= 32 && c < 127) ? c : '?';
+  }
+  return out;
+}
+
+// Assimp 5.2's PLY parser loops forever on some malformed headers (one that never reaches
+// "end_header", or a mistyped magic or format line it half accepts: found by fuzz/mesh_fuzzer):
+// reading fails and is retried. So a file named .ply, or one that starts like PLY in any
+// letter case, must have a well-formed header before Assimp sees it: "ply", a format line,
+// then only element, property, comment and obj_info lines up to "end_header".
+bool looks_like_ply(const fs::path& path, const std::string& first_line) {
+  std::string ext = path.extension().string(), magic = first_line.substr(0, 3);
+  for (std::string* s : {&ext, &magic})
+    for (char& c : *s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".ply" || magic == "ply";
+}
+
 void check_ply_header(const fs::path& path) {
   std::ifstream f(path, std::ios::binary);
   std::string line;
-  if (!std::getline(f, line) || line.rfind("ply", 0) != 0) return;  // not PLY: Assimp decides
+  if (!std::getline(f, line)) return;  // empty: Assimp reports it
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (!looks_like_ply(path, line)) return;
+  if (line != "ply") throw Error("{}: not a PLY file (the first line must be \"ply\")", path.string());
+  auto starts = [](const std::string& l, const char* word) { return l.rfind(word, 0) == 0; };
   for (int lines = 0; lines < 10000 && std::getline(f, line); ++lines) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line == "end_header") return;
-    if (line.rfind("element ", 0) == 0) {
+    if (lines == 0) {
+      if (line != "format ascii 1.0" && line != "format binary_little_endian 1.0" &&
+          line != "format binary_big_endian 1.0")
+        throw Error("{}: malformed PLY header line \"{}\" (expected the format line)", path.string(),
+                    abbreviate_line(line));
+      continue;
+    }
+    if (starts(line, "element ")) {
       size_t count_at = line.find_last_of(' ');
       std::string count = line.substr(count_at + 1);
       if (count.empty() || count.find_first_not_of("0123456789") != std::string::npos)
-        throw Error("{}: malformed PLY header line \"{}\"", path.string(), line);
+        throw Error("{}: malformed PLY header line \"{}\"", path.string(), abbreviate_line(line));
+    } else if (!starts(line, "property ") && !starts(line, "comment") && !starts(line, "obj_info")) {
+      throw Error("{}: malformed PLY header line \"{}\"", path.string(), abbreviate_line(line));
     }
   }
   throw Error("{}: malformed PLY header (no end_header line)", path.string());

@@ -103,6 +103,18 @@ TEST(MeshImport, ErrorsNameTheFile) {
   write_text_file_atomic(dir / "magic.ply", "not a ply file\n");
   msg = error_message([&] { import_mesh(dir / "magic.ply"); });
   EXPECT_EQ(msg.rfind((dir / "magic.ply").string() + ": ", 0), 0u) << msg;
+  // Found by fuzz/mesh_fuzzer: a mistyped magic and format line made Assimp 5.2 spin forever.
+  const std::string fuzzed("plY\nformat ascii 5.0\nelemefloat\x01p z\nelement faormal 1 0l\xf9\nf", 59);
+  write_text_file_atomic(dir / "fuzzed.ply", fuzzed);
+  EXPECT_EQ(error_message([&] { import_mesh(dir / "fuzzed.ply"); }),
+            (dir / "fuzzed.ply").string() + ": not a PLY file (the first line must be \"ply\")");
+  write_text_file_atomic(dir / "format.ply", "ply\nformat ascii 5.0\nend_header\n");
+  EXPECT_EQ(error_message([&] { import_mesh(dir / "format.ply"); }),
+            (dir / "format.ply").string() +
+                ": malformed PLY header line \"format ascii 5.0\" (expected the format line)");
+  write_text_file_atomic(dir / "keyword.ply", "ply\nformat ascii 1.0\nelemefloat\x01p z\nend_header\n");
+  EXPECT_EQ(error_message([&] { import_mesh(dir / "keyword.ply"); }),
+            (dir / "keyword.ply").string() + ": malformed PLY header line \"elemefloat?p z\"");
   write_text_file_atomic(dir / "points.obj", "v 0 0 0\nv 1 0 0\n");
   msg = error_message([&] { import_mesh(dir / "points.obj"); });
   EXPECT_NE(msg.find("points.obj: "), std::string::npos) << msg;
