@@ -26,10 +26,15 @@ ThreadLimit::~ThreadLimit() = default;
 void parallel_for(size_t n, size_t grain, const std::function<void(size_t, size_t)>& body) {
   if (n == 0) return;
   throw_if_interrupted();
-  // Each chunk checks for Ctrl-C first (core/interrupt.h): the exception cancels the loop.
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain == 0 ? 1 : grain), [&](const tbb::blocked_range<size_t>& r) {
-    throw_if_interrupted();
-    body(r.begin(), r.end());
+  const size_t step = grain == 0 ? 1 : grain;
+  // TBB's chunks can hold thousands of grains (it splits further only when a thread is idle),
+  // so the body runs grain by grain and Ctrl-C is checked before each (core/interrupt.h):
+  // the exception cancels the loop within one grain's work.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, step), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); b += step) {
+      throw_if_interrupted();
+      body(b, std::min(r.end(), b + step));
+    }
   });
 }
 
