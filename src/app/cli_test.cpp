@@ -233,7 +233,7 @@ TEST_F(Cli, RendersTooLargeForMemoryAreRefusedUpFront) {
   // An explicit limit: the 32 x 24 scene needs about 100 KiB.
   r = run(fmt::format("render {} -m hard --memory-limit 10K -o {}", scene, out.string()));
   EXPECT_EQ(r.exit_code, 1) << r.err;
-  EXPECT_NE(r.err.find("over the memory limit of 0.0 GiB; lower"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("over the memory limit of 10 KiB; lower"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
   r = run(fmt::format("render {} -m hard --memory-limit 1G -q -o {}", scene, out.string()));
   EXPECT_EQ(r.exit_code, 0) << r.err;

@@ -15,6 +15,8 @@ struct ThreadLimit::Impl {
   std::unique_ptr<tbb::global_control> control;
 };
 
+int max_threads() { return static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)); }
+
 ThreadLimit::ThreadLimit(int threads) : impl_(std::make_unique<Impl>()) {
   if (threads > 0)
     impl_->control = std::make_unique<tbb::global_control>(

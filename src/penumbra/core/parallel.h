@@ -22,6 +22,9 @@ class ThreadLimit {
   std::unique_ptr<Impl> impl_;
 };
 
+// Worker threads a parallel loop may use now (the machine's cores, or a ThreadLimit's).
+int max_threads();
+
 // body(begin, end) over [0, n) in chunks of about `grain` indices.
 void parallel_for(size_t n, size_t grain, const std::function<void(size_t, size_t)>& body);
 

@@ -132,14 +132,42 @@ ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t se
   return vs;
 }
 
-uint64_t estimate_render_memory(const Scene& scene, const RenderSettings& settings) {
+namespace {
+// "512 KiB", "3.2 GiB": binary units, one decimal from MiB up.
+std::string format_bytes(uint64_t b) {
+  const double v = static_cast<double>(b);
+  if (b < 1024) return fmt::format("{} bytes", b);
+  if (b < (1u << 20)) return fmt::format("{:.0f} KiB", v / 1024.0);
+  if (b < (1u << 30)) return fmt::format("{:.1f} MiB", v / (1024.0 * 1024.0));
+  if (b < (uint64_t(1) << 40)) return fmt::format("{:.1f} GiB", v / (1024.0 * 1024.0 * 1024.0));
+  return fmt::format("{:.1f} TiB", v / (1024.0 * 1024.0 * 1024.0 * 1024.0));
+}
+}  // namespace
+
+RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSettings& settings) {
+  RenderMemoryEstimate e;
   const uint64_t pixels = static_cast<uint64_t>(scene.camera.width) * static_cast<uint64_t>(scene.camera.height);
   const uint64_t rays = pixels * static_cast<uint64_t>(std::max(1, scene.camera.samples_per_pixel));
   // CameraPass: a 16-byte hit per ray and a ViewSample per hit (every ray may hit); the
   // compose's per-sample radiance, V sums, vis and irradiance (FrameBuffers: 40 bytes), twice
   // that again for progressive frames; the colour and V images.
   const uint64_t per_sample = sizeof(ViewSample) + 40 + (settings.frames > 1 ? 16 : 0);
-  return rays * (16 + per_sample) + pixels * 16;
+  e.view_bytes = rays * (16 + per_sample) + pixels * 16;
+
+  const MethodInfo& info = MethodRegistry::get(settings.method);
+  if (info.estimate_memory) {
+    MemoryQuery q;
+    q.view_samples = rays;
+    q.light_samples = settings.light_samples;
+    q.triangles = scene.triangle_count();
+    q.threads = std::max(1, max_threads());
+    const ParamSet params = resolve_method_params(settings.method, scene, settings.params);
+    const MemoryEstimate m = info.estimate_memory(params, q);
+    // One instance per light, each keeping its maps (Renderer::methods_).
+    e.method_bytes = m.bytes * scene.lights.size();
+    e.method_setting = m.setting;
+  }
+  return e;
 }
 
 uint64_t default_memory_limit() {
@@ -150,15 +178,25 @@ uint64_t default_memory_limit() {
 
 void check_render_memory(const Scene& scene, const RenderSettings& settings) {
   const uint64_t limit = settings.memory_limit > 0 ? settings.memory_limit : default_memory_limit();
-  const uint64_t need = estimate_render_memory(scene, settings);
-  if (need <= limit) return;
-  const auto gib = [](uint64_t b) { return static_cast<double>(b) / (1024.0 * 1024.0 * 1024.0); };
-  throw Error(
-      "{}: a {}x{} image with {} camera sample(s) per pixel needs about {:.1f} GiB for its view samples, over the "
-      "memory limit of {:.1f} GiB{}; lower camera.resolution or camera.samples_per_pixel (--resolution, "
-      "--pixel-samples) or raise --memory-limit",
-      scene.source.string(), scene.camera.width, scene.camera.height, std::max(1, scene.camera.samples_per_pixel),
-      gib(need), gib(limit), settings.memory_limit > 0 ? "" : " (80% of physical memory)");
+  const RenderMemoryEstimate need = estimate_render_memory(scene, settings);
+  if (need.total() <= limit) return;
+  const std::string over = fmt::format("over the memory limit of {}{}", format_bytes(limit),
+                                       settings.memory_limit > 0 ? "" : " (80% of physical memory)");
+  if (need.view_bytes >= need.method_bytes)
+    throw Error(
+        "{}: a {}x{} image with {} camera sample(s) per pixel needs about {} for its view samples{}, {}; lower "
+        "camera.resolution or camera.samples_per_pixel (--resolution, --pixel-samples) or raise --memory-limit",
+        scene.source.string(), scene.camera.width, scene.camera.height, std::max(1, scene.camera.samples_per_pixel),
+        format_bytes(need.view_bytes),
+        need.method_bytes > 0 ? fmt::format(" and {} for {}", format_bytes(need.method_bytes), settings.method) : "",
+        over);
+  const bool is_param = !need.method_setting.empty() && need.method_setting[0] != '-';
+  throw Error("{}: {} needs about {} for its light-space data{} (and {} for the view samples), {}; lower {}{} or "
+              "raise --memory-limit",
+              scene.source.string(), settings.method, format_bytes(need.method_bytes),
+              scene.lights.size() > 1 ? fmt::format(" of {} lights", scene.lights.size()) : "",
+              format_bytes(need.view_bytes), over, is_param ? fmt::format("-p {}.", settings.method) : "",
+              need.method_setting);
 }
 
 Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene), settings_(std::move(settings)) {

@@ -35,14 +35,21 @@ struct RenderSettings {
   uint64_t memory_limit = 0;
 };
 
-// What a render of `scene` will allocate for its view samples and images: the camera pass
-// (a 16-byte hit per camera ray, a 64-byte view sample per hit), the per-sample sums of the
-// compose and the output images. A method's own maps and lists come on top (not estimated yet).
-uint64_t estimate_render_memory(const Scene& scene, const RenderSettings& settings);
+// What a render of `scene` will allocate, estimated before anything is: the camera pass (a
+// 16-byte hit per camera ray, a view sample per hit), the per-sample sums of the compose and
+// the output images, and each light's method instance (MethodInfo::estimate_memory: its
+// maps, lists and per-sample buffers at the resolved parameters).
+struct RenderMemoryEstimate {
+  uint64_t view_bytes = 0;    // camera pass, compose and images
+  uint64_t method_bytes = 0;  // all lights' method instances together
+  std::string method_setting;  // what drives method_bytes ("resolution", "--spp", ...)
+  uint64_t total() const { return view_bytes + method_bytes; }
+};
+RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSettings& settings);
 // 80% of the machine's physical memory.
 uint64_t default_memory_limit();
-// Throws an Error naming the scene, the estimate, the limit and the settings to lower when
-// the estimate exceeds settings.memory_limit (or the default).
+// Throws an Error naming the scene, the estimate, the limit and the setting to lower (the
+// larger part's) when the estimate exceeds settings.memory_limit (or the default).
 void check_render_memory(const Scene& scene, const RenderSettings& settings);
 
 struct RenderResult {

@@ -38,8 +38,7 @@ std::vector<const MethodInfo*> MethodRegistry::all() {
   return out;
 }
 
-std::unique_ptr<ShadowMethod> create_method(const std::string& name, const Scene& scene,
-                                            const std::vector<std::string>& overrides, ParamSet* resolved) {
+ParamSet resolve_method_params(const std::string& name, const Scene& scene, const std::vector<std::string>& overrides) {
   const MethodInfo& info = MethodRegistry::get(name);
   ParamSet params(info.params, name);
   if (scene.method_params.is_object()) {
@@ -64,8 +63,14 @@ std::unique_ptr<ShadowMethod> create_method(const std::string& name, const Scene
     }
     params.set_from_string(key, value);
   }
+  return params;
+}
+
+std::unique_ptr<ShadowMethod> create_method(const std::string& name, const Scene& scene,
+                                            const std::vector<std::string>& overrides, ParamSet* resolved) {
+  ParamSet params = resolve_method_params(name, scene, overrides);
   if (resolved) *resolved = params;
-  return info.create(params);
+  return MethodRegistry::get(name).create(params);
 }
 
 }  // namespace penumbra

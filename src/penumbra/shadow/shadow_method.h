@@ -59,6 +59,22 @@ class ShadowMethod {
   MethodStats stats_;
 };
 
+// What a render asks a method's memory estimate about (MethodInfo::estimate_memory).
+struct MemoryQuery {
+  uint64_t view_samples = 0;  // an upper bound: every camera ray hits
+  int light_samples = 256;    // --spp
+  uint64_t triangles = 0;     // in the whole scene
+  int threads = 1;            // worker threads that may each hold scratch buffers
+};
+
+// Bytes one method instance holds for one light (its maps, lists, per-sample buffers and
+// the largest transient scratch), and the setting that drives them: what an error tells the
+// user to lower ("resolution", "--spp", ...).
+struct MemoryEstimate {
+  uint64_t bytes = 0;
+  std::string setting;
+};
+
 struct MethodInfo {
   std::string name;         // as used by -m, scene files and reports
   std::string description;  // one line
@@ -66,6 +82,10 @@ struct MethodInfo {
   std::function<std::unique_ptr<ShadowMethod>(const ParamSet&)> create;
   // Whether the method samples the light (so --spp, ShadowContext::light_samples, applies).
   bool samples_light = false;
+  // The method's memory at these parameters, before anything is allocated: the Renderer
+  // refuses a render whose total exceeds the budget (issue 17, docs/reliability.md). Empty
+  // for methods whose memory is negligible next to the view samples (hard, reference).
+  std::function<MemoryEstimate(const ParamSet&, const MemoryQuery&)> estimate_memory;
 };
 
 // The registry of shadow methods by name. Methods register from their own source file:
@@ -82,9 +102,12 @@ struct MethodRegistration {
   explicit MethodRegistration(MethodInfo info) { MethodRegistry::add(std::move(info)); }
 };
 
-// Creates a method with parameters from (in order) its defaults, the scene's "methods"
-// table and `overrides` ("key=value" strings; also "method.key=value" where the prefix
-// must match `name`, for compare runs).
+// A method's parameters from (in order) its defaults, the scene's "methods" table and
+// `overrides` ("key=value" strings; also "method.key=value" where the prefix must match
+// `name`, for compare runs). Throws naming the key on a bad one.
+ParamSet resolve_method_params(const std::string& name, const Scene& scene, const std::vector<std::string>& overrides);
+
+// Creates a method with the parameters of resolve_method_params.
 std::unique_ptr<ShadowMethod> create_method(const std::string& name, const Scene& scene,
                                             const std::vector<std::string>& overrides,
                                             ParamSet* resolved = nullptr);
