@@ -20,12 +20,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   static const char* const kExtensions[] = {".obj", ".ply", ".stl", ".off", ".gltf", ".glb"};
   const char* ext = kExtensions[data[0] % 6];
-  static const std::filesystem::path dir = [] {
-    std::filesystem::path d = std::filesystem::temp_directory_path() / ("penumbra-fuzz-mesh-" + std::to_string(::getpid()));
-    std::filesystem::create_directories(d);
-    return d;
-  }();
-  const std::filesystem::path file = dir / (std::string("input") + ext);
+  // One folder per fuzzing process, removed when it exits.
+  struct TempDir {
+    std::filesystem::path path =
+        std::filesystem::temp_directory_path() / ("penumbra-fuzz-mesh-" + std::to_string(::getpid()));
+    TempDir() { std::filesystem::create_directories(path); }
+    ~TempDir() {
+      std::error_code ec;
+      std::filesystem::remove_all(path, ec);
+    }
+  };
+  static const TempDir dir;
+  const std::filesystem::path file = dir.path / (std::string("input") + ext);
   {
     std::ofstream out(file, std::ios::binary | std::ios::trunc);
     out.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));

@@ -5,77 +5,23 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
-#include <cctype>
-#include <fstream>
+#include <array>
 #include <string>
 
 #include "penumbra/core/error.h"
+#include "penumbra/scene/mesh_file_checks.h"
 
 namespace penumbra {
 
 namespace fs = std::filesystem;
 
-namespace {
-// A header line for a message: printable ASCII only, at most 60 characters.
-std::string abbreviate_line(const std::string& line) {
-  std::string out;
-  for (char c : line) {
-    if (out.size() >= 60) return out + "...";
-    out += (c >= 32 && c < 127) ? c : '?';
-  }
-  return out;
-}
-
-// Assimp 5.2's PLY parser loops forever on some malformed headers (one that never reaches
-// "end_header", or a mistyped magic or format line it half accepts: found by fuzz/mesh_fuzzer):
-// reading fails and is retried. So a file named .ply, or one that starts like PLY in any
-// letter case, must have a well-formed header before Assimp sees it: "ply", a format line,
-// then only element, property, comment and obj_info lines up to "end_header".
-bool looks_like_ply(const fs::path& path, const std::string& first_line) {
-  std::string ext = path.extension().string(), magic = first_line.substr(0, 3);
-  for (std::string* s : {&ext, &magic})
-    for (char& c : *s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".ply" || magic == "ply";
-}
-
-void check_ply_header(const fs::path& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::string line;
-  if (!std::getline(f, line)) return;  // empty: Assimp reports it
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (!looks_like_ply(path, line)) return;
-  if (line != "ply") throw Error("{}: not a PLY file (the first line must be \"ply\")", path.string());
-  auto starts = [](const std::string& l, const char* word) { return l.rfind(word, 0) == 0; };
-  for (int lines = 0; lines < 10000 && std::getline(f, line); ++lines) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line == "end_header") return;
-    if (lines == 0) {
-      if (line != "format ascii 1.0" && line != "format binary_little_endian 1.0" &&
-          line != "format binary_big_endian 1.0")
-        throw Error("{}: malformed PLY header line \"{}\" (expected the format line)", path.string(),
-                    abbreviate_line(line));
-      continue;
-    }
-    if (starts(line, "element ")) {
-      size_t count_at = line.find_last_of(' ');
-      std::string count = line.substr(count_at + 1);
-      if (count.empty() || count.find_first_not_of("0123456789") != std::string::npos)
-        throw Error("{}: malformed PLY header line \"{}\"", path.string(), abbreviate_line(line));
-    } else if (!starts(line, "property ") && !starts(line, "comment") && !starts(line, "obj_info")) {
-      throw Error("{}: malformed PLY header line \"{}\"", path.string(), abbreviate_line(line));
-    }
-  }
-  throw Error("{}: malformed PLY header (no end_header line)", path.string());
-}
-}  // namespace
-
-TriangleMesh import_mesh(const fs::path& path) {
+TriangleMesh import_mesh(const fs::path& path, MeshImportReport* report) {
   const std::string name = path.string();
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error("{}: no such file", name);
   if (fs::is_directory(path, ec)) throw Error("{}: is a folder, not a mesh file", name);
 
-  check_ply_header(path);
+  check_mesh_file_header(path);
 
   Assimp::Importer importer;
   // Points and lines (and triangles that collapse to them) carry no surface to cast a
@@ -88,6 +34,7 @@ TriangleMesh import_mesh(const fs::path& path) {
   if (!scene) throw Error("{}: cannot import mesh: {}", name, importer.GetErrorString());
 
   TriangleMesh out;
+  size_t degenerate = 0;
   bool all_normals = true;
   for (unsigned mi = 0; mi < scene->mNumMeshes; ++mi) {
     const aiMesh* m = scene->mMeshes[mi];
@@ -114,10 +61,35 @@ TriangleMesh import_mesh(const fs::path& path) {
     for (unsigned f = 0; f < m->mNumFaces; ++f) {
       const aiFace& face = m->mFaces[f];
       if (face.mNumIndices != 3) continue;
-      for (int k = 0; k < 3; ++k) out.indices.push_back(base + face.mIndices[k]);
+      // Assimp clamps or validates most importers' indices, not all (OFF clamps silently).
+      for (int k = 0; k < 3; ++k)
+        if (face.mIndices[k] >= m->mNumVertices)
+          throw Error("{}: face {} of mesh {} uses vertex {}, but the mesh has {} vertices", name, f, mi,
+                      face.mIndices[k], m->mNumVertices);
+      const uint32_t a = base + face.mIndices[0], b = base + face.mIndices[1], c = base + face.mIndices[2];
+      // A triangle of zero area (two corners equal, or all three on a line) casts no shadow,
+      // and the rasterizing methods' edge set-up divides by its area: dropped.
+      // In double: the cross product of a tiny but valid triangle can underflow in float.
+      const auto corner = [&](uint32_t i) {
+        const Vec3f& p = out.positions[i];
+        return std::array<double, 3>{p.x, p.y, p.z};
+      };
+      const auto [pa, pb, pc] = std::array{corner(a), corner(b), corner(c)};
+      const double e1[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
+      const double e2[3] = {pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]};
+      const double nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2],
+                   nz = e1[0] * e2[1] - e1[1] * e2[0];
+      if (a == b || b == c || a == c || !(nx * nx + ny * ny + nz * nz > 0.0)) {
+        ++degenerate;
+        continue;
+      }
+      out.indices.insert(out.indices.end(), {a, b, c});
     }
   }
-  if (out.triangle_count() == 0) throw Error("{}: the file contains no triangles", name);
+  if (report) report->degenerate_triangles = degenerate;
+  if (out.triangle_count() == 0)
+    throw Error("{}: the file contains no triangles{}", name,
+                degenerate > 0 ? fmt::format(" of non-zero area ({} degenerate)", degenerate) : "");
   // Normalise the normals; if any is degenerate, drop them all (flat shading) rather than
   // shade some vertices black.
   for (Vec3f& n : out.normals) {

@@ -120,5 +120,76 @@ TEST(MeshImport, ErrorsNameTheFile) {
   EXPECT_NE(msg.find("points.obj: "), std::string::npos) << msg;
 }
 
+// Issue 17: hostile meshes. A file that declares far more elements than it holds is refused
+// from its header (Assimp would allocate for the declared counts, and for binary STL read
+// past its end); indices out of range and non-finite vertices are refused; triangles of
+// zero area are dropped and counted.
+TEST(MeshImport, DeclaredCountsMustFitTheFile) {
+  test::TempDir dir("hostile");
+  const auto refused = [&](const std::string& file, const std::string& content) {
+    write_text_file_atomic(dir / file, content);
+    return error_message([&] { import_mesh(dir / file); });
+  };
+  const std::string ply_faces = (dir / "faces.ply").string();
+  EXPECT_EQ(refused("faces.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                    "element face 100000000\nproperty list uchar int vertex_indices\nend_header\n"
+                    "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+            ply_faces + ": PLY header declares 100000000 \"face\" entries, more than the 26 bytes after the header "
+                        "can hold");
+  std::string binary =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 100000000\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n";
+  binary.append(12, '\0');
+  EXPECT_NE(refused("vertices.ply", binary).find("vertices.ply: PLY header declares 100000000 \"vertex\" entries"),
+            std::string::npos);
+  EXPECT_EQ(refused("huge.ply", "ply\nformat ascii 1.0\nelement vertex 99999999999\nproperty float x\nend_header\n"),
+            (dir / "huge.ply").string() + ": PLY element \"vertex\" declares 99999999999 entries (at most 4294967295)");
+  EXPECT_EQ(refused("empty_element.ply", "ply\nformat binary_little_endian 1.0\nelement nothing 4000000000\nend_header\n"),
+            (dir / "empty_element.ply").string() +
+                ": PLY element \"nothing\" declares 4000000000 entries but no properties");
+  EXPECT_EQ(refused("off.off", "OFF\n# a comment\n100000000 1 0\n0 0 0\n3 0 0 0\n"),
+            (dir / "off.off").string() +
+                ": OFF header declares 100000000 vertices and 1 faces, more than the 17 bytes after it can hold");
+  // Found by fuzz_mesh: counts may follow the keyword without a space, and Assimp reads them
+  // as 32-bit numbers that wrap (91 sixes: 4,294,967,294 vertices, 32 GB).
+  const std::string glued = "OFF" + std::string(91, '6') +
+                            std::string("\n4::1 0ply0\0\0\0\0" "01 \0\0\x7f\xff\x06\xd3\xa5\x10mm\x01\0\0\0\0\0\0\0\0\0"
+                                        "\x7f\xff\x06\xd3\xa5\x10" "2\n", 46);
+  EXPECT_NE(refused("glued.off", glued).find("glued.off: OFF header declares "), std::string::npos);
+  // 84 + 50 n wraps to the file's 88 bytes in 32 bits: Assimp would take it for binary STL
+  // with 85,899,346 triangles and read gigabytes past the end.
+  std::string stl(80, 'x');
+  const uint32_t n = 85899346;
+  stl.append(reinterpret_cast<const char*>(&n), 4);  // little-endian hosts only (as STL)
+  stl.append(4, '\0');
+  EXPECT_EQ(refused("wrap.stl", stl), (dir / "wrap.stl").string() +
+                                          ": binary STL header declares 85899346 triangles, which need 4294967384 "
+                                          "bytes; the file has 88");
+}
+
+TEST(MeshImport, BadIndicesAndCoordinatesAreRefusedDegenerateTrianglesDropped) {
+  test::TempDir dir("hostile");
+  write_text_file_atomic(dir / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+  std::string msg = error_message([&] { import_mesh(dir / "index.obj"); });
+  EXPECT_EQ(msg.rfind((dir / "index.obj").string() + ": ", 0), 0u) << msg;
+  write_text_file_atomic(dir / "nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_EQ(error_message([&] { import_mesh(dir / "nan.obj"); }),
+            (dir / "nan.obj").string() + ": vertex 0 of mesh 0 is not finite");
+  // One real triangle, one with three collinear corners, one with a repeated corner.
+  write_text_file_atomic(dir / "degenerate.obj",
+                         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\nf 1 1 3\n");
+  MeshImportReport report;
+  const TriangleMesh m = import_mesh(dir / "degenerate.obj", &report);
+  EXPECT_EQ(m.triangle_count(), 1u);
+  EXPECT_EQ(report.degenerate_triangles, 2u);
+  // A tiny but real triangle (its area underflows in float) is kept.
+  write_text_file_atomic(dir / "tiny.obj", "v 0 0 0\nv 1e-18 0 0\nv 0 1e-18 0\nf 1 2 3\n");
+  EXPECT_EQ(import_mesh(dir / "tiny.obj").triangle_count(), 1u);
+  write_text_file_atomic(dir / "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+  EXPECT_EQ(error_message([&] { import_mesh(dir / "flat.obj"); }),
+            (dir / "flat.obj").string() + ": the file contains no triangles of non-zero area (1 degenerate)");
+}
+
 }  // namespace
 }  // namespace penumbra

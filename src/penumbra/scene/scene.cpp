@@ -1,6 +1,7 @@
 #include "penumbra/scene/scene.h"
 
 #include <cmath>
+#include <cstdio>
 #include <optional>
 
 #include "penumbra/core/error.h"
@@ -218,7 +219,11 @@ class SceneParser {
       fs::path p = fs::path(rel).is_absolute() ? fs::path(rel) : (folder_ / rel).lexically_normal();
       SceneObject o;
       try {
-        o.mesh = import_mesh(p);
+        MeshImportReport report;
+        o.mesh = import_mesh(p, &report);
+        if (report.degenerate_triangles > 0)
+          std::fprintf(stderr, "penumbra: warning: %s: %zu triangle(s) of zero area dropped\n", p.string().c_str(),
+                       report.degenerate_triangles);
       } catch (const Interrupted&) {
         throw;  // Ctrl-C ends the run, whatever this step would do with an error
       } catch (const Error& e) {
