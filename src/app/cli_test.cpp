@@ -243,6 +243,38 @@ TEST_F(Cli, RendersTooLargeForMemoryAreRefusedUpFront) {
   EXPECT_EQ(r.err, "penumbra: error: --memory-limit lots: expected a size in bytes, or with K, M, G or T (e.g. 8G)\n");
 }
 
+TEST_F(Cli, MethodMapsTooLargeForMemoryAreRefusedUpFront) {
+  const std::string scene = tiny_scene();
+  const fs::path out = dir_ / "never.exr";
+  // Refused with exit 1 and one line holding `expected`, before anything is written.
+  auto expect_refused = [&](const std::string& args, const std::string& expected) {
+    SCOPED_TRACE(args);
+    const CliRun r = run(fmt::format("render {} {} -o {}", scene, args, out.string()));
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find(expected), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  };
+  // A 32 x 24 image (about 100 KiB of view samples) whose method would build about 5 GiB of
+  // occlusion textures (4096^2 texels, 32 slices, 13 N-buffer levels): refused before
+  // anything is allocated, naming the parameter to lower.
+  expect_refused("-m occlusion-textures -p resolution=4096 -p slices=32 --memory-limit 64M",
+                 "tiny.json: occlusion-textures needs about 5.2 GiB for its light-space data (and 99 KiB for the "
+                 "view samples), over the memory limit of 64.0 MiB; lower -p occlusion-textures.resolution or raise "
+                 "--memory-limit");
+  // mlsm's layered map: 8192^2 texels of 64 layers (about 64 GiB).
+  expect_refused("-m mlsm -p resolution=8192 -p layers=64 --memory-limit 1G",
+                 "lower -p mlsm.resolution or raise --memory-limit");
+  // What grows with the light samples names --spp: the reference's per-thread buffers at
+  // 2^20 samples (40 MiB a thread).
+  expect_refused("-m reference --spp 1048576 --threads 1 --memory-limit 16M", "lower --spp or raise --memory-limit");
+  // The same method at a sensible size fits the same limit.
+  const CliRun r = run(fmt::format("render {} -m occlusion-textures -p resolution=256 --memory-limit 64M -q -o {}",
+                                   scene, out.string()));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(out));
+}
+
 TEST_F(Cli, BadArgumentsAreRejected) {
   std::string scene = tiny_scene();
   CliRun r = run(fmt::format("render {} -m no-such-method -o {}", scene, (dir_ / "x.png").string()));

@@ -93,7 +93,8 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
                 "light back-facing triangles");
   cmd->add_option("-p,--param", o->params, "method parameter key=value (repeatable)");
   cmd->add_option("--memory-limit", o->memory_limit,
-                  "refuse a render whose view samples and images would need more (e.g. 8G; default: 80% of physical memory)");
+                  "refuse a render whose view samples, images and method maps would need more (e.g. 8G; default: "
+                  "80% of physical memory)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
   return [o] { return run_render(*o); };
 });

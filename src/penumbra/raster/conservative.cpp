@@ -127,6 +127,16 @@ struct ConservativeRasterizer::Impl {
   void bin_polygons(const ConvexPolygons& polys, const TileGrid& grid, int width, int height);
 };
 
+uint64_t ConservativeRasterizer::scratch_bytes(uint64_t polygons, uint64_t vertices, int width, int height,
+                                               int tile_size) {
+  const TileGrid grid(width, height, std::max(0, raster_internal::tile_shift(tile_size)));
+  const uint64_t entries = 2 * polygons + 2 * static_cast<uint64_t>(grid.count());
+  const uint64_t chunks = (polygons + kChunkSize - 1) / kChunkSize;
+  // The vertices per chunk (push_back growth: up to twice their size) and the binner's part.
+  return chunks * sizeof(std::vector<Point2>) + 2 * vertices * sizeof(Point2) +
+         TileBinner<CoverItem>::bytes(polygons, kChunkSize, grid, polygons, entries);
+}
+
 ConservativeRasterizer::ConservativeRasterizer(int tile_size)
     : impl_(std::make_unique<Impl>()), tile_size_(tile_size) {
   if (raster_internal::tile_shift(tile_size) < 0)

@@ -64,6 +64,11 @@ class ConservativeRasterizer {
   void triangles(std::span<const RasterTriangle> triangles, const LightView& view,
                  const RasterFilter& filter, const CoverageCallback& covered);
 
+  // The scratch memory kept after covering `polygons` polygons of `vertices` vertices in all
+  // (a triangle clipped to the view: 3 to 5) over a width x height image, binned as the
+  // Rasterizer's (scratch_bytes there).
+  static uint64_t scratch_bytes(uint64_t polygons, uint64_t vertices, int width, int height, int tile_size = 64);
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -33,6 +33,10 @@ struct DepthMap {
   std::vector<uint32_t> triangle;
 
   void resize(int w, int h);
+  // What a w x h map holds (its four planes), for memory estimates before it exists.
+  static uint64_t bytes(int w, int h) {
+    return static_cast<uint64_t>(w) * static_cast<uint64_t>(h) * (3 * sizeof(float) + sizeof(uint32_t));
+  }
   size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
   bool covered(int x, int y) const { return triangle[index(x, y)] != kNoTriangle; }
   DepthSample at(int x, int y) const {
@@ -52,6 +56,11 @@ struct LayeredDepthMap {
   std::vector<DepthSample> samples;   // width * height * max_layers
 
   void resize(int w, int h, int layers);
+  // What a w x h map of `layers` layers holds: every slot is allocated, used or not.
+  static uint64_t bytes(int w, int h, int layers) {
+    const uint64_t texels = static_cast<uint64_t>(w) * static_cast<uint64_t>(h);
+    return texels * (sizeof(uint8_t) + static_cast<uint64_t>(layers) * sizeof(DepthSample));
+  }
   size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
   int count(int x, int y) const { return counts[index(x, y)]; }
   std::span<const DepthSample> layers(int x, int y) const {

@@ -79,6 +79,17 @@ void MinMaxPyramid::build_levels() {
   }
 }
 
+uint64_t MinMaxPyramid::nodes(int width, int height) {
+  // The levels of build_levels(): ceil halves down to 1 x 1.
+  uint64_t nodes = static_cast<uint64_t>(width) * static_cast<uint64_t>(height);
+  while (width > 1 || height > 1) {
+    width = (width + 1) / 2;
+    height = (height + 1) / 2;
+    nodes += static_cast<uint64_t>(width) * static_cast<uint64_t>(height);
+  }
+  return nodes;
+}
+
 void MinMaxPyramid::texels(int level, int x, int y, int* x0, int* y0, int* x1, int* y1) const {
   *x0 = x << level;
   *y0 = y << level;

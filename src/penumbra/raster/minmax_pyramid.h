@@ -11,6 +11,7 @@
 // overlap a ray's depth interval, and a node is empty iff all its texels are.
 #pragma once
 
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -45,6 +46,11 @@ class MinMaxPyramid {
   MinMaxPyramid(const DepthMap& map, DepthKind kind = DepthKind::Linear);
   // Over all layers of each texel: [first layer, last layer].
   MinMaxPyramid(const LayeredDepthMap& map, DepthKind kind = DepthKind::Linear);
+
+  // Nodes of the pyramid of a width x height image (every level), and what they hold: for
+  // memory estimates, and for per-node data beside a pyramid.
+  static uint64_t nodes(int width, int height);
+  static uint64_t bytes(int width, int height) { return nodes(width, height) * sizeof(DepthRange); }
 
   int levels() const { return static_cast<int>(levels_.size()); }
   int width(int level = 0) const { return levels_[level].width; }

@@ -27,5 +27,7 @@ void append_raster_triangles(const TriangleMesh& mesh, float material_opacity, u
                              std::vector<RasterTriangle>* out);
 // Every triangle of every object of the scene, in object order then mesh order.
 std::vector<RasterTriangle> gather_raster_triangles(const Scene& scene);
+// What gather_raster_triangles returns for a scene of `triangles` triangles.
+inline uint64_t raster_triangles_bytes(uint64_t triangles) { return triangles * sizeof(RasterTriangle); }
 
 }  // namespace penumbra

@@ -338,6 +338,12 @@ void Rasterizer::Impl::gather_tile(int tile, const LightView& view, TileScratch&
   }
 }
 
+uint64_t Rasterizer::scratch_bytes(uint64_t triangles, int width, int height, int tile_size) {
+  const TileGrid grid(width, height, std::max(0, raster_internal::tile_shift(tile_size)));
+  const uint64_t entries = 2 * triangles + 2 * static_cast<uint64_t>(grid.count());
+  return TileBinner<SetupTriangle>::bytes(triangles, kChunkSize, grid, triangles, entries);
+}
+
 Rasterizer::Rasterizer(int tile_size) : impl_(std::make_unique<Impl>()), tile_size_(tile_size) {
   if (raster_internal::tile_shift(tile_size) < 0)
     throw Error("Rasterizer: tile size {} must be a power of two in [8, 256]", tile_size);
@@ -665,14 +671,26 @@ void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, cons
   stats_.raster_ms = timer.elapsed_ms();
 }
 
+namespace {
+// Exactly n elements: a map reused for views whose size varies (one per light sample) must
+// not take vector::resize's doubled capacity, nor copy the old texels while growing (the
+// rasterizer writes every texel anew), so it never holds more than its largest view
+// (what the memory estimates count, DepthMap::bytes).
+template <class T>
+void resize_exact(std::vector<T>& v, size_t n) {
+  if (n > v.capacity()) std::vector<T>().swap(v);
+  v.resize(n);
+}
+}  // namespace
+
 void DepthMap::resize(int w, int h) {
   width = w;
   height = h;
   size_t n = static_cast<size_t>(w) * h;
-  z.resize(n);
-  depth.resize(n);
-  opacity.resize(n);
-  triangle.resize(n);
+  resize_exact(z, n);
+  resize_exact(depth, n);
+  resize_exact(opacity, n);
+  resize_exact(triangle, n);
 }
 
 void LayeredDepthMap::resize(int w, int h, int layers) {
@@ -680,8 +698,8 @@ void LayeredDepthMap::resize(int w, int h, int layers) {
   height = h;
   max_layers = layers;
   size_t n = static_cast<size_t>(w) * h;
-  counts.resize(n);
-  samples.resize(n * layers);
+  resize_exact(counts, n);
+  resize_exact(samples, n * layers);
 }
 
 DepthMap render_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,

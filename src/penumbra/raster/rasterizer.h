@@ -75,6 +75,7 @@ struct DepthBins {
 struct DepthBinMasks {
   int width = 0, height = 0;
   std::vector<uint32_t> masks;
+  static uint64_t bytes(int w, int h) { return static_cast<uint64_t>(w) * static_cast<uint64_t>(h) * sizeof(uint32_t); }
   size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
   uint32_t at(int x, int y) const { return masks[index(x, y)]; }
 };
@@ -136,6 +137,12 @@ class Rasterizer {
                        const RasterFilter& filter, const DepthBins& bins, DepthBinMasks* out);
 
   const RasterStats& stats() const { return stats_; }
+
+  // The scratch memory a Rasterizer keeps after rendering `triangles` triangles into a
+  // width x height image (for memory estimates): every triangle set up and binned, each in
+  // up to two tiles on average plus a scene-sized ground plane's two in every tile. The
+  // per-thread tile buffers of the fragment modes (one tile's fragments each) are left out.
+  static uint64_t scratch_bytes(uint64_t triangles, int width, int height, int tile_size = 64);
 
  private:
   struct Impl;

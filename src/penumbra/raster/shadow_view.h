@@ -43,6 +43,13 @@ struct ShadowViewFit {
 LightView fit_shadow_view(Vec3f eye, Vec3f dir, Vec3f up, std::span<const Vec3f> receivers,
                           const Bounds3f& casters, const ShadowViewFit& fit);
 
+// The largest image a view fitted at this resolution can have, for memory estimates before
+// the fit: the shorter side depends on the receivers, so resolution x resolution bounds it.
+struct ViewSize {
+  int width = 0, height = 0;
+};
+inline ViewSize fitted_view_bound(int resolution) { return {resolution, resolution}; }
+
 // The focal length in texels: a point at view-space (x, y, z) lands at texel
 // (cx + f x / z, cy - f y / z). Texels of a fitted view are square, so one number serves
 // both axes (for other perspective views, the horizontal one).

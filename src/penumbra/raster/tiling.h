@@ -81,6 +81,15 @@ class TileBinner {
     });
   }
 
+  // What run() keeps for n inputs that set up `items` items binned as `entries` (item, tile)
+  // pairs: each chunk's items (push_back growth: up to twice their size), the per-chunk tile
+  // counts, the tile offsets and the binned copies.
+  static uint64_t bytes(size_t n, size_t chunk_size, const TileGrid& grid, uint64_t items, uint64_t entries) {
+    const uint64_t chunks = (n + chunk_size - 1) / chunk_size, tiles = static_cast<uint64_t>(grid.count());
+    return chunks * sizeof(std::vector<Item>) + 2 * items * sizeof(Item) + chunks * tiles * sizeof(uint32_t) +
+           (tiles + 1) * sizeof(size_t) + entries * sizeof(Item);
+  }
+
   std::span<const Item> tile(int t) const {
     return {entries_.data() + offsets_[t], offsets_[t + 1] - offsets_[t]};
   }

@@ -162,10 +162,18 @@ RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSett
     q.triangles = scene.triangle_count();
     q.threads = std::max(1, max_threads());
     const ParamSet params = resolve_method_params(settings.method, scene, settings.params);
-    const MemoryEstimate m = info.estimate_memory(params, q);
-    // One instance per light, each keeping its maps (Renderer::methods_).
-    e.method_bytes = m.bytes * scene.lights.size();
-    e.method_setting = m.setting;
+    // One instance per light, each keeping its maps (Renderer::methods_); the setting named is
+    // the largest instance's.
+    uint64_t largest = 0;
+    for (const AreaLight& light : scene.lights) {
+      q.light = &light;
+      const MemoryEstimate m = info.estimate_memory(params, q);
+      e.method_bytes += m.bytes;
+      if (e.method_setting.empty() || m.bytes > largest) {
+        largest = m.bytes;
+        e.method_setting = m.setting;
+      }
+    }
   }
   return e;
 }
@@ -182,7 +190,8 @@ void check_render_memory(const Scene& scene, const RenderSettings& settings) {
   if (need.total() <= limit) return;
   const std::string over = fmt::format("over the memory limit of {}{}", format_bytes(limit),
                                        settings.memory_limit > 0 ? "" : " (80% of physical memory)");
-  if (need.view_bytes >= need.method_bytes)
+  // The view samples' own message also when what the method needs most grows with them.
+  if (need.view_bytes >= need.method_bytes || need.method_setting == kViewSamplesSetting)
     throw Error(
         "{}: a {}x{} image with {} camera sample(s) per pixel needs about {} for its view samples{}, {}; lower "
         "camera.resolution or camera.samples_per_pixel (--resolution, --pixel-samples) or raise --memory-limit",
@@ -190,7 +199,11 @@ void check_render_memory(const Scene& scene, const RenderSettings& settings) {
         format_bytes(need.view_bytes),
         need.method_bytes > 0 ? fmt::format(" and {} for {}", format_bytes(need.method_bytes), settings.method) : "",
         over);
-  const bool is_param = !need.method_setting.empty() && need.method_setting[0] != '-';
+  // A method parameter is named as -p METHOD.NAME; other settings (--spp, the scene's
+  // triangles) as they are.
+  const std::vector<ParamSpec>& specs = MethodRegistry::get(settings.method).params;
+  const bool is_param = std::any_of(specs.begin(), specs.end(),
+                                    [&](const ParamSpec& p) { return p.name == need.method_setting; });
   throw Error("{}: {} needs about {} for its light-space data{} (and {} for the view samples), {}; lower {}{} or "
               "raise --memory-limit",
               scene.source.string(), settings.method, format_bytes(need.method_bytes),

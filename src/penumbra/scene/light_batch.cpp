@@ -197,9 +197,9 @@ HWY_AFTER_NAMESPACE();
 namespace penumbra {
 
 void LightSampleBatch::resize(int n) {
-  const size_t padded = (static_cast<size_t>(n) + kLanePad - 1) / kLanePad * kLanePad;
+  const size_t size = padded(n);
   for (auto* a : {&x, &y, &z, &dist, &inv_pdf, &area_weight})
-    if (a->size() < padded) a->resize(padded);
+    if (a->size() < size) a->resize(size);
 }
 
 namespace light_kernels {

@@ -22,6 +22,9 @@ struct LightSampleBatch {
   std::vector<float> inv_pdf;      // 1 / (solid-angle density)
   std::vector<float> area_weight;  // AreaLight::DirectionSample::area_weight
   void resize(int n);              // room for n samples (rounded up to kLanePad)
+  static size_t padded(int n) { return (static_cast<size_t>(n) + kLanePad - 1) / kLanePad * kLanePad; }
+  // What resize(n) allocates (six arrays), for memory estimates.
+  static uint64_t bytes(int n) { return 6 * padded(n) * sizeof(float); }
 };
 
 namespace light_kernels {

@@ -32,6 +32,33 @@ const MethodInfo& MethodRegistry::get(const std::string& name) {
   throw Error("unknown shadow method '{}' (known: {})", name, known);
 }
 
+void MemoryTally::add(uint64_t bytes, std::string_view setting) {
+  for (auto& [name, sum] : parts_)
+    if (name == setting) {
+      sum += bytes;
+      return;
+    }
+  parts_.emplace_back(std::string(setting), bytes);
+}
+
+uint64_t MemoryTally::bytes() const {
+  uint64_t total = 0;
+  for (const auto& part : parts_) total += part.second;
+  return total;
+}
+
+MemoryEstimate MemoryTally::estimate() const {
+  MemoryEstimate e;
+  e.bytes = bytes();
+  uint64_t largest = 0;
+  for (const auto& [name, sum] : parts_)
+    if (e.setting.empty() || sum > largest) {
+      e.setting = name;
+      largest = sum;
+    }
+  return e;
+}
+
 std::vector<const MethodInfo*> MethodRegistry::all() {
   std::vector<const MethodInfo*> out;
   for (const auto& [n, i] : registry()) out.push_back(&i);

@@ -10,6 +10,8 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "penumbra/scene/scene.h"
@@ -65,6 +67,8 @@ struct MemoryQuery {
   int light_samples = 256;    // --spp
   uint64_t triangles = 0;     // in the whole scene
   int threads = 1;            // worker threads that may each hold scratch buffers
+  // The light the instance serves (its shape decides some sizes); null: the largest of any.
+  const AreaLight* light = nullptr;
 };
 
 // Bytes one method instance holds for one light (its maps, lists, per-sample buffers and
@@ -73,6 +77,25 @@ struct MemoryQuery {
 struct MemoryEstimate {
   uint64_t bytes = 0;
   std::string setting;
+};
+
+// MemoryEstimate::setting for the parts no method parameter drives (the render's error then
+// names them as they are, without "-p METHOD."; for the view samples it names the camera's
+// settings, as for the view samples' own memory).
+inline constexpr const char* kLightSamplesSetting = "--spp";
+inline constexpr const char* kViewSamplesSetting = "--resolution or --pixel-samples";
+inline constexpr const char* kTrianglesSetting = "the scene's triangle count";
+
+// Adds up the parts of a method's estimate, each with the setting that drives it, and names
+// the setting whose parts add up to the most: what lowering helps most.
+class MemoryTally {
+ public:
+  void add(uint64_t bytes, std::string_view setting);
+  uint64_t bytes() const;
+  MemoryEstimate estimate() const;
+
+ private:
+  std::vector<std::pair<std::string, uint64_t>> parts_;  // per setting, in the order first added
 };
 
 struct MethodInfo {
@@ -84,7 +107,7 @@ struct MethodInfo {
   bool samples_light = false;
   // The method's memory at these parameters, before anything is allocated: the Renderer
   // refuses a render whose total exceeds the budget (issue 17, docs/reliability.md). Empty
-  // for methods whose memory is negligible next to the view samples (hard, reference).
+  // for methods whose memory is negligible next to the view samples (hard: a stack of rays).
   std::function<MemoryEstimate(const ParamSet&, const MemoryQuery&)> estimate_memory;
 };
 

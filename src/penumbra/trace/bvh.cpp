@@ -124,6 +124,14 @@ struct Builder {
 
 }  // namespace
 
+uint64_t TriangleBvh::node_bound(uint64_t triangles, int max_leaf_size) {
+  return 2 * (2 * triangles / static_cast<uint64_t>(std::max(1, max_leaf_size)) + 2);
+}
+
+uint64_t TriangleBvh::build_bytes(uint64_t triangles, int max_leaf_size) {
+  return node_bound(triangles, max_leaf_size) * sizeof(BvhNode) + triangles * (sizeof(Vec3f) + sizeof(Bounds3f));
+}
+
 TriangleBvh::TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size) : triangles_(std::move(triangles)) {
   if (triangles_.empty()) return;
   nodes_.reserve(2 * triangles_.size() / std::max(1, max_leaf_size) + 2);

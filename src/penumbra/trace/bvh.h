@@ -39,6 +39,12 @@ class TriangleBvh {
   size_t memory_bytes() const {
     return nodes_.capacity() * sizeof(BvhNode) + triangles_.capacity() * sizeof(BvhTriangle);
   }
+  // For memory estimates: the nodes a build over `triangles` triangles may allocate (leaves
+  // hold half of max_leaf_size on average, which overflows the reserved 2 / max_leaf_size a
+  // triangle once: the node array doubles), and what the build holds besides the triangles
+  // handed to it (those nodes, each triangle's centroid and box).
+  static uint64_t node_bound(uint64_t triangles, int max_leaf_size);
+  static uint64_t build_bytes(uint64_t triangles, int max_leaf_size);
 
  private:
   std::vector<BvhNode> nodes_;

@@ -139,12 +139,6 @@ class AliasFreeBase : public ShadowMethod {
   // the segment from the slot's point to c). Closed meshes cast with their triangles facing
   // away from c only (§3.3). Sets extra.casters; adds to *counters and *memory.
   std::vector<uint8_t> center_shadow(const Scene& scene, Vec3f c, Counters* counters, size_t* memory) {
-    // The casters and their four planes (§3.3), oriented so that "inside" is positive.
-    struct Planes {
-      Vec3f support;  // p is behind the caster when dot(support, p - v0) > 0
-      Vec3f v0;
-      Vec3f edge[3];  // p is inside the pyramid when dot(edge[i], p - c) >= 0 for all i
-    };
     std::vector<RasterTriangle> casters;
     std::vector<Planes> planes;
     {
@@ -192,6 +186,26 @@ class AliasFreeBase : public ShadowMethod {
     return shadowed;
   }
 
+  // For memory estimates, into `tally`: the gathered triangles; per view sample, the ids of
+  // those to list (grown by doubling), the points the lists are built from, the lists and which
+  // samples are listed; per texel of the fitted image (resolution^2), the lists' starts.
+  static void add_lists_memory(MemoryTally& tally, const ParamSet& p, const MemoryQuery& q) {
+    const ViewSize v = fitted_view_bound(p.get_int("resolution"));
+    const uint64_t texels = static_cast<uint64_t>(v.width) * static_cast<uint64_t>(v.height);
+    tally.add(raster_triangles_bytes(q.triangles), kTrianglesSetting);
+    tally.add(q.view_samples * (2 * sizeof(uint32_t) + sizeof(Vec3f) + sizeof(char)), kViewSamplesSetting);
+    tally.add(TexelLists::bytes(texels, q.view_samples), "resolution");
+  }
+  // What center_shadow() holds: the casters and their planes (grown by doubling), a shadow
+  // bit per slot and the conservative rasterizer's scratch (a clipped triangle: 3-5 vertices).
+  static void add_center_shadow_memory(MemoryTally& tally, const ParamSet& p, const MemoryQuery& q) {
+    const ViewSize v = fitted_view_bound(p.get_int("resolution"));
+    tally.add(2 * q.triangles * (sizeof(RasterTriangle) + sizeof(Planes)) +
+                  ConservativeRasterizer::scratch_bytes(q.triangles, 4 * q.triangles, v.width, v.height),
+              kTrianglesSetting);
+    tally.add(q.view_samples * sizeof(uint8_t), kViewSamplesSetting);
+  }
+
   void report(const Counters& c, uint64_t casters, uint64_t extra_memory) {
     stats_.texels_visited += c.texel_visits;
     stats_.extra["casters"] = casters;
@@ -200,6 +214,14 @@ class AliasFreeBase : public ShadowMethod {
     stats_.extra["sample_tests"] = c.sample_tests;
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, lists_.memory_bytes() + extra_memory);
   }
+
+  // A caster of center_shadow() and its four planes (§3.3), oriented so that "inside" is
+  // positive.
+  struct Planes {
+    Vec3f support;  // p is behind the caster when dot(support, p - v0) > 0
+    Vec3f v0;
+    Vec3f edge[3];  // p is inside the pyramid when dot(edge[i], p - c) >= 0 for all i
+  };
 
   int resolution_;
   float max_fov_;
@@ -220,6 +242,15 @@ bool in_front_of_light(const AreaLight& light, Vec3f p) { return dot(p - light.c
 class AliasFreeHard final : public AliasFreeBase {
  public:
   using AliasFreeBase::AliasFreeBase;
+
+  // One light's instance: the lists (add_lists_memory) and the centre's shadow bits
+  // (add_center_shadow_memory).
+  static MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+    MemoryTally tally;
+    add_lists_memory(tally, p, q);
+    add_center_shadow_memory(tally, p, q);
+    return tally.estimate();
+  }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
     const AreaLight& light = *ctx.light;
@@ -277,6 +308,60 @@ class AliasFreeSoft final : public AliasFreeBase {
         restrict_(p.get_bool("restrict")),
         slabs_(p.get_int("slabs")),
         silhouettes_(p.get_bool("silhouettes")) {}
+
+  // One light's instance: the lists (add_lists_memory); the light samples, their grid and
+  // the table of plane masks; the depth slabs (a slot start per slab and texel, and its
+  // summed-area table with restrict); per listed view sample, its depth, its mask of blocked
+  // light samples (a bit each), its flags, its rotation (jitter) and the SIMD copies of its
+  // position; per caster, its set-ups, nearest depth and support mask, and per slab its
+  // region (of the usual size, grown by doubling: every caster in every slab, where restrict
+  // and the slabs' far planes usually drop half) and the slab rasterizer's scratch, with a
+  // whole hull per caster while one slab's regions are computed. With silhouettes, the
+  // welded edges and their hash maps, their regions, the stencil and the centre's shadow
+  // bits. Left out: a thread's buffer of one span's survivors (a row of texels' samples).
+  static MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+    MemoryTally tally;
+    add_lists_memory(tally, p, q);
+    const int n = std::clamp(q.light_samples, 1, afsm::kMaxLightSamples);
+    const uint64_t words = static_cast<uint64_t>(afsm::mask_words(n));
+    const int lut_bins = p.get_bool("lut") ? p.get_int("lut_resolution") : 0;
+    tally.add(afsm::PlaneMaskLut::bytes(n, lut_bins, lut_bins), "lut_resolution");
+    tally.add(afsm::light_samples_bytes(n) + afsm::SampleGrid::bytes(n), kLightSamplesSetting);
+
+    const ViewSize v = fitted_view_bound(p.get_int("resolution"));
+    const int slabs = p.get_int("slabs");
+    tally.add(afsm::DepthSlabs::bytes(slabs, v.width, v.height, q.view_samples, p.get_bool("restrict")), "resolution");
+    const bool symmetric = !q.light || q.light->shape == LightShape::Disk || q.light->shape == LightShape::Sphere;
+    const bool jitter = p.get_bool("jitter") && symmetric;
+    const uint64_t slots = q.view_samples + afsm::kPairPadding;
+    tally.add(slots * words * sizeof(uint64_t), kLightSamplesSetting);
+    tally.add(slots * (sizeof(float) + sizeof(uint32_t) + sizeof(uint8_t) + 3 * sizeof(float) +
+                       (jitter ? sizeof(Vec2f) + 2 * sizeof(float) : 0)),
+              kViewSamplesSetting);
+
+    const uint64_t t = q.triangles;
+    const uint64_t region_vertices = static_cast<uint64_t>(afsm::typical_region_vertices(q.light));
+    constexpr uint64_t kHullVertices = 3 * 8;  // evaluate's hull slots per caster
+    const uint64_t per_caster = 2 * (sizeof(Caster) + sizeof(float) + words * sizeof(uint64_t)) +
+                                sizeof(afsm::PairCaster) + kHullVertices * sizeof(Vec2f) + sizeof(uint8_t);
+    const uint64_t per_slab =
+        2 * t * (region_vertices * sizeof(Vec2f) + 2 * sizeof(uint32_t)) +
+        ConservativeRasterizer::scratch_bytes(t, t * region_vertices, v.width, v.height, kSlabTile);
+    tally.add(t * per_caster + static_cast<uint64_t>(slabs) * per_slab, kTrianglesSetting);
+    if (p.get_bool("silhouettes")) {
+      // At most three edges a triangle; a hash-map entry is a node of a few words.
+      const uint64_t edges = 3 * t;
+      constexpr uint64_t kHashEntry = 48;
+      const uint64_t per_edge =
+          2 * sizeof(SilhouetteEdge) + 2 * kHashEntry + 2 * (region_vertices * sizeof(Vec2f) + sizeof(uint32_t));
+      tally.add(
+          edges * per_edge + ConservativeRasterizer::scratch_bytes(edges, edges * region_vertices, v.width, v.height),
+          kTrianglesSetting);
+      tally.add(static_cast<uint64_t>(v.width) * static_cast<uint64_t>(v.height), "resolution");
+      add_center_shadow_memory(tally, p, q);
+    }
+    return tally.estimate();
+  }
 
   // §4.3 "Restrict computations": the edges of the casters, welded by position, with the
   // normals of their (first two) faces, for the silhouette test of each frame.
@@ -398,15 +483,6 @@ class AliasFreeSoft final : public AliasFreeBase {
 
     // The casters (every triangle: which side faces which light sample differs per sample)
     // and their influence regions (§4.1).
-    struct Caster {
-      Vec3f v[3];
-      Vec3f normal;     // cross(v1 - v0, v2 - v0)
-      float normal_len;
-      Vec2f support_g;  // the supporting plane as a line on the light: g . u + h
-      float support_h;
-      bool closed;
-      size_t support_mask = 0;  // closed, without jitter: index into support_masks
-    };
     std::vector<Caster> casters;
     std::vector<float> caster_near;  // per caster: its nearest vertex's depth from the light
     std::vector<uint8_t> stencil;    // silhouette edges' regions (empty: no restriction)
@@ -758,6 +834,16 @@ class AliasFreeSoft final : public AliasFreeBase {
   // g rotated by -alpha, (cos alpha, sin alpha) = r.
   static Vec2f rotate(Vec2f g, Vec2f r) { return {r.x * g.x + r.y * g.y, -r.y * g.x + r.x * g.y}; }
 
+  struct Caster {
+    Vec3f v[3];
+    Vec3f normal;     // cross(v1 - v0, v2 - v0)
+    float normal_len;
+    Vec2f support_g;  // the supporting plane as a line on the light: g . u + h
+    float support_h;
+    bool closed;
+    size_t support_mask = 0;  // closed, without jitter: index into support_masks
+  };
+
   bool use_lut_;
   int lut_resolution_;
   bool jitter_;
@@ -795,6 +881,7 @@ const MethodRegistration hard_registration({
     view_specs(),
     [](const ParamSet& p) { return std::make_unique<AliasFreeHard>(p); },
     /*samples_light=*/false,
+    AliasFreeHard::memory,
 });
 
 std::vector<ParamSpec> soft_specs() {
@@ -831,6 +918,7 @@ const MethodRegistration soft_registration({
     soft_specs(),
     [](const ParamSet& p) { return std::make_unique<AliasFreeSoft>(p); },
     /*samples_light=*/true,
+    AliasFreeSoft::memory,
 });
 
 }  // namespace

@@ -15,6 +15,11 @@ float cross2(Vec2f o, Vec2f a, Vec2f b) { return (a.x - o.x) * (b.y - o.y) - (a.
 
 }  // namespace
 
+int typical_region_vertices(const AreaLight* light) {
+  const int polygon = !light ? 8 : light->shape == LightShape::Rect ? 4 : light->shape == LightShape::Disk ? 8 : 6;
+  return polygon + 3;
+}
+
 InfluenceRegions::InfluenceRegions(const AreaLight& light, const LightView& view, float far_depth)
     : light_(light), view_(view), far_(far_depth) {
   if (light.shape == LightShape::Rect || light.shape == LightShape::Disk) outline_ = light.outline(8);

@@ -41,6 +41,13 @@ class InfluenceRegions {
   std::vector<Vec3f> outline_;  // rect / disk: the bounding polygon (world)
 };
 
+// The vertices region() usually gives for this light (null: any light), for memory
+// estimates: the region is the hull of the light's bounding polygon (rect 4, disk 8, sphere
+// and ellipsoid 6 vertices) projected through each of the three vertices, which has the
+// polygon's vertices and about three more (bridges between the projections); at most three
+// times the polygon's.
+int typical_region_vertices(const AreaLight* light);
+
 // Andrew's monotone chain: the convex hull of `points`, counter-clockwise (y up) without
 // collinear points; in place.
 void convex_hull(std::vector<Vec2f>* points);

@@ -107,6 +107,14 @@ PlaneMaskLut::PlaneMaskLut(std::span<const Vec2f> samples, int angle_bins, int d
   });
 }
 
+uint64_t PlaneMaskLut::bytes(int n, int angle_bins, int distance_bins) {
+  const uint64_t words = static_cast<uint64_t>(mask_words(n));
+  const uint64_t cells = angle_bins > 0 && distance_bins > 0
+                             ? static_cast<uint64_t>(angle_bins) * static_cast<uint64_t>(distance_bins)
+                             : 0;
+  return (cells * 2 + 1) * words * sizeof(uint64_t) + 2 * 2 * static_cast<uint64_t>(n) * sizeof(float);
+}
+
 size_t PlaneMaskLut::memory_bytes() const {
   return cells_.size() * sizeof(uint64_t) + (ux_.size() + uy_.size()) * sizeof(float);
 }
@@ -150,6 +158,13 @@ int PlaneMaskLut::lookup(Vec2f g, float h, uint64_t* out) const {
     out[w] = bits;
   }
   return tested;
+}
+
+uint64_t SampleGrid::bytes(int n) {
+  // first_ (about one cell a sample), each sample's cell while sorting and a cursor per cell,
+  // index_, and x_ and y_ padded.
+  const uint64_t samples = static_cast<uint64_t>(n);
+  return 3 * (samples + 1) * sizeof(uint32_t) + samples * sizeof(uint16_t) + 2 * (samples + 64) * sizeof(float);
 }
 
 SampleGrid::SampleGrid(std::span<const Vec2f> samples, float per_cell) {

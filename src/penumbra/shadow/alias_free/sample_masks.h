@@ -40,6 +40,8 @@ struct LightSamples {
 };
 // Frame `frame`'s samples of light `light_index` (keyed by seed, light and frame only).
 LightSamples make_light_samples(const AreaLight& light, int n, uint64_t seed, int light_index, int frame);
+// What make_light_samples allocates for n samples (both arrays grown by doubling).
+inline uint64_t light_samples_bytes(int n) { return 2 * static_cast<uint64_t>(n) * (sizeof(Vec3f) + sizeof(Vec2f)); }
 
 // Words of 64 bits for n samples.
 inline int mask_words(int n) { return (n + 63) / 64; }
@@ -63,6 +65,9 @@ class PlaneMaskLut {
   int words() const { return words_; }
   bool has_table() const { return angle_bins_ > 0; }
   size_t memory_bytes() const;
+  // What a table of n samples and these bins allocates (memory_bytes before it exists; the
+  // samples' coordinates grown by doubling).
+  static uint64_t bytes(int n, int angle_bins, int distance_bins);
 
   // out[words()] = the samples u with g . u + h > 0 (table plus exact test of the unsure
   // samples; equal to exact() bit for bit). Returns the number of samples tested exactly.
@@ -119,6 +124,8 @@ class SampleGrid {
     int x0, y0, x1, y1;
   };
   bool triangle_cells(const Line lines[3], int max_cells, Range* out) const;
+  // What a grid of n samples allocates, at one sample per cell (the default).
+  static uint64_t bytes(int n);
 
   int cells_x() const { return cells_; }
   // The grid's placement (for the SIMD form of triangle_cells in pair_filter): the samples

@@ -137,6 +137,13 @@ size_t DepthSlabs::memory_bytes() const {
          (sample.size() + list_slot.size() + summed_.size()) * sizeof(uint32_t);
 }
 
+uint64_t DepthSlabs::bytes(int slabs, int width, int height, uint64_t slots, bool summed) {
+  const uint64_t k = static_cast<uint64_t>(slabs), w = static_cast<uint64_t>(width), h = static_cast<uint64_t>(height);
+  const uint64_t tables = (k * w * h + 1) * sizeof(uint32_t) + (summed ? k * (w + 1) * (h + 1) * sizeof(uint32_t) : 0);
+  const uint64_t per_slot = sizeof(Vec3f) + 2 * sizeof(uint32_t) + sizeof(float) + sizeof(uint8_t);
+  return tables + slots * per_slot;
+}
+
 void DepthSlabs::build_summed_areas() {
   const size_t w1 = static_cast<size_t>(width) + 1, plane = w1 * (height + 1);
   summed_.assign(count * plane, 0);

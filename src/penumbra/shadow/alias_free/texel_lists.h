@@ -23,6 +23,13 @@ struct TexelLists {
   size_t uncovered = 0;             // points outside the view (not listed)
 
   size_t slots() const { return positions.size(); }
+  // For memory estimates: the lists of `slots` points over `texels` texels, and what
+  // build_texel_lists holds besides while building them (each point's texel, a cursor per
+  // texel).
+  static uint64_t bytes(uint64_t texels, uint64_t slots) {
+    return (texels + 1) * sizeof(uint32_t) + slots * (sizeof(Vec3f) + sizeof(uint32_t)) +
+           (slots + texels) * sizeof(uint32_t);
+  }
   size_t texel(int x, int y) const { return static_cast<size_t>(y) * width + x; }
   uint32_t begin(int x, int y) const { return first[texel(x, y)]; }
   uint32_t end(int x, int y) const { return first[texel(x, y) + 1]; }
@@ -69,6 +76,10 @@ struct DepthSlabs {
   void build_summed_areas();
   uint64_t count_in(int k, int x0, int y0, int x1, int y1) const;
   size_t memory_bytes() const;
+  // For memory estimates: up to `slabs` slabs of `slots` slots over a width x height image
+  // (with the summed-area tables when `summed`), and what split_by_depth holds besides while
+  // splitting (the sorted depths, each slot's slab).
+  static uint64_t bytes(int slabs, int width, int height, uint64_t slots, bool summed);
 
  private:
   std::vector<uint32_t> summed_;  // count x (width + 1) x (height + 1)

@@ -22,6 +22,9 @@ const MethodRegistration registration({
     "hard shadows: one shadow ray to the light centre",
     {},
     [](const ParamSet&) { return std::make_unique<HardShadows>(); },
+    /*samples_light=*/false,
+    // No estimate: its rays go in streams of 256 on the stack; nothing grows with a setting.
+    /*estimate_memory=*/{},
 });
 
 }  // namespace

@@ -90,12 +90,22 @@ class MultiViewShadowMap final : public ShadowMethod {
   shadow_map::ShadowDepthMap map_;
 };
 
+// One light's instance: one map at a time, whatever --spp (shadow_map::add_map_memory), and
+// the light points of a frame.
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+  MemoryTally tally;
+  shadow_map::add_map_memory(tally, p.get_int("resolution"), q);
+  tally.add(static_cast<uint64_t>(std::max(1, q.light_samples)) * sizeof(Vec2f), kLightSamplesSetting);
+  return tally.estimate();
+}
+
 const MethodRegistration registration({
     "multi-view-sm",
     "one depth map per light sample (--spp stratified points on the light), averaged",
     shadow_map::common_param_specs(512, /*receiver_plane_default=*/false),
     [](const ParamSet& p) { return std::make_unique<MultiViewShadowMap>(p); },
     /*samples_light=*/true,
+    memory,
 });
 
 }  // namespace

@@ -181,11 +181,23 @@ std::vector<ParamSpec> params() {
   return p;
 }
 
+// One light's instance: the light-centre map and what fitting and rendering it allocate
+// (shadow_map::add_map_memory), and the two kernels' stratified points.
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+  MemoryTally tally;
+  shadow_map::add_map_memory(tally, p.get_int("resolution"), q);
+  tally.add(static_cast<uint64_t>(p.get_int("blocker_samples") + p.get_int("pcf_samples")) * sizeof(Vec2f),
+            "pcf_samples");
+  return tally.estimate();
+}
+
 const MethodRegistration registration({
     "pcss",
     "percentage-closer soft shadows from one depth map (Fernando 2005), or xie2007 §3's PCF based soft shadows",
     params(),
     [](const ParamSet& p) { return std::make_unique<Pcss>(p); },
+    /*samples_light=*/false,
+    memory,
 });
 
 }  // namespace

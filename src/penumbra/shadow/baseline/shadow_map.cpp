@@ -89,11 +89,21 @@ std::vector<ParamSpec> params() {
   return p;
 }
 
+// One light's instance: the light-centre map and what fitting and rendering it allocate
+// (shadow_map::add_map_memory); the lookups allocate nothing.
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+  MemoryTally tally;
+  shadow_map::add_map_memory(tally, p.get_int("resolution"), q);
+  return tally.estimate();
+}
+
 const MethodRegistration registration({
     "shadow-map",
     "hard shadows from one depth map at the light centre: constant and slope-scaled bias, optional PCF",
     params(),
     [](const ParamSet& p) { return std::make_unique<ShadowMapMethod>(p); },
+    /*samples_light=*/false,
+    memory,
 });
 
 }  // namespace

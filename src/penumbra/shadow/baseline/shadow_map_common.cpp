@@ -49,6 +49,14 @@ BiasParams bias_params(const ParamSet& p) {
   return b;
 }
 
+void add_map_memory(MemoryTally& tally, int resolution, const MemoryQuery& q) {
+  const ViewSize v = fitted_view_bound(resolution);
+  tally.add(DepthMap::bytes(v.width, v.height), "resolution");
+  tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, v.width, v.height),
+            kTrianglesSetting);
+  tally.add(q.view_samples * sizeof(Vec3f), kViewSamplesSetting);
+}
+
 std::vector<Vec3f> receiver_points(const ViewSamples& vs, const AreaLight& light) {
   std::vector<Vec3f> out;
   out.reserve(vs.size());

@@ -38,6 +38,7 @@
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/scene/light.h"
 #include "penumbra/shadow/params.h"
+#include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/stats.h"
 #include "penumbra/shadow/view_samples.h"
 
@@ -61,6 +62,11 @@ struct ViewParams {
 std::vector<ParamSpec> common_param_specs(int default_resolution, bool receiver_plane_default);
 BiasParams bias_params(const ParamSet& p);
 ViewParams view_params(const ParamSet& p);
+
+// What one depth map from the light costs a baseline, added to `tally`: the gathered
+// triangles, the map itself (resolution^2 texels, the bound of a fitted window), the
+// rasterizer's scratch and the receivers' positions a fit collects (one per view sample).
+void add_map_memory(MemoryTally& tally, int resolution, const MemoryQuery& q);
 
 // Whether p is in front of the light's emitting plane (see above).
 inline bool in_front_of_light(const AreaLight& light, Vec3f p) { return dot(p - light.center, light.frame.n) > 0.0f; }

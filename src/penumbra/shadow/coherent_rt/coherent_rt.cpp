@@ -18,6 +18,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/raster/raster_triangle.h"
+#include "penumbra/raster/rasterizer.h"
 #include "penumbra/shadow/coherent_rt/depth_image_tracer.h"
 #include "penumbra/shadow/coherent_rt/reference_images.h"
 #include "penumbra/shadow/coherent_rt/soft_shad.h"
@@ -262,6 +263,27 @@ class CoherentRayTracing final : public ShadowMethod {
   nlohmann::json extra_ = nlohmann::json::object();
 };
 
+// One light's instance: the reference images (resolution^2 texels each: floors, links and
+// both quadtrees) and, while one is built, its depth map, ranges and the rasterizer's scratch,
+// with the gathered triangles (none with tracer=geometry); per view sample, the pixel
+// offsets and the samples grouped by pixel; per worker thread, a tile's sampler and its
+// light points.
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+  MemoryTally tally;
+  if (p.get_string("tracer") != "geometry") {
+    const int r = p.get_int("resolution");
+    const uint64_t views = static_cast<uint64_t>(view_point_count(p.get_string("views")));
+    tally.add(views * ReferenceImage::bytes(r, r) + ReferenceImage::build_scratch_bytes(r, r), "resolution");
+    tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, r, r), kTrianglesSetting);
+  }
+  tally.add(q.view_samples * 3 * sizeof(uint32_t), kViewSamplesSetting);
+  const int n = std::max(1, q.light_samples);
+  const uint64_t per_thread =
+      SoftShad::bytes(n, p.get_int("sub_grid")) + static_cast<uint64_t>(n) * (sizeof(Vec2f) + sizeof(Vec3f));
+  tally.add(static_cast<uint64_t>(q.threads) * per_thread, kLightSamplesSetting);
+  return tally.estimate();
+}
+
 const MethodRegistration registration({
     "coherent-rt",
     "coherence-based ray tracing of depth images (agrawala2000 §5): shadow rays through a few reference depth "
@@ -314,6 +336,7 @@ const MethodRegistration registration({
     },
     [](const ParamSet& p) { return std::make_unique<CoherentRayTracing>(p); },
     /*samples_light=*/true,
+    memory,
 });
 
 }  // namespace

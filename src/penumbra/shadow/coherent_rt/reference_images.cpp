@@ -20,9 +20,26 @@ size_t ReferenceImage::memory_bytes() const {
   return b;
 }
 
+uint64_t ReferenceImage::bytes(int w, int h) {
+  const uint64_t texels = static_cast<uint64_t>(w) * static_cast<uint64_t>(h);
+  // Floors and links per texel; the min/max quadtree and a connectedness byte per node.
+  return texels * (sizeof(float) + sizeof(uint8_t)) + MinMaxPyramid::bytes(w, h) + MinMaxPyramid::nodes(w, h);
+}
+
+uint64_t ReferenceImage::build_scratch_bytes(int w, int h) {
+  return DepthMap::bytes(w, h) + static_cast<uint64_t>(w) * static_cast<uint64_t>(h) * sizeof(DepthRange);
+}
+
+namespace {
+bool has_corners(const std::string& views) { return views == "corners" || views == "corners+center"; }
+bool has_center(const std::string& views) { return views == "center" || views == "corners+center"; }
+}  // namespace
+
+int view_point_count(const std::string& views) { return (has_corners(views) ? 4 : 0) + (has_center(views) ? 1 : 0); }
+
 std::vector<Vec3f> view_points(const AreaLight& light, const std::string& views) {
   std::vector<Vec3f> out;
-  if (views == "corners" || views == "corners+center") {
+  if (has_corners(views)) {
     Vec3f hs, ht;
     if (light.shape == LightShape::Rect) {
       hs = light.frame.s * (0.5f * light.size.x);
@@ -36,7 +53,7 @@ std::vector<Vec3f> view_points(const AreaLight& light, const std::string& views)
       out = {light.center + hs, light.center - hs, light.center + ht, light.center - ht};
     }
   }
-  if (views == "center" || views == "corners+center") out.push_back(light.center);
+  if (has_center(views)) out.push_back(light.center);
   if (out.empty()) throw Error("coherent-rt: views '{}' must be corners, center or corners+center", views);
   return out;
 }

@@ -70,11 +70,16 @@ struct ReferenceImage {
     return connected[level][static_cast<size_t>(y) * pyramid.width(level) + x] != 0;
   }
   size_t memory_bytes() const;
+  // What an image of w x h texels holds (memory_bytes before it exists), and what building
+  // one holds besides (its depth map and the texel ranges; the rasterizer's scratch on top).
+  static uint64_t bytes(int w, int h);
+  static uint64_t build_scratch_bytes(int w, int h);
 };
 
 // The view points on the light: "corners" (the 4 corners of a rect light, or 4 points on a
-// disk's rim along its axes), "center", or "corners+center".
+// disk's rim along its axes), "center", or "corners+center"; and how many that makes.
 std::vector<Vec3f> view_points(const AreaLight& light, const std::string& views);
+int view_point_count(const std::string& views);
 
 // A view from `eye` on the light, looking along the light's normal, containing everything
 // that can cast or receive a shadow from `light` (lam::fit_shadow_region, widened for the

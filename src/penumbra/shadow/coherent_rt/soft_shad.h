@@ -69,6 +69,15 @@ class SoftShad {
   const std::vector<uint8_t>& visible() const { return visible_; }
   size_t blocker_count() const { return blockers_.size(); }
 
+  // What a sampler of `cells` light cells holds at most: a stamp per sub-cell, three flags
+  // and a queue entry per cell (grown by doubling), and the blocker points (a point's own
+  // rays and those kept from the last one: up to two per cell, grown by doubling).
+  static uint64_t bytes(int cells, int sub_grid) {
+    const uint64_t n = static_cast<uint64_t>(cells);
+    return n * static_cast<uint64_t>(sub_grid) * static_cast<uint64_t>(sub_grid) * sizeof(uint32_t) +
+           n * (3 + 2 * sizeof(int) + 4 * sizeof(Vec3f));
+  }
+
  private:
   enum State : uint8_t { kUsePrev, kTodo, kDone };
   // Where the line from p through b meets the light's plane, on the unit square; false if

@@ -708,6 +708,28 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
   return map;
 }
 
+int sample_view_side_bound(int resolution) {
+  // The disparity of a light sample over the casters' depth range is at most the light's
+  // half-extent over the nearest depth, which fit_shadow_region already added on each side
+  // of the window: a sample view is at most about 1.5 times the LDI's side; 2 with margin,
+  // within sample_view's own cap.
+  return std::min(16384, 2 * resolution);
+}
+
+uint64_t build_bytes(int resolution, int max_layers) {
+  const uint64_t texels = static_cast<uint64_t>(resolution) * static_cast<uint64_t>(resolution);
+  const uint64_t slots = texels * static_cast<uint64_t>(max_layers);
+  const int side = sample_view_side_bound(resolution);
+  const uint64_t sample_texels = static_cast<uint64_t>(side) * static_cast<uint64_t>(side);
+  // Splats: one per covered pixel, binned into up to two bands each; the per-(chunk, band)
+  // counts and offsets.
+  const uint64_t chunks = (side + kChunkRows - 1) / kChunkRows, bands = (resolution + kBandRows - 1) / kBandRows;
+  const uint64_t sample_view = DepthMap::bytes(side, side) + 3 * sample_texels * sizeof(Splat) +
+                               chunks * bands * (sizeof(uint32_t) + sizeof(size_t));
+  const uint64_t map = (texels + 1) * sizeof(uint32_t) + slots * sizeof(Layer);
+  return texels * sizeof(uint8_t) + slots * sizeof(BuildLayer) + sample_view + map;
+}
+
 AttenuationMap build_attenuation_map(std::span<const RasterTriangle> triangles, const AreaLight& light,
                                      const ShadowRegion& region, std::span<const Vec2f> light_samples,
                                      const BuildOptions& options, BuildStats* stats) {

@@ -182,6 +182,15 @@ AttenuationMap build_attenuation_map(std::span<const RasterTriangle> triangles, 
                                      const ShadowRegion& region, std::span<const Vec2f> light_samples,
                                      const BuildOptions& options, BuildStats* stats = nullptr);
 
+// The most build_attenuation_map holds at once (for memory estimates) at this resolution
+// (the LDI's view is at most resolution^2 texels) and max_layers: the slots of every texel's
+// layers while building (allocated whole), one sample view's depth map, splats and binned
+// splats (a sample view is the LDI's widened by the light's disparity: at most
+// sample_view_side_bound texels a side), and the finished map (at most every slot used).
+// The rasterizer's scratch for the sample views comes on top.
+uint64_t build_bytes(int resolution, int max_layers);
+int sample_view_side_bound(int resolution);
+
 // The reference view for a region at a given resolution (the LDI's view), and a light
 // sample's view (eye at `sample`, same axes and texel size, window widened so every point
 // of the region at depth in [near, far] is inside). *offset receives the sample view's

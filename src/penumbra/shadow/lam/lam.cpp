@@ -11,6 +11,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/raster/raster_triangle.h"
+#include "penumbra/raster/rasterizer.h"
 #include "penumbra/shadow/lam/attenuation_map.h"
 #include "penumbra/shadow/shadow_method.h"
 
@@ -149,6 +150,20 @@ class LayeredAttenuationMaps final : public ShadowMethod {
   size_t peak_bytes_ = 0;
 };
 
+// One light's instance: the LDI and what building it holds (lam::build_bytes), the
+// scene's triangles twice (gathered, and those left after culling hidden back faces) and the
+// rasterizer's scratch for the sample views. The display allocates nothing; the light
+// samples' own arrays (a few dozen bytes each, at most 65535) are left out.
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+  MemoryTally tally;
+  const int r = p.get_int("resolution");
+  tally.add(lam::build_bytes(r, p.get_int("max_layers")), "resolution");
+  const int side = lam::sample_view_side_bound(r);
+  tally.add(2 * raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, side, side),
+            kTrianglesSetting);
+  return tally.estimate();
+}
+
 const MethodRegistration registration({
     "lam",
     "layered attenuation maps (agrawala2000 §4): an LDI at the light centre, precomputed once per light from "
@@ -173,6 +188,7 @@ const MethodRegistration registration({
     },
     [](const ParamSet& p) { return std::make_unique<LayeredAttenuationMaps>(p); },
     /*samples_light=*/true,
+    memory,
 });
 
 }  // namespace

@@ -78,7 +78,7 @@ class MultilayerMethod final : public ShadowMethod {
       multilayer::TraceCounters local;
       // The point's light samples warped together (the SIMD kernels of scene/light_batch.h,
       // as `reference` draws them).
-      const size_t padded = (n + LightSampleBatch::kLanePad - 1) / LightSampleBatch::kLanePad * LightSampleBatch::kLanePad;
+      const size_t padded = LightSampleBatch::padded(n);
       std::vector<float> ux(padded, 0.0f), uy(padded, 0.0f);
       LightSampleBatch batch;
       batch.resize(n);
@@ -269,6 +269,31 @@ std::vector<ParamSpec> mtsm_specs() {
   return s;
 }
 
+// One light's instance (mlsm, mtsm): the map of a resolution^2 view (mlsm: `layers` layers
+// per texel, every slot allocated; mtsm: resets + 1 compressed layers per texel, the most an
+// opaque scene's texels hold, and its build's per-texel vectors) with its quadtree; the
+// gathered triangles and the rasterizer's scratch; per view sample, the receivers, the
+// fitted ones (grown by doubling) and which are kept, and the points the light-centre view
+// is fitted to; per worker thread, one point's light samples.
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, Kind kind) {
+  MemoryTally tally;
+  const ViewSize v = fitted_view_bound(p.get_int("resolution"));
+  tally.add(kind == Kind::Opaque ? OpaqueLayerMap::bytes(v.width, v.height, p.get_int("layers"))
+                                 : TransparentMap::build_bytes(v.width, v.height, p.get_int("resets") + 1),
+            "resolution");
+  tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, v.width, v.height),
+            kTrianglesSetting);
+  const uint64_t outline = q.light ? q.light->outline(32).size() : 32;
+  tally.add(q.view_samples * (3 * sizeof(Vec3f) + sizeof(uint8_t)) +
+                multilayer::light_centre_view_bytes(q.view_samples, outline),
+            kViewSamplesSetting);
+  const int n = std::max(1, q.light_samples);
+  const uint64_t per_thread = LightSampleBatch::bytes(n) + 2 * LightSampleBatch::padded(n) * sizeof(float) +
+                              static_cast<uint64_t>(n) * (sizeof(Vec3f) + sizeof(float));
+  tally.add(static_cast<uint64_t>(q.threads) * per_thread, kLightSamplesSetting);
+  return tally.estimate();
+}
+
 const MethodRegistration mlsm_registration({
     "mlsm",
     "ray tracing a k-layer shadow map from the (pushed-back) light centre (xie2007 §4): --spp stochastic rays per "
@@ -276,6 +301,7 @@ const MethodRegistration mlsm_registration({
     mlsm_specs(),
     [](const ParamSet& p) { return std::make_unique<MultilayerMethod>(p, Kind::Opaque); },
     /*samples_light=*/true,
+    [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, Kind::Opaque); },
 });
 
 const MethodRegistration mtsm_registration({
@@ -285,6 +311,7 @@ const MethodRegistration mtsm_registration({
     mtsm_specs(),
     [](const ParamSet& p) { return std::make_unique<MultilayerMethod>(p, Kind::Transparent); },
     /*samples_light=*/true,
+    [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, Kind::Transparent); },
 });
 
 }  // namespace

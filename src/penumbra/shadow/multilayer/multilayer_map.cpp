@@ -25,7 +25,6 @@ CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> rece
   if (!options.push_back) return out;
   out.push_back = light.extent_radius() / edge;  // eq. 4: light_radius / tan(fov / 2)
   const Vec3f eye = light.center - dir * out.push_back;
-  std::vector<Vec3f> points(receivers.begin(), receivers.end());
   const std::vector<Vec3f> outline = light.outline(32);
   float z_c = -kInfinity;
   if (!caster_boxes.empty()) {
@@ -35,6 +34,16 @@ CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> rece
   }
   float z_light = kInfinity;
   for (Vec3f q : outline) z_light = std::min(z_light, dot(q - eye, dir));
+  // Room for every point at once (light_centre_view_bytes): growing by doubling would hold
+  // up to three times as many while copying.
+  size_t crossings = outline.size();
+  if (z_c > z_light) {
+    crossings = 0;
+    for (Vec3f r : receivers) crossings += dot(r - eye, dir) > z_c ? outline.size() : 0;
+  }
+  std::vector<Vec3f> points;
+  points.reserve(receivers.size() + crossings);
+  points.assign(receivers.begin(), receivers.end());
   if (!(z_c > z_light)) {
     for (Vec3f q : outline) points.push_back(q);
   } else {
@@ -145,6 +154,18 @@ std::vector<Vec3f> shadowable_receivers(std::span<const Bounds3f> casters, const
     if (keep[i]) out.push_back(receivers[i]);
   if (out.empty()) out.assign(receivers.begin(), receivers.end());
   return out;
+}
+
+uint64_t light_centre_view_bytes(uint64_t receivers, uint64_t outline_points) {
+  return receivers * (1 + outline_points) * sizeof(Vec3f);
+}
+
+uint64_t TransparentMap::build_bytes(int w, int h, int layers_per_texel) {
+  const uint64_t texels = static_cast<uint64_t>(w) * static_cast<uint64_t>(h);
+  const uint64_t layers = texels * static_cast<uint64_t>(layers_per_texel);
+  const uint64_t map = (texels + 1) * sizeof(uint32_t) + layers * sizeof(TransparentLayer) + MinMaxPyramid::bytes(w, h);
+  const uint64_t per_texel = texels * sizeof(std::vector<TransparentLayer>) + 2 * layers * sizeof(TransparentLayer);
+  return map + per_texel + texels * sizeof(DepthRange);
 }
 
 size_t OpaqueLayerMap::memory_bytes() const {

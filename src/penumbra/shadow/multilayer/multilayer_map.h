@@ -48,6 +48,10 @@ struct CentreView {
 // points). The light itself may then fall outside the window; no caster does.
 CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> receivers, const Bounds3f& casters,
                              const ViewOptions& options, std::span<const Bounds3f> caster_boxes = {});
+// The most light_centre_view allocates for `receivers` receivers: the points it fits, each
+// receiver and its segments' crossings toward the light's outline (`outline_points`
+// vertices).
+uint64_t light_centre_view_bytes(uint64_t receivers, uint64_t outline_points);
 
 // The bounding boxes of the objects that can shadow some receiver: every object's, less
 // planar objects with no receiver behind them (a ground plane shadows nothing above it).
@@ -72,6 +76,8 @@ struct OpaqueLayerMap {
   MinMaxPyramid pyramid;
   float z_min = kInfinity;
   size_t memory_bytes() const;
+  // What a w x h map of k layers holds, for memory estimates.
+  static uint64_t bytes(int w, int h, int k) { return LayeredDepthMap::bytes(w, h, k) + MinMaxPyramid::bytes(w, h); }
 };
 void build_opaque_layer_map(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view,
                             int k, OpaqueLayerMap* out);
@@ -83,6 +89,10 @@ struct TransparentMap {
   float z_min = kInfinity;
   size_t fragments = 0;  // before compression
   size_t memory_bytes() const;
+  // The most build_transparent_map holds at once for a w x h map whose texels compress into
+  // at most `layers_per_texel` layers (an opaque scene's: resets + 1): the map, and while it
+  // is built each texel's own vector (grown by doubling) and the texel ranges.
+  static uint64_t build_bytes(int w, int h, int layers_per_texel);
 };
 void build_transparent_map(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view,
                            const CompressionOptions& options, TransparentMap* out);

@@ -45,6 +45,19 @@ class OcclusionTexturesMethod final : public ShadowMethod {
   occlusion::OcclusionTextures textures_;
 };
 
+// One light's instance: the slices' coverage masks and the prefilter's tables (mipmaps about
+// 4/3 R^2 bytes a slice, N-buffers R^2 a level, summed-area tables 4 or 8 bytes an entry);
+// the casters' triangles and the rasterizer's scratch. Shading holds one tile's points per
+// thread (small next to the textures).
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+  const occlusion::Options o = options_from(p);
+  MemoryTally tally;
+  tally.add(occlusion::OcclusionTextures::texture_bytes(o), "resolution");
+  tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, o.resolution, o.resolution),
+            kTrianglesSetting);
+  return tally.estimate();
+}
+
 const MethodRegistration registration({
     "occlusion-textures",
     "eisemann2006: the scene sliced parallel to the light into pre-filtered occlusion textures, "
@@ -80,6 +93,8 @@ const MethodRegistration registration({
          {}},
     },
     [](const ParamSet& p) { return std::make_unique<OcclusionTexturesMethod>(p); },
+    /*samples_light=*/false,
+    memory,
 });
 
 }  // namespace

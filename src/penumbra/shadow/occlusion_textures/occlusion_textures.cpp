@@ -242,6 +242,20 @@ size_t OcclusionTextures::texture_bytes() const {
   return filter + masks_.masks.size() * sizeof(uint32_t);
 }
 
+uint64_t OcclusionTextures::texture_bytes(const Options& o) {
+  const int R = o.resolution, S = o.slices;
+  uint64_t filter = 0;
+  switch (o.prefilter) {
+    case Prefilter::Mipmap: filter = MipmapFilter::bytes(R, R, S); break;
+    case Prefilter::NBuffer: filter = NBufferFilter::bytes(R, R, S); break;
+    case Prefilter::Sat:
+      filter = o.sat_precision == SatPrecision::UInt32 ? SatFilter<uint32_t>::bytes(R, R, S)
+                                                        : SatFilter<double>::bytes(R, R, S);
+      break;
+  }
+  return filter + DepthBinMasks::bytes(R, R);
+}
+
 template <class Fn>
 decltype(auto) OcclusionTextures::dispatch(Fn&& fn) const {
   switch (options_.prefilter) {

@@ -96,6 +96,9 @@ class OcclusionTextures {
   // The pre-filtered mean coverage of slice k over a texel-space rectangle.
   float box(int k, float x0, float y0, float x1, float y1, LookupCounters* counters = nullptr) const;
   size_t texture_bytes() const;
+  // What texture_bytes() will be at these options (the coverage masks and the prefilter's
+  // tables), before anything is built.
+  static uint64_t texture_bytes(const Options& options);
 
  private:
   struct Batch;

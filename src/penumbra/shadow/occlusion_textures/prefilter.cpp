@@ -178,15 +178,33 @@ std::vector<SliceBounds> coverage_bounds(const CoverageStack& c) {
   return bounds;
 }
 
+namespace {
+// The planes' bytes of the first `levels` level sizes, and the padding row after them.
+struct PyramidLayout {
+  size_t planes = 0, padding = 0;
+  PyramidLayout(int levels, int slices, const std::vector<std::pair<int, int>>& sizes) {
+    size_t widest = 0;
+    for (int l = 0; l < levels; ++l) {
+      planes += static_cast<size_t>(sizes[l].first) * sizes[l].second * slices;
+      widest = std::max<size_t>(widest, sizes[l].first);
+    }
+    padding = widest + 2;
+  }
+};
+}  // namespace
+
+uint64_t BytePyramid::bytes(int slices, const std::vector<std::pair<int, int>>& sizes) {
+  const int levels = static_cast<int>(sizes.size());
+  const PyramidLayout layout(levels, slices, sizes);
+  return layout.planes + layout.padding + static_cast<uint64_t>(levels) * slices * sizeof(Plane);
+}
+
 void BytePyramid::allocate(int levels, int slices, const std::vector<std::pair<int, int>>& sizes) {
   levels_ = levels;
   slices_ = slices;
-  size_t total = 0, widest = 0;
-  for (int l = 0; l < levels; ++l) {
-    total += static_cast<size_t>(sizes[l].first) * sizes[l].second * slices;
-    widest = std::max<size_t>(widest, sizes[l].first);
-  }
-  data_.resize(total + widest + 2);
+  const PyramidLayout layout(levels, slices, sizes);
+  const size_t total = layout.planes;
+  data_.resize(total + layout.padding);
   std::fill(data_.begin() + total, data_.end(), uint8_t{0});
   planes_.resize(static_cast<size_t>(levels) * slices);
   size_t offset = 0;
@@ -200,13 +218,19 @@ void BytePyramid::allocate(int levels, int slices, const std::vector<std::pair<i
 // ----------------------------------------------------------------------------------------
 // Mipmaps
 
+std::vector<std::pair<int, int>> MipmapFilter::level_sizes(int width, int height) {
+  const int levels = std::bit_width(static_cast<unsigned>(std::max(width, height)));
+  std::vector<std::pair<int, int>> sizes;
+  for (int l = 0; l < levels; ++l) sizes.emplace_back(level_side(width, l), level_side(height, l));
+  return sizes;
+}
+
 void MipmapFilter::build(const CoverageStack& c) {
   width_ = c.width;
   height_ = c.height;
   bounds_ = coverage_bounds(c);
-  const int levels = std::bit_width(static_cast<unsigned>(std::max(c.width, c.height)));
-  std::vector<std::pair<int, int>> sizes;
-  for (int l = 0; l < levels; ++l) sizes.emplace_back(level_width(l), level_height(l));
+  const std::vector<std::pair<int, int>> sizes = level_sizes(c.width, c.height);
+  const int levels = static_cast<int>(sizes.size());
   pyramid_.allocate(levels, c.slices, sizes);
   expand_bits(c, pyramid_);
   for (int l = 1; l < levels; ++l) {
@@ -319,13 +343,19 @@ PENUMBRA_OT_CLONES void MipmapFilter::squares(int k, size_t count, const float* 
 // ----------------------------------------------------------------------------------------
 // N-buffers
 
+std::vector<std::pair<int, int>> NBufferFilter::level_sizes(int width, int height) {
+  const int levels = std::bit_width(static_cast<unsigned>(std::min(width, height)));
+  std::vector<std::pair<int, int>> sizes;
+  for (int l = 0; l < levels; ++l) sizes.emplace_back(level_side(width, l), level_side(height, l));
+  return sizes;
+}
+
 void NBufferFilter::build(const CoverageStack& c) {
   width_ = c.width;
   height_ = c.height;
   bounds_ = coverage_bounds(c);
-  const int levels = std::bit_width(static_cast<unsigned>(std::min(c.width, c.height)));
-  std::vector<std::pair<int, int>> sizes;
-  for (int l = 0; l < levels; ++l) sizes.emplace_back(level_width(l), level_height(l));
+  const std::vector<std::pair<int, int>> sizes = level_sizes(c.width, c.height);
+  const int levels = static_cast<int>(sizes.size());
   pyramid_.allocate(levels, c.slices, sizes);
   expand_bits(c, pyramid_);
   // Level l+1 at anchor (x, y) = the mean of level l at (x, y), (x + n, y), (x, y + n),

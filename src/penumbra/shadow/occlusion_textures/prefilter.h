@@ -99,6 +99,8 @@ class BytePyramid {
     int w = 0, h = 0;  // texels (mipmap) or anchors (N-buffer) per row and column
   };
   void allocate(int levels, int slices, const std::vector<std::pair<int, int>>& sizes);
+  // What allocate() allocates for these level sizes (for memory estimates).
+  static uint64_t bytes(int slices, const std::vector<std::pair<int, int>>& sizes);
   const Plane& plane(int l, int k) const { return planes_[static_cast<size_t>(k) * levels_ + l]; }
   // Slice k's planes, level by level.
   const Plane* planes(int k) const { return planes_.data() + static_cast<size_t>(k) * levels_; }
@@ -130,13 +132,19 @@ class BytePyramid {
 class MipmapFilter {
  public:
   void build(const CoverageStack& c);
+  // The levels' sizes of a width x height stack, and what its pyramid holds.
+  static std::vector<std::pair<int, int>> level_sizes(int width, int height);
+  static uint64_t bytes(int width, int height, int slices) {
+    return BytePyramid::bytes(slices, level_sizes(width, height));
+  }
   float box(int k, float x0, float y0, float x1, float y1, LookupCounters& n) const;
   void squares(int k, size_t count, const float* cx, const float* cy, const float* side, float* out,
                LookupCounters& n) const;
   size_t memory_bytes() const { return pyramid_.bytes(); }
   int levels() const { return pyramid_.levels(); }
-  int level_width(int l) const { return std::max(1, width_ >> l); }
-  int level_height(int l) const { return std::max(1, height_ >> l); }
+  int level_width(int l) const { return level_side(width_, l); }
+  int level_height(int l) const { return level_side(height_, l); }
+  static int level_side(int side, int l) { return std::max(1, side >> l); }
   // Level l's value of slice k at texel (x, y), in [0, 1].
   float texel(int l, int k, int x, int y) const {
     const auto& p = pyramid_.plane(l, k);
@@ -154,14 +162,20 @@ class MipmapFilter {
 class NBufferFilter {
  public:
   void build(const CoverageStack& c);
+  // The levels' sizes of a width x height stack, and what its pyramid holds.
+  static std::vector<std::pair<int, int>> level_sizes(int width, int height);
+  static uint64_t bytes(int width, int height, int slices) {
+    return BytePyramid::bytes(slices, level_sizes(width, height));
+  }
   float box(int k, float x0, float y0, float x1, float y1, LookupCounters& n) const;
   void squares(int k, size_t count, const float* cx, const float* cy, const float* side, float* out,
                LookupCounters& n) const;
   size_t memory_bytes() const { return pyramid_.bytes(); }
   int levels() const { return pyramid_.levels(); }
   // Anchors per row and column of level l: the boxes [x, x + 2^l) that lie inside.
-  int level_width(int l) const { return width_ - (1 << l) + 1; }
-  int level_height(int l) const { return height_ - (1 << l) + 1; }
+  int level_width(int l) const { return level_side(width_, l); }
+  int level_height(int l) const { return level_side(height_, l); }
+  static int level_side(int side, int l) { return side - (1 << l) + 1; }
   // Level l's value of slice k for the box with top-left texel (x, y), in [0, 1].
   float texel(int l, int k, int x, int y) const {
     const auto& p = pyramid_.plane(l, k);
@@ -185,6 +199,11 @@ class SatFilter {
   void squares(int k, size_t count, const float* cx, const float* cy, const float* side, float* out,
                LookupCounters& n) const;
   size_t memory_bytes() const { return data_.size() * sizeof(T); }
+  // What the tables of a width x height stack hold: (width + 1) x (height + 1) per slice.
+  static uint64_t bytes(int width, int height, int slices) {
+    return (static_cast<uint64_t>(width) + 1) * (static_cast<uint64_t>(height) + 1) * static_cast<uint64_t>(slices) *
+           sizeof(T);
+  }
   // The table of slice k: (width + 1) x (height + 1), entry (x, y) = covered texels in
   // [0, x) x [0, y).
   T entry(int k, int x, int y) const {

@@ -41,7 +41,7 @@ class ReferenceMethod final : public ShadowMethod {
     parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
       // Per task: the light samples of one point in structure-of-arrays form, warped by the
       // SIMD kernels of scene/light_batch.h and traced as one fan (RayTracer::transmittance_fan).
-      const size_t padded = (n + LightSampleBatch::kLanePad - 1) / LightSampleBatch::kLanePad * LightSampleBatch::kLanePad;
+      const size_t padded = LightSampleBatch::padded(n);
       std::vector<float> ux(padded, 0.0f), uy(padded, 0.0f), transmit(padded), cosine(padded);
       LightSampleBatch batch;
       batch.resize(n);
@@ -109,6 +109,16 @@ class ReferenceMethod final : public ShadowMethod {
   bool solid_angle_;
 };
 
+// One light's instance: per worker thread, one point's light samples (the batch and the
+// four arrays beside it); nothing is kept between calls.
+MemoryEstimate memory(const ParamSet&, const MemoryQuery& q) {
+  const int n = std::max(1, q.light_samples);
+  MemoryTally tally;
+  const uint64_t per_thread = LightSampleBatch::bytes(n) + 4 * LightSampleBatch::padded(n) * sizeof(float);
+  tally.add(static_cast<uint64_t>(q.threads) * per_thread, kLightSamplesSetting);
+  return tally.estimate();
+}
+
 const MethodRegistration registration({
     "reference",
     "ground truth: stochastic ray tracing of the real geometry on Embree (--spp shadow rays per point)",
@@ -117,6 +127,7 @@ const MethodRegistration registration({
       {"solid-angle", "area"}}},
     [](const ParamSet& p) { return std::make_unique<ReferenceMethod>(p); },
     /*samples_light=*/true,
+    memory,
 });
 
 }  // namespace

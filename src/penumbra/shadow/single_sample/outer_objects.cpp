@@ -140,6 +140,18 @@ void block_cone_distance2(const TriangleBlock4& block, Vec3f o, Vec3f v, Vec3f e
                                           block.vertex(lane, 2));
 }
 
+uint64_t contour_bytes(uint64_t triangles, uint64_t vertices) {
+  // canon, vertex_first; corners and vertex_tris (three per triangle).
+  const uint64_t topology = 2 * vertices * sizeof(uint32_t) + 6 * triangles * sizeof(uint32_t);
+  // build_topology's table (a power of two at least twice the vertices) and fill;
+  // contour_triangles' welded positions, bucket starts and fill, one flag and three
+  // half-edges (12 bytes each) per triangle.
+  const uint64_t weld = 4 * vertices * sizeof(uint32_t) + vertices * sizeof(uint32_t);
+  const uint64_t contour =
+      vertices * (sizeof(Vec3f) + 2 * sizeof(uint32_t)) + triangles * (1 + 3 * 3 * sizeof(uint32_t));
+  return topology + std::max(weld, contour);
+}
+
 MeshTopology build_topology(const TriangleMesh& mesh) {
   MeshTopology topo;
   const size_t nt = mesh.triangle_count();

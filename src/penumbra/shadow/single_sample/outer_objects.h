@@ -81,6 +81,9 @@ struct MeshTopology {
   std::vector<uint32_t> vertex_first, vertex_tris;
 };
 MeshTopology build_topology(const TriangleMesh& mesh);
+// For memory estimates: a mesh's topology, and the most building it and its contour
+// (contour_triangles) hold besides: the weld table, the welded positions, the edges.
+uint64_t contour_bytes(uint64_t triangles, uint64_t vertices);
 
 // Candidate occluders of a closed opaque surface for shadow rays toward the point light_pos.
 // For a ray that misses a closed surface, the point of the surface nearest to the ray in

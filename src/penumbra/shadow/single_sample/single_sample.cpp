@@ -798,6 +798,30 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   float scene_scale_ = 1.0f;
 };
 
+// One light's instance, all of it per triangle of the scene (at most every one is an
+// occluder; a mesh has at most three vertices a triangle): the occluder triangles (grown by
+// doubling, then kept by the BVH), the BVH's build, their planes, the nodes' boxes and first
+// blocks; the blocks of four for single-ray search (packet=1 or a rule other than min); with
+// candidates=contour the meshes' topology and contour build, and with neighbours each
+// triangle's plane four times (its own, and once in each corner's vertex fan) and the
+// welded positions.
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+  const uint64_t triangles = q.triangles, vertices = 3 * q.triangles;
+  const int leaf = p.get_int("leaf_size");
+  const uint64_t nodes = TriangleBvh::node_bound(triangles, leaf);
+  uint64_t bytes = 2 * triangles * sizeof(BvhTriangle) + TriangleBvh::build_bytes(triangles, leaf) +
+                   2 * triangles * sizeof(Plane) + nodes * (2 * sizeof(CenterBox) + sizeof(uint32_t));
+  if (!(p.get_int("packet") > 1 && p.get_string("combine") == "min"))
+    bytes += 2 * (triangles / 4 + nodes) * sizeof(single_sample::TriangleBlock4);
+  if (p.get_string("candidates") != "all") {
+    bytes += single_sample::contour_bytes(triangles, vertices);
+    if (p.get_bool("neighbours")) bytes += 4 * triangles * sizeof(Plane) + vertices * sizeof(Vec3f);
+  }
+  MemoryTally tally;
+  tally.add(bytes, kTrianglesSetting);
+  return tally.estimate();
+}
+
 const MethodRegistration registration({
     "single-sample",
     "parker1998 single sample soft shadows: one ray to the light centre, occluders with soft outer objects",
@@ -828,6 +852,8 @@ const MethodRegistration registration({
       "CPU has AVX2, else 4), 4, or 1 (one at a time)",
       {}, 1, 8}},
     [](const ParamSet& p) { return std::make_unique<SingleSampleSoftShadows>(p); },
+    /*samples_light=*/false,
+    memory,
 });
 
 }  // namespace
