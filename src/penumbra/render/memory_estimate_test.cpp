@@ -31,15 +31,16 @@
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define PENUMBRA_ASAN 1
+// AddressSanitizer and ThreadSanitizer bring their own operator new: no counting then.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define PENUMBRA_SANITIZER_ALLOCATOR 1
 #elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define PENUMBRA_ASAN 1
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define PENUMBRA_SANITIZER_ALLOCATOR 1
 #endif
 #endif
-#ifndef PENUMBRA_ASAN
-#define PENUMBRA_ASAN 0
+#ifndef PENUMBRA_SANITIZER_ALLOCATOR
+#define PENUMBRA_SANITIZER_ALLOCATOR 0
 #endif
 
 namespace {
@@ -47,7 +48,7 @@ namespace {
 std::atomic<bool> g_counting{false};
 std::atomic<int64_t> g_current{0}, g_peak{0};
 
-#if !PENUMBRA_ASAN
+#if !PENUMBRA_SANITIZER_ALLOCATOR
 void count_alloc(void* p) {
   if (!p || !g_counting.load(std::memory_order_relaxed)) return;
   const int64_t now = g_current.fetch_add(static_cast<int64_t>(malloc_usable_size(p)), std::memory_order_relaxed) +
@@ -79,7 +80,7 @@ void counted_free(void* p) {
 
 }  // namespace
 
-#if !PENUMBRA_ASAN
+#if !PENUMBRA_SANITIZER_ALLOCATOR
 void* operator new(std::size_t n) {
   if (void* p = counted_alloc(n)) return p;
   throw std::bad_alloc();
@@ -198,8 +199,8 @@ constexpr int64_t kFactor = 4;
 class MemoryEstimateMatchesHeap : public ::testing::TestWithParam<MeasureCase> {};
 
 TEST_P(MemoryEstimateMatchesHeap, WithinAFactorOfTheMeasuredPeak) {
-#if PENUMBRA_ASAN
-  GTEST_SKIP() << "AddressSanitizer replaces the allocator: operator new is not counted in this build";
+#if PENUMBRA_SANITIZER_ALLOCATOR
+  GTEST_SKIP() << "A sanitizer replaces the allocator: operator new is not counted in this build";
 #endif
   const MeasureCase& c = GetParam();
   const MethodInfo& info = MethodRegistry::get(c.method);
