@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
     for (auto& [sub, run] : commands)
       if (sub && sub->parsed()) return run();
   } catch (const penumbra::Interrupted&) {
-    std::fprintf(stderr, "penumbra: error: interrupted\n");
+    if (penumbra::claim_interrupt_message()) std::fprintf(stderr, "penumbra: error: interrupted\n");
     return 130;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "penumbra: error: %s\n", e.what());

@@ -15,6 +15,7 @@ namespace penumbra {
 namespace {
 
 std::atomic<bool> g_interrupted{false};
+std::atomic<bool> g_message_claimed{false};  // "interrupted" is printed once (claim_interrupt_message)
 sem_t g_signalled;  // posted by the handler (sem_post is async-signal-safe)
 
 std::mutex& files_mutex() {
@@ -41,8 +42,12 @@ void watchdog() {
     if (lock.owns_lock())
       for (const std::string& f : files()) ::unlink(f.c_str());
   }
-  static const char msg[] = "penumbra: error: interrupted\n";
-  [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, msg, sizeof(msg) - 1);
+  // The run may have printed its line already and be slow to exit (static destructors, a
+  // sanitizer's shutdown): end it without a second line.
+  if (claim_interrupt_message()) {
+    static const char msg[] = "penumbra: error: interrupted\n";
+    [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, msg, sizeof(msg) - 1);
+  }
   ::_exit(130);
 }
 
@@ -62,6 +67,8 @@ void install_interrupt_handlers() {
 }
 
 bool interrupted() { return g_interrupted.load(std::memory_order_relaxed); }
+
+bool claim_interrupt_message() { return !g_message_claimed.exchange(true); }
 
 void throw_if_interrupted() {
   if (interrupted()) throw Interrupted();

@@ -27,6 +27,9 @@ void install_interrupt_handlers();
 // Whether a signal has arrived; throw_if_interrupted() throws Interrupted if so.
 bool interrupted();
 void throw_if_interrupted();
+// True for the first caller only: whoever reports the interruption (the tool's main, or the
+// watchdog when the run has not ended 0.9 s after the signal) prints the one line.
+bool claim_interrupt_message();
 
 // Temporary files the watchdog removes if it has to end the process (AtomicFile registers
 // its own).

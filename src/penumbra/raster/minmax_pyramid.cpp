@@ -1,9 +1,7 @@
 #include "penumbra/raster/minmax_pyramid.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
 
 namespace penumbra {
 
@@ -25,8 +23,8 @@ MinMaxPyramid::MinMaxPyramid(const DepthMap& map, DepthKind kind) {
   base.height = map.height;
   base.nodes.resize(static_cast<size_t>(map.width) * map.height);
   const std::vector<float>& d = kind == DepthKind::Linear ? map.z : map.depth;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, base.nodes.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i)
+  parallel_for(base.nodes.size(), 16384, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i)
       base.nodes[i] = map.triangle[i] != kNoTriangle ? DepthRange{d[i], d[i]} : DepthRange{};
   });
   levels_.push_back(std::move(base));
@@ -39,8 +37,8 @@ MinMaxPyramid::MinMaxPyramid(const LayeredDepthMap& map, DepthKind kind) {
   base.width = map.width;
   base.height = map.height;
   base.nodes.resize(static_cast<size_t>(map.width) * map.height);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, base.nodes.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) {
+  parallel_for(base.nodes.size(), 16384, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
       int n = map.counts[i];
       if (n == 0) {
         base.nodes[i] = {};
@@ -63,8 +61,8 @@ void MinMaxPyramid::build_levels() {
     parent.width = (child.width + 1) / 2;
     parent.height = (child.height + 1) / 2;
     parent.nodes.resize(static_cast<size_t>(parent.width) * parent.height);
-    tbb::parallel_for(tbb::blocked_range<int>(0, parent.height, 16), [&](const tbb::blocked_range<int>& r) {
-      for (int y = r.begin(); y < r.end(); ++y) {
+    parallel_for(parent.height, 16, [&](size_t begin, size_t end) {
+      for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y) {
         int cy0 = 2 * y, cy1 = std::min(child.height, 2 * y + 2);
         for (int x = 0; x < parent.width; ++x) {
           int cx0 = 2 * x, cx1 = std::min(child.width, 2 * x + 2);

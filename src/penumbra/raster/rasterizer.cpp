@@ -10,6 +10,7 @@
 #include <tbb/enumerable_thread_specific.h>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/clipping.h"
 #include "penumbra/raster/tiling.h"
@@ -542,8 +543,8 @@ void Rasterizer::fragment_lists(std::span<const RasterTriangle> triangles, const
   // Pass 2: prefix sum of the counts (row sums in parallel, then rows in order).
   std::vector<uint64_t> row_start(static_cast<size_t>(height) + 1, 0);
   const uint32_t* counts = im.counts.data();
-  tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& r) {
-    for (int y = r.begin(); y < r.end(); ++y) {
+  parallel_for(height, 1, [&](size_t begin, size_t end) {
+    for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y) {
       uint64_t sum = 0;
       for (int x = 0; x < width; ++x) sum += counts[static_cast<size_t>(y) * width + x];
       row_start[y + 1] = sum;
@@ -551,8 +552,8 @@ void Rasterizer::fragment_lists(std::span<const RasterTriangle> triangles, const
   });
   for (int y = 0; y < height; ++y) row_start[y + 1] += row_start[y];
   if (row_start[height] > 0xffffffffull) throw Error("Rasterizer: {} fragments overflow 32-bit offsets", row_start[height]);
-  tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& r) {
-    for (int y = r.begin(); y < r.end(); ++y) {
+  parallel_for(height, 1, [&](size_t begin, size_t end) {
+    for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y) {
       size_t row = static_cast<size_t>(y) * width;
       uint32_t sum = static_cast<uint32_t>(row_start[y]);
       for (int x = 0; x < width; ++x) {

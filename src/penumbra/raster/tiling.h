@@ -9,8 +9,7 @@
 #include <span>
 #include <vector>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
+#include "penumbra/core/parallel.h"
 
 namespace penumbra::raster_internal {
 
@@ -48,8 +47,8 @@ class TileBinner {
     if (chunks_.size() < chunk_count_) chunks_.resize(chunk_count_);
     const size_t tiles = static_cast<size_t>(grid.count());
     counts_.assign(chunk_count_ * tiles, 0);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunk_count_, 1), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t c = r.begin(); c < r.end(); ++c) {
+    parallel_for(chunk_count_, 1, [&](size_t begin, size_t end) {
+      for (size_t c = begin; c < end; ++c) {
         std::vector<Item>& items = chunks_[c];
         items.clear();
         setup(c, c * chunk_size, std::min(n, (c + 1) * chunk_size), items);
@@ -72,8 +71,8 @@ class TileBinner {
     }
     offsets_[tiles] = total;
     entries_.resize(total);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunk_count_, 1), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t c = r.begin(); c < r.end(); ++c) {
+    parallel_for(chunk_count_, 1, [&](size_t begin, size_t end) {
+      for (size_t c = begin; c < end; ++c) {
         uint32_t* cursor = counts_.data() + c * tiles;
         for (const Item& it : chunks_[c])
           for_each_tile(it, [&](size_t t) { entries_[offsets_[t] + cursor[t]++] = it; });
@@ -120,8 +119,8 @@ class TileBinner {
 // Runs body(tile) over every tile of the grid, load-balanced (tiles differ a lot in cost).
 template <class Body>
 void for_each_tile(const TileGrid& grid, Body&& body) {
-  tbb::parallel_for(tbb::blocked_range<int>(0, grid.count(), 1), [&](const tbb::blocked_range<int>& r) {
-    for (int t = r.begin(); t < r.end(); ++t) body(t);
+  parallel_for(grid.count(), 1, [&](size_t begin, size_t end) {
+    for (int t = static_cast<int>(begin); t < static_cast<int>(end); ++t) body(t);
   });
 }
 

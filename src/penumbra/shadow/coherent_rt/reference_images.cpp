@@ -1,11 +1,9 @@
 #include "penumbra/shadow/coherent_rt/reference_images.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <cmath>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/scene/scene.h"
@@ -96,8 +94,8 @@ ReferenceImage build_reference_image(std::span<const RasterTriangle> tris, const
   const size_t n = static_cast<size_t>(W) * H;
   img.floor.assign(n, kInfinity);
   img.links.assign(n, 0);
-  tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y)
+  parallel_for(H, 16, [&](size_t begin, size_t end) {
+    for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
       for (int x = 0; x < W; ++x) {
         size_t i = map.index(x, y);
         if (map.triangle[i] == kNoTriangle) continue;
@@ -119,8 +117,8 @@ ReferenceImage build_reference_image(std::span<const RasterTriangle> tris, const
   // Floors, pushed back by the shadow bias plus, slope-scaled, the largest depth step to a
   // connected neighbour (a surface seen at a grazing angle moves that much per texel, so a
   // point anywhere in the texel lies up to about that far behind the sampled depth).
-  tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y)
+  parallel_for(H, 16, [&](size_t begin, size_t end) {
+    for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
       for (int x = 0; x < W; ++x) {
         size_t i = map.index(x, y);
         if (map.triangle[i] == kNoTriangle) continue;
@@ -133,8 +131,8 @@ ReferenceImage build_reference_image(std::span<const RasterTriangle> tris, const
   });
   // Texel ranges: the floor and the walls to connected neighbours.
   std::vector<DepthRange> ranges(n);
-  tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y)
+  parallel_for(H, 16, [&](size_t begin, size_t end) {
+    for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
       for (int x = 0; x < W; ++x) {
         size_t i = static_cast<size_t>(y) * W + x;
         float f = img.floor[i];
@@ -169,8 +167,8 @@ ReferenceImage build_reference_image(std::span<const RasterTriangle> tris, const
     const std::vector<uint8_t>& child = img.connected[l - 1];
     std::vector<uint8_t>& cur = img.connected[l];
     cur.assign(static_cast<size_t>(lw) * lh, 0);
-    tbb::parallel_for(tbb::blocked_range<int>(0, lh, 4), [&](const tbb::blocked_range<int>& rows) {
-      for (int y = rows.begin(); y < rows.end(); ++y)
+    parallel_for(lh, 4, [&](size_t begin, size_t end) {
+      for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
         for (int x = 0; x < lw; ++x) {
           bool ok = true;
           for (int cy = 2 * y; ok && cy < std::min(2 * y + 2, img.pyramid.height(l - 1)); ++cy)
