@@ -27,10 +27,33 @@ TriangleMesh import_mesh(const fs::path& path, MeshImportReport* report) {
   // Points and lines (and triangles that collapse to them) carry no surface to cast a
   // shadow: let SortByPType drop them rather than hand them to the ray tracer.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                         aiProcess_PreTransformVertices | aiProcess_SortByPType |
-                         aiProcess_ValidateDataStructure;
-  const aiScene* scene = importer.ReadFile(name, flags);
+  // Import and validate first, post-process after penumbra's own check: Debian builds
+  // Assimp with its assertions on, and its post-processing trusts the importers' output. A
+  // fuzzed ASCII PLY face (fuzz_mesh) left a mesh flagged as holding polygons with none in
+  // it, and aiProcess_Triangulate's assertion aborted the process.
+  const aiScene* scene = importer.ReadFile(name, aiProcess_ValidateDataStructure);
+  if (!scene) throw Error("{}: cannot import mesh: {}", name, importer.GetErrorString());
+  for (unsigned mi = 0; mi < scene->mNumMeshes; ++mi) {
+    // The importer's scene, still owned by `importer`, corrected before post-processing.
+    aiMesh* m = const_cast<aiMesh*>(scene->mMeshes[mi]);
+    unsigned types = 0;
+    for (unsigned f = 0; f < m->mNumFaces; ++f) {
+      const aiFace& face = m->mFaces[f];
+      if (face.mNumIndices == 0 || face.mIndices == nullptr)
+        throw Error("{}: face {} of mesh {} has no vertices", name, f, mi);
+      for (unsigned k = 0; k < face.mNumIndices; ++k)
+        if (face.mIndices[k] >= m->mNumVertices)
+          throw Error("{}: face {} of mesh {} uses vertex {}, but the mesh has {} vertices", name, f, mi,
+                      face.mIndices[k], m->mNumVertices);
+      types |= face.mNumIndices == 1   ? aiPrimitiveType_POINT
+               : face.mNumIndices == 2 ? aiPrimitiveType_LINE
+               : face.mNumIndices == 3 ? aiPrimitiveType_TRIANGLE
+                                       : aiPrimitiveType_POLYGON;
+    }
+    m->mPrimitiveTypes = types;  // what the faces are, whatever the importer said
+  }
+  scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                       aiProcess_PreTransformVertices | aiProcess_SortByPType);
   if (!scene) throw Error("{}: cannot import mesh: {}", name, importer.GetErrorString());
 
   TriangleMesh out;
@@ -61,11 +84,6 @@ TriangleMesh import_mesh(const fs::path& path, MeshImportReport* report) {
     for (unsigned f = 0; f < m->mNumFaces; ++f) {
       const aiFace& face = m->mFaces[f];
       if (face.mNumIndices != 3) continue;
-      // Assimp clamps or validates most importers' indices, not all (OFF clamps silently).
-      for (int k = 0; k < 3; ++k)
-        if (face.mIndices[k] >= m->mNumVertices)
-          throw Error("{}: face {} of mesh {} uses vertex {}, but the mesh has {} vertices", name, f, mi,
-                      face.mIndices[k], m->mNumVertices);
       const uint32_t a = base + face.mIndices[0], b = base + face.mIndices[1], c = base + face.mIndices[2];
       // A triangle of zero area (two corners equal, or all three on a line) casts no shadow,
       // and the rasterizing methods' edge set-up divides by its area: dropped.

@@ -170,6 +170,14 @@ TEST(MeshImport, DeclaredCountsMustFitTheFile) {
 
 TEST(MeshImport, BadIndicesAndCoordinatesAreRefusedDegenerateTrianglesDropped) {
   test::TempDir dir("hostile");
+  // Found by fuzz_mesh: a garbled ASCII PLY face made Assimp 5.2 flag the mesh as holding
+  // polygons with none in it, and its triangulation's assertion aborted the process.
+  write_text_file_atomic(dir / "garbled.ply",
+                         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float "
+                         "z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n" +
+                             std::string(21, '\xff') + "3 0 1\x1c" "2\n");
+  const std::string garbled = error_message([&] { import_mesh(dir / "garbled.ply"); });
+  EXPECT_EQ(garbled.rfind((dir / "garbled.ply").string() + ": ", 0), 0u) << garbled;
   write_text_file_atomic(dir / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
   std::string msg = error_message([&] { import_mesh(dir / "index.obj"); });
   EXPECT_EQ(msg.rfind((dir / "index.obj").string() + ": ", 0), 0u) << msg;
