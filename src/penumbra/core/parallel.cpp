@@ -159,14 +159,14 @@ void parallel_for(size_t n, size_t grain, const std::function<void(size_t, size_
     throw_if_interrupted();
     body(g * step, std::min(n, (g + 1) * step));
   });
-  return;
-#endif
+#else
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, step), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t b = r.begin(); b < r.end(); b += step) {
       throw_if_interrupted();
       body(b, std::min(r.end(), b + step));
     }
   });
+#endif
 }
 
 void parallel_for_tiles(int width, int height, int tile,
@@ -180,8 +180,7 @@ void parallel_for_tiles(int width, int height, int tile,
     const int i = static_cast<int>(t % tx), j = static_cast<int>(t / tx);
     body(i * tile, j * tile, std::min(width, (i + 1) * tile), std::min(height, (j + 1) * tile));
   });
-  return;
-#endif
+#else
   tbb::parallel_for(tbb::blocked_range2d<int>(0, ty, 1, 0, tx, 1),
                     [&](const tbb::blocked_range2d<int>& r) {
                       throw_if_interrupted();
@@ -190,6 +189,7 @@ void parallel_for_tiles(int width, int height, int tile,
                           body(i * tile, j * tile, std::min(width, (i + 1) * tile),
                                std::min(height, (j + 1) * tile));
                     });
+#endif
 }
 
 }  // namespace penumbra

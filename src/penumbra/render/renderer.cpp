@@ -163,17 +163,16 @@ RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSett
     q.threads = std::max(1, max_threads());
     const ParamSet params = resolve_method_params(settings.method, scene, settings.params);
     // One instance per light, each keeping its maps (Renderer::methods_); the setting named is
-    // the largest instance's.
-    uint64_t largest = 0;
+    // the one that drives most of their bytes together.
+    MemoryTally lights;
     for (const AreaLight& light : scene.lights) {
       q.light = &light;
       const MemoryEstimate m = info.estimate_memory(params, q);
-      e.method_bytes += m.bytes;
-      if (e.method_setting.empty() || m.bytes > largest) {
-        largest = m.bytes;
-        e.method_setting = m.setting;
-      }
+      lights.add(m.bytes, m.setting);
     }
+    const MemoryEstimate all = lights.estimate();
+    e.method_bytes = all.bytes;
+    e.method_setting = all.setting;
   }
   return e;
 }
