@@ -2,9 +2,11 @@
 # Installs every Debian 12 package penumbra needs, then configures and builds it.
 # Usage: scripts/setup.sh [--with-test-tools] [build-dir]   (default: build)
 #   --with-test-tools  also installs what some tests use but penumbra does not need:
-#                      chromium (the comparison page's headless-browser test; without it
-#                      that test skips with a message), clang and its sanitizer and libFuzzer
-#                      runtimes (the second build of scripts/test.sh)
+#                      chromium (the comparison page's and the viewer's headless-browser
+#                      tests; without it they skip with a message), Node.js and the viewer
+#                      test's npm packages (puppeteer-core, pinned in
+#                      src/penumbra/viewer/e2e/package-lock.json), clang and its sanitizer and
+#                      libFuzzer runtimes (the second build of scripts/test.sh)
 # Safe to run again: apt-get skips what is installed, CMake rebuilds what changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,6 +26,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libhwy-dev     # Highway: portable SIMD with run-time dispatch (SSE4, AVX2, AVX-512)
+  libcpp-httplib-dev   # the HTTP server of `penumbra view`
   glmark2-data   # the full Stanford bunny at /usr/share/glmark2/models/bunny.obj
 )
 if [ "$with_test_tools" -eq 1 ]; then
@@ -34,12 +37,22 @@ missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# Node.js for the viewer's browser test: Debian's, unless a node and npm are there already
+# (e.g. from another package source, which Debian's npm would conflict with).
+if [ "$with_test_tools" -eq 1 ] && ! { command -v node && command -v npm; } >/dev/null; then
+  missing+=(nodejs npm)
+fi
 if [ ${#missing[@]} -gt 0 ]; then
   sudo_cmd=""
   [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
   echo "penumbra setup: installing ${missing[*]}" >&2
   $sudo_cmd apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+if [ "$with_test_tools" -eq 1 ]; then
+  # Test tools only, never needed at run time: the exact versions of the lock file.
+  npm ci --prefix src/penumbra/viewer/e2e --no-audit --no-fund --loglevel=error
 fi
 
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release >/dev/null

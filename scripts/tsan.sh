@@ -7,7 +7,7 @@
 # Usage: scripts/tsan.sh [ctest -R regex]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-tests=${1:-"Determinism|Parallel|Renderer|Comparison|CliCompare|Sweep|ReferenceCache|Interrupt|Progress|Cli\\.CtrlC"}
+tests=${1:-"Determinism|Parallel|Renderer|Comparison|CliCompare|Sweep|ReferenceCache|Interrupt|Progress|Cli\\.CtrlC|Viewer"}
 CXX=clang++-14 cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=Release -DPENUMBRA_TSAN=ON -DPENUMBRA_BUILD_BENCH=OFF >/dev/null
 cmake --build build-tsan -j "$(nproc)"
 rm -rf build-tsan/tsan-reports && mkdir -p build-tsan/tsan-reports

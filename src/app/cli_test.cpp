@@ -1,9 +1,13 @@
 // End-to-end tests of the `penumbra` tool: run the real binary on tiny scene files.
 #include <gtest/gtest.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <httplib.h>
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -11,6 +15,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -153,11 +159,8 @@ TEST_F(Cli, DeeplyNestedJsonIsOneLineErrorNotACrash) {
   EXPECT_FALSE(fs::exists(dir_ / "never.json"));
 }
 
-// Starts the tool with `args` (no shell), lets it run `before`, sends `sig` and returns
-// (exit code, seconds from the signal to the exit); the exit code is -1 if it had not ended
-// 10 s after the signal (it is then killed).
-std::pair<int, double> interrupt_after(const std::vector<std::string>& args, std::chrono::milliseconds before, int sig,
-                                       const std::string& stderr_path) {
+// Starts the tool with `args` (no shell), its stdout and stderr going to the given files.
+pid_t spawn_cli(const std::vector<std::string>& args, const std::string& stdout_path, const std::string& stderr_path) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     std::vector<char*> argv;
@@ -167,10 +170,19 @@ std::pair<int, double> interrupt_after(const std::vector<std::string>& args, std
     for (std::string& a : copy) argv.push_back(a.data());
     argv.push_back(nullptr);
     if (std::freopen(stderr_path.c_str(), "w", stderr) == nullptr) ::_exit(127);
-    if (std::freopen("/dev/null", "w", stdout) == nullptr) ::_exit(127);
+    if (std::freopen(stdout_path.c_str(), "w", stdout) == nullptr) ::_exit(127);
     ::execv(PENUMBRA_CLI, argv.data());
     ::_exit(127);
   }
+  return pid;
+}
+
+// Starts the tool with `args`, lets it run `before`, sends `sig` and returns (exit code,
+// seconds from the signal to the exit); the exit code is -1 if it had not ended 10 s after
+// the signal (it is then killed).
+std::pair<int, double> interrupt_after(const std::vector<std::string>& args, std::chrono::milliseconds before, int sig,
+                                       const std::string& stderr_path) {
+  const pid_t pid = spawn_cli(args, "/dev/null", stderr_path);
   std::this_thread::sleep_for(before);
   ::kill(pid, sig);
   const auto sent = std::chrono::steady_clock::now();
@@ -351,6 +363,101 @@ TEST_F(Cli, MethodsListsEveryRegisteredMethod) {
   r = run("methods reference");
   ASSERT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("sampling"), std::string::npos);
+}
+
+// `penumbra view` as a process: it prints where it serves (the next free port when the asked
+// one is taken), answers, and stops cleanly on Ctrl-C even with a long poll open.
+
+// The exit code, or -1 when the process had not ended after `limit` (it is killed then).
+int wait_exit(pid_t pid, std::chrono::duration<double> limit, double* seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  int status = 0;
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() - start > limit) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream f(p);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+TEST(CliView, ServesOnTheNextFreePortAndStopsOnCtrlCWithAPollOpen) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("penumbra-cli-view-{}", ::getpid());
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // The asked-for port is taken by another listener.
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  int taken = 0;
+  for (int p = 19300 + ::getpid() % 500; p < 19900 && !taken; ++p) {
+    addr.sin_port = htons(static_cast<uint16_t>(p));
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 && ::listen(fd, 1) == 0) taken = p;
+  }
+  ASSERT_NE(taken, 0);
+  const std::string scene = std::string(PENUMBRA_SOURCE_DIR) + "/scenes/contact.json";
+  const fs::path out = dir / "out.txt", err = dir / "err.txt";
+  const pid_t pid = spawn_cli({"view", scene, "--no-browser", "--port", std::to_string(taken)}, out.string(), err.string());
+  std::smatch m;
+  std::string text;
+  static const std::regex serving("penumbra view: serving http://127\\.0\\.0\\.1:([0-9]+)/\n");
+  for (auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60); std::chrono::steady_clock::now() < end;) {
+    text = read_text(out);
+    if (std::regex_search(text, m, serving)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_TRUE(std::regex_search(text, m, serving)) << text << read_text(err);
+  const int port = std::stoi(m[1]);
+  EXPECT_GT(port, taken);
+  httplib::Client client("127.0.0.1", port);
+  auto state = client.Get("/api/state");
+  ASSERT_TRUE(state);
+  EXPECT_EQ(state->status, 200);
+  EXPECT_EQ(nlohmann::json::parse(state->body)["camera"]["resolution"][0], 512);
+  // A long poll (nothing newer than a huge seq), open while the server is asked to stop.
+  std::thread poller([port] {
+    httplib::Client c("127.0.0.1", port);
+    c.set_read_timeout(40, 0);
+    c.Get("/api/poll?after=1000000000&timeout_ms=30000");
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ::kill(pid, SIGINT);
+  double seconds = 0;
+  const int code = wait_exit(pid, std::chrono::seconds(10), &seconds);
+  poller.join();
+  ::close(fd);
+  const std::string e = read_text(err);
+  EXPECT_EQ(code, 0) << e;
+  EXPECT_LT(seconds, 1.0);
+  EXPECT_NE(e.find("penumbra view: stopped"), std::string::npos) << e;
+  EXPECT_EQ(e.find("interrupted"), std::string::npos) << e;
+  fs::remove_all(dir);
+}
+
+TEST(CliView, ASceneThatDoesNotLoadIsOneLineAndExit1) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("penumbra-cli-view-bad-{}", ::getpid());
+  fs::create_directories(dir);
+  std::ofstream(dir / "bad.json") << R"({"camera": {"eye": [0, 1, 2], "target": [0, 0, 0]}, "lights": [], "objects": []})";
+  const fs::path out = dir / "out.txt", err = dir / "err.txt";
+  double seconds = 0;
+  const int code = wait_exit(spawn_cli({"view", (dir / "bad.json").string(), "--no-browser"}, out.string(), err.string()),
+                             std::chrono::seconds(30), &seconds);
+  const std::string e = read_text(err);
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(e.find("bad.json: lights: expected at least one light"), std::string::npos) << e;
+  EXPECT_EQ(std::count(e.begin(), e.end(), '\n'), 1) << e;
+  EXPECT_TRUE(read_text(out).empty());
+  fs::remove_all(dir);
 }
 
 }  // namespace

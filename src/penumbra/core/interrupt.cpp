@@ -70,9 +70,19 @@ bool interrupted() { return g_interrupted.load(std::memory_order_relaxed); }
 
 bool claim_interrupt_message() { return !g_message_claimed.exchange(true); }
 
+namespace {
+thread_local const CancelToken* t_cancel_token = nullptr;
+}  // namespace
+
 void throw_if_interrupted() {
   if (interrupted()) throw Interrupted();
+  if (t_cancel_token && t_cancel_token->cancelled()) throw Cancelled();
 }
+
+ScopedCancelToken::ScopedCancelToken(const CancelToken* token) : previous_(t_cancel_token) { t_cancel_token = token; }
+ScopedCancelToken::~ScopedCancelToken() { t_cancel_token = previous_; }
+
+const CancelToken* current_cancel_token() { return t_cancel_token; }
 
 void register_temporary_file(const std::string& path) {
   std::lock_guard<std::mutex> lock(files_mutex());

@@ -150,17 +150,22 @@ ThreadLimit::~ThreadLimit() = default;
 void parallel_for(size_t n, size_t grain, const std::function<void(size_t, size_t)>& body) {
   if (n == 0) return;
   throw_if_interrupted();
+  // The caller's cancel token goes with each grain to whichever thread runs it.
+  const CancelToken* token = current_cancel_token();
   const size_t step = grain == 0 ? 1 : grain;
   // TBB's chunks can hold thousands of grains (it splits further only when a thread is idle),
   // so the body runs grain by grain and Ctrl-C is checked before each (core/interrupt.h):
-  // the exception cancels the loop within one grain's work.
+  // the exception cancels the loop within one grain's work. The same check sees the caller's
+  // CancelToken (the viewer cancelling stale work).
 #ifdef PENUMBRA_THREAD_SANITIZER
   run_on_threads((n + step - 1) / step, [&](size_t g) {
+    ScopedCancelToken carried(token);
     throw_if_interrupted();
     body(g * step, std::min(n, (g + 1) * step));
   });
 #else
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, step), [&](const tbb::blocked_range<size_t>& r) {
+    ScopedCancelToken carried(token);
     for (size_t b = r.begin(); b < r.end(); b += step) {
       throw_if_interrupted();
       body(b, std::min(r.end(), b + step));
@@ -174,8 +179,10 @@ void parallel_for_tiles(int width, int height, int tile,
   if (width <= 0 || height <= 0) return;
   int tx = (width + tile - 1) / tile, ty = (height + tile - 1) / tile;
   throw_if_interrupted();
+  const CancelToken* token = current_cancel_token();
 #ifdef PENUMBRA_THREAD_SANITIZER
   run_on_threads(static_cast<size_t>(tx) * ty, [&](size_t t) {
+    ScopedCancelToken carried(token);
     throw_if_interrupted();
     const int i = static_cast<int>(t % tx), j = static_cast<int>(t / tx);
     body(i * tile, j * tile, std::min(width, (i + 1) * tile), std::min(height, (j + 1) * tile));
@@ -183,6 +190,7 @@ void parallel_for_tiles(int width, int height, int tile,
 #else
   tbb::parallel_for(tbb::blocked_range2d<int>(0, ty, 1, 0, tx, 1),
                     [&](const tbb::blocked_range2d<int>& r) {
+                      ScopedCancelToken carried(token);
                       throw_if_interrupted();
                       for (int j = r.rows().begin(); j < r.rows().end(); ++j)
                         for (int i = r.cols().begin(); i < r.cols().end(); ++i)

@@ -227,6 +227,51 @@ Renderer::~Renderer() = default;
 
 void Renderer::set_camera(const Camera& camera) { scene_.camera = camera; }
 
+namespace {
+bool same_light(const AreaLight& a, const AreaLight& b) {
+  auto eq = [](Vec3f x, Vec3f y) { return x.x == y.x && x.y == y.y && x.z == y.z; };
+  return a.shape == b.shape && eq(a.center, b.center) && eq(a.frame.s, b.frame.s) && eq(a.frame.t, b.frame.t) &&
+         eq(a.frame.n, b.frame.n) && a.size.x == b.size.x && a.size.y == b.size.y && a.radius == b.radius &&
+         eq(a.radii, b.radii) && eq(a.radiance, b.radiance);
+}
+}  // namespace
+
+void Renderer::set_lights(const std::vector<AreaLight>& lights) {
+  if (lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
+  for (size_t l = 0; l < lights.size(); ++l) {
+    if (l < scene_.lights.size() && same_light(lights[l], scene_.lights[l])) continue;
+    if (l < methods_.size()) {
+      methods_[l] = create_method(settings_.method, scene_, settings_.params);
+      prepared_[l] = false;
+    } else {
+      methods_.push_back(create_method(settings_.method, scene_, settings_.params));
+      prepared_.push_back(false);
+    }
+  }
+  methods_.resize(lights.size());
+  prepared_.resize(lights.size());
+  scene_.lights = lights;
+}
+
+void Renderer::prepare() {
+  for (size_t l = 0; l < scene_.lights.size(); ++l) {
+    if (prepared_[l]) continue;
+    ShadowContext ctx;
+    ctx.scene = &scene_;
+    ctx.light = &scene_.lights[l];
+    ctx.light_index = static_cast<int>(l);
+    ctx.tracer = tracer_.get();
+    ctx.seed = settings_.seed;
+    ctx.light_samples = settings_.light_samples;
+    methods_[l]->prepare(ctx);
+    prepared_[l] = true;
+  }
+}
+
+bool Renderer::prepared() const {
+  return std::all_of(prepared_.begin(), prepared_.end(), [](bool p) { return p; });
+}
+
 RenderResult Renderer::render() {
   Timer total;
   RenderResult result;
@@ -273,7 +318,7 @@ RenderResult Renderer::render() {
     std::vector<float> vis_sum(frames > 1 ? n : 0, 0.0f);
     std::vector<Vec3f> irr_sum(frames > 1 ? n : 0, Vec3f(0.0f));
     for (int f = 0; f < frames; ++f) {
-      ctx.frame = f;
+      ctx.frame = settings_.first_frame + f;
       std::fill(vis.begin(), vis.end(), 1.0f);
       method.evaluate(ctx, vs, out);
       if (frames == 1) break;

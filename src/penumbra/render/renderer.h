@@ -21,6 +21,10 @@ struct RenderSettings {
   // evaluations with ShadowContext::frame = 0, 1, ...; methods that sample the light draw new
   // samples per frame. The light-space structures are prepared once.
   int frames = 1;
+  // ShadowContext::frame of the first of those frames: a progressive refinement that renders
+  // one frame at a time (the viewer) asks for frame k with first_frame = k, frames = 1, and
+  // the mean of frames 0..K-1 is the render with frames = K (up to rounding).
+  int first_frame = 0;
   // Coherent shading (sintorn2008 §4.3 "Shading", Fig. 8): blend the shading normal's cosine
   // toward the smallest cosine of the faces around the triangle's vertices (bent normals,
   // c = 3), so light does not leak onto the light back-facing side of smooth meshes near
@@ -92,6 +96,18 @@ class Renderer {
   Renderer(const Scene& scene, RenderSettings settings);
   ~Renderer();
   void set_camera(const Camera& camera);
+  // New lights over the same geometry (the Embree scene is kept): the method instances of the
+  // lights that changed are created afresh and prepare() again at the next render; those of
+  // unchanged lights keep their light-space structures. The count may change.
+  void set_lights(const std::vector<AreaLight>& lights);
+  // Only the first frame index of the next render (RenderSettings::first_frame).
+  void set_first_frame(int frame) { settings_.first_frame = frame; }
+  // Whether every light's method has its light-space structures for the current lights (the
+  // next render costs an evaluate() alone).
+  bool prepared() const;
+  // Builds the light-space structures of every light not prepared yet, without rendering
+  // (the viewer does it while the view is still, so the next camera move costs a display).
+  void prepare();
   RenderResult render();
   const RayTracer& tracer() const { return *tracer_; }
   const Scene& scene() const { return scene_; }

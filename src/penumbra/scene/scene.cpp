@@ -30,9 +30,14 @@ size_t Scene::triangle_count() const {
 
 void Scene::finalize() {
   for (auto& o : objects) o.closed = o.mesh.is_closed();
+  orient_sphere_lights();
+}
+
+void Scene::orient_sphere_lights() { penumbra::orient_sphere_lights(lights, bounds()); }
+
+void orient_sphere_lights(std::vector<AreaLight>& lights, const Bounds3f& b) {
   // A sphere light looks the same from everywhere; light-space methods need an axis, and
   // the one that sees the most of the scene is toward its centre.
-  Bounds3f b = bounds();
   for (auto& l : lights) {
     if (l.shape != LightShape::Sphere) continue;
     Vec3f d = b.empty() ? Vec3f(0, -1, 0) : b.center() - l.center;
@@ -55,9 +60,7 @@ class SceneParser {
     Scene scene;
     if (root.has("description")) root["description"].string();
     scene.camera = read_camera(root["camera"]);
-    JsonValue lights = root["lights"];
-    if (lights.size() == 0) lights.fail("expected at least one light");
-    for (size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(read_light(lights.at(i)));
+    scene.lights = read_lights(root["lights"]);
     JsonValue objects = root["objects"];
     if (objects.size() == 0) objects.fail("expected at least one object");
     for (size_t i = 0; i < objects.size(); ++i) read_object(objects.at(i), &scene.objects);
@@ -72,7 +75,6 @@ class SceneParser {
     return scene;
   }
 
- private:
   Camera read_camera(const JsonValue& v) {
     v.expect_object({"eye", "target", "up", "fov_y", "resolution", "samples_per_pixel"});
     Camera c;
@@ -103,6 +105,14 @@ class SceneParser {
     return c;
   }
 
+  std::vector<AreaLight> read_lights(const JsonValue& lights) {
+    if (lights.size() == 0) lights.fail("expected at least one light");
+    std::vector<AreaLight> out;
+    for (size_t i = 0; i < lights.size(); ++i) out.push_back(read_light(lights.at(i)));
+    return out;
+  }
+
+ private:
   AreaLight read_light(const JsonValue& v) {
     v.expect_object();
     std::string type = v["type"].one_of({"rect", "disk", "sphere", "ellipsoid"});
@@ -311,5 +321,15 @@ Scene parse_scene(const json& doc, const fs::path& origin) {
 }
 
 Scene load_scene(const fs::path& path) { return parse_scene(read_json_file(path), path); }
+
+Camera parse_camera(const json& camera, const std::string& context) {
+  SceneParser parser(context, fs::path());
+  return parser.read_camera(JsonValue(camera, context, "camera"));
+}
+
+std::vector<AreaLight> parse_lights(const json& lights, const std::string& context) {
+  SceneParser parser(context, fs::path());
+  return parser.read_lights(JsonValue(lights, context, "lights"));
+}
 
 }  // namespace penumbra

@@ -28,7 +28,13 @@ struct Scene {
   // After lights or objects change: orient sphere lights toward the scene, compute
   // SceneObject::closed. The loader calls it; code that builds scenes by hand should too.
   void finalize();
+  // The part of finalize() that depends on the lights: after only the lights changed (the
+  // viewer moving a light), without re-checking the meshes.
+  void orient_sphere_lights();
 };
+
+// Points each sphere light's frame.n toward the centre of `scene_bounds` (Scene::finalize).
+void orient_sphere_lights(std::vector<AreaLight>& lights, const Bounds3f& scene_bounds);
 
 // Loads and validates a scene file. Every error (unknown key, wrong type, missing file,
 // NaN/Inf, zero-size light, empty scene) throws penumbra::Error naming the file and the
@@ -37,5 +43,10 @@ Scene load_scene(const std::filesystem::path& path);
 // The same from an already parsed document; `origin` is the file name used in messages
 // and the folder that relative paths are resolved against.
 Scene parse_scene(const nlohmann::json& doc, const std::filesystem::path& origin);
+// A scene file's "camera" and "lights" values alone, validated exactly as in a scene file;
+// messages start with `context` and name the key path ("camera.eye", "lights[0].size").
+// parse_lights does not orient sphere lights (Scene::orient_sphere_lights does).
+Camera parse_camera(const nlohmann::json& camera, const std::string& context);
+std::vector<AreaLight> parse_lights(const nlohmann::json& lights, const std::string& context);
 
 }  // namespace penumbra

@@ -38,7 +38,10 @@ void ParamSet::set(const std::string& key, const nlohmann::json& value, const st
   nlohmann::json v;
   switch (s.type) {
     case ParamType::Int:
-      if (!value.is_number_integer() && !(value.is_number_float() && std::floor(value.get<double>()) == value.get<double>()))
+      // (A float beyond the range of long long would overflow the conversion below.)
+      if (!value.is_number_integer() &&
+          !(value.is_number_float() && std::floor(value.get<double>()) == value.get<double>() &&
+            std::abs(value.get<double>()) < 9.2e18))
         throw Error("{}: expected an integer, got {}", at, value.dump());
       v = value.get<long long>();
       break;

@@ -1,0 +1,93 @@
+// The Renderer's frame-to-frame reuse, which the viewer builds on: new lights over the same
+// geometry, and one progressive frame at a time.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "penumbra/render/renderer.h"
+#include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/test_scenes.h"
+
+namespace penumbra {
+namespace {
+
+Scene two_light_scene() {
+  std::vector<SceneObject> occluders;
+  occluders.push_back(testing::object(testing::box({-0.5f, 0.3f, -0.4f}, {0.2f, 0.8f, 0.3f})));
+  Scene s = testing::ground_scene(std::move(occluders), testing::rect_light_down({0, 2, 0}, 1.0f, 0.8f), 32);
+  s.lights.push_back(testing::rect_light_down({0.8f, 2.5f, 0.3f}, 0.6f, 0.6f, Vec3f(0.5f)));
+  return s;
+}
+
+bool same_bits(const Image& a, const Image& b) {
+  return a.width() == b.width() && a.height() == b.height() && a.channels() == b.channels() &&
+         std::memcmp(a.data().data(), b.data().data(), a.data().size() * sizeof(float)) == 0;
+}
+
+// For each method: render, move one light, render again with the same Renderer; the second
+// image equals a fresh Renderer's of the moved scene bit for bit, and the unmoved light's
+// light-space structures were kept (its method instance is the same object).
+TEST(Renderer, SetLightsEqualsAFreshRendererAndKeepsUnchangedLights) {
+  for (const char* method : {"hard", "shadow-map", "lam", "occlusion-textures", "reference", "multi-view-sm"}) {
+    SCOPED_TRACE(method);
+    Scene scene = two_light_scene();
+    RenderSettings settings;
+    settings.method = method;
+    settings.light_samples = 16;
+    Renderer r(scene, settings);
+    r.render();
+    ShadowMethod* kept = &r.method(1);
+    Scene moved = scene;
+    moved.lights[0].center = moved.lights[0].center + Vec3f(0.4f, 0.1f, -0.2f);
+    r.set_lights(moved.lights);
+    EXPECT_FALSE(r.prepared());
+    EXPECT_EQ(&r.method(1), kept);
+    RenderResult reused = r.render();
+    EXPECT_TRUE(r.prepared());
+    RenderResult fresh = render_scene(moved, settings);
+    EXPECT_TRUE(same_bits(reused.color, fresh.color));
+    EXPECT_TRUE(same_bits(reused.visibility, fresh.visibility));
+    // Fewer lights, then the same ones again.
+    Scene one = moved;
+    one.lights.resize(1);
+    r.set_lights(one.lights);
+    EXPECT_TRUE(same_bits(r.render().visibility, render_scene(one, settings).visibility));
+  }
+}
+
+// The mean of frames 0..K-1 rendered one at a time (first_frame = k) is the render with
+// frames = K, up to float rounding: the viewer's progressive refinement shows `--frames K`.
+TEST(Renderer, FramesRenderedOneAtATimeAverageToTheFramesRender) {
+  Scene scene = two_light_scene();
+  RenderSettings settings;
+  settings.method = "reference";
+  settings.light_samples = 4;
+  const int K = 5;
+  Renderer r(scene, settings);
+  Image sum_v(scene.camera.width, scene.camera.height, 1, 0.0f);
+  Image sum_c(scene.camera.width, scene.camera.height, 3, 0.0f);
+  bool frames_differ = false;
+  Image first;
+  for (int k = 0; k < K; ++k) {
+    r.set_first_frame(k);
+    RenderResult f = r.render();
+    if (k == 0) first = f.visibility;
+    else frames_differ = frames_differ || !same_bits(first, f.visibility);
+    for (size_t i = 0; i < sum_v.data().size(); ++i) sum_v.data()[i] += f.visibility.data()[i];
+    for (size_t i = 0; i < sum_c.data().size(); ++i) sum_c.data()[i] += f.color.data()[i];
+  }
+  EXPECT_TRUE(frames_differ) << "each frame must draw new light samples";
+  settings.frames = K;
+  RenderResult all = render_scene(scene, settings);
+  double max_dv = 0, max_dc = 0;
+  for (size_t i = 0; i < sum_v.data().size(); ++i)
+    max_dv = std::max(max_dv, std::abs(double(sum_v.data()[i]) / K - all.visibility.data()[i]));
+  for (size_t i = 0; i < sum_c.data().size(); ++i)
+    max_dc = std::max(max_dc, std::abs(double(sum_c.data()[i]) / K - all.color.data()[i]));
+  EXPECT_LT(max_dv, 1e-5);
+  EXPECT_LT(max_dc, 1e-4);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,268 @@
+#!/usr/bin/env node
+// End-to-end test of `penumbra view` (docs/viewer.md): starts the server on a scene, drives
+// the page in headless Chromium through puppeteer-core, and checks what a user sees:
+//   1. the server starts and prints its address
+//   2. the first frame is drawn and is not uniform
+//   3. the final method's refinement finishes
+//   4. dragging the light handle gives occlusion-textures previews, median latency <= 100 ms
+//   5. the refined frame after the drag differs from step 3's and equals /api/frame's PNG
+//      (progressive refinement == --frames K) within 2/255 on >= 99.9% of pixels
+//   6. key `2` switches the final method
+//   7. compare = reference, then `d`: a diff layer arrives
+//
+//   node viewer_e2e.mjs --penumbra build/penumbra --scene scenes/bunny.json \
+//        --chromium /usr/bin/chromium [--screenshots DIR] [--port 18421] [--web DIR]
+//
+// Exit 0: pass; 77: skipped (puppeteer-core or Chromium missing); else: failed, with one
+// line per failed check. `--penumbra mock_server.mjs` runs it against the mock server.
+
+import { spawn } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+
+const SKIP = 77;
+const argv = process.argv.slice(2);
+const opt = (name, dflt) => { const i = argv.indexOf(name); return i >= 0 && i + 1 < argv.length ? argv[i + 1] : dflt; };
+const penumbra = opt('--penumbra'), scene = opt('--scene'), chromium = opt('--chromium', '/usr/bin/chromium');
+const shots = opt('--screenshots', null), port = opt('--port', '18421');
+// --web DIR: serve the page from DIR (the source tree) instead of the copy compiled into the
+// server, to test page edits without rebuilding penumbra. Only the three page files are
+// intercepted; the API goes to the server untouched.
+const webDir = opt('--web', null);
+if (!penumbra || !scene) {
+  console.error('usage: node viewer_e2e.mjs --penumbra PATH --scene PATH --chromium PATH [--screenshots DIR]');
+  process.exit(2);
+}
+
+let puppeteer;
+try { puppeteer = (await import('puppeteer-core')).default; }
+catch (_) { console.log('SKIP: puppeteer-core is not installed (cd src/penumbra/viewer/e2e && npm ci)'); process.exit(SKIP); }
+try { fs.accessSync(chromium, fs.constants.X_OK); }
+catch (_) { console.log(`SKIP: no Chromium at ${chromium}`); process.exit(SKIP); }
+if (shots) fs.mkdirSync(shots, { recursive: true });
+
+const failures = [];
+const fail = (msg) => { failures.push(msg); console.log(`FAIL: ${msg}`); };
+const t0 = performance.now();
+const secs = (since) => `${((performance.now() - since) / 1000).toFixed(2)} s`;
+const median = (xs) => { const s = [...xs].sort((a, b) => a - b); const n = s.length; return n % 2 ? s[(n - 1) / 2] : (s[n / 2 - 1] + s[n / 2]) / 2; };
+
+// ---- the server: started here, always killed at the end ------------------------------------
+let server = null;
+const serverLog = [];
+// Ctrl-C (SIGINT) as a user would, SIGKILL when it has not exited within 3 s.
+async function killServer() {
+  const s = server;
+  if (!s || s.exitCode !== null || s.signalCode !== null) return;
+  const exited = new Promise((r) => s.once('exit', r));
+  try { s.kill('SIGINT'); } catch (_) { /* gone */ }
+  const t = setTimeout(() => { try { s.kill('SIGKILL'); } catch (_) { /* gone */ } }, 3000);
+  await exited;
+  clearTimeout(t);
+}
+process.on('exit', () => { if (server && server.exitCode === null) try { server.kill('SIGKILL'); } catch (_) { /* gone */ } });
+for (const sig of ['SIGINT', 'SIGTERM']) process.on(sig, () => { killServer(); process.exit(1); });
+
+function startServer() {
+  return new Promise((resolve, reject) => {
+    server = spawn(penumbra, ['view', scene, '--no-browser', '--port', port], { stdio: ['ignore', 'pipe', 'pipe'] });
+    let out = '';
+    const timer = setTimeout(() => reject(new Error('the server printed no "serving" line within 60 s')), 60000);
+    const keep = (d) => { for (const l of String(d).split('\n')) if (l.trim()) { serverLog.push(l); if (serverLog.length > 40) serverLog.shift(); } };
+    server.stdout.on('data', (d) => {
+      keep(d);
+      out += d;
+      const m = out.match(/penumbra view: serving (http:\/\/\S+)/);
+      if (m) { clearTimeout(timer); resolve(m[1]); }
+    });
+    server.stderr.on('data', keep);
+    server.on('error', (e) => { clearTimeout(timer); reject(new Error(`cannot start ${penumbra}: ${e.message}`)); });
+    server.on('exit', (code, sig) => { clearTimeout(timer); reject(new Error(`the server exited (${code ?? sig}) before serving`)); });
+  });
+}
+
+// ---- in-page helpers -------------------------------------------------------------------------
+const V = 'window.penumbraViewer';
+// The final method's refinement of the current view is complete.
+const refinedJS = `(() => { const v = ${V}; const f = v && v.lastMainFrame;
+  return !!(f && v.state && f.kind === 'final' && f.frame === f.frames && f.generation === v.state.generation); })()`;
+
+let browser = null, page = null;
+// JPEG: the page's screenshots for docs/viewer.md, a quarter of the PNG's size.
+async function shot(name) {
+  if (!shots) return;
+  await page.screenshot({ path: path.join(shots, name), type: 'jpeg', quality: 85 });
+}
+async function waitFor(js, timeoutMs, what) {
+  try { await page.waitForFunction(js, { timeout: timeoutMs, polling: 10 }); }
+  catch (e) { throw new Error(`${what}: not within ${timeoutMs / 1000} s`); }
+}
+
+async function run() {
+  // 1. server
+  let t = performance.now();
+  const url = await startServer();
+  console.log(`step 1 server: ${url} (${secs(t)})`);
+
+  browser = await puppeteer.launch({
+    executablePath: chromium, headless: true,
+    args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--window-size=1280,800'],
+  });
+  page = await browser.newPage();
+  await page.setViewport({ width: 1280, height: 800 });
+  if (webDir) {
+    const cdp = await page.createCDPSession();
+    const files = { '/': 'index.html', '/index.html': 'index.html', '/viewer.js': 'viewer.js', '/viewer.css': 'viewer.css' };
+    const types = { html: 'text/html; charset=utf-8', js: 'text/javascript; charset=utf-8', css: 'text/css; charset=utf-8' };
+    await cdp.send('Fetch.enable', { patterns: [{ urlPattern: url }, { urlPattern: `${url}index.html` }, { urlPattern: `${url}viewer.js` }, { urlPattern: `${url}viewer.css` }] });
+    cdp.on('Fetch.requestPaused', async ({ requestId, request }) => {
+      const f = files[new URL(request.url).pathname];
+      if (!f) return cdp.send('Fetch.continueRequest', { requestId }).catch(() => {});
+      const body = fs.readFileSync(path.join(webDir, f)).toString('base64');
+      await cdp.send('Fetch.fulfillRequest', { requestId, responseCode: 200, body,
+        responseHeaders: [{ name: 'Content-Type', value: types[f.split('.').pop()] }, { name: 'Cache-Control', value: 'no-store' }] }).catch(() => {});
+    });
+    console.log(`        (the page comes from ${webDir}, not from the server)`);
+  }
+  page.on('pageerror', (e) => fail(`page error: ${String(e.message || e).split('\n')[0]}`));
+
+  // 2. first frame, not uniform
+  t = performance.now();
+  await page.goto(url, { waitUntil: 'domcontentloaded' });
+  await waitFor(`${V} && ${V}.frameCount > 0`, 60000, 'step 2: first main frame');
+  const stats = await page.evaluate(() => {
+    const p = window.penumbraViewer.canvasPixels();
+    let s = 0, s2 = 0; const seen = new Set();
+    const n = p.width * p.height;
+    for (let i = 0; i < n; i++) {
+      const y = 0.2126 * p.data[4 * i] + 0.7152 * p.data[4 * i + 1] + 0.0722 * p.data[4 * i + 2];
+      s += y; s2 += y * y; seen.add(p.data[4 * i] << 16 | p.data[4 * i + 1] << 8 | p.data[4 * i + 2]);
+    }
+    const mean = s / n;
+    return { w: p.width, h: p.height, std: Math.sqrt(Math.max(0, s2 / n - mean * mean)), mean, colours: seen.size, frame: window.penumbraViewer.lastMainFrame };
+  });
+  console.log(`step 2 first frame: ${stats.frame.method} (${stats.frame.kind}) ${stats.w}x${stats.h}, luma mean ${stats.mean.toFixed(1)} std ${stats.std.toFixed(1)}, ${stats.colours} colours (${secs(t)})`);
+  if (!(stats.std > 5 && stats.colours > 32)) fail(`step 2: the first frame is (nearly) uniform: luma std ${stats.std.toFixed(2)}, ${stats.colours} colours`);
+
+  // 3. refinement done
+  t = performance.now();
+  await waitFor(refinedJS, 120000, 'step 3: final refinement');
+  const f3 = await page.evaluate(() => { const v = window.penumbraViewer; window.__e2eStep3 = v.canvasPixels(); return v.lastMainFrame; });
+  console.log(`step 3 refined: ${f3.method} frame ${f3.frame}/${f3.frames} ${f3.width}x${f3.height} generation ${f3.generation} (${secs(t)})`);
+  await shot('viewer-bunny.jpg');
+
+  // 4. drag the light handle: 8 moves of 10 px, each timed from the page's pointermove to
+  // the next preview frame of a newer generation drawn.
+  t = performance.now();
+  const h = await page.evaluate(() => window.penumbraViewer.lightHandle(0));
+  if (!h) throw new Error('step 4: no light handle');
+  const box = await page.$eval('#view', (c) => { const r = c.getBoundingClientRect(); return { l: r.left, t: r.top, r: r.right, b: r.bottom }; });
+  if (!(h.x >= box.l && h.x <= box.r && h.y >= box.t && h.y <= box.b))
+    throw new Error(`step 4: the light handle (${h.x.toFixed(0)}, ${h.y.toFixed(0)}) is outside the canvas`);
+  await page.mouse.move(h.x, h.y);
+  await page.mouse.down();
+  const lat = [], methods = [];
+  for (let k = 1; k <= 8; k++) {
+    const genBefore = await page.evaluate(() => window.penumbraViewer.lastMainFrame.generation);
+    await page.mouse.move(h.x + 10 * k, h.y, { steps: 1 });
+    const moveAt = await page.evaluate(() => window.penumbraViewer.lastLightMoveAt);
+    await waitFor(`(() => { const f = ${V}.lastMainFrame; return f.kind === 'preview' && f.generation > ${genBefore} && f.drawnAt >= ${moveAt}; })()`,
+      10000, `step 4: preview frame after move ${k}`);
+    const f = await page.evaluate(() => window.penumbraViewer.lastMainFrame);
+    lat.push(f.drawnAt - moveAt);
+    methods.push(`${f.method}@${f.width}x${f.height}`);
+  }
+  await shot('viewer-preview.jpg');
+  await page.mouse.up();
+  const med = median(lat);
+  console.log(`step 4 drag: latencies ${lat.map((x) => x.toFixed(1)).join(' ')} ms, median ${med.toFixed(1)} ms; previews ${[...new Set(methods)].join(', ')} (${secs(t)})`);
+  if (med > 100) fail(`step 4: median light-drag latency ${med.toFixed(1)} ms > 100 ms`);
+  const wrong = methods.filter((m) => !m.startsWith('occlusion-textures@'));
+  if (wrong.length) fail(`step 4: preview while the light moves should be occlusion-textures, got ${[...new Set(wrong)].join(', ')}`);
+
+  // 5. refined again: differs from step 3, equals /api/frame's PNG
+  t = performance.now();
+  await waitFor(refinedJS, 120000, 'step 5: final refinement after the drag');
+  const cmp3 = await page.evaluate(() => {
+    const a = window.__e2eStep3, b = window.penumbraViewer.canvasPixels();
+    if (a.width !== b.width || a.height !== b.height) return { changed: 1, size: true };
+    let changed = 0;
+    for (let i = 0; i < a.width * a.height; i++) {
+      const d = Math.max(Math.abs(a.data[4 * i] - b.data[4 * i]), Math.abs(a.data[4 * i + 1] - b.data[4 * i + 1]), Math.abs(a.data[4 * i + 2] - b.data[4 * i + 2]));
+      if (d > 4) changed++;
+    }
+    return { changed: changed / (a.width * a.height) };
+  });
+  if (!(cmp3.changed > 0.002)) fail(`step 5: the refined frame after moving the light is the same as before (${(100 * cmp3.changed).toFixed(3)}% of pixels changed)`);
+  const settings = await page.evaluate(async () => (await (await fetch('/api/state')).json()).settings);
+  const tf = performance.now();
+  const ref = await page.evaluate(async (s) => {
+    const q = `method=${encodeURIComponent(s.final)}&spp=${s.spp}&frames=${s.frames}&format=png`;
+    const r = await fetch(`/api/frame?${q}`);
+    if (!r.ok) return { error: `GET /api/frame?${q}: HTTP ${r.status} ${await r.text()}` };
+    const bmp = await createImageBitmap(await r.blob(), { premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
+    const c = new OffscreenCanvas(bmp.width, bmp.height);
+    const cx = c.getContext('2d');
+    cx.drawImage(bmp, 0, 0);
+    const png = cx.getImageData(0, 0, bmp.width, bmp.height);
+    const mine = window.penumbraViewer.canvasPixels();
+    if (png.width !== mine.width || png.height !== mine.height) return { error: `/api/frame is ${png.width}x${png.height}, the canvas ${mine.width}x${mine.height}` };
+    let bad = 0, maxd = 0;
+    for (let i = 0; i < png.width * png.height; i++) {
+      let d = 0;
+      for (let c2 = 0; c2 < 4; c2++) d = Math.max(d, Math.abs(png.data[4 * i + c2] - mine.data[4 * i + c2]));
+      if (d > 2) bad++;
+      maxd = Math.max(maxd, d);
+    }
+    return { query: q, match: 1 - bad / (png.width * png.height), maxd };
+  }, settings);
+  if (ref.error) fail(`step 5: ${ref.error}`);
+  else {
+    console.log(`step 5 refined after drag: ${(100 * cmp3.changed).toFixed(2)}% of pixels changed; /api/frame?${ref.query} in ${secs(tf)}: ${(100 * ref.match).toFixed(3)}% within 2/255 (max diff ${ref.maxd}) (${secs(t)})`);
+    if (settings.final !== 'reference') fail(`step 5: the final method is ${settings.final}, expected the default reference`);
+    if (!(ref.match >= 0.999)) fail(`step 5: the refined canvas matches /api/frame on ${(100 * ref.match).toFixed(3)}% of pixels (< 99.9%), max diff ${ref.maxd}`);
+  }
+
+  // 6. key 2: the second method in the list becomes the final method
+  t = performance.now();
+  const second = await page.evaluate(() => { document.activeElement && document.activeElement.blur(); return window.penumbraViewer.methods[1].name; });
+  const count6 = await page.evaluate(() => window.penumbraViewer.frameCount);
+  await page.keyboard.press('2');
+  await waitFor(`${V}.lastMainFrame.method === ${JSON.stringify(second)} && ${V}.frameCount > ${count6}`, 120000, `step 6: a frame of ${second}`);
+  const f6 = await page.evaluate(() => window.penumbraViewer.lastMainFrame);
+  const sel6 = await page.$eval('#final-method', (s) => s.value);
+  console.log(`step 6 key 2: ${f6.method} (${f6.kind}) frame ${f6.frame}/${f6.frames} drawn, final select = ${sel6} (${secs(t)})`);
+  if (sel6 !== second) fail(`step 6: the final select shows ${sel6}, expected ${second}`);
+
+  // 7. compare with the reference: split view, then `d` for the heat map
+  t = performance.now();
+  await page.select('#compare-method', 'reference');
+  const compared = `(() => { const v = ${V}, f = v.lastMainFrame, c = v.layers.compare;
+    return !!(c && f.kind === 'final' && f.frame === f.frames && c.generation === f.generation && f.generation === v.state.generation); })()`;
+  await waitFor(compared, 120000, 'step 7: a compare layer of the current view');
+  await shot('viewer-split.jpg');
+  const tc = secs(t);
+  await page.evaluate(() => document.activeElement && document.activeElement.blur());
+  await page.keyboard.press('d');
+  await waitFor(`(() => { const v = ${V}, d = v.layers.diff; return !!(d && d.generation === v.lastMainFrame.generation); })()`, 120000, 'step 7: a diff layer');
+  await page.waitForFunction(() => !document.getElementById('diff-toggle') || document.getElementById('diff-toggle').checked, { timeout: 5000 }).catch(() => fail('step 7: `d` did not switch to the diff view'));
+  await new Promise((r) => setTimeout(r, 100)); // let the diff draw before the screenshot
+  await shot('viewer-diff.jpg');
+  const d7 = await page.evaluate(() => ({ diff: window.penumbraViewer.layers.diff, legend: document.getElementById('legend').textContent }));
+  console.log(`step 7 compare: compare layer after ${tc}; diff ${d7.diff.width}x${d7.diff.height} mean |ΔV| ${d7.diff.mean_dv}, legend "${d7.legend}" (${secs(t)})`);
+  if (d7.diff.mean_dv == null) fail('step 7: the diff layer has no mean_dv');
+}
+
+let code = 0;
+try { await run(); }
+catch (e) {
+  fail(String(e.message || e).split('\n')[0]);
+  if (serverLog.length) console.log(`server output (last lines):\n  ${serverLog.slice(-10).join('\n  ')}`);
+}
+finally {
+  if (browser) await browser.close().catch(() => {});
+  await killServer();
+}
+if (failures.length) { code = 1; console.log(`viewer e2e: FAILED (${failures.length} check${failures.length > 1 ? 's' : ''}) in ${secs(t0)}`); }
+else console.log(`viewer e2e: passed in ${secs(t0)}`);
+process.exit(code);

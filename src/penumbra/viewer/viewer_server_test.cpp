@@ -1,0 +1,392 @@
+// The viewer's server through real HTTP (cpp-httplib's client): frames equal the CLI's files
+// bit for bit, bad requests get 400 and a one-line error, a newer view cancels stale work,
+// and the preview/final workflow of docs/viewer.md.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <httplib.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "penumbra/core/image.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/json_reader.h"
+#include "penumbra/viewer/viewer_server.h"
+
+namespace penumbra::viewer {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+// One poll answer, parsed (docs/viewer.md, "Frames").
+struct Poll {
+  json header;
+  std::string pixels;
+  // The layer's metadata, or null.
+  json layer(const std::string& name) const {
+    for (const json& l : header["layers"])
+      if (l["name"] == name) return l;
+    return nullptr;
+  }
+};
+
+Poll parse_poll(const std::string& body) {
+  Poll p;
+  if (body.size() < 4) return p;
+  uint32_t n = 0;
+  for (int i = 0; i < 4; ++i) n |= static_cast<uint32_t>(static_cast<unsigned char>(body[i])) << (8 * i);
+  p.header = json::parse(body.substr(4, n));
+  p.pixels = body.substr(4 + n);
+  return p;
+}
+
+class Viewer : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           fmt::format("penumbra-viewer-{}-{}", ::getpid(),
+                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "meshes");
+    // A tetrahedron beside the scene, named by a relative path (the saved scene makes it absolute).
+    std::ofstream(dir_ / "meshes" / "tet.obj") << "v -0.3 0.2 -0.3\nv 0.3 0.2 -0.3\nv 0 0.2 0.3\nv 0 0.7 0\n"
+                                                  "f 1 2 3\nf 1 4 2\nf 2 4 3\nf 3 4 1\n";
+  }
+  void TearDown() override {
+    server_.reset();
+    session_.reset();
+    fs::remove_all(dir_);
+  }
+
+  // A box and the tetrahedron on a ground plane under a rect light, 40 x 40 pixels.
+  void start(SessionOptions options = {}, std::string bind = "127.0.0.1") {
+    const std::string text = R"({
+      "camera": {"eye": [0, 3, 3], "target": [0, 0, 0], "fov_y": 40, "resolution": [40, 40]},
+      "lights": [{"type": "rect", "center": [-0.3, 2.5, 0.2], "normal": [0.1, -1, 0], "size": [0.8, 0.8],
+                  "radiance": [5, 5, 5]}],
+      "objects": [{"name": "ground", "shape": "plane", "size": [6, 6]},
+                  {"name": "box", "shape": "box", "size": [0.5, 0.5, 0.5], "translate": [0.5, 0.45, 0]},
+                  {"name": "tet", "mesh": "meshes/tet.obj", "translate": [-0.6, 0, 0]}],
+      "methods": {"pcss": {"blocker_samples": 16}}
+    })";
+    scene_path_ = dir_ / "scene.json";
+    std::ofstream(scene_path_) << text;
+    json doc = read_json_file(scene_path_);
+    session_ = std::make_unique<ViewerSession>(parse_scene(doc, scene_path_), doc, options);
+    ServerOptions so;
+    so.bind = bind;
+    so.port = 18600 + ::getpid() % 1000;
+    server_ = std::make_unique<ViewerServer>(*session_, so);
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", server_->port());
+    client_->set_read_timeout(120, 0);
+  }
+
+  httplib::Result get(const std::string& path) { return client_->Get(path.c_str()); }
+  httplib::Result post(const std::string& path, const std::string& body) {
+    return client_->Post(path.c_str(), body, "application/json");
+  }
+  // Polls until `accept` holds for a poll answer or `seconds` pass; the last answer.
+  Poll poll_until(const std::function<bool(const Poll&)>& accept, double seconds = 60) {
+    const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+    Poll last;
+    while (Clock::now() < end) {
+      auto r = get(fmt::format("/api/poll?after={}&timeout_ms=2000", seq_));
+      if (!r || r->status != 200) continue;
+      last = parse_poll(r->body);
+      seq_ = last.header["seq"].get<uint64_t>();
+      if (accept(last)) return last;
+    }
+    ADD_FAILURE() << "no such frame within " << seconds << " s; last: " << last.header.dump();
+    return last;
+  }
+  static bool final_done(const Poll& p, const std::string& layer = "main") {
+    json l = p.layer(layer);
+    return !l.is_null() && l["kind"] == "final" && l["frame"] == l["frames"];
+  }
+
+  fs::path dir_, scene_path_;
+  std::unique_ptr<ViewerSession> session_;
+  std::unique_ptr<ViewerServer> server_;
+  std::unique_ptr<httplib::Client> client_;
+  uint64_t seq_ = 0;
+};
+
+// The promise of GET /api/frame and of the saved scene: the CLI, given the scene the viewer
+// saves and the same arguments, writes the very bytes /api/frame answers (after the light
+// and the camera moved, with a method parameter set in the viewer).
+TEST_F(Viewer, FrameEqualsTheCliRenderOfTheSavedSceneBitForBit) {
+  start();
+  auto moved = post("/api/view", R"({"camera": {"eye": [0.5, 2.8, 3.1]},
+      "lights": [{"type": "rect", "center": [0.4, 2.2, -0.1], "normal": [-0.2, -1, 0.1], "size": [1.0, 0.6],
+                  "radiance": [4, 5, 6]}]})");
+  ASSERT_TRUE(moved);
+  ASSERT_EQ(moved->status, 200) << moved->body;
+  auto set = post("/api/settings", R"({"params": {"pcss": {"blocker_samples": 9}}})");
+  ASSERT_EQ(set->status, 200) << set->body;
+  auto saved = get("/api/scene-file");
+  ASSERT_EQ(saved->status, 200);
+  const json doc = json::parse(saved->body);
+  EXPECT_TRUE(fs::path(doc["objects"][2]["mesh"].get<std::string>()).is_absolute());
+  EXPECT_EQ(doc["methods"]["pcss"]["blocker_samples"], 9);
+  // Saved elsewhere: the mesh is found through its absolute path.
+  fs::create_directories(dir_ / "elsewhere");
+  const fs::path saved_path = dir_ / "elsewhere" / "view.json";
+  std::ofstream(saved_path) << saved->body;
+
+  struct Case {
+    std::string query, cli_args, ext;
+  };
+  const std::vector<Case> cases = {
+      {"method=reference&spp=8&seed=3&format=png", "-m reference --spp 8 --seed 3", "png"},
+      {"method=reference&spp=4&frames=3&format=exr", "-m reference --spp 4 --frames 3", "exr"},
+      {"method=pcss&format=png", "-m pcss", "png"},
+      {"method=afsm&spp=16&param=resolution=64&resolution=24x20&format=exr",
+       "-m afsm --spp 16 -p resolution=64 --resolution 24x20", "exr"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.query);
+    auto frame = get("/api/frame?" + c.query);
+    ASSERT_TRUE(frame);
+    ASSERT_EQ(frame->status, 200) << frame->body;
+    EXPECT_EQ(frame->get_header_value("Content-Type"), c.ext == "png" ? "image/png" : "image/x-exr");
+    const fs::path out = dir_ / ("cli." + c.ext);
+    const std::string cmd =
+        fmt::format("cd / && {} render {} {} -q -o {}", PENUMBRA_CLI, saved_path.string(), c.cli_args, out.string());
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    const std::string cli = slurp(out);
+    ASSERT_FALSE(cli.empty());
+    EXPECT_TRUE(frame->body == cli) << "the viewer's frame and the CLI's file differ (" << frame->body.size()
+                                    << " vs " << cli.size() << " bytes)";
+  }
+}
+
+// Every malformed request is answered 400 (or 403/404/405/413) with a one-line JSON error,
+// changes nothing, and the server answers the next request as before.
+TEST_F(Viewer, BadRequestsGet400WithAOneLineErrorAndChangeNothing) {
+  start();
+  const json before = json::parse(get("/api/state")->body);
+  struct Bad {
+    std::string method, path, body;
+    int status;
+    std::string mentions;
+  };
+  const std::vector<Bad> bad = {
+      {"POST", "/api/view", "{", 400, "syntax error"},
+      {"POST", "/api/view", "[1, 2]", 400, "expected a JSON object"},
+      {"POST", "/api/view", R"({"camera": {"eye": [0, 1]}})", 400, "camera.eye"},
+      {"POST", "/api/view", R"({"camera": {"eye": [0, 0, 0], "target": [0, 0, 0]}})", 400, "camera.target"},
+      {"POST", "/api/view", R"({"camera": null})", 400, "camera"},
+      {"POST", "/api/view", R"({"lights": []})", 400, "at least one light"},
+      {"POST", "/api/view", R"({"lights": [{"type": "rect", "center": [0, 2, 0], "normal": [0, -1, 0], "size": [0, 1]}]})", 400, "lights[0].size"},
+      {"POST", "/api/view", R"({"lights": [{"type": "sphere", "center": [0, 2, 0], "radius": 0.2, "normal": [0, 1, 0]}]})", 400, "lights[0].normal"},
+      {"POST", "/api/view", R"({"camera": {"fov_y": 1e400}})", 400, "camera.fov_y"},
+      {"POST", "/api/view", R"({"zoom": 2})", 400, "zoom"},
+      {"POST", "/api/view", std::string(100, '[') + std::string(100, ']'), 400, "nested deeper"},
+      {"POST", "/api/settings", R"({"final": "nope"})", 400, "unknown shadow method 'nope'"},
+      {"POST", "/api/settings", R"({"spp": 0})", 400, "spp"},
+      {"POST", "/api/settings", R"({"frames": 2.5})", 400, "frames"},
+      {"POST", "/api/settings", R"({"params": {"pcss": {"blocker_samples": -3}}})", 400, "pcss.blocker_samples"},
+      {"POST", "/api/settings", R"({"params": {"pcss": {"nope": 1}}})", 400, "unknown parameter 'nope'"},
+      {"POST", "/api/settings", R"({"params": {"lam": {"resolution": 1e300}}})", 400, "lam.resolution"},
+      {"POST", "/api/settings", R"({"preview_scale": 0})", 400, "preview_scale"},
+      {"GET", "/api/frame?method=nope", "", 400, "method=\"nope\""},
+      {"GET", "/api/frame?spp=-1", "", 400, "spp"},
+      {"GET", "/api/frame?spp=12abc", "", 400, "spp"},
+      {"GET", "/api/frame?frames=99999999999999999999", "", 400, "frames"},
+      {"GET", "/api/frame?format=jpg", "", 400, "format"},
+      {"GET", "/api/frame?resolution=0x10", "", 400, "resolution"},
+      {"GET", "/api/frame?resolution=10", "", 400, "resolution"},
+      {"GET", "/api/frame?param=nokey", "", 400, "param"},
+      {"GET", "/api/frame?param=nope=1&method=pcss", "", 400, "nope"},
+      {"GET", "/api/frame?colour=red", "", 400, "unknown query key"},
+      {"GET", "/api/poll?after=x", "", 400, "after"},
+      {"GET", "/api/poll?timeout_ms=100000", "", 400, "timeout_ms"},
+      {"GET", "/api/nothing", "", 404, "/api/nothing"},
+      {"GET", "/api/view", "", 405, "POST"},
+      {"POST", "/api/state", "{}", 405, "GET"},
+      {"POST", "/api/view", std::string(2 << 20, ' '), 413, "too large"},
+  };
+  for (const Bad& b : bad) {
+    SCOPED_TRACE(b.method + " " + b.path + " " + b.body.substr(0, 80));
+    auto r = b.method == "GET" ? get(b.path) : post(b.path, b.body);
+    ASSERT_TRUE(r) << httplib::to_string(r.error());
+    EXPECT_EQ(r->status, b.status) << r->body;
+    ASSERT_EQ(r->get_header_value("Content-Type"), "application/json");
+    const json e = json::parse(r->body);
+    const std::string message = e.value("error", "");
+    EXPECT_NE(message.find(b.mentions), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos);
+  }
+  const json after = json::parse(get("/api/state")->body);
+  EXPECT_EQ(after["generation"], before["generation"]);
+  EXPECT_EQ(after["camera"], before["camera"]);
+  EXPECT_EQ(after["lights"], before["lights"]);
+  EXPECT_EQ(after["settings"], before["settings"]);
+}
+
+// Loopback only by default: a page of another site that reaches 127.0.0.1 through its own DNS
+// name (rebinding) sends its own Host header, and is refused.
+TEST_F(Viewer, ForeignHostHeadersAreRefused) {
+  start();
+  httplib::Headers foreign = {{"Host", "attacker.example:8421"}};
+  auto r = client_->Get("/api/state", foreign);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 403);
+  EXPECT_NE(json::parse(r->body)["error"].get<std::string>().find("attacker.example"), std::string::npos);
+  EXPECT_EQ(get("/api/state")->status, 200);
+  EXPECT_TRUE(is_loopback_address("127.0.0.1"));
+  EXPECT_TRUE(is_loopback_address("::ffff:127.0.0.2"));
+  EXPECT_TRUE(is_loopback_address("::1"));
+  EXPECT_FALSE(is_loopback_address("192.168.1.4"));
+  EXPECT_FALSE(is_loopback_address("0.0.0.0"));
+  EXPECT_TRUE(is_loopback_host_header("localhost:8421"));
+  EXPECT_TRUE(is_loopback_host_header("[::1]:8421"));
+  EXPECT_TRUE(is_loopback_host_header("127.0.0.1"));
+  EXPECT_FALSE(is_loopback_host_header("127.0.0.1.evil.example"));
+  EXPECT_FALSE(is_loopback_host_header("[::1]x"));
+  EXPECT_FALSE(is_loopback_host_header(""));
+}
+
+TEST_F(Viewer, ThePageAndTheMethodTableAreServed) {
+  start();
+  auto page = get("/");
+  ASSERT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("viewer.js"), std::string::npos);
+  EXPECT_EQ(get("/viewer.js")->status, 200);
+  EXPECT_EQ(get("/viewer.css")->status, 200);
+  const json methods = json::parse(get("/api/methods")->body);
+  ASSERT_GE(methods.size(), 13u);
+  bool lam = false;
+  for (const json& m : methods)
+    if (m["name"] == "lam") {
+      lam = true;
+      EXPECT_FALSE(m["params"].empty());
+      EXPECT_TRUE(m["params"][0].contains("doc"));
+    }
+  EXPECT_TRUE(lam);
+  const json scene = json::parse(get("/api/scene")->body);
+  EXPECT_EQ(scene["objects"][2]["mesh"], "meshes/tet.obj");  // as in the file
+}
+
+// agrawala2000's workflow: a preview of the first view, then the final method refining to
+// the frame `--frames K` gives; a light move previews with occlusion-textures; once lam's
+// maps exist, a camera move previews with lam.
+TEST_F(Viewer, PreviewsWhileMovingAndRefinesToTheFramesRenderWhenStill) {
+  SessionOptions options;
+  options.idle_ms = 100;
+  start(options);
+  ASSERT_EQ(post("/api/settings", R"({"spp": 4, "frames": 3})")->status, 200);
+  Poll done = poll_until([](const Poll& p) { return final_done(p); });
+  const json main = done.layer("main");
+  EXPECT_EQ(main["method"], "reference");
+  // The last frame's pixels equal the render with --frames 3 to within rounding.
+  Scene scene = load_scene(scene_path_);
+  RenderSettings rs;
+  rs.method = "reference";
+  rs.light_samples = 4;
+  rs.frames = 3;
+  const std::vector<uint8_t> expected = to_rgba8(render_scene(scene, rs).color);
+  const size_t offset = main["offset"].get<size_t>();
+  ASSERT_GE(done.pixels.size(), offset + expected.size());
+  int worst = 0;
+  for (size_t i = 0; i < expected.size(); ++i)
+    worst = std::max(worst, std::abs(int(static_cast<unsigned char>(done.pixels[offset + i])) - int(expected[i])));
+  EXPECT_LE(worst, 1);
+
+  // A light move: the preview is occlusion-textures', then the final frames follow.
+  ASSERT_EQ(post("/api/view", R"({"lights": [{"type": "rect", "center": [0.3, 2.4, 0.2], "normal": [0, -1, 0],
+                                   "size": [0.8, 0.8], "radiance": [5, 5, 5]}]})")->status, 200);
+  Poll preview = poll_until([](const Poll& p) { return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview"; });
+  EXPECT_EQ(preview.layer("main")["method"], "occlusion-textures");
+  poll_until([](const Poll& p) { return final_done(p); });
+  // lam's maps are built after the first final frame; then a camera move previews with lam.
+  ASSERT_EQ(post("/api/view", R"({"camera": {"eye": [0.3, 3, 2.9]}})")->status, 200);
+  Poll camera = poll_until([](const Poll& p) { return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview"; });
+  EXPECT_EQ(camera.layer("main")["method"], "lam");
+  // A chosen preview method is used whatever moved.
+  ASSERT_EQ(post("/api/settings", R"({"preview": "pcss"})")->status, 200);
+  ASSERT_EQ(post("/api/view", R"({"camera": {"eye": [0.2, 3, 2.9]}})")->status, 200);
+  Poll chosen = poll_until([](const Poll& p) { return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview"; });
+  EXPECT_EQ(chosen.layer("main")["method"], "pcss");
+}
+
+// A newer view cancels the running refinement mid-render (CancelToken), and no frame of the
+// old view is published after the change.
+TEST_F(Viewer, ANewViewCancelsStaleWorkAtOnce) {
+  SessionOptions options;
+  options.idle_ms = 0;
+  start(options);
+  // A refinement that would run for minutes: many frames of many samples.
+  ASSERT_EQ(post("/api/settings", R"({"spp": 4096, "frames": 100000})")->status, 200);
+  Poll first = poll_until([](const Poll& p) {
+    return !p.layer("main").is_null() && p.layer("main")["kind"] == "final";
+  });
+  const uint64_t old_generation = first.layer("main")["generation"].get<uint64_t>();
+  const auto counters_before = session_->counters();
+  const auto t0 = Clock::now();
+  auto moved = post("/api/view", R"({"camera": {"eye": [0.4, 3, 3]}})");
+  ASSERT_EQ(moved->status, 200);
+  const uint64_t new_generation = json::parse(moved->body)["generation"].get<uint64_t>();
+  EXPECT_GT(new_generation, old_generation);
+  // The next frames are all of the new view.
+  Poll next = poll_until([&](const Poll& p) {
+    for (const json& l : p.header["layers"])
+      EXPECT_GE(l["generation"].get<uint64_t>(), new_generation) << "a frame of the old view was published";
+    return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview";
+  });
+  const double preview_after_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  const auto counters_after = session_->counters();
+  EXPECT_GE(counters_after.cancelled, counters_before.cancelled + 1);
+  // One final frame of 4096 samples per pixel takes far longer than the cancellation, which
+  // stops within one tile: the preview arrives before that frame could have finished.
+  const double frame_ms = first.layer("main")["ms"].get<double>();
+  EXPECT_LT(preview_after_ms, std::max(frame_ms, 2000.0) + 5000.0);
+  EXPECT_TRUE(json::parse(get("/api/state")->body)["status"]["cancelled"].get<uint64_t>() >= 1);
+}
+
+// A compare method renders at the same view after the final frame, with the |dV| heat map
+// and the mean |dV|; /api/frame meanwhile is answered first.
+TEST_F(Viewer, CompareGivesTheHeatMapAndMeanAbsoluteVisibilityError) {
+  SessionOptions options;
+  options.idle_ms = 0;
+  start(options);
+  ASSERT_EQ(post("/api/settings", R"({"final": "pcss", "compare": "reference", "spp": 16, "frames": 2})")->status, 200);
+  Poll diff = poll_until([](const Poll& p) { return !p.layer("diff").is_null(); });
+  const json d = diff.layer("diff");
+  ASSERT_TRUE(d["mean_dv"].is_number());
+  EXPECT_GT(d["mean_dv"].get<double>(), 0.0);
+  EXPECT_LT(d["mean_dv"].get<double>(), 0.5);
+  EXPECT_EQ(d["heatmap"]["hi"], 0.25);
+  EXPECT_EQ(d["width"], 40);
+  // The mean |dV| is that of the two layers' visibility: check against renders of our own.
+  Scene scene = load_scene(scene_path_);
+  RenderSettings a, b;
+  a.method = "pcss";
+  a.light_samples = b.light_samples = 16;
+  a.frames = b.frames = 2;
+  b.method = "reference";
+  const Image va = render_scene(scene, a).visibility, vb = render_scene(scene, b).visibility;
+  double sum = 0;
+  for (size_t i = 0; i < va.pixel_count(); ++i) sum += std::abs(va.data()[i] - vb.data()[i]);
+  EXPECT_NEAR(d["mean_dv"].get<double>(), sum / va.pixel_count(), 1e-4);
+}
+
+}  // namespace
+}  // namespace penumbra::viewer
