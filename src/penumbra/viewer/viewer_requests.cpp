@@ -61,7 +61,8 @@ ViewerSettings apply_settings(const ViewerSettings& current, const json& body, c
     JsonValue p = v["params"];
     p.expect_object();
     for (const auto& [name, table] : p.raw().items()) {
-      method_name(JsonValue(json(name), kSettingsContext, "params"), false, false);
+      const json name_value = name;  // (JsonValue keeps a pointer: not a temporary)
+      method_name(JsonValue(name_value, kSettingsContext, "params"), false, false);
       // null removes the method's table (RFC 7386), an object is merged key by key.
       if (!table.is_null()) p[name].expect_object();
     }

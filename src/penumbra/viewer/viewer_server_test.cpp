@@ -362,13 +362,19 @@ TEST_F(Viewer, ANewViewCancelsStaleWorkAtOnce) {
 }
 
 // A compare method renders at the same view after the final frame, with the |dV| heat map
-// and the mean |dV|; /api/frame meanwhile is answered first.
+// and the mean |dV|.
 TEST_F(Viewer, CompareGivesTheHeatMapAndMeanAbsoluteVisibilityError) {
   SessionOptions options;
   options.idle_ms = 0;
   start(options);
-  ASSERT_EQ(post("/api/settings", R"({"final": "pcss", "compare": "reference", "spp": 16, "frames": 2})")->status, 200);
+  ASSERT_EQ(post("/api/settings", R"({"final": "pcss", "spp": 16, "frames": 2})")->status, 200);
+  poll_until([](const Poll& p) { return final_done(p) && p.layer("main")["method"] == "pcss"; });
+  const uint64_t final_frames = session_->counters().final_frames;
+  // Choosing a compare method keeps the finished final frame: only the comparison renders.
+  ASSERT_EQ(post("/api/settings", R"({"compare": "reference"})")->status, 200);
   Poll diff = poll_until([](const Poll& p) { return !p.layer("diff").is_null(); });
+  EXPECT_EQ(session_->counters().final_frames, final_frames);
+  EXPECT_EQ(session_->counters().compare_frames, 2u);
   const json d = diff.layer("diff");
   ASSERT_TRUE(d["mean_dv"].is_number());
   EXPECT_GT(d["mean_dv"].get<double>(), 0.0);

@@ -1,14 +1,13 @@
 #include "penumbra/viewer/viewer_session.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-
-#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -213,6 +212,8 @@ json ViewerSession::update_settings(const json& body) {
   const bool preview_changed = next.preview != settings_.preview || next.preview_scale != settings_.preview_scale;
   settings_ = std::move(next);
   // No movement: the final method starts at once (a preview only shows a new preview choice).
+  // What stays valid is reused: an accumulation of the same view, method, samples and
+  // parameters goes on where it was (run_accumulation).
   refine_requested_ = true;
   changed(preview_changed);
   json out = settings_.to_json();
@@ -531,15 +532,32 @@ void ViewerSession::run_preview(const Snapshot& s, const Job& job) {
   }
 }
 
+std::string ViewerSession::accumulation_key(const Snapshot& s, const std::string& method) const {
+  const json params = merged_method_params(scene_, s.settings);
+  return json{{"camera", s.view.camera},
+              {"lights", s.view.lights},
+              {"method", method},
+              {"spp", s.settings.spp},
+              {"params", params.contains(method) ? params[method] : json::object()}}
+      .dump();
+}
+
 void ViewerSession::run_accumulation(const Snapshot& s, Accumulation& acc, const std::string& method,
                                      const char* layer) {
   const bool is_final = std::string(layer) == "main";
-  if (acc.generation != s.generation || acc.method != method) {
-    acc = Accumulation{};
-    acc.generation = s.generation;
-    acc.method = method;
-  }
   const int frames = s.settings.frames;
+  // A change of something else (the compare method, the number of frames, a cancellation by
+  // /api/frame) keeps the frames already summed.
+  const std::string key = accumulation_key(s, method);
+  if (acc.key != key || acc.frames_done > frames) {
+    acc = Accumulation{};
+    acc.key = key;
+  }
+  auto meta = [&](double ms) {
+    return json{{"method", method}, {"kind", "final"}, {"frame", acc.frames_done}, {"frames", frames}, {"ms", ms},
+                {"scale", 1.0}, {"light_samples", light_samples_json(method, s.settings.spp)}, {"mean_dv", nullptr}};
+  };
+  if (acc.frames_done == frames) publish(layer, s.generation, meta(acc.last_ms), acc.mean_color());
   Renderer& r = renderer(method, s);
   while (acc.frames_done < frames) {
     set_status({{"phase", is_final ? "refining" : "comparing"},
@@ -555,11 +573,8 @@ void ViewerSession::run_accumulation(const Snapshot& s, Accumulation& acc, const
     add_into(acc.color_sum, res.color);
     add_into(acc.vis_sum, res.visibility);
     ++acc.frames_done;
-    const bool published =
-        publish(layer, s.generation,
-                {{"method", method}, {"kind", "final"}, {"frame", acc.frames_done}, {"frames", frames}, {"ms", ms},
-                 {"scale", 1.0}, {"light_samples", light_samples_json(method, s.settings.spp)}, {"mean_dv", nullptr}},
-                acc.mean_color());
+    acc.last_ms = ms;
+    const bool published = publish(layer, s.generation, meta(ms), acc.mean_color());
     if (published) {
       std::lock_guard<std::mutex> lock(mutex_);
       ++(is_final ? counters_.final_frames : counters_.compare_frames);
@@ -567,10 +582,17 @@ void ViewerSession::run_accumulation(const Snapshot& s, Accumulation& acc, const
     if (is_final && acc.frames_done == 1 && s.settings.preview == "auto") {
       // Once a final frame is up, build lam's maps for these lights, so that the next camera
       // move previews with lam (agrawala2000 §4: the maps are precomputed per light).
-      Renderer& lam = renderer(kCameraPreview, s);
-      if (!lam.prepared()) {
-        set_status({{"phase", "preparing"}, {"method", kCameraPreview}});
-        lam.prepare();
+      try {
+        Renderer& lam = renderer(kCameraPreview, s);
+        if (!lam.prepared()) {
+          set_status({{"phase", "preparing"}, {"method", kCameraPreview}});
+          lam.prepare();
+        }
+      } catch (const Interrupted&) {
+        throw;  // a newer view (or Ctrl-C)
+      } catch (const Error&) {
+        // lam cannot serve this scene (its memory budget, say): camera moves keep previewing
+        // with occlusion-textures, and the refinement goes on.
       }
     }
   }
@@ -585,8 +607,9 @@ void ViewerSession::run_accumulation(const Snapshot& s, Accumulation& acc, const
 }
 
 void ViewerSession::publish_diff(const Snapshot& s) {
-  if (final_.generation != s.generation || compare_.generation != s.generation) return;
-  if (final_.frames_done < s.settings.frames || compare_.frames_done < s.settings.frames) return;
+  if (final_.key != accumulation_key(s, s.settings.final_method) || compare_.key != accumulation_key(s, s.settings.compare))
+    return;
+  if (final_.frames_done != s.settings.frames || compare_.frames_done != s.settings.frames) return;
   const Image a = final_.mean_visibility(), b = compare_.mean_visibility();
   if (a.width() != b.width() || a.height() != b.height()) return;
   Image d(a.width(), a.height(), 1);

@@ -104,12 +104,12 @@ class ViewerSession {
     ViewState view;
     ViewerSettings settings;
   };
-  // A progressive render of one method at the full resolution of one generation.
+  // A progressive render of one method at the view's full resolution: the sums of its
+  // frames 0 .. frames_done - 1, valid while `key` (accumulation_key) holds.
   struct Accumulation {
-    uint64_t generation = UINT64_MAX;
-    std::string method;
+    std::string key;
     int frames_done = 0;
-    bool failed = false;
+    double last_ms = 0;  // the last frame's time
     Image color_sum, vis_sum;
     Image mean_color() const;
     Image mean_visibility() const;
@@ -124,6 +124,8 @@ class ViewerSession {
   Job next_job(std::chrono::steady_clock::time_point now);  // with mutex_ held
   void run_preview(const Snapshot& s, const Job& job);
   void run_accumulation(const Snapshot& s, Accumulation& acc, const std::string& method, const char* layer);
+  // What an accumulation of `method` depends on: the view, --spp and the method's parameters.
+  std::string accumulation_key(const Snapshot& s, const std::string& method) const;
   void publish_diff(const Snapshot& s);
   // Publishes a layer unless `generation` is no longer current (then counts it as stale).
   bool publish(const std::string& name, uint64_t generation, nlohmann::json meta, const Image& image);
