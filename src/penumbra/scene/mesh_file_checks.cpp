@@ -1,13 +1,17 @@
 #include "penumbra/scene/mesh_file_checks.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "penumbra/core/error.h"
 
@@ -213,6 +217,202 @@ void check_stl(const fs::path& path, std::ifstream& f, uint64_t file_size) {
                 84 + uint64_t(n) * 50, file_size);
 }
 
+// One vertex of an OBJ face, line or point element: v, v/vt, v//vn or v/vt/vn, each an
+// integer (negative: relative to the end).
+bool obj_vertex_reference(std::string_view word) {
+  int parts = 0;
+  size_t i = 0;
+  while (true) {
+    const size_t start = i;
+    if (i < word.size() && word[i] == '-') ++i;
+    const size_t digits = i;
+    while (i < word.size() && word[i] >= '0' && word[i] <= '9') ++i;
+    const bool number = i > digits;
+    // Only the texture coordinate (the second part) may be empty, as in v//vn.
+    if (!number && !(parts == 1 && i == start && i < word.size())) return false;
+    ++parts;
+    if (i == word.size()) return true;
+    if (word[i] != '/' || parts == 3) return false;
+    ++i;
+    if (i == word.size()) return false;
+  }
+}
+
+// OBJ: Assimp 5.2's face parser reads past the end of its line buffer on a malformed vertex
+// reference such as "1//1/1/23" or "/" (found by fuzz/mesh_fuzzer). Assimp reads a file as
+// OBJ by its extension or, whatever it is called, when its first bytes hold OBJ keywords; so
+// every text file is checked: each line starting with "f", "l" or "p" must list only well-formed
+// references ("\\" continues the line; Assimp takes no comment after them either).
+void check_obj_elements(const fs::path& path, std::ifstream& f) {
+  std::string line;
+  for (uint64_t n = 1; std::getline(f, line); ++n) {
+    // Assimp takes the line's first character for the keyword ("f//1" is a face "//1"), so
+    // the references start right after it.
+    const size_t first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || (line[first] != 'f' && line[first] != 'l' && line[first] != 'p')) continue;
+    const std::vector<std::string_view> words = split_words(std::string_view(line).substr(first + 1));
+    for (size_t w = 0; w < words.size(); ++w) {
+      std::string_view word = words[w];
+      if (!word.empty() && word.back() == '\r') word.remove_suffix(1);
+      if (word.empty() || word == "\\") continue;
+      if (!obj_vertex_reference(word))
+        throw Error("{}: line {}: '{}' is not a vertex reference (v, v/vt, v//vn or v/vt/vn)", path.string(), n,
+                    abbreviate_line(word));
+    }
+  }
+}
+
+// glTF: Assimp 5.2 copies an accessor's bytes without checking that they lie inside its
+// buffer view (found by fuzz/mesh_fuzzer: an accessor at byteOffset 5 reading 36 bytes of
+// a 36-byte view). Every accessor (and sparse accessor part) must lie inside its view, every
+// view inside its buffer, and every buffer must hold the bytes it declares (a data: URI's
+// decoded size, the file it names, or a GLB's binary chunk).
+class GltfBounds {
+ public:
+  GltfBounds(const fs::path& path, const nlohmann::json& doc, uint64_t glb_bin_size)
+      : path_(path), doc_(doc), glb_bin_size_(glb_bin_size) {}
+
+  void check() {
+    const nlohmann::json& buffers = array("buffers");
+    for (size_t i = 0; i < buffers.size(); ++i) {
+      const uint64_t declared = number(buffers[i], "byteLength", fmt::format("buffers[{}]", i), true);
+      const uint64_t held = buffer_size(buffers[i]);
+      if (held != kUnknown && held < declared)
+        fail("buffers[{}] declares {} bytes but holds {}", i, declared, held);
+      buffer_lengths_.push_back(declared);
+    }
+    const nlohmann::json& views = array("bufferViews");
+    for (size_t i = 0; i < views.size(); ++i) {
+      const std::string at = fmt::format("bufferViews[{}]", i);
+      const uint64_t b = index(views[i], "buffer", at, buffer_lengths_.size());
+      const uint64_t offset = number(views[i], "byteOffset", at, false), length = number(views[i], "byteLength", at, true);
+      if (offset + length > buffer_lengths_[b])
+        fail("{} spans bytes {}..{} of buffers[{}], which holds {}", at, offset, offset + length, b, buffer_lengths_[b]);
+      view_lengths_.push_back(length);
+      view_strides_.push_back(number(views[i], "byteStride", at, false));
+    }
+    const nlohmann::json& accessors = array("accessors");
+    for (size_t i = 0; i < accessors.size(); ++i) {
+      const std::string at = fmt::format("accessors[{}]", i);
+      const nlohmann::json& a = accessors[i];
+      if (!a.is_object()) continue;  // Assimp reports it
+      const uint64_t count = number(a, "count", at, true);
+      const uint64_t element = component_size(a, at) * components(a, at);
+      if (a.contains("bufferView")) span(a, at, count, element);
+      if (a.contains("sparse") && a["sparse"].is_object()) {
+        const nlohmann::json& sparse = a["sparse"];
+        const uint64_t n = number(sparse, "count", at + ".sparse", true);
+        if (sparse.contains("indices") && sparse["indices"].is_object())
+          span(sparse["indices"], at + ".sparse.indices", n, component_size(sparse["indices"], at + ".sparse.indices"));
+        if (sparse.contains("values") && sparse["values"].is_object()) span(sparse["values"], at + ".sparse.values", n, element);
+      }
+    }
+  }
+
+ private:
+  static constexpr uint64_t kUnknown = std::numeric_limits<uint64_t>::max();
+  static constexpr uint64_t kLimit = uint64_t(1) << 40;  // no glTF buffer of a mesh is a terabyte
+
+  template <typename... Args>
+  [[noreturn]] void fail(fmt::format_string<Args...> f, Args&&... args) const {
+    throw Error("{}: {}", path_.string(), fmt::format(f, std::forward<Args>(args)...));
+  }
+  const nlohmann::json& array(const char* key) const {
+    static const nlohmann::json empty = nlohmann::json::array();
+    return doc_.contains(key) && doc_[key].is_array() ? doc_[key] : empty;
+  }
+  // A non-negative integer member (0 when absent and not required), at most kLimit.
+  uint64_t number(const nlohmann::json& o, const char* key, const std::string& at, bool required) const {
+    if (!o.is_object() || !o.contains(key)) {
+      if (required) fail("{}.{}: required", at, key);
+      return 0;
+    }
+    const nlohmann::json& v = o[key];
+    if (!v.is_number_integer() || (!v.is_number_unsigned() && v.get<int64_t>() < 0) || v.get<uint64_t>() > kLimit)
+      fail("{}.{}: expected a non-negative integer of at most 2^40, got {}", at, key, v.dump().substr(0, 40));
+    return v.get<uint64_t>();
+  }
+  uint64_t index(const nlohmann::json& o, const char* key, const std::string& at, size_t size) const {
+    const uint64_t i = number(o, key, at, true);
+    if (i >= size) fail("{}.{}: {} is not an index of the {} there are", at, key, i, size);
+    return i;
+  }
+  uint64_t component_size(const nlohmann::json& o, const std::string& at) const {
+    switch (number(o, "componentType", at, true)) {
+      case 5120: case 5121: return 1;
+      case 5122: case 5123: return 2;
+      case 5125: case 5126: return 4;
+      default: fail("{}.componentType: not a glTF component type", at);
+    }
+  }
+  uint64_t components(const nlohmann::json& a, const std::string& at) const {
+    const std::string type = a.contains("type") && a["type"].is_string() ? a["type"].get<std::string>() : "";
+    if (type == "SCALAR") return 1;
+    if (type == "VEC2") return 2;
+    if (type == "VEC3") return 3;
+    if (type == "VEC4" || type == "MAT2") return 4;
+    if (type == "MAT3") return 9;
+    if (type == "MAT4") return 16;
+    fail("{}.type: not a glTF accessor type", at);
+  }
+  // `count` elements of `element` bytes from o.bufferView at o.byteOffset, at the view's stride.
+  void span(const nlohmann::json& o, const std::string& at, uint64_t count, uint64_t element) const {
+    const uint64_t v = index(o, "bufferView", at, view_lengths_.size());
+    const uint64_t offset = number(o, "byteOffset", at, false);
+    const uint64_t stride = view_strides_[v] ? view_strides_[v] : element;
+    // (Each term is at most 2^40; the product is checked before it is formed.)
+    const bool too_many = count > kLimit / std::max<uint64_t>(stride, 1);
+    if (too_many || (count == 0 ? offset : offset + (count - 1) * stride + element) > view_lengths_[v])
+      fail("{} reads {} elements of {} bytes from byte {} of bufferViews[{}], which holds {}", at, count, element,
+           offset, v, view_lengths_[v]);
+  }
+  // The bytes a buffer holds, or kUnknown when that cannot be told here (Assimp reports).
+  uint64_t buffer_size(const nlohmann::json& b) const {
+    if (!b.is_object() || !b.contains("uri")) return glb_bin_size_;
+    if (!b["uri"].is_string()) return kUnknown;
+    const std::string uri = b["uri"].get<std::string>();
+    if (uri.rfind("data:", 0) == 0) {
+      const size_t comma = uri.find(',');
+      if (comma == std::string::npos || uri.find(";base64", 0) > comma) return kUnknown;
+      const uint64_t chars = uri.size() - comma - 1;
+      uint64_t padding = 0;
+      for (size_t i = uri.size(); i > comma + 1 && uri[i - 1] == '=' && padding < 2; --i) ++padding;
+      return (chars - padding) * 3 / 4;  // base64: 4 characters for 3 bytes
+    }
+    std::error_code ec;
+    const uint64_t size = fs::file_size(path_.parent_path() / uri, ec);
+    return ec ? kUnknown : size;
+  }
+
+  const fs::path& path_;
+  const nlohmann::json& doc_;
+  uint64_t glb_bin_size_;
+  std::vector<uint64_t> buffer_lengths_, view_lengths_, view_strides_;
+};
+
+void check_gltf(const fs::path& path, std::ifstream& f, bool binary) {
+  std::string json_text;
+  uint64_t bin_size = std::numeric_limits<uint64_t>::max();  // no GLB: buffers without a uri are unknown
+  if (binary) {
+    // GLB: a 12-byte header, then chunks of (length, type, data): JSON first, BIN next.
+    unsigned char header[20];
+    if (!f.read(reinterpret_cast<char*>(header), 20)) return;
+    auto u32 = [](const unsigned char* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; };
+    if (std::memcmp(header, "glTF", 4) != 0) return;
+    const uint32_t json_length = u32(header + 12);
+    if (json_length > (64u << 20)) return;  // Assimp reports what it cannot read
+    json_text.resize(json_length);
+    if (!f.read(json_text.data(), json_length)) return;
+    unsigned char chunk[8];
+    bin_size = f.read(reinterpret_cast<char*>(chunk), 8) ? u32(chunk) : 0;
+  } else {
+    json_text.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  }
+  const nlohmann::json doc = nlohmann::json::parse(json_text, nullptr, /*allow_exceptions=*/false);
+  if (!doc.is_object()) return;  // not JSON: Assimp reports it
+  GltfBounds(path, doc, bin_size).check();
+}
+
 }  // namespace
 
 void check_mesh_file_header(const fs::path& path) {
@@ -234,6 +434,11 @@ void check_mesh_file_header(const fs::path& path) {
     if (size == 0) return;  // empty: Assimp reports it
     return check_ply(path, f, size);
   }
+  if (ext == ".glb" || std::string(magic, 3) == "glT") return check_gltf(path, f, /*binary=*/true);
+  if (ext == ".gltf") check_gltf(path, f, /*binary=*/false);
+  f.clear();
+  f.seekg(0);
+  check_obj_elements(path, f);
 }
 
 }  // namespace penumbra

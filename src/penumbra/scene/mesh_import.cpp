@@ -1,12 +1,17 @@
 #include "penumbra/scene/mesh_import.h"
 
+#include <assimp/BaseImporter.h>
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
+#include <assimp/importerdesc.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <array>
+#include <cctype>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "penumbra/core/error.h"
 #include "penumbra/scene/mesh_file_checks.h"
@@ -14,6 +19,39 @@
 namespace penumbra {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// Leaves `importer` only the readers of `path`'s extension. Assimp otherwise tries every
+// reader whose signature it finds in a file's first bytes (OBJ keywords, "iso-10303-21" for
+// STEP and IFC, ...), and several of its less-used readers read past their buffers on
+// malformed input (fuzz_mesh found the OBJ and STEP ones in files named .gltf). A file is
+// read as what its name says, by a reader penumbra's checks (mesh_file_checks.h) know.
+void keep_only_readers_for(Assimp::Importer& importer, const fs::path& path) {
+  std::string ext = path.extension().string();
+  if (!ext.empty()) ext.erase(0, 1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  std::vector<Assimp::BaseImporter*> others;
+  bool found = false;
+  for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
+    const aiImporterDesc* desc = importer.GetImporterInfo(i);
+    bool match = false;
+    std::istringstream extensions(desc && desc->mFileExtensions ? desc->mFileExtensions : "");
+    for (std::string e; extensions >> e;) match = match || e == ext;
+    if (match) found = true;
+    else others.push_back(importer.GetImporter(i));
+  }
+  if (!found || ext.empty())
+    throw Error("{}: not a mesh format penumbra reads (by its extension: .obj, .ply, .stl, .off, .gltf, .glb, ...)",
+                path.string());
+  // UnregisterLoader hands the reader back without deleting it.
+  for (Assimp::BaseImporter* reader : others) {
+    importer.UnregisterLoader(reader);
+    delete reader;
+  }
+}
+
+}  // namespace
 
 TriangleMesh import_mesh(const fs::path& path, MeshImportReport* report) {
   const std::string name = path.string();
@@ -24,6 +62,7 @@ TriangleMesh import_mesh(const fs::path& path, MeshImportReport* report) {
   check_mesh_file_header(path);
 
   Assimp::Importer importer;
+  keep_only_readers_for(importer, path);
   // Points and lines (and triangles that collapse to them) carry no surface to cast a
   // shadow: let SortByPType drop them rather than hand them to the ray tracer.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);

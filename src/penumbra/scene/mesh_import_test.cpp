@@ -118,6 +118,59 @@ TEST(MeshImport, ErrorsNameTheFile) {
   write_text_file_atomic(dir / "points.obj", "v 0 0 0\nv 1 0 0\n");
   msg = error_message([&] { import_mesh(dir / "points.obj"); });
   EXPECT_NE(msg.find("points.obj: "), std::string::npos) << msg;
+  // Found by fuzz/mesh_fuzzer: Assimp 5.2's OBJ face parser reads past its buffer on a
+  // malformed vertex reference, also in a file named .gltf (it sniffs OBJ keywords).
+  for (const char* name : {"fuzzed.obj", "fuzzed.gltf"}) {
+    write_text_file_atomic(dir / name, "f 1//1/1/23 / /\n1\n");
+    EXPECT_EQ(error_message([&] { import_mesh(dir / name); }),
+              (dir / name).string() + ": line 1: '1//1/1/23' is not a vertex reference (v, v/vt, v//vn or v/vt/vn)");
+  }
+  write_text_file_atomic(dir / "slash.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 /\n");
+  EXPECT_NE(error_message([&] { import_mesh(dir / "slash.obj"); }).find("line 4: '/' is not"), std::string::npos);
+  // Found by fuzz/mesh_fuzzer: Assimp 5.2 copies an accessor's bytes without checking its
+  // buffer view's bounds.
+  const std::string gltf_head =
+      R"({"asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "scene": 0, "nodes": [{"mesh": 0}],
+          "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+          "buffers": [{"uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA", "byteLength": 36}],
+          "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}],)";
+  write_text_file_atomic(dir / "offset.gltf", gltf_head + R"("accessors": [{"bufferView": 0, "byteOffset": 5,
+      "componentType": 5126, "count": 3, "type": "VEC3", "max": [1, 1, 0], "min": [0, 0, 0]}]})");
+  EXPECT_EQ(error_message([&] { import_mesh(dir / "offset.gltf"); }),
+            (dir / "offset.gltf").string() +
+                ": accessors[0] reads 3 elements of 12 bytes from byte 5 of bufferViews[0], which holds 36");
+  write_text_file_atomic(dir / "ok.gltf", gltf_head + R"("accessors": [{"bufferView": 0, "byteOffset": 0,
+      "componentType": 5126, "count": 3, "type": "VEC3", "max": [1, 1, 0], "min": [0, 0, 0]}]})");
+  EXPECT_EQ(import_mesh(dir / "ok.gltf").triangle_count(), 1u);
+  std::string long_view = gltf_head, long_buffer = gltf_head;
+  long_view.replace(long_view.rfind("\"byteLength\": 36}],"), 21, "\"byteLength\": 48}],");
+  write_text_file_atomic(dir / "view.gltf", long_view + R"("accessors": []})");
+  EXPECT_NE(error_message([&] { import_mesh(dir / "view.gltf"); })
+                .find("bufferViews[0] spans bytes 0..48 of buffers[0], which holds 36"),
+            std::string::npos);
+  long_buffer.replace(long_buffer.find("\"byteLength\": 36}],"), 21, "\"byteLength\": 48}],");
+  write_text_file_atomic(dir / "buffer.gltf", long_buffer + R"("accessors": []})");
+  EXPECT_NE(error_message([&] { import_mesh(dir / "buffer.gltf"); }).find("buffers[0] declares 48 bytes but holds 36"),
+            std::string::npos);
+  // A file is read as what its name says: no reader sniffed from its first bytes (Assimp's
+  // STEP reader, picked by "iso-10303-21" in a file named .gltf, read past its buffer).
+  write_text_file_atomic(dir / "triangle.txt", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_EQ(error_message([&] { import_mesh(dir / "triangle.txt"); }),
+            (dir / "triangle.txt").string() +
+                ": not a mesh format penumbra reads (by its extension: .obj, .ply, .stl, .off, .gltf, .glb, ...)");
+  write_text_file_atomic(dir / "step.gltf", "ISO-10303-21;\nHEADER;\nENDSEC;\n");
+  msg = error_message([&] { import_mesh(dir / "step.gltf"); });
+  EXPECT_EQ(msg.rfind((dir / "step.gltf").string() + ": cannot import mesh: ", 0), 0u) << msg;
+  write_text_file_atomic(dir / "glued.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf//1/1//1/23 /1\n");
+  EXPECT_NE(error_message([&] { import_mesh(dir / "glued.obj"); }).find("line 4: '//1/1//1/23' is not"),
+            std::string::npos);
+  write_text_file_atomic(dir / "comment.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 # no\n");
+  EXPECT_NE(error_message([&] { import_mesh(dir / "comment.obj"); }).find("line 4: '#' is not"), std::string::npos);
+  // Every well-formed kind of reference, CRLF and continuations still load.
+  write_text_file_atomic(dir / "forms.obj",
+                         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvn 0 0 1\n"
+                         "f 1 2 3\r\nf 2/1 4/1 3/1\nf -4//1 -3//1 \\\n -2//1\nf 1/1/1 2/1/1 4/1/1\n");
+  EXPECT_EQ(import_mesh(dir / "forms.obj").triangle_count(), 4u);
 }
 
 // Issue 17: hostile meshes. A file that declares far more elements than it holds is refused

@@ -364,7 +364,8 @@ void ViewerSession::set_status(json status) {
   for (auto& [k, v] : status.items()) status_[k] = v;
 }
 
-bool ViewerSession::publish(const std::string& name, uint64_t generation, json meta, const Image& image) {
+bool ViewerSession::publish(const std::string& name, uint64_t generation, json meta, const Image& image,
+                            uint64_t Counters::*count) {
   std::vector<uint8_t> rgba = to_rgba8(image);
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -380,6 +381,8 @@ bool ViewerSession::publish(const std::string& name, uint64_t generation, json m
     l.meta = std::move(meta);
     l.rgba = std::move(rgba);
     l.seq = ++seq_;
+    // Counted with the publication, so whoever sees the frame sees the count.
+    if (count) ++(counters_.*count);
   }
   frames_cv_.notify_all();
   return true;
@@ -523,13 +526,10 @@ void ViewerSession::run_preview(const Snapshot& s, const Job& job) {
     if (ms > options_.preview_target_ms || (ms < target * 0.5 && scale < 1.0f))
       scale = std::clamp(static_cast<float>(scale * std::sqrt(target / std::max(ms, 1.0))), 0.125f, 1.0f);
   }
-  if (publish("main", s.generation,
-              {{"method", method}, {"kind", "preview"}, {"frame", 1}, {"frames", 1}, {"ms", ms},
-               {"scale", used}, {"light_samples", light_samples_json(method, s.settings.spp)}},
-              res.color)) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++counters_.previews;
-  }
+  publish("main", s.generation,
+          {{"method", method}, {"kind", "preview"}, {"frame", 1}, {"frames", 1}, {"ms", ms},
+           {"scale", used}, {"light_samples", light_samples_json(method, s.settings.spp)}},
+          res.color, &Counters::previews);
 }
 
 std::string ViewerSession::accumulation_key(const Snapshot& s, const std::string& method) const {
@@ -574,11 +574,8 @@ void ViewerSession::run_accumulation(const Snapshot& s, Accumulation& acc, const
     add_into(acc.vis_sum, res.visibility);
     ++acc.frames_done;
     acc.last_ms = ms;
-    const bool published = publish(layer, s.generation, meta(ms), acc.mean_color());
-    if (published) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      ++(is_final ? counters_.final_frames : counters_.compare_frames);
-    }
+    publish(layer, s.generation, meta(ms), acc.mean_color(),
+            is_final ? &Counters::final_frames : &Counters::compare_frames);
     if (is_final && acc.frames_done == 1 && s.settings.preview == "auto") {
       // Once a final frame is up, build lam's maps for these lights, so that the next camera
       // move previews with lam (agrawala2000 §4: the maps are precomputed per light).

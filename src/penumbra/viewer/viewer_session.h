@@ -127,8 +127,10 @@ class ViewerSession {
   // What an accumulation of `method` depends on: the view, --spp and the method's parameters.
   std::string accumulation_key(const Snapshot& s, const std::string& method) const;
   void publish_diff(const Snapshot& s);
-  // Publishes a layer unless `generation` is no longer current (then counts it as stale).
-  bool publish(const std::string& name, uint64_t generation, nlohmann::json meta, const Image& image);
+  // Publishes a layer unless `generation` is no longer current (then counts it as stale),
+  // and then adds one to the counter `count` (if given).
+  bool publish(const std::string& name, uint64_t generation, nlohmann::json meta, const Image& image,
+               uint64_t Counters::*count = nullptr);
   void set_status(nlohmann::json status);
   // The renderer of `method` at the snapshot's settings (kept between frames while they hold).
   Renderer& renderer(const std::string& method, const Snapshot& s);
