@@ -28,9 +28,11 @@ packages=(
   libhwy-dev     # Highway: portable SIMD with run-time dispatch (SSE4, AVX2, AVX-512)
   libcpp-httplib-dev   # the HTTP server of `penumbra view`
   glmark2-data   # the full Stanford bunny at /usr/share/glmark2/models/bunny.obj
+  pybind11-dev python3-dev python3-numpy   # the Python module (docs/python.md)
 )
 if [ "$with_test_tools" -eq 1 ]; then
   packages+=(chromium)   # headless browser test of the `penumbra compare` page
+  packages+=(python3-pytest)   # the Python module's tests
   packages+=(clang-14 libclang-rt-14-dev)   # the sanitizer and libFuzzer build (scripts/test.sh)
 fi
 missing=()

@@ -59,24 +59,6 @@ std::string command_line() {
   return out;
 }
 
-nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
-                                 const RenderResult& r) {
-  return {{"scene", scene.source.string()},
-          {"method", method},
-          {"params", r.resolved_params},
-          {"light_samples", settings.light_samples},
-          {"seed", settings.seed},
-          {"frames", settings.frames},
-          {"coherent_shading", settings.coherent_shading},
-          {"resolution", {scene.camera.width, scene.camera.height}},
-          {"pixel_samples", scene.camera.samples_per_pixel},
-          {"triangles", scene.triangle_count()},
-          {"view_samples", r.view_sample_count},
-          {"camera_pass_ms", r.camera_pass_ms},
-          {"total_ms", r.total_ms},
-          {"stats", r.stats.to_json()}};
-}
-
 uint64_t parse_memory_size(const std::string& text, const std::string& option) {
   size_t used = 0;
   double value = 0;

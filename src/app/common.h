@@ -22,8 +22,5 @@ uint64_t parse_memory_size(const std::string& text, const std::string& option);
 void make_output_folder(const std::string& dir);
 // The command line of this process, as typed (arguments with spaces quoted), for reports.
 std::string command_line();
-// The --stats-json document of one render.
-nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
-                                 const RenderResult& r);
 
 }  // namespace penumbra::app

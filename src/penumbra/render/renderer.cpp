@@ -410,4 +410,22 @@ RenderResult render_scene(const Scene& scene, const RenderSettings& settings) {
   return r.render();
 }
 
+nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
+                                 const RenderResult& r) {
+  return {{"scene", scene.source.string()},
+          {"method", method},
+          {"params", r.resolved_params},
+          {"light_samples", settings.light_samples},
+          {"seed", settings.seed},
+          {"frames", settings.frames},
+          {"coherent_shading", settings.coherent_shading},
+          {"resolution", {scene.camera.width, scene.camera.height}},
+          {"pixel_samples", scene.camera.samples_per_pixel},
+          {"triangles", scene.triangle_count()},
+          {"view_samples", r.view_sample_count},
+          {"camera_pass_ms", r.camera_pass_ms},
+          {"total_ms", r.total_ms},
+          {"stats", r.stats.to_json()}};
+}
+
 }  // namespace penumbra

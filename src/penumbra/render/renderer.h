@@ -132,4 +132,9 @@ class Renderer {
 // One-call convenience: load nothing, render `scene` with `settings`.
 RenderResult render_scene(const Scene& scene, const RenderSettings& settings);
 
+// The statistics document of one render (`penumbra render --stats-json`, the Python module's
+// RenderResult.stats): the scene, method, parameters, settings, sizes and timings.
+nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
+                                 const RenderResult& r);
+
 }  // namespace penumbra

@@ -1,0 +1,235 @@
+// The Python module (issue 16, docs/python.md): `import penumbra` gives scenes, the method
+// registry, renders as NumPy arrays, and compare/sweep results as Python data. This file is
+// the C++ extension `penumbra._penumbra`; src/python/penumbra/__init__.py is the package.
+//
+// Renders release the GIL and run on a thread of their own while the calling thread waits,
+// taking the GIL back every 50 ms to let Python run its signal handlers: Ctrl-C cancels the
+// render through a CancelToken (core/interrupt.h) and raises KeyboardInterrupt. penumbra's
+// one-line errors become penumbra.Error, a ValueError.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <exception>
+#include <future>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/image.h"
+#include "penumbra/core/interrupt.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/eval/comparison.h"
+#include "penumbra/eval/run_setup.h"
+#include "penumbra/eval/sweep.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/json_reader.h"
+#include "penumbra/scene/scene.h"
+#include "penumbra/shadow/shadow_method.h"
+
+namespace py = pybind11;
+
+namespace penumbra::python {
+namespace {
+
+// A scene and the document it came from (compare and sweep rewrite the document).
+struct PyScene {
+  Scene scene;
+  nlohmann::json doc;
+  std::filesystem::path path;  // the file, or a name for messages; relative mesh paths start at its folder
+};
+
+PyScene load(const std::string& path) {
+  PyScene s;
+  s.doc = read_json_file(path);
+  s.scene = parse_scene(s.doc, path);
+  s.path = path;
+  return s;
+}
+
+PyScene from_json_text(const std::string& text, const std::string& base) {
+  PyScene s;
+  s.path = std::filesystem::path(base) / "<dict>";
+  s.doc = parse_json_text(text, s.path.string());
+  s.scene = parse_scene(s.doc, s.path);
+  return s;
+}
+
+// Runs `work` on a thread of its own with the GIL released; the caller checks Python's
+// signals every 50 ms and cancels the work on KeyboardInterrupt (which it then raises).
+template <typename T>
+T run_interruptible(const std::function<T()>& work) {
+  CancelToken token;
+  std::packaged_task<T()> task([&] {
+    ScopedCancelToken scope(&token);
+    return work();
+  });
+  std::future<T> result = task.get_future();
+  std::thread thread(std::move(task));
+  bool interrupted = false;
+  {
+    py::gil_scoped_release release;
+    while (result.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
+      py::gil_scoped_acquire acquire;
+      if (PyErr_CheckSignals() != 0) {
+        interrupted = true;
+        token.cancel();
+        break;
+      }
+    }
+    thread.join();
+  }
+  if (interrupted) throw py::error_already_set();  // KeyboardInterrupt (the work was cancelled)
+  return result.get();
+}
+
+py::array_t<float> to_array(const Image& image) {
+  std::vector<py::ssize_t> shape = {image.height(), image.width()};
+  if (image.channels() > 1) shape.push_back(image.channels());
+  py::array_t<float> a(shape);
+  std::copy(image.data().begin(), image.data().end(), a.mutable_data());
+  return a;
+}
+
+py::object json_to_python(const nlohmann::json& j) {
+  return py::module_::import("json").attr("loads")(j.dump());
+}
+
+nlohmann::json python_to_json(const py::handle& obj, const std::string& what) {
+  try {
+    return nlohmann::json::parse(py::module_::import("json").attr("dumps")(obj).cast<std::string>());
+  } catch (const py::error_already_set& e) {
+    throw py::type_error(what + ": not JSON-serialisable (" + std::string(e.what()) + ")");
+  }
+}
+
+struct PyRenderResult {
+  py::array_t<float> color, visibility;
+  py::object stats;
+};
+
+PyRenderResult render(const PyScene& s, const std::string& method, int spp, std::optional<std::pair<int, int>> resolution,
+                      uint64_t seed, const std::optional<py::dict>& params, int threads, int frames) {
+  MethodRegistry::get(method);  // throws, listing the registered methods, for an unknown one
+  if (spp < 1 || spp > (1 << 20)) throw Error("spp={}: expected an integer in [1, 1048576]", spp);
+  if (frames < 1 || frames > 100000) throw Error("frames={}: expected an integer in [1, 100000]", frames);
+  if (threads < 0) throw Error("threads={}: expected 0 (all cores) or more", threads);
+  Scene scene = s.scene;
+  if (resolution) {
+    if (resolution->first < 1 || resolution->second < 1 || resolution->first > 16384 || resolution->second > 16384)
+      throw Error("resolution=({}, {}): expected two integers in [1, 16384]", resolution->first, resolution->second);
+    scene.camera.width = resolution->first;
+    scene.camera.height = resolution->second;
+  }
+  // `penumbra render`'s settings for the same arguments (app/cmd_render.cpp).
+  RenderSettings settings;
+  settings.method = method;
+  settings.light_samples = spp;
+  settings.seed = seed;
+  settings.frames = frames;
+  if (params)
+    for (const auto& [key, value] : *params) {
+      const std::string k = py::str(key);
+      const nlohmann::json v = python_to_json(value, "params[" + k + "]");
+      settings.params.push_back(k + "=" + (v.is_string() ? v.get<std::string>() : v.dump()));
+    }
+  RenderResult r = run_interruptible<RenderResult>([&] {
+    ThreadLimit limit(threads);
+    return render_scene(scene, settings);
+  });
+  nlohmann::json stats = render_stats_json(scene, method, settings, r);
+  return {to_array(r.color), to_array(r.visibility), json_to_python(stats)};
+}
+
+RunSetup run_setup(const PyScene& s, int spp, int reference_spp, uint64_t seed, const std::vector<std::string>& settings) {
+  RunSetup setup;
+  setup.scene_doc = s.doc;
+  setup.scene_path = s.path;
+  setup.light_samples = spp;
+  setup.reference_samples = reference_spp;
+  setup.seed = seed;
+  for (const std::string& kv : settings) setup.apply(kv);
+  return setup;
+}
+
+}  // namespace
+}  // namespace penumbra::python
+
+PYBIND11_MODULE(_penumbra, m) {
+  using namespace penumbra;
+  using namespace penumbra::python;
+  m.doc() = "penumbra: soft shadows from area lights (docs/python.md)";
+  // penumbra.Error, a ValueError: what the command line prints as its one-line error.
+  py::register_exception<Error>(m, "Error", PyExc_ValueError);
+
+  py::class_<PyScene>(m, "Scene", "A scene: camera, area lights and meshes (docs/scene-format.md)")
+      .def_static("_from_json", &from_json_text, py::arg("text"), py::arg("base_path"))
+      .def_property_readonly("resolution", [](const PyScene& s) { return std::make_pair(s.scene.camera.width, s.scene.camera.height); })
+      .def_property_readonly("triangles", [](const PyScene& s) { return s.scene.triangle_count(); })
+      .def_property_readonly("lights", [](const PyScene& s) { return s.scene.lights.size(); })
+      .def_property_readonly("path", [](const PyScene& s) { return s.path.string(); })
+      .def("_document", [](const PyScene& s) { return s.doc.dump(); })
+      .def("__repr__", [](const PyScene& s) {
+        return "<penumbra.Scene " + s.path.string() + ": " + std::to_string(s.scene.triangle_count()) + " triangles, " +
+               std::to_string(s.scene.lights.size()) + " light(s), " + std::to_string(s.scene.camera.width) + "x" +
+               std::to_string(s.scene.camera.height) + ">";
+      });
+
+  py::class_<PyRenderResult>(m, "RenderResult", "A rendered frame: colour, visibility and statistics")
+      .def_readonly("color", &PyRenderResult::color, "H x W x 3 float32, linear RGB radiance")
+      .def_readonly("visibility", &PyRenderResult::visibility, "H x W float32: V, the fraction of the light seen")
+      .def_readonly("stats", &PyRenderResult::stats, "the --stats-json document");
+
+  m.def("load_scene", &load, py::arg("path"), "Loads and validates a scene file.");
+  m.def("methods", [] {
+    std::vector<std::string> names;
+    for (const MethodInfo* info : MethodRegistry::all()) names.push_back(info->name);
+    return names;
+  }, "The registered shadow methods' names.");
+  m.def("method_params", [](const std::string& name) {
+    const MethodInfo& info = MethodRegistry::get(name);
+    nlohmann::json out = nlohmann::json::array();
+    for (const ParamSpec& p : info.params)
+      out.push_back({{"name", p.name}, {"type", to_string(p.type)}, {"default", p.default_value}, {"doc", p.doc},
+                     {"choices", p.choices},
+                     {"min", p.min > -1e299 ? nlohmann::json(p.min) : nlohmann::json(nullptr)},
+                     {"max", p.max < 1e299 ? nlohmann::json(p.max) : nlohmann::json(nullptr)}});
+    return json_to_python(out);
+  }, py::arg("name"), "A method's parameter table: name, type, default, doc, choices, min, max.");
+  m.def("render", &render, py::arg("scene"), py::arg("method") = "reference", py::arg("spp") = 256,
+        py::arg("resolution") = py::none(), py::arg("seed") = 0, py::arg("params") = py::none(),
+        py::arg("threads") = 0, py::arg("frames") = 1,
+        "Renders `scene` with `method`: the pixels `penumbra render` writes for the same arguments.");
+  m.def("_compare", [](const PyScene& s, const std::vector<std::string>& methods, int spp, int reference_spp,
+                       uint64_t seed, const std::vector<std::string>& settings, int runs, bool equal_quality,
+                       const std::string& cache_dir) {
+    RunSetup setup = run_setup(s, spp, reference_spp, seed, settings);
+    CompareOptions options;
+    options.methods = expand_method_list(methods);
+    options.runs = runs;
+    options.equal_quality = equal_quality;
+    options.cache_dir = cache_dir;
+    options.keep_images = false;
+    Comparison c = run_interruptible<Comparison>([&] { return run_comparison(setup, options); });
+    return comparison_json(c).dump();
+  });
+  m.def("_sweep", [](const PyScene& s, const std::string& key, const std::vector<std::string>& values,
+                     const std::vector<std::string>& methods, int spp, int reference_spp, uint64_t seed,
+                     const std::vector<std::string>& settings, int runs, const std::string& cache_dir) {
+    RunSetup setup = run_setup(s, spp, reference_spp, seed, settings);
+    SweepOptions options;
+    options.key = key;
+    options.values = values;
+    options.methods = expand_method_list(methods);
+    options.runs = runs;
+    options.cache_dir = cache_dir;
+    Sweep sweep = run_interruptible<Sweep>([&] { return run_sweep(setup, options); });
+    return sweep_json(sweep).dump();
+  });
+  m.def("read_exr", [](const std::string& path, const std::string& channel) {
+    return to_array(channel.empty() ? read_image(path) : read_exr_channel(path, channel));
+  }, py::arg("path"), py::arg("channel") = "", "Reads an image (EXR, PNG) or one EXR channel as float32.");
+}
