@@ -106,6 +106,11 @@ TEST_F(Cli, RenderWritesAnImageWithSoftShadows) {
   Image img = read_image(png.string());
   EXPECT_EQ(img.width(), 16);
   EXPECT_EQ(img.height(), 8);
+  // N alone is N x N, as compare and sweep take it.
+  ASSERT_EQ(run(fmt::format("render {} -m hard -o {} --resolution 12 --quiet", scene, png.string())).exit_code, 0);
+  img = read_image(png.string());
+  EXPECT_EQ(img.width(), 12);
+  EXPECT_EQ(img.height(), 12);
 }
 
 TEST_F(Cli, RenderAccumulatesFramesAndBendsNormals) {

@@ -1,4 +1,4 @@
-// penumbra render SCENE [-m METHOD] [--spp N] [--frames K] [--resolution WxH] [-o OUT] ...
+// penumbra render SCENE [-m METHOD] [--spp N] [--frames K] [--resolution N|WxH] [-o OUT] ...
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -77,7 +77,7 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
   cmd->add_option("-m,--method", o->method, "shadow method (see `penumbra methods`)")->capture_default_str();
   cmd->add_option("--spp", o->spp, "light samples per shading point, for every method that samples the light")
       ->capture_default_str()->check(CLI::Range(1, 1 << 20));
-  cmd->add_option("--resolution", o->resolution, "image size WxH (overrides the scene's camera)");
+  cmd->add_option("--resolution", o->resolution, "image size N or WxH (overrides the scene's camera)");
   cmd->add_option("--pixel-samples", o->pixel_samples, "jittered camera samples per pixel (overrides the scene)")
       ->check(CLI::Range(1, 1024));
   cmd->add_option("-o,--output", o->output, "output image, .png (sRGB) or .exr (linear, with a V channel)");

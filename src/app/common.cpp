@@ -4,7 +4,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <regex>
 
 #include "penumbra/core/error.h"
 
@@ -13,14 +12,9 @@ namespace penumbra::app {
 namespace fs = std::filesystem;
 
 void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples) {
-  if (!resolution.empty()) {
-    std::smatch m;
-    static const std::regex re("^([0-9]{1,5})x([0-9]{1,5})$");
-    if (!std::regex_match(resolution, m, re) || std::stoi(m[1]) < 1 || std::stoi(m[2]) < 1)
-      throw Error("--resolution {}: expected WxH with positive integers, e.g. 512x512", resolution);
-    scene.camera.width = std::stoi(m[1]);
-    scene.camera.height = std::stoi(m[2]);
-  }
+  if (!resolution.empty() &&
+      !parse_resolution(resolution, &scene.camera.width, &scene.camera.height))
+    throw Error("--resolution {}: expected N or WxH with sides in [1, 16384], e.g. 256 or 512x384", resolution);
   if (pixel_samples > 0) scene.camera.samples_per_pixel = pixel_samples;
 }
 

@@ -11,7 +11,7 @@
 
 namespace penumbra::app {
 
-// --resolution WxH and --pixel-samples N applied to the scene's camera (0/empty: keep).
+// --resolution N or WxH and --pixel-samples N applied to the scene's camera (0/empty: keep).
 void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples);
 // Checks an output path before any work: a known extension and an existing folder.
 void check_output_path(const std::string& path, const std::vector<std::string>& extensions);

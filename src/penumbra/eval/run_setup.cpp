@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
-#include <regex>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/interrupt.h"
@@ -181,11 +180,9 @@ void RunSetup::apply(const std::string& key, const std::string& value) {
   } else if (key == "seed") {
     seed = static_cast<uint64_t>(parse_int(key, value, 0, (1ll << 53)));
   } else if (key == "resolution") {
-    std::smatch m;
-    static const std::regex wxh("^([0-9]{1,5})(x([0-9]{1,5}))?$");
-    if (!std::regex_match(value, m, wxh)) throw Error("{}={}: expected N or WxH, e.g. 256 or 512x384", key, value);
-    int w = std::stoi(m[1]), h = m[3].matched ? std::stoi(m[3]) : w;
-    if (w < 1 || h < 1 || w > 16384 || h > 16384) throw Error("{}={}: sizes must lie in [1, 16384]", key, value);
+    int w = 0, h = 0;
+    if (!parse_resolution(value, &w, &h))
+      throw Error("{}={}: expected N or WxH with sides in [1, 16384], e.g. 256 or 512x384", key, value);
     scene_doc["camera"]["resolution"] = {w, h};
   } else if (key == "pixel_samples") {
     scene_doc["camera"]["samples_per_pixel"] = parse_int(key, value, 1, 65536);

@@ -67,7 +67,9 @@ TEST(RunSetup, BadValuesNameTheKey) {
   RunSetup s = three_lights();
   EXPECT_EQ(error_of([&] { s.apply("spp", "abc"); }), "spp=abc: expected an integer in [1, 1048576]");
   EXPECT_EQ(error_of([&] { s.apply("spp", "2.5"); }), "spp=2.5: expected an integer in [1, 1048576]");
-  EXPECT_EQ(error_of([&] { s.apply("resolution", "12y4"); }), "resolution=12y4: expected N or WxH, e.g. 256 or 512x384");
+  EXPECT_EQ(error_of([&] { s.apply("resolution", "12y4"); }),
+            "resolution=12y4: expected N or WxH with sides in [1, 16384], e.g. 256 or 512x384");
+  EXPECT_NE(error_of([&] { s.apply("resolution", "20000"); }).find("resolution=20000: expected"), std::string::npos);
   EXPECT_EQ(error_of([&] { s.apply("light.size_scale", "-1"); }), "light.size_scale=-1: expected a positive number");
   EXPECT_EQ(error_of([&] { s.apply("light.colour", "1"); }),
             "light.colour: unknown light setting (light.size_scale, light.size, light.radius)");

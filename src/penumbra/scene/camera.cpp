@@ -4,6 +4,31 @@
 
 namespace penumbra {
 
+bool parse_resolution(const std::string& text, int* width, int* height) {
+  // Digits, then optionally 'x' and digits: at most 5 digits a side, so no overflow.
+  auto side = [](const std::string& t, int* out) {
+    if (t.empty() || t.size() > 5) return false;
+    int v = 0;
+    for (char c : t) {
+      if (c < '0' || c > '9') return false;
+      v = v * 10 + (c - '0');
+    }
+    *out = v;
+    return v >= 1 && v <= 16384;
+  };
+  const size_t x = text.find('x');
+  int w = 0, h = 0;
+  if (x == std::string::npos) {
+    if (!side(text, &w)) return false;
+    h = w;
+  } else if (!side(text.substr(0, x), &w) || !side(text.substr(x + 1), &h)) {
+    return false;
+  }
+  *width = w;
+  *height = h;
+  return true;
+}
+
 Frame Camera::frame() const {
   Vec3f n = normalize(eye - target);  // backward
   Vec3f s = cross(up, n);             // right

@@ -1,6 +1,8 @@
 // A pinhole camera: eye, target, up, vertical field of view, resolution.
 #pragma once
 
+#include <string>
+
 #include "penumbra/core/math.h"
 
 namespace penumbra {
@@ -16,6 +18,10 @@ struct Camera {
   Vec3f ray_direction(float px, float py) const;
   Frame frame() const;  // s = right, t = up, n = backward (-view direction)
 };
+
+// An image size as the command line and the viewer take it: "N" (N x N) or "WxH", each
+// side in [1, 16384] (a scene file's camera.resolution range). False for anything else.
+bool parse_resolution(const std::string& text, int* width, int* height);
 
 // Camera::ray_direction with the frame and the field-of-view scale computed once, for loops
 // over every pixel (the camera pass): the same arithmetic, so the same directions bit for bit.

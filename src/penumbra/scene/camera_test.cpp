@@ -71,4 +71,18 @@ TEST(Camera, RowOfDirectionsEqualsOneAtATime) {
 }
 
 }  // namespace
+TEST(Camera, ResolutionsAreNOrWxHWithSidesUpTo16384) {
+  int w = 0, h = 0;
+  EXPECT_TRUE(parse_resolution("32", &w, &h));
+  EXPECT_EQ(w, 32);
+  EXPECT_EQ(h, 32);
+  EXPECT_TRUE(parse_resolution("640x480", &w, &h));
+  EXPECT_EQ(w, 640);
+  EXPECT_EQ(h, 480);
+  EXPECT_TRUE(parse_resolution("16384x1", &w, &h));
+  for (const char* bad : {"", "0", "x", "10x", "x10", "16385", "2x16385", "99999999999", "-5", "5x-5", "5 x 5", "5X5", "1e3"})
+    EXPECT_FALSE(parse_resolution(bad, &w, &h)) << bad;
+  EXPECT_EQ(w, 16384);  // untouched by the refused ones
+}
+
 }  // namespace penumbra

@@ -148,11 +148,10 @@ FrameRequest parse_frame_request(const std::multimap<std::string, std::string>& 
         throw Error("param={}: expected KEY=VALUE", abbreviate_json(json(value)));
       r.params.push_back(value);
     } else if (key == "resolution") {
-      // WxH as --resolution and a scene file's camera.resolution take it: [1, 16384] each.
-      const size_t x = value.find('x');
-      if (x == std::string::npos) throw Error("resolution={}: expected WxH, e.g. 512x512", abbreviate_json(json(value)));
-      r.width = static_cast<int>(parse_query_integer("resolution width", value.substr(0, x), 1, 16384));
-      r.height = static_cast<int>(parse_query_integer("resolution height", value.substr(x + 1), 1, 16384));
+      // As --resolution takes it.
+      if (!parse_resolution(value, &r.width, &r.height))
+        throw Error("resolution={}: expected N or WxH with sides in [1, 16384], e.g. 256 or 512x384",
+                    abbreviate_json(json(value)));
     } else if (key == "format") {
       if (value != "png" && value != "exr") throw Error("format={}: expected png or exr", abbreviate_json(json(value)));
       r.format = value;

@@ -101,6 +101,9 @@ TEST(ViewerRequests, FrameQueriesTakeTheSettingsAsDefaults) {
   EXPECT_EQ(r.params, (std::vector<std::string>{"bias=0.1", "x=2"}));
   EXPECT_EQ(r.seed, 7u);
   EXPECT_THROW(parse_frame_request({{"resolution", "30x"}}, s), Error);
+  r = parse_frame_request({{"resolution", "24"}}, s);
+  EXPECT_EQ(r.width, 24);
+  EXPECT_EQ(r.height, 24);
   EXPECT_THROW(parse_frame_request({{"resolution", "16385x2"}}, s), Error);
   EXPECT_THROW(parse_frame_request({{"seed", "-1"}}, s), Error);
 }

@@ -212,7 +212,7 @@ TEST_F(Viewer, BadRequestsGet400WithAOneLineErrorAndChangeNothing) {
       {"GET", "/api/frame?frames=99999999999999999999", "", 400, "frames"},
       {"GET", "/api/frame?format=jpg", "", 400, "format"},
       {"GET", "/api/frame?resolution=0x10", "", 400, "resolution"},
-      {"GET", "/api/frame?resolution=10", "", 400, "resolution"},
+      {"GET", "/api/frame?resolution=10x", "", 400, "resolution"},
       {"GET", "/api/frame?param=nokey", "", 400, "param"},
       {"GET", "/api/frame?param=nope=1&method=pcss", "", 400, "nope"},
       {"GET", "/api/frame?colour=red", "", 400, "unknown query key"},
