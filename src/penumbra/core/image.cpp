@@ -2,6 +2,7 @@
 
 #include "penumbra/core/file_util.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -91,17 +92,23 @@ void write_png(const std::string& path, const Image& img, bool linear) {
 
 }  // namespace
 
+std::vector<unsigned char> to_8bit(const Image& img, int channels, bool linear) {
+  std::vector<unsigned char> bytes(img.pixel_count() * channels, 255);
+  const int colours = std::min(channels, 3);
+  for (size_t i = 0; i < img.pixel_count(); ++i)
+    for (int c = 0; c < colours; ++c) {
+      float v = img.pixel(i)[img.channels() >= 3 ? c : 0];
+      float e = linear ? clamp01(v) : linear_to_srgb(v);
+      bytes[i * channels + c] = static_cast<unsigned char>(std::lround(e * 255.0f));
+    }
+  return bytes;
+}
+
 std::vector<unsigned char> encode_png(const Image& img, bool linear) {
   const int w = img.width(), h = img.height();
   if (w <= 0 || h <= 0) throw Error("encode_png: empty image");
   const int comp = img.channels() >= 3 ? 3 : 1;
-  std::vector<unsigned char> bytes(static_cast<size_t>(w) * h * comp);
-  for (size_t i = 0; i < img.pixel_count(); ++i)
-    for (int c = 0; c < comp; ++c) {
-      float v = img.pixel(i)[c];
-      float e = linear ? clamp01(v) : linear_to_srgb(v);
-      bytes[i * comp + c] = static_cast<unsigned char>(std::lround(e * 255.0f));
-    }
+  const std::vector<unsigned char> bytes = to_8bit(img, comp, linear);
   std::vector<unsigned char> png;
   auto sink = [](void* ctx, void* data, int size) {
     auto* out = static_cast<std::vector<unsigned char>*>(ctx);

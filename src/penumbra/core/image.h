@@ -57,6 +57,9 @@ void write_image(const std::string& path, const Image& rgb_or_grey,
 // and pass through the sRGB curve unless `linear` (then they are written as they are,
 // clamped to [0,1]): the bytes write_image() writes to a .png file.
 std::vector<unsigned char> encode_png(const Image& image, bool linear = false);
+// The 8-bit values encode_png stores: sRGB-encoded (clamped to [0,1] when `linear`),
+// `channels` per pixel: 1 (the first channel), 3 (RGB; grey repeated) or 4 (RGB, alpha 255).
+std::vector<unsigned char> to_8bit(const Image& image, int channels, bool linear = false);
 
 // Reads .exr (the R,G,B channels, or Y/V when it has one channel) or .png/.jpg (sRGB
 // decoded to linear unless `linear_png`). Errors name the file.

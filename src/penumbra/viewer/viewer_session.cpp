@@ -60,19 +60,7 @@ Image scaled(const Image& sum, int frames) {
 
 }  // namespace
 
-std::vector<uint8_t> to_rgba8(const Image& image) {
-  std::vector<uint8_t> out(image.pixel_count() * 4, 255);
-  const int c = image.channels();
-  for (size_t i = 0; i < image.pixel_count(); ++i) {
-    const float* p = image.pixel(i);
-    for (int k = 0; k < 3; ++k) {
-      // encode_png's arithmetic (core/image.cpp), so the page shows the PNG's bytes.
-      const float e = linear_to_srgb(p[c >= 3 ? k : 0]);
-      out[i * 4 + k] = static_cast<uint8_t>(std::lround(e * 255.0f));
-    }
-  }
-  return out;
-}
+std::vector<uint8_t> to_rgba8(const Image& image) { return to_8bit(image, 4); }
 
 Image ViewerSession::Accumulation::mean_color() const { return scaled(color_sum, frames_done); }
 Image ViewerSession::Accumulation::mean_visibility() const { return scaled(vis_sum, frames_done); }
@@ -511,8 +499,7 @@ void ViewerSession::run_preview(const Snapshot& s, const Job& job) {
   set_status({{"phase", "preview"}, {"method", method}, {"frame", 0}, {"frames", 0}, {"error", ""}});
   float& scale = preview_scale_.try_emplace(method, 1.0f).first->second;
   const float used = s.settings.preview_scale > 0 ? s.settings.preview_scale : scale;
-  Snapshot scaled_view = s;
-  Camera& cam = scaled_view.view.parsed_camera;
+  Camera cam = s.view.parsed_camera;
   cam.width = std::max(16, static_cast<int>(std::lround(cam.width * used)));
   cam.height = std::max(16, static_cast<int>(std::lround(cam.height * used)));
   Renderer& r = renderer(method, s);
