@@ -12,6 +12,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/eval/comparison.h"
 #include "penumbra/eval/report_util.h"
+#include "penumbra/scene/json_reader.h"
 
 namespace penumbra::app {
 namespace {
@@ -33,6 +34,8 @@ struct CompareCliOptions {
   bool no_equal_quality = false;
   int threads = 0;
   bool quiet = false;
+  std::string dask;             // a Dask scheduler's address: the jobs run there
+  std::string meshes = "ship";  // with --dask: ship the mesh files, or read them from a shared path
 };
 
 // A few columns of the table on stdout, for a terminal user.
@@ -81,12 +84,32 @@ int run_compare(const CompareCliOptions& o) {
   std::string out = o.output.empty() ? fmt::format("compare-{}", std::filesystem::path(o.scene).stem().string()) : o.output;
 
   make_output_folder(out);  // before any render: a bad -o fails at once
-  Comparison c = run_comparison(setup, co);
-  c.command = command_line();
-  ReportOptions ro;
-  ro.heatmap_scale = o.heatmap_scale;
-  ro.write_images = !o.no_images;
-  write_comparison(c, out, ro);
+  Comparison c;
+  if (!o.dask.empty()) {
+    // The same comparison as jobs on the cluster (docs/distributed.md); penumbra.distributed
+    // writes the same report, read back here for the summary.
+    setup.check_plain_params(co.methods);
+    const nlohmann::json request = {{"command", "compare"},
+                                    {"setup", run_setup_json(setup)},
+                                    {"methods", co.methods},
+                                    {"runs", co.runs},
+                                    {"equal_quality", co.equal_quality},
+                                    {"cache_dir", co.cache_dir.string()},
+                                    {"meshes", o.meshes},
+                                    {"output", std::filesystem::absolute(out).string()},
+                                    {"heatmap_scale", o.heatmap_scale},
+                                    {"write_images", !o.no_images},
+                                    {"command_line", command_line()}};
+    if (const int code = run_on_dask(request, o.dask); code != 0) return code;
+    c = comparison_from_json(read_json_file(std::filesystem::path(out) / "results.json"));
+  } else {
+    c = run_comparison(setup, co);
+    c.command = command_line();
+    ReportOptions ro;
+    ro.heatmap_scale = o.heatmap_scale;
+    ro.write_images = !o.no_images;
+    write_comparison(c, out, ro);
+  }
   if (!o.quiet) {
     print_summary(c);
     int failed = 0;
@@ -125,6 +148,10 @@ const CommandRegistration registration("compare", 50, [](CLI::App& app) {
                 "do not render the reference ladder (1, 2, 4, ... light samples) for the equal-quality columns");
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
+  cmd->add_option("--dask", o->dask,
+                  "run the jobs on the Dask scheduler at tcp://HOST:PORT (docs/distributed.md; needs the Python module)");
+  cmd->add_option("--meshes", o->meshes, "with --dask: ship the mesh files to the workers, or read them from a shared path")
+      ->check(CLI::IsMember({"ship", "shared"}))->capture_default_str();
   return [o] { return run_compare(*o); };
 });
 

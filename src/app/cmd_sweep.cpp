@@ -11,6 +11,7 @@
 #include "app/common.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/eval/sweep.h"
+#include "penumbra/scene/json_reader.h"
 
 namespace penumbra::app {
 namespace {
@@ -34,6 +35,8 @@ struct SweepCliOptions {
   bool no_cache = false;
   int threads = 0;
   bool quiet = false;
+  std::string dask;             // a Dask scheduler's address: the jobs run there
+  std::string meshes = "ship";  // with --dask: ship the mesh files, or read them from a shared path
 };
 
 AxisScale axis(const std::string& s) {
@@ -72,13 +75,45 @@ int run_sweep_cli(const SweepCliOptions& o) {
   if (o.pages) so.pages_dir = std::filesystem::path(out) / "pages";
 
   make_output_folder(out);  // before any render: a bad -o fails at once
-  Sweep s = run_sweep(setup, so);
-  s.command = command_line();
   SweepPlotOptions po;
   po.x_scale = axis(o.x_scale);
   po.y_scale = axis(o.y_scale);
   po.extra_plots = o.plots;
-  auto plots = write_sweep(s, out, po);
+  Sweep s;
+  std::vector<std::filesystem::path> plots;
+  if (!o.dask.empty()) {
+    // Every value's comparison as jobs on the cluster, all at once (docs/distributed.md);
+    // penumbra.distributed writes the same files, read back here for the summary.
+    if (o.pages) throw Error("--pages: not available with --dask (the pages' images stay on the workers)");
+    sweep_setups(setup, so);  // a bad value fails here, before the cluster is asked
+    const nlohmann::json request = {{"command", "sweep"},
+                                    {"setup", run_setup_json(setup)},
+                                    {"key", so.key},
+                                    {"values", so.values},
+                                    {"methods", so.methods},
+                                    {"ground_truth", so.ground_truth},
+                                    {"runs", so.runs},
+                                    {"warmup_runs", so.warmup_runs},
+                                    {"cache_dir", so.cache_dir.string()},
+                                    {"meshes", o.meshes},
+                                    {"output", std::filesystem::absolute(out).string()},
+                                    {"plots", o.plots},
+                                    {"x_scale", o.x_scale},
+                                    {"y_scale", o.y_scale},
+                                    {"command_line", command_line()}};
+    if (const int code = run_on_dask(request, o.dask); code != 0) return code;
+    const nlohmann::json j = read_json_file(std::filesystem::path(out) / "sweep.json");
+    s = sweep_header(setup, so);
+    s.wall_ms = j.at("wall_ms").get<double>();
+    for (size_t i = 0; i < j.at("comparisons").size(); ++i)
+      add_sweep_value(s, i, comparison_from_json(j["comparisons"][i]), so);
+    for (const auto& entry : std::filesystem::directory_iterator(out))
+      if (entry.path().extension() == ".svg") plots.push_back(entry.path());
+  } else {
+    s = run_sweep(setup, so);
+    s.command = command_line();
+    plots = write_sweep(s, out, po);
+  }
   if (!o.quiet) {
     std::printf("%-12s %-20s %11s %11s %14s\n", so.key.c_str(), "method", "mean|dV|", "shadow ms", "rays");
     for (const SweepRow& r : s.rows) {
@@ -131,6 +166,10 @@ const CommandRegistration registration("sweep", 60, [](CLI::App& app) {
   cmd->add_flag("--no-cache", o->no_cache, "always render the ground truth, store nothing");
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
+  cmd->add_option("--dask", o->dask,
+                  "run the jobs on the Dask scheduler at tcp://HOST:PORT (docs/distributed.md; needs the Python module)");
+  cmd->add_option("--meshes", o->meshes, "with --dask: ship the mesh files to the workers, or read them from a shared path")
+      ->check(CLI::IsMember({"ship", "shared"}))->capture_default_str();
   return [o] { return run_sweep_cli(*o); };
 });
 

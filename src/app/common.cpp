@@ -1,11 +1,20 @@
 #include "app/common.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <iterator>
+#include <regex>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/file_util.h"
 
 namespace penumbra::app {
 
@@ -71,6 +80,76 @@ uint64_t parse_memory_size(const std::string& text, const std::string& option) {
   if (used == 0 || !(value > 0) || value * scale > 1.8e19)
     throw Error("{} {}: expected a size in bytes, or with K, M, G or T (e.g. 8G)", option, text);
   return static_cast<uint64_t>(value * scale);
+}
+
+namespace {
+
+// The interpreter and the folder holding the `penumbra` package: $PENUMBRA_PYTHON and
+// $PENUMBRA_PYTHONPATH, else what CMake built (the build tree's python/ folder while it
+// exists, else the installed package's folder).
+std::pair<std::string, std::string> python_and_path() {
+#ifdef PENUMBRA_PYTHON_EXECUTABLE
+  std::string python = PENUMBRA_PYTHON_EXECUTABLE, path = PENUMBRA_PYTHON_BUILD_DIR;
+  if (!fs::exists(fs::path(path) / "penumbra" / "distributed.py")) path = PENUMBRA_PYTHON_INSTALL_PATH;
+#else
+  std::string python, path;
+#endif
+  if (const char* p = std::getenv("PENUMBRA_PYTHON"); p && *p) python = p;
+  if (const char* p = std::getenv("PENUMBRA_PYTHONPATH"); p && *p) path = p;
+  if (python.empty())
+    throw Error("--dask: this penumbra was built without its Python module (cmake -DPENUMBRA_BUILD_PYTHON=ON), "
+                "or set PENUMBRA_PYTHON and PENUMBRA_PYTHONPATH");
+  return {python, path};
+}
+
+}  // namespace
+
+int run_on_dask(nlohmann::json request, const std::string& address,
+                const std::function<void(const nlohmann::json&)>& on_success) {
+  static const std::regex kAddress(R"((tcp|tls)://[A-Za-z0-9._\-\[\]:]+:[0-9]{1,5})");
+  if (!std::regex_match(address, kAddress))
+    throw Error("--dask {}: expected the scheduler's address, tcp://HOST:PORT", address);
+  const auto [python, path] = python_and_path();
+  request["scheduler"] = address;
+  request["progress"] = ::isatty(2) == 1;
+  // The request goes through a private temporary folder, removed whatever happens.
+  char folder_template[] = "/tmp/penumbra-dask-XXXXXX";
+  if (!::mkdtemp(folder_template)) throw Error("--dask: cannot create a temporary folder in /tmp");
+  const fs::path folder = folder_template;
+  struct Remove {
+    fs::path p;
+    ~Remove() {
+      std::error_code ec;
+      fs::remove_all(p, ec);
+    }
+  } remove{folder};
+  const fs::path request_file = folder / "request.json";
+  if (request.contains("frame_out")) request["frame_out"] = (folder / "frame.exr").string();
+  if (request.contains("stats_out")) request["stats_out"] = (folder / "stats.json").string();
+  write_text_file_atomic(request_file, request.dump());
+
+  std::string pythonpath = path;
+  if (const char* old = std::getenv("PYTHONPATH"); old && *old) pythonpath += std::string(":") + old;
+  std::vector<std::string> env_strings = {"PYTHONPATH=" + pythonpath};
+  for (char** e = environ; *e; ++e)
+    if (std::string(*e).rfind("PYTHONPATH=", 0) != 0) env_strings.emplace_back(*e);
+  std::vector<char*> env;
+  for (std::string& e : env_strings) env.push_back(e.data());
+  env.push_back(nullptr);
+  std::vector<std::string> args = {python, "-m", "penumbra.distributed", "--request", request_file.string()};
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (const int err = ::posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv.data(), env.data()); err != 0)
+    throw Error("--dask: cannot run {}: {}", python, std::strerror(err));
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  if (code != 0) return code;
+  if (on_success) on_success(request);  // reads the outputs in `folder` before it goes
+  return 0;
 }
 
 }  // namespace penumbra::app

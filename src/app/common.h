@@ -1,6 +1,7 @@
 // Helpers shared by the CLI subcommands.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -22,5 +23,16 @@ uint64_t parse_memory_size(const std::string& text, const std::string& option);
 void make_output_folder(const std::string& dir);
 // The command line of this process, as typed (arguments with spaces quoted), for reports.
 std::string command_line();
+
+// `--dask tcp://HOST:PORT` (compare, sweep, render): runs `request` (a JSON object: "command",
+// "setup" (run_setup_json), the command's options and outputs) on that Dask scheduler through
+// the Python package, `python3 -m penumbra.distributed --request FILE` (docs/distributed.md),
+// and returns its exit status (it prints its own one-line error). Outputs it hands back (the
+// request's "frame_out" and "stats_out", given any value, become files in a temporary folder)
+// are read by `on_success`, called with the request as sent, before that folder is removed.
+// Throws an Error when this penumbra was built without the Python module or the address is
+// not tcp://HOST:PORT.
+int run_on_dask(nlohmann::json request, const std::string& address,
+                const std::function<void(const nlohmann::json&)>& on_success = {});
 
 }  // namespace penumbra::app

@@ -23,6 +23,7 @@
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/eval/comparison.h"
+#include "penumbra/eval/reference_cache.h"
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/eval/sweep.h"
 #include "penumbra/render/renderer.h"
@@ -112,7 +113,8 @@ struct PyRenderResult {
 };
 
 PyRenderResult render(const PyScene& s, const std::string& method, int spp, std::optional<std::pair<int, int>> resolution,
-                      uint64_t seed, const std::optional<py::dict>& params, int threads, int frames) {
+                      uint64_t seed, const std::optional<py::dict>& params, int threads, int frames,
+                      std::optional<std::tuple<int, int, int, int>> crop) {
   MethodRegistry::get(method);  // throws, listing the registered methods, for an unknown one
   if (spp < 1 || spp > (1 << 20)) throw Error("spp={}: expected an integer in [1, 1048576]", spp);
   if (frames < 1 || frames > 100000) throw Error("frames={}: expected an integer in [1, 100000]", frames);
@@ -130,6 +132,10 @@ PyRenderResult render(const PyScene& s, const std::string& method, int spp, std:
   settings.light_samples = spp;
   settings.seed = seed;
   settings.frames = frames;
+  if (crop) {
+    const auto [x0, y0, x1, y1] = *crop;
+    settings.crop = PixelWindow{x0, y0, x1, y1};
+  }
   if (params)
     for (const auto& [key, value] : *params) {
       const std::string k = py::str(key);
@@ -153,6 +159,43 @@ RunSetup run_setup(const PyScene& s, int spp, int reference_spp, uint64_t seed, 
   setup.seed = seed;
   for (const std::string& kv : settings) setup.apply(kv);
   return setup;
+}
+
+// --- The steps penumbra.distributed runs as jobs (docs/distributed.md). Everything that
+// crosses between the client and the workers is plain Python data: JSON text and NumPy
+// arrays, which Dask pickles cheaply; no C++ object is pickled.
+
+Image from_array(const py::array_t<float, py::array::c_style | py::array::forcecast>& a, const std::string& what) {
+  if (a.ndim() != 2 && a.ndim() != 3) throw Error("{}: expected an H x W or H x W x C array", what);
+  const int h = static_cast<int>(a.shape(0)), w = static_cast<int>(a.shape(1));
+  const int c = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
+  Image image(w, h, c, 0.0f);
+  std::copy(a.data(), a.data() + static_cast<size_t>(w) * h * c, image.data().begin());
+  return image;
+}
+
+RunSetup setup_from_text(const std::string& text) { return run_setup_from_json(parse_json_text(text, "run setup")); }
+
+// A ground truth as (JSON text, colour, V), and back.
+py::tuple truth_to_python(const GroundTruth& t) {
+  return py::make_tuple(ground_truth_json(t).dump(), to_array(t.color), to_array(t.visibility));
+}
+GroundTruth truth_from_python(const py::tuple& t) {
+  if (t.size() != 3) throw Error("ground truth: expected (json, color, visibility)");
+  GroundTruth truth = ground_truth_from_json(nlohmann::json::parse(t[0].cast<std::string>()));
+  truth.color = from_array(t[1].cast<py::array_t<float, py::array::c_style | py::array::forcecast>>(), "truth color");
+  truth.visibility =
+      from_array(t[2].cast<py::array_t<float, py::array::c_style | py::array::forcecast>>(), "truth visibility");
+  return truth;
+}
+
+CompareOptions compare_options(int runs, int warmup_runs, bool equal_quality, const std::string& cache_dir) {
+  CompareOptions o;
+  o.runs = runs;
+  o.warmup_runs = warmup_runs;
+  o.equal_quality = equal_quality;
+  o.cache_dir = cache_dir;
+  return o;
 }
 
 }  // namespace
@@ -201,8 +244,10 @@ PYBIND11_MODULE(_penumbra, m) {
   }, py::arg("name"), "A method's parameter table: name, type, default, doc, choices, min, max.");
   m.def("render", &render, py::arg("scene"), py::arg("method") = "reference", py::arg("spp") = 256,
         py::arg("resolution") = py::none(), py::arg("seed") = 0, py::arg("params") = py::none(),
-        py::arg("threads") = 0, py::arg("frames") = 1,
-        "Renders `scene` with `method`: the pixels `penumbra render` writes for the same arguments.");
+        py::arg("threads") = 0, py::arg("frames") = 1, py::arg("crop") = py::none(),
+        "Renders `scene` with `method`: the pixels `penumbra render` writes for the same arguments. "
+        "crop=(x0, y0, x1, y1): only those pixels (half-open), the images that window's size, each "
+        "pixel equal to the whole frame's there.");
   m.def("_compare", [](const PyScene& s, const std::vector<std::string>& methods, int spp, int reference_spp,
                        uint64_t seed, const std::vector<std::string>& settings, int runs, bool equal_quality,
                        const std::string& cache_dir) {
@@ -228,6 +273,153 @@ PYBIND11_MODULE(_penumbra, m) {
     options.cache_dir = cache_dir;
     Sweep sweep = run_interruptible<Sweep>([&] { return run_sweep(setup, options); });
     return sweep_json(sweep).dump();
+  });
+  // --- penumbra.distributed's jobs. A run setup is the JSON text of run_setup_json().
+  m.def("_run_setup", [](const PyScene& s, int spp, int reference_spp, uint64_t seed,
+                         const std::vector<std::string>& settings) {
+    return run_setup_json(run_setup(s, spp, reference_spp, seed, settings)).dump();
+  });
+  m.def("_expand_methods", [](const std::vector<std::string>& names) { return expand_method_list(names); });
+  m.def("_check_methods", [](const std::string& setup, const std::vector<std::string>& methods) {
+    setup_from_text(setup).check_plain_params(methods);
+  });
+  m.def("_sweep_setups", [](const std::string& base, const std::string& key, const std::vector<std::string>& values,
+                            const std::vector<std::string>& methods) {
+    SweepOptions o;
+    o.key = key;
+    o.values = values;
+    o.methods = methods;
+    sweep_header(setup_from_text(base), o);  // the same checks as run_sweep
+    std::vector<std::string> out;
+    for (const RunSetup& setup : sweep_setups(setup_from_text(base), o)) out.push_back(run_setup_json(setup).dump());
+    return out;
+  });
+  m.def("_scene_of_setup", [](const std::string& setup) {
+    const RunSetup r = setup_from_text(setup);
+    PyScene s;
+    s.doc = r.scene_doc;
+    s.path = r.scene_path;
+    s.scene = r.load();
+    return s;
+  });
+  m.def("_ground_truth", [](const std::string& setup_text, const std::string& cache_dir, int threads) {
+    const RunSetup setup = setup_from_text(setup_text);
+    GroundTruth t = run_interruptible<GroundTruth>([&] {
+      ThreadLimit limit(threads);
+      return ground_truth(setup, setup.load(), cache_dir);
+    });
+    return truth_to_python(t);
+  });
+  m.def("_compare_method", [](const std::string& setup_text, const std::string& label, const py::object& truth,
+                              int runs, int warmup_runs, bool keep_images, int threads) {
+    const RunSetup setup = setup_from_text(setup_text);
+    std::optional<GroundTruth> t;
+    if (!truth.is_none()) t = truth_from_python(truth.cast<py::tuple>());
+    CompareOptions options = compare_options(runs, warmup_runs, false, "");
+    options.keep_images = keep_images;
+    MethodRun r = run_interruptible<MethodRun>([&] {
+      ThreadLimit limit(threads);
+      return compare_method(setup, setup.load(), label, t ? &*t : nullptr, options);
+    });
+    py::object color = py::none(), vis = py::none();
+    if (!r.color.empty()) color = to_array(r.color);
+    if (!r.visibility.empty()) vis = to_array(r.visibility);
+    return py::make_tuple(method_run_json(r).dump(), color, vis);
+  });
+  // The reference ladder for the methods' entries (JSON texts), or None.
+  m.def("_comparison_ladder", [](const std::string& setup_text, const py::tuple& truth,
+                                 const std::vector<std::string>& runs, int timed_runs, int warmup_runs,
+                                 const std::string& cache_dir, int threads) -> py::object {
+    const RunSetup setup = setup_from_text(setup_text);
+    Comparison c;
+    c.truth = truth_from_python(truth);
+    c.has_ground_truth = true;
+    for (const std::string& r : runs) c.runs.push_back(method_run_from_json(nlohmann::json::parse(r)));
+    const CompareOptions options = compare_options(timed_runs, warmup_runs, true, cache_dir);
+    std::optional<ReferenceLadder> ladder = run_interruptible<std::optional<ReferenceLadder>>([&] {
+      ThreadLimit limit(threads);
+      return comparison_ladder(c, setup, setup.load(), options);
+    });
+    if (!ladder) return py::none();
+    return py::str(reference_ladder_json(*ladder).dump());
+  });
+  // results.json from the parts: the header of the setup, the ground truth's entry (or
+  // None), the methods' entries in order, the ladder (or None); speed-ups as run_comparison.
+  m.def("_assemble_comparison", [](const std::string& setup_text, const py::object& truth,
+                                   const std::vector<std::string>& runs, const py::object& ladder, double wall_ms,
+                                   const std::string& command) {
+    const RunSetup setup = setup_from_text(setup_text);
+    Comparison c = comparison_header(setup, setup.load());
+    if (!truth.is_none()) {
+      c.truth = ground_truth_from_json(nlohmann::json::parse(truth.cast<std::string>()));
+      c.has_ground_truth = true;
+    }
+    for (const std::string& r : runs) c.runs.push_back(method_run_from_json(nlohmann::json::parse(r)));
+    if (!ladder.is_none()) apply_ladder(c, reference_ladder_from_json(nlohmann::json::parse(ladder.cast<std::string>())));
+    apply_speedups(c);
+    c.wall_ms = wall_ms;
+    c.command = command;
+    return comparison_json(c).dump();
+  });
+  // Writes `penumbra compare`'s report (DIR/index.html, results.json, results.csv, images/)
+  // from results.json and the images: truth (colour, V) or None; method label -> (colour, V).
+  m.def("_write_comparison", [](const std::string& results, const py::object& truth_images, const py::dict& images,
+                                const std::string& dir, float heatmap_scale, bool write_images) {
+    Comparison c = comparison_from_json(nlohmann::json::parse(results));
+    using Array = py::array_t<float, py::array::c_style | py::array::forcecast>;
+    if (!truth_images.is_none()) {
+      const py::tuple t = truth_images.cast<py::tuple>();
+      c.truth.color = from_array(t[0].cast<Array>(), "truth color");
+      c.truth.visibility = from_array(t[1].cast<Array>(), "truth visibility");
+    }
+    for (MethodRun& r : c.runs) {
+      if (!images.contains(r.method)) continue;
+      const py::tuple t = images[py::str(r.method)].cast<py::tuple>();
+      r.color = from_array(t[0].cast<Array>(), r.method + " color");
+      r.visibility = from_array(t[1].cast<Array>(), r.method + " visibility");
+    }
+    ReportOptions ro;
+    ro.heatmap_scale = heatmap_scale;
+    ro.write_images = write_images;
+    py::gil_scoped_release release;
+    write_comparison(c, dir, ro);
+  });
+  // sweep.json from each value's results.json (in the order of the values); with pages_dir,
+  // also each value's comparison page (pages: value index -> images as for _write_comparison).
+  m.def("_assemble_sweep", [](const std::string& base, const std::string& key, const std::vector<std::string>& values,
+                              const std::vector<std::string>& methods, bool ground_truth,
+                              const std::vector<std::string>& comparisons, double wall_ms, const std::string& command,
+                              const std::string& out_dir, const std::vector<std::string>& plots,
+                              const std::string& x_scale, const std::string& y_scale) {
+    SweepOptions o;
+    o.key = key;
+    o.values = values;
+    o.methods = methods;
+    o.ground_truth = ground_truth;
+    Sweep s = sweep_header(setup_from_text(base), o);
+    if (comparisons.size() != values.size()) throw Error("sweep: {} comparisons for {} values", comparisons.size(), values.size());
+    for (size_t i = 0; i < values.size(); ++i)
+      add_sweep_value(s, i, comparison_from_json(nlohmann::json::parse(comparisons[i])), o);
+    s.wall_ms = wall_ms;
+    s.command = command;
+    if (!out_dir.empty()) {
+      auto axis = [](const std::string& a) {
+        return a == "log" ? AxisScale::kLog : a == "linear" ? AxisScale::kLinear : AxisScale::kAuto;
+      };
+      SweepPlotOptions po;
+      po.x_scale = axis(x_scale);
+      po.y_scale = axis(y_scale);
+      po.extra_plots = plots;
+      write_sweep(s, out_dir, po);
+    }
+    return sweep_json(s).dump();
+  });
+  // An EXR of the frame (colour with a V channel) for the command line's `render --dask`,
+  // which reads it back and writes its outputs as a local render would (float32: lossless).
+  m.def("_write_frame", [](const std::string& path, const py::array_t<float, py::array::c_style | py::array::forcecast>& color,
+                           const py::array_t<float, py::array::c_style | py::array::forcecast>& visibility) {
+    const Image c = from_array(color, "color"), v = from_array(visibility, "visibility");
+    write_image(path, c, {{"V", &v}});
   });
   m.def("read_exr", [](const std::string& path, const std::string& channel) {
     return to_array(channel.empty() ? read_image(path) : read_exr_channel(path, channel));

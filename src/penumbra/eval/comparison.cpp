@@ -5,6 +5,7 @@
 #include <cmath>
 #include <ctime>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -115,10 +116,103 @@ uint64_t comparison_progress_units(const RunSetup& setup, const CompareOptions& 
   return render_units(setup) * (options.methods.size() * runs + (truth_render ? 1 : 0));
 }
 
-Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) {
-  Timer wall;
-  if (options.methods.empty()) throw Error("compare: no methods to run");
-  setup.check_plain_params(options.methods);
+namespace {
+
+// The renders of one method, in the order made (warm-ups first), or its error.
+struct MethodRenders {
+  MethodRun run;
+  RenderSettings settings;
+  std::vector<RenderResult> results;
+  bool failed = false;
+};
+
+MethodRenders method_renders(const RunSetup& setup, const std::string& label, Progress* bar) {
+  MethodRenders p;
+  p.run.method = label;
+  const MethodSpec spec = parse_method_spec(label);
+  const MethodInfo& info = MethodRegistry::get(spec.name);
+  p.run.light_samples = info.samples_light ? setup.light_samples : 0;
+  p.settings.method = spec.name;
+  p.settings.params = setup.overrides_for(spec);
+  p.settings.light_samples = setup.light_samples;
+  p.settings.seed = setup.seed;
+  p.settings.progress_bar = bar;
+  return p;
+}
+
+// Render i of a method (`first` when its images are kept: they are the same every run).
+void render_once(MethodRenders& p, const Scene& scene, bool first) {
+  if (p.failed) return;  // a run that will not happen counts as done
+  try {
+    p.results.push_back(render_scene(scene, p.settings));
+  } catch (const Interrupted&) {
+    throw;  // Ctrl-C ends the run, whatever this step would do with an error
+  } catch (const std::exception& e) {
+    p.failed = true;
+    p.run.error = e.what();
+    p.results.clear();
+  }
+  if (!p.failed && !first) {
+    p.results.back().color = Image();
+    p.results.back().visibility = Image();
+  }
+}
+
+// The method's row from its renders: the median run's times and statistics, the first
+// run's images measured against the ground truth.
+MethodRun summarize(MethodRenders& p, const GroundTruth* truth, const CompareOptions& options) {
+  MethodRun run = std::move(p.run);
+  if (p.failed) {
+    run.ok = false;
+    run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = run.v.psnr = std::numeric_limits<double>::quiet_NaN();
+    return run;
+  }
+  std::vector<RenderResult>& results = p.results;
+  // Warm-up renders are dropped (the first of them holds the images).
+  const int warmups = std::max(0, options.warmup_runs);
+  if (warmups > 0) {
+    Image color = std::move(results.front().color), vis = std::move(results.front().visibility);
+    results.erase(results.begin(), results.begin() + warmups);
+    results.front().color = std::move(color);
+    results.front().visibility = std::move(vis);
+  }
+  std::vector<double> times;
+  for (const auto& r : results) {
+    times.push_back(shadow_time_ms(r));
+    run.run_total_ms.push_back(r.total_ms);
+    run.run_phases_ms.push_back(r.stats.phases_ms);
+  }
+  double med = median_of(times);
+  size_t pick = 0;
+  for (size_t i = 0; i < results.size(); ++i)
+    if (times[i] == med) pick = i;
+  const RenderResult& m = results[pick];
+  run.times = {m.total_ms, m.camera_pass_ms, med};
+  run.run_shadow_ms = times;
+  run.stats = m.stats;
+  run.params = m.resolved_params;
+  run.view_samples = m.view_sample_count;
+  RenderResult& first = results.front();
+  if (truth) {
+    run.v = compare_images(first.visibility, truth->visibility);
+    run.color_psnr = compare_images(display_srgb(first.color), display_srgb(truth->color)).psnr;
+    run.flip = flip(first.color, truth->color).mean;
+  } else {
+    run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = std::numeric_limits<double>::quiet_NaN();
+    run.v.psnr = std::numeric_limits<double>::quiet_NaN();
+  }
+  if (options.keep_images) {
+    run.color = std::move(first.color);
+    run.visibility = std::move(first.visibility);
+  }
+  run.ok = true;
+  results.clear();
+  return run;
+}
+
+}  // namespace
+
+Comparison comparison_header(const RunSetup& setup, const Scene& scene) {
   Comparison c;
   c.started = local_time_iso();
   c.machine = machine_json();
@@ -128,161 +222,54 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
   c.reference_samples = setup.reference_samples;
   c.seed = setup.seed;
   c.params = setup.method_params;
-
-  const Scene scene = setup.load();
   c.width = scene.camera.width;
   c.height = scene.camera.height;
   c.pixel_samples = scene.camera.samples_per_pixel;
   c.triangles = scene.triangle_count();
   c.lights = scene.lights.size();
+  return c;
+}
 
+MethodRun compare_method(const RunSetup& setup, const Scene& scene, const std::string& label, const GroundTruth* truth,
+                         const CompareOptions& options, Progress* progress) {
+  MethodRenders p = method_renders(setup, label, progress);
   const int runs = std::max(1, options.runs) + std::max(0, options.warmup_runs);
-  const uint64_t per_render = render_units(setup);
-  const bool need_truth_render = options.ground_truth && !ground_truth_cached(setup, options.cache_dir);
-  Progress own("compare", comparison_progress_units(setup, options), options.progress && !options.progress_bar);
-  Progress* bar = options.progress_bar ? options.progress_bar : &own;
-  Budget budget(bar);
+  for (int i = 0; i < runs; ++i) render_once(p, scene, i == 0);
+  return summarize(p, truth, options);
+}
 
-  if (options.ground_truth) {
-    budget.begin("compare: ground truth", need_truth_render ? per_render : 0);
-    c.truth = ground_truth(setup, scene, options.cache_dir, bar);
-    budget.end();
-    c.has_ground_truth = true;
+std::optional<ReferenceLadder> comparison_ladder(const Comparison& c, const RunSetup& setup, const Scene& scene,
+                                                 const CompareOptions& options, Progress* progress) {
+  if (!c.has_ground_truth || !options.equal_quality) return std::nullopt;
+  // Rendered as far as the best method needs.
+  double best_v = std::numeric_limits<double>::quiet_NaN(), best_flip = best_v;
+  for (const MethodRun& r : c.runs) {
+    if (!r.ok) continue;
+    if (std::isfinite(r.v.mae) && !(r.v.mae >= best_v)) best_v = r.v.mae;
+    if (std::isfinite(r.flip) && !(r.flip >= best_flip)) best_flip = r.flip;
   }
-  Image truth_display;
-  if (c.has_ground_truth) truth_display = display_srgb(c.truth.color);
+  if (!std::isfinite(best_v) && !std::isfinite(best_flip)) return std::nullopt;
+  return render_reference_ladder(setup, scene, c.truth, best_v, best_flip, options.cache_dir, options.runs,
+                                 options.warmup_runs, progress);
+}
 
-  // Every method's renders, in the order of the schedule: all runs of one method in a row,
-  // or (interleave) run i of every method before run i+1 of any.
-  struct Pending {
-    MethodRun run;
-    RenderSettings settings;
-    std::vector<RenderResult> results;
-    bool failed = false;
-  };
-  std::vector<Pending> pending(options.methods.size());
-  for (size_t k = 0; k < options.methods.size(); ++k) {
-    Pending& p = pending[k];
-    const std::string& name = options.methods[k];
-    p.run.method = name;
-    const MethodSpec spec = parse_method_spec(name);
-    const MethodInfo& info = MethodRegistry::get(spec.name);
-    p.run.light_samples = info.samples_light ? setup.light_samples : 0;
-    p.settings.method = spec.name;
-    p.settings.params = setup.overrides_for(spec);
-    p.settings.light_samples = setup.light_samples;
-    p.settings.seed = setup.seed;
-    p.settings.progress_bar = bar;
+void apply_ladder(Comparison& c, ReferenceLadder ladder) {
+  c.ladder = std::move(ladder);
+  c.has_ladder = true;
+  const std::vector<LadderPoint> v_points = ladder_points(c.ladder, "v_mae");
+  const std::vector<LadderPoint> flip_points = ladder_points(c.ladder, "flip");
+  for (MethodRun& r : c.runs) {
+    if (!r.ok) continue;
+    r.eq_v = equal_quality_search(v_points, r.v.mae, r.times.shadow_ms);
+    r.eq_flip = equal_quality_search(flip_points, r.flip, r.times.shadow_ms);
   }
-  std::vector<std::pair<size_t, int>> schedule;  // (method, render)
-  if (options.interleave) {
-    for (int i = 0; i < runs; ++i)
-      for (size_t k = 0; k < pending.size(); ++k) schedule.emplace_back(k, i);
-  } else {
-    for (size_t k = 0; k < pending.size(); ++k)
-      for (int i = 0; i < runs; ++i) schedule.emplace_back(k, i);
-  }
-  for (auto [k, i] : schedule) {
-    Pending& p = pending[k];
-    budget.begin(fmt::format("compare: {}", p.run.method), per_render);
-    if (p.failed) {  // a run that will not happen counts as done
-      budget.end();
-      continue;
-    }
-    try {
-      p.results.push_back(render_scene(scene, p.settings));
-    } catch (const Interrupted&) {
-      throw;  // Ctrl-C ends the run, whatever this step would do with an error
-    } catch (const std::exception& e) {
-      p.failed = true;
-      p.run.error = e.what();
-      p.results.clear();
-    }
-    budget.end();
-    // Only the first run's images are kept (they are the same every run).
-    if (!p.failed && i > 0) {
-      p.results.back().color = Image();
-      p.results.back().visibility = Image();
-    }
-  }
+}
 
-  for (Pending& p : pending) {
-    MethodRun& run = p.run;
-    if (p.failed) {
-      run.ok = false;
-      run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = run.v.psnr =
-          std::numeric_limits<double>::quiet_NaN();
-      c.runs.push_back(std::move(run));
-      continue;
-    }
-    std::vector<RenderResult>& results = p.results;
-    // Warm-up renders are dropped (the first of them holds the images).
-    const int warmups = std::max(0, options.warmup_runs);
-    if (warmups > 0) {
-      Image color = std::move(results.front().color), vis = std::move(results.front().visibility);
-      results.erase(results.begin(), results.begin() + warmups);
-      results.front().color = std::move(color);
-      results.front().visibility = std::move(vis);
-    }
-    std::vector<double> times;
-    for (const auto& r : results) {
-      times.push_back(shadow_time_ms(r));
-      run.run_total_ms.push_back(r.total_ms);
-      run.run_phases_ms.push_back(r.stats.phases_ms);
-    }
-    double med = median_of(times);
-    size_t pick = 0;
-    for (size_t i = 0; i < results.size(); ++i)
-      if (times[i] == med) pick = i;
-    const RenderResult& m = results[pick];
-    run.times = {m.total_ms, m.camera_pass_ms, med};
-    run.run_shadow_ms = times;
-    run.stats = m.stats;
-    run.params = m.resolved_params;
-    run.view_samples = m.view_sample_count;
-    RenderResult& first = results.front();
-    if (c.has_ground_truth) {
-      run.v = compare_images(first.visibility, c.truth.visibility);
-      run.color_psnr = compare_images(display_srgb(first.color), truth_display).psnr;
-      run.flip = flip(first.color, c.truth.color).mean;
-    } else {
-      run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = std::numeric_limits<double>::quiet_NaN();
-      run.v.psnr = std::numeric_limits<double>::quiet_NaN();
-    }
-    if (options.keep_images) {
-      run.color = std::move(first.color);
-      run.visibility = std::move(first.visibility);
-    }
-    run.ok = true;
-    results.clear();
-    c.runs.push_back(std::move(run));
-  }
-
-  // Equal quality: the reference ladder, rendered as far as the best method needs.
-  if (c.has_ground_truth && options.equal_quality) {
-    double best_v = std::numeric_limits<double>::quiet_NaN(), best_flip = best_v;
-    for (const MethodRun& r : c.runs) {
-      if (!r.ok) continue;
-      if (std::isfinite(r.v.mae) && !(r.v.mae >= best_v)) best_v = r.v.mae;
-      if (std::isfinite(r.flip) && !(r.flip >= best_flip)) best_flip = r.flip;
-    }
-    if (std::isfinite(best_v) || std::isfinite(best_flip)) {
-      c.ladder = render_reference_ladder(setup, scene, c.truth, best_v, best_flip, options.cache_dir, options.runs,
-                                         options.warmup_runs, bar);
-      c.has_ladder = true;
-      const std::vector<LadderPoint> v_points = ladder_points(c.ladder, "v_mae");
-      const std::vector<LadderPoint> flip_points = ladder_points(c.ladder, "flip");
-      for (MethodRun& r : c.runs) {
-        if (!r.ok) continue;
-        r.eq_v = equal_quality_search(v_points, r.v.mae, r.times.shadow_ms);
-        r.eq_flip = equal_quality_search(flip_points, r.flip, r.times.shadow_ms);
-      }
-    }
-  }
-  own.finish();
-
-  // Speed ratios: against the reference method at the same spp when it was compared, else
-  // against the ground truth's own render.
+void apply_speedups(Comparison& c) {
+  // Against the reference method at the same spp when it was compared, else against the
+  // ground truth's own render.
+  c.speedup_basis.clear();
+  c.speedup_basis_ms = 0;
   for (const MethodRun& r : c.runs)
     if (r.method == "reference" && r.ok) {
       c.speedup_basis = "reference";
@@ -297,6 +284,52 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
   }
   for (MethodRun& r : c.runs)
     if (r.ok && !c.speedup_basis.empty() && r.times.shadow_ms > 0) r.speedup = c.speedup_basis_ms / r.times.shadow_ms;
+}
+
+Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) {
+  Timer wall;
+  if (options.methods.empty()) throw Error("compare: no methods to run");
+  setup.check_plain_params(options.methods);
+  const Scene scene = setup.load();
+  Comparison c = comparison_header(setup, scene);
+
+  const int runs = std::max(1, options.runs) + std::max(0, options.warmup_runs);
+  const uint64_t per_render = render_units(setup);
+  const bool need_truth_render = options.ground_truth && !ground_truth_cached(setup, options.cache_dir);
+  Progress own("compare", comparison_progress_units(setup, options), options.progress && !options.progress_bar);
+  Progress* bar = options.progress_bar ? options.progress_bar : &own;
+  Budget budget(bar);
+
+  if (options.ground_truth) {
+    budget.begin("compare: ground truth", need_truth_render ? per_render : 0);
+    c.truth = ground_truth(setup, scene, options.cache_dir, bar);
+    budget.end();
+    c.has_ground_truth = true;
+  }
+
+  // Every method's renders, in the order of the schedule: all runs of one method in a row,
+  // or (interleave) run i of every method before run i+1 of any.
+  std::vector<MethodRenders> pending;
+  for (const std::string& label : options.methods) pending.push_back(method_renders(setup, label, bar));
+  std::vector<std::pair<size_t, int>> schedule;  // (method, render)
+  if (options.interleave) {
+    for (int i = 0; i < runs; ++i)
+      for (size_t k = 0; k < pending.size(); ++k) schedule.emplace_back(k, i);
+  } else {
+    for (size_t k = 0; k < pending.size(); ++k)
+      for (int i = 0; i < runs; ++i) schedule.emplace_back(k, i);
+  }
+  for (auto [k, i] : schedule) {
+    budget.begin(fmt::format("compare: {}", pending[k].run.method), per_render);
+    render_once(pending[k], scene, i == 0);
+    budget.end();
+  }
+  for (MethodRenders& p : pending) c.runs.push_back(summarize(p, c.has_ground_truth ? &c.truth : nullptr, options));
+
+  if (std::optional<ReferenceLadder> ladder = comparison_ladder(c, setup, scene, options, bar))
+    apply_ladder(c, std::move(*ladder));
+  own.finish();
+  apply_speedups(c);
   c.wall_ms = wall.elapsed_ms();
   return c;
 }
@@ -306,46 +339,193 @@ double rays_per_view_sample(const MethodRun& r) {
                         : std::numeric_limits<double>::quiet_NaN();
 }
 
+namespace {
+
+// json_number's inverse: null is NaN, "inf"/"-inf" are infinities.
+double number_from_json(const json& j) {
+  if (j.is_number()) return j.get<double>();
+  if (j.is_string()) return j.get<std::string>() == "-inf" ? -std::numeric_limits<double>::infinity()
+                                                           : std::numeric_limits<double>::infinity();
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+QualityBound bound_from_json(const json& j) {
+  if (!j.is_string()) return QualityBound::kNone;
+  const std::string b = j.get<std::string>();
+  return b == "exact" ? QualityBound::kExact
+         : b == "at_least" ? QualityBound::kAtLeast
+         : b == "at_most" ? QualityBound::kAtMost
+                           : QualityBound::kNone;
+}
+
+// Phases as [[name, ms], ...]: the order they were first reported in (a JSON object's keys
+// come back sorted).
+json phases_json(const std::vector<std::pair<std::string, double>>& phases) {
+  json out = json::array();
+  for (const auto& [n, t] : phases) out.push_back({n, t});
+  return out;
+}
+
+std::vector<std::pair<std::string, double>> phases_from_json(const json& j) {
+  std::vector<std::pair<std::string, double>> out;
+  for (const json& p : j) out.emplace_back(p.at(0).get<std::string>(), p.at(1).get<double>());
+  return out;
+}
+
+}  // namespace
+
+json method_run_json(const MethodRun& r) {
+  json m = {{"method", r.method}, {"ok", r.ok}};
+  if (!r.ok) {
+    m["error"] = r.error;
+    return m;
+  }
+  m["params"] = r.params;
+  m["light_samples"] = r.light_samples;
+  m["v_mae"] = json_number(r.v.mae);
+  m["v_rmse"] = json_number(r.v.rmse);
+  m["v_max"] = json_number(r.v.max_abs);
+  m["v_mean_signed"] = json_number(r.v.mean_signed);
+  m["color_psnr"] = json_number(r.color_psnr);
+  m["flip"] = json_number(r.flip);
+  m["total_ms"] = r.times.total_ms;
+  m["camera_pass_ms"] = r.times.camera_pass_ms;
+  m["shadow_ms"] = r.times.shadow_ms;
+  m["run_shadow_ms"] = r.run_shadow_ms;
+  m["speedup"] = json_number(r.speedup);
+  for (auto [prefix, q] : {std::pair{"eq_v", &r.eq_v}, std::pair{"eq_flip", &r.eq_flip}}) {
+    const std::string p = prefix;
+    m[p + "_spp"] = json_number(q->samples);
+    m[p + "_bound"] = q->bound == QualityBound::kNone ? json(nullptr) : json(bound_name(q->bound));
+    m[p + "_reference_ms"] = json_number(q->reference_ms);
+    m[p + "_speedup"] = json_number(q->speedup);
+  }
+  m["run_total_ms"] = r.run_total_ms;
+  m["rays_traced"] = r.stats.rays_traced;
+  m["rays_per_view_sample"] = json_number(rays_per_view_sample(r));
+  m["texels_visited"] = r.stats.texels_visited;
+  m["memory_bytes"] = r.stats.memory_bytes;
+  m["prepare_count"] = r.stats.prepare_count;
+  m["view_samples"] = r.view_samples;
+  json phases = json::object();
+  for (const auto& [n, t] : r.stats.phases_ms) phases[n] = t;
+  m["phases_ms"] = phases;
+  m["phase_order"] = phases_json(r.stats.phases_ms);
+  json run_phases = json::array();
+  for (const auto& p : r.run_phases_ms) run_phases.push_back(phases_json(p));
+  m["run_phases_ms"] = run_phases;
+  m["extra"] = r.stats.extra;
+  return m;
+}
+
+MethodRun method_run_from_json(const json& m) {
+  MethodRun r;
+  r.method = m.at("method").get<std::string>();
+  r.ok = m.at("ok").get<bool>();
+  if (!r.ok) {
+    r.error = m.value("error", "");
+    r.v.mae = r.v.rmse = r.v.max_abs = r.v.mean_signed = r.v.psnr = std::numeric_limits<double>::quiet_NaN();
+    return r;
+  }
+  r.params = m.at("params");
+  r.light_samples = m.at("light_samples").get<int>();
+  r.v.mae = number_from_json(m.at("v_mae"));
+  r.v.rmse = number_from_json(m.at("v_rmse"));
+  r.v.max_abs = number_from_json(m.at("v_max"));
+  r.v.mean_signed = number_from_json(m.at("v_mean_signed"));
+  r.v.psnr = std::numeric_limits<double>::quiet_NaN();
+  r.color_psnr = number_from_json(m.at("color_psnr"));
+  r.flip = number_from_json(m.at("flip"));
+  r.times = {m.at("total_ms").get<double>(), m.at("camera_pass_ms").get<double>(), m.at("shadow_ms").get<double>()};
+  r.run_shadow_ms = m.at("run_shadow_ms").get<std::vector<double>>();
+  r.speedup = number_from_json(m.at("speedup"));
+  for (auto [prefix, q] : {std::pair{"eq_v", &r.eq_v}, std::pair{"eq_flip", &r.eq_flip}}) {
+    const std::string p = prefix;
+    q->samples = number_from_json(m.at(p + "_spp"));
+    q->bound = bound_from_json(m.at(p + "_bound"));
+    q->reference_ms = number_from_json(m.at(p + "_reference_ms"));
+    q->speedup = number_from_json(m.at(p + "_speedup"));
+  }
+  r.run_total_ms = m.at("run_total_ms").get<std::vector<double>>();
+  r.stats.rays_traced = m.at("rays_traced").get<uint64_t>();
+  r.stats.texels_visited = m.at("texels_visited").get<uint64_t>();
+  r.stats.memory_bytes = m.at("memory_bytes").get<uint64_t>();
+  r.stats.prepare_count = m.value("prepare_count", uint64_t{0});
+  r.view_samples = m.at("view_samples").get<size_t>();
+  if (m.contains("phase_order")) {
+    r.stats.phases_ms = phases_from_json(m["phase_order"]);
+  } else {
+    for (const auto& [n, t] : m.at("phases_ms").items()) r.stats.phases_ms.emplace_back(n, t.get<double>());
+  }
+  if (m.contains("run_phases_ms"))
+    for (const json& p : m["run_phases_ms"]) r.run_phases_ms.push_back(phases_from_json(p));
+  r.stats.extra = m.value("extra", json::object());
+  return r;
+}
+
+json ground_truth_json(const GroundTruth& t) {
+  return {{"method", "reference"}, {"spp", t.light_samples}, {"seed", t.seed},
+          {"params", t.params},    {"total_ms", t.total_ms}, {"camera_pass_ms", t.camera_pass_ms},
+          {"stats", t.stats},      {"cached", t.from_cache}, {"cache_key", t.key}};
+}
+
+GroundTruth ground_truth_from_json(const json& j) {
+  GroundTruth t;
+  t.light_samples = j.at("spp").get<int>();
+  t.seed = j.at("seed").get<uint64_t>();
+  t.params = j.at("params");
+  t.total_ms = j.at("total_ms").get<double>();
+  t.camera_pass_ms = j.at("camera_pass_ms").get<double>();
+  t.stats = j.at("stats");
+  t.from_cache = j.at("cached").get<bool>();
+  t.key = j.at("cache_key").get<std::string>();
+  return t;
+}
+
+json reference_ladder_json(const ReferenceLadder& ladder) {
+  json rungs = json::array();
+  for (const LadderRung& r : ladder.rungs)
+    rungs.push_back({{"spp", r.light_samples},
+                     {"v_mae", json_number(r.v_mae)},
+                     {"flip", json_number(r.flip)},
+                     {"shadow_ms", r.shadow_ms},
+                     {"total_ms", r.total_ms},
+                     {"camera_pass_ms", r.camera_pass_ms},
+                     {"run_shadow_ms", r.run_shadow_ms},
+                     {"cached", r.from_cache},
+                     {"cache_key", r.key}});
+  return {{"method", "reference"},
+          {"seed", ladder.seed},
+          {"max_spp", ladder.max_samples},
+          {"interpolation",
+           "log-log: between the first rung at least as good as the method and the rung before "
+           "it, log(spp) and log(shadow_ms) linear in log(error)"},
+          {"rungs", rungs}};
+}
+
+ReferenceLadder reference_ladder_from_json(const json& j) {
+  ReferenceLadder ladder;
+  ladder.seed = j.at("seed").get<uint64_t>();
+  ladder.max_samples = j.at("max_spp").get<int>();
+  for (const json& r : j.at("rungs")) {
+    LadderRung rung;
+    rung.light_samples = r.at("spp").get<int>();
+    rung.v_mae = number_from_json(r.at("v_mae"));
+    rung.flip = number_from_json(r.at("flip"));
+    rung.shadow_ms = r.at("shadow_ms").get<double>();
+    rung.total_ms = r.at("total_ms").get<double>();
+    rung.camera_pass_ms = r.at("camera_pass_ms").get<double>();
+    rung.run_shadow_ms = r.at("run_shadow_ms").get<std::vector<double>>();
+    rung.from_cache = r.at("cached").get<bool>();
+    rung.key = r.at("cache_key").get<std::string>();
+    ladder.rungs.push_back(std::move(rung));
+  }
+  return ladder;
+}
+
 json comparison_json(const Comparison& c) {
   json methods = json::array();
-  for (const MethodRun& r : c.runs) {
-    json m = {{"method", r.method}, {"ok", r.ok}};
-    if (!r.ok) {
-      m["error"] = r.error;
-    } else {
-      m["params"] = r.params;
-      m["light_samples"] = r.light_samples;
-      m["v_mae"] = json_number(r.v.mae);
-      m["v_rmse"] = json_number(r.v.rmse);
-      m["v_max"] = json_number(r.v.max_abs);
-      m["v_mean_signed"] = json_number(r.v.mean_signed);
-      m["color_psnr"] = json_number(r.color_psnr);
-      m["flip"] = json_number(r.flip);
-      m["total_ms"] = r.times.total_ms;
-      m["camera_pass_ms"] = r.times.camera_pass_ms;
-      m["shadow_ms"] = r.times.shadow_ms;
-      m["run_shadow_ms"] = r.run_shadow_ms;
-      m["speedup"] = json_number(r.speedup);
-      for (auto [prefix, q] : {std::pair{"eq_v", &r.eq_v}, std::pair{"eq_flip", &r.eq_flip}}) {
-        const std::string p = prefix;
-        m[p + "_spp"] = json_number(q->samples);
-        m[p + "_bound"] = q->bound == QualityBound::kNone ? json(nullptr) : json(bound_name(q->bound));
-        m[p + "_reference_ms"] = json_number(q->reference_ms);
-        m[p + "_speedup"] = json_number(q->speedup);
-      }
-      m["run_total_ms"] = r.run_total_ms;
-      m["rays_traced"] = r.stats.rays_traced;
-      m["rays_per_view_sample"] = json_number(rays_per_view_sample(r));
-      m["texels_visited"] = r.stats.texels_visited;
-      m["memory_bytes"] = r.stats.memory_bytes;
-      m["view_samples"] = r.view_samples;
-      json phases = json::object();
-      for (const auto& [n, t] : r.stats.phases_ms) phases[n] = t;
-      m["phases_ms"] = phases;
-      m["extra"] = r.stats.extra;
-    }
-    methods.push_back(m);
-  }
+  for (const MethodRun& r : c.runs) methods.push_back(method_run_json(r));
   json j = {{"scene", c.scene},
             {"description", c.description},
             {"resolution", {c.width, c.height}},
@@ -353,6 +533,7 @@ json comparison_json(const Comparison& c) {
             {"triangles", c.triangles},
             {"lights", c.lights},
             {"spp", c.light_samples},
+            {"reference_spp", c.reference_samples},
             {"seed", c.seed},
             {"params", c.params},
             {"speedup_basis", c.speedup_basis},
@@ -362,42 +543,36 @@ json comparison_json(const Comparison& c) {
             {"wall_ms", c.wall_ms},
             {"command", c.command},
             {"methods", methods}};
-  if (c.has_ground_truth) {
-    j["ground_truth"] = {{"method", "reference"},
-                         {"spp", c.truth.light_samples},
-                         {"seed", c.truth.seed},
-                         {"params", c.truth.params},
-                         {"total_ms", c.truth.total_ms},
-                         {"camera_pass_ms", c.truth.camera_pass_ms},
-                         {"stats", c.truth.stats},
-                         {"cached", c.truth.from_cache},
-                         {"cache_key", c.truth.key}};
-  } else {
-    j["ground_truth"] = nullptr;
-  }
-  if (c.has_ladder) {
-    json rungs = json::array();
-    for (const LadderRung& r : c.ladder.rungs)
-      rungs.push_back({{"spp", r.light_samples},
-                       {"v_mae", json_number(r.v_mae)},
-                       {"flip", json_number(r.flip)},
-                       {"shadow_ms", r.shadow_ms},
-                       {"total_ms", r.total_ms},
-                       {"camera_pass_ms", r.camera_pass_ms},
-                       {"run_shadow_ms", r.run_shadow_ms},
-                       {"cached", r.from_cache},
-                       {"cache_key", r.key}});
-    j["reference_ladder"] = {{"method", "reference"},
-                             {"seed", c.ladder.seed},
-                             {"max_spp", c.ladder.max_samples},
-                             {"interpolation",
-                              "log-log: between the first rung at least as good as the method and the rung before "
-                              "it, log(spp) and log(shadow_ms) linear in log(error)"},
-                             {"rungs", rungs}};
-  } else {
-    j["reference_ladder"] = nullptr;
-  }
+  j["ground_truth"] = c.has_ground_truth ? ground_truth_json(c.truth) : json(nullptr);
+  j["reference_ladder"] = c.has_ladder ? reference_ladder_json(c.ladder) : json(nullptr);
   return j;
+}
+
+Comparison comparison_from_json(const json& j) {
+  Comparison c;
+  c.scene = j.at("scene").get<std::string>();
+  c.description = j.value("description", "");
+  c.width = j.at("resolution").at(0).get<int>();
+  c.height = j.at("resolution").at(1).get<int>();
+  c.pixel_samples = j.at("pixel_samples").get<int>();
+  c.triangles = j.at("triangles").get<size_t>();
+  c.lights = j.at("lights").get<size_t>();
+  c.light_samples = j.at("spp").get<int>();
+  c.reference_samples = j.value("reference_spp", 0);
+  c.seed = j.at("seed").get<uint64_t>();
+  c.params = j.at("params").get<std::vector<std::string>>();
+  c.speedup_basis = j.at("speedup_basis").get<std::string>();
+  c.speedup_basis_ms = j.at("speedup_basis_ms").get<double>();
+  c.machine = j.at("machine");
+  c.started = j.at("started").get<std::string>();
+  c.wall_ms = j.at("wall_ms").get<double>();
+  c.command = j.at("command").get<std::string>();
+  for (const json& m : j.at("methods")) c.runs.push_back(method_run_from_json(m));
+  c.has_ground_truth = !j.at("ground_truth").is_null();
+  if (c.has_ground_truth) c.truth = ground_truth_from_json(j["ground_truth"]);
+  c.has_ladder = !j.at("reference_ladder").is_null();
+  if (c.has_ladder) c.ladder = reference_ladder_from_json(j["reference_ladder"]);
+  return c;
 }
 
 std::string comparison_csv(const Comparison& c) {

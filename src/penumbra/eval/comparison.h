@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -98,6 +99,26 @@ struct Comparison {
 };
 
 Comparison run_comparison(const RunSetup& setup, const CompareOptions& options);
+
+// --- A comparison in steps: what run_comparison does in one process, and what
+// penumbra.distributed (docs/distributed.md) runs as separate jobs on a cluster: the ground
+// truth once per scene and setting, shared by the jobs of every method; each method; then the
+// reference ladder and the speed ratios once every method is in.
+// The settings and sizes of a comparison, without ground truth or methods.
+Comparison comparison_header(const RunSetup& setup, const Scene& scene);
+// One --methods entry rendered options.warmup_runs + options.runs times in a row, measured
+// against `truth` (null: no error metrics); a method that throws gives ok = false with its
+// message. `progress` (optional) is advanced while rendering.
+MethodRun compare_method(const RunSetup& setup, const Scene& scene, const std::string& label, const GroundTruth* truth,
+                         const CompareOptions& options, Progress* progress = nullptr);
+// The reference ladder of c's methods (rendered as far as the best of them needs), or none
+// without a ground truth, with options.equal_quality off or when no method has an error.
+std::optional<ReferenceLadder> comparison_ladder(const Comparison& c, const RunSetup& setup, const Scene& scene,
+                                                 const CompareOptions& options, Progress* progress = nullptr);
+// Sets c's ladder and every method's equal-quality points on it.
+void apply_ladder(Comparison& c, ReferenceLadder ladder);
+// Every method's speedup: against `reference` when it was compared, else the ground truth's render.
+void apply_speedups(Comparison& c);
 // A render's shadow time: total - camera pass - compose (the method's prepare + evaluate).
 double shadow_time_ms(const RenderResult& r);
 // The median (the lower one of an even count); 0 for none.
@@ -122,6 +143,16 @@ std::string local_time_iso();
 
 // results.json: the settings, the ground truth and one object per method.
 nlohmann::json comparison_json(const Comparison& c);
+// results.json back into a Comparison (without images): the inverse of comparison_json for
+// everything it holds. One method's entry, the ground truth's and the ladder's alone (the
+// parts penumbra.distributed's jobs return) have their own pairs.
+Comparison comparison_from_json(const nlohmann::json& j);
+nlohmann::json method_run_json(const MethodRun& r);
+MethodRun method_run_from_json(const nlohmann::json& j);
+nlohmann::json ground_truth_json(const GroundTruth& t);
+GroundTruth ground_truth_from_json(const nlohmann::json& j);
+nlohmann::json reference_ladder_json(const ReferenceLadder& ladder);
+ReferenceLadder reference_ladder_from_json(const nlohmann::json& j);
 // results.csv: one row per method (phase columns: the union of the methods' phases).
 std::string comparison_csv(const Comparison& c);
 

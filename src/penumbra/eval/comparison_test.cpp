@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <map>
+#include <optional>
 #include <regex>
 
 #include "penumbra/core/file_util.h"
@@ -69,6 +70,58 @@ TEST(Comparison, RunsEveryMethodAgainstTheGroundTruth) {
   EXPECT_NEAR(hard.speedup, ref.times.shadow_ms / hard.times.shadow_ms, 1e-9);
   // The ground truth's own seed: the reference row is not the ground truth at equal spp.
   EXPECT_GT(ref.v.mae, 0);
+}
+
+// What penumbra.distributed does with jobs: the ground truth, each method against it, the
+// ladder, then the speed-ups, gives run_comparison's numbers (times apart); and results.json
+// reads back into the same Comparison.
+TEST(Comparison, StepsGiveRunComparisonsNumbersAndResultsJsonReadsBack) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"hard", "pcss", "pcss:blocker_samples=0", "reference"};
+  o.cache_dir = dir / "cache";
+  o.equal_quality = true;
+  const RunSetup setup = tiny_contact_setup();
+  const Comparison whole = run_comparison(setup, o);
+
+  const Scene scene = setup.load();
+  Comparison steps = comparison_header(setup, scene);
+  steps.truth = ground_truth(setup, scene, o.cache_dir);
+  steps.has_ground_truth = true;
+  for (const std::string& label : o.methods)
+    steps.runs.push_back(method_run_from_json(
+        method_run_json(compare_method(setup, scene, label, &steps.truth, o))));  // as a job's entry travels
+  std::optional<ReferenceLadder> ladder = comparison_ladder(steps, setup, scene, o);
+  ASSERT_TRUE(ladder.has_value());
+  apply_ladder(steps, reference_ladder_from_json(reference_ladder_json(*ladder)));
+  apply_speedups(steps);
+
+  ASSERT_EQ(steps.runs.size(), whole.runs.size());
+  for (size_t i = 0; i < whole.runs.size(); ++i) {
+    const MethodRun &a = whole.runs[i], &b = steps.runs[i];
+    EXPECT_EQ(a.method, b.method);
+    EXPECT_EQ(a.ok, b.ok) << a.method;
+    EXPECT_EQ(a.error, b.error);
+    if (!a.ok) continue;
+    EXPECT_EQ(a.v.mae, b.v.mae) << a.method;
+    EXPECT_EQ(a.flip, b.flip) << a.method;
+    EXPECT_EQ(a.color_psnr, b.color_psnr) << a.method;
+    EXPECT_EQ(a.stats.rays_traced, b.stats.rays_traced) << a.method;
+    EXPECT_EQ(a.eq_v.bound, b.eq_v.bound) << a.method;
+    EXPECT_EQ(a.eq_v.samples, b.eq_v.samples) << a.method;
+    EXPECT_EQ(a.params, b.params);
+  }
+  EXPECT_FALSE(steps.runs[2].ok);
+  EXPECT_NE(steps.runs[2].error.find("blocker_samples"), std::string::npos);
+  EXPECT_EQ(steps.speedup_basis, "reference");
+
+  // results.json -> Comparison -> results.json is the identity, phase order included.
+  const json j = comparison_json(whole);
+  const Comparison back = comparison_from_json(j);
+  EXPECT_EQ(comparison_json(back), j);
+  EXPECT_EQ(comparison_csv(back), comparison_csv(whole));
+  EXPECT_EQ(back.runs[0].stats.phases_ms, whole.runs[0].stats.phases_ms);
+  EXPECT_TRUE(std::isnan(back.runs[2].v.mae));
 }
 
 TEST(Comparison, AFailingMethodIsReportedAndTheOthersStillRun) {

@@ -1,5 +1,7 @@
 #include "penumbra/eval/reference_cache.h"
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -53,7 +55,17 @@ json file_identity(const fs::path& p) {
   return json{{"path", p.string()}, {"size", size}, {"mtime", ticks}};
 }
 
+// The file holding this code: the penumbra executable, or the Python module's shared
+// library when the module renders (then /proc/self/exe is the Python interpreter, which does
+// not change when penumbra is rebuilt).
 json program_identity() {
+  Dl_info info{};
+  if (::dladdr(reinterpret_cast<const void*>(&program_identity), &info) != 0 && info.dli_fname &&
+      *info.dli_fname) {
+    std::error_code ec;
+    const fs::path self = fs::canonical(info.dli_fname, ec);
+    if (!ec) return file_identity(self);
+  }
   std::error_code ec;
   fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   if (ec) return json("unknown");

@@ -166,6 +166,28 @@ RunSetup RunSetup::from_file(const std::filesystem::path& scene_file) {
   return s;
 }
 
+nlohmann::json run_setup_json(const RunSetup& setup) {
+  return {{"scene_doc", setup.scene_doc},         {"scene_path", setup.scene_path.string()},
+          {"light_samples", setup.light_samples}, {"reference_samples", setup.reference_samples},
+          {"seed", setup.seed},                   {"method_params", setup.method_params}};
+}
+
+RunSetup run_setup_from_json(const nlohmann::json& j) {
+  RunSetup s;
+  try {
+    s.scene_doc = j.at("scene_doc");
+    s.scene_path = j.at("scene_path").get<std::string>();
+    s.light_samples = j.at("light_samples").get<int>();
+    s.reference_samples = j.at("reference_samples").get<int>();
+    s.seed = j.at("seed").get<uint64_t>();
+    s.method_params = j.at("method_params").get<std::vector<std::string>>();
+  } catch (const nlohmann::json::exception& e) {
+    throw Error("run setup: {}", e.what());
+  }
+  if (!s.scene_doc.is_object()) throw Error("run setup: scene_doc: expected a JSON object");
+  return s;
+}
+
 void RunSetup::apply(const std::string& key_eq_value) {
   auto eq = key_eq_value.find('=');
   if (eq == std::string::npos || eq == 0) throw Error("{}: expected key=value", key_eq_value);

@@ -66,6 +66,11 @@ struct RunSetup {
   int pixel_samples() const;
 };
 
+// A RunSetup as one JSON object (scene_doc, scene_path, light_samples, reference_samples,
+// seed, method_params): how `--dask` hands a run to penumbra.distributed and its jobs carry it.
+nlohmann::json run_setup_json(const RunSetup& setup);
+RunSetup run_setup_from_json(const nlohmann::json& j);  // throws an Error naming a missing key
+
 // The settings keys that are not method parameters, for messages and docs.
 const std::vector<std::string>& run_setting_keys();
 

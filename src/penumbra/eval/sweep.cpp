@@ -49,8 +49,7 @@ const std::vector<std::string>& base_columns() {
 
 }  // namespace
 
-Sweep run_sweep(const RunSetup& base, const SweepOptions& options) {
-  Timer wall;
+Sweep sweep_header(const RunSetup& base, const SweepOptions& options) {
   if (options.key.empty()) throw Error("sweep: no parameter to vary (--param key=v1,v2,...)");
   if (options.values.empty()) throw Error("sweep: --param {}: no values", options.key);
   Sweep s;
@@ -65,8 +64,10 @@ Sweep run_sweep(const RunSetup& base, const SweepOptions& options) {
     double x;
     s.numeric = s.numeric && parse_double(v, &x);
   }
+  return s;
+}
 
-  // Every value's setup first: a bad value fails before any render.
+std::vector<RunSetup> sweep_setups(const RunSetup& base, const SweepOptions& options) {
   std::vector<RunSetup> setups;
   for (const auto& v : options.values) {
     RunSetup setup = base;
@@ -80,7 +81,10 @@ Sweep run_sweep(const RunSetup& base, const SweepOptions& options) {
     setup.check_plain_params(options.methods);
     setups.push_back(std::move(setup));
   }
+  return setups;
+}
 
+CompareOptions sweep_compare_options(const SweepOptions& options) {
   CompareOptions co;
   co.methods = options.methods;
   co.ground_truth = options.ground_truth;
@@ -89,32 +93,41 @@ Sweep run_sweep(const RunSetup& base, const SweepOptions& options) {
   co.warmup_runs = options.warmup_runs;
   co.keep_images = !options.pages_dir.empty();
   co.equal_quality = false;  // a sweep's values would each render a reference ladder
+  return co;
+}
+
+void add_sweep_value(Sweep& s, size_t i, Comparison c, const SweepOptions& options) {
+  const std::string& value = options.values[i];
+  if (!options.pages_dir.empty()) {
+    c.command = fmt::format("(sweep {}={})", options.key, value);
+    write_comparison(c, options.pages_dir / safe_name(options.key + "=" + value), ReportOptions{0, false});
+  }
+  s.comparisons.push_back(comparison_json(c));
+  double x = static_cast<double>(i);
+  if (s.numeric) parse_double(value, &x);
+  for (MethodRun& r : c.runs) {
+    SweepRow row;
+    row.value = value;
+    row.x = x;
+    r.color = Image();
+    r.visibility = Image();
+    row.run = std::move(r);
+    if (c.has_ground_truth) row.ground_truth_ms = c.truth.total_ms;
+    s.rows.push_back(std::move(row));
+  }
+}
+
+Sweep run_sweep(const RunSetup& base, const SweepOptions& options) {
+  Timer wall;
+  Sweep s = sweep_header(base, options);
+  // Every value's setup first: a bad value fails before any render.
+  const std::vector<RunSetup> setups = sweep_setups(base, options);
+  CompareOptions co = sweep_compare_options(options);
   uint64_t total = 0;
   for (const auto& setup : setups) total += comparison_progress_units(setup, co);
   Progress bar(fmt::format("sweep {}", options.key), total, options.progress);
   co.progress_bar = &bar;
-
-  for (size_t i = 0; i < setups.size(); ++i) {
-    const std::string& value = options.values[i];
-    Comparison c = run_comparison(setups[i], co);
-    if (!options.pages_dir.empty()) {
-      c.command = fmt::format("(sweep {}={})", options.key, value);
-      write_comparison(c, options.pages_dir / safe_name(options.key + "=" + value), ReportOptions{0, false});
-    }
-    s.comparisons.push_back(comparison_json(c));
-    double x = static_cast<double>(i);
-    if (s.numeric) parse_double(value, &x);
-    for (MethodRun& r : c.runs) {
-      SweepRow row;
-      row.value = value;
-      row.x = x;
-      r.color = Image();
-      r.visibility = Image();
-      row.run = std::move(r);
-      if (c.has_ground_truth) row.ground_truth_ms = c.truth.total_ms;
-      s.rows.push_back(std::move(row));
-    }
-  }
+  for (size_t i = 0; i < setups.size(); ++i) add_sweep_value(s, i, run_comparison(setups[i], co), options);
   bar.finish();
   s.wall_ms = wall.elapsed_ms();
   return s;

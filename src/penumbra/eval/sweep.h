@@ -50,6 +50,14 @@ struct Sweep {
 
 Sweep run_sweep(const RunSetup& base, const SweepOptions& options);
 
+// --- A sweep in steps (run_sweep; penumbra.distributed runs each value's comparison as jobs):
+// the sweep without rows; every value's setup (a bad value throws before anything renders);
+// the comparison options of each value; then each value's comparison added in order.
+Sweep sweep_header(const RunSetup& base, const SweepOptions& options);
+std::vector<RunSetup> sweep_setups(const RunSetup& base, const SweepOptions& options);
+CompareOptions sweep_compare_options(const SweepOptions& options);
+void add_sweep_value(Sweep& s, size_t value_index, Comparison c, const SweepOptions& options);
+
 // The numbers in a method's MethodStats::extra as columns: "<prefix>.<key>", nested objects
 // as "<prefix>.<key>.<key>", an array as its last element (a curve's final value, e.g.
 // lam's depth_complexity per light sample); strings and booleans are left out.
