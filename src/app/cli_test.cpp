@@ -10,6 +10,7 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -130,6 +131,41 @@ TEST_F(Cli, RenderAccumulatesFramesAndBendsNormals) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("2000"), std::string::npos) << r.err;
   EXPECT_NE(run(fmt::format("render {} -m afsm --frames 0 -o {} --quiet", scene, one.string())).exit_code, 0);
+}
+
+TEST_F(Cli, RenderCropWritesTheWindowOfTheWholeImage) {
+  std::string scene = tiny_scene();
+  fs::path whole = dir_ / "whole.exr", crop = dir_ / "crop.exr";
+  const std::string common = fmt::format("render {} -m reference --spp 16 --pixel-samples 2 --seed 5 --quiet", scene);
+  ASSERT_EQ(run(fmt::format("{} -o {}", common, whole.string())).exit_code, 0);
+  CliRun r = run(fmt::format("{} --crop 5,3,22,17 -o {}", common, crop.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Image whole_rgb = read_image(whole.string()), crop_rgb = read_image(crop.string());
+  const Image whole_v = read_exr_channel(whole.string(), "V"), crop_v = read_exr_channel(crop.string(), "V");
+  ASSERT_EQ(crop_rgb.width(), 17);
+  ASSERT_EQ(crop_rgb.height(), 14);
+  ASSERT_EQ(crop_v.width(), 17);
+  ASSERT_EQ(crop_v.height(), 14);
+  // The window cut out of the whole image, value for value (the umbra lies inside it).
+  float v_min = 1.0f;
+  for (int y = 0; y < 14; ++y)
+    for (int x = 0; x < 17; ++x) {
+      ASSERT_EQ(crop_v.at(x, y), whole_v.at(x + 5, y + 3)) << x << "," << y;
+      for (int c = 0; c < 3; ++c) ASSERT_EQ(crop_rgb.at(x, y, c), whole_rgb.at(x + 5, y + 3, c)) << x << "," << y;
+      v_min = std::min(v_min, crop_v.at(x, y));
+    }
+  EXPECT_LT(v_min, 0.1f);
+  // Bad windows are one-line errors naming --crop, and write nothing.
+  fs::path never = dir_ / "never.exr";
+  for (const char* bad : {"1,2,3", "5,3,5,17", "a,b,c,d", "0,0,33,24", "-1,0,3,4"}) {
+    r = run(fmt::format("render {} -m hard --crop {} -o {} --quiet", scene, bad, never.string()));
+    EXPECT_NE(r.exit_code, 0) << bad;
+    EXPECT_NE(r.err.find("--crop"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(never));
+  }
+  r = run(fmt::format("render {} -m hard --crop 0,0,33,24 -o {} --quiet", scene, never.string()));
+  EXPECT_NE(r.err.find("outside the 32x24 image"), std::string::npos) << r.err;
 }
 
 TEST_F(Cli, BadSceneIsOneLineErrorNamingFileAndKeyAndWritesNothing) {
@@ -290,7 +326,7 @@ TEST_F(Cli, MethodMapsTooLargeForMemoryAreRefusedUpFront) {
   // occlusion textures (4096^2 texels, 32 slices, 13 N-buffer levels): refused before
   // anything is allocated, naming the parameter to lower.
   expect_refused("-m occlusion-textures -p resolution=4096 -p slices=32 --memory-limit 64M",
-                 "tiny.json: occlusion-textures needs about 5.2 GiB for its light-space data (and 99 KiB for the "
+                 "tiny.json: occlusion-textures needs about 5.2 GiB for its light-space data (and 102 KiB for the "
                  "view samples), over the memory limit of 64.0 MiB; lower -p occlusion-textures.resolution or raise "
                  "--memory-limit");
   // mlsm's layered map: 8192^2 texels of 64 layers (about 64 GiB).

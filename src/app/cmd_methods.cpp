@@ -21,7 +21,7 @@ int run_methods(const std::string& name, bool json) {
         params.push_back({{"name", p.name}, {"type", to_string(p.type)}, {"default", p.default_value},
                           {"doc", p.doc}, {"choices", p.choices}});
       out.push_back({{"name", m->name}, {"description", m->description}, {"samples_light", m->samples_light},
-                     {"params", params}});
+                     {"tile_exact", m->tile_exact}, {"params", params}});
     }
     std::printf("%s\n", out.dump(2).c_str());
     return 0;
@@ -30,6 +30,8 @@ int run_methods(const std::string& name, bool json) {
     std::printf("%-20s %s\n", m->name.c_str(), m->description.c_str());
     if (name.empty()) continue;
     if (m->samples_light) std::printf("  (samples the light: --spp N sets the light samples per point)\n");
+    if (!m->tile_exact)
+      std::printf("  (not tile-exact: a `render --crop` window may differ from the whole frame's pixels there)\n");
     for (const ParamSpec& p : m->params) {
       std::string extra;
       if (!p.choices.empty()) {

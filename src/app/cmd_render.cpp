@@ -1,4 +1,4 @@
-// penumbra render SCENE [-m METHOD] [--spp N] [--frames K] [--resolution N|WxH] [-o OUT] ...
+// penumbra render SCENE [-m METHOD] [--spp N] [--frames K] [--resolution N|WxH] [--crop X0,Y0,X1,Y1] [-o OUT] ...
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +20,7 @@ struct RenderOptions {
   std::string method = "reference";
   int spp = 256;
   std::string resolution;
+  std::string crop;
   int pixel_samples = 0;
   std::string output;
   std::string visibility_out;
@@ -37,6 +38,13 @@ int run_render(const RenderOptions& o) {
   ThreadLimit limit(o.threads);
   Scene scene = load_scene(o.scene);
   apply_camera_overrides(scene, o.resolution, o.pixel_samples);
+  PixelWindow crop;
+  if (!o.crop.empty()) {
+    if (!parse_pixel_window(o.crop, &crop))
+      throw Error("--crop {}: expected X0,Y0,X1,Y1 (pixels, X0 < X1, Y0 < Y1), e.g. 0,0,256,128", o.crop);
+    if (!crop.inside(scene.camera.width, scene.camera.height))
+      throw Error("--crop {}: outside the {}x{} image", o.crop, scene.camera.width, scene.camera.height);
+  }
   std::string out = o.output.empty()
                         ? fmt::format("{}-{}.png", std::filesystem::path(o.scene).stem().string(), o.method)
                         : o.output;
@@ -50,6 +58,7 @@ int run_render(const RenderOptions& o) {
   settings.seed = o.seed;
   settings.frames = o.frames;
   settings.coherent_shading = o.coherent_shading;
+  settings.crop = crop;
   settings.progress = !o.quiet;
   if (!o.memory_limit.empty()) settings.memory_limit = parse_memory_size(o.memory_limit, "--memory-limit");
   RenderResult r = render_scene(scene, settings);
@@ -63,8 +72,9 @@ int run_render(const RenderOptions& o) {
   if (!o.quiet) {
     std::string samples =
         MethodRegistry::get(o.method).samples_light ? fmt::format(", {} light samples", o.spp) : std::string();
-    std::fprintf(stderr, "%s: %s, %dx%d%s: %.1f ms (%.1f ms camera pass), %llu shadow rays -> %s\n", o.scene.c_str(),
-                 o.method.c_str(), scene.camera.width, scene.camera.height, samples.c_str(), r.total_ms,
+    const std::string window = o.crop.empty() ? std::string() : " cropped to " + crop.to_string();
+    std::fprintf(stderr, "%s: %s, %dx%d%s%s: %.1f ms (%.1f ms camera pass), %llu shadow rays -> %s\n", o.scene.c_str(),
+                 o.method.c_str(), scene.camera.width, scene.camera.height, window.c_str(), samples.c_str(), r.total_ms,
                  r.camera_pass_ms, static_cast<unsigned long long>(r.stats.rays_traced), out.c_str());
   }
   return 0;
@@ -78,6 +88,10 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
   cmd->add_option("--spp", o->spp, "light samples per shading point, for every method that samples the light")
       ->capture_default_str()->check(CLI::Range(1, 1 << 20));
   cmd->add_option("--resolution", o->resolution, "image size N or WxH (overrides the scene's camera)");
+  cmd->add_option("--crop", o->crop,
+                  "render only the pixels [X0,X1) x [Y0,Y1) of the image and write that window (a tile of a frame "
+                  "rendered in parts; see `penumbra methods NAME` for the methods whose tiles equal the whole "
+                  "frame bit for bit)");
   cmd->add_option("--pixel-samples", o->pixel_samples, "jittered camera samples per pixel (overrides the scene)")
       ->check(CLI::Range(1, 1024));
   cmd->add_option("-o,--output", o->output, "output image, .png (sRGB) or .exr (linear, with a V channel)");

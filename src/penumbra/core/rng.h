@@ -1,6 +1,7 @@
 // Counter-based random numbers. Every random decision in penumbra is a pure function of
 // (seed, pixel, light, sample, dimension), so an image does not depend on the thread
-// count or the order in which tiles are scheduled (DESIGN.md, conventions).
+// count or the order in which tiles are scheduled (DESIGN.md, conventions), nor on which
+// pixels are rendered: a view sample's key is its camera ray (sample_key, view_samples.h).
 #pragma once
 
 #include <cstdint>

@@ -16,30 +16,37 @@
 
 namespace penumbra {
 
-void CameraPass::run(const Scene& scene, const RayTracer& tracer, uint64_t seed, ViewSamples& vs) {
+void CameraPass::run(const Scene& scene, const RayTracer& tracer, uint64_t seed, ViewSamples& vs,
+                     const PixelWindow& crop) {
   const Camera& cam = scene.camera;
+  const PixelWindow window = crop_window(crop, cam);
   const CameraProjection projection(cam);
   const int spp = std::max(1, cam.samples_per_pixel);
   vs.width = cam.width;
   vs.height = cam.height;
+  vs.window = window;
   vs.samples_per_pixel = spp;
   const StratifiedGrid grid(spp);
-  const size_t rows = static_cast<size_t>(cam.height), per_row = static_cast<size_t>(cam.width) * spp;
+  // Rows and rays of the window; row j is image row window.y0 + j. A ray's direction, jitter
+  // and (through ViewSample::pixel and sub) every method's random numbers depend on its global
+  // pixel only, so a window's rays are the whole image's rays there.
+  const size_t rows = static_cast<size_t>(window.height()), per_row = static_cast<size_t>(window.width()) * spp;
   hits_.resize(rows * per_row);
   row_offset_.assign(rows + 1, 0);
-  // The directions of row y's rays (ray r = pixel r / spp, sample r % spp) into dx, dy, dz:
-  // the pixel centres (a vectorised row), or stratified jitter inside each pixel.
-  auto row_directions = [&](size_t y, float* dx, float* dy, float* dz) {
+  // The directions of row j's rays (ray r = pixel window.x0 + r / spp, sample r % spp) into
+  // dx, dy, dz: the pixel centres (a vectorised row), or stratified jitter inside each pixel.
+  auto row_directions = [&](size_t j, float* dx, float* dy, float* dz) {
+    const int y = window.y0 + static_cast<int>(j);
     if (spp == 1) {
-      projection.row_directions(static_cast<float>(y) + 0.5f, cam.width, dx, dy, dz);
+      projection.row_directions(static_cast<float>(y) + 0.5f, window.x0, window.width(), dx, dy, dz);
       return;
     }
-    for (int x = 0; x < cam.width; ++x) {
+    for (int x = window.x0; x < window.x1; ++x) {
       Rng rng(seed, 0x43414dull /* "CAM" */, static_cast<uint32_t>(y * cam.width + x));
       for (int s = 0; s < spp; ++s) {
         const Vec2f u = grid.sample(s, rng.next_2d());
         const Vec3f d = projection.ray_direction(x + u.x, y + u.y);
-        const size_t r = static_cast<size_t>(x) * spp + s;
+        const size_t r = static_cast<size_t>(x - window.x0) * spp + s;
         dx[r] = d.x, dy[r] = d.y, dz[r] = d.z;
       }
     }
@@ -55,15 +62,15 @@ void CameraPass::run(const Scene& scene, const RayTracer& tracer, uint64_t seed,
     std::vector<Hit> hits(kTile * per_row);
     std::vector<uint32_t> slot(kTile * per_row);  // stream position -> ray index within the group's rows
     for (size_t g = g0; g < g1; ++g) {
-      const size_t y_begin = g * kTile, y_end = std::min(rows, y_begin + kTile);
-      for (size_t y = y_begin; y < y_end; ++y) {
-        const size_t o = (y - y_begin) * per_row;
-        row_directions(y, dx.data() + o, dy.data() + o, dz.data() + o);
+      const size_t j_begin = g * kTile, j_end = std::min(rows, j_begin + kTile);
+      for (size_t j = j_begin; j < j_end; ++j) {
+        const size_t o = (j - j_begin) * per_row;
+        row_directions(j, dx.data() + o, dy.data() + o, dz.data() + o);
       }
       size_t i = 0;
       for (size_t tx = 0; tx < per_row; tx += kTile * spp) {
         const size_t tx_end = std::min(per_row, tx + kTile * spp);
-        for (size_t o = 0; o < (y_end - y_begin) * per_row; o += per_row) {
+        for (size_t o = 0; o < (j_end - j_begin) * per_row; o += per_row) {
           for (size_t r = o + tx; r < o + tx_end; ++r) {
             rays[i] = Ray{cam.eye, Vec3f(dx[r], dy[r], dz[r]), 0.0f, kInfinity};
             slot[i++] = static_cast<uint32_t>(r);
@@ -71,30 +78,31 @@ void CameraPass::run(const Scene& scene, const RayTracer& tracer, uint64_t seed,
         }
       }
       tracer.intersect(std::span(rays).first(i), std::span(hits).first(i), /*coherent=*/true);
-      RayHit* out = hits_.data() + y_begin * per_row;
+      RayHit* out = hits_.data() + j_begin * per_row;
       for (size_t k = 0; k < i; ++k) {
         const Hit& hit = hits[k];
         out[slot[k]] = RayHit{hit.object, hit.prim, hit.u, hit.v};
       }
-      for (size_t y = y_begin; y < y_end; ++y) {
-        const RayHit* row = hits_.data() + y * per_row;
+      for (size_t j = j_begin; j < j_end; ++j) {
+        const RayHit* row = hits_.data() + j * per_row;
         size_t count = 0;
         for (size_t r = 0; r < per_row; ++r) count += row[r].object != Hit::kMiss;
-        row_offset_[y + 1] = count;
+        row_offset_[j + 1] = count;
       }
     }
   });
-  for (size_t y = 0; y < rows; ++y) row_offset_[y + 1] += row_offset_[y];
+  for (size_t j = 0; j < rows; ++j) row_offset_[j + 1] += row_offset_[j];
   // Pass 2: the view samples, each row from its offset (scanline order whatever the thread count).
   vs.samples.resize(row_offset_.back());
-  parallel_for(rows, 4, [&](size_t y0, size_t y1) {
+  parallel_for(rows, 4, [&](size_t j0, size_t j1) {
     std::vector<float> dx(per_row), dy(per_row), dz(per_row);
-    for (size_t y = y0; y < y1; ++y) {
-      if (row_offset_[y + 1] == row_offset_[y]) continue;
+    for (size_t j = j0; j < j1; ++j) {
+      if (row_offset_[j + 1] == row_offset_[j]) continue;
       // The rays' directions again (cheaper than keeping them): which side each hit.
-      row_directions(y, dx.data(), dy.data(), dz.data());
-      ViewSample* out = vs.samples.data() + row_offset_[y];
-      const RayHit* in = hits_.data() + y * per_row;
+      row_directions(j, dx.data(), dy.data(), dz.data());
+      ViewSample* out = vs.samples.data() + row_offset_[j];
+      const RayHit* in = hits_.data() + j * per_row;
+      const size_t row_pixel = (window.y0 + j) * static_cast<size_t>(cam.width) + window.x0;
       for (size_t r = 0; r < per_row; ++r) {
         const RayHit& hit = in[r];
         if (hit.object == Hit::kMiss) continue;
@@ -120,15 +128,16 @@ void CameraPass::run(const Scene& scene, const RayTracer& tracer, uint64_t seed,
         v.albedo = (back && !obj.material.two_sided) ? Vec3f(0.0f) : obj.material.albedo;
         v.object = object;
         v.prim = hit.prim;
-        v.pixel = static_cast<uint32_t>(y * cam.width + r / spp);
+        v.pixel = static_cast<uint32_t>(row_pixel + r / spp);
+        v.sub = static_cast<uint32_t>(r % spp);
       }
     }
   });
 }
 
-ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t seed) {
+ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t seed, const PixelWindow& crop) {
   ViewSamples vs;
-  CameraPass().run(scene, tracer, seed, vs);
+  CameraPass().run(scene, tracer, seed, vs, crop);
   return vs;
 }
 
@@ -146,7 +155,9 @@ std::string format_bytes(uint64_t b) {
 
 RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSettings& settings) {
   RenderMemoryEstimate e;
-  const uint64_t pixels = static_cast<uint64_t>(scene.camera.width) * static_cast<uint64_t>(scene.camera.height);
+  // The crop's pixels only (the whole image without one); a crop outside the image is refused here.
+  const PixelWindow window = crop_window(settings.crop, scene.camera);
+  const uint64_t pixels = static_cast<uint64_t>(window.width()) * static_cast<uint64_t>(window.height());
   const uint64_t rays = pixels * static_cast<uint64_t>(std::max(1, scene.camera.samples_per_pixel));
   // CameraPass: a 16-byte hit per ray and a ViewSample per hit (every ray may hit); the
   // compose's per-sample radiance, V sums, vis and irradiance (FrameBuffers: 40 bytes), twice
@@ -192,12 +203,13 @@ void check_render_memory(const Scene& scene, const RenderSettings& settings) {
   // The view samples' own message also when what the method needs most grows with them.
   if (need.view_bytes >= need.method_bytes || need.method_setting == kViewSamplesSetting)
     throw Error(
-        "{}: a {}x{} image with {} camera sample(s) per pixel needs about {} for its view samples{}, {}; lower "
-        "camera.resolution or camera.samples_per_pixel (--resolution, --pixel-samples) or raise --memory-limit",
-        scene.source.string(), scene.camera.width, scene.camera.height, std::max(1, scene.camera.samples_per_pixel),
-        format_bytes(need.view_bytes),
+        "{}: a {}x{} image{} with {} camera sample(s) per pixel needs about {} for its view samples{}, {}; lower "
+        "camera.resolution or camera.samples_per_pixel (--resolution, --pixel-samples){} or raise --memory-limit",
+        scene.source.string(), scene.camera.width, scene.camera.height,
+        settings.crop.empty() ? "" : fmt::format(" cropped to {}", settings.crop.to_string()),
+        std::max(1, scene.camera.samples_per_pixel), format_bytes(need.view_bytes),
         need.method_bytes > 0 ? fmt::format(" and {} for {}", format_bytes(need.method_bytes), settings.method) : "",
-        over);
+        over, settings.crop.empty() ? "" : ", render smaller tiles (--crop)");
   // A method parameter is named as -p METHOD.NAME; other settings (--spp, the scene's
   // triangles) as they are.
   const std::vector<ParamSpec>& specs = MethodRegistry::get(settings.method).params;
@@ -277,7 +289,7 @@ RenderResult Renderer::render() {
   RenderResult result;
   result.resolved_params = resolved_params_;
   Timer cam_timer;
-  camera_pass_.run(scene_, *tracer_, settings_.seed, view_);
+  camera_pass_.run(scene_, *tracer_, settings_.seed, view_, settings_.crop);
   const ViewSamples& vs = view_;
   result.camera_pass_ms = cam_timer.elapsed_ms();
   result.view_sample_count = vs.size();
@@ -375,11 +387,15 @@ RenderResult Renderer::render() {
   for (auto& m : methods_) m->stats() = MethodStats{};
 
   // Resolve view samples into pixels: the mean over the pixel's camera samples, misses
-  // counting as background (black, fully lit).
+  // counting as background (black, fully lit). The images are the window's: pixel (x, y) of
+  // the whole image at (x - x0, y - y0).
   const int spp = vs.samples_per_pixel;
-  result.color = Image(vs.width, vs.height, 3, 0.0f);
-  result.visibility = Image(vs.width, vs.height, 1, 1.0f);  // pixels without hits stay 1
+  const PixelWindow& window = vs.window;
+  result.window = window;
+  result.color = Image(window.width(), window.height(), 3, 0.0f);
+  result.visibility = Image(window.width(), window.height(), 1, 1.0f);  // pixels without hits stay 1
   const float inv_spp = 1.0f / spp;
+  const uint32_t image_width = static_cast<uint32_t>(vs.width);
   // In parallel over runs of samples that start at a pixel's first sample (the samples are
   // grouped by pixel), so no two tasks touch one pixel.
   parallel_for(n, 4096, [&](size_t b, size_t e) {
@@ -396,9 +412,11 @@ RenderResult Renderer::render() {
         v_sum += v_weight[i] > 0 ? v_weighted[i] / v_weight[i] : v_plain[i] / lights;
         c += radiance[i];
       }
-      float* out = result.color.pixel(px);
+      const int x = static_cast<int>(px % image_width) - window.x0, y = static_cast<int>(px / image_width) - window.y0;
+      const size_t local = static_cast<size_t>(y) * window.width() + x;
+      float* out = result.color.pixel(local);
       out[0] = c.x * inv_spp; out[1] = c.y * inv_spp; out[2] = c.z * inv_spp;
-      result.visibility.data()[px] = (v_sum + (spp - hits)) * inv_spp;
+      result.visibility.data()[local] = (v_sum + (spp - hits)) * inv_spp;
     }
   });
   result.total_ms = total.elapsed_ms();
@@ -420,6 +438,8 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
           {"frames", settings.frames},
           {"coherent_shading", settings.coherent_shading},
           {"resolution", {scene.camera.width, scene.camera.height}},
+          // The pixels rendered ([x0, y0, x1, y1]: the whole image, or the crop).
+          {"window", {r.window.x0, r.window.y0, r.window.x1, r.window.y1}},
           {"pixel_samples", scene.camera.samples_per_pixel},
           {"triangles", scene.triangle_count()},
           {"view_samples", r.view_sample_count},

@@ -34,6 +34,12 @@ struct RenderSettings {
   // A bar owned by the caller (a comparison of several renders) to advance instead of
   // drawing one per render; `progress` is then ignored. Not owned.
   Progress* progress_bar = nullptr;
+  // Render only these pixels of the camera's image (a tile of a frame split among machines):
+  // the camera pass traces their rays alone, and the images are the window's size. Empty (the
+  // default) = the whole image; a window not inside the image is an error. Every method keys its
+  // random numbers by the camera ray (sample_key), so a tile's pixels equal the whole frame's
+  // there, bit for bit, for the methods whose MethodInfo::tile_exact is true.
+  PixelWindow crop;
   // Memory budget for the render, in bytes (0 = 80% of physical memory): a render whose
   // estimate exceeds it is refused before anything is allocated (estimate_render_memory).
   uint64_t memory_limit = 0;
@@ -57,6 +63,9 @@ uint64_t default_memory_limit();
 void check_render_memory(const Scene& scene, const RenderSettings& settings);
 
 struct RenderResult {
+  // The pixels of the camera's image rendered (RenderSettings::crop, or the whole image): the
+  // images are its size, pixel (x, y) of the whole image at (x - window.x0, y - window.y0).
+  PixelWindow window;
   Image color;       // linear RGB radiance (Lambertian: albedo / pi * E)
   Image visibility;  // V per pixel (1 = fully lit; background 1)
   MethodStats stats;            // summed over lights
@@ -67,14 +76,15 @@ struct RenderResult {
 };
 
 // The camera pass on Embree: primary rays through each pixel (jittered when the camera
-// asks for several samples per pixel), producing the view samples in scanline order. The
+// asks for several samples per pixel), or through each pixel of `crop` (empty: the whole
+// image; ViewSamples::window says which), producing the view samples in scanline order. The
 // rays of a row are traced as one Embree stream; a first pass keeps only each ray's hit (16
 // bytes), a second writes the view samples straight to their place. An instance keeps its
 // buffers, and `run` reuses those of `out`, so a renderer drawing frame after frame does not
 // fault in fresh pages for the 64-byte samples each time.
 class CameraPass {
  public:
-  void run(const Scene& scene, const RayTracer& tracer, uint64_t seed, ViewSamples& out);
+  void run(const Scene& scene, const RayTracer& tracer, uint64_t seed, ViewSamples& out, const PixelWindow& crop = {});
 
  private:
   struct RayHit {
@@ -82,12 +92,12 @@ class CameraPass {
     uint32_t prim;
     float u, v;
   };
-  std::vector<RayHit> hits_;        // per ray, in scanline order
-  std::vector<size_t> row_offset_;  // first view sample of each row, and the total
+  std::vector<RayHit> hits_;        // per ray of the window, in scanline order
+  std::vector<size_t> row_offset_;  // first view sample of each of the window's rows, and the total
 };
 
 // One camera pass with fresh buffers.
-ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t seed);
+ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t seed, const PixelWindow& crop = {});
 
 // Renders frames of one scene with one method, keeping the method's light-space
 // structures between frames: set_camera() re-runs the camera pass only.
@@ -102,6 +112,9 @@ class Renderer {
   void set_lights(const std::vector<AreaLight>& lights);
   // Only the first frame index of the next render (RenderSettings::first_frame).
   void set_first_frame(int frame) { settings_.first_frame = frame; }
+  // Only the window of the next render (RenderSettings::crop): the tiles of one frame share the
+  // light-space structures. Checked against the camera when rendered.
+  void set_crop(const PixelWindow& crop) { settings_.crop = crop; }
   // Whether every light's method has its light-space structures for the current lights (the
   // next render costs an evaluate() alone).
   bool prepared() const;

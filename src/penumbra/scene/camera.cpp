@@ -1,6 +1,11 @@
 #include "penumbra/scene/camera.h"
 
 #include <cmath>
+#include <cstdint>
+
+#include <fmt/format.h>
+
+#include "penumbra/core/error.h"
 
 namespace penumbra {
 
@@ -26,6 +31,36 @@ bool parse_resolution(const std::string& text, int* width, int* height) {
   }
   *width = w;
   *height = h;
+  return true;
+}
+
+std::string PixelWindow::to_string() const { return fmt::format("{},{},{},{}", x0, y0, x1, y1); }
+
+PixelWindow crop_window(const PixelWindow& crop, const Camera& camera) {
+  if (crop.empty()) return PixelWindow{0, 0, camera.width, camera.height};
+  if (!crop.inside(camera.width, camera.height))
+    throw Error("crop={}: outside the {}x{} image", crop.to_string(), camera.width, camera.height);
+  return crop;
+}
+
+bool parse_pixel_window(const std::string& text, PixelWindow* window) {
+  // Four comma-separated non-negative integers of at most 5 digits (an image side is at most
+  // 16384), so no overflow.
+  int v[4] = {};
+  size_t at = 0;
+  for (int i = 0; i < 4; ++i) {
+    const size_t end = i < 3 ? text.find(',', at) : text.size();
+    if (end == std::string::npos) return false;
+    const std::string part = text.substr(at, end - at);
+    if (part.empty() || part.size() > 5) return false;
+    for (char c : part) {
+      if (c < '0' || c > '9') return false;
+      v[i] = v[i] * 10 + (c - '0');
+    }
+    at = end + 1;
+  }
+  if (!(v[0] < v[2] && v[1] < v[3])) return false;
+  *window = PixelWindow{v[0], v[1], v[2], v[3]};
   return true;
 }
 
@@ -60,14 +95,14 @@ Vec3f CameraProjection::ray_direction(float px, float py) const {
   return normalize(frame_.s * x + frame_.t * y - frame_.n);
 }
 
-void CameraProjection::row_directions(float py, int count, float* __restrict dx, float* __restrict dy,
+void CameraProjection::row_directions(float py, int x_begin, int count, float* __restrict dx, float* __restrict dy,
                                       float* __restrict dz) const {
   const float y = (1.0f - 2.0f * py / height_) * tan_half_;
   const Vec3f ty = frame_.t * y;
   const Vec3f s = frame_.s, n = frame_.n;
   for (int i = 0; i < count; ++i) {
     // ray_direction's arithmetic, component by component, in the same order.
-    const float x = (2.0f * (static_cast<float>(i) + 0.5f) / width_ - 1.0f) * tan_half_ * aspect_;
+    const float x = (2.0f * (static_cast<float>(x_begin + i) + 0.5f) / width_ - 1.0f) * tan_half_ * aspect_;
     const float vx = (s.x * x + ty.x) - n.x, vy = (s.y * x + ty.y) - n.y, vz = (s.z * x + ty.z) - n.z;
     const float r = 1.0f / std::sqrt(vx * vx + vy * vy + vz * vz);
     dx[i] = vx * r;

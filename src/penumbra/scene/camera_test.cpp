@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
 #include <vector>
+
+#include "penumbra/core/error.h"
 
 namespace penumbra {
 namespace {
@@ -60,12 +63,52 @@ TEST(Camera, RowOfDirectionsEqualsOneAtATime) {
   const CameraProjection projection(cam);
   std::vector<float> dx(cam.width), dy(cam.width), dz(cam.width);
   for (int y : {0, 13, 96}) {
-    projection.row_directions(y + 0.5f, cam.width, dx.data(), dy.data(), dz.data());
+    projection.row_directions(y + 0.5f, 0, cam.width, dx.data(), dy.data(), dz.data());
     for (int x = 0; x < cam.width; ++x) {
       const Vec3f d = cam.ray_direction(x + 0.5f, y + 0.5f);
       EXPECT_EQ(dx[x], d.x) << x << "," << y;
       EXPECT_EQ(dy[x], d.y) << x << "," << y;
       EXPECT_EQ(dz[x], d.z) << x << "," << y;
+    }
+  }
+  // A part of a row (a crop's): the same floats as the whole row's.
+  const int x_begin = 57, count = 31;
+  std::vector<float> px(count), py(count), pz(count);
+  projection.row_directions(13.5f, x_begin, count, px.data(), py.data(), pz.data());
+  for (int i = 0; i < count; ++i) {
+    const Vec3f d = cam.ray_direction(x_begin + i + 0.5f, 13.5f);
+    EXPECT_EQ(px[i], d.x) << i;
+    EXPECT_EQ(py[i], d.y) << i;
+    EXPECT_EQ(pz[i], d.z) << i;
+  }
+}
+
+TEST(Camera, PixelWindowsAreFourIntegersWithXAndYGrowing) {
+  PixelWindow w;
+  EXPECT_TRUE(w.empty());
+  EXPECT_TRUE(parse_pixel_window("3,4,17,9", &w));
+  EXPECT_EQ(w, (PixelWindow{3, 4, 17, 9}));
+  EXPECT_EQ(w.width(), 14);
+  EXPECT_EQ(w.height(), 5);
+  EXPECT_EQ(w.to_string(), "3,4,17,9");
+  for (const char* bad : {"", "1,2,3", "1,2,3,4,5", "1,2,1,4", "1,4,3,4", "-1,0,3,4", "a,0,3,4", "0,0,3,", "0,,3,4",
+                          "0,0,123456,4", " 0,0,3,4"})
+    EXPECT_FALSE(parse_pixel_window(bad, &w)) << bad;
+}
+
+TEST(Camera, CropWindowIsTheWholeImageWhenEmptyAndMustLieInside) {
+  Camera cam;
+  cam.width = 40;
+  cam.height = 30;
+  EXPECT_EQ(crop_window(PixelWindow{}, cam), (PixelWindow{0, 0, 40, 30}));
+  EXPECT_EQ(crop_window(PixelWindow{0, 0, 40, 30}, cam), (PixelWindow{0, 0, 40, 30}));
+  EXPECT_EQ(crop_window(PixelWindow{5, 6, 7, 8}, cam), (PixelWindow{5, 6, 7, 8}));
+  for (const PixelWindow& bad : {PixelWindow{0, 0, 41, 30}, PixelWindow{-1, 0, 10, 10}, PixelWindow{0, 20, 10, 31}}) {
+    try {
+      crop_window(bad, cam);
+      ADD_FAILURE() << bad.to_string();
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()), "crop=" + bad.to_string() + ": outside the 40x30 image");
     }
   }
 }

@@ -109,6 +109,13 @@ struct MethodInfo {
   // refuses a render whose total exceeds the budget (issue 17, docs/reliability.md). Empty
   // for methods whose memory is negligible next to the view samples (hard: a stack of rays).
   std::function<MemoryEstimate(const ParamSet&, const MemoryQuery&)> estimate_memory;
+  // Whether a crop of the image (RenderSettings::crop: a tile of a frame split among machines)
+  // gives the whole frame's pixels there bit for bit, whatever the window: each view sample's
+  // result depends on that sample alone (its random numbers keyed by its camera ray,
+  // sample_key). False for a method whose result for a sample depends on which other samples
+  // are rendered: one that fits its light view to the view samples, or one that predicts a
+  // pixel from its neighbours'. The registration says why.
+  bool tile_exact = true;
 };
 
 // The registry of shadow methods by name. Methods register from their own source file:

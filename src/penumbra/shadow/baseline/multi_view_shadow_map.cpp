@@ -106,6 +106,9 @@ const MethodRegistration registration({
     [](const ParamSet& p) { return std::make_unique<MultiViewShadowMap>(p); },
     /*samples_light=*/true,
     memory,
+    // Not tile-exact: each light point's depth map is fitted to the rendered view samples
+    // (light_view_from), so a crop's maps have other texels than the whole frame's.
+    /*tile_exact=*/false,
 });
 
 }  // namespace

@@ -198,6 +198,9 @@ const MethodRegistration registration({
     [](const ParamSet& p) { return std::make_unique<Pcss>(p); },
     /*samples_light=*/false,
     memory,
+    // Not tile-exact: the depth map is fitted to the rendered view samples (light_view_from),
+    // so a crop's blocker search and filter read other texels than the whole frame's.
+    /*tile_exact=*/false,
 });
 
 }  // namespace

@@ -104,6 +104,10 @@ const MethodRegistration registration({
     [](const ParamSet& p) { return std::make_unique<ShadowMapMethod>(p); },
     /*samples_light=*/false,
     memory,
+    // Not tile-exact: the depth map is fitted to the rendered view samples (light_view_from),
+    // so a crop's map has other texels than the whole frame's and its lookups differ near
+    // shadow edges.
+    /*tile_exact=*/false,
 });
 
 }  // namespace

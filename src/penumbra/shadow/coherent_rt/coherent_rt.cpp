@@ -114,27 +114,42 @@ class CoherentRayTracing final : public ShadowMethod {
     stratification_grid(n, &cols, &rows);
     const StratifiedGrid grid(n);
     const DepthImageTracer tracer(images_, trace_options_);
-    // View samples of each pixel: [first[pixel], first[pixel + 1]).
-    const int W = std::max(1, vs.width), H = std::max(1, vs.height);
+    // View samples of each pixel of the rendered window: [first[i], first[i + 1]), i the
+    // pixel's index within the window.
+    const PixelWindow window = vs.traced_window();
+    const int W = std::max(1, window.width()), H = std::max(1, window.height());
+    const uint32_t image_width = static_cast<uint32_t>(std::max(1, vs.width));
+    auto window_index = [&](const ViewSample& s) -> size_t {
+      const int x = static_cast<int>(s.pixel % image_width) - window.x0;
+      const int y = static_cast<int>(s.pixel / image_width) - window.y0;
+      if (x < 0 || x >= W || y < 0 || y >= H)
+        throw Error("coherent-rt: view sample pixel {} outside the window {} of the {}x{} image", s.pixel,
+                    window.to_string(), vs.width, vs.height);
+      return static_cast<size_t>(y) * W + x;
+    };
     std::vector<uint32_t> first(static_cast<size_t>(W) * H + 1, 0);
-    for (const ViewSample& s : vs.samples) {
-      if (s.pixel >= first.size() - 1)
-        throw Error("coherent-rt: view sample pixel {} outside the {}x{} image", s.pixel, vs.width, vs.height);
-      first[s.pixel + 1]++;
-    }
+    for (const ViewSample& s : vs.samples) first[window_index(s) + 1]++;
     for (size_t i = 1; i < first.size(); ++i) first[i] += first[i - 1];
     // Sample indices grouped by pixel (a counting sort; the camera pass already groups them).
     std::vector<uint32_t> by_pixel(vs.size());
     {
       std::vector<uint32_t> next(first.begin(), first.end() - 1);
-      for (uint32_t k = 0; k < vs.size(); ++k) by_pixel[next[vs.samples[k].pixel]++] = k;
+      for (uint32_t k = 0; k < vs.size(); ++k) by_pixel[next[window_index(vs.samples[k])]++] = k;
     }
 
+    // The tiles are the whole image's (tile-aligned from its top left corner), clipped to the
+    // window: each tile's prediction starts afresh, so a crop whose edges lie on tile
+    // boundaries (or the image's) shades its pixels exactly as the whole frame does. Other
+    // crops cut tiles, whose points then follow other points than in the whole frame
+    // (MethodInfo::tile_exact is false).
+    const int tx0 = window.x0 / tile_, ty0 = window.y0 / tile_;
+    const int tiles_x = (window.x1 - 1) / tile_ + 1 - tx0, tiles_y = (window.y1 - 1) / tile_ + 1 - ty0;
     std::mutex mutex;
     TraceCounters trace_total;
     SoftShadCounters sample_total;
     uint64_t geometry_rays = 0, own_plane_total = 0;
-    parallel_for_tiles(W, H, tile_, [&](int x0, int y0, int x1, int y1) {
+    parallel_for_tiles(tiles_x, tiles_y, 1, [&](int i, int j, int, int) {
+      const int x0 = (tx0 + i) * tile_, y0 = (ty0 + j) * tile_;
       SoftShad sampler(light, cols, rows, sampling_);
       TraceScratch scratch;
       TraceCounters tc;
@@ -147,8 +162,8 @@ class CoherentRayTracing final : public ShadowMethod {
         int hx, hy;
         hilbert_point(tile_, d, &hx, &hy);
         const int x = x0 + hx, y = y0 + hy;
-        if (x >= x1 || y >= y1) continue;
-        const size_t pixel = static_cast<size_t>(y) * W + x;
+        if (x < window.x0 || x >= window.x1 || y < window.y0 || y >= window.y1) continue;
+        const size_t pixel = static_cast<size_t>(y - window.y0) * W + (x - window.x0);
         for (uint32_t slot = first[pixel]; slot < first[pixel + 1]; ++slot) {
           const uint32_t k = by_pixel[slot];
           const ViewSample& s = vs.samples[k];
@@ -158,8 +173,8 @@ class CoherentRayTracing final : public ShadowMethod {
             out.irradiance[k] = Vec3f(0.0f);
             continue;
           }
-          // The reference's per-point samples: keyed by (seed, light, view sample, frame).
-          Rng rng(ctx.seed, 0x52454600u + ctx.light_index, k, ctx.frame);
+          // The reference's per-point samples: keyed by (seed, light, camera ray, frame).
+          Rng rng(ctx.seed, 0x52454600u + ctx.light_index, sample_key(s), ctx.frame);
           for (int i = 0; i < n; ++i) {
             u[i] = grid.sample(i, rng.next_2d());
             q[i] = light.sample_area(u[i]);
@@ -337,6 +352,11 @@ const MethodRegistration registration({
     [](const ParamSet& p) { return std::make_unique<CoherentRayTracing>(p); },
     /*samples_light=*/true,
     memory,
+    // Not tile-exact: SoftShad predicts a point's light cells from the points shaded before it
+    // in its tile (agrawala2000 §5.2), so a crop that cuts a tile drops some of those points.
+    // A crop whose edges lie on multiples of the `tile` parameter (or the image's edges) is
+    // exact: tiles are the whole image's, each with its own prediction.
+    /*tile_exact=*/false,
 });
 
 }  // namespace

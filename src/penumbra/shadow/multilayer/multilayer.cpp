@@ -86,10 +86,10 @@ class MultilayerMethod final : public ShadowMethod {
       std::vector<float> transmit(n);
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
-        // Keyed by (seed, light, view sample, frame): independent of thread count. The same
+        // Keyed by (seed, light, camera ray, frame): independent of thread count. The same
         // stream as `reference` (reference.cpp): at equal seed both draw the same light
         // samples, so their difference is the map's error, not noise.
-        Rng rng(ctx.seed, 0x52454600u + ctx.light_index, k, ctx.frame);
+        Rng rng(ctx.seed, 0x52454600u + ctx.light_index, sample_key(s), ctx.frame);
         const LightPointSampler sampler(light, s.p);
         if (!sampler.valid()) continue;  // p sees no part of the emitting side: V = 0
         const multilayer::RayReceiver r{s.p, s.ng, s.object < scene.objects.size() && scene.objects[s.object].closed};
@@ -302,6 +302,9 @@ const MethodRegistration mlsm_registration({
     [](const ParamSet& p) { return std::make_unique<MultilayerMethod>(p, Kind::Opaque); },
     /*samples_light=*/true,
     [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, Kind::Opaque); },
+    // Not tile-exact: the layered map is fitted to the rendered view samples (build() ->
+    // light_centre_view, its push-back from that fit too), so a crop's rays walk other texels.
+    /*tile_exact=*/false,
 });
 
 const MethodRegistration mtsm_registration({
@@ -312,6 +315,8 @@ const MethodRegistration mtsm_registration({
     [](const ParamSet& p) { return std::make_unique<MultilayerMethod>(p, Kind::Transparent); },
     /*samples_light=*/true,
     [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, Kind::Transparent); },
+    // Not tile-exact: fitted to the rendered view samples, as mlsm.
+    /*tile_exact=*/false,
 });
 
 }  // namespace

@@ -472,20 +472,23 @@ float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
 template <class F>
 void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::span<float> visibility,
                                    LookupCounters& total) const {
-  const int W = vs.width, H = vs.height;
-  // row[y] = the first sample of image row y (samples are grouped by pixel in scanline order);
-  // a tile finds its samples in each row by binary search.
+  // The rendered window (the whole image, or a crop): its rows and tiles. Samples keep their
+  // global pixel index y * width + x.
+  const PixelWindow window = vs.traced_window();
+  const int W = vs.width, H = window.height();
+  // row[y] = the first sample of the window's row y (samples are grouped by pixel in scanline
+  // order); a tile finds its samples in each row by binary search.
   std::vector<uint32_t> row(static_cast<size_t>(H) + 1, 0);
   {
     size_t i = 0;
     for (int y = 0; y <= H; ++y) {
-      const uint64_t start = static_cast<uint64_t>(y) * W;
+      const uint64_t start = static_cast<uint64_t>(window.y0 + y) * W + window.x0;
       while (i < vs.size() && vs.samples[i].pixel < start) ++i;
       row[y] = static_cast<uint32_t>(i);
     }
   }
   auto first_at_or_after = [&](int y, int x) {
-    const uint32_t pixel = static_cast<uint32_t>(y * W + x);
+    const uint32_t pixel = static_cast<uint32_t>((window.y0 + y) * W + window.x0 + x);
     const ViewSample* b = vs.samples.data() + row[y];
     const ViewSample* e = vs.samples.data() + row[y + 1];
     return static_cast<uint32_t>(
@@ -494,13 +497,15 @@ void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::
   std::atomic<uint64_t> lookups{0}, reads{0}, outside{0}, strips{0};
   tbb::enumerable_thread_specific<Batch> batches;
   constexpr int kTile = 16;
-  parallel_for_tiles(W, H, kTile, [&](int x0, int y0, int x1, int y1) {
+  // Tiles of the window (x, y relative to its corner); a point's V does not depend on the
+  // other points of its batch.
+  parallel_for_tiles(window.width(), H, kTile, [&](int x0, int y0, int x1, int y1) {
     Batch& b = batches.local();
     uint32_t begin[kTile], end[kTile];
     size_t n = 0;
     for (int y = y0; y < y1; ++y) {
       begin[y - y0] = first_at_or_after(y, x0);
-      end[y - y0] = x1 < W ? first_at_or_after(y, x1) : row[y + 1];
+      end[y - y0] = x1 < window.width() ? first_at_or_after(y, x1) : row[y + 1];
       n += end[y - y0] - begin[y - y0];
     }
     b.reset(n);

@@ -48,8 +48,9 @@ class ReferenceMethod final : public ShadowMethod {
       uint64_t local_rays = 0;
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
-        // Keyed by (seed, light, view sample, frame): independent of thread count.
-        Rng rng(ctx.seed, 0x52454600u + ctx.light_index, k, ctx.frame);
+        // Keyed by (seed, light, camera ray, frame): independent of the thread count and of
+        // which pixels are rendered (a crop draws the whole frame's samples).
+        Rng rng(ctx.seed, 0x52454600u + ctx.light_index, sample_key(s), ctx.frame);
         for (int i = 0; i < n; ++i) {
           const Vec2f u = grid.sample(i, rng.next_2d());
           ux[i] = u.x;
