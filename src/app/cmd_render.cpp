@@ -10,7 +10,9 @@
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/image.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/eval/run_setup.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/scene/json_reader.h"
 
 namespace penumbra::app {
 namespace {
@@ -32,7 +34,43 @@ struct RenderOptions {
   std::vector<std::string> params;
   std::string memory_limit;
   bool quiet = false;
+  std::string dask;             // a Dask scheduler's address: the frame's tiles render there
+  int tile = 256;               // with --dask: the tiles' side in pixels
+  std::string meshes = "ship";  // with --dask: ship the mesh files, or read them from a shared path
 };
+
+// The frame as tiles on a Dask cluster (penumbra.distributed, docs/distributed.md): the same
+// pixels as the local render, read back from the frame the cluster's client writes. A
+// non-zero *exit_status: the cluster's side failed (and printed its one-line error).
+RenderResult render_on_dask(const RenderOptions& o, nlohmann::json* stats, int* exit_status) {
+  if (!o.crop.empty()) throw Error("--crop: not available with --dask (render a window locally)");
+  if (o.coherent_shading) throw Error("--coherent-shading: not available with --dask");
+  if (!o.memory_limit.empty()) throw Error("--memory-limit: not available with --dask (each worker has its own)");
+  RunSetup setup = RunSetup::from_file(o.scene);
+  if (!o.resolution.empty()) setup.apply("resolution", o.resolution);
+  if (o.pixel_samples > 0) setup.apply("pixel_samples", std::to_string(o.pixel_samples));
+  setup.light_samples = setup.reference_samples = o.spp;
+  setup.seed = o.seed;
+  const nlohmann::json request = {{"command", "render"}, {"setup", run_setup_json(setup)},
+                                  {"method", o.method},   {"params", o.params},
+                                  {"spp", o.spp},         {"seed", o.seed},
+                                  {"frames", o.frames},   {"tile", o.tile},
+                                  {"meshes", o.meshes},   {"frame_out", ""},
+                                  {"stats_out", ""}};
+  RenderResult r;
+  *exit_status = run_on_dask(request, o.dask, [&](const nlohmann::json& sent) {
+    const std::string frame = sent["frame_out"].get<std::string>();
+    r.color = read_image(frame);
+    r.visibility = read_exr_channel(frame, "V");
+    *stats = read_json_file(sent["stats_out"].get<std::string>());
+  });
+  if (*exit_status != 0) return r;
+  (*stats)["dask"] = o.dask;
+  r.total_ms = stats->value("wall_ms", 0.0);
+  r.camera_pass_ms = stats->value("camera_pass_ms", 0.0);
+  r.stats.rays_traced = (*stats)["stats"].value("rays_traced", uint64_t{0});
+  return r;
+}
 
 int run_render(const RenderOptions& o) {
   ThreadLimit limit(o.threads);
@@ -61,13 +99,17 @@ int run_render(const RenderOptions& o) {
   settings.crop = crop;
   settings.progress = !o.quiet;
   if (!o.memory_limit.empty()) settings.memory_limit = parse_memory_size(o.memory_limit, "--memory-limit");
-  RenderResult r = render_scene(scene, settings);
+  nlohmann::json stats;
+  if (!o.dask.empty()) resolve_method_params(o.method, scene, o.params);  // bad ones fail before the cluster is asked
+  int exit_status = 0;
+  RenderResult r = o.dask.empty() ? render_scene(scene, settings) : render_on_dask(o, &stats, &exit_status);
+  if (exit_status != 0) return exit_status;
 
   write_image(out, r.color, {{"V", &r.visibility}});
   if (!o.visibility_out.empty()) write_image(o.visibility_out, r.visibility, {}, /*linear_png=*/true);
   if (!o.stats_json.empty()) {
-    nlohmann::json j = render_stats_json(scene, o.method, settings, r);
-    write_text_file_atomic(o.stats_json, j.dump(2) + "\n");
+    if (o.dask.empty()) stats = render_stats_json(scene, o.method, settings, r);
+    write_text_file_atomic(o.stats_json, stats.dump(2) + "\n");
   }
   if (!o.quiet) {
     std::string samples =
@@ -110,6 +152,12 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
                   "refuse a render whose view samples, images and method maps would need more (e.g. 8G; default: "
                   "80% of physical memory)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
+  cmd->add_option("--dask", o->dask,
+                  "render the frame as tiles on the Dask scheduler at tcp://HOST:PORT (docs/distributed.md)");
+  cmd->add_option("--tile", o->tile, "with --dask: the side of a tile in pixels")
+      ->capture_default_str()->check(CLI::Range(1, 16384));
+  cmd->add_option("--meshes", o->meshes, "with --dask: ship the mesh files to the workers, or read them from a shared path")
+      ->check(CLI::IsMember({"ship", "shared"}))->capture_default_str();
   return [o] { return run_render(*o); };
 });
 

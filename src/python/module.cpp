@@ -279,6 +279,7 @@ PYBIND11_MODULE(_penumbra, m) {
                          const std::vector<std::string>& settings) {
     return run_setup_json(run_setup(s, spp, reference_spp, seed, settings)).dump();
   });
+  m.def("_tile_exact", [](const std::string& name) { return MethodRegistry::get(name).tile_exact; });
   m.def("_expand_methods", [](const std::vector<std::string>& names) { return expand_method_list(names); });
   m.def("_check_methods", [](const std::string& setup, const std::vector<std::string>& methods) {
     setup_from_text(setup).check_plain_params(methods);

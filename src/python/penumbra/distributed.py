@@ -362,6 +362,10 @@ def _render_setup(client, setup, method="reference", spp=256, seed=0, params=Non
     width, height = scene.resolution
     job_setup, files = _with_meshes(setup, meshes)
     payload = client.scatter(files, broadcast=False) if files else None
+    # A method whose light views are fitted to the rendered pixels (MethodInfo::tile_exact) would
+    # give tiles that differ from the whole frame's: it renders as one job.
+    if not _penumbra._tile_exact(method):
+        tile = max(width, height)
     tiles = list(_tiles(width, height, tile))
     futures = [client.submit(_job_tile, job_setup, payload, method, spp, seed, params, frames, crop, pure=False,
                              retries=RETRIES) for crop in tiles]
@@ -395,21 +399,22 @@ def render(client, scene, method="reference", spp=256, resolution=None, seed=0, 
 def _run_request(request):
     client = _client(request["scheduler"])
     command = request["command"]
+    setup = json.dumps(request["setup"])  # the run setup (run_setup_json) as its jobs carry it
     meshes = request.get("meshes", "ship")
     progress = request.get("progress", False)
     if command == "compare":
-        _compare_setup(client, request["setup"], request["methods"], request.get("ground_truth", True),
+        _compare_setup(client, setup, request["methods"], request.get("ground_truth", True),
                        request["runs"], request.get("warmup_runs", 0), request["equal_quality"], request["cache_dir"],
                        meshes, request["output"], request["heatmap_scale"], request["write_images"],
                        request["command_line"], progress)
     elif command == "sweep":
-        _sweep_setup(client, request["setup"], request["key"], request["values"], request["methods"],
+        _sweep_setup(client, setup, request["key"], request["values"], request["methods"],
                      request["ground_truth"], request["runs"], request["warmup_runs"], request["cache_dir"], meshes,
                      request["output"], request["plots"], request["x_scale"], request["y_scale"],
                      request["command_line"], progress)
     elif command == "render":
         params = dict(kv.split("=", 1) for kv in request["params"])
-        r = _render_setup(client, request["setup"], request["method"], request["spp"], request["seed"], params,
+        r = _render_setup(client, setup, request["method"], request["spp"], request["seed"], params,
                           request["frames"], request["tile"], meshes, progress)
         _penumbra._write_frame(request["frame_out"], r.color, r.visibility)
         with open(request["stats_out"], "w") as f:
