@@ -35,7 +35,7 @@ def timed(cmd):
     return time.perf_counter() - start
 
 
-def job_profile(client, run):
+def job_profile(client, run, kinds_wanted):
     """Runs `run()` on the cluster and returns, per kind of job (_job_truth, _job_method,
     _job_tile, ...), the count, the summed and the longest compute time (s) and the bytes the
     jobs' results hold, from Dask's task stream."""
@@ -45,6 +45,8 @@ def job_profile(client, run):
     kinds = {}
     for task in ts.data:
         kind = task["key"].split("-")[0] if isinstance(task["key"], str) else str(task["key"])
+        if kind not in kinds_wanted:
+            continue
         compute = sum(s["stop"] - s["start"] for s in task["startstops"] if s["action"] == "compute")
         k = kinds.setdefault(kind, {"count": 0, "compute_s": 0.0, "longest_s": 0.0, "result_bytes": 0})
         k["count"] += 1
@@ -84,7 +86,7 @@ def main():
         clusters = {}
         for n in (1, 2):
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address=None, silence_logs=40)
+                                   dashboard_address=":0", silence_logs=40)
             clusters[n] = (cluster, Client(cluster))
         try:
             for name in workloads:
@@ -102,10 +104,10 @@ def main():
             client = clusters[2][1]
             profiles = {
                 "tiled reference render": job_profile(client, lambda: pd.render(
-                    client, bunny, "reference", spp=1024 // scale, resolution=(512 // scale, 512 // scale), tile=64)),
+                    client, bunny, "reference", spp=1024 // scale, resolution=(512 // scale, 512 // scale), tile=64), {"_job_tile"}),
                 "13-method compare": job_profile(client, lambda: pd.compare(
                     client, bunny, methods=["all"], spp=256, reference_spp=1024 // scale, equal_quality=False,
-                    settings=[f"resolution={256 // scale}"])),
+                    settings=[f"resolution={256 // scale}"]), {"_job_truth", "_job_method", "_job_ladder"}),
             }
             for name, p in profiles.items():
                 results[name]["jobs"] = p

@@ -112,22 +112,29 @@ struct PyRenderResult {
   py::object stats;
 };
 
-PyRenderResult render(const PyScene& s, const std::string& method, int spp, std::optional<std::pair<int, int>> resolution,
-                      uint64_t seed, const std::optional<py::dict>& params, int threads, int frames,
-                      std::optional<std::tuple<int, int, int, int>> crop) {
+// A render's scene and settings from render()'s arguments, checked as the command line does.
+struct RenderRequest {
+  Scene scene;
+  RenderSettings settings;
+};
+
+RenderRequest render_request(const PyScene& s, const std::string& method, int spp,
+                             std::optional<std::pair<int, int>> resolution, uint64_t seed,
+                             const std::optional<py::dict>& params, int threads, int frames,
+                             std::optional<std::tuple<int, int, int, int>> crop) {
   MethodRegistry::get(method);  // throws, listing the registered methods, for an unknown one
   if (spp < 1 || spp > (1 << 20)) throw Error("spp={}: expected an integer in [1, 1048576]", spp);
   if (frames < 1 || frames > 100000) throw Error("frames={}: expected an integer in [1, 100000]", frames);
   if (threads < 0) throw Error("threads={}: expected 0 (all cores) or more", threads);
-  Scene scene = s.scene;
+  RenderRequest q{s.scene, {}};
   if (resolution) {
     if (resolution->first < 1 || resolution->second < 1 || resolution->first > 16384 || resolution->second > 16384)
       throw Error("resolution=({}, {}): expected two integers in [1, 16384]", resolution->first, resolution->second);
-    scene.camera.width = resolution->first;
-    scene.camera.height = resolution->second;
+    q.scene.camera.width = resolution->first;
+    q.scene.camera.height = resolution->second;
   }
   // `penumbra render`'s settings for the same arguments (app/cmd_render.cpp).
-  RenderSettings settings;
+  RenderSettings& settings = q.settings;
   settings.method = method;
   settings.light_samples = spp;
   settings.seed = seed;
@@ -135,6 +142,9 @@ PyRenderResult render(const PyScene& s, const std::string& method, int spp, std:
   if (crop) {
     const auto [x0, y0, x1, y1] = *crop;
     settings.crop = PixelWindow{x0, y0, x1, y1};
+    if (x0 >= x1 || y0 >= y1 || !settings.crop.inside(q.scene.camera.width, q.scene.camera.height))
+      throw Error("crop=({}, {}, {}, {}): expected x0 < x1 and y0 < y1 inside the {}x{} image", x0, y0, x1, y1,
+                  q.scene.camera.width, q.scene.camera.height);
   }
   if (params)
     for (const auto& [key, value] : *params) {
@@ -142,13 +152,57 @@ PyRenderResult render(const PyScene& s, const std::string& method, int spp, std:
       const nlohmann::json v = python_to_json(value, "params[" + k + "]");
       settings.params.push_back(k + "=" + (v.is_string() ? v.get<std::string>() : v.dump()));
     }
-  RenderResult r = run_interruptible<RenderResult>([&] {
-    ThreadLimit limit(threads);
-    return render_scene(scene, settings);
-  });
-  nlohmann::json stats = render_stats_json(scene, method, settings, r);
+  return q;
+}
+
+PyRenderResult to_python(const RenderRequest& q, const RenderResult& r) {
+  nlohmann::json stats = render_stats_json(q.scene, q.settings.method, q.settings, r);
   return {to_array(r.color), to_array(r.visibility), json_to_python(stats)};
 }
+
+PyRenderResult render(const PyScene& s, const std::string& method, int spp, std::optional<std::pair<int, int>> resolution,
+                      uint64_t seed, const std::optional<py::dict>& params, int threads, int frames,
+                      std::optional<std::tuple<int, int, int, int>> crop) {
+  const RenderRequest q = render_request(s, method, spp, resolution, seed, params, threads, frames, crop);
+  RenderResult r = run_interruptible<RenderResult>([&] {
+    ThreadLimit limit(threads);
+    return render_scene(q.scene, q.settings);
+  });
+  return to_python(q, r);
+}
+
+// Windows of one frame rendered one after another by one Renderer, which keeps the Embree
+// scene and the method's light-space structures between them: a worker of
+// penumbra.distributed pays for them once, not once per tile. Each window's pixels are
+// render(..., crop=window)'s.
+class PyFrameRenderer {
+ public:
+  PyFrameRenderer(const PyScene& s, const std::string& method, int spp, uint64_t seed,
+                  const std::optional<py::dict>& params, int threads, int frames)
+      : request_(render_request(s, method, spp, std::nullopt, seed, params, threads, frames, std::nullopt)),
+        threads_(threads) {}
+
+  PyRenderResult render(std::tuple<int, int, int, int> crop) {
+    const auto [x0, y0, x1, y1] = crop;
+    RenderRequest q = request_;
+    q.settings.crop = PixelWindow{x0, y0, x1, y1};
+    if (x0 >= x1 || y0 >= y1 || !q.settings.crop.inside(q.scene.camera.width, q.scene.camera.height))
+      throw Error("crop=({}, {}, {}, {}): expected x0 < x1 and y0 < y1 inside the {}x{} image", x0, y0, x1, y1,
+                  q.scene.camera.width, q.scene.camera.height);
+    RenderResult r = run_interruptible<RenderResult>([&] {
+      ThreadLimit limit(threads_);
+      if (!renderer_) renderer_ = std::make_unique<Renderer>(q.scene, q.settings);
+      renderer_->set_crop(q.settings.crop);
+      return renderer_->render();
+    });
+    return to_python(q, r);
+  }
+
+ private:
+  RenderRequest request_;
+  int threads_ = 0;
+  std::unique_ptr<Renderer> renderer_;
+};
 
 RunSetup run_setup(const PyScene& s, int spp, int reference_spp, uint64_t seed, const std::vector<std::string>& settings) {
   RunSetup setup;
@@ -225,6 +279,12 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readonly("color", &PyRenderResult::color, "H x W x 3 float32, linear RGB radiance")
       .def_readonly("visibility", &PyRenderResult::visibility, "H x W float32: V, the fraction of the light seen")
       .def_readonly("stats", &PyRenderResult::stats, "the --stats-json document");
+
+  py::class_<PyFrameRenderer>(m, "_FrameRenderer")
+      .def(py::init<const PyScene&, const std::string&, int, uint64_t, const std::optional<py::dict>&, int, int>(),
+           py::arg("scene"), py::arg("method"), py::arg("spp"), py::arg("seed"), py::arg("params"), py::arg("threads"),
+           py::arg("frames"))
+      .def("render", &PyFrameRenderer::render, py::arg("crop"));
 
   m.def("load_scene", &load, py::arg("path"), "Loads and validates a scene file.");
   m.def("methods", [] {

@@ -32,9 +32,12 @@ finish. The command line's `--dask tcp://HOST:PORT` (compare, sweep, render) run
 import hashlib
 import json
 import os
+import collections
+import functools
 import shutil
 import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -136,7 +139,7 @@ def _materialize(setup_text, payload):
 
 
 def _worker_threads():
-    """Render threads for a job: the worker's thread count (one job per worker thread)."""
+    """Render threads for a job: all of the worker's (its jobs take turns, _RENDER_LOCK)."""
     try:
         from distributed import get_worker
         return max(1, int(get_worker().nthreads))
@@ -146,23 +149,53 @@ def _worker_threads():
 
 # --- The jobs (run on the workers; plain data in and out) -----------------------------------
 
+# One penumbra job at a time in a worker process, with all of the worker's threads: Dask runs
+# up to nthreads tasks at once, and each of them rendering with nthreads threads would
+# oversubscribe the cores. Waiting here releases the GIL.
+_RENDER_LOCK = threading.Lock()
+# The frame renderers of the last frames this process rendered tiles of, so the tiles of one
+# frame share the Embree scene and the light-space structures (_penumbra._FrameRenderer).
+_FRAME_RENDERERS = collections.OrderedDict()
+_FRAME_RENDERERS_KEPT = 2
+
+
+def _locked(job):
+    @functools.wraps(job)
+    def run(*args):
+        with _RENDER_LOCK:
+            return job(*args)
+    return run
+
+
+@_locked
 def _job_truth(setup, payload, cache_dir):
     return _penumbra._ground_truth(_materialize(setup, payload), cache_dir, _worker_threads())
 
 
+@_locked
 def _job_method(setup, payload, label, truth, runs, warmup_runs, keep_images):
     return _penumbra._compare_method(_materialize(setup, payload), label, truth, runs, warmup_runs, keep_images,
                                      _worker_threads())
 
 
+@_locked
 def _job_ladder(setup, payload, truth, entries, runs, warmup_runs, cache_dir):
     return _penumbra._comparison_ladder(_materialize(setup, payload), truth, entries, runs, warmup_runs, cache_dir,
                                         _worker_threads())
 
 
+@_locked
 def _job_tile(setup, payload, method, spp, seed, params, frames, crop):
-    scene = _penumbra._scene_of_setup(_materialize(setup, payload))
-    r = _penumbra.render(scene, method, spp, None, seed, params, _worker_threads(), frames, crop)
+    key = json.dumps([setup, payload["digest"] if payload else None, method, spp, seed, params, frames],
+                     sort_keys=True)
+    renderer = _FRAME_RENDERERS.pop(key, None)
+    if renderer is None:
+        scene = _penumbra._scene_of_setup(_materialize(setup, payload))
+        renderer = _penumbra._FrameRenderer(scene, method, spp, seed, params, _worker_threads(), frames)
+    _FRAME_RENDERERS[key] = renderer  # the most recent last
+    while len(_FRAME_RENDERERS) > _FRAME_RENDERERS_KEPT:
+        _FRAME_RENDERERS.popitem(last=False)
+    r = renderer.render(crop)
     return r.color, r.visibility, r.stats
 
 
@@ -443,4 +476,8 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # Run as `python3 -m penumbra.distributed`, this file is __main__: the jobs must be those of
+    # the imported module, which the workers import by name (a function of __main__ would be
+    # pickled by value, with the module's globals).
+    from penumbra.distributed import main as _main
+    sys.exit(_main())

@@ -125,7 +125,7 @@ def test_a_tiled_render_is_the_local_render_bit_for_bit(cluster, scene_file, met
 def test_a_worker_killed_mid_job_changes_nothing(cluster, scene_file):
     c, client = cluster
     scene = penumbra.load_scene(str(scene_file))
-    args = dict(spp=2048, resolution=(64, 64), seed=1)
+    args = dict(spp=4096, resolution=(64, 64), seed=1)
     local = penumbra.render(scene, "reference", **args)
     from distributed import wait
     # The tiled render, started in the background; once a tile is being rendered, its worker
@@ -133,7 +133,7 @@ def test_a_worker_killed_mid_job_changes_nothing(cluster, scene_file):
     setup = pd._setup_of(scene, args["spp"], args["spp"], args["seed"], ["resolution=64x64"])
     job_setup, files = pd._with_meshes(setup, "ship")
     payload = client.scatter(files, broadcast=False)
-    tiles = list(pd._tiles(64, 64, 32))
+    tiles = list(pd._tiles(64, 64, 16))  # 16 jobs of about 0.1 s each
     futures = [client.submit(pd._job_tile, job_setup, payload, "reference", args["spp"], args["seed"], None, 1, t,
                              pure=False) for t in tiles]
     victim = None
