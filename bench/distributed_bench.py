@@ -10,9 +10,9 @@ For each workload, side by side in one run, the median of --runs:
   the outputs;
 and per job: its time on the worker and the bytes its result sent back. The overhead of the
 Dask path is (2 workers) / (command line) - 1. Workloads:
-- tiled: the ground truth of the bunny (reference, 1024 light samples at 512x512) in 64x64
-  tiles (issue 16's "4096 light samples at 2048x2048" is the same job shape, 64x the work);
-- compare: all 13 methods against the ground truth on the bunny at 256x256, 256 light
+- tiled: the ground truth of the bunny (reference, 1024 light samples at 1024x1024) in 128x128
+  tiles (issue 16's "4096 light samples at 2048x2048" is the same job shape, 16x the work);
+- compare: all 13 methods against the ground truth on the bunny at 512x512, 256 light
   samples, no cache (the ground truth is rendered in the run), no reference ladder.
 Prints a Markdown table and writes the measurements as JSON (--json FILE).
 """
@@ -65,12 +65,12 @@ def main():
     from distributed import Client, LocalCluster
 
     bunny = os.path.join(ROOT, "scenes", "bunny.json")
-    scale = 4 if args.quick else 1
+    scale = 8 if args.quick else 1
     workloads = {
         "tiled reference render": ["render", bunny, "-m", "reference", "--spp", str(1024 // scale), "--resolution",
-                                   str(512 // scale), "-q", "--tile", "64"],
+                                   str(1024 // scale), "-q", "--tile", "128"],
         "13-method compare": ["compare", bunny, "--methods", "all", "--spp", "256", "--reference-spp",
-                              str(1024 // scale), "--resolution", str(256 // scale), "--no-cache",
+                              str(1024 // scale), "--resolution", str(512 // scale), "--no-cache",
                               "--no-equal-quality", "-q"],
     }
     results = {}
@@ -80,7 +80,7 @@ def main():
             out = os.path.join(tmp, "out.exr" if base[0] == "render" else "cmp")
             if dask is None and base[0] == "render":
                 base.remove("--tile")
-                base.remove("64")
+                base.remove("128")
             return [CLI] + base + ["-o", out] + (["--dask", dask] if dask else [])
 
         clusters = {}
@@ -104,10 +104,10 @@ def main():
             client = clusters[2][1]
             profiles = {
                 "tiled reference render": job_profile(client, lambda: pd.render(
-                    client, bunny, "reference", spp=1024 // scale, resolution=(512 // scale, 512 // scale), tile=64), {"_job_tile"}),
+                    client, bunny, "reference", spp=1024 // scale, resolution=(1024 // scale, 1024 // scale), tile=128), {"_job_tile"}),
                 "13-method compare": job_profile(client, lambda: pd.compare(
                     client, bunny, methods=["all"], spp=256, reference_spp=1024 // scale, equal_quality=False,
-                    settings=[f"resolution={256 // scale}"]), {"_job_truth", "_job_method", "_job_ladder"}),
+                    settings=[f"resolution={512 // scale}"]), {"_job_truth", "_job_method", "_job_ladder"}),
             }
             for name, p in profiles.items():
                 results[name]["jobs"] = p

@@ -363,16 +363,18 @@ PYBIND11_MODULE(_penumbra, m) {
     s.scene = r.load();
     return s;
   });
-  m.def("_ground_truth", [](const std::string& setup_text, const std::string& cache_dir, int threads) {
+  // The jobs take the setup's scene loaded (_scene_of_setup), so a worker loads it once.
+  m.def("_ground_truth", [](const std::string& setup_text, const PyScene& scene, const std::string& cache_dir,
+                            int threads) {
     const RunSetup setup = setup_from_text(setup_text);
     GroundTruth t = run_interruptible<GroundTruth>([&] {
       ThreadLimit limit(threads);
-      return ground_truth(setup, setup.load(), cache_dir);
+      return ground_truth(setup, scene.scene, cache_dir);
     });
     return truth_to_python(t);
   });
-  m.def("_compare_method", [](const std::string& setup_text, const std::string& label, const py::object& truth,
-                              int runs, int warmup_runs, bool keep_images, int threads) {
+  m.def("_compare_method", [](const std::string& setup_text, const PyScene& scene, const std::string& label,
+                              const py::object& truth, int runs, int warmup_runs, bool keep_images, int threads) {
     const RunSetup setup = setup_from_text(setup_text);
     std::optional<GroundTruth> t;
     if (!truth.is_none()) t = truth_from_python(truth.cast<py::tuple>());
@@ -380,7 +382,7 @@ PYBIND11_MODULE(_penumbra, m) {
     options.keep_images = keep_images;
     MethodRun r = run_interruptible<MethodRun>([&] {
       ThreadLimit limit(threads);
-      return compare_method(setup, setup.load(), label, t ? &*t : nullptr, options);
+      return compare_method(setup, scene.scene, label, t ? &*t : nullptr, options);
     });
     py::object color = py::none(), vis = py::none();
     if (!r.color.empty()) color = to_array(r.color);
@@ -388,7 +390,7 @@ PYBIND11_MODULE(_penumbra, m) {
     return py::make_tuple(method_run_json(r).dump(), color, vis);
   });
   // The reference ladder for the methods' entries (JSON texts), or None.
-  m.def("_comparison_ladder", [](const std::string& setup_text, const py::tuple& truth,
+  m.def("_comparison_ladder", [](const std::string& setup_text, const PyScene& scene, const py::tuple& truth,
                                  const std::vector<std::string>& runs, int timed_runs, int warmup_runs,
                                  const std::string& cache_dir, int threads) -> py::object {
     const RunSetup setup = setup_from_text(setup_text);
@@ -399,7 +401,7 @@ PYBIND11_MODULE(_penumbra, m) {
     const CompareOptions options = compare_options(timed_runs, warmup_runs, true, cache_dir);
     std::optional<ReferenceLadder> ladder = run_interruptible<std::optional<ReferenceLadder>>([&] {
       ThreadLimit limit(threads);
-      return comparison_ladder(c, setup, setup.load(), options);
+      return comparison_ladder(c, setup, scene.scene, options);
     });
     if (!ladder) return py::none();
     return py::str(reference_ladder_json(*ladder).dump());

@@ -167,21 +167,37 @@ def _locked(job):
     return run
 
 
+# The scenes this process loaded last, by setup: a comparison's jobs on one worker load it once.
+_SCENES = collections.OrderedDict()
+_SCENES_KEPT = 2
+
+
+def _scene(setup, payload):
+    """The setup with its shipped files in place, and its scene (loaded once per process)."""
+    setup = _materialize(setup, payload)
+    scene = _SCENES.pop(setup, None) or _penumbra._scene_of_setup(setup)
+    _SCENES[setup] = scene  # the most recent last
+    while len(_SCENES) > _SCENES_KEPT:
+        _SCENES.popitem(last=False)
+    return setup, scene
+
+
 @_locked
 def _job_truth(setup, payload, cache_dir):
-    return _penumbra._ground_truth(_materialize(setup, payload), cache_dir, _worker_threads())
+    setup, scene = _scene(setup, payload)
+    return _penumbra._ground_truth(setup, scene, cache_dir, _worker_threads())
 
 
 @_locked
 def _job_method(setup, payload, label, truth, runs, warmup_runs, keep_images):
-    return _penumbra._compare_method(_materialize(setup, payload), label, truth, runs, warmup_runs, keep_images,
-                                     _worker_threads())
+    setup, scene = _scene(setup, payload)
+    return _penumbra._compare_method(setup, scene, label, truth, runs, warmup_runs, keep_images, _worker_threads())
 
 
 @_locked
 def _job_ladder(setup, payload, truth, entries, runs, warmup_runs, cache_dir):
-    return _penumbra._comparison_ladder(_materialize(setup, payload), truth, entries, runs, warmup_runs, cache_dir,
-                                        _worker_threads())
+    setup, scene = _scene(setup, payload)
+    return _penumbra._comparison_ladder(setup, scene, truth, entries, runs, warmup_runs, cache_dir, _worker_threads())
 
 
 @_locked
@@ -190,7 +206,7 @@ def _job_tile(setup, payload, method, spp, seed, params, frames, crop):
                      sort_keys=True)
     renderer = _FRAME_RENDERERS.pop(key, None)
     if renderer is None:
-        scene = _penumbra._scene_of_setup(_materialize(setup, payload))
+        _, scene = _scene(setup, payload)
         renderer = _penumbra._FrameRenderer(scene, method, spp, seed, params, _worker_threads(), frames)
     _FRAME_RENDERERS[key] = renderer  # the most recent last
     while len(_FRAME_RENDERERS) > _FRAME_RENDERERS_KEPT:
