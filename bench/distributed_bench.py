@@ -61,6 +61,7 @@ def main():
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="smaller workloads (a check that the script works)")
     ap.add_argument("--json", default="")
+    ap.add_argument("--only", default="", help="run only the workloads whose name contains this")
     args = ap.parse_args()
     from distributed import Client, LocalCluster
 
@@ -73,6 +74,7 @@ def main():
                               str(1024 // scale), "--resolution", str(512 // scale), "--no-cache",
                               "--no-equal-quality", "-q"],
     }
+    workloads = {k: v for k, v in workloads.items() if args.only in k}
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         def command(name, dask=None):
@@ -103,14 +105,15 @@ def main():
             import penumbra.distributed as pd
             client = clusters[2][1]
             profiles = {
-                "tiled reference render": job_profile(client, lambda: pd.render(
-                    client, bunny, "reference", spp=1024 // scale, resolution=(1024 // scale, 1024 // scale), tile=128), {"_job_tile"}),
-                "13-method compare": job_profile(client, lambda: pd.compare(
+                "tiled reference render": (lambda: pd.render(
+                    client, bunny, "reference", spp=1024 // scale, resolution=(1024 // scale, 1024 // scale),
+                    tile=128), {"_job_tile"}),
+                "13-method compare": (lambda: pd.compare(
                     client, bunny, methods=["all"], spp=256, reference_spp=1024 // scale, equal_quality=False,
-                    settings=[f"resolution={512 // scale}"]), {"_job_truth", "_job_method", "_job_ladder"}),
+                    settings=[f"resolution={512 // scale}"]), {"_job_truth", "_job_method", "_job_measure"}),
             }
-            for name, p in profiles.items():
-                results[name]["jobs"] = p
+            for name in results:
+                results[name]["jobs"] = job_profile(client, *profiles[name])
         finally:
             for cluster, client in clusters.values():
                 client.close()

@@ -389,6 +389,22 @@ PYBIND11_MODULE(_penumbra, m) {
     if (!r.visibility.empty()) vis = to_array(r.visibility);
     return py::make_tuple(method_run_json(r).dump(), color, vis);
   });
+  // A method's entry, rendered without the ground truth, measured against it: (entry, colour
+  // or None, V or None) as _compare_method gives, the images kept when asked.
+  m.def("_measure_method", [](const std::string& entry, const py::object& color, const py::object& visibility,
+                              const py::tuple& truth, bool keep_images) {
+    MethodRun r = method_run_from_json(nlohmann::json::parse(entry));
+    if (!r.ok) return py::make_tuple(entry, py::none(), py::none());
+    using Array = py::array_t<float, py::array::c_style | py::array::forcecast>;
+    const Image c = from_array(color.cast<Array>(), "color"), v = from_array(visibility.cast<Array>(), "visibility");
+    const GroundTruth t = truth_from_python(truth);
+    {
+      py::gil_scoped_release release;
+      measure_against_truth(r, c, v, t);
+    }
+    if (!keep_images) return py::make_tuple(method_run_json(r).dump(), py::none(), py::none());
+    return py::make_tuple(method_run_json(r).dump(), color, visibility);
+  });
   // The reference ladder for the methods' entries (JSON texts), or None.
   m.def("_comparison_ladder", [](const std::string& setup_text, const PyScene& scene, const py::tuple& truth,
                                  const std::vector<std::string>& runs, int timed_runs, int warmup_runs,

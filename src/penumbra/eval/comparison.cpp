@@ -194,9 +194,7 @@ MethodRun summarize(MethodRenders& p, const GroundTruth* truth, const CompareOpt
   run.view_samples = m.view_sample_count;
   RenderResult& first = results.front();
   if (truth) {
-    run.v = compare_images(first.visibility, truth->visibility);
-    run.color_psnr = compare_images(display_srgb(first.color), display_srgb(truth->color)).psnr;
-    run.flip = flip(first.color, truth->color).mean;
+    measure_against_truth(run, first.color, first.visibility, *truth);
   } else {
     run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = std::numeric_limits<double>::quiet_NaN();
     run.v.psnr = std::numeric_limits<double>::quiet_NaN();
@@ -211,6 +209,12 @@ MethodRun summarize(MethodRenders& p, const GroundTruth* truth, const CompareOpt
 }
 
 }  // namespace
+
+void measure_against_truth(MethodRun& run, const Image& color, const Image& visibility, const GroundTruth& truth) {
+  run.v = compare_images(visibility, truth.visibility);
+  run.color_psnr = compare_images(display_srgb(color), display_srgb(truth.color)).psnr;
+  run.flip = flip(color, truth.color).mean;
+}
 
 Comparison comparison_header(const RunSetup& setup, const Scene& scene) {
   Comparison c;

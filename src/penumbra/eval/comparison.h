@@ -111,6 +111,10 @@ Comparison comparison_header(const RunSetup& setup, const Scene& scene);
 // message. `progress` (optional) is advanced while rendering.
 MethodRun compare_method(const RunSetup& setup, const Scene& scene, const std::string& label, const GroundTruth* truth,
                          const CompareOptions& options, Progress* progress = nullptr);
+// A method's error columns (V errors, colour PSNR, FLIP) from its first render's images:
+// compare_method does it when given the ground truth; penumbra.distributed renders a method
+// while the ground truth is still being rendered elsewhere, and measures it after.
+void measure_against_truth(MethodRun& run, const Image& color, const Image& visibility, const GroundTruth& truth);
 // The reference ladder of c's methods (rendered as far as the best of them needs), or none
 // without a ground truth, with options.equal_quality off or when no method has an error.
 std::optional<ReferenceLadder> comparison_ladder(const Comparison& c, const RunSetup& setup, const Scene& scene,

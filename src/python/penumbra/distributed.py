@@ -195,6 +195,12 @@ def _job_method(setup, payload, label, truth, runs, warmup_runs, keep_images):
 
 
 @_locked
+def _job_measure(method_result, truth, keep_images):
+    entry, color, visibility = method_result
+    return _penumbra._measure_method(entry, color, visibility, truth, keep_images)
+
+
+@_locked
 def _job_ladder(setup, payload, truth, entries, runs, warmup_runs, cache_dir):
     setup, scene = _scene(setup, payload)
     return _penumbra._comparison_ladder(setup, scene, truth, entries, runs, warmup_runs, cache_dir, _worker_threads())
@@ -245,10 +251,15 @@ class _Comparison:
 
     def __init__(self, client, setup, payload, methods, ground_truth, runs, warmup_runs, keep_images, cache_dir):
         self.setup, self.payload, self.methods = setup, payload, methods
+        # The methods render while the ground truth does (they need it only to be measured):
+        # each method's images then meet the ground truth in a small job, where the images are.
         self.truth = (client.submit(_job_truth, setup, payload, cache_dir, pure=False, retries=RETRIES, priority=10)
                       if ground_truth else None)
-        self.runs = [client.submit(_job_method, setup, payload, label, self.truth, runs, warmup_runs, keep_images,
-                                   pure=False, retries=RETRIES) for label in methods]
+        renders = [client.submit(_job_method, setup, payload, label, None, runs, warmup_runs,
+                                 keep_images or ground_truth, pure=False, retries=RETRIES) for label in methods]
+        self.runs = renders if not ground_truth else [
+            client.submit(_job_measure, r, self.truth, keep_images, pure=False, retries=RETRIES, priority=5)
+            for r in renders]
 
     def futures(self):
         return ([self.truth] if self.truth is not None else []) + self.runs
@@ -260,8 +271,6 @@ class _Comparison:
             try:
                 out.append(f.result())
             except Exception as e:  # noqa: BLE001 (any job error is that method's row)
-                if isinstance(e, KeyboardInterrupt):
-                    raise
                 entry = {"method": label, "ok": False, "error": _one_line(e)}
                 out.append((json.dumps(entry), None, None))
         return out
