@@ -9,12 +9,14 @@
 #include <iterator>
 #include <regex>
 
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 
 namespace penumbra::app {
 
@@ -143,9 +145,25 @@ int run_on_dask(nlohmann::json request, const std::string& address,
   pid_t pid = 0;
   if (const int err = ::posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv.data(), env.data()); err != 0)
     throw Error("--dask: cannot run {}: {}", python, std::strerror(err));
+  // Ctrl-C reaches the child too (one process group); a SIGTERM to this process alone is
+  // passed on as SIGINT (Python's KeyboardInterrupt), and a child that has not stopped before
+  // the interrupt watchdog's deadline is killed, so nothing writes outputs after we exit.
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  for (int waited_ms = -1;;) {
+    const pid_t r = ::waitpid(pid, &status, WNOHANG);
+    if (r == pid || (r < 0 && errno != EINTR)) break;
+    if (interrupted()) {
+      if (waited_ms < 0) ::kill(pid, SIGINT), waited_ms = 0;
+      if (waited_ms >= 600) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+        throw Interrupted();
+      }
+      waited_ms += 20;
+    }
+    ::usleep(20000);
   }
+  if (interrupted()) throw Interrupted();
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   if (code != 0) return code;
   if (on_success) on_success(request);  // reads the outputs in `folder` before it goes

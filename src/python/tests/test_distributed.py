@@ -198,3 +198,20 @@ def test_the_command_line_on_the_cluster(cluster, scene_file, tmp_path):
                                  capture_output=True, text=True, timeout=120)
     assert unreachable.returncode != 0 and "tcp://127.0.0.1:9" in unreachable.stderr
     assert not (tmp_path / "x.exr").exists()
+
+
+def test_sigterm_stops_the_command_line_and_its_cluster_client(cluster, scene_file, tmp_path):
+    c, client = cluster
+    out = tmp_path / "never.exr"
+    proc = subprocess.Popen([CLI, "render", str(scene_file), "-m", "reference", "--spp", "262144", "--resolution",
+                             "48x32", "-q", "-o", str(out), "--dask", c.scheduler_address, "--tile", "16"],
+                            stderr=subprocess.PIPE, text=True)
+    time.sleep(2.0)  # Python started, the tiles submitted
+    start = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode != 0 and "interrupted" in err
+    assert time.monotonic() - start < 3.0
+    assert not out.exists()
+    # The tiles already running finish on their workers; the cluster serves the next client.
+    client.wait_for_workers(2, timeout=60)
