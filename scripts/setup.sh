@@ -30,6 +30,7 @@ packages=(
   glmark2-data   # the full Stanford bunny at /usr/share/glmark2/models/bunny.obj
   pybind11-dev python3-dev python3-numpy   # the Python module (docs/python.md)
   python3-distributed   # Dask: penumbra.distributed and --dask (docs/distributed.md)
+  ffmpeg         # `penumbra render -o movie.mp4` encodes the frames with it (docs/scene-format.md)
 )
 if [ "$with_test_tools" -eq 1 ]; then
   packages+=(chromium)   # headless browser test of the `penumbra compare` page

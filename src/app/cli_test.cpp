@@ -45,9 +45,10 @@ class Cli : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  CliRun run(const std::string& args) {
+  // `env`: variable assignments for the run ("PATH=/x").
+  CliRun run(const std::string& args, const std::string& env = "") {
     std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
-    std::string cmd = fmt::format("{} {} >{} 2>{}", PENUMBRA_CLI, args, out, err);
+    std::string cmd = fmt::format("{} {} {} >{} 2>{}", env, PENUMBRA_CLI, args, out, err);
     int status = std::system(cmd.c_str());
     return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
   }
@@ -74,6 +75,30 @@ class Cli : public ::testing::Test {
         {"shape": "box", "size": [1, 0.05, 1], "translate": [0, 1, 0])" + extra_object_key + R"(}
       ]
     })");
+  }
+  // tiny_scene() animated over 3 frames: the occluder ("slab") slides and turns between
+  // frames 0 and 1 and then stays; the camera and the light move on to frame 2. Every value
+  // at frames 1 and 2 is exact in binary, so static scenes can give them (static_frame).
+  std::string animated_tiny_scene() {
+    nlohmann::json d = nlohmann::json::parse(slurp(tiny_scene(R"(, "name": "slab")")));
+    d["animation"] = nlohmann::json::parse(R"({
+      "frames": 3, "fps": 12,
+      "camera": {"eye": [{"frame": 0, "value": [0, 4, 0.001]}, {"frame": 2, "value": [0.5, 4, 0.001]}]},
+      "lights": {"0": {"center": [{"frame": 0, "value": [0, 2, 0]}, {"frame": 2, "value": [0.25, 2, 0]}]}},
+      "objects": {"slab": {"translate": [{"frame": 0, "value": [0, 1, 0]}, {"frame": 1, "value": [0.25, 1, 0]}],
+                           "rotate": {"interpolation": "catmull-rom",
+                                      "keys": [{"frame": 0, "value": [0, 0, 0]}, {"frame": 1, "value": [0, 15, 0]}]}}}
+    })");
+    return write("anim.json", d.dump());
+  }
+  // The animated scene's frame 1 or 2 written as a static scene.
+  std::string static_frame(int frame) {
+    nlohmann::json d = nlohmann::json::parse(slurp(tiny_scene(R"(, "name": "slab")")));
+    d["camera"]["eye"] = {0.25 * frame, 4, 0.001};
+    d["lights"][0]["center"] = {0.125 * frame, 2, 0};
+    d["objects"][1]["translate"] = {0.25, 1, 0};
+    d["objects"][1]["rotate"] = {0, 15, 0};
+    return write(fmt::format("static{}.json", frame), d.dump());
   }
   fs::path dir_;
 };
@@ -166,6 +191,133 @@ TEST_F(Cli, RenderCropWritesTheWindowOfTheWholeImage) {
   }
   r = run(fmt::format("render {} -m hard --crop 0,0,33,24 -o {} --quiet", scene, never.string()));
   EXPECT_NE(r.err.find("outside the 32x24 image"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, FrameRangeRendersEachFrameAsTheSceneAtThatFrame) {
+  const std::string scene = animated_tiny_scene();
+  const fs::path stats = dir_ / "stats.json";
+  const std::string common = "-m reference --spp 16 --pixel-samples 2 --seed 3 --quiet";
+  CliRun r = run(fmt::format("render {} {} --frame-range 0:3 -o {} --stats-json {}", scene, common,
+                             (dir_ / "frame_####.exr").string(), stats.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (int f = 0; f < 3; ++f) EXPECT_TRUE(fs::exists(dir_ / fmt::format("frame_{:04d}.exr", f))) << f;
+  EXPECT_FALSE(fs::exists(dir_ / "frame_0003.exr"));
+  // Frame 1 (a new renderer: the slab moved) and frame 2 (the renderer of frame 1, given the
+  // new camera and light) equal renders of the scene at those frames written as static scenes.
+  for (int f : {1, 2}) {
+    const fs::path single = dir_ / fmt::format("static{}.exr", f);
+    ASSERT_EQ(run(fmt::format("render {} {} -o {}", static_frame(f), common, single.string())).exit_code, 0);
+    const std::string frame = (dir_ / fmt::format("frame_{:04d}.exr", f)).string();
+    EXPECT_EQ(read_image(frame).data(), read_image(single.string()).data()) << f;
+    EXPECT_EQ(read_exr_channel(frame, "V").data(), read_exr_channel(single.string(), "V").data()) << f;
+  }
+  EXPECT_NE(read_image((dir_ / "frame_0000.exr").string()).data(), read_image((dir_ / "frame_0001.exr").string()).data());
+  // The stats: one object per frame, saying which frames built a renderer.
+  const auto j = nlohmann::json::parse(slurp(stats));
+  ASSERT_TRUE(j.is_array());
+  ASSERT_EQ(j.size(), 3u);
+  for (int f = 0; f < 3; ++f) {
+    EXPECT_EQ(j[f]["frame"], f);
+    EXPECT_EQ(j[f]["method"], "reference");
+    EXPECT_EQ(j[f]["new_renderer"], f < 2) << f;
+  }
+  // --frames K (progressive accumulation) keeps its meaning in each frame.
+  r = run(fmt::format("render {} -m afsm --spp 16 --frames 2 --quiet --frame-range 1:2 -o {} --stats-json {}", scene,
+                      (dir_ / "acc_#.exr").string(), stats.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(slurp(stats))[0]["frames"], 2);
+  EXPECT_TRUE(fs::exists(dir_ / "acc_1.exr"));
+}
+
+TEST_F(Cli, FrameRangePatternsAndForms) {
+  const std::string scene = animated_tiny_scene();
+  // The run of # is the frame number, zero-padded to its length.
+  CliRun r = run(fmt::format("render {} -m hard --quiet --frame-range 1: -o {} --visibility-out {}", scene,
+                             (dir_ / "c_###_x.png").string(), (dir_ / "v#.png").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* name : {"c_001_x.png", "c_002_x.png", "v1.png", "v2.png"}) EXPECT_TRUE(fs::exists(dir_ / name)) << name;
+  EXPECT_FALSE(fs::exists(dir_ / "c_000_x.png"));
+  ASSERT_EQ(run(fmt::format("render {} -m hard --quiet --frame-range :2 -o {}", scene, (dir_ / "d#.png").string()))
+                .exit_code, 0);
+  EXPECT_TRUE(fs::exists(dir_ / "d0.png"));
+  EXPECT_TRUE(fs::exists(dir_ / "d1.png"));
+  EXPECT_FALSE(fs::exists(dir_ / "d2.png"));
+  // Without progress output a sequence prints one summary line.
+  r = run(fmt::format("render {} -m hard --frame-range 0:3 -o {}", scene, (dir_ / "e##.png").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("frames 0:3 (3, 2 renderers built)"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(dir_ / "e02.png"));
+}
+
+TEST_F(Cli, FrameRangeErrorsNameTheOptionAndWriteNothing) {
+  const std::string scene = animated_tiny_scene(), still = tiny_scene();
+  const std::string out = (dir_ / "f_####.png").string();
+  struct Case {
+    std::string args, expected;
+  };
+  const std::vector<Case> cases = {
+      {fmt::format("render {} --frame-range 0:1 -o {}", still, out),
+       fmt::format("--frame-range 0:1: {} has no \"animation\" block", still)},
+      {fmt::format("render {} --frame-range 2:1 -o {}", scene, out),
+       "--frame-range 2:1: expected A:B, the frames A to B-1 with 0 <= A < B <= 3"},
+      {fmt::format("render {} --frame-range 0:4 -o {}", scene, out), "--frame-range 0:4: expected A:B"},
+      {fmt::format("render {} --frame-range 1 -o {}", scene, out), "--frame-range 1: expected A:B"},
+      {fmt::format("render {} --frame-range 0:2 -o {}", scene, (dir_ / "f.png").string()),
+       "f.png: a frame sequence needs a run of # for the frame number"},
+      {fmt::format("render {} --frame-range 0:2 -o {}", scene, (dir_ / "f_##_#.png").string()),
+       "f_##_#.png: more than one run of #"},
+      {fmt::format("render {} --frame-range 0:2", scene), "--frame-range 0:2: give -o out/frame_####.exr"},
+      {fmt::format("render {} --frame-range 0:2 -o {} --visibility-out {}", scene, out, (dir_ / "v.png").string()),
+       "--visibility-out"},
+      {fmt::format("render {} --frame-range 0:2 -o {} --dask tcp://localhost:8786", scene, out),
+       "--frame-range 0:2: not available with --dask"},
+      {fmt::format("render {} --frame-range 0:2 -o {}", scene, (dir_ / "no" / "f_#.png").string()), "does not exist"},
+  };
+  for (const Case& c : cases) {
+    CliRun r = run(c.args);
+    EXPECT_EQ(r.exit_code, 1) << c.args;
+    EXPECT_NE(r.err.find(c.expected), std::string::npos) << c.args << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  for (const auto& e : fs::directory_iterator(dir_)) EXPECT_NE(e.path().extension(), ".png") << e.path();
+}
+
+TEST_F(Cli, FrameRangeEncodesAnMp4WithFfmpeg) {
+  const std::string scene = animated_tiny_scene();
+  const fs::path movie = dir_ / "movie.mp4";
+  // Without ffmpeg on PATH: one line naming it, before the scene is even read.
+  fs::create_directories(dir_ / "empty");
+  CliRun r = run(fmt::format("render {} -o {}", (dir_ / "missing.json").string(), movie.string()),
+                 "PATH=" + (dir_ / "empty").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("movie.mp4: writing an MP4 needs ffmpeg, which is not on PATH"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(movie));
+
+  if (std::system("command -v ffmpeg >/dev/null 2>&1") != 0) GTEST_SKIP() << "ffmpeg is not installed";
+  // An odd size: yuv420p needs even sides, so the frames are padded.
+  r = run(fmt::format("render {} -m hard --resolution 31x23 --quiet -o {}", scene, movie.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(movie));
+  EXPECT_GT(fs::file_size(movie), 0u);
+  for (const auto& e : fs::directory_iterator(dir_)) EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos);
+  if (std::system("command -v ffprobe >/dev/null 2>&1") == 0) {
+    const fs::path count = dir_ / "count.txt";
+    ASSERT_EQ(std::system(fmt::format("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                                      "stream=nb_read_frames,width,height -of csv=p=0 {} >{}",
+                                      movie.string(), count.string())
+                              .c_str()),
+              0);
+    EXPECT_EQ(slurp(count), "32,24,3\n");
+  }
+  // A range of the frames; a scene without an animation has none to encode.
+  r = run(fmt::format("render {} -m hard --resolution 16 --quiet --frame-range 1:3 -o {}", scene, movie.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = run(fmt::format("render {} -m hard --quiet -o {}", tiny_scene(), (dir_ / "still.mp4").string()));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("-o " + (dir_ / "still.mp4").string() + ": "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("has no \"animation\" block"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "still.mp4"));
 }
 
 TEST_F(Cli, BadSceneIsOneLineErrorNamingFileAndKeyAndWritesNothing) {

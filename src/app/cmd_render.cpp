@@ -1,17 +1,23 @@
 // penumbra render SCENE [-m METHOD] [--spp N] [--frames K] [--resolution N|WxH] [--crop X0,Y0,X1,Y1] [-o OUT] ...
+//                      [--frame-range A:B -o out/frame_####.exr | -o movie.mp4]
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include <fmt/format.h>
 
 #include "app/command.h"
 #include "app/common.h"
+#include "app/sequence.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/image.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/eval/run_setup.h"
+#include "penumbra/core/progress.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/scene/animation.h"
 #include "penumbra/scene/json_reader.h"
 
 namespace penumbra::app {
@@ -30,6 +36,7 @@ struct RenderOptions {
   uint64_t seed = 0;
   int threads = 0;
   int frames = 1;
+  std::string frame_range;  // an animated scene's frames A:B (half-open)
   bool coherent_shading = false;
   std::vector<std::string> params;
   std::string memory_limit;
@@ -72,23 +79,18 @@ RenderResult render_on_dask(const RenderOptions& o, nlohmann::json* stats, int* 
   return r;
 }
 
-int run_render(const RenderOptions& o) {
-  ThreadLimit limit(o.threads);
-  Scene scene = load_scene(o.scene);
-  apply_camera_overrides(scene, o.resolution, o.pixel_samples);
+// --crop, checked against the scene's image.
+PixelWindow read_crop(const RenderOptions& o, const Scene& scene) {
   PixelWindow crop;
-  if (!o.crop.empty()) {
-    if (!parse_pixel_window(o.crop, &crop))
-      throw Error("--crop {}: expected X0,Y0,X1,Y1 (pixels, X0 < X1, Y0 < Y1), e.g. 0,0,256,128", o.crop);
-    if (!crop.inside(scene.camera.width, scene.camera.height))
-      throw Error("--crop {}: outside the {}x{} image", o.crop, scene.camera.width, scene.camera.height);
-  }
-  std::string out = o.output.empty()
-                        ? fmt::format("{}-{}.png", std::filesystem::path(o.scene).stem().string(), o.method)
-                        : o.output;
-  check_output_path(out, {".png", ".exr"});
-  if (!o.visibility_out.empty()) check_output_path(o.visibility_out, {".png", ".exr"});
+  if (o.crop.empty()) return crop;
+  if (!parse_pixel_window(o.crop, &crop))
+    throw Error("--crop {}: expected X0,Y0,X1,Y1 (pixels, X0 < X1, Y0 < Y1), e.g. 0,0,256,128", o.crop);
+  if (!crop.inside(scene.camera.width, scene.camera.height))
+    throw Error("--crop {}: outside the {}x{} image", o.crop, scene.camera.width, scene.camera.height);
+  return crop;
+}
 
+RenderSettings render_settings(const RenderOptions& o, const PixelWindow& crop) {
   RenderSettings settings;
   settings.method = o.method;
   settings.params = o.params;
@@ -99,6 +101,136 @@ int run_render(const RenderOptions& o) {
   settings.crop = crop;
   settings.progress = !o.quiet;
   if (!o.memory_limit.empty()) settings.memory_limit = parse_memory_size(o.memory_limit, "--memory-limit");
+  return settings;
+}
+
+// "reference, 512x512 cropped to ..., 256 light samples": what the summary line says was rendered.
+std::string render_description(const RenderOptions& o, const Scene& scene, const PixelWindow& crop) {
+  const std::string samples =
+      MethodRegistry::get(o.method).samples_light ? fmt::format(", {} light samples", o.spp) : std::string();
+  const std::string window = o.crop.empty() ? std::string() : " cropped to " + crop.to_string();
+  return fmt::format("{}, {}x{}{}{}", o.method, scene.camera.width, scene.camera.height, window, samples);
+}
+
+// `--frame-range A:B` (or `-o movie.mp4`): the frames of an animated scene, one render each
+// (docs/scene-format.md, "Animation"), written to a numbered file each or encoded to an MP4.
+// Every frame renders with the same seed, so frame t equals a render of the scene at t alone.
+int run_render_sequence(const RenderOptions& o) {
+  const bool movie = is_mp4(o.output);
+  // The option that asked for a sequence, for messages.
+  const std::string asked = o.frame_range.empty() ? "-o " + o.output : "--frame-range " + o.frame_range;
+  if (!o.dask.empty()) throw Error("{}: not available with --dask (render the frames locally)", asked);
+  if (o.output.empty())
+    throw Error("{}: give -o out/frame_####.exr (a run of # for the frame number) or -o movie.mp4", asked);
+  // Every output is checked, and ffmpeg looked for, before the scene is loaded.
+  if (movie) {
+    check_output_path(o.output, {".mp4"});
+    require_ffmpeg("-o", o.output);
+  } else {
+    check_frame_pattern(o.output, "-o");
+    check_output_path(o.output, {".png", ".exr"});
+  }
+  if (!o.visibility_out.empty()) {
+    check_frame_pattern(o.visibility_out, "--visibility-out");
+    check_output_path(o.visibility_out, {".png", ".exr"});
+  }
+  ThreadLimit limit(o.threads);
+  Scene current = load_scene(o.scene);
+  if (!current.animation) throw Error("{}: {} has no \"animation\" block (docs/scene-format.md)", asked, o.scene);
+  const Animation& animation = *current.animation;
+  const FrameRange range = parse_frame_range(o.frame_range.empty() ? ":" : o.frame_range, animation.frames,
+                                             "--frame-range");
+  apply_camera_overrides(current, o.resolution, o.pixel_samples);
+  const PixelWindow crop = read_crop(o, current);
+  RenderSettings settings = render_settings(o, crop);
+
+  // One bar over the frames: each frame's renders advance it by at most their share (a view
+  // sample per camera ray that hits), topped up when the frame is written.
+  const PixelWindow window = crop_window(crop, current.camera);
+  const uint64_t frame_units = static_cast<uint64_t>(window.width()) * window.height() *
+                               current.camera.samples_per_pixel * current.lights.size() * std::max(1, o.frames);
+  Progress bar("render", frame_units * range.count(), !o.quiet);
+  settings.progress_bar = &bar;
+
+  // The movie's frames go to a private folder, removed whatever happens.
+  std::string frames_folder;
+  struct RemoveFolder {
+    std::string path;
+    ~RemoveFolder() {
+      std::error_code ec;
+      if (!path.empty()) std::filesystem::remove_all(path, ec);
+    }
+  } remove_frames;
+  if (movie) {
+    char folder_template[] = "/tmp/penumbra-frames-XXXXXX";
+    if (!::mkdtemp(folder_template)) throw Error("{}: cannot create a temporary folder in /tmp for the frames", o.output);
+    frames_folder = remove_frames.path = folder_template;
+  }
+
+  std::unique_ptr<Renderer> renderer;
+  int renderers = 0;
+  double total_ms = 0;
+  uint64_t rays = 0;
+  nlohmann::json stats = nlohmann::json::array();
+  for (int f = range.begin; f < range.end; ++f) {
+    bar.set_label(fmt::format("render frame {} ({}/{})", f, f - range.begin + 1, range.count()));
+    // Moved objects need a new renderer (its Embree scene and the methods' maps hold the old
+    // geometry); a camera or light change alone keeps it, and with it whatever the method
+    // may keep (Renderer::set_camera, set_lights).
+    const bool new_geometry = !renderer || animation.objects_differ(f - 1, f);
+    if (new_geometry) animation.place_objects(f, current);
+    animation.set_camera_and_lights(f, current);
+    if (new_geometry) {
+      renderer.reset();  // its memory first
+      renderer = std::make_unique<Renderer>(current, settings);
+      ++renderers;
+    } else {
+      renderer->set_camera(current.camera);
+      renderer->set_lights(current.lights);
+    }
+    const RenderResult r = renderer->render();
+    total_ms += r.total_ms;
+    rays += r.stats.rays_traced;
+    const std::string out = movie ? (std::filesystem::path(frames_folder) / mp4_frame_name(f)).string()
+                                  : frame_path(o.output, f);
+    write_image(out, r.color, {{"V", &r.visibility}});
+    if (!o.visibility_out.empty())
+      write_image(frame_path(o.visibility_out, f), r.visibility, {}, /*linear_png=*/true);
+    if (!o.stats_json.empty()) {
+      nlohmann::json frame_stats = render_stats_json(renderer->scene(), o.method, settings, r);
+      frame_stats["frame"] = f;
+      frame_stats["new_renderer"] = new_geometry;
+      stats.push_back(std::move(frame_stats));
+      // Rewritten after every frame: an interrupted sequence keeps the stats of its frames.
+      write_text_file_atomic(o.stats_json, stats.dump(2) + "\n");
+    }
+    const uint64_t done = frame_units * (f - range.begin + 1);
+    if (bar.done() < done) bar.add(done - bar.done());
+  }
+  bar.finish();
+  if (movie) encode_mp4(frames_folder, range.begin, animation.fps, o.output);
+  if (!o.quiet)
+    std::fprintf(stderr, "%s: %s, frames %d:%d (%d, %d renderer%s built): %.1f ms, %.1f ms per frame, %llu shadow "
+                 "rays -> %s\n",
+                 o.scene.c_str(), render_description(o, current, crop).c_str(), range.begin, range.end, range.count(),
+                 renderers, renderers == 1 ? "" : "s", total_ms, total_ms / range.count(),
+                 static_cast<unsigned long long>(rays), o.output.c_str());
+  return 0;
+}
+
+int run_render(const RenderOptions& o) {
+  if (!o.frame_range.empty() || is_mp4(o.output)) return run_render_sequence(o);
+  ThreadLimit limit(o.threads);
+  Scene scene = load_scene(o.scene);
+  apply_camera_overrides(scene, o.resolution, o.pixel_samples);
+  const PixelWindow crop = read_crop(o, scene);
+  std::string out = o.output.empty()
+                        ? fmt::format("{}-{}.png", std::filesystem::path(o.scene).stem().string(), o.method)
+                        : o.output;
+  check_output_path(out, {".png", ".exr"});
+  if (!o.visibility_out.empty()) check_output_path(o.visibility_out, {".png", ".exr"});
+
+  RenderSettings settings = render_settings(o, crop);
   nlohmann::json stats;
   if (!o.dask.empty()) resolve_method_params(o.method, scene, o.params);  // bad ones fail before the cluster is asked
   int exit_status = 0;
@@ -111,14 +243,10 @@ int run_render(const RenderOptions& o) {
     if (o.dask.empty()) stats = render_stats_json(scene, o.method, settings, r);
     write_text_file_atomic(o.stats_json, stats.dump(2) + "\n");
   }
-  if (!o.quiet) {
-    std::string samples =
-        MethodRegistry::get(o.method).samples_light ? fmt::format(", {} light samples", o.spp) : std::string();
-    const std::string window = o.crop.empty() ? std::string() : " cropped to " + crop.to_string();
-    std::fprintf(stderr, "%s: %s, %dx%d%s%s: %.1f ms (%.1f ms camera pass), %llu shadow rays -> %s\n", o.scene.c_str(),
-                 o.method.c_str(), scene.camera.width, scene.camera.height, window.c_str(), samples.c_str(), r.total_ms,
-                 r.camera_pass_ms, static_cast<unsigned long long>(r.stats.rays_traced), out.c_str());
-  }
+  if (!o.quiet)
+    std::fprintf(stderr, "%s: %s: %.1f ms (%.1f ms camera pass), %llu shadow rays -> %s\n", o.scene.c_str(),
+                 render_description(o, scene, crop).c_str(), r.total_ms, r.camera_pass_ms,
+                 static_cast<unsigned long long>(r.stats.rays_traced), out.c_str());
   return 0;
 }
 
@@ -136,13 +264,22 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
                   "frame bit for bit)");
   cmd->add_option("--pixel-samples", o->pixel_samples, "jittered camera samples per pixel (overrides the scene)")
       ->check(CLI::Range(1, 1024));
-  cmd->add_option("-o,--output", o->output, "output image, .png (sRGB) or .exr (linear, with a V channel)");
-  cmd->add_option("--visibility-out", o->visibility_out, "also write V alone (.png or .exr)");
-  cmd->add_option("--stats-json", o->stats_json, "write timings and counters as JSON");
+  cmd->add_option("-o,--output", o->output,
+                  "output image, .png (sRGB) or .exr (linear, with a V channel); with --frame-range a pattern whose "
+                  "run of # is the frame number (out/frame_####.exr), or a .mp4 (encoded by ffmpeg; all frames "
+                  "without --frame-range)");
+  cmd->add_option("--visibility-out", o->visibility_out,
+                  "also write V alone (.png or .exr; with --frame-range a pattern, as -o)");
+  cmd->add_option("--stats-json", o->stats_json,
+                  "write timings and counters as JSON (with --frame-range an array, one object per frame)");
+  cmd->add_option("--frame-range", o->frame_range,
+                  "render the frames A to B-1 of an animated scene (A:B; A: to the last, :B from the first), one "
+                  "output per frame (docs/scene-format.md, Animation)");
   cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
   cmd->add_option("--frames", o->frames,
-                  "progressive accumulation: average this many frames, each with new light samples (sintorn2008 §4.2)")
+                  "progressive accumulation: average this many frames, each with new light samples (sintorn2008 §4.2); "
+                  "with --frame-range, for each frame of the animation")
       ->capture_default_str()->check(CLI::Range(1, 100000));
   cmd->add_flag("--coherent-shading", o->coherent_shading,
                 "bend the shading of smooth closed meshes toward their faces (sintorn2008 §4.3, c = 3): no light on "

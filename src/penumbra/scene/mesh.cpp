@@ -1,5 +1,6 @@
 #include "penumbra/scene/mesh.h"
 
+#include <cmath>
 #include <cstring>
 #include <unordered_map>
 #include <utility>
@@ -33,6 +34,25 @@ void TriangleMesh::transform(const Mat4& m) {
               a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
   if (det < 0)
     for (size_t t = 0; t + 2 < indices.size(); t += 3) std::swap(indices[t + 1], indices[t + 2]);
+}
+
+Mat4 ObjectTransform::matrix() const {
+  return Mat4::translate(translate) * Mat4::rotate_z(rotate.z) * Mat4::rotate_y(rotate.y) * Mat4::rotate_x(rotate.x) *
+         Mat4::scale(scale);
+}
+
+bool ObjectTransform::similarity() const {
+  float ax = std::abs(scale.x);
+  return std::abs(std::abs(scale.y) - ax) <= 1e-6f * ax && std::abs(std::abs(scale.z) - ax) <= 1e-6f * ax;
+}
+
+void place_object(SceneObject& object, const ObjectTransform& t) {
+  const Mat4 m = t.matrix();
+  object.mesh.transform(m);
+  if (object.sphere && t.similarity())
+    object.sphere = SphereShape{m.transform_point(object.sphere->center), object.sphere->radius * std::abs(t.scale.x)};
+  else
+    object.sphere.reset();
 }
 
 void TriangleMesh::append(const TriangleMesh& other) {

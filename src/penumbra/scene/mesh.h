@@ -58,4 +58,20 @@ struct SceneObject {
   std::optional<SphereShape> sphere;
 };
 
+// An object's placement as a scene file gives it (docs/scene-format.md, "Common keys"):
+// scale, then rotate about x, y, z (degrees), then translate, M = T * Rz * Ry * Rx * S. Kept
+// as its parts, not as the matrix, so an animation can key each part and rebuild the same
+// matrix, bit for bit, that the loader builds from the same numbers.
+struct ObjectTransform {
+  Vec3f scale{1, 1, 1}, rotate{0, 0, 0}, translate{0, 0, 0};
+  Mat4 matrix() const;
+  // The same |scale| on all three axes: spheres stay spheres.
+  bool similarity() const;
+  bool operator==(const ObjectTransform&) const = default;
+};
+
+// Moves an object built in its own space to where `t` puts it: its mesh, and its analytic
+// sphere, which stays one only under a similarity (dropped otherwise).
+void place_object(SceneObject& object, const ObjectTransform& t);
+
 }  // namespace penumbra

@@ -6,9 +6,11 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/interrupt.h"
+#include "penumbra/scene/animation.h"
 #include "penumbra/scene/generators.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/scene/mesh_import.h"
+#include "penumbra/scene/scene_values.h"
 #include "penumbra/scene/shapes.h"
 
 namespace penumbra {
@@ -33,6 +35,42 @@ void Scene::finalize() {
   orient_sphere_lights();
 }
 
+Frame light_frame(LightShape shape, Vec3f normal, const std::optional<Vec3f>& u) {
+  const Vec3f n = normalize(normal);
+  if (u) return Frame::from_zx(n, normalize(*u));
+  // Default u: world x projected onto the light's plane (z if the normal is along x), so a
+  // rect light facing straight down has its width along x and height along z.
+  if (shape == LightShape::Rect) return Frame::from_zx(n, std::abs(n.x) > 0.999f ? Vec3f(0, 0, 1) : Vec3f(1, 0, 0));
+  return Frame::from_z(n);
+}
+
+bool light_frame_defined(Vec3f normal, Vec3f u) {
+  return length_squared(cross(normalize(normal), normalize(u))) >= 1e-8f;
+}
+
+float read_fov_y(const JsonValue& v) {
+  constexpr const char* kWhat = "an angle in degrees in (0, 180)";
+  if (!v.raw().is_number()) v.fail_expected(kWhat);
+  const float fov = v.number();
+  if (!(fov > 0 && fov < 180)) v.fail_expected(kWhat);
+  return fov;
+}
+
+Vec3f read_scale(const JsonValue& v) {
+  constexpr const char* kWhat = "a non-zero number or three non-zero numbers";
+  Vec3f s;
+  if (v.raw().is_number()) {
+    s = Vec3f(v.number());
+  } else {
+    if (!v.raw().is_array()) v.fail_expected(kWhat);
+    s = v.vec3();
+  }
+  if (!scale_defined(s)) v.fail_expected(kWhat);
+  return s;
+}
+
+bool scale_defined(Vec3f s) { return std::abs(s.x) >= 1e-12f && std::abs(s.y) >= 1e-12f && std::abs(s.z) >= 1e-12f; }
+
 void Scene::orient_sphere_lights() { penumbra::orient_sphere_lights(lights, bounds()); }
 
 void orient_sphere_lights(std::vector<AreaLight>& lights, const Bounds3f& b) {
@@ -56,14 +94,20 @@ class SceneParser {
   Scene parse(const json& doc) {
     JsonValue root(doc, file_);
     if (!doc.is_object()) throw Error("{}: expected a JSON object at the top level, got {}", file_, abbreviate_json(doc));
-    root.expect_object({"description", "camera", "lights", "objects", "methods"});
+    root.expect_object({"description", "camera", "lights", "objects", "methods", "animation"});
     Scene scene;
     if (root.has("description")) root["description"].string();
     scene.camera = read_camera(root["camera"]);
     scene.lights = read_lights(root["lights"]);
     JsonValue objects = root["objects"];
     if (objects.size() == 0) objects.fail("expected at least one object");
+    // The animation's tracks are read before the objects (their errors come before a long
+    // import), so the objects they move can keep their parts unplaced.
+    std::optional<AnimationReader> animation;
+    if (root.has("animation")) animation.emplace(root["animation"], scene.lights, light_u_);
+    animation_ = animation ? &*animation : nullptr;
     for (size_t i = 0; i < objects.size(); ++i) read_object(objects.at(i), &scene.objects);
+    animation_ = nullptr;
     if (root.has("methods")) {
       JsonValue methods = root["methods"];
       methods.expect_object();
@@ -72,6 +116,7 @@ class SceneParser {
       scene.method_params = methods.raw();
     }
     scene.finalize();
+    if (animation) scene.animation = animation->finish(scene);
     return scene;
   }
 
@@ -86,12 +131,7 @@ class SceneParser {
       if (v.has("up")) v["up"].fail("must not be parallel to the view direction (target - eye)");
       v.fail("the view direction is vertical: give an \"up\" that is not parallel to it");
     }
-    if (v.has("fov_y")) {
-      JsonValue f = v["fov_y"];
-      if (!f.raw().is_number()) f.fail_expected("an angle in degrees in (0, 180)");
-      c.fov_y = f.number();
-      if (!(c.fov_y > 0 && c.fov_y < 180)) f.fail_expected("an angle in degrees in (0, 180)");
-    }
+    if (v.has("fov_y")) c.fov_y = read_fov_y(v["fov_y"]);
     if (v.has("resolution")) {
       JsonValue r = v["resolution"];
       const char* what = "two integers in [1, 16384]";
@@ -137,49 +177,25 @@ class SceneParser {
     }
     l.center = v["center"].vec3();
     if (v.has("radiance")) l.radiance = v["radiance"].color();  // default: AreaLight's (1,1,1)
+    std::optional<Vec3f> u;
     if (type != "sphere") {
-      Vec3f n = normalize(v["normal"].direction());
+      Vec3f n = v["normal"].direction();
       if (v.has("u")) {
-        Vec3f u = normalize(v["u"].direction());
-        if (length_squared(cross(n, u)) < 1e-8f) v["u"].fail("must not be parallel to normal");
-        l.frame = Frame::from_zx(n, u);
-      } else if (type == "rect") {
-        // Default u: world x projected onto the light's plane (z if the normal is along x),
-        // so a light facing straight down has its width along x and height along z.
-        l.frame = Frame::from_zx(n, std::abs(n.x) > 0.999f ? Vec3f(0, 0, 1) : Vec3f(1, 0, 0));
-      } else {
-        l.frame = Frame::from_z(n);
+        u = v["u"].direction();
+        if (!light_frame_defined(n, *u)) v["u"].fail("must not be parallel to normal");
       }
+      l.frame = light_frame(l.shape, n, u);
     }
+    light_u_.push_back(u);
     return l;
   }
 
   // Object transform: scale, then rotate about x, y, z (degrees), then translate.
-  struct Transform {
-    Mat4 m;
-    bool similarity = true;  // uniform |scale|: spheres stay spheres
-    float uniform_scale = 1;
-  };
-  Transform read_transform(const JsonValue& v) {
-    Transform t;
-    Vec3f s(1, 1, 1);
-    if (v.has("scale")) {
-      JsonValue sv = v["scale"];
-      const char* what = "a non-zero number or three non-zero numbers";
-      if (sv.raw().is_number()) {
-        s = Vec3f(sv.number());
-      } else {
-        if (!sv.raw().is_array()) sv.fail_expected(what);
-        s = sv.vec3();
-      }
-      if (std::abs(s.x) < 1e-12f || std::abs(s.y) < 1e-12f || std::abs(s.z) < 1e-12f) sv.fail_expected(what);
-    }
-    Vec3f r = v.has("rotate") ? v["rotate"].vec3() : Vec3f(0);
-    Vec3f tr = v.has("translate") ? v["translate"].vec3() : Vec3f(0);
-    t.m = Mat4::translate(tr) * Mat4::rotate_z(r.z) * Mat4::rotate_y(r.y) * Mat4::rotate_x(r.x) * Mat4::scale(s);
-    float ax = std::abs(s.x);
-    t.similarity = std::abs(std::abs(s.y) - ax) <= 1e-6f * ax && std::abs(std::abs(s.z) - ax) <= 1e-6f * ax;
-    t.uniform_scale = ax;
+  ObjectTransform read_transform(const JsonValue& v) {
+    ObjectTransform t;
+    if (v.has("scale")) t.scale = read_scale(v["scale"]);
+    if (v.has("rotate")) t.rotate = v["rotate"].vec3();
+    if (v.has("translate")) t.translate = v["translate"].vec3();
     return t;
   }
 
@@ -215,7 +231,7 @@ class SceneParser {
     std::vector<std::string_view> allowed = {"name", "translate", "rotate", "scale", "material"};
     // The cheap keys first, so their errors come before a long import or generation.
     std::string name = v.has("name") ? v["name"].string() : "";
-    Transform t = read_transform(v);
+    ObjectTransform t = read_transform(v);
     MaterialOverride material = v.has("material") ? read_material(v["material"]) : MaterialOverride{};
     std::vector<SceneObject> parts;
     std::string base_name;
@@ -296,19 +312,20 @@ class SceneParser {
       if (o.mesh.triangle_count() == 0) continue;  // e.g. a plant with leaves = 0
       o.name = parts.size() > 1 && !o.name.empty() ? name + "." + o.name : name;
       material.apply(&o.material);
-      o.mesh.transform(t.m);
+      // An animated object keeps its parts as built, in its own space: each frame places
+      // them anew from the keyed transform (animation.h).
+      if (animation_ && animation_->animates(name)) animation_->add_part(name, v, t, out->size(), o);
+      place_object(o, t);
       for (Vec3f p : o.mesh.positions)
         if (!is_finite(p)) v.fail("vertex positions are not finite after the transform");
-      if (o.sphere && t.similarity)
-        o.sphere = SphereShape{t.m.transform_point(o.sphere->center), o.sphere->radius * t.uniform_scale};
-      else
-        o.sphere.reset();
       out->push_back(std::move(o));
     }
   }
 
   std::string file_;
   fs::path folder_;
+  std::vector<std::optional<Vec3f>> light_u_;  // each light's "u", where given (animated normals need it)
+  AnimationReader* animation_ = nullptr;       // while the objects of an animated scene are read
 };
 
 }  // namespace

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,8 @@
 
 namespace penumbra {
 
+class Animation;
+
 struct Scene {
   Camera camera;
   std::vector<AreaLight> lights;
@@ -22,6 +25,10 @@ struct Scene {
   // Per-method parameter defaults from the scene file's "methods" table:
   // {"lam": {"samples": 64}, ...}. The CLI's -p overrides them.
   nlohmann::json method_params = nlohmann::json::object();
+  // The scene file's "animation" block (animation.h), or null: the camera, lights and objects
+  // above are the scene as written, and scene_at_frame() gives it at a frame. Shared, never
+  // changed, so copies of a scene (one per frame) do not copy the meshes it keeps.
+  std::shared_ptr<const Animation> animation;
 
   Bounds3f bounds() const;
   size_t triangle_count() const;
