@@ -1,22 +1,17 @@
 #include "app/common.h"
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <fstream>
 #include <iterator>
 #include <regex>
 
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
+#include "app/process.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/file_util.h"
-#include "penumbra/core/interrupt.h"
 
 namespace penumbra::app {
 
@@ -132,39 +127,13 @@ int run_on_dask(nlohmann::json request, const std::string& address,
 
   std::string pythonpath = path;
   if (const char* old = std::getenv("PYTHONPATH"); old && *old) pythonpath += std::string(":") + old;
-  std::vector<std::string> env_strings = {"PYTHONPATH=" + pythonpath};
-  for (char** e = environ; *e; ++e)
-    if (std::string(*e).rfind("PYTHONPATH=", 0) != 0) env_strings.emplace_back(*e);
-  std::vector<char*> env;
-  for (std::string& e : env_strings) env.push_back(e.data());
-  env.push_back(nullptr);
-  std::vector<std::string> args = {python, "-m", "penumbra.distributed", "--request", request_file.string()};
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  if (const int err = ::posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv.data(), env.data()); err != 0)
-    throw Error("--dask: cannot run {}: {}", python, std::strerror(err));
-  // Ctrl-C reaches the child too (one process group); a SIGTERM to this process alone is
-  // passed on as SIGINT (Python's KeyboardInterrupt), and a child that has not stopped before
-  // the interrupt watchdog's deadline is killed, so nothing writes outputs after we exit.
-  int status = 0;
-  for (int waited_ms = -1;;) {
-    const pid_t r = ::waitpid(pid, &status, WNOHANG);
-    if (r == pid || (r < 0 && errno != EINTR)) break;
-    if (interrupted()) {
-      if (waited_ms < 0) ::kill(pid, SIGINT), waited_ms = 0;
-      if (waited_ms >= 600) {
-        ::kill(pid, SIGKILL);
-        ::waitpid(pid, &status, 0);
-        throw Interrupted();
-      }
-      waited_ms += 20;
-    }
-    ::usleep(20000);
-  }
-  if (interrupted()) throw Interrupted();
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  // Ctrl-C or SIGTERM: the client gets SIGINT (KeyboardInterrupt) and is killed if it has not
+  // stopped before the interrupt watchdog's deadline, so nothing writes outputs after we exit.
+  ProgramOptions options;
+  options.environment = {"PYTHONPATH=" + pythonpath};
+  options.interrupt_grace_ms = 600;
+  const int code =
+      run_program({python, "-m", "penumbra.distributed", "--request", request_file.string()}, options);
   if (code != 0) return code;
   if (on_success) on_success(request);  // reads the outputs in `folder` before it goes
   return 0;
