@@ -56,6 +56,47 @@ TEST(Renderer, SetLightsEqualsAFreshRendererAndKeepsUnchangedLights) {
   }
 }
 
+// Issue 18 part 3, for every registered method: a sequence rendered by one Renderer that keeps
+// what stays valid (the Embree scene and every light's light-space structures while only the
+// camera moves, the unchanged light's when one light moves) equals the same frames rendered
+// from scratch, bit for bit (every method is deterministic: determinism_test.cpp). A method
+// that kept something depending on the view (a light view fitted to the last frame's pixels)
+// would differ from the second frame on.
+TEST(Renderer, EveryMethodsReusedFramesEqualFreshRendersAlongACameraWalkAndALightMove) {
+  const Scene base = two_light_scene();
+  std::vector<Scene> frames;
+  for (int f = 0; f < 3; ++f) {  // the camera walks around and toward the box
+    Scene s = base;
+    const float a = 0.5f * static_cast<float>(f);
+    s.camera.eye = {2.5f * std::sin(a), 3.0f - 0.4f * static_cast<float>(f), 2.5f * std::cos(a)};
+    s.camera.up = {0, 1, 0};
+    frames.push_back(s);
+  }
+  Scene moved = frames.back();  // then the first light moves
+  moved.lights[0].center = moved.lights[0].center + Vec3f(-0.3f, 0.2f, 0.25f);
+  frames.push_back(moved);
+
+  for (const MethodInfo* info : MethodRegistry::all()) {
+    SCOPED_TRACE(info->name);
+    RenderSettings settings;
+    settings.method = info->name;
+    settings.light_samples = 8;
+    settings.seed = 3;
+    Renderer r(frames[0], settings);
+    for (size_t f = 0; f < frames.size(); ++f) {
+      SCOPED_TRACE(f);
+      r.set_camera(frames[f].camera);
+      r.set_lights(frames[f].lights);
+      const RenderResult reused = r.render();
+      const RenderResult fresh = render_scene(frames[f], settings);
+      EXPECT_TRUE(same_bits(reused.visibility, fresh.visibility));
+      EXPECT_TRUE(same_bits(reused.color, fresh.color));
+      // Only the moved light's method prepared again.
+      EXPECT_EQ(reused.stats.prepare_count, f == 0 ? 2u : f == 3 ? 1u : 0u);
+    }
+  }
+}
+
 // The mean of frames 0..K-1 rendered one at a time (first_frame = k) is the render with
 // frames = K, up to float rounding: the viewer's progressive refinement shows `--frames K`.
 TEST(Renderer, FramesRenderedOneAtATimeAverageToTheFramesRender) {
