@@ -1,4 +1,4 @@
-// penumbra bench [--suite quick|full|perf] [--methods ...] [--scenes a,b] [-o DIR]
+// penumbra bench [--suite quick|full|perf|walk] [--methods ...] [--scenes a,b] [-o DIR]
 // The performance suite: every method on the scene suite, median of several runs, as a
 // ratio to `reference` measured in the same run (docs/benchmarks.md).
 #include <cstdio>
@@ -47,6 +47,8 @@ int run_bench_cli(const BenchCliOptions& o) {
   }
   if (!bo.suite.targets.empty() && o.spp > 0)
     throw Error("--spp {}: the {} suite's targets fix their own light samples", o.spp, o.suite);
+  if (bo.suite.sequence_frames > 0 && (o.runs > 0 || o.warmup >= 0))
+    throw Error("--runs/--warmup: the {} suite times every frame once (the frames are its runs)", o.suite);
   if (o.runs > 0) bo.suite.runs = o.runs;
   if (o.resolution > 0) bo.suite.resolution = o.resolution;
   if (o.spp > 0) bo.suite.light_samples = o.spp;
@@ -81,8 +83,9 @@ const CommandRegistration registration("bench", 70, [](CLI::App& app) {
   auto o = std::make_shared<BenchCliOptions>();
   CLI::App* cmd = app.add_subcommand("bench", "performance suite: every method on the scene suite, as a ratio to reference");
   cmd->add_option("--suite", o->suite, "quick (128^2, 16 spp, 3 runs), full (512^2, 256 spp, 5 runs) or perf (issue 14's targets: "
-                  "ratios at 256^2 interleaved with reference, times at 512^2; PASS/MISS per target)")
-      ->check(CLI::IsMember({"quick", "full", "perf"}))->capture_default_str();
+                  "ratios at 256^2 interleaved with reference, times at 512^2; PASS/MISS per target) or walk (the animated "
+                  "scenes' frames 0-7 at 256^2, 256 spp: cost per frame with reuse; lam >= 50x reference per frame)")
+      ->check(CLI::IsMember({"quick", "full", "perf", "walk"}))->capture_default_str();
   cmd->add_option("--methods", o->methods, "methods, comma-separated, or 'all' (reference is always added; perf: their targets only)")
       ->delimiter(',')->capture_default_str();
   cmd->add_option("--scenes", o->scenes, "scenes instead of the suite's: names in --scenes-dir or files")->delimiter(',');

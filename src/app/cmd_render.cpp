@@ -17,6 +17,7 @@
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/render/sequence_renderer.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/json_reader.h"
 
@@ -167,28 +168,14 @@ int run_render_sequence(const RenderOptions& o) {
     frames_folder = remove_frames.path = folder_template;
   }
 
-  std::unique_ptr<Renderer> renderer;
-  int renderers = 0;
+  SequenceRenderer sequence(current, settings);
   double total_ms = 0;
   uint64_t rays = 0;
   nlohmann::json stats = nlohmann::json::array();
   for (int f = range.begin; f < range.end; ++f) {
     bar.set_label(fmt::format("render frame {} ({}/{})", f, f - range.begin + 1, range.count()));
-    // Moved objects need a new renderer (its Embree scene and the methods' maps hold the old
-    // geometry); a camera or light change alone keeps it, and with it whatever the method
-    // may keep (Renderer::set_camera, set_lights).
-    const bool new_geometry = !renderer || animation.objects_differ(f - 1, f);
-    if (new_geometry) animation.place_objects(f, current);
-    animation.set_camera_and_lights(f, current);
-    if (new_geometry) {
-      renderer.reset();  // its memory first
-      renderer = std::make_unique<Renderer>(current, settings);
-      ++renderers;
-    } else {
-      renderer->set_camera(current.camera);
-      renderer->set_lights(current.lights);
-    }
-    const RenderResult r = renderer->render();
+    const SequenceRenderer::Frame frame = sequence.render(f);
+    const RenderResult& r = frame.result;
     total_ms += r.total_ms;
     rays += r.stats.rays_traced;
     const std::string out = movie ? (std::filesystem::path(frames_folder) / mp4_frame_name(f)).string()
@@ -197,9 +184,9 @@ int run_render_sequence(const RenderOptions& o) {
     if (!o.visibility_out.empty())
       write_image(frame_path(o.visibility_out, f), r.visibility, {}, /*linear_png=*/true);
     if (!o.stats_json.empty()) {
-      nlohmann::json frame_stats = render_stats_json(renderer->scene(), o.method, settings, r);
+      nlohmann::json frame_stats = render_stats_json(sequence.scene(), o.method, settings, r);
       frame_stats["frame"] = f;
-      frame_stats["new_renderer"] = new_geometry;
+      frame_stats["new_renderer"] = frame.new_renderer;
       stats.push_back(std::move(frame_stats));
       // Rewritten after every frame: an interrupted sequence keeps the stats of its frames.
       write_text_file_atomic(o.stats_json, stats.dump(2) + "\n");
@@ -213,7 +200,7 @@ int run_render_sequence(const RenderOptions& o) {
     std::fprintf(stderr, "%s: %s, frames %d:%d (%d, %d renderer%s built): %.1f ms, %.1f ms per frame, %llu shadow "
                  "rays -> %s\n",
                  o.scene.c_str(), render_description(o, current, crop).c_str(), range.begin, range.end, range.count(),
-                 renderers, renderers == 1 ? "" : "s", total_ms, total_ms / range.count(),
+                 sequence.renderers_built(), sequence.renderers_built() == 1 ? "" : "s", total_ms, total_ms / range.count(),
                  static_cast<unsigned long long>(rays), o.output.c_str());
   return 0;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -13,6 +14,8 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/eval/comparison.h"
 #include "penumbra/eval/report_util.h"
+#include "penumbra/render/sequence_renderer.h"
+#include "penumbra/scene/animation.h"
 
 namespace penumbra {
 
@@ -79,6 +82,21 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     s.targets = perf_targets();
     return s;
   }
+  if (name == "walk") {
+    s.scenes = {scenes_dir / "bunny-walk.json", scenes_dir / "plant-light.json", scenes_dir / "furball-spin.json"};
+    s.resolution = 256;
+    s.light_samples = 256;
+    s.sequence_frames = 8;
+    s.runs = 1;
+    s.warmup_runs = 0;
+    PerfTarget lam_walk;
+    lam_walk.method = "lam";
+    lam_walk.scene = "bunny-walk";
+    lam_walk.light_samples = 256;
+    lam_walk.goal = 50;
+    s.sequence_targets = {lam_walk};
+    return s;
+  }
   for (const char* scene : {"bunny", "contact", "furball", "knot", "plant"})
     s.scenes.push_back(scenes_dir / (std::string(scene) + ".json"));
   if (name == "quick") {
@@ -92,7 +110,7 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     s.runs = 5;
     s.warmup_runs = 1;
   } else {
-    throw Error("--suite {}: unknown suite (quick, full, perf)", name);
+    throw Error("--suite {}: unknown suite (quick, full, perf, walk)", name);
   }
   return s;
 }
@@ -311,12 +329,151 @@ json run_targets(const BenchOptions& o, const std::string& started, const Timer&
 
 }  // namespace
 
+// The walk suite: each scene's frames rendered by every method in turn, frame by frame.
+json run_sequences(const BenchOptions& o, const std::vector<std::string>& methods, const std::string& started,
+                   const Timer& wall) {
+  const BenchSuite& suite = o.suite;
+  // Every scene's setup before any render: a missing scene or bad setting fails at once.
+  std::vector<RunSetup> setups;
+  for (const fs::path& f : suite.scenes) {
+    RunSetup setup = RunSetup::from_file(f);
+    setup.apply("resolution", std::to_string(suite.resolution));
+    setup.apply("spp", std::to_string(suite.light_samples));
+    for (const std::string& kv : o.params) setup.apply(kv);
+    setup.check_plain_params(methods);
+    setups.push_back(std::move(setup));
+  }
+  json scenes = json::array();
+  Progress bar("bench", setups.size() * methods.size() * suite.sequence_frames, o.progress);
+  for (const RunSetup& setup : setups) {
+    const std::string name = setup.scene_path.stem().string();
+    const Scene scene = setup.load();
+    if (!scene.animation) throw Error("bench: {}: the scene has no \"animation\" block", setup.scene_path.string());
+    const int frames = std::min(suite.sequence_frames, scene.animation->frames);
+    struct Sequence {
+      std::unique_ptr<SequenceRenderer> renderer;
+      std::string error;
+      std::vector<double> shadow_ms, total_ms;
+      int renderers = 0;
+    };
+    std::vector<Sequence> seqs(methods.size());
+    for (size_t k = 0; k < methods.size(); ++k) {
+      const MethodSpec spec = parse_method_spec(methods[k]);
+      RenderSettings settings;
+      settings.method = spec.name;
+      settings.params = setup.overrides_for(spec);
+      settings.light_samples = setup.light_samples;
+      settings.seed = setup.seed;
+      seqs[k].renderer = std::make_unique<SequenceRenderer>(scene, settings);
+    }
+    for (int f = 0; f < frames; ++f)
+      for (size_t k = 0; k < methods.size(); ++k) {  // side by side, frame by frame
+        bar.set_label(fmt::format("bench {} frame {}: {}", name, f, methods[k]));
+        Sequence& q = seqs[k];
+        if (q.error.empty()) {
+          try {
+            const RenderResult r = q.renderer->render(f).result;
+            q.shadow_ms.push_back(shadow_time_ms(r));
+            q.total_ms.push_back(r.total_ms);
+            q.renderers = q.renderer->renderers_built();
+          } catch (const Interrupted&) {
+            throw;
+          } catch (const std::exception& e) {
+            q.error = e.what();
+            q.renderer.reset();
+          }
+        }
+        bar.add(1);
+      }
+    // A method's cost per frame once its structures exist: the median over frames 1 .. N-1.
+    auto steady = [](const std::vector<double>& v) {
+      return median_of(v.size() > 1 ? std::vector<double>(v.begin() + 1, v.end()) : v);
+    };
+    const double reference_ms = seqs[0].error.empty() ? steady(seqs[0].shadow_ms) : 0.0;
+    json ms = json::array();
+    for (size_t k = 0; k < methods.size(); ++k) {
+      const Sequence& q = seqs[k];
+      json m = {{"method", methods[k]}, {"ok", q.error.empty()}};
+      if (!q.error.empty()) {
+        m["error"] = q.error;
+      } else {
+        const double per_frame = steady(q.shadow_ms);
+        m["shadow_ms"] = per_frame;
+        m["total_ms"] = steady(q.total_ms);
+        m["first_frame_shadow_ms"] = q.shadow_ms.front();
+        m["run_shadow_ms"] = q.shadow_ms;  // every frame's
+        m["run_total_ms"] = q.total_ms;
+        m["renderers_built"] = q.renderers;
+        m["speedup"] = json_number(reference_ms > 0 && per_frame > 0 ? reference_ms / per_frame
+                                                                    : std::numeric_limits<double>::quiet_NaN());
+      }
+      ms.push_back(m);
+    }
+    scenes.push_back({{"scene", setup.scene_path.string()},
+                      {"name", name},
+                      {"frames", frames},
+                      {"resolution", {scene.camera.width, scene.camera.height}},
+                      {"triangles", scene.triangle_count()},
+                      {"speedup_basis", "reference"},
+                      {"reference_shadow_ms", reference_ms},
+                      {"methods", ms}});
+  }
+  bar.finish();
+  json targets = json::array();
+  for (const PerfTarget& t : suite.sequence_targets) {
+    json entry = {{"target", fmt::format("{}, {} spp, {} {}², per frame once its maps exist: speed-up over reference "
+                                         "≥ {}×",
+                                         t.method, suite.light_samples, t.scene, suite.resolution, t.goal)},
+                  {"kind", "speedup"},
+                  {"method", t.method},
+                  {"scene", t.scene},
+                  {"goal", t.goal}};
+    for (const json& sc : scenes)
+      if (sc.value("name", "") == t.scene)
+        for (const json& m : sc.at("methods"))
+          if (m.value("method", "") == t.method && m.value("ok", false) && m["speedup"].is_number()) {
+            const double v = m["speedup"].get<double>();
+            entry["value"] = v;
+            entry["result"] = v >= t.goal ? "PASS" : "MISS";
+          }
+    if (!entry.contains("result")) continue;  // its method or scene is not in this run
+    targets.push_back(entry);
+  }
+  json out = {{"suite", suite.name},
+              {"settings",
+               {{"resolution", suite.resolution},
+                {"spp", suite.light_samples},
+                {"frames", suite.sequence_frames},
+                {"runs", 1},
+                {"warmup_runs", 0},
+                {"params", o.params}}},
+              {"timing",
+               "per frame: shadow_ms = total - camera pass - compose of each frame, the median over frames 1..N-1 "
+               "(the first frame, which builds the light-space structures, is first_frame_shadow_ms); every "
+               "method renders the frames one after another keeping what stays valid (render/sequence_renderer.h); "
+               "speedup = reference's per-frame shadow_ms / the method's, the methods interleaved frame by frame"},
+              {"methods", methods},
+              {"machine", machine_json()},
+              {"started", started},
+              {"wall_ms", wall.elapsed_ms()},
+              {"command", o.command},
+              {"scenes", scenes}};
+  if (!targets.empty()) out["targets"] = targets;
+  return out;
+}
+
 json run_bench(const BenchOptions& o) {
   Timer wall;
   const BenchSuite& suite = o.suite;
   if (suite.scenes.empty()) throw Error("bench: no scenes");
   const std::string started = local_time_iso();
   if (!suite.targets.empty()) return run_targets(o, started, wall);
+  if (suite.sequence_frames > 0) {
+    std::vector<std::string> methods = {"reference"};
+    for (const auto& m : o.methods)
+      if (m != "reference") methods.push_back(m);
+    return run_sequences(o, methods, started, wall);
+  }
   // The reference first: it is what every other row is measured against.
   std::vector<std::string> methods = {"reference"};
   for (const auto& m : o.methods)
@@ -385,7 +542,15 @@ std::string bench_markdown(const json& r) {
   std::ostringstream md;
   const json& st = r.at("settings");
   const json& mc = r.at("machine");
-  if (r.contains("targets")) {
+  const bool sequences = st.contains("frames");
+  if (sequences) {
+    md << fmt::format("Suite `{}`: {}×{} pixels, {} light samples, frames 0–{} of each animated scene rendered one "
+                      "after another (the light-space structures kept while only the camera or a light moves), the "
+                      "methods interleaved frame by frame; {}, {} threads, {}, {}; {}.\n\n",
+                      r.value("suite", "?"), st.value("resolution", 0), st.value("resolution", 0), st.value("spp", 0),
+                      st.value("frames", 0) - 1, mc.value("cpu", "?"), mc.value("threads", 0),
+                      mc.value("compiler", "?"), mc.value("build", "?"), r.value("started", "?"));
+  } else if (r.contains("targets")) {
     md << fmt::format("Suite `{}`: the speed-up targets at {}×{} pixels, the time targets at their own size; light "
                       "samples per target; median of {} runs after {} warm-up, every method's runs interleaved with "
                       "the others' of its scene; {}, {} threads, {}, {}; {}.\n\n",
@@ -400,9 +565,12 @@ std::string bench_markdown(const json& r) {
                       mc.value("compiler", "?"), mc.value("build", "?"), r.value("started", "?"));
   }
   if (r.contains("targets")) {
-    md << "Targets (issue 14): speed-ups are reference's median shadow time / the method's, their runs "
-          "interleaved in this process; times are medians of the whole frame (camera pass included) or of one "
-          "phase.\n\n| target | measured | result |\n|---|---:|---|\n";
+    md << (sequences ? "Targets (issue 18): per-frame speed-ups, reference's median shadow time per frame / the "
+                       "method's, once the method's light-space structures exist.\n\n"
+                     : "Targets (issue 14): speed-ups are reference's median shadow time / the method's, their runs "
+                       "interleaved in this process; times are medians of the whole frame (camera pass included) or "
+                       "of one phase.\n\n")
+       << "| target | measured | result |\n|---|---:|---|\n";
     int pass = 0, all = 0;
     for (const json& t : r.at("targets")) {
       std::string value = "—";
@@ -418,8 +586,11 @@ std::string bench_markdown(const json& r) {
     }
     md << "\n" << pass << " of " << all << " targets met.\n\n";
   }
-  md << "Each cell: the method's shadow time (total − camera pass − compose) in ms, and in brackets its "
-        "speed-up over `reference` (Embree ray tracing at the same light samples) on that scene.\n\n";
+  md << (sequences ? "Each cell: the method's shadow time per frame (total − camera pass − compose; the median "
+                     "over frames 1 and on) in ms, and in brackets its speed-up over `reference` per frame on that "
+                     "scene; bench-results.json also has each method's first frame and every frame's time.\n\n"
+                   : "Each cell: the method's shadow time (total − camera pass − compose) in ms, and in brackets its "
+                     "speed-up over `reference` (Embree ray tracing at the same light samples) on that scene.\n\n");
   md << "| method |";
   for (const json& s : r.at("scenes")) md << " " << s.value("name", "?") << " |";
   md << "\n|---|";

@@ -44,11 +44,20 @@ struct BenchSuite {
   // Non-empty: a target suite (perf): every target's method and reference are run on its
   // scene, interleaved, and the result is PASS or MISS per target.
   std::vector<PerfTarget> targets;
+  // > 0: a sequence suite (walk, issue 18 part 6): the animated scenes' frames 0 .. N-1, each
+  // method rendering them one after another with the reuse of render/sequence_renderer.h, the
+  // methods interleaved frame by frame; a method's cost is the median over frames 1 .. N-1
+  // (once its light-space structures exist), its first frame reported apart.
+  int sequence_frames = 0;
+  // A sequence suite's targets: the least per-frame speed-up over `reference` of a method on
+  // a scene (the issue's "lam on the camera walk at least 50x").
+  std::vector<PerfTarget> sequence_targets;
 };
 
 // quick: 128^2, 16 light samples, 3 runs; full: 512^2, 256 light samples, 5 runs; both on
 // bunny, contact, furball, knot and plant from `scenes_dir`. perf: perf_targets() on bunny and
-// plant, 256^2 for the ratio targets (the time targets fix their own 512^2), 5 runs.
+// plant, 256^2 for the ratio targets (the time targets fix their own 512^2), 5 runs. walk:
+// bunny-walk, plant-light and furball-spin, 8 frames at 256^2, 256 light samples.
 BenchSuite bench_suite(const std::string& name, const std::filesystem::path& scenes_dir);
 
 struct BenchOptions {
