@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 
@@ -119,6 +120,48 @@ TEST_F(CliCompare, BadArgumentsAreOneLineErrors) {
   r = run("compare scenes/contact.json --methods hard --no-cache -o " + path("file"));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("cannot create the output folder"), std::string::npos) << r.err;
+}
+
+TEST_F(CliCompare, FrameRangeWritesTheSequenceColumnsAndPlots) {
+  // A tiny animated scene (issue 18): the camera moves over 3 frames.
+  std::ofstream(dir_ / "walk.json") << testing::tiny_animated_contact_setup(3).scene_doc.dump(1);
+  CliRun r = run(fmt::format("compare {} --frame-range 0:3 --methods hard,reference --resolution 24 --spp 2 "
+                             "--reference-spp 16 --no-equal-quality --cache-dir {} -o {}",
+                             path("walk.json"), path("cache"), path("out")));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("instability"), std::string::npos) << r.out;
+  const std::string csv = slurp(dir_ / "out" / "results.csv");
+  const std::string header = csv.substr(0, csv.find('\n'));
+  EXPECT_NE(header.find(",temporal_instability,ms_per_frame_reuse,ms_per_frame_fresh"), std::string::npos) << header;
+  json j = json::parse(slurp(dir_ / "out" / "results.json"));
+  ASSERT_TRUE(j["frames"].is_object());
+  EXPECT_EQ(j["frames"]["range"], json::array({0, 3}));
+  ASSERT_EQ(j["frames"]["methods"].size(), 2u);
+  for (const json& m : j["frames"]["methods"]) {
+    EXPECT_EQ(m["v_mae"].size(), 3u);
+    EXPECT_EQ(m["shadow_ms_reuse"].size(), 3u);
+    EXPECT_TRUE(m["temporal_instability"].is_number());
+    EXPECT_TRUE(m["ms_per_frame_fresh"].is_number());
+  }
+  const std::string html = slurp(dir_ / "out" / "index.html");
+  EXPECT_NE(html.find("temporal instability"), std::string::npos);
+  EXPECT_NE(html.find("<h2>Sequence</h2>"), std::string::npos);
+  EXPECT_NE(html.find("mean |ΔV| per frame"), std::string::npos);
+  for (const char* f : {"frames-error.svg", "frames-time.svg"}) EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
+}
+
+TEST_F(CliCompare, FrameRangeOnAStaticSceneIsAOneLineError) {
+  CliRun r = run("compare scenes/contact.json --methods hard --frame-range 0:2 -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--frame-range 0:2: scenes/contact.json has no \"animation\" block"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x"));
+  std::ofstream(dir_ / "walk.json") << testing::tiny_animated_contact_setup(3).scene_doc.dump(1);
+  r = run("compare " + path("walk.json") + " --methods hard --frame-range 2:5 -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--frame-range"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x"));
 }
 
 TEST_F(CliCompare, SweepWritesCsvAndPlots) {

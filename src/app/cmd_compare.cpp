@@ -1,17 +1,22 @@
 // penumbra compare SCENE [--methods a,b,c|all] [--spp N] [--reference-spp N] [-p key=value]... -o DIR
+//                       [--frame-range A:B]
 // Every method against the ground truth in one report: DIR/index.html, results.json,
 // results.csv (docs/compare.md).
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "app/command.h"
 #include "app/common.h"
+#include "app/sequence.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/eval/comparison.h"
 #include "penumbra/eval/report_util.h"
+#include "penumbra/eval/temporal.h"
+#include "penumbra/scene/animation.h"
 #include "penumbra/scene/json_reader.h"
 
 namespace penumbra::app {
@@ -36,6 +41,7 @@ struct CompareCliOptions {
   bool quiet = false;
   std::string dask;             // a Dask scheduler's address: the jobs run there
   std::string meshes = "ship";  // with --dask: ship the mesh files, or read them from a shared path
+  std::string frame_range;      // an animated scene's frames A:B (half-open): a sequence (issue 18)
 };
 
 // A few columns of the table on stdout, for a terminal user.
@@ -49,6 +55,7 @@ std::string equal_quality_text(const EqualQuality& q, double v, bool speedup) {
 void print_summary(const Comparison& c) {
   std::printf("%-20s %11s %9s %8s %11s %9s", "method", "mean|dV|", "PSNR dB", "FLIP", "shadow ms", "speed-up");
   if (c.has_ladder) std::printf(" %10s %10s", "eq-|dV|spp", "eq-speedup");
+  if (c.has_frames) std::printf(" %11s %11s %11s", "instability", "ms/f reuse", "ms/f fresh");
   std::printf("\n");
   for (const MethodRun& r : c.runs) {
     if (!r.ok) {
@@ -63,6 +70,16 @@ void print_summary(const Comparison& c) {
     if (c.has_ladder)
       std::printf(" %10s %10s", equal_quality_text(r.eq_v, r.eq_v.samples, false).c_str(),
                   equal_quality_text(r.eq_v, r.eq_v.speedup, true).c_str());
+    if (c.has_frames) {
+      for (const MethodFrames& f : c.frames.methods) {
+        if (f.method != r.method) continue;
+        if (f.ok)
+          std::printf(" %11s %11s %11s", num(f.temporal_instability, 3).c_str(), num(f.ms_per_frame_reuse, 4).c_str(),
+                      num(f.ms_per_frame_fresh, 4).c_str());
+        else
+          std::printf("  %s", f.error.c_str());
+      }
+    }
     std::printf("\n");
   }
 }
@@ -82,6 +99,21 @@ int run_compare(const CompareCliOptions& o) {
   co.equal_quality = !o.no_equal_quality;
   co.cache_dir = o.no_cache ? std::filesystem::path() : o.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(o.cache_dir);
   std::string out = o.output.empty() ? fmt::format("compare-{}", std::filesystem::path(o.scene).stem().string()) : o.output;
+
+  // A sequence: the range is checked against the scene's frames before any render.
+  std::optional<FrameRange> range;
+  if (!o.frame_range.empty()) {
+    const std::string asked = "--frame-range " + o.frame_range;
+    if (!o.dask.empty()) throw Error("{}: not available with --dask (compare the frames locally)", asked);
+    if (!setup.scene_doc.contains("animation"))
+      throw Error("{}: {} has no \"animation\" block (docs/scene-format.md)", asked, o.scene);
+    const nlohmann::json& frames = setup.scene_doc["animation"].is_object()
+                                       ? setup.scene_doc["animation"].value("frames", nlohmann::json())
+                                       : nlohmann::json();
+    // A block the loader would reject: load it for its own message.
+    const int count = frames.is_number_integer() ? frames.get<int>() : setup.load().animation->frames;
+    range = parse_frame_range(o.frame_range, count, "--frame-range");
+  }
 
   make_output_folder(out);  // before any render: a bad -o fails at once
   Comparison c;
@@ -103,7 +135,7 @@ int run_compare(const CompareCliOptions& o) {
     if (const int code = run_on_dask(request, o.dask); code != 0) return code;
     c = comparison_from_json(read_json_file(std::filesystem::path(out) / "results.json"));
   } else {
-    c = run_comparison(setup, co);
+    c = range ? run_sequence_comparison(setup, co, range->begin, range->end) : run_comparison(setup, co);
     c.command = command_line();
     ReportOptions ro;
     ro.heatmap_scale = o.heatmap_scale;
@@ -152,6 +184,9 @@ const CommandRegistration registration("compare", 50, [](CLI::App& app) {
                   "run the jobs on the Dask scheduler at tcp://HOST:PORT (docs/distributed.md; needs the Python module)");
   cmd->add_option("--meshes", o->meshes, "with --dask: ship the mesh files to the workers, or read them from a shared path")
       ->check(CLI::IsMember({"ship", "shared"}))->capture_default_str();
+  cmd->add_option("--frame-range", o->frame_range,
+                  "an animated scene's frames A:B (half-open; A:, :B, :): each frame against its own ground truth, "
+                  "with temporal instability and the cost per frame with and without reuse");
   return [o] { return run_compare(*o); };
 });
 

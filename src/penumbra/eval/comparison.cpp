@@ -100,6 +100,17 @@ uint64_t render_units(const RunSetup& setup) {
 
 }  // namespace
 
+RenderSettings method_render_settings(const RunSetup& setup, const std::string& label) {
+  const MethodSpec spec = parse_method_spec(label);
+  MethodRegistry::get(spec.name);  // throws naming an unknown method
+  RenderSettings settings;
+  settings.method = spec.name;
+  settings.params = setup.overrides_for(spec);
+  settings.light_samples = setup.light_samples;
+  settings.seed = setup.seed;
+  return settings;
+}
+
 double shadow_time_ms(const RenderResult& r) {
   return std::max(0.0, r.total_ms - r.camera_pass_ms - r.stats.phase("compose"));
 }
@@ -129,13 +140,8 @@ struct MethodRenders {
 MethodRenders method_renders(const RunSetup& setup, const std::string& label, Progress* bar) {
   MethodRenders p;
   p.run.method = label;
-  const MethodSpec spec = parse_method_spec(label);
-  const MethodInfo& info = MethodRegistry::get(spec.name);
-  p.run.light_samples = info.samples_light ? setup.light_samples : 0;
-  p.settings.method = spec.name;
-  p.settings.params = setup.overrides_for(spec);
-  p.settings.light_samples = setup.light_samples;
-  p.settings.seed = setup.seed;
+  p.settings = method_render_settings(setup, label);
+  p.run.light_samples = MethodRegistry::get(p.settings.method).samples_light ? setup.light_samples : 0;
   p.settings.progress_bar = bar;
   return p;
 }
@@ -527,6 +533,69 @@ ReferenceLadder reference_ladder_from_json(const json& j) {
   return ladder;
 }
 
+namespace {
+
+json numbers_json(const std::vector<double>& v) {
+  json out = json::array();
+  for (double x : v) out.push_back(json_number(x));
+  return out;
+}
+
+std::vector<double> numbers_from_json(const json& j) {
+  std::vector<double> out;
+  for (const json& x : j) out.push_back(number_from_json(x));
+  return out;
+}
+
+}  // namespace
+
+json frame_sequence_json(const FrameSequence& f) {
+  json methods = json::array();
+  for (const MethodFrames& m : f.methods) {
+    json e = {{"method", m.method}, {"ok", m.ok}};
+    if (!m.ok) e["error"] = m.error;
+    e["v_mae"] = numbers_json(m.v_mae);
+    e["shadow_ms_fresh"] = numbers_json(m.shadow_ms_fresh);
+    e["shadow_ms_reuse"] = numbers_json(m.shadow_ms_reuse);
+    e["flicker"] = numbers_json(m.flicker);
+    e["v_mae_mean"] = json_number(m.v_mae_mean);
+    e["temporal_instability"] = json_number(m.temporal_instability);
+    e["ms_per_frame_fresh"] = json_number(m.ms_per_frame_fresh);
+    e["ms_per_frame_reuse"] = json_number(m.ms_per_frame_reuse);
+    methods.push_back(std::move(e));
+  }
+  json cached = json::array();
+  for (bool b : f.truth_cached) cached.push_back(b);
+  return {{"range", {f.begin, f.end}},
+          {"truth_cached", cached},
+          {"temporal_instability",
+           "mean over frames t > begin and pixels of |(V_t - V_t-1) - (G_t - G_t-1)|, G the ground truth"},
+          {"methods", methods}};
+}
+
+FrameSequence frame_sequence_from_json(const json& j) {
+  FrameSequence f;
+  f.begin = j.at("range").at(0).get<int>();
+  f.end = j.at("range").at(1).get<int>();
+  for (const json& b : j.at("truth_cached")) f.truth_cached.push_back(b.get<bool>());
+  for (const json& e : j.at("methods")) {
+    MethodFrames m;
+    m.method = e.at("method").get<std::string>();
+    m.ok = e.at("ok").get<bool>();
+    m.error = e.value("error", "");
+    m.v_mae = numbers_from_json(e.at("v_mae"));
+    m.shadow_ms_fresh = numbers_from_json(e.at("shadow_ms_fresh"));
+    m.shadow_ms_reuse = numbers_from_json(e.at("shadow_ms_reuse"));
+    m.flicker = numbers_from_json(e.at("flicker"));
+    m.v_mae_mean = number_from_json(e.at("v_mae_mean"));
+    m.temporal_instability = number_from_json(e.at("temporal_instability"));
+    m.ms_per_frame_fresh = number_from_json(e.at("ms_per_frame_fresh"));
+    m.ms_per_frame_reuse = number_from_json(e.at("ms_per_frame_reuse"));
+    f.methods.push_back(std::move(m));
+  }
+  return f;
+}
+
 json comparison_json(const Comparison& c) {
   json methods = json::array();
   for (const MethodRun& r : c.runs) methods.push_back(method_run_json(r));
@@ -549,6 +618,7 @@ json comparison_json(const Comparison& c) {
             {"methods", methods}};
   j["ground_truth"] = c.has_ground_truth ? ground_truth_json(c.truth) : json(nullptr);
   j["reference_ladder"] = c.has_ladder ? reference_ladder_json(c.ladder) : json(nullptr);
+  if (c.has_frames) j["frames"] = frame_sequence_json(c.frames);  // absent for one frame, as before
   return j;
 }
 
@@ -576,6 +646,8 @@ Comparison comparison_from_json(const json& j) {
   if (c.has_ground_truth) c.truth = ground_truth_from_json(j["ground_truth"]);
   c.has_ladder = !j.at("reference_ladder").is_null();
   if (c.has_ladder) c.ladder = reference_ladder_from_json(j["reference_ladder"]);
+  c.has_frames = j.contains("frames") && !j["frames"].is_null();
+  if (c.has_frames) c.frames = frame_sequence_from_json(j["frames"]);
   return c;
 }
 
@@ -589,11 +661,24 @@ std::string comparison_csv(const Comparison& c) {
          "shadow_ms,speedup,rays_traced,rays_per_view_sample,texels_visited,memory_bytes,eq_v_spp,eq_v_bound,"
          "eq_v_reference_ms,eq_v_speedup,eq_flip_spp,eq_flip_bound,eq_flip_reference_ms,eq_flip_speedup";
   for (const auto& p : phases) out << "," << csv_field("phase_" + p + "_ms");
+  // With a sequence (--frame-range), its columns last: the other columns are its first frame's.
+  static const char* const kFrameColumns[] = {"frames_v_mae", "temporal_instability", "ms_per_frame_reuse",
+                                              "ms_per_frame_fresh"};
+  if (c.has_frames)
+    for (const char* name : kFrameColumns) out << "," << name;
   out << "\n";
-  for (const MethodRun& r : c.runs) {
+  auto frame_columns = [&](size_t k) {
+    if (!c.has_frames) return std::string();
+    const MethodFrames* m = k < c.frames.methods.size() ? &c.frames.methods[k] : nullptr;
+    if (!m || !m->ok) return std::string(std::size(kFrameColumns), ',');
+    return "," + csv_number(m->v_mae_mean) + "," + csv_number(m->temporal_instability) + "," +
+           csv_number(m->ms_per_frame_reuse) + "," + csv_number(m->ms_per_frame_fresh);
+  };
+  for (size_t k = 0; k < c.runs.size(); ++k) {
+    const MethodRun& r = c.runs[k];
     out << csv_field(r.method) << "," << (r.ok ? "true" : "false") << "," << csv_field(r.error);
     if (!r.ok) {
-      out << std::string(23 + phases.size(), ',') << "\n";
+      out << std::string(23 + phases.size(), ',') << frame_columns(k) << "\n";
       continue;
     }
     out << "," << r.light_samples << "," << csv_number(r.v.mae) << "," << csv_number(r.v.rmse) << ","
@@ -609,7 +694,7 @@ std::string comparison_csv(const Comparison& c) {
                              [&](const auto& e) { return e.first == p; });
       out << "," << (has ? csv_number(r.stats.phase(p)) : std::string());
     }
-    out << "\n";
+    out << frame_columns(k) << "\n";
   }
   return out.str();
 }
@@ -636,6 +721,10 @@ void write_comparison(const Comparison& c, const fs::path& dir, const ReportOpti
   if (c.has_ground_truth) {
     write_text_file_atomic(dir / "error-time.svg", error_time_svg(c, "v_mae"));
     write_text_file_atomic(dir / "flip-time.svg", error_time_svg(c, "flip"));
+  }
+  if (c.has_frames) {
+    write_text_file_atomic(dir / "frames-error.svg", frames_svg(c, "v_mae"));
+    write_text_file_atomic(dir / "frames-time.svg", frames_svg(c, "shadow_ms"));
   }
   write_text_file_atomic(dir / "index.html", comparison_html(c, options));
 }

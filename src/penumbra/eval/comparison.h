@@ -24,6 +24,7 @@ namespace penumbra {
 
 class Progress;
 struct RenderResult;
+struct RenderSettings;
 
 struct CompareOptions {
   std::vector<std::string> methods;  // names or method specs (expand_method_list)
@@ -75,6 +76,28 @@ struct MethodRun {
   EqualQuality eq_v, eq_flip;
 };
 
+// One method over the frames of an animated scene (`compare --frame-range`, eval/temporal.h);
+// the per-frame vectors hold the frames [FrameSequence::begin, end) in order.
+struct MethodFrames {
+  std::string method;  // its label, as in Comparison::runs
+  bool ok = false;
+  std::string error;   // the first failure's message, naming the frame, when !ok
+  std::vector<double> v_mae;            // mean |dV| against each frame's own ground truth
+  std::vector<double> shadow_ms_fresh;  // each frame rendered from nothing (median of --runs)
+  std::vector<double> shadow_ms_reuse;  // one Renderer over the sequence (reuse across frames)
+  std::vector<double> flicker;          // frame_flicker of frames t-1 -> t, t > begin
+  double v_mae_mean = std::numeric_limits<double>::quiet_NaN();
+  double temporal_instability = std::numeric_limits<double>::quiet_NaN();  // mean of flicker
+  double ms_per_frame_fresh = std::numeric_limits<double>::quiet_NaN();
+  double ms_per_frame_reuse = std::numeric_limits<double>::quiet_NaN();
+};
+
+struct FrameSequence {
+  int begin = 0, end = 0;             // frames [begin, end)
+  std::vector<bool> truth_cached;     // per frame: its ground truth came from the cache
+  std::vector<MethodFrames> methods;  // in the order of Comparison::runs
+};
+
 struct Comparison {
   std::string scene;            // the scene file
   std::string description;      // the scene's "description"
@@ -96,6 +119,9 @@ struct Comparison {
   std::string started;          // local time, ISO 8601
   double wall_ms = 0;
   std::string command;          // the command line, set by the CLI
+  // With --frame-range: the sequence (the rest of the comparison is its first frame's).
+  bool has_frames = false;
+  FrameSequence frames;
 };
 
 Comparison run_comparison(const RunSetup& setup, const CompareOptions& options);
@@ -123,6 +149,8 @@ std::optional<ReferenceLadder> comparison_ladder(const Comparison& c, const RunS
 void apply_ladder(Comparison& c, ReferenceLadder ladder);
 // Every method's speedup: against `reference` when it was compared, else the ground truth's render.
 void apply_speedups(Comparison& c);
+// The render settings of one --methods entry: its method, parameters, light samples and seed.
+RenderSettings method_render_settings(const RunSetup& setup, const std::string& label);
 // A render's shadow time: total - camera pass - compose (the method's prepare + evaluate).
 double shadow_time_ms(const RenderResult& r);
 // The median (the lower one of an even count); 0 for none.
@@ -157,6 +185,8 @@ nlohmann::json ground_truth_json(const GroundTruth& t);
 GroundTruth ground_truth_from_json(const nlohmann::json& j);
 nlohmann::json reference_ladder_json(const ReferenceLadder& ladder);
 ReferenceLadder reference_ladder_from_json(const nlohmann::json& j);
+nlohmann::json frame_sequence_json(const FrameSequence& f);
+FrameSequence frame_sequence_from_json(const nlohmann::json& j);
 // results.csv: one row per method (phase columns: the union of the methods' phases).
 std::string comparison_csv(const Comparison& c);
 
@@ -179,6 +209,9 @@ void write_comparison(const Comparison& c, const std::filesystem::path& dir, con
 // time (log), every method a point and the reference ladder a curve, its rungs labelled by
 // their light samples. The methods are the same points whether there is a ladder or not.
 std::string error_time_svg(const Comparison& c, const std::string& metric);
+// With a sequence (compare --frame-range): each method's mean |ΔV| ("v_mae") or shadow time
+// ("shadow_ms": with reuse a line, from nothing markers) against the frame.
+std::string frames_svg(const Comparison& c, const std::string& what);
 
 // The self-contained HTML page (report_html.cpp).
 std::string comparison_html(const Comparison& c, const ReportOptions& options = {});

@@ -100,6 +100,9 @@ std::string ground_truth_key(const RunSetup& setup, json* key_document) {
               {"seed", ground_truth_seed(setup.seed)},
               {"params", setup.overrides_for("reference", /*explicit_only=*/true)},
               {"program", program_identity()}};
+  // The frames of an animated scene share its document: the frame tells their ground truths
+  // apart (issue 18). Absent for the scene as written, so its keys stay what they were.
+  if (setup.frame >= 0) doc["frame"] = setup.frame;
   // nlohmann::json keeps object keys sorted: dump() is canonical.
   std::string text = doc.dump();
   if (key_document) *key_document = doc;

@@ -49,6 +49,7 @@ struct Column {
   enum class Better { kNone, kLower, kHigher, kLowerAbs } better = Better::kNone;
   bool needs_truth = false;
   bool needs_ladder = false;  // the equal-quality columns
+  bool needs_frames = false;  // the sequence's columns (compare --frame-range)
 };
 
 const std::vector<Column>& columns() {
@@ -64,6 +65,18 @@ const std::vector<Column>& columns() {
       {"shadow_ms", "shadow ms", "the method's own time: total − camera pass − compose (median of the runs)",
        B::kLower},
       {"speedup", "speed-up", "time of the basis (see above) / this method's shadow time", B::kHigher},
+      {"frames_v_mae", "mean |ΔV| over frames",
+       "the mean over the sequence's frames of mean |ΔV| against each frame's own ground truth", B::kLower, true,
+       false, true},
+      {"temporal_instability", "temporal instability",
+       "mean over frames t > A and pixels of |(V_t − V_t−1) − (G_t − G_t−1)|, G the ground truth: flicker the "
+       "ground truth does not have (issue 18)",
+       B::kLower, true, false, true},
+      {"ms_per_frame_reuse", "ms/frame reuse",
+       "mean shadow time per frame, one renderer over the sequence keeping what stays valid across frames",
+       B::kLower, false, false, true},
+      {"ms_per_frame_fresh", "ms/frame fresh", "mean shadow time per frame, every frame rendered from nothing",
+       B::kLower, false, false, true},
       {"eq_v_spp", "ref. spp at equal |ΔV|",
        "light samples the reference needs for this method's mean |ΔV| (reference ladder 1, 2, 4, ..., interpolated "
        "log-log); ≥: the method beats every rung; ≤: worse than the reference at 1 sample",
@@ -81,7 +94,12 @@ const std::vector<Column>& columns() {
   return cols;
 }
 
-double run_value(const MethodRun& r, const std::string& key) {
+// `f`: the method's sequence (compare --frame-range), or null.
+double run_value(const MethodRun& r, const std::string& key, const MethodFrames* f = nullptr) {
+  if (f && key == "frames_v_mae") return f->v_mae_mean;
+  if (f && key == "temporal_instability") return f->temporal_instability;
+  if (f && key == "ms_per_frame_reuse") return f->ms_per_frame_reuse;
+  if (f && key == "ms_per_frame_fresh") return f->ms_per_frame_fresh;
   if (key == "light_samples") return r.light_samples;
   if (key == "v_mae") return r.v.mae;
   if (key == "v_rmse") return r.v.rmse;
@@ -103,11 +121,19 @@ double run_value(const MethodRun& r, const std::string& key) {
 }
 
 // The exact value, as results.json holds it.
-json run_json_value(const MethodRun& r, const std::string& key) {
+json run_json_value(const MethodRun& r, const std::string& key, const MethodFrames* f = nullptr) {
   if (key == "light_samples") return r.light_samples;
   if (key == "rays_traced") return r.stats.rays_traced;
   if (key == "memory_bytes") return r.stats.memory_bytes;
-  return json_number(run_value(r, key));
+  return json_number(run_value(r, key, f));
+}
+
+// The sequence of a method that ran over every frame of it (null: no sequence, or it failed).
+const MethodFrames* frames_of(const Comparison& c, const MethodRun& r) {
+  if (!c.has_frames) return nullptr;
+  for (const MethodFrames& f : c.frames.methods)
+    if (f.method == r.method) return f.ok ? &f : nullptr;
+  return nullptr;
 }
 
 // The equal-quality point a column shows (null for other columns).
@@ -124,8 +150,8 @@ bool rankable(const MethodRun& r, const std::string& key) {
   return !q || q->bound != QualityBound::kAtMost;
 }
 
-std::string display(const MethodRun& r, const std::string& key) {
-  double v = run_value(r, key);
+std::string display(const MethodRun& r, const std::string& key, const MethodFrames* f = nullptr) {
+  double v = run_value(r, key, f);
   if (key == "light_samples") return r.light_samples > 0 ? std::to_string(r.light_samples) : "—";
   if (std::isnan(v)) return "—";
   if (const EqualQuality* q = equal_quality_of(r, key)) {
@@ -387,6 +413,35 @@ std::string error_time_svg(const Comparison& c, const std::string& metric) {
   return plot_svg(p);
 }
 
+std::string frames_svg(const Comparison& c, const std::string& what) {
+  const bool error = what == "v_mae";
+  Plot p;
+  p.title = error ? "mean |ΔV| per frame" : "shadow time per frame";
+  p.x_label = "frame";
+  p.y_label = error ? "mean |ΔV|" : "shadow time (ms)";
+  p.log_y = !error;  // methods' costs span orders of magnitude
+  auto add = [&](const std::string& name, const std::vector<double>& y, bool line) {
+    PlotSeries s;
+    s.name = name;
+    s.line = line;
+    for (size_t i = 0; i < y.size(); ++i) {
+      s.x.push_back(c.frames.begin + static_cast<double>(i));
+      s.y.push_back(y[i]);
+    }
+    p.series.push_back(std::move(s));
+  };
+  for (const MethodFrames& m : c.frames.methods) {
+    if (error) {
+      add(m.method, m.v_mae, true);
+    } else {
+      // With reuse a line, from nothing markers: where they part is what reuse saves.
+      add(m.method + " (reuse)", m.shadow_ms_reuse, true);
+      add(m.method + " (fresh)", m.shadow_ms_fresh, false);
+    }
+  }
+  return plot_svg(p);
+}
+
 float comparison_heatmap_scale(const Comparison& c, const ReportOptions& options) {
   if (options.heatmap_scale > 0) return options.heatmap_scale;
   // Each method's 99th percentile of |dV|; the scale is the lower median of these, so
@@ -477,7 +532,8 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
   });
   std::vector<const Column*> cols;
   for (const Column& col : columns())
-    if ((!col.needs_truth || truth) && (!col.needs_ladder || c.has_ladder)) cols.push_back(&col);
+    if ((!col.needs_truth || truth) && (!col.needs_ladder || c.has_ladder) && (!col.needs_frames || c.has_frames))
+      cols.push_back(&col);
   // The best value of each column among the methods that ran.
   std::map<std::string, double> best;
   for (const Column* col : cols) {
@@ -485,7 +541,7 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
     double b = std::numeric_limits<double>::quiet_NaN();
     for (const MethodRun& r : c.runs) {
       if (!r.ok || !rankable(r, col->key)) continue;
-      double v = run_value(r, col->key);
+      double v = run_value(r, col->key, frames_of(c, r));
       if (std::isnan(v)) continue;
       if (col->better == Column::Better::kLowerAbs) v = std::abs(v);
       if (std::isnan(b) || (col->better == Column::Better::kHigher ? v > b : v < b)) b = v;
@@ -508,15 +564,16 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
     }
     h << "<tr data-method=\"" << xml_escape(r->method) << "\"><td class=\"name\">" << xml_escape(r->method) << "</td>";
     for (const Column* col : cols) {
-      double v = run_value(*r, col->key);
+      const MethodFrames* f = frames_of(c, *r);
+      double v = run_value(*r, col->key, f);
       bool is_best = false;
       if (col->better != Column::Better::kNone && !std::isnan(v) && !std::isnan(best[col->key]) &&
           rankable(*r, col->key)) {
         double cmp = col->better == Column::Better::kLowerAbs ? std::abs(v) : v;
         is_best = cmp == best[col->key];
       }
-      h << "<td data-key=\"" << col->key << "\" data-value=\"" << xml_escape(run_json_value(*r, col->key).dump())
-        << "\"" << (is_best ? " class=\"best\"" : "") << ">" << xml_escape(display(*r, col->key)) << "</td>";
+      h << "<td data-key=\"" << col->key << "\" data-value=\"" << xml_escape(run_json_value(*r, col->key, f).dump())
+        << "\"" << (is_best ? " class=\"best\"" : "") << ">" << xml_escape(display(*r, col->key, f)) << "</td>";
     }
     std::string phases;
     for (const auto& [n, t] : r->stats.phases_ms)
@@ -546,20 +603,31 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
         << format_significant(r.flip, 3) << "</td><td>" << format_significant(r.shadow_ms, 3) << "</td></tr>\n";
     h << "</tbody></table>\n";
   }
+  // Inline SVG (without its XML declaration): the page stays one file.
+  auto inline_svg = [](std::string svg) {
+    if (svg.rfind("<?xml", 0) == 0) svg.erase(0, svg.find('\n') + 1);
+    // HTML knows <svg> without its namespace attribute (and the page names no URL).
+    const std::string ns = " xmlns=\"http://www.w3.org/2000/svg\"";
+    if (size_t p = svg.find(ns); p != std::string::npos) svg.erase(p, ns.size());
+    return svg;
+  };
   if (truth) {
-    // Inline SVG (without its XML declaration): the page stays one file.
-    auto inline_svg = [](std::string svg) {
-      if (svg.rfind("<?xml", 0) == 0) svg.erase(0, svg.find('\n') + 1);
-      // HTML knows <svg> without its namespace attribute (and the page names no URL).
-      const std::string ns = " xmlns=\"http://www.w3.org/2000/svg\"";
-      if (size_t p = svg.find(ns); p != std::string::npos) svg.erase(p, ns.size());
-      return svg;
-    };
     h << "<h2>Error against time</h2>\n<p class=\"meta\">Every method a point (its shadow time and error against "
          "the ground truth), the reference ladder a curve labelled with its light samples: for a time budget, the "
          "lowest point left of it is the best method. Also <code>error-time.svg</code> and "
          "<code>flip-time.svg</code>.</p>\n<div class=\"row\">"
       << inline_svg(error_time_svg(c, "v_mae")) << inline_svg(error_time_svg(c, "flip")) << "</div>\n";
+  }
+  if (c.has_frames) {
+    // The sequence (issue 18): error and cost frame by frame.
+    h << "<h2>Sequence</h2>\n<p class=\"meta\">Frames " << c.frames.begin << " to " << c.frames.end - 1
+      << " of the animation, each against its own ground truth (the table and the images above are frame "
+      << c.frames.begin << "'s). <i>Temporal instability</i>: the mean over frames t &gt; " << c.frames.begin
+      << " and pixels of |(V<sub>t</sub> − V<sub>t−1</sub>) − (G<sub>t</sub> − G<sub>t−1</sub>)|, flicker the "
+         "ground truth does not have. Shadow time per frame with reuse (one renderer over the sequence, keeping "
+         "what stays valid when only the camera or the lights change) and from nothing. Also "
+         "<code>frames-error.svg</code> and <code>frames-time.svg</code>.</p>\n<div class=\"row\">"
+      << inline_svg(frames_svg(c, "v_mae")) << inline_svg(frames_svg(c, "shadow_ms")) << "</div>\n";
   }
 
   // --- images

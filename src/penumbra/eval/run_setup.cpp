@@ -8,6 +8,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/interrupt.h"
+#include "penumbra/scene/animation.h"
 #include "penumbra/scene/generators.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/shadow/shadow_method.h"
@@ -167,9 +168,11 @@ RunSetup RunSetup::from_file(const std::filesystem::path& scene_file) {
 }
 
 nlohmann::json run_setup_json(const RunSetup& setup) {
-  return {{"scene_doc", setup.scene_doc},         {"scene_path", setup.scene_path.string()},
+  nlohmann::json j = {{"scene_doc", setup.scene_doc},         {"scene_path", setup.scene_path.string()},
           {"light_samples", setup.light_samples}, {"reference_samples", setup.reference_samples},
           {"seed", setup.seed},                   {"method_params", setup.method_params}};
+  if (setup.frame >= 0) j["frame"] = setup.frame;  // absent for a static scene, as before
+  return j;
 }
 
 RunSetup run_setup_from_json(const nlohmann::json& j) {
@@ -181,6 +184,7 @@ RunSetup run_setup_from_json(const nlohmann::json& j) {
     s.reference_samples = j.at("reference_samples").get<int>();
     s.seed = j.at("seed").get<uint64_t>();
     s.method_params = j.at("method_params").get<std::vector<std::string>>();
+    s.frame = j.value("frame", -1);
   } catch (const nlohmann::json::exception& e) {
     throw Error("run setup: {}", e.what());
   }
@@ -303,7 +307,10 @@ void RunSetup::check_plain_params(const std::vector<std::string>& methods) const
   }
 }
 
-Scene RunSetup::load() const { return parse_scene(scene_doc, scene_path); }
+Scene RunSetup::load() const {
+  Scene scene = parse_scene(scene_doc, scene_path);
+  return frame < 0 ? scene : scene_at_frame(scene, frame);
+}
 
 namespace {
 int camera_int(const json& doc, const char* key, int index, int fallback) {

@@ -39,6 +39,10 @@ struct RunSetup {
   uint64_t seed = 0;
   // Method parameters in the order given: "method.key=value" and plain "key=value".
   std::vector<std::string> method_params;
+  // The frame of an animated scene this run renders (issue 18: `compare --frame-range`), or
+  // -1: the scene as written. load() gives the scene at this frame, and the reference cache
+  // keys each frame's ground truth apart (the document alone is the same for every frame).
+  int frame = -1;
 
   // Reads a scene file (strict JSON with comments, as load_scene does).
   static RunSetup from_file(const std::filesystem::path& scene_file);
@@ -58,7 +62,7 @@ struct RunSetup {
   // (method specs: their methods count).
   void check_plain_params(const std::vector<std::string>& methods) const;
 
-  // Parses the (rewritten) document into a Scene.
+  // Parses the (rewritten) document into a Scene (at `frame` when it is >= 0).
   Scene load() const;
   // The camera resolution and samples per pixel of the document (defaults as the loader's).
   int width() const;

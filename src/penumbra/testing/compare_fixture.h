@@ -25,6 +25,17 @@ inline RunSetup tiny_contact_setup() {
   return s;
 }
 
+// The same, animated (issue 18): the camera moves `move` sideways over `frames` frames (linear
+// keys at the first and last; 0: every frame is the same), the light and the objects stay.
+inline RunSetup tiny_animated_contact_setup(int frames = 3, double move = 0.4) {
+  RunSetup s = tiny_contact_setup();
+  s.scene_doc["animation"] = nlohmann::json::parse(fmt::format(
+      R"({{"frames": {0}, "fps": 24, "camera": {{"eye": {{"interpolation": "linear", "keys": [
+           {{"frame": 0, "value": [0.6, 1.3, 2.6]}}, {{"frame": {1}, "value": [{2}, 1.3, 2.6]}}]}}}}}})",
+      frames, frames - 1, 0.6 + move));
+  return s;
+}
+
 // A fresh folder under the system temp folder, removed when the fixture goes.
 class TempDir {
  public:
