@@ -147,6 +147,15 @@ TEST_F(CliCompare, FrameRangeWritesTheSequenceColumnsAndPlots) {
   EXPECT_NE(html.find("temporal instability"), std::string::npos);
   EXPECT_NE(html.find("<h2>Sequence</h2>"), std::string::npos);
   EXPECT_NE(html.find("mean |ΔV| per frame"), std::string::npos);
+  // The sequence playable in the page: 3 frames of the ground truth and of each method.
+  EXPECT_NE(html.find("id=\"seq-play\""), std::string::npos);
+  const size_t data = html.find("window.penumbraSequence = {first: 0, fps: 24, frames: [[\"data:image/png;base64,");
+  ASSERT_NE(data, std::string::npos);
+  const std::string frames = html.substr(data, html.find("]};", data) - data);
+  EXPECT_EQ(std::count(frames.begin(), frames.end(), '['), 1 + 3) << "the ground truth and 2 methods";
+  size_t uris = 0;
+  for (size_t p = frames.find("data:image/png"); p != std::string::npos; p = frames.find("data:image/png", p + 1)) ++uris;
+  EXPECT_EQ(uris, 3u * 3u);
   for (const char* f : {"frames-error.svg", "frames-time.svg"}) EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
 }
 

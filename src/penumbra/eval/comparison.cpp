@@ -567,6 +567,7 @@ json frame_sequence_json(const FrameSequence& f) {
   json cached = json::array();
   for (bool b : f.truth_cached) cached.push_back(b);
   return {{"range", {f.begin, f.end}},
+          {"fps", f.fps},
           {"truth_cached", cached},
           {"temporal_instability",
            "mean over frames t > begin and pixels of |(V_t - V_t-1) - (G_t - G_t-1)|, G the ground truth"},
@@ -577,6 +578,7 @@ FrameSequence frame_sequence_from_json(const json& j) {
   FrameSequence f;
   f.begin = j.at("range").at(0).get<int>();
   f.end = j.at("range").at(1).get<int>();
+  f.fps = j.value("fps", 24.0f);
   for (const json& b : j.at("truth_cached")) f.truth_cached.push_back(b.get<bool>());
   for (const json& e : j.at("methods")) {
     MethodFrames m;

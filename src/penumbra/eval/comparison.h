@@ -90,10 +90,13 @@ struct MethodFrames {
   double temporal_instability = std::numeric_limits<double>::quiet_NaN();  // mean of flicker
   double ms_per_frame_fresh = std::numeric_limits<double>::quiet_NaN();
   double ms_per_frame_reuse = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Image> color;  // each frame's colour image (with keep_images; not in results.json)
 };
 
 struct FrameSequence {
   int begin = 0, end = 0;             // frames [begin, end)
+  float fps = 24;                     // the animation's, for playing the sequence in the page
+  std::vector<Image> truth_color;     // each frame's ground truth (with keep_images; not in results.json)
   std::vector<bool> truth_cached;     // per frame: its ground truth came from the cache
   std::vector<MethodFrames> methods;  // in the order of Comparison::runs
 };

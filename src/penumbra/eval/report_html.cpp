@@ -413,6 +413,53 @@ std::string error_time_svg(const Comparison& c, const std::string& metric) {
   return plot_svg(p);
 }
 
+namespace {
+
+// The sequence playable in the page: the ground truth's and every method's colour frames side
+// by side, a slider and a play button at the animation's rate (the frames are PNG data URIs
+// in one script object; the images show the first frame until the script swaps them).
+void sequence_player(std::ostringstream& h, const Comparison& c) {
+  const size_t frames = static_cast<size_t>(c.frames.end - c.frames.begin);
+  std::vector<std::pair<std::string, const std::vector<Image>*>> rows;
+  if (c.frames.truth_color.size() == frames) rows.emplace_back("ground truth", &c.frames.truth_color);
+  for (const MethodFrames& m : c.frames.methods)
+    if (m.ok && m.color.size() == frames) rows.emplace_back(m.method, &m.color);
+  if (rows.empty() || frames == 0) return;
+  h << "<div class=\"toolbar\"><button id=\"seq-play\" type=\"button\">play</button> <input id=\"seq-frame\" "
+       "type=\"range\" min=\"0\" max=\""
+    << frames - 1 << "\" value=\"0\"> <span id=\"seq-label\">frame " << c.frames.begin << "</span></div>\n<div class=\"row\">";
+  std::string data = fmt::format("window.penumbraSequence = {{first: {}, fps: {}, frames: [", c.frames.begin,
+                                 c.frames.fps);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const std::vector<Image>& images = *rows[i].second;
+    h << "<figure><img class=\"seq\" data-seq=\"" << i << "\" alt=\"" << xml_escape(rows[i].first) << "\" src=\""
+      << png_data_uri(images.front()) << "\"><figcaption>" << xml_escape(rows[i].first) << "</figcaption></figure>";
+    data += i ? ",[" : "[";
+    for (size_t t = 0; t < images.size(); ++t) data += (t ? ",\"" : "\"") + png_data_uri(images[t]) + "\"";
+    data += "]";
+  }
+  h << "</div>\n<script>" << data << "]};\n" << R"JS((() => {
+  const s = window.penumbraSequence;
+  const slider = document.getElementById('seq-frame'), label = document.getElementById('seq-label');
+  const play = document.getElementById('seq-play'), images = document.querySelectorAll('img.seq');
+  let timer = null;
+  const show = (i) => {
+    slider.value = i;
+    label.textContent = 'frame ' + (s.first + i);
+    images.forEach((im) => { im.src = s.frames[+im.dataset.seq][i]; });
+  };
+  slider.addEventListener('input', () => show(+slider.value));
+  play.addEventListener('click', () => {
+    if (timer) { clearInterval(timer); timer = null; play.textContent = 'play'; return; }
+    play.textContent = 'pause';
+    timer = setInterval(() => show((+slider.value + 1) % s.frames[0].length), 1000 / s.fps);
+  });
+})();
+)JS" << "</script>\n";
+}
+
+}  // namespace
+
 std::string frames_svg(const Comparison& c, const std::string& what) {
   const bool error = what == "v_mae";
   Plot p;
@@ -626,8 +673,10 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
       << " and pixels of |(V<sub>t</sub> − V<sub>t−1</sub>) − (G<sub>t</sub> − G<sub>t−1</sub>)|, flicker the "
          "ground truth does not have. Shadow time per frame with reuse (one renderer over the sequence, keeping "
          "what stays valid when only the camera or the lights change) and from nothing. Also "
-         "<code>frames-error.svg</code> and <code>frames-time.svg</code>.</p>\n<div class=\"row\">"
+         "<code>frames-error.svg</code> and <code>frames-time.svg</code>. Below them the sequence itself: the "
+         "ground truth and every method, frame by frame (play, or drag the slider).</p>\n<div class=\"row\">"
       << inline_svg(frames_svg(c, "v_mae")) << inline_svg(frames_svg(c, "shadow_ms")) << "</div>\n";
+    sequence_player(h, c);
   }
 
   // --- images

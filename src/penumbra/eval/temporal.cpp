@@ -122,7 +122,13 @@ Comparison run_sequence_comparison(const RunSetup& setup, const CompareOptions& 
   FrameSequence& seq = c.frames;
   seq.begin = begin;
   seq.end = end;
+  seq.fps = base.animation->fps;
   seq.truth_cached.push_back(c.truth.from_cache);
+  // The colour frames, for playing the sequence in the page.
+  auto keep_color = [&](std::vector<Image>& frames, const Image& color) {
+    if (options.keep_images) frames.push_back(color);
+  };
+  keep_color(seq.truth_color, c.truth.color);
   std::vector<Image> v_prev(c.runs.size());
   Image g_prev = c.truth.visibility;
   for (size_t k = 0; k < c.runs.size(); ++k) {
@@ -133,6 +139,7 @@ Comparison run_sequence_comparison(const RunSetup& setup, const CompareOptions& 
       m.v_mae.push_back(c.runs[k].v.mae);
       m.shadow_ms_fresh.push_back(c.runs[k].times.shadow_ms);
       v_prev[k] = c.runs[k].visibility;
+      keep_color(m.color, c.runs[k].color);
     } else {
       fail(m, begin, c.runs[k].error);
     }
@@ -147,6 +154,7 @@ Comparison run_sequence_comparison(const RunSetup& setup, const CompareOptions& 
     const GroundTruth truth = ground_truth(at, scene, options.cache_dir, bar);
     step_done(truth_cached ? 0 : method_units);
     seq.truth_cached.push_back(truth.from_cache);
+    keep_color(seq.truth_color, truth.color);
     for (size_t k = 0; k < seq.methods.size(); ++k) {
       MethodFrames& m = seq.methods[k];
       if (m.ok) {
@@ -157,6 +165,7 @@ Comparison run_sequence_comparison(const RunSetup& setup, const CompareOptions& 
           m.shadow_ms_fresh.push_back(r.times.shadow_ms);
           m.flicker.push_back(frame_flicker(v_prev[k], r.visibility, g_prev, truth.visibility));
           v_prev[k] = std::move(r.visibility);
+          keep_color(m.color, r.color);
         } else {
           fail(m, t, r.error);
         }

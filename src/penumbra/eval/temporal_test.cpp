@@ -106,6 +106,14 @@ TEST(Temporal, SequenceComparisonMeasuresEveryFrame) {
   for (const MethodFrames& m : c.frames.methods)
     for (size_t i = 0; i < m.flicker.size(); ++i) EXPECT_LE(m.flicker[i], m.v_mae[i] + m.v_mae[i + 1] + 1e-9);
   const MethodFrames& hard = c.frames.methods[1];
+  // Each frame's colour image is kept for the page's player.
+  EXPECT_EQ(c.frames.truth_color.size(), 3u);
+  EXPECT_EQ(hard.color.size(), 3u);
+  // results.json reads back (comparison_from_json): the sequence, without the images.
+  const Comparison back = comparison_from_json(comparison_json(c));
+  ASSERT_TRUE(back.has_frames);
+  EXPECT_EQ(frame_sequence_json(back.frames), frame_sequence_json(c.frames));
+  EXPECT_EQ(back.frames.methods[1].temporal_instability, hard.temporal_instability);
   // Again: every frame's ground truth comes from the cache.
   Comparison again = run_sequence_comparison(setup, o, 1, 3);
   EXPECT_EQ(again.frames.truth_cached, (std::vector<bool>{true, true}));
