@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <memory>
 
 #include <fmt/format.h>
 
@@ -12,6 +11,7 @@
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/render/sequence_renderer.h"
 #include "penumbra/scene/animation.h"
 
 namespace penumbra {
@@ -52,27 +52,15 @@ void fail(MethodFrames& m, int frame, const std::string& what) {
   m.error = fmt::format("frame {}: {}", frame, what);
 }
 
-// The method's shadow time per frame with reuse: one Renderer over the frames, told of a new
-// camera and lights (Renderer::set_camera, set_lights: each method keeps what stays valid)
-// and built anew only where an object moved, as `render --frame-range` renders a sequence.
-// Appends to `ms` frame by frame (a failure leaves the frames done).
+// The method's shadow time per frame with reuse: one SequenceRenderer over the frames (it
+// keeps what stays valid between frames, as `render --frame-range` and `bench --suite walk`
+// do). Appends to `ms` frame by frame (a failure leaves the frames done).
 void reuse_times(const Scene& base, const RunSetup& setup, const std::string& label, int begin, int end, Progress* bar,
                  std::vector<double>& ms) {
-  const Animation& animation = *base.animation;
   RenderSettings settings = method_render_settings(setup, label);
   settings.progress_bar = bar;
-  std::unique_ptr<Renderer> renderer;
-  for (int t = begin; t < end; ++t) {
-    const Scene frame = scene_at_frame(base, t);
-    if (!renderer || animation.objects_differ(t - 1, t)) {
-      renderer.reset();  // its memory first
-      renderer = std::make_unique<Renderer>(frame, settings);
-    } else {
-      renderer->set_camera(frame.camera);
-      renderer->set_lights(frame.lights);
-    }
-    ms.push_back(shadow_time_ms(renderer->render()));
-  }
+  SequenceRenderer sequence(base, settings);
+  for (int t = begin; t < end; ++t) ms.push_back(shadow_time_ms(sequence.render(t).result));
 }
 
 }  // namespace

@@ -25,9 +25,8 @@ double temporal_instability(const std::vector<Image>& v, const std::vector<Image
 // images, the ladder) and, over frames [begin, end) of the scene's animation, each method's
 // FrameSequence entry: its mean |dV| per frame against that frame's ground truth (each cached
 // on its own), its temporal instability, and its shadow time per frame rendered from nothing
-// (the median of options.runs) and with reuse (one Renderer over the sequence, kept across
-// camera and light changes and rebuilt where an object moves, as `render --frame-range`
-// does). A method that fails on some frame keeps its message there. Throws an Error naming
+// (the median of options.runs) and with reuse (one SequenceRenderer over the sequence, as
+// `render --frame-range` and `bench --suite walk` render one). A method that fails on some frame keeps its message there. Throws an Error naming
 // the scene when it has no "animation" block or the range is not within its frames.
 Comparison run_sequence_comparison(const RunSetup& setup, const CompareOptions& options, int begin, int end);
 
