@@ -131,7 +131,8 @@ TEST(AnimationFile, LoadsAsWrittenAndGivesEachFrame) {
   EXPECT_EQ(scene_at_frame(base, 9).lights[0].center, Vec3f(2, 3, 0));  // and after the last
   EXPECT_EQ(scene_at_frame(base, 4).camera.fov_y, 50.0f);                // Catmull-Rom hits its keys
   // The animated normal keeps the light's u: frame.s is u projected onto the light's plane.
-  const Frame& lf = scene_at_frame(base, 10).lights[0].frame;
+  const Scene f10 = scene_at_frame(base, 10);
+  const Frame& lf = f10.lights[0].frame;
   EXPECT_NEAR(lf.n.x, std::sqrt(0.5f), 1e-6f);
   EXPECT_NEAR(lf.s.x, std::sqrt(0.5f), 1e-6f);
   EXPECT_NEAR(lf.s.y, std::sqrt(0.5f), 1e-6f);
