@@ -373,16 +373,16 @@ PYBIND11_MODULE(_penumbra, m) {
     });
     return truth_to_python(t);
   });
+  // A method's renders without error columns (the ground truth may still be rendering
+  // elsewhere; _measure_method adds them): (entry, colour or None, V or None).
   m.def("_compare_method", [](const std::string& setup_text, const PyScene& scene, const std::string& label,
-                              const py::object& truth, int runs, int warmup_runs, bool keep_images, int threads) {
+                              int runs, int warmup_runs, bool keep_images, int threads) {
     const RunSetup setup = setup_from_text(setup_text);
-    std::optional<GroundTruth> t;
-    if (!truth.is_none()) t = truth_from_python(truth.cast<py::tuple>());
     CompareOptions options = compare_options(runs, warmup_runs, false, "");
     options.keep_images = keep_images;
     MethodRun r = run_interruptible<MethodRun>([&] {
       ThreadLimit limit(threads);
-      return compare_method(setup, scene.scene, label, t ? &*t : nullptr, options);
+      return compare_method(setup, scene.scene, label, nullptr, options);
     });
     py::object color = py::none(), vis = py::none();
     if (!r.color.empty()) color = to_array(r.color);

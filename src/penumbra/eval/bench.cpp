@@ -327,22 +327,34 @@ json run_targets(const BenchOptions& o, const std::string& started, const Timer&
           {"scenes", scenes}};
 }
 
-}  // namespace
+// `reference` first (what every other row is measured against), then --methods.
+std::vector<std::string> methods_with_reference(const BenchOptions& o) {
+  std::vector<std::string> methods = {"reference"};
+  for (const auto& m : o.methods)
+    if (m != "reference") methods.push_back(m);
+  return methods;
+}
+
+// The setup of every scene of the suite at its resolution and light samples, with -p settings.
+std::vector<RunSetup> suite_setups(const BenchOptions& o, const std::vector<std::string>& methods) {
+  std::vector<RunSetup> setups;
+  for (const fs::path& f : o.suite.scenes) {
+    RunSetup setup = RunSetup::from_file(f);
+    setup.apply("resolution", std::to_string(o.suite.resolution));
+    setup.apply("spp", std::to_string(o.suite.light_samples));
+    for (const std::string& kv : o.params) setup.apply(kv);
+    setup.check_plain_params(methods);
+    setups.push_back(std::move(setup));
+  }
+  return setups;
+}
 
 // The walk suite: each scene's frames rendered by every method in turn, frame by frame.
 json run_sequences(const BenchOptions& o, const std::vector<std::string>& methods, const std::string& started,
                    const Timer& wall) {
   const BenchSuite& suite = o.suite;
   // Every scene's setup before any render: a missing scene or bad setting fails at once.
-  std::vector<RunSetup> setups;
-  for (const fs::path& f : suite.scenes) {
-    RunSetup setup = RunSetup::from_file(f);
-    setup.apply("resolution", std::to_string(suite.resolution));
-    setup.apply("spp", std::to_string(suite.light_samples));
-    for (const std::string& kv : o.params) setup.apply(kv);
-    setup.check_plain_params(methods);
-    setups.push_back(std::move(setup));
-  }
+  const std::vector<RunSetup> setups = suite_setups(o, methods);
   json scenes = json::array();
   Progress bar("bench", setups.size() * methods.size() * suite.sequence_frames, o.progress);
   for (const RunSetup& setup : setups) {
@@ -462,33 +474,19 @@ json run_sequences(const BenchOptions& o, const std::vector<std::string>& method
   return out;
 }
 
+}  // namespace
+
 json run_bench(const BenchOptions& o) {
   Timer wall;
   const BenchSuite& suite = o.suite;
   if (suite.scenes.empty()) throw Error("bench: no scenes");
   const std::string started = local_time_iso();
   if (!suite.targets.empty()) return run_targets(o, started, wall);
-  if (suite.sequence_frames > 0) {
-    std::vector<std::string> methods = {"reference"};
-    for (const auto& m : o.methods)
-      if (m != "reference") methods.push_back(m);
-    return run_sequences(o, methods, started, wall);
-  }
-  // The reference first: it is what every other row is measured against.
-  std::vector<std::string> methods = {"reference"};
-  for (const auto& m : o.methods)
-    if (m != "reference") methods.push_back(m);
+  const std::vector<std::string> methods = methods_with_reference(o);
+  if (suite.sequence_frames > 0) return run_sequences(o, methods, started, wall);
 
   // Every scene's setup before any render: a missing scene or bad setting fails at once.
-  std::vector<RunSetup> setups;
-  for (const fs::path& f : suite.scenes) {
-    RunSetup setup = RunSetup::from_file(f);
-    setup.apply("resolution", std::to_string(suite.resolution));
-    setup.apply("spp", std::to_string(suite.light_samples));
-    for (const std::string& kv : o.params) setup.apply(kv);
-    setup.check_plain_params(methods);
-    setups.push_back(std::move(setup));
-  }
+  const std::vector<RunSetup> setups = suite_setups(o, methods);
   CompareOptions co;
   co.methods = methods;
   co.ground_truth = false;

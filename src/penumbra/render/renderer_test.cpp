@@ -7,6 +7,7 @@
 
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/image_bits.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra {
@@ -20,10 +21,7 @@ Scene two_light_scene() {
   return s;
 }
 
-bool same_bits(const Image& a, const Image& b) {
-  return a.width() == b.width() && a.height() == b.height() && a.channels() == b.channels() &&
-         std::memcmp(a.data().data(), b.data().data(), a.data().size() * sizeof(float)) == 0;
-}
+using testing::same_bits;
 
 // For each method: render, move one light, render again with the same Renderer; the second
 // image equals a fresh Renderer's of the moved scene bit for bit, and the unmoved light's

@@ -11,6 +11,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/image_bits.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -41,10 +42,7 @@ std::vector<PixelWindow> uneven_tiles() {
   return tiles;
 }
 
-bool same_bits(const Image& a, const Image& b) {
-  return a.width() == b.width() && a.height() == b.height() && a.channels() == b.channels() &&
-         std::memcmp(a.data().data(), b.data().data(), a.data().size() * sizeof(float)) == 0;
-}
+using testing::same_bits;
 
 // The first pixel (x, y) where a and b differ, for the failure message.
 std::string first_difference(const Image& a, const Image& b) {

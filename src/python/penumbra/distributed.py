@@ -189,9 +189,9 @@ def _job_truth(setup, payload, cache_dir):
 
 
 @_locked
-def _job_method(setup, payload, label, truth, runs, warmup_runs, keep_images):
+def _job_method(setup, payload, label, runs, warmup_runs, keep_images):
     setup, scene = _scene(setup, payload)
-    return _penumbra._compare_method(setup, scene, label, truth, runs, warmup_runs, keep_images, _worker_threads())
+    return _penumbra._compare_method(setup, scene, label, runs, warmup_runs, keep_images, _worker_threads())
 
 
 @_locked
@@ -255,7 +255,7 @@ class _Comparison:
         # each method's images then meet the ground truth in a small job, where the images are.
         self.truth = (client.submit(_job_truth, setup, payload, cache_dir, pure=False, retries=RETRIES, priority=10)
                       if ground_truth else None)
-        renders = [client.submit(_job_method, setup, payload, label, None, runs, warmup_runs,
+        renders = [client.submit(_job_method, setup, payload, label, runs, warmup_runs,
                                  keep_images or ground_truth, pure=False, retries=RETRIES) for label in methods]
         self.runs = renders if not ground_truth else [
             client.submit(_job_measure, r, self.truth, keep_images, pure=False, retries=RETRIES, priority=5)
@@ -278,7 +278,7 @@ class _Comparison:
 
 def _one_line(e):
     text = str(e).strip().splitlines()
-    return (text[0] if text else type(e).__name__)
+    return text[0] if text else type(e).__name__
 
 
 def _wait(client, futures, what, progress):
