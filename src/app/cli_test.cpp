@@ -103,6 +103,34 @@ class Cli : public ::testing::Test {
   fs::path dir_;
 };
 
+// --map-cache: the second run reads lam's maps (no precompute), writes the same pixels, and
+// says so in --stats-json; a file in the folder's place is a one-line error naming it.
+TEST_F(Cli, RenderMapCacheSecondRunReadsTheMaps) {
+  const std::string scene = tiny_scene();
+  const fs::path cache = dir_ / "maps";
+  std::vector<nlohmann::json> stats;
+  for (int run_index = 0; run_index < 2; ++run_index) {
+    const fs::path exr = dir_ / fmt::format("lam{}.exr", run_index), json = dir_ / fmt::format("lam{}.json", run_index);
+    CliRun r = run(fmt::format("render {} -m lam --spp 16 -p resolution=64 --map-cache {} -o {} --stats-json {} --quiet",
+                               scene, cache.string(), exr.string(), json.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    stats.push_back(nlohmann::json::parse(slurp(json)));
+  }
+  EXPECT_EQ(stats[0]["map_cache"]["misses"], 1);
+  EXPECT_EQ(stats[1]["map_cache"]["hits"], 1);
+  EXPECT_EQ(stats[1]["stats"]["prepare_count"], 0);
+  EXPECT_EQ(stats[1]["map_cache"]["entries"], 1);
+  EXPECT_EQ(slurp(dir_ / "lam0.exr"), slurp(dir_ / "lam1.exr"));
+
+  const fs::path file = dir_ / "file";
+  std::ofstream(file) << "x";
+  CliRun bad = run(fmt::format("render {} -m lam --map-cache {} -o {} --quiet", scene, file.string(),
+                               (dir_ / "x.png").string()));
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("--map-cache " + file.string() + ": exists and is not a folder"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x.png"));
+}
+
 TEST_F(Cli, RenderWritesAnImageWithSoftShadows) {
   std::string scene = tiny_scene();
   fs::path exr = dir_ / "out.exr", stats = dir_ / "stats.json";
@@ -202,8 +230,9 @@ TEST_F(Cli, FrameRangeRendersEachFrameAsTheSceneAtThatFrame) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   for (int f = 0; f < 3; ++f) EXPECT_TRUE(fs::exists(dir_ / fmt::format("frame_{:04d}.exr", f))) << f;
   EXPECT_FALSE(fs::exists(dir_ / "frame_0003.exr"));
-  // Frame 1 (a new renderer: the slab moved) and frame 2 (the renderer of frame 1, given the
-  // new camera and light) equal renders of the scene at those frames written as static scenes.
+  // Frame 1 (the slab moved: refit in the Embree scene) and frame 2 (the same renderer, given
+  // the new camera and light) equal renders of the scene at those frames written as static
+  // scenes.
   for (int f : {1, 2}) {
     const fs::path single = dir_ / fmt::format("static{}.exr", f);
     ASSERT_EQ(run(fmt::format("render {} {} -o {}", static_frame(f), common, single.string())).exit_code, 0);
@@ -212,14 +241,17 @@ TEST_F(Cli, FrameRangeRendersEachFrameAsTheSceneAtThatFrame) {
     EXPECT_EQ(read_exr_channel(frame, "V").data(), read_exr_channel(single.string(), "V").data()) << f;
   }
   EXPECT_NE(read_image((dir_ / "frame_0000.exr").string()).data(), read_image((dir_ / "frame_0001.exr").string()).data());
-  // The stats: one object per frame, saying which frames built a renderer.
+  // The stats: one object per frame, saying which frame built the renderer and which moved
+  // objects (the slab, refit).
   const auto j = nlohmann::json::parse(slurp(stats));
   ASSERT_TRUE(j.is_array());
   ASSERT_EQ(j.size(), 3u);
   for (int f = 0; f < 3; ++f) {
     EXPECT_EQ(j[f]["frame"], f);
     EXPECT_EQ(j[f]["method"], "reference");
-    EXPECT_EQ(j[f]["new_renderer"], f < 2) << f;
+    EXPECT_EQ(j[f]["new_renderer"], f == 0) << f;
+    EXPECT_EQ(j[f]["moved_objects"], f == 1 ? 1 : 0) << f;
+    EXPECT_EQ(j[f]["refit"], f == 1) << f;
   }
   // --frames K (progressive accumulation) keeps its meaning in each frame.
   r = run(fmt::format("render {} -m afsm --spp 16 --frames 2 --quiet --frame-range 1:2 -o {} --stats-json {}", scene,
@@ -245,7 +277,7 @@ TEST_F(Cli, FrameRangePatternsAndForms) {
   // Without progress output a sequence prints one summary line.
   r = run(fmt::format("render {} -m hard --frame-range 0:3 -o {}", scene, (dir_ / "e##.png").string()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.err.find("frames 0:3 (3, 2 renderers built)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("frames 0:3 (3, objects moved in 1, refit)"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(dir_ / "e02.png"));
 }
 

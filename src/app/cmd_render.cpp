@@ -41,6 +41,7 @@ struct RenderOptions {
   bool coherent_shading = false;
   std::vector<std::string> params;
   std::string memory_limit;
+  std::string map_cache;  // a folder of light-space data kept between runs
   bool quiet = false;
   std::string dask;             // a Dask scheduler's address: the frame's tiles render there
   int tile = 256;               // with --dask: the tiles' side in pixels
@@ -54,6 +55,7 @@ RenderResult render_on_dask(const RenderOptions& o, nlohmann::json* stats, int* 
   if (!o.crop.empty()) throw Error("--crop: not available with --dask (render a window locally)");
   if (o.coherent_shading) throw Error("--coherent-shading: not available with --dask");
   if (!o.memory_limit.empty()) throw Error("--memory-limit: not available with --dask (each worker has its own)");
+  if (!o.map_cache.empty()) throw Error("--map-cache: not available with --dask");
   RunSetup setup = RunSetup::from_file(o.scene);
   if (!o.resolution.empty()) setup.apply("resolution", o.resolution);
   if (o.pixel_samples > 0) setup.apply("pixel_samples", std::to_string(o.pixel_samples));
@@ -102,6 +104,7 @@ RenderSettings render_settings(const RenderOptions& o, const PixelWindow& crop) 
   settings.crop = crop;
   settings.progress = !o.quiet;
   if (!o.memory_limit.empty()) settings.memory_limit = parse_memory_size(o.memory_limit, "--memory-limit");
+  settings.map_cache = o.map_cache;
   return settings;
 }
 
@@ -171,13 +174,16 @@ int run_render_sequence(const RenderOptions& o) {
   SequenceRenderer sequence(current, settings);
   double total_ms = 0;
   uint64_t rays = 0;
+  int moved_frames = 0, refit_frames = 0;
   nlohmann::json stats = nlohmann::json::array();
   for (int f = range.begin; f < range.end; ++f) {
     bar.set_label(fmt::format("render frame {} ({}/{})", f, f - range.begin + 1, range.count()));
     const SequenceRenderer::Frame frame = sequence.render(f);
     const RenderResult& r = frame.result;
-    total_ms += r.total_ms;
+    total_ms += r.total_ms + frame.geometry_update_ms;
     rays += r.stats.rays_traced;
+    moved_frames += frame.moved_objects > 0;
+    refit_frames += frame.refit;
     const std::string out = movie ? (std::filesystem::path(frames_folder) / mp4_frame_name(f)).string()
                                   : frame_path(o.output, f);
     write_image(out, r.color, {{"V", &r.visibility}});
@@ -187,6 +193,9 @@ int run_render_sequence(const RenderOptions& o) {
       nlohmann::json frame_stats = render_stats_json(sequence.scene(), o.method, settings, r);
       frame_stats["frame"] = f;
       frame_stats["new_renderer"] = frame.new_renderer;
+      frame_stats["moved_objects"] = frame.moved_objects;
+      frame_stats["refit"] = frame.refit;
+      frame_stats["geometry_update_ms"] = frame.geometry_update_ms;
       stats.push_back(std::move(frame_stats));
       // Rewritten after every frame: an interrupted sequence keeps the stats of its frames.
       write_text_file_atomic(o.stats_json, stats.dump(2) + "\n");
@@ -196,12 +205,18 @@ int run_render_sequence(const RenderOptions& o) {
   }
   bar.finish();
   if (movie) encode_mp4(frames_folder, range.begin, animation.fps, o.output);
-  if (!o.quiet)
-    std::fprintf(stderr, "%s: %s, frames %d:%d (%d, %d renderer%s built): %.1f ms, %.1f ms per frame, %llu shadow "
-                 "rays -> %s\n",
+  if (!o.quiet) {
+    // Frames where objects moved, and whether their BVHs were refit (rather than rebuilt).
+    const std::string moves =
+        moved_frames == 0 ? std::string()
+                          : fmt::format(", objects moved in {}, {}", moved_frames,
+                                        refit_frames == moved_frames ? "refit"
+                                                                     : fmt::format("{} refit", refit_frames));
+    std::fprintf(stderr, "%s: %s, frames %d:%d (%d%s): %.1f ms, %.1f ms per frame, %llu shadow rays -> %s\n",
                  o.scene.c_str(), render_description(o, current, crop).c_str(), range.begin, range.end, range.count(),
-                 sequence.renderers_built(), sequence.renderers_built() == 1 ? "" : "s", total_ms, total_ms / range.count(),
-                 static_cast<unsigned long long>(rays), o.output.c_str());
+                 moves.c_str(), total_ms, total_ms / range.count(), static_cast<unsigned long long>(rays),
+                 o.output.c_str());
+  }
   return 0;
 }
 
@@ -275,6 +290,10 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
   cmd->add_option("--memory-limit", o->memory_limit,
                   "refuse a render whose view samples, images and method maps would need more (e.g. 8G; default: "
                   "80% of physical memory)");
+  cmd->add_option("--map-cache", o->map_cache,
+                  "keep light-space maps in this folder between runs (created if needed): a method that can (lam) "
+                  "reads them instead of precomputing when the geometry, lights, parameters, seed and --spp are "
+                  "the same; hits and sizes in --stats-json (docs/animation.md)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
   cmd->add_option("--dask", o->dask,
                   "render the frame as tiles on the Dask scheduler at tcp://HOST:PORT (docs/distributed.md)");

@@ -162,8 +162,9 @@ PyRenderResult to_python(const RenderRequest& q, const RenderResult& r) {
 
 PyRenderResult render(const PyScene& s, const std::string& method, int spp, std::optional<std::pair<int, int>> resolution,
                       uint64_t seed, const std::optional<py::dict>& params, int threads, int frames,
-                      std::optional<std::tuple<int, int, int, int>> crop) {
-  const RenderRequest q = render_request(s, method, spp, resolution, seed, params, threads, frames, crop);
+                      std::optional<std::tuple<int, int, int, int>> crop, const std::string& map_cache) {
+  RenderRequest q = render_request(s, method, spp, resolution, seed, params, threads, frames, crop);
+  q.settings.map_cache = map_cache;
   RenderResult r = run_interruptible<RenderResult>([&] {
     ThreadLimit limit(threads);
     return render_scene(q.scene, q.settings);
@@ -304,10 +305,11 @@ PYBIND11_MODULE(_penumbra, m) {
   }, py::arg("name"), "A method's parameter table: name, type, default, doc, choices, min, max.");
   m.def("render", &render, py::arg("scene"), py::arg("method") = "reference", py::arg("spp") = 256,
         py::arg("resolution") = py::none(), py::arg("seed") = 0, py::arg("params") = py::none(),
-        py::arg("threads") = 0, py::arg("frames") = 1, py::arg("crop") = py::none(),
+        py::arg("threads") = 0, py::arg("frames") = 1, py::arg("crop") = py::none(), py::arg("map_cache") = "",
         "Renders `scene` with `method`: the pixels `penumbra render` writes for the same arguments. "
         "crop=(x0, y0, x1, y1): only those pixels (half-open), the images that window's size, each "
-        "pixel equal to the whole frame's there.");
+        "pixel equal to the whole frame's there. map_cache=folder: `--map-cache` (light-space maps kept "
+        "on disk between runs; stats['map_cache'] says hits and sizes).");
   m.def("_compare", [](const PyScene& s, const std::vector<std::string>& methods, int spp, int reference_spp,
                        uint64_t seed, const std::vector<std::string>& settings, int runs, bool equal_quality,
                        const std::string& cache_dir) {

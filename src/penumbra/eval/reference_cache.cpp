@@ -1,7 +1,5 @@
 #include "penumbra/eval/reference_cache.h"
 
-#include <dlfcn.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -13,7 +11,9 @@
 #include <fmt/format.h>
 
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/hash.h"
 #include "penumbra/core/interrupt.h"
+#include "penumbra/core/program_identity.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/json_reader.h"
@@ -28,48 +28,11 @@ namespace {
 // 2: the meta file holds the EXR's checksum.
 constexpr int kCacheFormat = 2;
 
-uint64_t fnv1a(const std::string& s, uint64_t basis, bool reverse) {
-  uint64_t h = basis;
-  const size_t n = s.size();
-  for (size_t i = 0; i < n; ++i) {
-    h ^= static_cast<unsigned char>(reverse ? s[n - 1 - i] : s[i]);
-    h *= 0x100000001b3ull;
-  }
-  return h;
-}
-
 // FNV-1a of a file's bytes (the cache's check that an EXR is the one its meta file
 // describes: a truncated, overwritten or bit-flipped entry reads as a miss).
 std::string file_checksum(const fs::path& p) {
   const std::string bytes = read_text_file(p);
   return fmt::format("{:016x}", fnv1a(bytes, 0xcbf29ce484222325ull, false));
-}
-
-// Size and modification time of a file; null when it cannot be read.
-json file_identity(const fs::path& p) {
-  std::error_code ec;
-  auto size = fs::file_size(p, ec);
-  if (ec) return json{{"path", p.string()}, {"missing", true}};
-  auto mtime = fs::last_write_time(p, ec);
-  long long ticks = ec ? 0 : static_cast<long long>(mtime.time_since_epoch().count());
-  return json{{"path", p.string()}, {"size", size}, {"mtime", ticks}};
-}
-
-// The file holding this code: the penumbra executable, or the Python module's shared
-// library when the module renders (then /proc/self/exe is the Python interpreter, which does
-// not change when penumbra is rebuilt).
-json program_identity() {
-  Dl_info info{};
-  if (::dladdr(reinterpret_cast<const void*>(&program_identity), &info) != 0 && info.dli_fname &&
-      *info.dli_fname) {
-    std::error_code ec;
-    const fs::path self = fs::canonical(info.dli_fname, ec);
-    if (!ec) return file_identity(self);
-  }
-  std::error_code ec;
-  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (ec) return json("unknown");
-  return file_identity(exe);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include "penumbra/core/sampling.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/render/coherent_shading.h"
+#include "penumbra/render/map_cache.h"
 
 namespace penumbra {
 
@@ -226,16 +227,33 @@ void check_render_memory(const Scene& scene, const RenderSettings& settings) {
 Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene), settings_(std::move(settings)) {
   if (scene_.lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
   check_render_memory(scene_, settings_);
-  tracer_ = std::make_unique<RayTracer>(scene_);
+  tracer_ = std::make_unique<RayTracer>(scene_, settings_.movable_objects);
   for (size_t l = 0; l < scene_.lights.size(); ++l) {
     ParamSet resolved;
     methods_.push_back(create_method(settings_.method, scene_, settings_.params, &resolved));
     if (l == 0) resolved_params_ = resolved.to_json();
   }
   prepared_.assign(scene_.lights.size(), false);
+  if (!settings_.map_cache.empty()) map_cache_ = std::make_unique<MapCache>(settings_.map_cache);
 }
 
 Renderer::~Renderer() = default;
+
+void Renderer::prepare_light(size_t l, const ShadowContext& ctx) {
+  ShadowMethod& method = *methods_[l];
+  if (!map_cache_ || !method.stores_prepared()) {
+    method.prepare(ctx);
+    prepared_[l] = true;
+    return;
+  }
+  if (geometry_digest_.empty()) geometry_digest_ = MapCache::geometry_digest(scene_);
+  const std::string key = MapCache::key(geometry_digest_, settings_.method, resolved_params_, ctx);
+  if (!map_cache_->load(key, settings_.method, method, ctx)) {
+    method.prepare(ctx);
+    map_cache_->store(key, settings_.method, method);
+  }
+  prepared_[l] = true;
+}
 
 void Renderer::set_camera(const Camera& camera) { scene_.camera = camera; }
 
@@ -265,18 +283,42 @@ void Renderer::set_lights(const std::vector<AreaLight>& lights) {
   scene_.lights = lights;
 }
 
+ShadowContext Renderer::light_context(size_t l) const {
+  ShadowContext ctx;
+  ctx.scene = &scene_;
+  ctx.light = &scene_.lights[l];
+  ctx.light_index = static_cast<int>(l);
+  ctx.tracer = tracer_.get();
+  ctx.seed = settings_.seed;
+  ctx.light_samples = settings_.light_samples;
+  return ctx;
+}
+
+void Renderer::set_objects(const std::vector<SceneObject>& objects, std::span<const uint32_t> moved) {
+  if (objects.size() != scene_.objects.size())
+    throw Error("{}: set_objects with {} objects for a scene of {}", scene_.source.string(), objects.size(),
+                scene_.objects.size());
+  if (moved.empty()) return;
+  for (uint32_t o : moved) {
+    if (o >= objects.size()) throw Error("{}: set_objects: no object {}", scene_.source.string(), o);
+    scene_.objects[o] = objects[o];
+  }
+  tracer_->update_objects(scene_, moved);
+  geometry_digest_.clear();
+  for (size_t l = 0; l < methods_.size(); ++l) {
+    if (!prepared_[l]) continue;
+    const ShadowContext ctx = light_context(l);
+    if (methods_[l]->keeps_prepared_after_moving(moved, ctx)) continue;
+    methods_[l] = create_method(settings_.method, scene_, settings_.params);
+    prepared_[l] = false;
+  }
+}
+
 void Renderer::prepare() {
   for (size_t l = 0; l < scene_.lights.size(); ++l) {
     if (prepared_[l]) continue;
-    ShadowContext ctx;
-    ctx.scene = &scene_;
-    ctx.light = &scene_.lights[l];
-    ctx.light_index = static_cast<int>(l);
-    ctx.tracer = tracer_.get();
-    ctx.seed = settings_.seed;
-    ctx.light_samples = settings_.light_samples;
-    methods_[l]->prepare(ctx);
-    prepared_[l] = true;
+    const ShadowContext ctx = light_context(l);
+    prepare_light(l, ctx);
   }
 }
 
@@ -311,20 +353,11 @@ RenderResult Renderer::render() {
   Progress& progress = settings_.progress_bar ? *settings_.progress_bar : own_progress;
   for (size_t l = 0; l < lights; ++l) {
     const AreaLight& light = scene_.lights[l];
-    ShadowContext ctx;
-    ctx.scene = &scene_;
-    ctx.light = &light;
-    ctx.light_index = static_cast<int>(l);
-    ctx.tracer = tracer_.get();
-    ctx.seed = settings_.seed;
-    ctx.light_samples = settings_.light_samples;
+    ShadowContext ctx = light_context(l);
     ctx.progress = &progress;
     ShadowMethod& method = *methods_[l];
     // The light-space structures survive camera changes (agrawala2000 §4).
-    if (!prepared_[l]) {
-      method.prepare(ctx);
-      prepared_[l] = true;
-    }
+    if (!prepared_[l]) prepare_light(l, ctx);
     ShadowOutput out{std::span<float>(vis), std::span<Vec3f>(irr)};
     const int frames = std::max(1, settings_.frames);
     std::vector<float> vis_sum(frames > 1 ? n : 0, 0.0f);
@@ -420,6 +453,7 @@ RenderResult Renderer::render() {
     }
   });
   result.total_ms = total.elapsed_ms();
+  if (map_cache_) result.map_cache = map_cache_->stats_json();
   return result;
 }
 
@@ -430,7 +464,7 @@ RenderResult render_scene(const Scene& scene, const RenderSettings& settings) {
 
 nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
                                  const RenderResult& r) {
-  return {{"scene", scene.source.string()},
+  nlohmann::json doc = {{"scene", scene.source.string()},
           {"method", method},
           {"params", r.resolved_params},
           {"light_samples", settings.light_samples},
@@ -446,6 +480,8 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
           {"camera_pass_ms", r.camera_pass_ms},
           {"total_ms", r.total_ms},
           {"stats", r.stats.to_json()}};
+  if (!r.map_cache.is_null()) doc["map_cache"] = r.map_cache;
+  return doc;
 }
 
 }  // namespace penumbra

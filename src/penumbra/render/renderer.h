@@ -1,6 +1,7 @@
 // The pipeline of DESIGN.md: camera pass -> per light prepare/evaluate -> compose.
 #pragma once
 
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
@@ -43,6 +44,14 @@ struct RenderSettings {
   // Memory budget for the render, in bytes (0 = 80% of physical memory): a render whose
   // estimate exceeds it is refused before anything is allocated (estimate_render_memory).
   uint64_t memory_limit = 0;
+  // Light-space data on disk (render/map_cache.h, `--map-cache DIR`): methods that can
+  // (ShadowMethod::stores_prepared) read their prepared structures from this folder instead
+  // of preparing them, and write them there after preparing. Empty: no cache.
+  std::filesystem::path map_cache;
+  // The objects (indices into Scene::objects) that Renderer::set_objects will move: an
+  // animated scene's object tracks (SequenceRenderer). The Embree scene is then built two-level
+  // with these objects' BVHs refittable (RayTracer), so a move refits instead of rebuilding.
+  std::vector<uint32_t> movable_objects;
 };
 
 // What a render of `scene` will allocate, estimated before anything is: the camera pass (a
@@ -73,6 +82,9 @@ struct RenderResult {
   double total_ms = 0;
   size_t view_sample_count = 0;
   nlohmann::json resolved_params;
+  // With RenderSettings::map_cache: MapCache::stats_json() of the renderer's cache (hits and
+  // misses since the Renderer was made); null otherwise.
+  nlohmann::json map_cache;
 };
 
 // The camera pass on Embree: primary rays through each pixel (jittered when the camera
@@ -101,6 +113,8 @@ ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t se
 
 // Renders frames of one scene with one method, keeping the method's light-space
 // structures between frames: set_camera() re-runs the camera pass only.
+class MapCache;
+
 class Renderer {
  public:
   Renderer(const Scene& scene, RenderSettings settings);
@@ -110,6 +124,12 @@ class Renderer {
   // lights that changed are created afresh and prepare() again at the next render; those of
   // unchanged lights keep their light-space structures. The count may change.
   void set_lights(const std::vector<AreaLight>& lights);
+  // New vertex positions for the objects `moved` (indices into Scene::objects; the same
+  // triangles, as an animated transform gives; `objects` is the whole new list): the Embree
+  // scene is refit where RenderSettings::movable_objects allows, else rebuilt, and each light's
+  // method either keeps its light-space structures (ShadowMethod::keeps_prepared_after_moving)
+  // or is created afresh and prepared again at the next render.
+  void set_objects(const std::vector<SceneObject>& objects, std::span<const uint32_t> moved);
   // Only the first frame index of the next render (RenderSettings::first_frame).
   void set_first_frame(int frame) { settings_.first_frame = frame; }
   // Only the window of the next render (RenderSettings::crop): the tiles of one frame share the
@@ -134,6 +154,12 @@ class Renderer {
   std::vector<std::unique_ptr<ShadowMethod>> methods_;
   std::vector<bool> prepared_;
   nlohmann::json resolved_params_;
+  std::unique_ptr<MapCache> map_cache_;  // with RenderSettings::map_cache
+  std::string geometry_digest_;          // MapCache::geometry_digest, computed at the first lookup
+  // What light l's method reads: the scene, the light, the tracer, seed and light samples.
+  ShadowContext light_context(size_t l) const;
+  // prepare() of light l's method, or its prepared data from the map cache.
+  void prepare_light(size_t l, const ShadowContext& ctx);
   CameraPass camera_pass_;
   ViewSamples view_;  // the last camera pass's samples (their storage is reused)
   struct FrameBuffers {  // per view sample, summed over the lights (reused between frames)

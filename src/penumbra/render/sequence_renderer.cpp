@@ -1,6 +1,7 @@
 #include "penumbra/render/sequence_renderer.h"
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/timer.h"
 #include "penumbra/scene/animation.h"
 
 namespace penumbra {
@@ -8,6 +9,8 @@ namespace penumbra {
 SequenceRenderer::SequenceRenderer(Scene scene, RenderSettings settings)
     : current_(std::move(scene)), settings_(std::move(settings)) {
   if (!current_.animation) throw Error("{}: the scene has no \"animation\" block", current_.source.string());
+  // The objects the tracks move get refittable BVHs in a two-level Embree scene.
+  settings_.movable_objects = current_.animation->movable_objects();
 }
 
 SequenceRenderer::~SequenceRenderer() = default;
@@ -17,17 +20,27 @@ SequenceRenderer::Frame SequenceRenderer::render(int frame) {
   if (frame < 0 || frame >= animation.frames)
     throw Error("{}: frame {} is outside the animation's frames 0..{}", current_.source.string(), frame,
                 animation.frames - 1);
-  // Moved objects need a new renderer (its Embree scene and the methods' maps hold the old
-  // geometry); a camera or light change alone keeps it, and with it whatever each method keeps.
   Frame out;
-  out.new_renderer = !renderer_ || animation.objects_differ(last_frame_, frame);
-  if (out.new_renderer) animation.place_objects(frame, current_);
-  animation.set_camera_and_lights(frame, current_);
-  if (out.new_renderer) {
-    renderer_.reset();  // its memory first
+  if (!renderer_) {
+    animation.place_objects(frame, current_);
+    animation.set_camera_and_lights(frame, current_);
     renderer_ = std::make_unique<Renderer>(current_, settings_);
-    ++renderers_;
+    out.new_renderer = true;
   } else {
+    // Moved objects: the Embree scene is refit and each method keeps what stays valid
+    // (Renderer::set_objects); a camera or light change keeps the geometry, and with it
+    // whatever each method keeps for the lights that did not change.
+    const std::vector<uint32_t> moved = animation.moved_objects(last_frame_, frame);
+    if (!moved.empty()) animation.place_objects(frame, current_);
+    animation.set_camera_and_lights(frame, current_);
+    if (!moved.empty()) {
+      Timer timer;
+      const int refits = renderer_->tracer().refits();
+      renderer_->set_objects(current_.objects, moved);
+      out.moved_objects = static_cast<int>(moved.size());
+      out.refit = renderer_->tracer().refits() > refits;
+      out.geometry_update_ms = timer.elapsed_ms();
+    }
     renderer_->set_camera(current_.camera);
     renderer_->set_lights(current_.lights);
   }

@@ -76,6 +76,23 @@ bool Animation::objects_differ(int a, int b) const {
   return false;
 }
 
+std::vector<uint32_t> Animation::moved_objects(int a, int b) const {
+  std::vector<uint32_t> moved;
+  for (const ObjectTracks& o : objects)
+    if (!(transform_at(o, a) == transform_at(o, b)))
+      for (const ObjectTracks::Part& part : o.parts) moved.push_back(static_cast<uint32_t>(part.index));
+  std::sort(moved.begin(), moved.end());
+  return moved;
+}
+
+std::vector<uint32_t> Animation::movable_objects() const {
+  std::vector<uint32_t> movable;
+  for (const ObjectTracks& o : objects)
+    for (const ObjectTracks::Part& part : o.parts) movable.push_back(static_cast<uint32_t>(part.index));
+  std::sort(movable.begin(), movable.end());
+  return movable;
+}
+
 void Animation::place_objects(int frame, Scene& scene) const {
   for (const ObjectTracks& o : objects) {
     const ObjectTransform t = transform_at(o, frame);

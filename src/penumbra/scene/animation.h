@@ -91,6 +91,11 @@ class Animation {
   // Whether some object is placed differently at frame `a` than at frame `b` (the geometry
   // changed: an Embree scene built for one does not hold the other).
   bool objects_differ(int a, int b) const;
+  // The objects (indices into Scene::objects: every part of each object whose transform
+  // differs) placed differently at frame `a` than at frame `b`, ascending.
+  std::vector<uint32_t> moved_objects(int a, int b) const;
+  // Every object some track moves (the parts of every animated object), ascending.
+  std::vector<uint32_t> movable_objects() const;
   // Places the animated objects of `scene` as they are at `frame` (the other objects stay).
   void place_objects(int frame, Scene& scene) const;
   // Sets the animated values of `camera` (eye, target, up, fov_y) to those of `frame`.

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <iosfwd>
 #include <memory>
 #include <span>
 #include <string>
@@ -54,6 +55,31 @@ class ShadowMethod {
   // True if evaluate() computes E (eq. 1) itself; otherwise compose multiplies V with the
   // closed-form unshadowed irradiance.
   virtual bool computes_irradiance() const { return false; }
+
+  // Some objects moved since prepare() (RenderSettings::movable_objects, Renderer::set_objects:
+  // new vertex positions for the same triangles; ctx's scene and tracer already show them).
+  // True if what prepare() built stays valid for the moved geometry, so the next render calls
+  // evaluate() alone; false (the default, right for every method whose light-space structures
+  // hold the geometry: maps, LDIs, lists) and the renderer creates the method afresh and
+  // prepares it again. Called only on a prepared method.
+  virtual bool keeps_prepared_after_moving(std::span<const uint32_t> moved_objects, const ShadowContext& ctx) {
+    return false;
+  }
+
+  // Light-space data kept on disk between runs (RenderSettings::map_cache, `--map-cache DIR`;
+  // issue 18 part 4, xie2007's memory/disk trade-off, agrawala2000's reuse). A method whose
+  // prepare() depends only on the scene's geometry and materials, the light, its parameters,
+  // the seed, the light index and ShadowContext::light_samples (not on the camera or the view
+  // samples) may return true here; the render layer (render/map_cache.h) keys an entry by a
+  // digest of exactly those inputs and of the program, writes save_prepared() after a
+  // prepare() and calls load_prepared() instead of prepare() when an entry exists.
+  virtual bool stores_prepared() const { return false; }
+  // Writes what prepare() built, in the method's own binary layout. Only after prepare().
+  virtual void save_prepared(std::ostream& out) const {}
+  // Reads what save_prepared() wrote, as if prepare(ctx) had run: false (and the method
+  // unchanged) where the bytes are not a whole entry, so the caller prepares afresh.
+  virtual bool load_prepared(std::istream& in, const ShadowContext& ctx) { return false; }
+
   MethodStats& stats() { return stats_; }
   const MethodStats& stats() const { return stats_; }
 

@@ -93,10 +93,22 @@ void transparency_filter(const RTCFilterFunctionNArguments* args) {
 struct RayTracer::Impl {
   RTCScene scene = nullptr;
   std::vector<TransparencyData> transparency;  // per object (stable addresses)
+  std::vector<bool> movable;                   // per object: built refittable (empty: none)
+  std::vector<size_t> vertices, triangles;     // per object, as built
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
   }
+  bool two_level() const { return !movable.empty(); }
 };
+
+namespace {
+// An object's vertices into its Embree vertex buffer.
+void copy_positions(const TriangleMesh& m, float* v) {
+  for (size_t i = 0; i < m.positions.size(); ++i) {
+    v[3 * i] = m.positions[i].x; v[3 * i + 1] = m.positions[i].y; v[3 * i + 2] = m.positions[i].z;
+  }
+}
+}  // namespace
 
 Vec3f offset_ray_origin(Vec3f p, Vec3f ng, Vec3f dir) {
   // Embree's watertight triangle test is accurate to a few ulps of the coordinates, so
@@ -120,22 +132,46 @@ ShadowRay shadow_ray_to(Vec3f p, Vec3f ng, Vec3f q) {
   return r;
 }
 
-RayTracer::RayTracer(const Scene& scene) : impl_(std::make_unique<Impl>()) {
+RayTracer::RayTracer(const Scene& scene, std::span<const uint32_t> movable) : impl_(std::make_unique<Impl>()) {
+  if (!movable.empty()) {
+    impl_->movable.assign(scene.objects.size(), false);
+    for (uint32_t o : movable) {
+      if (o >= scene.objects.size()) throw Error("RayTracer: movable object {} of {}", o, scene.objects.size());
+      impl_->movable[o] = true;
+    }
+  }
+  build(scene);
+}
+
+void RayTracer::build(const Scene& scene) {
   Timer timer;
   RTCDevice device = shared_device();
+  if (impl_->scene) rtcReleaseScene(impl_->scene);
   impl_->scene = rtcNewScene(device);
-  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_NONE);
-  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);  // no spatial splits: a filter sees each triangle once
-  impl_->transparency.resize(scene.objects.size());
+  has_transparency_ = false;
+  triangle_count_ = 0;
+  if (impl_->two_level()) {
+    // Embree 3 builds a two-level BVH (one per geometry, then one over the geometries) for a
+    // scene of build quality LOW: only then does it keep the per-geometry BVHs across commits,
+    // rebuilding those of modified geometries, and refit those of quality REFIT.
+    rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_DYNAMIC);
+    rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_LOW);
+  } else {
+    rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_NONE);
+    rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);  // no spatial splits: a filter sees each triangle once
+  }
+  impl_->transparency.assign(scene.objects.size(), TransparencyData{});
+  impl_->vertices.assign(scene.objects.size(), 0);
+  impl_->triangles.assign(scene.objects.size(), 0);
   for (size_t id = 0; id < scene.objects.size(); ++id) {
     const SceneObject& obj = scene.objects[id];
     const TriangleMesh& m = obj.mesh;
     RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    if (impl_->two_level())  // each object's own BVH: SAH without spatial splits, refit where it moves
+      rtcSetGeometryBuildQuality(geom, impl_->movable[id] ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_MEDIUM);
     auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                           3 * sizeof(float), m.positions.size()));
-    for (size_t i = 0; i < m.positions.size(); ++i) {
-      v[3 * i] = m.positions[i].x; v[3 * i + 1] = m.positions[i].y; v[3 * i + 2] = m.positions[i].z;
-    }
+    copy_positions(m, v);
     auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                                3 * sizeof(uint32_t), m.triangle_count()));
     std::memcpy(idx, m.indices.data(), m.indices.size() * sizeof(uint32_t));
@@ -153,6 +189,8 @@ RayTracer::RayTracer(const Scene& scene) : impl_(std::make_unique<Impl>()) {
     rtcAttachGeometryByID(impl_->scene, geom, static_cast<unsigned>(id));
     rtcReleaseGeometry(geom);
     triangle_count_ += m.triangle_count();
+    impl_->vertices[id] = m.positions.size();
+    impl_->triangles[id] = m.triangle_count();
   }
   rtcCommitScene(impl_->scene);
   if (rtcGetDeviceError(device) != RTC_ERROR_NONE) throw Error("Embree: scene build failed");
@@ -160,6 +198,50 @@ RayTracer::RayTracer(const Scene& scene) : impl_(std::make_unique<Impl>()) {
 }
 
 RayTracer::~RayTracer() = default;
+
+void RayTracer::update_objects(const Scene& scene, std::span<const uint32_t> objects) {
+  Timer timer;
+  if (scene.objects.size() != impl_->transparency.size())
+    throw Error("RayTracer::update_objects: {} objects, built with {}", scene.objects.size(), impl_->transparency.size());
+  // A refit keeps each BVH's topology: only for movable objects with the vertices and
+  // triangles they were built with.
+  bool refit = impl_->two_level();
+  for (uint32_t o : objects) {
+    if (o >= scene.objects.size()) throw Error("RayTracer::update_objects: object {} of {}", o, scene.objects.size());
+    const TriangleMesh& m = scene.objects[o].mesh;
+    refit = refit && impl_->movable[o] && m.positions.size() == impl_->vertices[o] &&
+            m.triangle_count() == impl_->triangles[o];
+  }
+  // The transparency filter reads the per-triangle opacities of `scene` from now on.
+  for (size_t o = 0; o < scene.objects.size(); ++o)
+    if (impl_->transparency[o].triangle_opacity)
+      impl_->transparency[o].triangle_opacity = scene.objects[o].mesh.triangle_opacity.data();
+  if (!refit) {
+    build(scene);
+    ++rebuilds_;
+    return;
+  }
+  for (uint32_t o : objects) {
+    RTCGeometry geom = rtcGetGeometry(impl_->scene, o);
+    const TriangleMesh& m = scene.objects[o].mesh;
+    auto* v = static_cast<float*>(rtcGetGeometryBufferData(geom, RTC_BUFFER_TYPE_VERTEX, 0));
+    copy_positions(m, v);
+    rtcUpdateGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0);
+    // A transform that starts or stops mirroring swaps two indices per triangle
+    // (TriangleMesh::transform). Embree rebuilds (rather than refits) a geometry whose index
+    // buffer was updated, so it is updated only then.
+    void* idx = rtcGetGeometryBufferData(geom, RTC_BUFFER_TYPE_INDEX, 0);
+    if (std::memcmp(idx, m.indices.data(), m.indices.size() * sizeof(uint32_t)) != 0) {
+      std::memcpy(idx, m.indices.data(), m.indices.size() * sizeof(uint32_t));
+      rtcUpdateGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0);
+    }
+    rtcCommitGeometry(geom);
+  }
+  rtcCommitScene(impl_->scene);
+  if (rtcGetDeviceError(shared_device()) != RTC_ERROR_NONE) throw Error("Embree: scene refit failed");
+  ++refits_;
+  refit_ms_ += timer.elapsed_ms();
+}
 
 namespace {
 // An Embree ray-hit record for `ray`, no hit yet.

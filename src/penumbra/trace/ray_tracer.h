@@ -45,7 +45,12 @@ ShadowRay shadow_ray_to(Vec3f p, Vec3f ng, Vec3f q);
 
 class RayTracer {
  public:
-  explicit RayTracer(const Scene& scene);
+  // Builds one BVH over every object of `scene` (Embree's single-level SAH build, the fastest
+  // to trace). With `movable` objects (the parts of an animated scene's object tracks,
+  // SequenceRenderer), a two-level build instead: one BVH per object under a top level, the
+  // movable objects' BVHs refittable (update_objects), so moving them costs a refit of their
+  // BVHs and a rebuild of the top level over the objects, not a rebuild of the scene.
+  explicit RayTracer(const Scene& scene, std::span<const uint32_t> movable = {});
   ~RayTracer();
   RayTracer(const RayTracer&) = delete;
   RayTracer& operator=(const RayTracer&) = delete;
@@ -72,9 +77,21 @@ class RayTracer {
   void transmittance_fan(Vec3f p, Vec3f ng, const float* x, const float* y, const float* z, size_t n,
                          float* out) const;
 
+  // New vertex positions for `objects` (indices into scene.objects; the same triangles, as an
+  // animated transform gives): the Embree scene follows `scene`, which must be the scene this
+  // tracer serves from now on (the transparency filter reads its per-triangle opacities).
+  // Objects built movable, with the vertex and triangle counts they were built with, are
+  // refit; anything else makes the whole scene rebuild.
+  void update_objects(const Scene& scene, std::span<const uint32_t> objects);
+
   bool has_transparency() const { return has_transparency_; }
   size_t triangle_count() const { return triangle_count_; }
   double build_ms() const { return build_ms_; }
+  // update_objects() calls that refit the movable objects' BVHs, their total time, and the
+  // calls that had to rebuild the scene.
+  int refits() const { return refits_; }
+  double refit_ms() const { return refit_ms_; }
+  int rebuilds() const { return rebuilds_; }
 
  private:
   struct Impl;
@@ -82,6 +99,9 @@ class RayTracer {
   bool has_transparency_ = false;
   size_t triangle_count_ = 0;
   double build_ms_ = 0;
+  int refits_ = 0, rebuilds_ = 0;
+  double refit_ms_ = 0;
+  void build(const Scene& scene);
 };
 
 }  // namespace penumbra

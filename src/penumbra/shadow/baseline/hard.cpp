@@ -9,6 +9,8 @@ namespace {
 class HardShadows final : public ShadowMethod {
  public:
   void prepare(const ShadowContext&) override { stats_.prepare_count++; }
+  // Nothing prepared: every evaluate() traces the geometry as the tracer holds it now.
+  bool keeps_prepared_after_moving(std::span<const uint32_t>, const ShadowContext&) override { return true; }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
     ScopedPhase phase(stats_, "trace");

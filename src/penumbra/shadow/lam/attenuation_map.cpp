@@ -5,6 +5,7 @@
 #include <cmath>
 #include <memory>
 
+#include "penumbra/core/binary_io.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
@@ -321,6 +322,70 @@ inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, uint64_t& texels)
     texel(x0 + 1, y0 + 1, wx * wy);
     return wsum > 0 ? sum / wsum : 1.0f;
   }
+}
+
+namespace {
+constexpr uint64_t kMapRecordMagic = 0x314d4454414d414cull;  // "LAMATDM1"
+}  // namespace
+
+void AttenuationMap::write(std::ostream& out) const {
+  static_assert(std::is_trivially_copyable_v<LightView>);
+  binary::write(out, kMapRecordMagic);
+  binary::write_array(out, outline_);
+  binary::write(out, light_center_);
+  binary::write(out, light_normal_);
+  binary::write(out, light_area_);
+  binary::write(out, light_radius_);
+  binary::write_array(out, std::vector<uint8_t>(solid_.begin(), solid_.end()));
+  binary::write(out, width_);
+  binary::write(out, height_);
+  binary::write(out, samples_);
+  binary::write(out, epsilon_);
+  binary::write(out, view_);
+  binary::write(out, proj_);
+  binary::write(out, near_);
+  binary::write(out, far_);
+  binary::write(out, slope_);
+  binary::write(out, eye_);
+  binary::write(out, right_);
+  binary::write(out, up_);
+  binary::write(out, forward_);
+  binary::write(out, u0_);
+  binary::write(out, v1_);
+  binary::write(out, delta_);
+  binary::write_array(out, offsets_);
+  binary::write_array(out, layers_);
+  binary::write(out, kMapRecordMagic);
+}
+
+bool AttenuationMap::read(std::istream& in) {
+  AttenuationMap m;
+  uint64_t magic = 0, end_magic = 0;
+  std::vector<uint8_t> solid;
+  constexpr uint64_t kMaxElements = uint64_t{1} << 34;
+  const bool ok =
+      binary::read(in, magic) && magic == kMapRecordMagic && binary::read_array(in, m.outline_, kMaxOutline) &&
+      binary::read(in, m.light_center_) && binary::read(in, m.light_normal_) && binary::read(in, m.light_area_) &&
+      binary::read(in, m.light_radius_) && binary::read_array(in, solid, kMaxElements) &&
+      binary::read(in, m.width_) && binary::read(in, m.height_) && binary::read(in, m.samples_) &&
+      binary::read(in, m.epsilon_) && binary::read(in, m.view_) && binary::read(in, m.proj_) &&
+      binary::read(in, m.near_) && binary::read(in, m.far_) && binary::read(in, m.slope_) &&
+      binary::read(in, m.eye_) && binary::read(in, m.right_) && binary::read(in, m.up_) &&
+      binary::read(in, m.forward_) && binary::read(in, m.u0_) && binary::read(in, m.v1_) &&
+      binary::read(in, m.delta_) && binary::read_array(in, m.offsets_, kMaxElements) &&
+      binary::read_array(in, m.layers_, kMaxElements) && binary::read(in, end_magic) && end_magic == kMapRecordMagic;
+  if (!ok || m.width_ < 0 || m.height_ < 0) return false;
+  // The lookups index offsets_ by texel and layers_ by offset: check they stay inside.
+  if (m.width_ > 0) {
+    const uint64_t texels = static_cast<uint64_t>(m.width_) * static_cast<uint64_t>(m.height_);
+    if (m.offsets_.size() != texels + 1 || m.offsets_.front() != 0 || m.offsets_.back() != m.layers_.size())
+      return false;
+    for (size_t i = 0; i + 1 < m.offsets_.size(); ++i)
+      if (m.offsets_[i] > m.offsets_[i + 1]) return false;
+  }
+  m.solid_.assign(solid.begin(), solid.end());
+  *this = std::move(m);
+  return true;
 }
 
 float AttenuationMap::front_fraction(Vec3f p, Vec3f n) const {

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <iosfwd>
 #include <span>
 #include <string>
 #include <utility>
@@ -117,6 +118,12 @@ class AttenuationMap {
 
   // The texel-level classification of a depth at texel (x, y), for tests and images.
   LookupClass classify(int x, int y, float z, float* attenuation) const;
+
+  // The whole map as a binary record (the map cache: `lam` under --map-cache, lam.cpp) and
+  // back. The layout is this build's own (the cache keys entries by the program). read()
+  // returns false, leaving the map empty, on a short or inconsistent record.
+  void write(std::ostream& out) const;
+  bool read(std::istream& in);
 
  private:
   friend class Builder;

@@ -5,7 +5,10 @@
 // independent of the number of light samples. The LDI survives camera changes.
 // docs/methods/lam.md maps the paper to this code.
 #include <atomic>
+#include <istream>
+#include <ostream>
 
+#include "penumbra/core/binary_io.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/rng.h"
@@ -138,6 +141,29 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     stats_.memory_bytes = std::max<uint64_t>(peak_bytes_, map_.memory_bytes());
     const std::string suffix = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
     for (auto it = extra_.begin(); it != extra_.end(); ++it) stats_.extra[it.key() + suffix] = it.value();
+  }
+
+  // The LDI depends on the geometry, the light, the parameters, the seed and the light
+  // samples, never on the camera: a second run with the same lights loads it (--map-cache)
+  // and starts at display cost (agrawala2000 §4: precompute once, display many times).
+  bool stores_prepared() const override { return true; }
+  void save_prepared(std::ostream& out) const override {
+    map_.write(out);
+    const std::string extra = extra_.dump();
+    binary::write_array(out, std::vector<char>(extra.begin(), extra.end()));
+    binary::write<uint64_t>(out, peak_bytes_);
+  }
+  bool load_prepared(std::istream& in, const ShadowContext& ctx) override {
+    lam::AttenuationMap map;
+    std::vector<char> extra;
+    uint64_t peak = 0;
+    if (!map.read(in) || !binary::read_array(in, extra, uint64_t{1} << 30) || !binary::read(in, peak)) return false;
+    nlohmann::json extra_json = nlohmann::json::parse(extra.begin(), extra.end(), nullptr, /*allow_exceptions=*/false);
+    if (!extra_json.is_object()) return false;
+    map_ = std::move(map);
+    extra_ = std::move(extra_json);
+    peak_bytes_ = peak;
+    return true;
   }
 
   const lam::AttenuationMap& map() const { return map_; }

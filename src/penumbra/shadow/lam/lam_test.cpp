@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <sstream>
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
@@ -316,6 +318,39 @@ TEST(Lam, ResultsDoNotDependOnTheThreadCount) {
   }
   std::vector<float> all = run_lam(scene, vs, 32, {});
   EXPECT_EQ(one, all);
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The map cache's record (AttenuationMap::write/read): the map read back gives the very
+// lookups of the map written, and a record cut short anywhere reads as nothing.
+TEST(Lam, MapRecordReadsBackToTheSameLookupsAndRejectsTruncation) {
+  const Scene scene = testing::ground_scene(
+      {testing::object(testing::quad_y(kh, -1.5f, 0.0f, -1.0f, 1.0f))}, testing::rect_light_down({0, kH, 0}, kw, kw));
+  const lam::AttenuationMap map = build_map(scene, 64, 64);
+  std::ostringstream out;
+  map.write(out);
+  const std::string bytes = out.str();
+  lam::AttenuationMap back;
+  std::istringstream in(bytes);
+  ASSERT_TRUE(back.read(in));
+  EXPECT_EQ(back.width(), map.width());
+  EXPECT_EQ(back.layer_count(), map.layer_count());
+  const ViewSamples vs = ground_line(-1.2f, 1.2f, 300);
+  for (lam::Filter f : kFilters) {
+    const std::vector<float> a = lookup_all(map, vs, f), b = lookup_all(back, vs, f);
+    EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(float))) << name(f);
+  }
+  for (size_t cut : {size_t{0}, size_t{5}, bytes.size() / 3, bytes.size() - 1}) {
+    lam::AttenuationMap partial;
+    std::istringstream short_in(bytes.substr(0, cut));
+    EXPECT_FALSE(partial.read(short_in)) << cut;
+    EXPECT_TRUE(partial.empty());
+  }
 }
 
 }  // namespace

@@ -30,6 +30,8 @@ class ReferenceMethod final : public ShadowMethod {
   explicit ReferenceMethod(const ParamSet& p) : solid_angle_(p.get_string("sampling") == "solid-angle") {}
 
   void prepare(const ShadowContext&) override { stats_.prepare_count++; }
+  // Nothing prepared: every evaluate() traces the geometry as the tracer holds it now.
+  bool keeps_prepared_after_moving(std::span<const uint32_t>, const ShadowContext&) override { return true; }
   bool computes_irradiance() const override { return true; }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
