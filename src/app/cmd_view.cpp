@@ -13,6 +13,7 @@
 #include "app/command.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/render/map_cache.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/viewer/viewer_server.h"
 
@@ -28,6 +29,7 @@ struct ViewOptions {
   bool no_browser = false;
   int threads = 0;
   int idle_ms = 300;
+  std::string map_cache;
 };
 
 // Opens `url` with $BROWSER or xdg-open, without a shell; a failure is a note, not an error
@@ -51,6 +53,10 @@ int run_view(const ViewOptions& o) {
   Scene scene = parse_scene(doc, o.scene);
   viewer::SessionOptions session_options;
   session_options.idle_ms = o.idle_ms;
+  if (!o.map_cache.empty()) {
+    MapCache check(o.map_cache);  // a bad folder fails here, in one line, before the server starts
+    session_options.map_cache = o.map_cache;
+  }
   viewer::ViewerSession session(std::move(scene), std::move(doc), session_options);
   viewer::ServerOptions server_options;
   server_options.bind = o.bind;
@@ -82,6 +88,8 @@ const CommandRegistration registration("view", 35, [](CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-browser", o->no_browser, "do not open a browser");
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  cmd->add_option("--map-cache", o->map_cache,
+                  "keep lam's maps in this folder between sessions (created if needed; docs/animation.md)");
   cmd->add_option("--idle-ms", o->idle_ms, "how long the view must be still before the final method refines")
       ->capture_default_str()->check(CLI::Range(0, 60000));
   return [o] { return run_view(*o); };

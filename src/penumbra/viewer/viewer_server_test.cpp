@@ -329,6 +329,37 @@ TEST_F(Viewer, PreviewsWhileMovingAndRefinesToTheFramesRenderWhenStill) {
   EXPECT_EQ(chosen.layer("main")["method"], "pcss");
 }
 
+// `penumbra view --map-cache DIR`: lam's maps, built once the view is still, land in the
+// folder, and a second session with the same scene reads them back instead of building them.
+TEST_F(Viewer, MapCacheKeepsLamsMapsBetweenSessions) {
+  SessionOptions options;
+  options.map_cache = dir_ / "maps";
+  start(options);
+  ASSERT_EQ(post("/api/settings", R"({"spp": 4})")->status, 200);
+  poll_until([](const Poll& p) { return final_done(p); });
+  auto entries = [&] {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(options.map_cache)) n += e.path().extension() == ".map";
+    return n;
+  };
+  const auto end = Clock::now() + std::chrono::seconds(60);
+  while (entries() == 0 && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_EQ(entries(), 1);
+  const auto written = fs::last_write_time(*fs::directory_iterator(options.map_cache));
+  server_.reset();
+  session_.reset();
+  seq_ = 0;  // the new session counts its frames from the start
+  // The second session: the camera preview's first frame uses lam's maps read from the folder.
+  start(options);
+  ASSERT_EQ(post("/api/settings", R"({"spp": 4})")->status, 200);
+  poll_until([](const Poll& p) { return final_done(p); });
+  ASSERT_EQ(post("/api/view", R"({"camera": {"eye": [0.3, 3, 2.9]}})")->status, 200);
+  Poll camera = poll_until([](const Poll& p) { return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview"; });
+  EXPECT_EQ(camera.layer("main")["method"], "lam");
+  EXPECT_EQ(entries(), 1);
+  EXPECT_EQ(fs::last_write_time(*fs::directory_iterator(options.map_cache)), written);  // read, not rewritten
+}
+
 // A newer view cancels the running refinement mid-render (CancelToken), and no frame of the
 // old view is published after the change.
 TEST_F(Viewer, ANewViewCancelsStaleWorkAtOnce) {

@@ -396,6 +396,7 @@ Renderer& ViewerSession::renderer(const std::string& method, const Snapshot& s) 
     RenderSettings rs;
     rs.method = method;
     rs.light_samples = s.settings.spp;
+    rs.map_cache = options_.map_cache;
     it = renderers_.emplace(key, std::make_unique<Renderer>(scene_for(s.settings, s.view), rs)).first;
   }
   Renderer& r = *it->second;

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -35,6 +36,10 @@ struct SessionOptions {
   int idle_ms = 300;
   // The preview's frame-time target in auto scale: above it the preview resolution drops.
   double preview_target_ms = 1000.0 / 15;
+  // RenderSettings::map_cache for every render (`penumbra view --map-cache DIR`): lam's maps,
+  // built once the view is still, are written there and read back by a later session with
+  // the same geometry and lights, whose first camera move then previews at display cost.
+  std::filesystem::path map_cache;
 };
 
 // One finished frame of the current view as an image file (GET /api/frame).

@@ -76,6 +76,20 @@ def test_render_gives_the_cli_pixels(tmp_path):
     assert small.visibility.shape == (8, 16)
 
 
+def test_map_cache_reads_lams_maps_back(tmp_path):
+    scene = penumbra.Scene.from_dict(TINY)
+    maps = tmp_path / "maps"
+    first = penumbra.render(scene, "lam", spp=16, params={"resolution": 64}, map_cache=str(maps))
+    second = penumbra.render(scene, "lam", spp=16, params={"resolution": 64}, map_cache=str(maps))
+    assert first.stats["map_cache"]["misses"] == 1 and first.stats["map_cache"]["stored"] == 1
+    assert second.stats["map_cache"]["hits"] == 1 and second.stats["stats"]["prepare_count"] == 0
+    assert np.array_equal(first.visibility, second.visibility)
+    assert "map_cache" not in penumbra.render(scene, "hard").stats
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(penumbra.Error, match="--map-cache .*file: exists and is not a folder"):
+        penumbra.render(scene, "lam", map_cache=str(tmp_path / "file"))
+
+
 def test_wrong_types_and_values_raise_never_crash():
     scene = penumbra.Scene.from_dict(TINY)
     with pytest.raises(TypeError):
