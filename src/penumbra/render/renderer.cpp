@@ -465,21 +465,21 @@ RenderResult render_scene(const Scene& scene, const RenderSettings& settings) {
 nlohmann::json render_stats_json(const Scene& scene, const std::string& method, const RenderSettings& settings,
                                  const RenderResult& r) {
   nlohmann::json doc = {{"scene", scene.source.string()},
-          {"method", method},
-          {"params", r.resolved_params},
-          {"light_samples", settings.light_samples},
-          {"seed", settings.seed},
-          {"frames", settings.frames},
-          {"coherent_shading", settings.coherent_shading},
-          {"resolution", {scene.camera.width, scene.camera.height}},
-          // The pixels rendered ([x0, y0, x1, y1]: the whole image, or the crop).
-          {"window", {r.window.x0, r.window.y0, r.window.x1, r.window.y1}},
-          {"pixel_samples", scene.camera.samples_per_pixel},
-          {"triangles", scene.triangle_count()},
-          {"view_samples", r.view_sample_count},
-          {"camera_pass_ms", r.camera_pass_ms},
-          {"total_ms", r.total_ms},
-          {"stats", r.stats.to_json()}};
+                        {"method", method},
+                        {"params", r.resolved_params},
+                        {"light_samples", settings.light_samples},
+                        {"seed", settings.seed},
+                        {"frames", settings.frames},
+                        {"coherent_shading", settings.coherent_shading},
+                        {"resolution", {scene.camera.width, scene.camera.height}},
+                        // The pixels rendered ([x0, y0, x1, y1]: the whole image, or the crop).
+                        {"window", {r.window.x0, r.window.y0, r.window.x1, r.window.y1}},
+                        {"pixel_samples", scene.camera.samples_per_pixel},
+                        {"triangles", scene.triangle_count()},
+                        {"view_samples", r.view_sample_count},
+                        {"camera_pass_ms", r.camera_pass_ms},
+                        {"total_ms", r.total_ms},
+                        {"stats", r.stats.to_json()}};
   if (!r.map_cache.is_null()) doc["map_cache"] = r.map_cache;
   return doc;
 }
