@@ -1,0 +1,238 @@
+#include "penumbra/shadow/filtered_moments/filtered_moments.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <numbers>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/raster/shadow_view.h"
+
+namespace penumbra::filtered_moments {
+
+void FilteredMomentMap::build(const DepthMap& map, const MomentModel& model, Prefilter prefilter, float z_near,
+                              float z_far) {
+  prefilter_ = prefilter;
+  width_ = map.width;
+  height_ = map.height;
+  const int C = model.channels();
+  float lo = z_near, hi = z_far;
+  if (!(lo < hi)) {
+    lo = kInfinity, hi = -kInfinity;
+    for (float z : map.z)
+      if (z < kInfinity) {
+        lo = std::min(lo, z);
+        hi = std::max(hi, z);
+      }
+    if (!(lo <= hi)) lo = hi = 1.0f;  // empty map: every lookup reads "nothing"
+  }
+  z_lo_ = lo;
+  // A map of one depth still needs a range (any positive one: its texels are all at 0).
+  const double range = std::max<double>(hi - lo, 1e-6 * std::max(1.0f, std::abs(hi)));
+  inv_range_ = (kFar - kNear) / range;
+  // Encode every texel (an empty one as depth 1), then prefilter.
+  std::vector<float> texels(static_cast<size_t>(map.width) * map.height * C);
+  parallel_for(map.z.size(), 4096, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      const float z = map.z[i];
+      model.encode(z < kInfinity ? std::clamp(normalize(z), kNear, kFar) : 1.0, &texels[i * C]);
+    }
+  });
+  float outside[4];
+  model.encode(1.0, outside);
+  const ChannelImage image{map.width, map.height, C, texels};
+  sat_ = SummedAreaTable();
+  mip_ = MipChain();
+  if (prefilter == Prefilter::Sat) sat_.build(image, std::span<const float>(outside, C));
+  else mip_.build(image, std::span<const float>(outside, C));
+}
+
+uint64_t FilteredMomentMap::bytes(int width, int height, int channels, Prefilter prefilter) {
+  const uint64_t encoded = static_cast<uint64_t>(width) * height * channels * sizeof(float);
+  return encoded + (prefilter == Prefilter::Sat ? SummedAreaTable::bytes(width, height, channels)
+                                                : MipChain::bytes(width, height, channels));
+}
+
+void FilteredMomentMap::mean(double x0, double y0, double x1, double y1, double* out) const {
+  // A region reaching past the map's edge is cut to it (the mean of what the map holds there)
+  // rather than filled with empty texels: the map is fitted to the receivers, so beyond its
+  // edge lie casters it did not keep, not empty space (a crop of the image would otherwise
+  // lose the blockers just outside its window).
+  const double cx0 = std::max(x0, 0.0), cy0 = std::max(y0, 0.0);
+  const double cx1 = std::min(x1, double(width_)), cy1 = std::min(y1, double(height_));
+  if (cx1 > cx0 && cy1 > cy0) x0 = cx0, y0 = cy0, x1 = cx1, y1 = cy1;
+  if (prefilter_ == Prefilter::Sat) {
+    sat_.box_mean(x0, y0, x1, y1, out);
+    return;
+  }
+  mip_.box_mean(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(x1), static_cast<float>(y1), out);
+}
+
+Vec2f light_half_extent(const AreaLight& light, const LightView& view) {
+  // The shape's half axes a (along frame.s) and b (along frame.t).
+  float a, b;
+  switch (light.shape) {
+    case LightShape::Rect:
+      a = 0.5f * light.size.x;
+      b = 0.5f * light.size.y;
+      break;
+    case LightShape::Ellipsoid:
+      // Its central ellipse (pi radii.x radii.y) as the rectangle of equal area.
+      a = 0.5f * std::sqrt(std::numbers::pi_v<float>) * light.radii.x;
+      b = 0.5f * std::sqrt(std::numbers::pi_v<float>) * light.radii.y;
+      break;
+    default:  // disk, sphere (its disk facing frame.n): the square of equal area
+      a = b = 0.5f * std::sqrt(std::numbers::pi_v<float>) * light.radius;
+      break;
+  }
+  const Vec3f s = light.frame.s, t = light.frame.t;
+  return {std::abs(dot(s, view.right())) * a + std::abs(dot(t, view.right())) * b,
+          std::abs(dot(s, view.up())) * a + std::abs(dot(t, view.up())) * b};
+}
+
+std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter default_prefilter) {
+  return {
+      {"resolution", ParamType::Int, default_resolution,
+       "texels along the longer side of the depth map (fitted to the receivers, as shadow-map's)", {}, 16, 8192},
+      {"max_fov", ParamType::Float, 120.0,
+       "largest field of view of the map, degrees: receivers beyond it are not covered and count as lit", {}, 1, 179},
+      {"prefilter", ParamType::String, default_prefilter == Prefilter::Sat ? "sat" : "mipmap",
+       "'sat': summed-area table in doubles (the exact box filter of any rectangle); 'mipmap': float mip chain, "
+       "trilinear lookup of the square of the same area (no cancellation: for large EVSM exponents)",
+       {"sat", "mipmap"}},
+      {"blocker_search", ParamType::Bool, true,
+       "PCSS-style contact hardening: filter width from the blockers' mean depth (estimated from the moments over "
+       "the search region) and the light's size; false: a fixed filter of filter_size texels",
+       {}},
+      {"filter_size", ParamType::Float, 4.0, "filter side in texels when blocker_search=false", {}, 0, 4096},
+      {"min_filter", ParamType::Float, 1.0, "smallest filter side in texels (the map's own resolution)", {}, 0, 4096},
+      {"bias", ParamType::Float, 2e-3, "depth bias, world units of linear depth, subtracted from the receiver's depth",
+       {}, 0, 1e30},
+  };
+}
+
+CoreParams core_params(const ParamSet& p) {
+  CoreParams c;
+  c.view.resolution = p.get_int("resolution");
+  c.view.max_fov = p.get_float("max_fov");
+  c.prefilter = p.get_string("prefilter") == "mipmap" ? Prefilter::Mipmap : Prefilter::Sat;
+  c.blocker_search = p.get_bool("blocker_search");
+  c.filter_size = p.get_float("filter_size");
+  c.min_filter = p.get_float("min_filter");
+  c.bias = p.get_float("bias");
+  return c;
+}
+
+MemoryEstimate core_memory(const ParamSet& p, const MemoryQuery& q, int channels) {
+  MemoryTally tally;
+  const CoreParams c = core_params(p);
+  shadow_map::add_map_memory(tally, c.view.resolution, q);
+  const ViewSize v = fitted_view_bound(c.view.resolution);
+  tally.add(FilteredMomentMap::bytes(v.width, v.height, channels, c.prefilter), "resolution");
+  return tally.estimate();
+}
+
+FilteredMomentShadows::FilteredMomentShadows(const ParamSet& p, std::unique_ptr<MomentModel> model)
+    : params_(core_params(p)), model_(std::move(model)) {}
+
+void FilteredMomentShadows::prepare(const ShadowContext& ctx) {
+  stats_.prepare_count++;
+  map_.prepare(*ctx.scene, stats_);
+  built_from_ = 0;
+}
+
+void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) {
+  const AreaLight& light = *ctx.light;
+  if (!map_.update(light, vs, params_.view, stats_)) {
+    std::fill(out.visibility.begin(), out.visibility.end(), 0.0f);
+    return;
+  }
+  const shadow_map::ShadowDepthMap& sm = map_.map();
+  if (built_from_ != map_.renders()) {
+    ScopedPhase phase(stats_, "prefilter");
+    // The scene's depth range along the view axis (from the light's centre, as every fit of
+    // LightCentreMap), in front of the light: the same for any crop of the image.
+    const LightView& v = sm.view();
+    const Bounds3f bounds = ctx.scene->bounds();
+    float lo = kInfinity, hi = -kInfinity;
+    for (int i = 0; i < 8; ++i) {
+      const Vec3f corner((i & 1) ? bounds.hi.x : bounds.lo.x, (i & 2) ? bounds.hi.y : bounds.lo.y,
+                         (i & 4) ? bounds.hi.z : bounds.lo.z);
+      const float z = v.linear_depth(corner);
+      lo = std::min(lo, z);
+      hi = std::max(hi, z);
+    }
+    moments_.build(sm.map(), *model_, params_.prefilter, std::max(lo, 0.0f), hi);
+    built_from_ = map_.renders();
+  }
+  stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, sm.memory_bytes() + moments_.memory_bytes());
+  ScopedPhase phase(stats_, "filter");
+  const LightView& view = sm.view();
+  const float focal = focal_texels(view);
+  const Vec2f half = light_half_extent(light, view) * focal;  // texels per unit of (1/z_b - 1/z_p)
+  const float z_min = sm.z_min();
+  const double min_half = 0.5 * params_.min_filter;
+  const int C = model_->channels();
+  std::atomic<uint64_t> lookups{0}, unblocked{0};
+  parallel_for(vs.size(), 1024, [&](size_t begin, size_t end) {
+    uint64_t n = 0, lit = 0;
+    double m[4];
+    for (size_t k = begin; k < end; ++k) {
+      const ViewSample& s = vs.samples[k];
+      if (!shadow_map::in_front_of_light(light, s.p)) {
+        out.visibility[k] = 0.0f;
+        continue;
+      }
+      // On a closed object facing away from the light's centre, the segment runs through the
+      // object (shadow_map_common.h): blocked.
+      if (ctx.scene->objects[s.object].closed && !(dot(s.ng, light.center - s.p) > 0)) {
+        out.visibility[k] = 0.0f;
+        continue;
+      }
+      const Vec3f tx = view.to_texel(s.p);
+      if (!(tx.z >= view.near() && tx.x >= 0 && tx.y >= 0 && tx.x < view.width() && tx.y < view.height())) {
+        out.visibility[k] = 1.0f;  // not covered by the map (beyond max_fov): lit
+        continue;
+      }
+      // Normalised like the texels (a receiver behind every covered depth compares as the
+      // farthest one: empty texels, at 1, never block).
+      const double t = std::clamp(moments_.normalize(tx.z - params_.bias), 0.0, FilteredMomentMap::kFar);
+      double hx = 0.5 * params_.filter_size, hy = hx;
+      if (params_.blocker_search) {
+        // 1. Blocker search: the light projected through p onto z_min.
+        const double search = tx.z > z_min ? 1.0 / z_min - 1.0 / tx.z : 0.0;
+        const double sx = std::max<double>(half.x * search, min_half), sy = std::max<double>(half.y * search, min_half);
+        moments_.mean(tx.x - sx, tx.y - sy, tx.x + sx, tx.y + sy, m);
+        ++n;
+        const BlockerEstimate b = model_->blockers(m, t);
+        // A fraction this small is the receiver's own surface in the Chebyshev bound's tail.
+        if (!(b.fraction > 1e-4)) {
+          out.visibility[k] = 1.0f;
+          ++lit;
+          continue;
+        }
+        // 2. Penumbra estimate: the light's shape scaled by (1/d_b - 1/z_p) (PCSS).
+        // No caster lies nearer than the map's nearest one (the estimates can undershoot).
+        const double d_b = moments_.linear_depth(std::max(b.depth, FilteredMomentMap::kNear));
+        const double scale = d_b > 0 ? std::max(0.0, 1.0 / d_b - 1.0 / tx.z) : 0.0;
+        hx = half.x * scale;
+        hy = half.y * scale;
+      }
+      hx = std::max(hx, min_half);
+      hy = std::max(hy, min_half);
+      moments_.mean(tx.x - hx, tx.y - hy, tx.x + hx, tx.y + hy, m);
+      ++n;
+      out.visibility[k] = std::clamp(model_->visibility(m, t), 0.0f, 1.0f);
+    }
+    lookups += n;
+    unblocked += lit;
+    if (ctx.progress) ctx.progress->add(end - begin);
+  });
+  stats_.texels_visited += lookups.load() * (params_.prefilter == Prefilter::Sat ? 16 : 8) * C;
+  stats_.extra["filtered_lookups"] = lookups.load();
+  if (params_.blocker_search) stats_.extra["samples_without_blockers"] = unblocked.load();
+}
+
+}  // namespace penumbra::filtered_moments

@@ -1,0 +1,118 @@
+// The core the methods `vsm`, `evsm` and `msm` share (docs/methods/vsm.md, msm.md): one
+// depth map from the light's centre (shadow/baseline/shadow_map_common.h's LightCentreMap:
+// the same fitted view and rasterization as shadow-map and pcss), each texel's depth turned
+// into a vector of moments by a MomentModel, the vectors prefiltered (raster/filtered_map.h:
+// summed-area table or mip chain), and per view sample two filtered lookups:
+//
+//  1. Blocker search (PCSS's step 1, Fernando 2005, over the region where a blocker can
+//     appear: the light's shape projected through the receiver onto the nearest caster's
+//     depth z_min): one filtered lookup over that rectangle, and the model's estimate of
+//     the fraction in front of the receiver and their mean depth d_b (from the moments:
+//     Yang et al. 2010 for VSM/EVSM, Peters et al. 2016 for MSM). None: lit.
+//  2. Filter: the light's shape scaled by (1/d_b - 1/z_p) (PCSS's penumbra estimate, the
+//     kernel of shadow_map::kernel_offset), one filtered lookup over it, and the model's
+//     visibility from those moments (Chebyshev, EVSM, Hamburger 4MSM).
+//
+// With blocker_search=false the filter is a fixed square of filter_size texels (plain
+// prefiltered VSM/EVSM/MSM, the papers' own set-up).
+//
+// The light's shape as a rectangle: a rect's own sides; a disk, a sphere's disk or an
+// ellipse as the rectangle of equal area along its axes (a box filter is what the
+// summed-area table gives; docs/methods/vsm.md). Linear depth z (LightView) is normalised
+// from the scene's depth range seen from the light to [0.05, 0.95]; an empty texel holds
+// the moments of depth 1 (nothing in front of anything), as does everything outside the map.
+// Casters' opacity is ignored (a moment map holds depths, not transmittance).
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "penumbra/raster/depth_map.h"
+#include "penumbra/raster/filtered_map.h"
+#include "penumbra/shadow/baseline/shadow_map_common.h"
+#include "penumbra/shadow/filtered_moments/moments.h"
+#include "penumbra/shadow/shadow_method.h"
+
+namespace penumbra::filtered_moments {
+
+// What a method stores per texel and reads back from a filtered vector.
+class MomentModel {
+ public:
+  virtual ~MomentModel() = default;
+  virtual int channels() const = 0;  // 1..4
+  // The vector a texel at normalised depth z in [0, 1] stores.
+  virtual void encode(double z, float* out) const = 0;
+  // V at normalised receiver depth t from the mean vector of a filter region.
+  virtual float visibility(const double* mean, double t) const = 0;
+  // The blockers the mean vector of a search region shows in front of t.
+  virtual BlockerEstimate blockers(const double* mean, double t) const = 0;
+};
+
+enum class Prefilter { Sat, Mipmap };
+
+// A depth map's moments, prefiltered.
+class FilteredMomentMap {
+ public:
+  // Encodes every texel of `map` (its linear depths z) with `model` and prefilters them.
+  // Depths are normalised over [z_near, z_far] (the core passes the scene's depth range
+  // seen from the light, so that the normalisation does not depend on which view samples
+  // the map was fitted to); z_near >= z_far: over the map's own covered depths.
+  void build(const DepthMap& map, const MomentModel& model, Prefilter prefilter, float z_near = 0, float z_far = 0);
+  // Covered depths map to [kNear, kFar], empty texels to 1: inside (0, 1), so that a
+  // region of one or two depths mixed with MSM's bias vector (the moments of depths 0 and 1)
+  // still has a regular Hankel matrix (Peters & Klein 2015's bias needs distinct points).
+  static constexpr double kNear = 0.05, kFar = 0.95;
+  // Normalised depth of a linear depth, and back.
+  double normalize(float z) const { return kNear + (static_cast<double>(z) - z_lo_) * inv_range_; }
+  double linear_depth(double d) const { return z_lo_ + (d - kNear) / inv_range_; }
+  // The mean vector over [x0, x1] x [y0, y1] (texel space) cut to the map: the exact box
+  // (summed-area table) or the mip chain's tap grid. A region wholly outside reads empty.
+  void mean(double x0, double y0, double x1, double y1, double* out) const;
+  size_t memory_bytes() const { return sat_.memory_bytes() + mip_.memory_bytes(); }
+  // What build() allocates at its peak for a w x h map (the encoded texels and the tables).
+  static uint64_t bytes(int width, int height, int channels, Prefilter prefilter);
+
+ private:
+  Prefilter prefilter_ = Prefilter::Sat;
+  int width_ = 0, height_ = 0;
+  double z_lo_ = 0, inv_range_ = 1;
+  SummedAreaTable sat_;
+  MipChain mip_;
+};
+
+// The light's shape as a rectangle in a view: half its extent along the view's right and up
+// axes, world units (see the header comment).
+Vec2f light_half_extent(const AreaLight& light, const LightView& view);
+
+struct CoreParams {
+  shadow_map::ViewParams view;
+  Prefilter prefilter = Prefilter::Sat;
+  bool blocker_search = true;
+  float filter_size = 4;  // texels, without the blocker search
+  float min_filter = 1;   // texels: the smallest filter side
+  float bias = 1e-3f;     // world units of linear depth
+};
+
+// The parameter table entries of the core, and their values.
+std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter default_prefilter);
+CoreParams core_params(const ParamSet& p);
+// One instance's memory: the depth map (shadow_map::add_map_memory) and the moments.
+MemoryEstimate core_memory(const ParamSet& p, const MemoryQuery& q, int channels);
+
+class FilteredMomentShadows final : public ShadowMethod {
+ public:
+  FilteredMomentShadows(const ParamSet& p, std::unique_ptr<MomentModel> model);
+  void prepare(const ShadowContext& ctx) override;
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override;
+
+ private:
+  CoreParams params_;
+  std::unique_ptr<MomentModel> model_;
+  shadow_map::LightCentreMap map_;
+  FilteredMomentMap moments_;
+  uint64_t built_from_ = 0;  // map_.renders() the moments were built from
+};
+
+}  // namespace penumbra::filtered_moments
