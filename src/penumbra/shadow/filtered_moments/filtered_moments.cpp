@@ -12,26 +12,22 @@
 
 namespace penumbra::filtered_moments {
 
-void FilteredMomentMap::build(const DepthMap& map, const MomentModel& model, Prefilter prefilter, float z_near,
-                              float z_far) {
+void FilteredMomentMap::build(const DepthMap& map, const MomentModel& model, Prefilter prefilter) {
   prefilter_ = prefilter;
   width_ = map.width;
   height_ = map.height;
   const int C = model.channels();
-  float lo = z_near, hi = z_far;
-  if (!(lo < hi)) {
-    lo = kInfinity, hi = -kInfinity;
-    for (float z : map.z)
-      if (z < kInfinity) {
-        lo = std::min(lo, z);
-        hi = std::max(hi, z);
-      }
-    if (!(lo <= hi)) lo = hi = 1.0f;  // empty map: every lookup reads "nothing"
-  }
-  z_lo_ = lo;
-  // A map of one depth still needs a range (any positive one: its texels are all at 0).
-  const double range = std::max<double>(hi - lo, 1e-6 * std::max(1.0f, std::abs(hi)));
-  inv_range_ = (kFar - kNear) / range;
+  float lo = kInfinity, hi = -kInfinity;
+  for (float z : map.z)
+    if (z < kInfinity) {
+      lo = std::min(lo, z);
+      hi = std::max(hi, z);
+    }
+  if (!(lo <= hi)) lo = hi = 1.0f;  // empty map: every lookup reads "nothing"
+  inv_lo_ = 1.0 / lo;
+  // A map of one depth still needs a range (any positive one: its texels are all at kNear).
+  const double range = std::max(1.0 / lo - 1.0 / hi, 1e-6 / lo);
+  scale_ = (kFar - kNear) / range;
   // Encode every texel (an empty one as depth 1), then prefilter.
   std::vector<float> texels(static_cast<size_t>(map.width) * map.height * C);
   parallel_for(map.z.size(), 4096, [&](size_t b, size_t e) {
@@ -152,19 +148,7 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
   const shadow_map::ShadowDepthMap& sm = map_.map();
   if (built_from_ != map_.renders()) {
     ScopedPhase phase(stats_, "prefilter");
-    // The scene's depth range along the view axis (from the light's centre, as every fit of
-    // LightCentreMap), in front of the light: the same for any crop of the image.
-    const LightView& v = sm.view();
-    const Bounds3f bounds = ctx.scene->bounds();
-    float lo = kInfinity, hi = -kInfinity;
-    for (int i = 0; i < 8; ++i) {
-      const Vec3f corner((i & 1) ? bounds.hi.x : bounds.lo.x, (i & 2) ? bounds.hi.y : bounds.lo.y,
-                         (i & 4) ? bounds.hi.z : bounds.lo.z);
-      const float z = v.linear_depth(corner);
-      lo = std::min(lo, z);
-      hi = std::max(hi, z);
-    }
-    moments_.build(sm.map(), *model_, params_.prefilter, std::max(lo, 0.0f), hi);
+    moments_.build(sm.map(), *model_, params_.prefilter);
     built_from_ = map_.renders();
   }
   stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, sm.memory_bytes() + moments_.memory_bytes());
@@ -215,8 +199,8 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
         }
         // 2. Penumbra estimate: the light's shape scaled by (1/d_b - 1/z_p) (PCSS).
         // No caster lies nearer than the map's nearest one (the estimates can undershoot).
-        const double d_b = moments_.linear_depth(std::max(b.depth, FilteredMomentMap::kNear));
-        const double scale = d_b > 0 ? std::max(0.0, 1.0 / d_b - 1.0 / tx.z) : 0.0;
+        const double scale =
+            std::max(0.0, moments_.inverse_depth(std::max(b.depth, FilteredMomentMap::kNear)) - 1.0 / tx.z);
         hx = half.x * scale;
         hy = half.y * scale;
       }

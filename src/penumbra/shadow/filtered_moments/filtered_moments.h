@@ -18,8 +18,9 @@
 //
 // The light's shape as a rectangle: a rect's own sides; a disk, a sphere's disk or an
 // ellipse as the rectangle of equal area along its axes (a box filter is what the
-// summed-area table gives; docs/methods/vsm.md). Linear depth z (LightView) is normalised
-// from the scene's depth range seen from the light to [0.05, 0.95]; an empty texel holds
+// summed-area table gives; docs/methods/vsm.md). Depth is stored as an affine function of
+// 1/z (window depth; z the LightView's linear depth) over the map's covered range, mapped to
+// [0.05, 0.95] (FilteredMomentMap::normalize); an empty texel holds
 // the moments of depth 1 (nothing in front of anything), as does everything outside the map.
 // Casters' opacity is ignored (a moment map holds depths, not transmittance).
 #pragma once
@@ -56,17 +57,21 @@ enum class Prefilter { Sat, Mipmap };
 class FilteredMomentMap {
  public:
   // Encodes every texel of `map` (its linear depths z) with `model` and prefilters them.
-  // Depths are normalised over [z_near, z_far] (the core passes the scene's depth range
-  // seen from the light, so that the normalisation does not depend on which view samples
-  // the map was fitted to); z_near >= z_far: over the map's own covered depths.
-  void build(const DepthMap& map, const MomentModel& model, Prefilter prefilter, float z_near = 0, float z_far = 0);
+  void build(const DepthMap& map, const MomentModel& model, Prefilter prefilter);
   // Covered depths map to [kNear, kFar], empty texels to 1: inside (0, 1), so that a
   // region of one or two depths mixed with MSM's bias vector (the moments of depths 0 and 1)
   // still has a regular Hankel matrix (Peters & Klein 2015's bias needs distinct points).
   static constexpr double kNear = 0.05, kFar = 0.95;
-  // Normalised depth of a linear depth, and back.
-  double normalize(float z) const { return kNear + (static_cast<double>(z) - z_lo_) * inv_range_; }
-  double linear_depth(double d) const { return z_lo_ + (d - kNear) / inv_range_; }
+  // Normalised depth of a linear depth z, and back: affine in 1/z (a hardware depth
+  // buffer's window depth, over the map's covered range), so that a planar receiver's depth
+  // is affine in texel space and its mean over any region centred on a point is that
+  // point's depth. (Linear depth is convex along a tilted plane: over the wide search regions
+  // of a light tilted against the ground, its mean lies beyond the centre's depth and the
+  // ground under an occluder reads as lit.)
+  double normalize(float z) const { return kNear + (inv_lo_ - 1.0 / static_cast<double>(z)) * scale_; }
+  double linear_depth(double d) const { return 1.0 / (inv_lo_ - (d - kNear) / scale_); }
+  // 1/z of a normalised depth (what PCSS's penumbra scale 1/d_b - 1/z_p needs).
+  double inverse_depth(double d) const { return inv_lo_ - (d - kNear) / scale_; }
   // The mean vector over [x0, x1] x [y0, y1] (texel space) cut to the map: the exact box
   // (summed-area table) or the mip chain's tap grid. A region wholly outside reads empty.
   void mean(double x0, double y0, double x1, double y1, double* out) const;
@@ -77,7 +82,7 @@ class FilteredMomentMap {
  private:
   Prefilter prefilter_ = Prefilter::Sat;
   int width_ = 0, height_ = 0;
-  double z_lo_ = 0, inv_range_ = 1;
+  double inv_lo_ = 1, scale_ = 1;  // 1 / the nearest covered depth; (kFar - kNear) / (1/lo - 1/hi)
   SummedAreaTable sat_;
   MipChain mip_;
 };
