@@ -147,20 +147,27 @@ void MipChain::box_mean(float x0, float y0, float x1, float y1, double* out) con
   constexpr int kTaps = 4;
   const float sx = std::max(x1 - x0, 0.0f), sy = std::max(y1 - y0, 0.0f);
   const float longer = std::max({sx, sy, 1.0f});
-  const int level = std::clamp(static_cast<int>(std::ceil(std::log2(longer / kTaps))), 0, levels() - 1);
-  const float cell = static_cast<float>(1 << level);
-  const int nx = std::clamp(static_cast<int>(std::lround(sx / cell)), 1, kTaps);
-  const int ny = std::clamp(static_cast<int>(std::lround(sy / cell)), 1, kTaps);
-  double tap[kMaxChannels];
-  for (int c = 0; c < channels_; ++c) out[c] = 0;
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      bilinear(level, x0 + sx * (static_cast<float>(i) + 0.5f) / static_cast<float>(nx),
-               y0 + sy * (static_cast<float>(j) + 0.5f) / static_cast<float>(ny), tap);
-      for (int c = 0; c < channels_; ++c) out[c] += tap[c];
-    }
-  const double inv = 1.0 / (nx * ny);
-  for (int c = 0; c < channels_; ++c) out[c] *= inv;
+  // The level of detail, continuous (as a GPU's trilinear filter), so that the estimate
+  // changes smoothly with the rectangle's size rather than jumping between levels.
+  const float lod = std::clamp(std::log2(longer / kTaps), 0.0f, static_cast<float>(levels() - 1));
+  const int l0 = static_cast<int>(lod), l1 = std::min(l0 + 1, levels() - 1);
+  const float f = lod - static_cast<float>(l0);
+  double tap[kMaxChannels], at[2][kMaxChannels];
+  for (int k = 0; k < (f > 0 && l1 != l0 ? 2 : 1); ++k) {
+    const int level = k == 0 ? l0 : l1;
+    const float cell = static_cast<float>(1 << level);
+    const int nx = std::clamp(static_cast<int>(std::ceil(sx / cell)), 1, 2 * kTaps);
+    const int ny = std::clamp(static_cast<int>(std::ceil(sy / cell)), 1, 2 * kTaps);
+    for (int c = 0; c < channels_; ++c) at[k][c] = 0;
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        bilinear(level, x0 + sx * (static_cast<float>(i) + 0.5f) / static_cast<float>(nx),
+                 y0 + sy * (static_cast<float>(j) + 0.5f) / static_cast<float>(ny), tap);
+        for (int c = 0; c < channels_; ++c) at[k][c] += tap[c];
+      }
+    for (int c = 0; c < channels_; ++c) at[k][c] /= nx * ny;
+  }
+  for (int c = 0; c < channels_; ++c) out[c] = f > 0 && l1 != l0 ? at[0][c] + (at[1][c] - at[0][c]) * f : at[0][c];
 }
 
 }  // namespace penumbra

@@ -103,11 +103,12 @@ class MipChain {
   // out[c] = the trilinear estimate of channel c's mean over the square of side `side`
   // texels centred on (cx, cy): level log2(side), bilinear within the two levels around it.
   void square_mean(float cx, float cy, float side, double* out) const;
-  // out[c] = channel c's mean over [x0, x1] x [y0, y1], as the mean of up to 4 x 4 bilinear
-  // taps at the level whose texels are a quarter of the longer side (at least level 0), one
-  // at the centre of each of n x m equal cells of the rectangle. A trilinear tap's tent is
-  // twice the box it stands for and blurs penumbrae (MAE 0.03-0.04 against the exact box on
-  // the tests' scenes); the tap grid is within a few texels of the box at 16 taps.
+  // out[c] = channel c's mean over [x0, x1] x [y0, y1]: at the two levels around the level
+  // of detail log2(longer side / 4), the mean of a grid of bilinear taps one texel of that
+  // level apart (4 to 8 along the longer side), blended by the fractional level (as a GPU's
+  // trilinear filter). One trilinear tap's tent is twice the box it stands for and blurs
+  // penumbrae (MAE 0.03-0.04 against the exact box on the tests' scenes); the tap grid comes
+  // within a few texels of the box.
   void box_mean(float x0, float y0, float x1, float y1, double* out) const;
 
  private:

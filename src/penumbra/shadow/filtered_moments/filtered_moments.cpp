@@ -66,26 +66,47 @@ void FilteredMomentMap::mean(double x0, double y0, double x1, double y1, double*
   mip_.box_mean(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(x1), static_cast<float>(y1), out);
 }
 
-Vec2f light_half_extent(const AreaLight& light, const LightView& view) {
-  // The shape's half axes a (along frame.s) and b (along frame.t).
-  float a, b;
+namespace {
+
+// The light's half axes along frame.s and frame.t as a rectangle (light_half_extent's).
+Vec2f light_half_axes(const AreaLight& light) {
+  const float k = 0.5f * std::sqrt(std::numbers::pi_v<float>);
   switch (light.shape) {
-    case LightShape::Rect:
-      a = 0.5f * light.size.x;
-      b = 0.5f * light.size.y;
-      break;
-    case LightShape::Ellipsoid:
-      // Its central ellipse (pi radii.x radii.y) as the rectangle of equal area.
-      a = 0.5f * std::sqrt(std::numbers::pi_v<float>) * light.radii.x;
-      b = 0.5f * std::sqrt(std::numbers::pi_v<float>) * light.radii.y;
-      break;
-    default:  // disk, sphere (its disk facing frame.n): the square of equal area
-      a = b = 0.5f * std::sqrt(std::numbers::pi_v<float>) * light.radius;
-      break;
+    case LightShape::Rect: return {0.5f * light.size.x, 0.5f * light.size.y};
+    case LightShape::Ellipsoid: return {k * light.radii.x, k * light.radii.y};
+    default: return {k * light.radius, k * light.radius};
   }
+}
+
+}  // namespace
+
+float light_fraction_above(const AreaLight& light, Vec3f p, Vec3f ng) {
+  // The signed height over p's tangent plane is affine over the light's rectangle:
+  // f(u, v) = f00 + (f10 - f00) u + (f01 - f00) v on the unit square; clip the square to
+  // f > 0 (Sutherland-Hodgman against one line) and take the area (shoelace).
+  const Vec2f h = light_half_axes(light);
+  const Vec3f corner = light.center - light.frame.s * h.x - light.frame.t * h.y;
+  const float f00 = dot(ng, corner - p), fu = dot(ng, light.frame.s) * 2 * h.x, fv = dot(ng, light.frame.t) * 2 * h.y;
+  const Vec2f square[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  Vec2f poly[5];
+  int n = 0;
+  auto f = [&](Vec2f q) { return f00 + fu * q.x + fv * q.y; };
+  for (int i = 0; i < 4; ++i) {
+    const Vec2f a = square[i], b = square[(i + 1) % 4];
+    const float fa = f(a), fb = f(b);
+    if (fa > 0) poly[n++] = a;
+    if ((fa > 0) != (fb > 0)) poly[n++] = a + (b - a) * (fa / (fa - fb));
+  }
+  float area = 0;
+  for (int i = 0; i < n; ++i) area += poly[i].x * poly[(i + 1) % n].y - poly[(i + 1) % n].x * poly[i].y;
+  return std::clamp(0.5f * area, 0.0f, 1.0f);
+}
+
+Vec2f light_half_extent(const AreaLight& light, const LightView& view) {
+  const Vec2f h = light_half_axes(light);
   const Vec3f s = light.frame.s, t = light.frame.t;
-  return {std::abs(dot(s, view.right())) * a + std::abs(dot(t, view.right())) * b,
-          std::abs(dot(s, view.up())) * a + std::abs(dot(t, view.up())) * b};
+  return {std::abs(dot(s, view.right())) * h.x + std::abs(dot(t, view.right())) * h.y,
+          std::abs(dot(s, view.up())) * h.x + std::abs(dot(t, view.up())) * h.y};
 }
 
 std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter default_prefilter) {
@@ -169,15 +190,17 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
         out.visibility[k] = 0.0f;
         continue;
       }
-      // On a closed object facing away from the light's centre, the segment runs through the
-      // object (shadow_map_common.h): blocked.
-      if (ctx.scene->objects[s.object].closed && !(dot(s.ng, light.center - s.p) > 0)) {
+      // On a closed object the light behind p's own tangent plane is blocked by the object
+      // itself (a segment to it runs through the inside: shadow_map_common.h); the rest is
+      // what the map decides (pcss drops those light points from its kernels likewise).
+      const float horizon = ctx.scene->objects[s.object].closed ? light_fraction_above(light, s.p, s.ng) : 1.0f;
+      if (!(horizon > 0)) {
         out.visibility[k] = 0.0f;
         continue;
       }
       const Vec3f tx = view.to_texel(s.p);
       if (!(tx.z >= view.near() && tx.x >= 0 && tx.y >= 0 && tx.x < view.width() && tx.y < view.height())) {
-        out.visibility[k] = 1.0f;  // not covered by the map (beyond max_fov): lit
+        out.visibility[k] = horizon;  // not covered by the map (beyond max_fov): lit
         continue;
       }
       // Normalised like the texels (a receiver behind every covered depth compares as the
@@ -193,7 +216,7 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
         const BlockerEstimate b = model_->blockers(m, t);
         // A fraction this small is the receiver's own surface in the Chebyshev bound's tail.
         if (!(b.fraction > 1e-4)) {
-          out.visibility[k] = 1.0f;
+          out.visibility[k] = horizon;
           ++lit;
           continue;
         }
@@ -208,7 +231,7 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
       hy = std::max(hy, min_half);
       moments_.mean(tx.x - hx, tx.y - hy, tx.x + hx, tx.y + hy, m);
       ++n;
-      out.visibility[k] = std::clamp(model_->visibility(m, t), 0.0f, 1.0f);
+      out.visibility[k] = horizon * std::clamp(model_->visibility(m, t), 0.0f, 1.0f);
     }
     lookups += n;
     unblocked += lit;
