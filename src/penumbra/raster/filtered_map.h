@@ -11,7 +11,7 @@
 // - SummedAreaTable: a multi-channel summed-area table in double precision; box_mean() is the
 //   exact box filter (16 reads per channel). What Lauritzen's summed-area variance shadow
 //   maps (GPU Gems 3, ch. 8) use, in doubles instead of fp32 so that the moments' tables do
-//   not lose the variance to cancellation (ch. 8.4's precision problem).
+//   not lose the variance to cancellation (the chapter's precision problem).
 // - MipChain: a float mip pyramid (2 x 2 means) with trilinear lookups of squares: no
 //   differences of large sums at all, so channels of a huge dynamic range (EVSM's
 //   exponentials, Lauritzen & McCool 2008) filter without cancellation; blockier than the

@@ -116,8 +116,8 @@ std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter defaul
       {"max_fov", ParamType::Float, 120.0,
        "largest field of view of the map, degrees: receivers beyond it are not covered and count as lit", {}, 1, 179},
       {"prefilter", ParamType::String, default_prefilter == Prefilter::Sat ? "sat" : "mipmap",
-       "'sat': summed-area table in doubles (the exact box filter of any rectangle); 'mipmap': float mip chain, "
-       "trilinear lookup of the square of the same area (no cancellation: for large EVSM exponents)",
+       "'sat': summed-area table in doubles (the exact box filter of any rectangle); 'mipmap': float mip chain, a "
+       "grid of bilinear taps blended between two levels (no differences of large sums: for large EVSM exponents)",
        {"sat", "mipmap"}},
       {"blocker_search", ParamType::Bool, true,
        "PCSS-style contact hardening: filter width from the blockers' mean depth (estimated from the moments over "
@@ -206,6 +206,23 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
       // Normalised like the texels (a receiver behind every covered depth compares as the
       // farthest one: empty texels, at 1, never block).
       const double t = std::clamp(moments_.normalize(tx.z - params_.bias), 0.0, FilteredMomentMap::kFar);
+      // The receiver's tangent plane over a region: 1/z is affine in texel space with gradient
+      // (plane_a, plane_b) / plane_num (ShadowDepthMap::receiver), and so is d; a box of half
+      // extents (hx, hy) gives it the variance (g_x^2 hx^2 + g_y^2 hy^2) / 3, which the blocker
+      // estimates take out of the search region's spread (it lies around t, not in front of
+      // it; bunny: vsm MAE 0.050 -> 0.035).
+      struct ReceiverPlane {
+        double gx = 0, gy = 0;
+        double variance(double hx, double hy) const { return (gx * gx * hx * hx + gy * gy * hy * hy) / 3; }
+      } plane;
+      {
+        const shadow_map::Receiver rc = sm.receiver(s.p, s.ng, shadow_map::BiasParams{});
+        if (rc.plane_num != 0) {
+          const double k = moments_.depth_per_inverse_depth() / rc.plane_num;
+          plane.gx = k * rc.plane_a;
+          plane.gy = k * rc.plane_b;
+        }
+      }
       double hx = 0.5 * params_.filter_size, hy = hx;
       if (params_.blocker_search) {
         // 1. Blocker search: the light projected through p onto z_min.
@@ -213,7 +230,7 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
         const double sx = std::max<double>(half.x * search, min_half), sy = std::max<double>(half.y * search, min_half);
         moments_.mean(tx.x - sx, tx.y - sy, tx.x + sx, tx.y + sy, m);
         ++n;
-        const BlockerEstimate b = model_->blockers(m, t);
+        const BlockerEstimate b = model_->blockers(m, t, plane.variance(sx, sy));
         // A fraction this small is the receiver's own surface in the Chebyshev bound's tail.
         if (!(b.fraction > 1e-4)) {
           out.visibility[k] = horizon;

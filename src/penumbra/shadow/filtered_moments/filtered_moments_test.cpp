@@ -63,7 +63,7 @@ TEST(VsmChebyshev, OnePlanarOccluderGivesTheClosedFormBound) {
     }
     EXPECT_NEAR(model.visibility(m, c), 1 - f, 1e-5);
     // The blocker estimate of Yang et al. 2010 finds the occluder exactly.
-    const BlockerEstimate b = model.blockers(m, c);
+    const BlockerEstimate b = model.blockers(m, c, 0);
     EXPECT_NEAR(b.fraction, f, 1e-5);
     if (f > 0) EXPECT_NEAR(b.depth, a, 1e-4);
   }

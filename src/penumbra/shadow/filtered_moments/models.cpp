@@ -8,7 +8,7 @@ namespace penumbra::filtered_moments {
 ParamSpec bleeding_param() {
   return {"bleeding", ParamType::Float, 0.0,
           "light-bleeding reduction: visibilities below this are cut to 0 and [bleeding, 1] stretched to [0, 1] "
-          "(Lauritzen, GPU Gems 3 ch. 8.4.3); 0: off. Darkens penumbrae as it removes bleeding",
+          "(Lauritzen, GPU Gems 3 ch. 8); 0: off. Darkens penumbrae as it removes bleeding",
           {}, 0, 0.99};
 }
 
@@ -27,6 +27,16 @@ double bound(const double* m, double tw, double min_variance) {
   return chebyshev_upper_bound(m[0], variance, tw);
 }
 
+// Yang et al. 2010's blocker estimate from the mean of (w, w^2), the receiver's own plane's
+// variance over the region taken out first (it is spread around t, not in front of it, and
+// would push the two-point fit's blocker depth toward the light: the filter grows and the
+// umbra lightens), weighted by the part of the region that is not blocker.
+BlockerEstimate blockers_without_receiver(const double* m, double tw, double receiver_variance, double min_variance) {
+  const double variance = std::max(m[1] - m[0] * m[0], min_variance);
+  const double lit = chebyshev_upper_bound(m[0], variance, tw);
+  return chebyshev_blockers(m[0], std::max(variance - lit * receiver_variance, min_variance), tw);
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -41,8 +51,8 @@ float VsmModel::visibility(const double* m, double t) const {
   return reduce_bleeding(static_cast<float>(bound(m, t, min_variance_)), bleeding_);
 }
 
-BlockerEstimate VsmModel::blockers(const double* m, double t) const {
-  return chebyshev_blockers(m[0], std::max(m[1] - m[0] * m[0], min_variance_), t);
+BlockerEstimate VsmModel::blockers(const double* m, double t, double receiver_variance) const {
+  return blockers_without_receiver(m, t, receiver_variance, min_variance_);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -70,7 +80,7 @@ float EvsmModel::visibility(const double* m, double t) const {
   return reduce_bleeding(static_cast<float>(v), bleeding_);
 }
 
-BlockerEstimate EvsmModel::blockers(const double* m, double t) const {
+BlockerEstimate EvsmModel::blockers(const double* m, double t, double receiver_variance) const {
   // Yang et al. 2010's estimate in warped depth, unwarped. With the negative warp when there
   // is one: -e^(-c x) is largest in magnitude for the nearest depths, so the receiver's own
   // warped depth (which the estimate subtracts, weighted by the Chebyshev bound) is small
@@ -78,7 +88,8 @@ BlockerEstimate EvsmModel::blockers(const double* m, double t) const {
   // upper bound p on the lit fraction times it swamps the blockers' mean.
   if (four_) {
     const double tn = evsm_negative_warp(t, c_neg_), dn = 2 * c_neg_ * tn;
-    BlockerEstimate b = chebyshev_blockers(m[2], std::max(m[3] - m[2] * m[2], min_variance_ * dn * dn), tn);
+    // (Variances scale with the warp's derivative squared.)
+    BlockerEstimate b = blockers_without_receiver(m + 2, tn, receiver_variance * dn * dn, min_variance_ * dn * dn);
     if (b.fraction > 0) {
       // w = -e^(-c x): x = -ln(-w) / c, z = (x + 1) / 2.
       const double w = std::min(b.depth, tn);
@@ -87,7 +98,7 @@ BlockerEstimate EvsmModel::blockers(const double* m, double t) const {
     return b;
   }
   const double tp = evsm_positive_warp(t, c_pos_), dp = 2 * c_pos_ * tp;
-  BlockerEstimate b = chebyshev_blockers(m[0], std::max(m[1] - m[0] * m[0], min_variance_ * dp * dp), tp);
+  BlockerEstimate b = blockers_without_receiver(m, tp, receiver_variance * dp * dp, min_variance_ * dp * dp);
   if (b.fraction > 0) {
     // x = ln(w) / c, z = (x + 1) / 2.
     const double w = std::max(b.depth, evsm_positive_warp(0.0, c_pos_));
@@ -119,7 +130,7 @@ float MsmModel::visibility(const double* m, double t) const {
   return reduce_bleeding(static_cast<float>(1 - intensity), bleeding_);
 }
 
-BlockerEstimate MsmModel::blockers(const double* m, double t) const {
+BlockerEstimate MsmModel::blockers(const double* m, double t, double /*receiver_variance*/) const {
   return moment_blockers(power_moments(m), t, alpha_);
 }
 

@@ -22,7 +22,7 @@ class VsmModel final : public MomentModel {
   int channels() const override { return kChannels; }
   void encode(double z, float* out) const override;
   float visibility(const double* mean, double t) const override;
-  BlockerEstimate blockers(const double* mean, double t) const override;
+  BlockerEstimate blockers(const double* mean, double t, double receiver_variance) const override;
 
  private:
   double min_variance_;
@@ -46,7 +46,7 @@ class EvsmModel final : public MomentModel {
   void encode(double z, float* out) const override;
   float visibility(const double* mean, double t) const override;
   // From the positive warp's moments (Yang et al. 2010's estimate in warped depth, unwarped).
-  BlockerEstimate blockers(const double* mean, double t) const override;
+  BlockerEstimate blockers(const double* mean, double t, double receiver_variance) const override;
 
  private:
   double c_pos_, c_neg_;
@@ -66,7 +66,7 @@ class MsmModel final : public MomentModel {
   int channels() const override { return kChannels; }
   void encode(double z, float* out) const override;
   float visibility(const double* mean, double t) const override;
-  BlockerEstimate blockers(const double* mean, double t) const override;
+  BlockerEstimate blockers(const double* mean, double t, double receiver_variance) const override;
   // The power moments of a mean vector (undoing the optimized basis when quantize).
   std::array<double, 4> power_moments(const double* mean) const;
 

@@ -10,7 +10,7 @@
 
 namespace penumbra::filtered_moments {
 
-// Lauritzen, GPU Gems 3 ch. 8.4.3 (light bleeding): remap [amount, 1] to [0, 1], so that
+// Lauritzen, GPU Gems 3 ch. 8 (light bleeding): remap [amount, 1] to [0, 1], so that
 // upper bounds below `amount` (the bleeding) become 0. amount = 0 leaves p unchanged.
 inline float reduce_bleeding(float p, float amount) {
   if (!(amount > 0)) return p;
