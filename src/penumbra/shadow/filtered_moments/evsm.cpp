@@ -2,9 +2,10 @@
 // exponentially warped depths, two components (positive warp) or four (positive and
 // negative), with the bleeding reduction and the blocker search of the shared core
 // (filtered_moments.h). Prefiltered like vsm with a double summed-area table, which holds
-// the warped moments up to c+ of about 20 (bunny: MAE 0.040 at 20, 0.049 at 30, 0.069 at 40:
-// the table's differences of huge sums lose the small ones); larger exponents need
-// prefilter=mipmap (no differences; 5x slower here). docs/methods/vsm.md.
+// the warped moments up to c+ of about 15 (bunny: MAE 0.036 at 10 and 15; at 20 a dotted line
+// of dark pixels on the far ground; 0.049 at 30, 0.069 at 40: the table's differences of huge
+// sums lose the small ones); larger exponents need prefilter=mipmap (no differences; about
+// 5x slower here). docs/methods/vsm.md.
 #include "penumbra/core/error.h"
 #include "penumbra/shadow/filtered_moments/filtered_moments.h"
 #include "penumbra/shadow/filtered_moments/models.h"
@@ -18,8 +19,8 @@ std::vector<ParamSpec> params() {
                "2: positive warp only, (e^(c+ x), e^(2 c+ x)); 4: positive and negative warps, V = the smaller bound",
                {}, 2, 4});
   // 42: e^(2 * 42) still fits a float (the mip chain's texels), with a margin for the means.
-  p.push_back({"positive_exponent", ParamType::Float, 20.0,
-               "c+ of the positive warp e^(c+ x), x = 2 z - 1 in [-1, 1]: larger, less bleeding; above about 20 the "
+  p.push_back({"positive_exponent", ParamType::Float, 10.0,
+               "c+ of the positive warp e^(c+ x), x = 2 z - 1 in [-1, 1]: larger, less bleeding; from about 20 on the "
                "summed-area table's differences lose the warped moments (use prefilter=mipmap)",
                {}, 0.1, 42});
   p.push_back({"negative_exponent", ParamType::Float, 5.0, "c- of the negative warp -e^(-c- x) (components=4)", {},
