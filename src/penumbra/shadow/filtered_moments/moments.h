@@ -34,7 +34,7 @@ struct BlockerEstimate {
   double depth = 0;
 };
 
-// Variance soft shadow maps (Yang, Dong, Feng, Sun, Wang, Guo 2010): over the search
+// Variance soft shadow maps (Yang, Dong, Feng, Seidel, Kautz 2010): over the search
 // region with moments (mu, sigma2), the fraction p = chebyshev_upper_bound at depth >= t
 // lies (by assumption) at t, the rest at the blockers' mean depth z_occ:
 // mu = p t + (1 - p) z_occ (at most t). Exact for one planar occluder over a planar
@@ -61,7 +61,7 @@ struct MomentQuadrature {
 };
 MomentQuadrature hamburger_4msm(const std::array<double, 4>& b, double zf, double alpha);
 
-// Peters, Münstermann, Wyman, Klein, Reinhard 2016 (moment soft shadows): the blockers of a
+// Peters, Münstermann, Wetzstein, Klein 2016 (moment soft shadows): the blockers of a
 // search region from its four moments. Here from the same quadrature: the nodes in front of
 // the receiver and their weights (their weighted mean depth).
 BlockerEstimate moment_blockers(const std::array<double, 4>& b, double zf, double alpha);

@@ -1,6 +1,6 @@
 // Method `msm`: moment shadow maps (Peters & Klein 2015: four power moments, Hamburger 4MSM
 // with moment bias alpha, optionally their optimized 16-bit quantisation) with the blocker
-// search of moment soft shadows (Peters, Münstermann, Wyman, Klein, Reinhard 2016: the
+// search of moment soft shadows (Peters, Münstermann, Wetzstein, Klein 2016: the
 // blockers' mean depth from the moments over the search region, then the filtered lookup),
 // prefiltered by the shared core (filtered_moments.h). docs/methods/msm.md.
 #include "penumbra/shadow/filtered_moments/filtered_moments.h"
