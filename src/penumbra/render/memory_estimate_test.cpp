@@ -182,6 +182,9 @@ std::vector<MeasureCase> measure_cases() {
       {"coherent-rt", {"resolution=1024"}},
       {"lam", {"resolution=512"}},
       {"occlusion-textures", {"resolution=1024", "slices=8"}},
+      {"vsm", {"resolution=1024"}},
+      {"evsm", {"resolution=1024"}},
+      {"msm", {"resolution=1024"}},
       // What grows with the triangles: the BVH, afsm's casters and their regions per slab.
       {"single-sample", {"candidates=all"}, 4, /*many_triangles=*/true},
       {"afsm", {"resolution=64", "slabs=8"}, 16, /*many_triangles=*/true},
@@ -302,6 +305,9 @@ TEST(MemoryEstimate, GrowsWithEverySettingThatDrivesIt) {
       {"coherent-rt", {"resolution", "--spp", "sub_grid", "triangles"}},
       {"lam", {"resolution", "max_layers", "triangles"}},
       {"occlusion-textures", {"resolution", "slices", "triangles"}},
+      {"vsm", {"resolution", "triangles"}},
+      {"evsm", {"resolution", "components", "triangles"}},
+      {"msm", {"resolution", "triangles"}},
       {"single-sample", {"triangles", "leaf_size"}},
       {"reference", {"--spp"}},
   };

@@ -155,6 +155,7 @@ bool LightCentreMap::update(const AreaLight& light, const ViewSamples& vs, const
     ScopedPhase phase(stats, "raster");
     map_.render(rasterizer_, triangles_, view);
     valid_ = true;
+    ++renders_;
   }
   stats.memory_bytes = std::max<uint64_t>(stats.memory_bytes, map_.memory_bytes());
   stats.extra["map_width"] = map_.map().width;

@@ -197,6 +197,10 @@ class LightCentreMap {
   bool update(const AreaLight& light, const ViewSamples& vs, const ViewParams& view, MethodStats& stats);
   const ShadowDepthMap& map() const { return map_; }
   std::span<const RasterTriangle> triangles() const { return triangles_; }
+  // How many times update() has rendered the map: what a method that derives structures
+  // from the map (the filtered moments of shadow/filtered_moments/) compares to know when
+  // to rebuild them.
+  uint64_t renders() const { return renders_; }
 
  private:
   std::vector<RasterTriangle> triangles_;
@@ -204,6 +208,7 @@ class LightCentreMap {
   Rasterizer rasterizer_;
   ShadowDepthMap map_;
   bool valid_ = false;
+  uint64_t renders_ = 0;
 };
 
 // Where a light point q lands in a map from the light's centre, per unit of

@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include "penumbra/core/parallel.h"
+#include "penumbra/raster/filtered_map.h"
 
 namespace penumbra::occlusion {
 namespace {
@@ -495,30 +496,11 @@ void SatFilter<T>::build(const CoverageStack& c) {
 
 namespace {
 
-// Difference of two table entries as a float: exact in int32 for counts (wrapping arithmetic
-// gives the true difference, which is small), in double for doubles.
-inline float diff(uint32_t a, uint32_t b) { return static_cast<float>(static_cast<int32_t>(a - b)); }
-inline float diff(double a, double b) { return static_cast<float>(a - b); }
-
-// Covered area in [x0, x1] x [y0, y1] (inside the texture, x0 <= x1, y0 <= y1) from the table
-// of a width x height texture (row stride width + 1). The integral image F is bilinear in
-// each texel: F(i + fx, j + fy) = T(i, j) + fx Dx + fy Dy + fx fy c, with Dx = T(i+1, j) -
-// T(i, j), Dy = T(i, j+1) - T(i, j) and c the texel's value. Summed over the four corners
-// with their signs, the T terms make an exact integer count, and the Dx (Dy) terms of two
-// corners sharing a fraction differ by a count along one column (row) of the box: every
-// number multiplied by a fraction is small, so nothing large cancels in float.
-// e[c][0..3] = T at (i, j), (i+1, j), (i, j+1), (i+1, j+1) for corners c = (x0, y0),
-// (x1, y0), (x0, y1), (x1, y1).
+// Covered area in [x0, x1] x [y0, y1] (inside the texture) from the table: the box integral
+// of raster/filtered_map.h (shared with the filtered-moment shadow maps), in float.
 template <class E>
 float sat_area_from(const E& e, float fx0, float fy0, float fx1, float fy1) {
-  const float count = diff(e(3, 0), e(2, 0)) - diff(e(1, 0), e(0, 0));
-  auto dx = [&](int c) { return e(c, 1) - e(c, 0); };  // exact (wrapping for counts)
-  auto dy = [&](int c) { return e(c, 2) - e(c, 0); };
-  auto texel = [&](int c) { return diff(e(c, 3) - e(c, 2), e(c, 1) - e(c, 0)); };
-  const float x1 = diff(dx(3), dx(1)), x0 = diff(dx(2), dx(0));
-  const float y1 = diff(dy(3), dy(2)), y0 = diff(dy(1), dy(0));
-  return count + (fx1 * x1 - fx0 * x0) + (fy1 * y1 - fy0 * y0) +
-         (fx1 * fy1 * texel(3) - fx0 * fy1 * texel(2) - fx1 * fy0 * texel(1) + fx0 * fy0 * texel(0));
+  return sat_box_integral<float>(e, fx0, fy0, fx1, fy1);
 }
 
 template <class T>

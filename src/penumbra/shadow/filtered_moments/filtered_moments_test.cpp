@@ -1,0 +1,398 @@
+// vsm, evsm and msm: the moment arithmetic against closed forms (Chebyshev's bound for one
+// planar occluder, light bleeding where theory puts it, the 4-moment Hamburger bound from an
+// independently computed three-point quadrature), the prefiltered maps on synthetic depth
+// maps, and the methods on small scenes against `reference` and `shadow-map`.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "penumbra/core/error.h"
+#include "penumbra/eval/metrics.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/shadow/filtered_moments/filtered_moments.h"
+#include "penumbra/shadow/filtered_moments/models.h"
+#include "penumbra/testing/test_scenes.h"
+
+namespace penumbra::filtered_moments {
+namespace {
+
+using penumbra::testing::ground_scene;
+using penumbra::testing::object;
+using penumbra::testing::quad_y;
+using penumbra::testing::rect_light_down;
+
+// A w x h depth map whose column x holds depth_of(x) (linear depths; +inf = empty).
+template <class F>
+DepthMap columns_map(int w, int h, F depth_of) {
+  DepthMap m;
+  m.resize(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) m.z[m.index(x, y)] = depth_of(x);
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------
+// VSM: Chebyshev's bound (Donnelly & Lauritzen 2006)
+
+// One planar occluder over a planar receiver: columns [0, 16) at the occluder's depth 2,
+// the rest at the receiver's depth 3 (normalised: a = 0.05 and c = 0.95). A box with
+// fraction f of occluder texels has mean mu = f a + (1 - f) c and variance
+// f (1 - f) (c - a)^2, so for every t the filtered moments give Chebyshev's bound
+// sigma^2 / (sigma^2 + (t - mu)^2) in closed form, and at the receiver (t = c) exactly
+// 1 - f: VSM is exact for one planar occluder.
+TEST(VsmChebyshev, OnePlanarOccluderGivesTheClosedFormBound) {
+  const DepthMap map = columns_map(64, 32, [](int x) { return x < 16 ? 2.0f : 3.0f; });
+  const VsmModel model(/*min_variance=*/0, /*bleeding=*/0);
+  FilteredMomentMap fm;
+  fm.build(map, model, Prefilter::Sat);
+  const double a = fm.normalize(2.0f), c = fm.normalize(3.0f);
+  EXPECT_NEAR(a, FilteredMomentMap::kNear, 1e-12);
+  EXPECT_NEAR(c, FilteredMomentMap::kFar, 1e-12);
+  for (double x0 : {6.0, 10.5, 12.25, 15.0}) {
+    const double x1 = x0 + 8;  // 8 texels wide, around the occluder's edge at x = 16
+    const double f = std::clamp((16 - x0) / 8, 0.0, 1.0);
+    double m[2];
+    fm.mean(x0, 4, x1, 20, m);
+    const double mu = f * a + (1 - f) * c, var = f * (1 - f) * (c - a) * (c - a);
+    EXPECT_NEAR(m[0], mu, 1e-7);  // the texels are floats
+    EXPECT_NEAR(m[1] - m[0] * m[0], var, 1e-6);
+    for (double t : {0.3, 0.6, 0.9, c}) {
+      const double expected = t <= mu ? 1.0 : var / (var + (t - mu) * (t - mu));
+      EXPECT_NEAR(model.visibility(m, t), expected, 1e-5) << "x0 " << x0 << " t " << t;
+    }
+    EXPECT_NEAR(model.visibility(m, c), 1 - f, 1e-5);
+    // The blocker estimate of Yang et al. 2010 finds the occluder exactly.
+    const BlockerEstimate b = model.blockers(m, c, 0);
+    EXPECT_NEAR(b.fraction, f, 1e-5);
+    if (f > 0) EXPECT_NEAR(b.depth, a, 1e-4);
+  }
+}
+
+// Two occluders at different depths over a receiver behind both (normalised depths a < b
+// < c): a box half over each occluder is fully shadowed (V = 0), but the bound is
+// sigma^2 / (sigma^2 + (t - mu)^2) with mu = (a + b) / 2, sigma^2 = (b - a)^2 / 4: for
+// linear depths 2, 3, 4 (normalised 0.05, 0.65, 0.95) 0.2 at t = c: light bleeding. Over the
+// far occluder alone the receiver is dark (no bleeding); the reduction's linstep with
+// bleeding >= 0.2 removes it and leaves lit boxes lit.
+TEST(VsmBleeding, AppearsWhereTheoryPutsItAndTheReductionRemovesIt) {
+  // Columns: [0, 16) near occluder (2), [16, 32) far occluder (3), [32, 64) receiver (4).
+  const DepthMap map = columns_map(64, 16, [](int x) { return x < 16 ? 2.0f : x < 32 ? 3.0f : 4.0f; });
+  const VsmModel plain(0, 0), reduced(0, 0.25f);
+  FilteredMomentMap fm;
+  fm.build(map, plain, Prefilter::Sat);
+  double both[2], far_only[2], receiver[2];
+  fm.mean(8, 2, 24, 14, both);      // half near, half far occluder
+  fm.mean(18, 2, 30, 14, far_only);  // the far occluder alone
+  fm.mean(40, 2, 60, 14, receiver);  // the lit receiver
+  const double a = fm.normalize(2.0f), b = fm.normalize(3.0f), t = fm.normalize(4.0f - 1e-3f);
+  const double mu = 0.5 * (a + b), var = 0.25 * (b - a) * (b - a);
+  EXPECT_NEAR(plain.visibility(both, t), var / (var + (t - mu) * (t - mu)), 1e-5);
+  EXPECT_GT(plain.visibility(both, t), 0.19f);  // bleeding
+  EXPECT_LT(plain.visibility(far_only, t), 1e-3f);
+  EXPECT_EQ(reduced.visibility(both, t), 0.0f);
+  EXPECT_EQ(reduced.visibility(far_only, t), 0.0f);
+  EXPECT_EQ(reduced.visibility(receiver, t), 1.0f);
+  EXPECT_EQ(plain.visibility(receiver, t), 1.0f);
+  // The bound decreases as the receiver moves away from the occluders: the bleeding is
+  // worst right behind the far occluder (t just beyond b).
+  EXPECT_GT(plain.visibility(both, 0.6), plain.visibility(both, 0.9));
+}
+
+// ---------------------------------------------------------------------------------------
+// EVSM (Lauritzen & McCool 2008)
+
+// The bleeding configuration above: the warps shrink the bound toward the truth (0) as the
+// exponent grows, the 4-component form at least as well as the 2-component one.
+TEST(EvsmExponents, LargeExponentsRemoveTheBleedingAndApproachTheDepthTest) {
+  const DepthMap map = columns_map(64, 64, [](int x) { return x < 16 ? 2.0f : x < 32 ? 3.0f : 4.0f; });
+  float last = 1;
+  for (float c : {1.0f, 5.0f, 10.0f, 20.0f, 40.0f}) {
+    const EvsmModel two(c, c, false, 0, 0), four(c, c, true, 0, 0);
+    FilteredMomentMap fm2, fm4;
+    fm2.build(map, two, Prefilter::Sat);
+    fm4.build(map, four, Prefilter::Mipmap);
+    double m2[4], m4[4];
+    const double t = fm2.normalize(4.0f - 1e-3f);
+    fm2.mean(8, 2, 24, 14, m2);
+    fm4.mean(0, 0, 32, 32, m4);  // the 32 x 32 mip square over both occluders (and padding)
+    const float v2 = two.visibility(m2, t);
+    EXPECT_LT(v2, last) << c;
+    EXPECT_LE(four.visibility(m4, t), std::max(v2, 1e-6f) * 1.0001f + 1e-6f) << c;
+    last = v2;
+  }
+  EXPECT_LT(last, 1e-6f);
+  // And lit stays lit: the receiver region, and the occluders seen from in front of them.
+  const EvsmModel model(40, 5, true, 1e-6f, 0);
+  FilteredMomentMap fm;
+  fm.build(map, model, Prefilter::Mipmap);
+  double m[4];
+  fm.mean(40, 0, 56, 16, m);
+  EXPECT_NEAR(model.visibility(m, fm.normalize(4.0f - 1e-3f)), 1.0f, 1e-5);
+  fm.mean(0, 0, 16, 16, m);
+  EXPECT_NEAR(model.visibility(m, fm.normalize(1.9f)), 1.0f, 1e-5);
+}
+
+// ---------------------------------------------------------------------------------------
+// MSM: the Hamburger 4MSM bound (Peters & Klein 2015)
+
+// The sharp lower bound on the fraction in front of zf, computed here independently of
+// moments.cpp: the biased Hankel matrix inverted by its adjugate, the kernel polynomial's
+// roots by the quadratic formula, the weights by Cramer's rule on the Vandermonde system of
+// moments 0..2. Also checks that this quadrature reproduces moments 3 and 4 (so it is the
+// canonical representation through zf).
+double independent_hamburger(std::array<double, 4> raw, double zf, double alpha) {
+  double b[5] = {1, 0, 0, 0, 0};
+  for (int i = 0; i < 4; ++i) b[i + 1] = (1 - alpha) * raw[i] + alpha * 0.5;
+  const double H[3][3] = {{b[0], b[1], b[2]}, {b[1], b[2], b[3]}, {b[2], b[3], b[4]}};
+  const double det = H[0][0] * (H[1][1] * H[2][2] - H[1][2] * H[2][1]) -
+                     H[0][1] * (H[1][0] * H[2][2] - H[1][2] * H[2][0]) +
+                     H[0][2] * (H[1][0] * H[2][1] - H[1][1] * H[2][0]);
+  double inv[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      // Cofactor of H[j][i].
+      const int r0 = (j + 1) % 3, r1 = (j + 2) % 3, c0 = (i + 1) % 3, c1 = (i + 2) % 3;
+      inv[i][j] = (H[r0][c0] * H[r1][c1] - H[r0][c1] * H[r1][c0]) / det;
+    }
+  const double v[3] = {1, zf, zf * zf};
+  double c[3];
+  for (int i = 0; i < 3; ++i) c[i] = inv[i][0] * v[0] + inv[i][1] * v[1] + inv[i][2] * v[2];
+  const double disc = c[1] * c[1] - 4 * c[2] * c[0];
+  const double z[3] = {zf, (-c[1] - std::sqrt(disc)) / (2 * c[2]), (-c[1] + std::sqrt(disc)) / (2 * c[2])};
+  // Vandermonde V w = (1, b1, b2), V[k][i] = z_i^k, by Cramer's rule.
+  auto det3 = [](const double m[3][3]) {
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  };
+  double V[3][3];
+  for (int k = 0; k < 3; ++k)
+    for (int i = 0; i < 3; ++i) V[k][i] = std::pow(z[i], k);
+  const double dv = det3(V);
+  double w[3];
+  for (int i = 0; i < 3; ++i) {
+    double Vi[3][3];
+    for (int k = 0; k < 3; ++k)
+      for (int j = 0; j < 3; ++j) Vi[k][j] = j == i ? b[k] : V[k][j];
+    w[i] = det3(Vi) / dv;
+  }
+  for (int k = 3; k <= 4; ++k) {
+    double m = 0;
+    for (int i = 0; i < 3; ++i) m += w[i] * std::pow(z[i], k);
+    EXPECT_NEAR(m, b[k], 1e-9) << "the quadrature does not reproduce moment " << k;
+  }
+  double lower = 0;
+  for (int i = 1; i < 3; ++i)
+    if (z[i] < zf) lower += w[i];
+  return lower;
+}
+
+std::array<double, 4> power_moments_of(std::initializer_list<std::pair<double, double>> depth_weight) {
+  std::array<double, 4> b{};
+  for (auto [z, w] : depth_weight)
+    for (int k = 0; k < 4; ++k) b[k] += w * std::pow(z, k + 1);
+  return b;
+}
+
+TEST(MsmHamburger, EqualsTheIndependentThreePointQuadrature) {
+  const double alpha = 3e-5;
+  // Two stacked planes (depths 0.3 and 0.7, weights w and 1 - w) and a three-depth mix.
+  for (double w : {0.1, 0.35, 0.5, 0.8}) {
+    for (auto raw : {power_moments_of({{0.3, w}, {0.7, 1 - w}}),
+                     power_moments_of({{0.2, w / 2}, {0.45, w / 2}, {0.9, 1 - w}})}) {
+      for (double zf : {0.25, 0.4, 0.6, 0.75, 0.95}) {
+        const MomentQuadrature q = hamburger_4msm(raw, zf, alpha);
+        EXPECT_NEAR(q.intensity, std::clamp(independent_hamburger(raw, zf, alpha), 0.0, 1.0), 1e-7)
+            << "w " << w << " zf " << zf;
+      }
+    }
+    // Between the two planes the bound is the near plane's weight (up to the moment bias):
+    // the sharp lower bound of a two-point distribution is exact.
+    const auto two = power_moments_of({{0.3, w}, {0.7, 1 - w}});
+    EXPECT_NEAR(hamburger_4msm(two, 0.5, alpha).intensity, w, 2e-3) << w;
+    EXPECT_NEAR(hamburger_4msm(two, 0.9, alpha).intensity, 1.0, 2e-3) << w;
+    EXPECT_NEAR(hamburger_4msm(two, 0.2, alpha).intensity, 0.0, 2e-3) << w;
+    // The moment blocker search (Peters et al. 2016) finds the near plane between them.
+    const BlockerEstimate b = moment_blockers(two, 0.5, alpha);
+    EXPECT_NEAR(b.fraction, w, 2e-3);
+    EXPECT_NEAR(b.depth, 0.3, 2e-3);
+  }
+}
+
+TEST(MsmQuantization, TheOptimizedBasisStaysInTheUnitCubeAndRoundTrips) {
+  for (int i = 0; i <= 100; ++i) {
+    const double z = i / 100.0, z2 = z * z;
+    const std::array<double, 4> b = {z, z2, z2 * z, z2 * z2};
+    const std::array<double, 4> q = msm_optimize(b);
+    for (double v : q) {
+      EXPECT_GE(v, -1e-6) << z;
+      EXPECT_LE(v, 1 + 1e-6) << z;
+    }
+    const std::array<double, 4> back = msm_deoptimize(q);
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(back[k], b[k], 1e-9) << z;
+  }
+}
+
+// Two stacked planes in a synthetic map, filtered over a box of known weights and stored in
+// 16 bits: the lookup gives 1 - the independent Hamburger bound of the mixed moments, within
+// the quantisation error, and the bound is the truth (1 - w) between the planes.
+TEST(MsmFiltered, TwoStackedPlanesGiveTheClosedFormBound) {
+  // Columns [0, 20): the near plane at 2; [20, 64): the far plane at 4 (normalised 0 and 1).
+  const DepthMap map = columns_map(64, 16, [](int x) { return x < 20 ? 2.0f : 4.0f; });
+  for (bool quantize : {false, true}) {
+    const MsmModel model(3e-5f, quantize, 0);
+    FilteredMomentMap fm;
+    fm.build(map, model, Prefilter::Sat);
+    for (double x0 : {11.0, 14.5, 17.0}) {
+      const double w = (20 - x0) / 10;  // a 10-texel box
+      double m[4];
+      fm.mean(x0, 3, x0 + 10, 13, m);
+      const auto raw = power_moments_of({{fm.normalize(2.0f), w}, {fm.normalize(4.0f), 1 - w}});
+      const double zf = fm.normalize(3.0f);  // between the planes
+      const double tolerance = quantize ? 2e-3 : 1e-5;
+      EXPECT_NEAR(model.visibility(m, zf), 1 - independent_hamburger(raw, zf, 3e-5), tolerance) << x0;
+      EXPECT_NEAR(model.visibility(m, zf), 1 - w, 2e-3 + tolerance) << x0;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// The methods on scenes
+
+Image render_v(const Scene& scene, const std::string& method, std::vector<std::string> params = {}, int spp = 16) {
+  RenderSettings settings;
+  settings.method = method;
+  settings.params = std::move(params);
+  settings.light_samples = spp;
+  return render_scene(scene, settings).visibility;
+}
+
+int count(const Image& v, const std::function<bool(size_t)>& pred) {
+  int n = 0;
+  for (size_t i = 0; i < v.pixel_count(); ++i) n += pred(i);
+  return n;
+}
+
+// Light, occluder and receiver in parallel planes: the blocker search finds the occluder's
+// depth, the filter is the light's rectangle projected through the receiver onto it (the
+// exact visibility integral for a rect light, as for pcss), and the bound is exact for one
+// planar occluder (VsmChebyshev above). So vsm and msm agree with ray tracing up to texels.
+TEST(VsmScene, ExactForOneOccluderParallelToTheLight) {
+  Scene scene = ground_scene({object(quad_y(1.0f, -0.4f, 0.4f, -0.3f, 0.5f))}, rect_light_down({0, 2, 0}, 1.0f, 0.6f), 48);
+  scene.camera = penumbra::testing::top_camera(48, 4.0f, 45.0f);
+  const Image ref = render_v(scene, "reference", {}, 256);
+  EXPECT_GT(count(ref, [&](size_t i) { return ref.data()[i] > 0.1f && ref.data()[i] < 0.9f; }), 48 * 48 / 20);
+  for (const char* method : {"vsm", "msm", "evsm"}) {
+    const Image v = render_v(scene, method, {"resolution=512"});
+    const ErrorStats e = compare_images(v, ref);
+    std::printf("[ numbers  ] %s one parallel occluder: MAE %.4f, max %.3f\n", method, e.mae, e.max_abs);
+    EXPECT_LT(e.mae, 0.005) << method;
+    EXPECT_LT(e.max_abs, 0.05) << method;
+  }
+}
+
+// Two occluders at different depths over the ground, the upper one hiding part of the lower
+// one from the light's centre, the light off to the side so that the camera above sees the
+// ground in their combined umbra. With a fixed filter (the papers' set-up, so that the only
+// error is the moments') as wide as the occluders' overlap, the filter regions there hold
+// both occluders' depths and the ground behind: VSM lets light through (bleeding,
+// VsmBleeding above); the reduction, EVSM's warps and MSM's four moments remove nearly all
+// of it.
+TEST(VsmScene, BleedingUnderStackedOccludersAndItsReduction) {
+  std::vector<SceneObject> occ;
+  occ.push_back(object(quad_y(1.3f, -0.3f, 0.5f, -0.5f, 0.5f)));    // upper
+  occ.push_back(object(quad_y(0.5f, -0.6f, 0.2f, -0.45f, 0.45f)));  // lower
+  Scene scene = ground_scene(std::move(occ), rect_light_down({1.2f, 2, 0}, 0.8f, 0.8f), 48);
+  scene.camera = penumbra::testing::top_camera(48, 4.0f, 60.0f);
+  const Image ref = render_v(scene, "reference", {}, 256);
+  auto bleeding = [&](const std::string& method, std::vector<std::string> extra) {
+    std::vector<std::string> p = {"resolution=256", "blocker_search=false", "filter_size=24"};
+    p.insert(p.end(), extra.begin(), extra.end());
+    const Image v = render_v(scene, method, p);
+    return count(v, [&](size_t i) { return ref.data()[i] < 0.02f && v.data()[i] > 0.05f; });
+  };
+  const int umbra = count(ref, [&](size_t i) { return ref.data()[i] < 0.02f; });
+  const int plain = bleeding("vsm", {});
+  const int reduced = bleeding("vsm", {"bleeding=0.5"});
+  const int evsm = bleeding("evsm", {});
+  const int msm = bleeding("msm", {});
+  std::printf("[ numbers  ] umbra pixels %d; bleeding into them: vsm %d, vsm bleeding=0.5 %d, evsm %d, msm %d\n", umbra,
+              plain, reduced, evsm, msm);
+  EXPECT_GT(umbra, 100);
+  EXPECT_GT(plain, umbra / 10);
+  EXPECT_LT(reduced, plain / 4);
+  EXPECT_LT(evsm, plain / 4);
+  EXPECT_LT(msm, plain / 4);
+}
+
+// A small scene with a box standing on the ground (contact) and a floating square.
+Scene small_scene(int res) {
+  std::vector<SceneObject> occluders;
+  occluders.push_back(object(quad_y(0.5f, -0.7f, -0.1f, -0.3f, 0.3f)));
+  occluders.push_back(object(penumbra::testing::box({0.3f, 0, -0.2f}, {0.6f, 0.7f, 0.2f})));
+  Scene s = ground_scene(std::move(occluders), rect_light_down({0, 2, 0}, 1.0f, 1.0f), res);
+  s.camera = penumbra::testing::top_camera(res, 4.0f, 40.0f);
+  return s;
+}
+
+// Each method against the ground truth on the small scene (tolerances: docs/methods/vsm.md,
+// msm.md; what is left is contact shadows and the box's overlapping blockers).
+TEST(VsmScene, EveryFilteredMethodIsCloseToTheReference) {
+  const Scene scene = small_scene(48);
+  const Image ref = render_v(scene, "reference", {}, 256);
+  for (const char* method : {"vsm", "evsm", "msm"}) {
+    const ErrorStats e = compare_images(render_v(scene, method, {"resolution=512"}), ref);
+    std::printf("[ numbers  ] %s small scene: MAE %.4f, RMSE %.4f\n", method, e.mae, e.rmse);
+    EXPECT_LT(e.mae, 0.015) << method;
+  }
+}
+
+// EVSM with a point-like light and a one-texel filter at the largest exponents is the plain
+// shadow map (the depth test) up to the map's texels.
+TEST(EvsmScene, LargeExponentsAndATinyLightGiveTheShadowMap) {
+  Scene scene = small_scene(64);
+  scene.lights[0].size = scene.lights[0].size * 1e-4f;
+  const Image sm = render_v(scene, "shadow-map", {"resolution=512"});
+  // (The largest exponents need the mip chain: a summed-area table loses their moments.)
+  const Image ev = render_v(scene, "evsm",
+                            {"resolution=512", "prefilter=mipmap", "positive_exponent=42", "negative_exponent=42"});
+  EXPECT_LE(fraction_above(ev, sm, 0.5), 0.02);
+  EXPECT_GT(count(sm, [&](size_t i) { return sm.data()[i] < 0.5f; }), 64 * 64 / 40);
+}
+
+// The horizon term of closed receivers: the fraction of the light's rectangle above p's
+// tangent plane, by polygon clipping.
+TEST(VsmHorizon, FractionOfTheLightAboveTheTangentPlane) {
+  const AreaLight light = rect_light_down({0, 2, 0}, 1.0f, 0.5f);
+  EXPECT_FLOAT_EQ(light_fraction_above(light, {0, 0, 0}, {0, 1, 0}), 1.0f);
+  EXPECT_FLOAT_EQ(light_fraction_above(light, {0, 0, 0}, {0, -1, 0}), 0.0f);
+  // A vertical plane through the light's centre line: half of it.
+  EXPECT_NEAR(light_fraction_above(light, {0, 0, 0}, {1, 0, 0}), 0.5f, 1e-6);
+  // A plane through p = (0.25, 2, 0)'s vertical line: the light's x in (0.25, 0.5], a quarter.
+  EXPECT_NEAR(light_fraction_above(light, {0.25f, 0, 0}, {1, 0, 0}), 0.25f, 1e-6);
+  // Tilted: the plane through the origin with normal (1, 1, 0)/sqrt2 meets the light's plane
+  // (y = 2) at x = -2: all of the light is above.
+  EXPECT_FLOAT_EQ(light_fraction_above(light, {0, 0, 0}, normalize(Vec3f(1, 1, 0))), 1.0f);
+}
+
+TEST(EvsmParams, BadComponentsNameTheKey) {
+  const Scene scene = small_scene(8);
+  try {
+    render_v(scene, "evsm", {"components=3"});
+    ADD_FAILURE() << "rendered";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("components"), std::string::npos) << e.what();
+  }
+}
+
+TEST(MsmRegistration, FlagsAndEstimates) {
+  for (const char* name : {"vsm", "evsm", "msm"}) {
+    const MethodInfo& info = MethodRegistry::get(name);
+    EXPECT_FALSE(info.samples_light) << name;
+    EXPECT_FALSE(info.tile_exact) << name;  // the map is fitted to the view samples
+    ASSERT_TRUE(info.estimate_memory) << name;
+  }
+}
+
+}  // namespace
+}  // namespace penumbra::filtered_moments
