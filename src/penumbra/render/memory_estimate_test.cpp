@@ -28,6 +28,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -160,38 +161,17 @@ Scene triangles_scene() {
   return testing::ground_scene(std::move(occluders), testing::rect_light_down({0, 2, 0}, 1.2f, 0.8f), 32);
 }
 
-struct MeasureCase {
-  std::string method;
-  std::vector<std::string> params;  // chosen so that the method's maps (or lists) dominate
-  int light_samples = 4;
-  bool many_triangles = false;
-  int image = 32;  // camera resolution
-};
+using MeasureCase = testing::MemoryMeasureCase;
+
+// Every method's cases, declared beside it (testing/memory_cases.h), by method name.
+std::vector<MeasureCase> measure_cases() {
+  std::vector<MeasureCase> cases = testing::memory_cases().measure;
+  std::stable_sort(cases.begin(), cases.end(),
+                   [](const MeasureCase& a, const MeasureCase& b) { return a.method < b.method; });
+  return cases;
+}
 
 void PrintTo(const MeasureCase& c, std::ostream* os) { *os << c.method; }
-
-std::vector<MeasureCase> measure_cases() {
-  return {
-      {"shadow-map", {"resolution=2048"}},
-      {"pcss", {"resolution=2048", "blocker_samples=4", "pcf_samples=4"}},
-      {"multi-view-sm", {"resolution=1024"}, 2},
-      {"afsm-hard", {"resolution=2048"}},
-      {"afsm", {"resolution=1024", "slabs=8"}, 16},
-      {"mlsm", {"resolution=1024", "layers=4"}},
-      {"mtsm", {"resolution=1024", "resets=1"}},
-      {"coherent-rt", {"resolution=1024"}},
-      {"lam", {"resolution=512"}},
-      {"occlusion-textures", {"resolution=1024", "slices=8"}},
-      {"vsm", {"resolution=1024"}},
-      {"evsm", {"resolution=1024"}},
-      {"msm", {"resolution=1024"}},
-      // What grows with the triangles: the BVH, afsm's casters and their regions per slab.
-      {"single-sample", {"candidates=all"}, 4, /*many_triangles=*/true},
-      {"afsm", {"resolution=64", "slabs=8"}, 16, /*many_triangles=*/true},
-      // Per-thread light samples only: many of them, on a small image (few rays in all).
-      {"reference", {}, 131072, false, 8},
-  };
-}
 
 // Small allocations no estimate counts (statistics, JSON extras, thread-local bookkeeping).
 constexpr int64_t kSlack = 256 << 10;
@@ -270,7 +250,7 @@ TEST(MemoryEstimate, EveryMethodButHardHasOneAndIsMeasured) {
     }
     EXPECT_TRUE(info->estimate_memory);
     EXPECT_NE(std::find(measured.begin(), measured.end(), info->name), measured.end())
-        << "add a measuring case for it";
+        << "register a measuring case for it beside its tests (testing/memory_cases.h)";
   }
 }
 
@@ -294,29 +274,13 @@ TEST(MemoryEstimate, GrowsWithEverySettingThatDrivesIt) {
   // What each method's estimate must grow with: its size parameters (doubled from their
   // default, or from half the maximum when the default is above that), and --spp ("--spp")
   // or the scene's triangles ("triangles").
-  const std::map<std::string, std::vector<std::string>> drivers = {
-      {"shadow-map", {"resolution", "triangles"}},
-      {"pcss", {"resolution", "pcf_samples", "triangles"}},
-      {"multi-view-sm", {"resolution", "--spp", "triangles"}},
-      {"afsm-hard", {"resolution", "triangles"}},
-      {"afsm", {"resolution", "slabs", "lut_resolution", "--spp", "triangles"}},
-      {"mlsm", {"resolution", "layers", "--spp", "triangles"}},
-      {"mtsm", {"resolution", "resets", "--spp", "triangles"}},
-      {"coherent-rt", {"resolution", "--spp", "sub_grid", "triangles"}},
-      {"lam", {"resolution", "max_layers", "triangles"}},
-      {"occlusion-textures", {"resolution", "slices", "triangles"}},
-      {"vsm", {"resolution", "triangles"}},
-      {"evsm", {"resolution", "components", "triangles"}},
-      {"msm", {"resolution", "triangles"}},
-      {"single-sample", {"triangles", "leaf_size"}},
-      {"reference", {"--spp"}},
-  };
+  const std::map<std::string, std::vector<std::string>>& drivers = testing::memory_cases().drivers;
   const Scene scene = maps_scene();
   for (const MethodInfo* info : MethodRegistry::all()) {
     if (!info->estimate_memory) continue;
     SCOPED_TRACE(info->name);
     auto it = drivers.find(info->name);
-    ASSERT_NE(it, drivers.end()) << "list what this method's estimate grows with";
+    ASSERT_NE(it, drivers.end()) << "register what this method's estimate grows with (testing/memory_cases.h)";
     const MemoryQuery q = base_query(scene);
     const uint64_t base = estimate_at(info->name, {}, q).bytes;
     for (const std::string& driver : it->second) {

@@ -18,6 +18,7 @@
 #include "penumbra/shadow/alias_free/texel_lists.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/shadow_rays.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -646,6 +647,23 @@ TEST(AliasFreeShapes, BadSampleCountIsAnError) {
   const SceneRun r = build_scene_run(shapes_scene(LightShape::Rect));
   EXPECT_THROW(run_method(r, "afsm", 2048), Error);
 }
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kAfsmHardMemory(
+    "afsm-hard", {"resolution", "triangles"},
+    {{"afsm-hard", {"resolution=2048"}}});
+const testing::MemoryCaseRegistration kAfsmMemory(
+    "afsm", {"resolution", "slabs", "lut_resolution", "--spp", "triangles"},
+    {{"afsm", {"resolution=1024", "slabs=8"}, 16},
+      // What grows with the triangles: the casters and their regions per slab.
+      {"afsm", {"resolution=64", "slabs=8"}, 16, /*many_triangles=*/true}});
 
 }  // namespace
 }  // namespace penumbra

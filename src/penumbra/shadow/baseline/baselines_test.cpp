@@ -10,6 +10,7 @@
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/baseline/shadow_map_common.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -344,6 +345,24 @@ TEST(MultiViewShadowMap, SameImageForAnyThreadCountAndBoundedMemory) {
   EXPECT_GT(a.stats.phase("raster"), 0.0);
   EXPECT_GT(a.stats.phase("lookup"), 0.0);
 }
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kShadowMapMemory(
+    "shadow-map", {"resolution", "triangles"},
+    {{"shadow-map", {"resolution=2048"}}});
+const testing::MemoryCaseRegistration kPcssMemory(
+    "pcss", {"resolution", "pcf_samples", "triangles"},
+    {{"pcss", {"resolution=2048", "blocker_samples=4", "pcf_samples=4"}}});
+const testing::MemoryCaseRegistration kMultiViewSmMemory(
+    "multi-view-sm", {"resolution", "--spp", "triangles"},
+    {{"multi-view-sm", {"resolution=1024"}, 2}});
 
 }  // namespace
 }  // namespace penumbra

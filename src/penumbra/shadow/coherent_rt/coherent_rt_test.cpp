@@ -11,6 +11,7 @@
 #include "penumbra/shadow/coherent_rt/reference_images.h"
 #include "penumbra/shadow/coherent_rt/soft_shad.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -279,6 +280,18 @@ TEST(CoherentRt, BadParametersAndLightsGiveClearErrors) {
     EXPECT_NE(std::string(e.what()).find("rect"), std::string::npos);
   }
 }
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kCoherentRtMemory(
+    "coherent-rt", {"resolution", "--spp", "sub_grid", "triangles"},
+    {{"coherent-rt", {"resolution=1024"}}});
 
 }  // namespace
 }  // namespace penumbra

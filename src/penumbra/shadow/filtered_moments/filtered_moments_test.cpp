@@ -12,6 +12,7 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/filtered_moments/filtered_moments.h"
 #include "penumbra/shadow/filtered_moments/models.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra::filtered_moments {
@@ -396,3 +397,21 @@ TEST(MsmRegistration, FlagsAndEstimates) {
 
 }  // namespace
 }  // namespace penumbra::filtered_moments
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kVsmMemory(
+    "vsm", {"resolution", "triangles"},
+    {{"vsm", {"resolution=1024"}}});
+const testing::MemoryCaseRegistration kEvsmMemory(
+    "evsm", {"resolution", "components", "triangles"},
+    {{"evsm", {"resolution=1024"}}});
+const testing::MemoryCaseRegistration kMsmMemory(
+    "msm", {"resolution", "triangles"},
+    {{"msm", {"resolution=1024"}}});
+
+}  // namespace
+}  // namespace penumbra

@@ -12,6 +12,7 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/lam/attenuation_map.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -352,6 +353,18 @@ TEST(Lam, MapRecordReadsBackToTheSameLookupsAndRejectsTruncation) {
     EXPECT_TRUE(partial.empty());
   }
 }
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kLamMemory(
+    "lam", {"resolution", "max_layers", "triangles"},
+    {{"lam", {"resolution=512"}}});
 
 }  // namespace
 }  // namespace penumbra

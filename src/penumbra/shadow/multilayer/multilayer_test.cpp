@@ -12,6 +12,7 @@
 #include "penumbra/shadow/multilayer/multilayer_trace.h"
 #include "penumbra/shadow/multilayer/transparent_layers.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra {
@@ -300,6 +301,21 @@ TEST(Multilayer, BadParametersNameTheKey) {
     EXPECT_NE(std::string(e.what()).find("layers"), std::string::npos) << e.what();
   }
 }
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kMlsmMemory(
+    "mlsm", {"resolution", "layers", "--spp", "triangles"},
+    {{"mlsm", {"resolution=1024", "layers=4"}}});
+const testing::MemoryCaseRegistration kMtsmMemory(
+    "mtsm", {"resolution", "resets", "--spp", "triangles"},
+    {{"mtsm", {"resolution=1024", "resets=1"}}});
 
 }  // namespace
 }  // namespace penumbra

@@ -10,6 +10,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra {
@@ -380,6 +381,18 @@ TEST(OcclusionTextures, BadParametersAreRejected) {
   EXPECT_THROW(create_method("occlusion-textures", scene, {"prefilter=gauss"}), Error);
   EXPECT_NO_THROW(create_method("occlusion-textures", scene, {"slices=4", "prefilter=mipmap", "combine=max"}));
 }
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kOcclusionTexturesMemory(
+    "occlusion-textures", {"resolution", "slices", "triangles"},
+    {{"occlusion-textures", {"resolution=1024", "slices=8"}}});
 
 }  // namespace
 }  // namespace penumbra

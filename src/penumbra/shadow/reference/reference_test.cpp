@@ -8,6 +8,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -204,6 +205,19 @@ TEST(RayTracer, StreamIntersectEqualsOneRayAtATime) {
   EXPECT_GT(hit_count, 100);
   EXPECT_GT(miss_count, 10);
 }
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kReferenceMemory(
+    "reference", {"--spp"},
+    {// Per-thread light samples only: many of them, on a small image (few rays in all).
+      {"reference", {}, 131072, false, 8}});
 
 }  // namespace
 }  // namespace penumbra

@@ -9,6 +9,7 @@
 #include "penumbra/scene/shapes.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/single_sample/outer_objects.h"
+#include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -385,6 +386,19 @@ TEST(SingleSample, PacketsGiveTheSameVisibilityAsSingleRays) {
     }
   }
 }
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
+// each estimate must grow with, and a case whose maps dominate the heap.
+const testing::MemoryCaseRegistration kSingleSampleMemory(
+    "single-sample", {"triangles", "leaf_size"},
+    {// What grows with the triangles: the BVH of the outer objects.
+      {"single-sample", {"candidates=all"}, 4, /*many_triangles=*/true}});
 
 }  // namespace
 }  // namespace penumbra
