@@ -9,7 +9,7 @@
 #include "penumbra/eval/metrics.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/shadow/baseline/shadow_map_common.h"
+#include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"

@@ -16,7 +16,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/sampling.h"
-#include "penumbra/shadow/baseline/shadow_map_common.h"
+#include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/shadow/shadow_method.h"
 
 namespace penumbra {

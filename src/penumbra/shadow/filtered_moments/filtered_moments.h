@@ -1,5 +1,5 @@
 // The core the methods `vsm`, `evsm` and `msm` share (docs/methods/vsm.md, msm.md): one
-// depth map from the light's centre (shadow/baseline/shadow_map_common.h's LightCentreMap:
+// depth map from the light's centre (shadow/shadow_map_common.h's LightCentreMap:
 // the same fitted view and rasterization as shadow-map and pcss), each texel's depth turned
 // into a vector of moments by a MomentModel, the vectors prefiltered (raster/filtered_map.h:
 // summed-area table or mip chain), and per view sample two filtered lookups:
@@ -32,7 +32,7 @@
 
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/filtered_map.h"
-#include "penumbra/shadow/baseline/shadow_map_common.h"
+#include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/shadow/filtered_moments/moments.h"
 #include "penumbra/shadow/shadow_method.h"
 

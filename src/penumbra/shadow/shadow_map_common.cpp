@@ -1,4 +1,4 @@
-#include "penumbra/shadow/baseline/shadow_map_common.h"
+#include "penumbra/shadow/shadow_map_common.h"
 
 #include <algorithm>
 

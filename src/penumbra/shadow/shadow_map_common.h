@@ -1,6 +1,7 @@
-// What the shadow-map baselines share (`shadow-map`, `pcss`, `multi-view-sm`): their bias
-// parameters, the view from a point on the light, and the depth comparison of a view sample
-// against one depth map. docs/methods/shadow-map.md states the conventions.
+// What the shadow-map methods share (`shadow-map`, `pcss`, `multi-view-sm` in baseline/, and
+// `vsm`, `evsm`, `msm` in filtered_moments/): their bias parameters, the view from a point on
+// the light, the light-centre depth map, and the depth comparison of a view sample against
+// one depth map. docs/methods/shadow-map.md states the conventions.
 //
 // A view sample p (geometric normal ng) seen from a map whose eye is e:
 // - p is *in front of the light* when dot(p - c, n) > 0 (c, n: the light's centre and
