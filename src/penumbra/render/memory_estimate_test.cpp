@@ -187,6 +187,8 @@ std::vector<MeasureCase> measure_cases() {
       {"afsm", {"resolution=64", "slabs=8"}, 16, /*many_triangles=*/true},
       // Per-thread light samples only: many of them, on a small image (few rays in all).
       {"reference", {}, 131072, false, 8},
+      // The guided image per pixel: a large image.
+      {"rt-denoised", {}, 4, false, 512},
   };
 }
 
@@ -304,6 +306,8 @@ TEST(MemoryEstimate, GrowsWithEverySettingThatDrivesIt) {
       {"occlusion-textures", {"resolution", "slices", "triangles"}},
       {"single-sample", {"triangles", "leaf_size"}},
       {"reference", {"--spp"}},
+      // Its images grow with the view samples alone (its 1-8 light samples fit one padded fan).
+      {"rt-denoised", {}},
   };
   const Scene scene = maps_scene();
   for (const MethodInfo* info : MethodRegistry::all()) {
