@@ -187,8 +187,9 @@ std::vector<MeasureCase> measure_cases() {
       {"afsm", {"resolution=64", "slabs=8"}, 16, /*many_triangles=*/true},
       // Per-thread light samples only: many of them, on a small image (few rays in all).
       {"reference", {}, 131072, false, 8},
-      // The guided image per pixel: a large image.
+      // The guided image per pixel (a large image) and the silhouette edges (many triangles).
       {"rt-denoised", {}, 4, false, 512},
+      {"ssv-rt", {}, 16, /*many_triangles=*/true},
   };
 }
 
@@ -308,6 +309,7 @@ TEST(MemoryEstimate, GrowsWithEverySettingThatDrivesIt) {
       {"reference", {"--spp"}},
       // Its images grow with the view samples alone (its 1-8 light samples fit one padded fan).
       {"rt-denoised", {}},
+      {"ssv-rt", {"--spp", "triangles"}},
   };
   const Scene scene = maps_scene();
   for (const MethodInfo* info : MethodRegistry::all()) {

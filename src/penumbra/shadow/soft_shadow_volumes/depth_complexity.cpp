@@ -1,0 +1,61 @@
+#include "penumbra/shadow/soft_shadow_volumes/depth_complexity.h"
+
+namespace penumbra::ssv {
+namespace {
+
+struct D3 {
+  double x, y, z;
+};
+inline D3 sub(Vec3f p, Vec3f o) { return {double(p.x) - o.x, double(p.y) - o.y, double(p.z) - o.z}; }
+inline D3 operator-(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline D3 cross(D3 a, D3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+inline double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+}  // namespace
+
+int edge_weight(const SilhouetteEdge& e, Vec3f o) {
+  const D3 m = cross(sub(e.a, o), sub(e.b, o));
+  int k = 0;
+  for (uint32_t t = 0; t < e.triangles; ++t) {
+    const double s = dot(m, sub(e.w[t], o));
+    k += (s > 0) - (s < 0);
+  }
+  return k;
+}
+
+bool add_edge_crossings(const SilhouetteEdge& e, Vec3f o, Vec3f r, const SampleOffsets& samples, int32_t* depth) {
+  const D3 a = sub(e.a, o), b = sub(e.b, o), rr{r.x, r.y, r.z};
+  D3 m = cross(a, b);
+  int k = 0;
+  for (uint32_t t = 0; t < e.triangles; ++t) {
+    const double s = dot(m, sub(e.w[t], o));
+    k += (s > 0) - (s < 0);
+  }
+  const double side_r = dot(m, rr);
+  if (k == 0 || side_r == 0) return false;
+  const double sign = side_r > 0 ? 1.0 : -1.0;
+  m = {m.x * sign, m.y * sign, m.z * sign};
+  D3 u = cross(b - a, rr - a);
+  u = {u.x * sign, u.y * sign, u.z * sign};
+  const double ua = dot(u, a);
+  const D3 alpha = cross(a, rr), beta = cross(b, rr);
+  const int32_t delta = side_r > 0 ? -k : k;
+  // The per-sample tests in float (vectorised), the per-edge set-up above in double.
+  const Vec3f mf(float(m.x), float(m.y), float(m.z)), uf(float(u.x), float(u.y), float(u.z));
+  const Vec3f af(float(alpha.x), float(alpha.y), float(alpha.z)), bf(float(beta.x), float(beta.y), float(beta.z));
+  const float uaf = float(ua);
+  const float* x = samples.x;
+  const float* y = samples.y;
+  const float* z = samples.z;
+  for (int i = 0; i < samples.count; ++i) {
+    const float s = mf.x * x[i] + mf.y * y[i] + mf.z * z[i];
+    const float t = uf.x * x[i] + uf.y * y[i] + uf.z * z[i] - uaf;
+    const float pa = af.x * x[i] + af.y * y[i] + af.z * z[i];
+    const float pb = bf.x * x[i] + bf.y * y[i] + bf.z * z[i];
+    const bool crosses = (s < 0) & (t > 0) & ((pa < 0) != (pb < 0)) & (pa != 0) & (pb != 0);
+    depth[i] += crosses ? delta : 0;
+  }
+  return true;
+}
+
+}  // namespace penumbra::ssv

@@ -1,0 +1,42 @@
+// The potential silhouette edges of a scene's casters with respect to a whole area light
+// (Laine et al. 2005 §3.1): the edges whose adjacent triangles can face a point of the light
+// differently, plus every boundary edge of an open mesh (§3.4: an open surface's border
+// changes the depth complexity by one wherever it is seen).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra::ssv {
+
+// One edge a-b and the third vertices of up to two of its triangles (an edge with more is
+// split into several entries: their contributions add up, depth_complexity.h).
+struct SilhouetteEdge {
+  Vec3f a, b;
+  Vec3f w[2];
+  uint32_t triangles = 0;  // 1 (a boundary edge, or one part of a non-manifold edge) or 2
+};
+
+// A sphere around the light's samples (its centre and the light's extent radius): "the whole
+// light" of the silhouette test, conservative for every light shape.
+struct LightBall {
+  Vec3f center;
+  float radius = 0;
+};
+
+// Edges are welded by position (bitwise equal vertices count as one, so meshes stored with
+// split vertices at seams and creases do not turn every crease into two boundary edges).
+// An edge with two triangles is kept when one of their planes cuts the ball (some light
+// point sees one side, another the other) or, where neither does, when both triangles lie on
+// one side of the plane through the ball's centre and the edge (the whole light sees a
+// silhouette). Triangles of zero opacity cast nothing and are left out.
+std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightBall& light);
+
+// The number of distinct edges of the scene's meshes, and what potential_silhouettes holds
+// at most while it works, per triangle (for memory estimates).
+inline constexpr uint64_t kSilhouetteBuildBytesPerTriangle = 3 * (16 + 40) + 3 * sizeof(SilhouetteEdge) / 2 + 3 * 16;
+
+}  // namespace penumbra::ssv

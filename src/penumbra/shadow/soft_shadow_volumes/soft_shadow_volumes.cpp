@@ -1,0 +1,240 @@
+// Method `ssv-rt`: soft shadow volumes for ray tracing (Laine, Aila, Assarsson, Lehtinen,
+// Akenine-Moller, SIGGRAPH 2005). Exact visibility of a fixed set of N light samples (the set
+// afsm uses, shadow/light_samples.h, so both agree with Embree rays to those points sample for
+// sample) with one shadow ray per view sample instead of N:
+//   prepare (once per light, §3.1): the casters' potential silhouette edges with respect to
+//     the whole light, boundary edges of open meshes included (silhouette_edges.h), in a
+//     bounding volume hierarchy (trace/bvh.h, over each edge's box);
+//   per view sample o (§3.2-3.3): the edges whose penumbra wedge contains o. The wedge of an
+//     edge is the set of points from which the edge covers part of the light, i.e. o is in
+//     the wedge iff the edge meets the pyramid from o over the light's samples; the hierarchy
+//     is walked with that pyramid (the paper walks a hierarchy of wedges with the point: the
+//     same (point, edge) pairs, without bounding the unbounded wedges). Each such edge
+//     updates the integer depth complexity of the light samples its projection sweeps
+//     (depth_complexity.h), relative to one reference sample whose absolute depth complexity
+//     one Embree ray gives by counting the surfaces it crosses (§3.3). A sample is visible
+//     iff its depth complexity is 0; V = visible / N.
+// Restrictions: semi-transparent casters count as opaque (the depth complexity counts
+// surfaces; zero-opacity triangles are left out); every light is sampled on the plane of its
+// samples (rect, disk; sphere and ellipsoid on their central disk/ellipse, as afsm).
+// docs/methods/ssv-rt.md.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <vector>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/shadow/light_samples.h"
+#include "penumbra/shadow/shadow_method.h"
+#include "penumbra/shadow/soft_shadow_volumes/depth_complexity.h"
+#include "penumbra/shadow/soft_shadow_volumes/silhouette_edges.h"
+#include "penumbra/trace/bvh.h"
+#include "penumbra/trace/ray_tracer.h"
+
+namespace penumbra {
+namespace {
+
+constexpr int kLeafSize = 4;
+
+struct Plane {
+  Vec3f n;
+  float d;  // n . x + d >= 0 inside
+};
+
+// Whether the box lies wholly on the negative side of the plane (its most positive corner).
+inline bool outside(const Bounds3f& b, const Plane& p) {
+  const Vec3f c{p.n.x >= 0 ? b.hi.x : b.lo.x, p.n.y >= 0 ? b.hi.y : b.lo.y, p.n.z >= 0 ? b.hi.z : b.lo.z};
+  return dot(p.n, c) + p.d < 0;
+}
+
+class SoftShadowVolumes final : public ShadowMethod {
+ public:
+  explicit SoftShadowVolumes(const ParamSet&) {}
+
+  void prepare(const ShadowContext& ctx) override {
+    ScopedPhase phase(stats_, "silhouettes");
+    stats_.prepare_count++;
+    const AreaLight& light = *ctx.light;
+    edges_ = ssv::potential_silhouettes(*ctx.scene, {light.center, light.extent_radius()});
+    std::vector<BvhTriangle> boxes(edges_.size());
+    for (size_t i = 0; i < edges_.size(); ++i) {
+      boxes[i].v0 = edges_[i].a;
+      boxes[i].v1 = boxes[i].v2 = edges_[i].b;
+      boxes[i].prim = static_cast<uint32_t>(i);
+    }
+    bvh_ = TriangleBvh(std::move(boxes), kLeafSize);
+    opacity_.clear();
+    for (const SceneObject& obj : ctx.scene->objects) {
+      const TriangleMesh& m = obj.mesh;
+      std::vector<float> alpha(m.triangle_count(), obj.material.opacity);
+      for (size_t t = 0; t < m.triangle_opacity.size() && t < alpha.size(); ++t) alpha[t] *= m.triangle_opacity[t];
+      opacity_.push_back(std::move(alpha));
+    }
+    stats_.extra["silhouette_edges"] = edges_.size();
+  }
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    const AreaLight& light = *ctx.light;
+    const int n = std::max(1, ctx.light_samples);
+    const LightSamples samples = make_light_samples(light, n, ctx.seed, ctx.light_index, ctx.frame);
+    // The samples' bounding rectangle on the light's plane, a little larger (rounding): the
+    // base of every point's pyramid.
+    float x0 = kInfinity, x1 = -kInfinity, y0 = kInfinity, y1 = -kInfinity;
+    for (Vec2f u : samples.local) {
+      x0 = std::min(x0, u.x), x1 = std::max(x1, u.x), y0 = std::min(y0, u.y), y1 = std::max(y1, u.y);
+    }
+    const float pad = 1e-3f * std::max(1.0f, std::max(x1 - x0, y1 - y0));
+    x0 -= pad, x1 += pad, y0 -= pad, y1 += pad;
+    const float R = samples.radius;
+    const Vec3f corners[4] = {samples.center + samples.s * (R * x0) + samples.t * (R * y0),
+                              samples.center + samples.s * (R * x1) + samples.t * (R * y0),
+                              samples.center + samples.s * (R * x1) + samples.t * (R * y1),
+                              samples.center + samples.s * (R * x0) + samples.t * (R * y1)};
+    const Vec3f rect_centre = (corners[0] + corners[2]) * 0.5f;
+
+    std::atomic<uint64_t> edge_tests{0}, edge_updates{0}, crossings{0};
+    {
+      ScopedPhase phase(stats_, "evaluate");
+      parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
+        std::vector<float> x(n), y(n), z(n);
+        std::vector<int32_t> depth(n);
+        std::vector<uint32_t> stack;
+        uint64_t tests = 0, updates = 0, hits = 0;
+        for (size_t k = begin; k < end; ++k) {
+          const ViewSample& s = vs.samples[k];
+          // Points behind the light's plane see none of it (as afsm and rays to the samples).
+          if (!(dot(s.p - light.center, light.frame.n) > 0)) {
+            out.visibility[k] = 0.0f;
+            continue;
+          }
+          // The ray origin of afsm (alias_free.cpp): off the surface along ng, out of a
+          // closed mesh, else toward the light, so both decide the receiver's own surface alike.
+          const Vec3f o =
+              offset_ray_origin(s.p, s.ng, ctx.scene->objects[s.object].closed ? s.ng : light.center - s.p);
+          for (int i = 0; i < n; ++i) {
+            x[i] = samples.points[i].x - o.x;
+            y[i] = samples.points[i].y - o.y;
+            z[i] = samples.points[i].z - o.z;
+          }
+          // §3.3: the reference sample's absolute depth complexity, from one ray.
+          const Vec3f r = samples.points[0] - o;
+          const int32_t d_ref = surfaces_crossed(*ctx.tracer, o, samples.points[0], &hits);
+          std::fill(depth.begin(), depth.end(), d_ref);
+          // The pyramid from o over the samples' rectangle: four planes through o and the
+          // light's plane (edges beyond the light change nothing).
+          Plane planes[5];
+          for (int j = 0; j < 4; ++j) {
+            Vec3f nn = cross(corners[j] - o, corners[(j + 1) % 4] - o);
+            if (dot(nn, rect_centre - o) < 0) nn = -nn;
+            planes[j] = {nn, -dot(nn, o)};
+          }
+          planes[4] = {light.frame.n, -dot(light.frame.n, light.center)};  // o's side: in front
+          const ssv::SampleOffsets offsets{x.data(), y.data(), z.data(), n};
+          const std::vector<BvhNode>& nodes = bvh_.nodes();
+          stack.clear();
+          if (!nodes.empty()) stack.push_back(0);
+          while (!stack.empty()) {
+            const BvhNode& node = nodes[stack.back()];
+            stack.pop_back();
+            bool cut = false;
+            for (const Plane& p : planes) cut = cut || outside(node.bounds, p);
+            if (cut) continue;
+            if (!node.leaf()) {
+              stack.push_back(node.first);
+              stack.push_back(node.first + 1);
+              continue;
+            }
+            for (uint32_t i = node.first; i < node.first + node.count; ++i) {
+              ++tests;
+              if (ssv::add_edge_crossings(edges_[bvh_.triangles()[i].prim], o, r, offsets, depth.data())) ++updates;
+            }
+          }
+          // The receiver's own surface, decided as a shadow ray from the offset origin
+          // (shadow_ray_to) decides it: Embree starts each ray on the side of the surface its
+          // light sample is on. On a closed mesh a sample behind the tangent plane starts inside
+          // the object: blocked (afsm §3.3's rule per light sample). On an open one that ray
+          // does not cross the surface which the ray from o (on the light centre's side) does:
+          // one surface less.
+          const bool closed = ctx.scene->objects[s.object].closed;
+          const bool centre_side = dot(s.ng, light.center - s.p) >= 0;
+          int visible = 0;
+          for (int i = 0; i < n; ++i) {
+            const bool front = dot(s.ng, samples.points[i] - s.p) >= 0;
+            if (closed) visible += depth[i] == 0 && front;
+            else visible += depth[i] - (front != centre_side) == 0;
+          }
+          out.visibility[k] = static_cast<float>(visible) / static_cast<float>(n);
+        }
+        edge_tests += tests;
+        edge_updates += updates;
+        crossings += hits;
+        if (ctx.progress) ctx.progress->add(end - begin);
+      });
+    }
+    stats_.rays_traced += vs.size();
+    stats_.extra["light_samples"] = n;
+    stats_.extra["edge_tests"] = edge_tests.load();
+    stats_.extra["edge_updates"] = edge_updates.load();
+    stats_.extra["reference_crossings"] = crossings.load();
+  }
+
+ private:
+  // The number of surfaces the segment from o to q crosses (one closest-hit query per
+  // surface, each starting past the last hit; shadow_ray_to's end short of the light).
+  int32_t surfaces_crossed(const RayTracer& tracer, Vec3f o, Vec3f q, uint64_t* hits) const {
+    const Vec3f d = q - o;
+    const float dist = length(d);
+    if (!(dist > 0)) return 0;
+    Ray ray;
+    ray.org = o;
+    ray.dir = d / dist;
+    ray.tnear = 0.0f;
+    ray.tfar = dist * (1.0f - 1e-5f);
+    int32_t count = 0;
+    Hit hit;
+    for (int guard = 0; guard < 4096 && tracer.intersect(ray, &hit); ++guard) {
+      ++*hits;
+      if (opacity_[hit.object][hit.prim] > 0) ++count;
+      // Past this surface: the next one further along (a ray through a shared edge counts
+      // the surface once).
+      ray.tnear = std::nextafter(hit.t, kInfinity) + 1e-6f * hit.t;
+      if (!(ray.tnear < ray.tfar)) break;
+    }
+    return count;
+  }
+
+  std::vector<ssv::SilhouetteEdge> edges_;
+  TriangleBvh bvh_;
+  std::vector<std::vector<float>> opacity_;  // per object, per triangle
+};
+
+// One light's instance: the silhouette edges (at most three per triangle, and what finding
+// them holds), their hierarchy; per evaluate, the light samples; per worker thread, the
+// samples relative to a point and their depth complexities.
+MemoryEstimate memory(const ParamSet&, const MemoryQuery& q) {
+  MemoryTally tally;
+  const uint64_t edges = 3 * q.triangles;
+  tally.add(q.triangles * ssv::kSilhouetteBuildBytesPerTriangle + edges * sizeof(BvhTriangle) +
+                TriangleBvh::build_bytes(edges, kLeafSize) + q.triangles * sizeof(float),
+            kTrianglesSetting);
+  const uint64_t n = static_cast<uint64_t>(std::max(1, q.light_samples));
+  tally.add(light_samples_bytes(static_cast<int>(n)) + static_cast<uint64_t>(q.threads) * n * 4 * sizeof(float),
+            kLightSamplesSetting);
+  return tally.estimate();
+}
+
+const MethodRegistration registration({
+    "ssv-rt",
+    "soft shadow volumes for ray tracing (Laine et al. 2005): exact visibility of --spp fixed light samples, one ray "
+    "per point",
+    {},
+    [](const ParamSet& p) { return std::make_unique<SoftShadowVolumes>(p); },
+    /*samples_light=*/true,
+    memory,
+    // Each view sample's V depends on that sample and the frame's light samples alone.
+    /*tile_exact=*/true,
+});
+
+}  // namespace
+}  // namespace penumbra
