@@ -1,5 +1,7 @@
 #include "penumbra/shadow/soft_shadow_volumes/depth_complexity.h"
 
+#include <cmath>
+
 namespace penumbra::ssv {
 namespace {
 
@@ -12,6 +14,18 @@ inline D3 cross(D3 a, D3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b
 inline double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
 }  // namespace
+
+EdgeFacing edge_facing(const SilhouetteEdge& e) {
+  EdgeFacing f;
+  f.two_sided = e.triangles == 2;
+  for (uint32_t t = 0; t < e.triangles; ++t) {
+    const D3 a = sub(e.a, Vec3f(0.0f)), n = cross(sub(e.b, e.a), sub(e.w[t], e.a));
+    f.n[t] = Vec3f(float(n.x), float(n.y), float(n.z));
+    f.d[t] = float(-dot(n, a));
+    f.scale[t] = float(std::sqrt(dot(n, n)));
+  }
+  return f;
+}
 
 int edge_weight(const SilhouetteEdge& e, Vec3f o) {
   const D3 m = cross(sub(e.a, o), sub(e.b, o));
@@ -47,13 +61,16 @@ bool add_edge_crossings(const SilhouetteEdge& e, Vec3f o, Vec3f r, const SampleO
   const float* x = samples.x;
   const float* y = samples.y;
   const float* z = samples.z;
-  for (int i = 0; i < samples.count; ++i) {
+  const int n = samples.count;  // a local: `depth` (int) could alias samples.count otherwise
+  for (int i = 0; i < n; ++i) {
     const float s = mf.x * x[i] + mf.y * y[i] + mf.z * z[i];
     const float t = uf.x * x[i] + uf.y * y[i] + uf.z * z[i] - uaf;
     const float pa = af.x * x[i] + af.y * y[i] + af.z * z[i];
     const float pb = bf.x * x[i] + bf.y * y[i] + bf.z * z[i];
-    const bool crosses = (s < 0) & (t > 0) & ((pa < 0) != (pb < 0)) & (pa != 0) & (pb != 0);
-    depth[i] += crosses ? delta : 0;
+    // Branch-free, so that the compiler vectorises the loop: pa pb < 0 is "opposite signs,
+    // neither 0" (a product that underflows to 0 is a sample on the plane: no crossing).
+    const int32_t crosses = (s < 0.0f) & (t > 0.0f) & (pa * pb < 0.0f);
+    depth[i] += crosses * delta;
   }
   return true;
 }

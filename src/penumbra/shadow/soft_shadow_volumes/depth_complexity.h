@@ -17,6 +17,7 @@
 // sample, incremented or decremented according to the edge's orientation").
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "penumbra/core/math.h"
@@ -34,6 +35,28 @@ struct SampleOffsets {
 
 // The edge's k_e seen from o (0: not a silhouette from o: it changes nothing).
 int edge_weight(const SilhouetteEdge& e, Vec3f o);
+
+// The planes of a two-triangle edge's triangles, in float, for a quick test that an edge is
+// surely no silhouette from o (o in front of one and behind the other, both by more than the
+// rounding of the test): most edges a point's pyramid holds are not, and add_edge_crossings
+// decides them in double.
+struct EdgeFacing {
+  Vec3f n[2];     // (b - a) x (w_t - a)
+  float d[2];     // -n . a
+  float scale[2]; // |n|, |d|: the size of the rounding
+  bool two_sided = false;
+};
+EdgeFacing edge_facing(const SilhouetteEdge& e);
+// True only where k_e(o) = 0 for certain; false where the edge may be a silhouette from o.
+// o_size: max |coordinate| of o.
+inline bool surely_not_silhouette(const EdgeFacing& f, Vec3f o, float o_size) {
+  if (!f.two_sided) return false;
+  const float s0 = dot(f.n[0], o) + f.d[0], s1 = dot(f.n[1], o) + f.d[1];
+  constexpr float kRelative = 1e-5f;
+  const float t0 = kRelative * (f.scale[0] * (3 * o_size) + std::abs(f.d[0]));
+  const float t1 = kRelative * (f.scale[1] * (3 * o_size) + std::abs(f.d[1]));
+  return ((s0 > t0 && s1 < -t1) || (s0 < -t0 && s1 > t1));
+}
 
 // Adds the edge's change to depth[i] for every light sample i whose segment from o, swept
 // from the reference sample r (r relative to o: r - o), crosses the edge. Returns false

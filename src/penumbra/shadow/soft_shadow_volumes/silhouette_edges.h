@@ -35,8 +35,12 @@ struct LightBall {
 // silhouette). Triangles of zero opacity cast nothing and are left out.
 std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightBall& light);
 
-// The number of distinct edges of the scene's meshes, and what potential_silhouettes holds
-// at most while it works, per triangle (for memory estimates).
-inline constexpr uint64_t kSilhouetteBuildBytesPerTriangle = 3 * (16 + 40) + 3 * sizeof(SilhouetteEdge) / 2 + 3 * 16;
+// For memory estimates: a closed mesh has 3/2 edges per triangle (a triangle soup stored
+// without shared vertices up to 3: twice the estimate); what potential_silhouettes holds per
+// edge while it works (the welded vertices, the edge map's nodes and third-vertex lists, the
+// sorted keys), and what its result holds (grown by doubling).
+inline constexpr double kEdgesPerTriangle = 1.5;
+inline constexpr uint64_t kSilhouetteBuildBytesPerEdge = 40 + 112 + 16;
+inline constexpr uint64_t kSilhouetteResultBytesPerEdge = 2 * sizeof(SilhouetteEdge);
 
 }  // namespace penumbra::ssv

@@ -64,6 +64,16 @@ class SoftShadowVolumes final : public ShadowMethod {
       boxes[i].prim = static_cast<uint32_t>(i);
     }
     bvh_ = TriangleBvh(std::move(boxes), kLeafSize);
+    // The edges in the hierarchy's leaf order (a leaf's edges side by side), with their
+    // quick facing test.
+    {
+      std::vector<ssv::SilhouetteEdge> ordered;
+      ordered.reserve(edges_.size());
+      for (const BvhTriangle& t : bvh_.triangles()) ordered.push_back(edges_[t.prim]);
+      edges_ = std::move(ordered);
+    }
+    facing_.resize(edges_.size());
+    for (size_t i = 0; i < edges_.size(); ++i) facing_[i] = ssv::edge_facing(edges_[i]);
     opacity_.clear();
     for (const SceneObject& obj : ctx.scene->objects) {
       const TriangleMesh& m = obj.mesh;
@@ -131,6 +141,7 @@ class SoftShadowVolumes final : public ShadowMethod {
           }
           planes[4] = {light.frame.n, -dot(light.frame.n, light.center)};  // o's side: in front
           const ssv::SampleOffsets offsets{x.data(), y.data(), z.data(), n};
+          const float o_size = std::max(std::abs(o.x), std::max(std::abs(o.y), std::abs(o.z)));
           const std::vector<BvhNode>& nodes = bvh_.nodes();
           stack.clear();
           if (!nodes.empty()) stack.push_back(0);
@@ -147,7 +158,9 @@ class SoftShadowVolumes final : public ShadowMethod {
             }
             for (uint32_t i = node.first; i < node.first + node.count; ++i) {
               ++tests;
-              if (ssv::add_edge_crossings(edges_[bvh_.triangles()[i].prim], o, r, offsets, depth.data())) ++updates;
+              // §3.2: an edge that is no silhouette from o changes nothing.
+              if (ssv::surely_not_silhouette(facing_[i], o, o_size)) continue;
+              if (ssv::add_edge_crossings(edges_[i], o, r, offsets, depth.data())) ++updates;
             }
           }
           // The receiver's own surface, decided as a shadow ray from the offset origin
@@ -204,20 +217,25 @@ class SoftShadowVolumes final : public ShadowMethod {
     return count;
   }
 
-  std::vector<ssv::SilhouetteEdge> edges_;
+  std::vector<ssv::SilhouetteEdge> edges_;  // in bvh_'s leaf order
+  std::vector<ssv::EdgeFacing> facing_;      // the same order
   TriangleBvh bvh_;
   std::vector<std::vector<float>> opacity_;  // per object, per triangle
 };
 
-// One light's instance: the silhouette edges (at most three per triangle, and what finding
-// them holds), their hierarchy; per evaluate, the light samples; per worker thread, the
-// samples relative to a point and their depth complexities.
+// One light's instance: the silhouette edges (at most every edge: 3/2 per triangle of a
+// closed mesh, silhouette_edges.h) and their hierarchy, the larger of what finding them holds
+// and what building the hierarchy holds (the edges twice while they are put in leaf order,
+// their boxes, the build's nodes and scratch, the facing planes); the opacity per triangle;
+// per evaluate, the light samples; per worker thread, the samples relative to a point and
+// their depth complexities.
 MemoryEstimate memory(const ParamSet&, const MemoryQuery& q) {
   MemoryTally tally;
-  const uint64_t edges = 3 * q.triangles;
-  tally.add(q.triangles * ssv::kSilhouetteBuildBytesPerTriangle + edges * sizeof(BvhTriangle) +
-                TriangleBvh::build_bytes(edges, kLeafSize) + q.triangles * sizeof(float),
-            kTrianglesSetting);
+  const uint64_t edges = static_cast<uint64_t>(ssv::kEdgesPerTriangle * static_cast<double>(q.triangles));
+  const uint64_t finding = edges * (ssv::kSilhouetteBuildBytesPerEdge + ssv::kSilhouetteResultBytesPerEdge);
+  const uint64_t hierarchy = edges * (2 * sizeof(ssv::SilhouetteEdge) + sizeof(BvhTriangle) + sizeof(ssv::EdgeFacing)) +
+                             TriangleBvh::build_bytes(edges, kLeafSize);
+  tally.add(std::max(finding, hierarchy) + q.triangles * sizeof(float), kTrianglesSetting);
   const uint64_t n = static_cast<uint64_t>(std::max(1, q.light_samples));
   tally.add(light_samples_bytes(static_cast<int>(n)) + static_cast<uint64_t>(q.threads) * n * 4 * sizeof(float),
             kLightSamplesSetting);
