@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "penumbra/shadow/soft_shadow_volumes/crossing_kernel.h"
+
 namespace penumbra::ssv {
 namespace {
 
@@ -54,24 +56,15 @@ bool add_edge_crossings(const SilhouetteEdge& e, Vec3f o, Vec3f r, const SampleO
   const double ua = dot(u, a);
   const D3 alpha = cross(a, rr), beta = cross(b, rr);
   const int32_t delta = side_r > 0 ? -k : k;
-  // The per-sample tests in float (vectorised), the per-edge set-up above in double.
-  const Vec3f mf(float(m.x), float(m.y), float(m.z)), uf(float(u.x), float(u.y), float(u.z));
-  const Vec3f af(float(alpha.x), float(alpha.y), float(alpha.z)), bf(float(beta.x), float(beta.y), float(beta.z));
-  const float uaf = float(ua);
-  const float* x = samples.x;
-  const float* y = samples.y;
-  const float* z = samples.z;
-  const int n = samples.count;  // a local: `depth` (int) could alias samples.count otherwise
-  for (int i = 0; i < n; ++i) {
-    const float s = mf.x * x[i] + mf.y * y[i] + mf.z * z[i];
-    const float t = uf.x * x[i] + uf.y * y[i] + uf.z * z[i] - uaf;
-    const float pa = af.x * x[i] + af.y * y[i] + af.z * z[i];
-    const float pb = bf.x * x[i] + bf.y * y[i] + bf.z * z[i];
-    // Branch-free, so that the compiler vectorises the loop: pa pb < 0 is "opposite signs,
-    // neither 0" (a product that underflows to 0 is a sample on the plane: no crossing).
-    const int32_t crosses = (s < 0.0f) & (t > 0.0f) & (pa * pb < 0.0f);
-    depth[i] += crosses * delta;
-  }
+  // The per-sample tests in float (SIMD, crossing_kernel.h), the per-edge set-up above in
+  // double: the small triangles of a fine mesh seen from afar make the cross products cancel.
+  const CrossingTests tests{{float(m.x), float(m.y), float(m.z)},
+                            {float(u.x), float(u.y), float(u.z)},
+                            {float(alpha.x), float(alpha.y), float(alpha.z)},
+                            {float(beta.x), float(beta.y), float(beta.z)},
+                            float(ua)};
+  add_crossings(tests, samples.x, samples.y, samples.z, padded_samples(static_cast<size_t>(samples.count)), delta,
+                depth);
   return true;
 }
 

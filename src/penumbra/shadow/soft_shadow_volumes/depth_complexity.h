@@ -25,7 +25,8 @@
 
 namespace penumbra::ssv {
 
-// The light samples relative to the point o (l_i - o), structure of arrays.
+// The light samples relative to the point o (l_i - o), structure of arrays, each padded to
+// padded_samples(count) floats with zeros (crossing_kernel.h); `depth` likewise.
 struct SampleOffsets {
   const float* x;
   const float* y;

@@ -27,6 +27,7 @@
 #include "penumbra/core/progress.h"
 #include "penumbra/shadow/light_samples.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/shadow/soft_shadow_volumes/crossing_kernel.h"
 #include "penumbra/shadow/soft_shadow_volumes/depth_complexity.h"
 #include "penumbra/shadow/soft_shadow_volumes/silhouette_edges.h"
 #include "penumbra/trace/bvh.h"
@@ -107,8 +108,10 @@ class SoftShadowVolumes final : public ShadowMethod {
     {
       ScopedPhase phase(stats_, "evaluate");
       parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
-        std::vector<float> x(n), y(n), z(n);
-        std::vector<int32_t> depth(n);
+        // Padded with zeros (samples at o, which never cross) for the SIMD kernel.
+        const size_t padded = ssv::padded_samples(static_cast<size_t>(n));
+        std::vector<float> x(padded, 0.0f), y(padded, 0.0f), z(padded, 0.0f);
+        std::vector<int32_t> depth(padded);
         std::vector<uint32_t> stack;
         uint64_t tests = 0, updates = 0, hits = 0;
         for (size_t k = begin; k < end; ++k) {
@@ -237,7 +240,8 @@ MemoryEstimate memory(const ParamSet&, const MemoryQuery& q) {
                              TriangleBvh::build_bytes(edges, kLeafSize);
   tally.add(std::max(finding, hierarchy) + q.triangles * sizeof(float), kTrianglesSetting);
   const uint64_t n = static_cast<uint64_t>(std::max(1, q.light_samples));
-  tally.add(light_samples_bytes(static_cast<int>(n)) + static_cast<uint64_t>(q.threads) * n * 4 * sizeof(float),
+  tally.add(light_samples_bytes(static_cast<int>(n)) +
+                static_cast<uint64_t>(q.threads) * ssv::padded_samples(n) * 4 * sizeof(float),
             kLightSamplesSetting);
   return tally.estimate();
 }
