@@ -31,17 +31,33 @@ double side(Vec3f a, Vec3f b, Vec3f c, Vec3f x) {
   return ux * (vy * wz - vz * wy) - uy * (vx * wz - vz * wx) + uz * (vx * wy - vy * wx);
 }
 
-// Whether the plane of triangle (a, b, w) cuts the ball (or the triangle is degenerate).
-bool plane_cuts_ball(Vec3f a, Vec3f b, Vec3f w, const LightBall& light) {
+// Whether the plane of triangle (a, b, w) cuts the light's region (or the triangle is
+// degenerate). A margin of a thousandth of the region keeps it conservative under rounding.
+bool plane_cuts_region(Vec3f a, Vec3f b, Vec3f w, const LightRegion& light) {
   const Vec3f n = cross(b - a, w - a);
   const float len = length(n);
   if (!(len > 0)) return true;
-  return std::abs(dot(n, light.center - a)) <= len * light.radius * 1.001f + 1e-6f * len;
+  const float at_centre = dot(n, light.center - a);
+  // The plane's values over the region span at_centre +- reach.
+  const float reach = light.planar ? light.half.x * std::abs(dot(n, light.s)) + light.half.y * std::abs(dot(n, light.t))
+                                   : light.radius * len;
+  return std::abs(at_centre) <= reach * 1.001f + 1e-3f * light.radius * len + 1e-6f * len;
 }
 
 }  // namespace
 
-std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightBall& light) {
+LightRegion light_region(const AreaLight& light) {
+  LightRegion r;
+  r.center = light.center;
+  r.radius = light.extent_radius();
+  r.planar = light.shape != LightShape::Ellipsoid;
+  r.s = light.frame.s;
+  r.t = light.frame.t;
+  r.half = light.shape == LightShape::Rect ? light.size * 0.5f : Vec2f{light.radius, light.radius};
+  return r;
+}
+
+std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightRegion& light) {
   std::vector<SilhouetteEdge> out;
   for (const SceneObject& obj : scene.objects) {
     const TriangleMesh& m = obj.mesh;
@@ -80,7 +96,7 @@ std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const Ligh
         const Vec3f w0 = points[w[0]], w1 = points[w[1]];
         // §3.1: a silhouette for some light point iff the triangles face it differently; the
         // facing changes only where a point crosses one of the two planes.
-        const bool cut = plane_cuts_ball(a, b, w0, light) || plane_cuts_ball(a, b, w1, light);
+        const bool cut = plane_cuts_region(a, b, w0, light) || plane_cuts_region(a, b, w1, light);
         const bool silhouette_from_centre = (side(a, b, light.center, w0) > 0) == (side(a, b, light.center, w1) > 0);
         if (!cut && !silhouette_from_centre) continue;
         out.push_back({a, b, {w0, w1}, 2});

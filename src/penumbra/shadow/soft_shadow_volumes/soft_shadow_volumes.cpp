@@ -57,7 +57,7 @@ class SoftShadowVolumes final : public ShadowMethod {
     ScopedPhase phase(stats_, "silhouettes");
     stats_.prepare_count++;
     const AreaLight& light = *ctx.light;
-    edges_ = ssv::potential_silhouettes(*ctx.scene, {light.center, light.extent_radius()});
+    edges_ = ssv::potential_silhouettes(*ctx.scene, ssv::light_region(light));
     std::vector<BvhTriangle> boxes(edges_.size());
     for (size_t i = 0; i < edges_.size(); ++i) {
       boxes[i].v0 = edges_[i].a;

@@ -70,6 +70,18 @@ TEST(SoftShadowVolumesSilhouettes, CubeSeenFromALightGivesTheClosedFormSilhouett
   EXPECT_GT(ssv::potential_silhouettes(scene, {{0.5f, 4, 0.5f}, 2.0f}).size(), 8u);
 }
 
+TEST(SoftShadowVolumesSilhouettes, APlanarLightIsTighterThanItsBall) {
+  // A 0.8 x 0.8 rect light high above the cube's top face: the side faces' planes (0.5 from
+  // its centre) miss the rectangle but cut its ball (radius 0.57): the rectangle keeps only
+  // the top's 4 edges, the ball the side faces' diagonals and the vertical edges too.
+  const Scene scene = single_object_scene(box({0, 0, 0}, {1, 1, 1}));
+  const AreaLight light = rect_light_down({0.5f, 4, 0.5f}, 0.8f, 0.8f);
+  const ssv::LightRegion region = ssv::light_region(light);
+  ASSERT_TRUE(region.planar);
+  EXPECT_EQ(ssv::potential_silhouettes(scene, region).size(), 4u);
+  EXPECT_GT(ssv::potential_silhouettes(scene, {light.center, light.extent_radius()}).size(), 4u);
+}
+
 TEST(SoftShadowVolumesSilhouettes, OpenQuadHasItsFourBoundaryEdges) {
   const Scene scene = single_object_scene(quad_y(1, 0, 1, 0, 1));
   const auto edges = ssv::potential_silhouettes(scene, {{0.5f, 4, 0.5f}, 0.5f});
@@ -124,7 +136,7 @@ TEST(SoftShadowVolumesDepthComplexity, EqualsTheSurfacesEachSegmentCrosses) {
   scene.lights.push_back(rect_light_down({0.1f, 2.5f, 0.0f}, 1.6f, 1.2f));
   scene.finalize();
   const AreaLight& light = scene.lights[0];
-  const auto edges = ssv::potential_silhouettes(scene, {light.center, light.extent_radius()});
+  const auto edges = ssv::potential_silhouettes(scene, ssv::light_region(light));
   const LightSamples ls = make_light_samples(light, 60, 3, 0, 0);  // not a multiple of the padding
   Rng rng(41);
   long compared = 0, equal = 0, penumbra_points = 0;
