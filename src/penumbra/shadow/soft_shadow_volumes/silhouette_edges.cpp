@@ -8,6 +8,8 @@
 namespace penumbra::ssv {
 namespace {
 
+constexpr uint32_t kReversed = 0x80000000u;
+
 // A vertex by its bits: welding by exact position.
 struct VertexKey {
   uint32_t x, y, z;
@@ -81,7 +83,9 @@ std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const Ligh
       for (int k = 0; k < 3; ++k) {
         const uint32_t i = v[k], j = v[(k + 1) % 3];
         const uint64_t key = static_cast<uint64_t>(std::min(i, j)) << 32 | std::max(i, j);
-        edges[key].push_back(v[(k + 2) % 3]);
+        // The third vertex, and whether the triangle runs along the edge from its high id to
+        // its low one (top bit).
+        edges[key].push_back(v[(k + 2) % 3] | (i > j ? kReversed : 0u));
       }
     }
     // In a fixed order (the map's is not): by key.
@@ -90,8 +94,13 @@ std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const Ligh
     for (const auto& [key, thirds] : edges) sorted.emplace_back(key, &thirds);
     std::sort(sorted.begin(), sorted.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
     for (const auto& [key, thirds] : sorted) {
-      const Vec3f a = points[key >> 32], b = points[key & 0xFFFFFFFFu];
-      const std::vector<uint32_t>& w = *thirds;
+      Vec3f a = points[key >> 32], b = points[key & 0xFFFFFFFFu];
+      // a -> b along the first triangle's winding: on a consistently wound mesh, the planes
+      // (b - a) x (w_0 - a) and -(b - a) x (w_1 - a) are then both triangles' outward sides,
+      // the same for every edge (what the method's hierarchy bounds, NodeFacing).
+      if (thirds->front() & kReversed) std::swap(a, b);
+      std::vector<uint32_t> w = *thirds;
+      for (uint32_t& x : w) x &= ~kReversed;
       if (w.size() == 2) {
         const Vec3f w0 = points[w[0]], w1 = points[w[1]];
         // §3.1: a silhouette for some light point iff the triangles face it differently; the

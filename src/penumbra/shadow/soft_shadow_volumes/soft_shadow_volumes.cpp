@@ -49,6 +49,26 @@ inline bool outside(const Bounds3f& b, const Plane& p) {
   return dot(p.n, c) + p.d < 0;
 }
 
+// A hierarchy node's bound on the facing of its edges' triangles (§3.2: only edges that are
+// silhouettes from the point matter), so that a whole subtree is skipped where the point sees
+// all of its triangles from the front, or all from behind: then no edge in it is a silhouette
+// from the point. The triangles' unit normals N (oriented so that an edge's two triangles
+// agree: k_e = 0 iff N_A . (o - x) and N_B . (o - x) have one sign) lie within `spread` of the
+// unit `axis`; their points lie in `box`. For every such plane through x in the box,
+//   N . (o - x) >= axis . o - max_box(axis . x) - spread |o - x|,
+// and symmetrically from above: one bound decides the whole node.
+struct NodeFacing {
+  Vec3f axis{0.0f};
+  float spread = 0;
+  Bounds3f box;
+  bool cullable = false;  // false with a boundary or degenerate edge, or normals all around
+  // From the above, for the test: the range of axis . x over the box, its centre and
+  // half-diagonal.
+  float h_lo = 0, h_hi = 0;
+  Vec3f centre{0.0f};
+  float half_diagonal = 0;
+};
+
 class SoftShadowVolumes final : public ShadowMethod {
  public:
   explicit SoftShadowVolumes(const ParamSet&) {}
@@ -75,6 +95,7 @@ class SoftShadowVolumes final : public ShadowMethod {
     }
     facing_.resize(edges_.size());
     for (size_t i = 0; i < edges_.size(); ++i) facing_[i] = ssv::edge_facing(edges_[i]);
+    build_node_facing();
     opacity_.clear();
     for (const SceneObject& obj : ctx.scene->objects) {
       const TriangleMesh& m = obj.mesh;
@@ -149,11 +170,12 @@ class SoftShadowVolumes final : public ShadowMethod {
           stack.clear();
           if (!nodes.empty()) stack.push_back(0);
           while (!stack.empty()) {
-            const BvhNode& node = nodes[stack.back()];
+            const uint32_t stack_top = stack.back();
+            const BvhNode& node = nodes[stack_top];
             stack.pop_back();
             bool cut = false;
             for (const Plane& p : planes) cut = cut || outside(node.bounds, p);
-            if (cut) continue;
+            if (cut || sees_all_alike(node_facing_[stack_top], o)) continue;
             if (!node.leaf()) {
               stack.push_back(node.first);
               stack.push_back(node.first + 1);
@@ -196,6 +218,72 @@ class SoftShadowVolumes final : public ShadowMethod {
   }
 
  private:
+  // Bottom-up over the hierarchy (children come after their parent in bvh_.nodes()).
+  void build_node_facing() {
+    const std::vector<BvhNode>& nodes = bvh_.nodes();
+    node_facing_.assign(nodes.size(), NodeFacing{});
+    for (size_t k = nodes.size(); k-- > 0;) {
+      const BvhNode& node = nodes[k];
+      NodeFacing& f = node_facing_[k];
+      std::vector<Vec3f> normals;
+      f.cullable = true;
+      if (node.leaf()) {
+        for (uint32_t i = node.first; i < node.first + node.count; ++i) {
+          const ssv::SilhouetteEdge& e = edges_[i];
+          const ssv::EdgeFacing& ef = facing_[i];
+          for (Vec3f p : {e.a, e.b, e.w[0]}) f.box.extend(p);
+          if (e.triangles == 2) f.box.extend(e.w[1]);
+          if (!ef.two_sided || !(ef.scale[0] > 0) || !(ef.scale[1] > 0)) {
+            f.cullable = false;
+            continue;
+          }
+          // n_0 and -n_1 (EdgeFacing orients both by (a, b, w): opposite for a consistent pair).
+          normals.push_back(ef.n[0] / ef.scale[0]);
+          normals.push_back(-ef.n[1] / ef.scale[1]);
+        }
+        Vec3f sum(0.0f);
+        for (Vec3f n : normals) sum = sum + n;
+        const float len = length(sum);
+        if (!(len > 1e-3f * static_cast<float>(normals.size()))) f.cullable = false;
+        if (!f.cullable) continue;
+        f.axis = sum / len;
+        for (Vec3f n : normals) f.spread = std::max(f.spread, length(n - f.axis));
+      } else {
+        const NodeFacing& l = node_facing_[node.first];
+        const NodeFacing& r = node_facing_[node.first + 1];
+        f.box = l.box;
+        f.box.extend(r.box);
+        const Vec3f sum = l.axis + r.axis;
+        const float len = length(sum);
+        f.cullable = l.cullable && r.cullable && len > 1e-3f;
+        if (!f.cullable) continue;
+        f.axis = sum / len;
+        f.spread = std::max(l.spread + length(l.axis - f.axis), r.spread + length(r.axis - f.axis));
+      }
+      // Normals more than 90 degrees apart: no side is common to all.
+      if (f.spread >= 1.0f) f.cullable = false;
+      if (!f.cullable) continue;
+      f.h_lo = kInfinity, f.h_hi = -kInfinity;
+      for (int i = 0; i < 8; ++i) {
+        const float h = dot(f.axis, f.box.corner(i));
+        f.h_lo = std::min(f.h_lo, h);
+        f.h_hi = std::max(f.h_hi, h);
+      }
+      f.centre = f.box.center();
+      f.half_diagonal = 0.5f * length(f.box.diagonal());
+    }
+  }
+
+  // Whether o sees every triangle of the node from the same side (NodeFacing), with a margin
+  // far above the rounding, so that add_edge_crossings would find k_e = 0 for each edge.
+  static bool sees_all_alike(const NodeFacing& f, Vec3f o) {
+    if (!f.cullable) return false;
+    const float reach = length(o - f.centre) + f.half_diagonal;
+    const float ao = dot(f.axis, o);
+    const float margin = 1e-4f * (reach + std::abs(ao) + 1.0f);
+    return ao - f.h_hi - f.spread * reach > margin || ao - f.h_lo + f.spread * reach < -margin;
+  }
+
   // The number of surfaces the segment from o to q crosses (one closest-hit query per
   // surface, each starting past the last hit; shadow_ray_to's end short of the light).
   int32_t surfaces_crossed(const RayTracer& tracer, Vec3f o, Vec3f q, uint64_t* hits) const {
@@ -222,6 +310,7 @@ class SoftShadowVolumes final : public ShadowMethod {
 
   std::vector<ssv::SilhouetteEdge> edges_;  // in bvh_'s leaf order
   std::vector<ssv::EdgeFacing> facing_;      // the same order
+  std::vector<NodeFacing> node_facing_;      // per node of bvh_
   TriangleBvh bvh_;
   std::vector<std::vector<float>> opacity_;  // per object, per triangle
 };
@@ -237,7 +326,8 @@ MemoryEstimate memory(const ParamSet&, const MemoryQuery& q) {
   const uint64_t edges = static_cast<uint64_t>(ssv::kEdgesPerTriangle * static_cast<double>(q.triangles));
   const uint64_t finding = edges * (ssv::kSilhouetteBuildBytesPerEdge + ssv::kSilhouetteResultBytesPerEdge);
   const uint64_t hierarchy = edges * (2 * sizeof(ssv::SilhouetteEdge) + sizeof(BvhTriangle) + sizeof(ssv::EdgeFacing)) +
-                             TriangleBvh::build_bytes(edges, kLeafSize);
+                             TriangleBvh::build_bytes(edges, kLeafSize) +
+                             TriangleBvh::node_bound(edges, kLeafSize) * sizeof(NodeFacing);
   tally.add(std::max(finding, hierarchy) + q.triangles * sizeof(float), kTrianglesSetting);
   const uint64_t n = static_cast<uint64_t>(std::max(1, q.light_samples));
   tally.add(light_samples_bytes(static_cast<int>(n)) +
