@@ -9,7 +9,8 @@
 //     edge is the set of points from which the edge covers part of the light, i.e. o is in
 //     the wedge iff the edge meets the pyramid from o over the light's samples; the hierarchy
 //     is walked with that pyramid (the paper walks a hierarchy of wedges with the point: the
-//     same (point, edge) pairs, without bounding the unbounded wedges). Each such edge
+//     same (point, edge) pairs, without bounding the unbounded wedges), skipping nodes whose
+//     triangles the point sees all from one side (no silhouette from it there). Each such edge
 //     updates the integer depth complexity of the light samples its projection sweeps
 //     (depth_complexity.h), relative to one reference sample whose absolute depth complexity
 //     one Embree ray gives by counting the surfaces it crosses (§3.3). A sample is visible
