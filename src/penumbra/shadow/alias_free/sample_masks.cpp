@@ -29,22 +29,7 @@ constexpr float kMargin = 1e-5f;
 LightSamples make_light_samples(const AreaLight& light, int n, uint64_t seed, int light_index, int frame) {
   if (n < 1 || n > kMaxLightSamples)
     throw Error("afsm: light samples (--spp) must be in [1, {}], got {}", kMaxLightSamples, n);
-  LightSamples out;
-  out.center = light.center;
-  out.s = light.frame.s;
-  out.t = light.frame.t;
-  out.n = light.frame.n;
-  out.radius = std::max(light.extent_radius(), 1e-20f);
-  const LightSampleSet set(n, hash_combine(hash_combine(seed, 0x4146534du /* "AFSM" */ + light_index), frame),
-                           /*per_pixel=*/false);
-  const float inv_r = 1.0f / out.radius;
-  for (int i = 0; i < n; ++i) {
-    const Vec3f q = light.sample_area(set.sample(i, 0));
-    out.points.push_back(q);
-    const Vec3f d = q - out.center;
-    out.local.push_back({dot(d, out.s) * inv_r, dot(d, out.t) * inv_r});
-  }
-  return out;
+  return penumbra::make_light_samples(light, n, seed, light_index, frame);
 }
 
 PlaneMaskLut::PlaneMaskLut(std::span<const Vec2f> samples, int angle_bins, int distance_bins)

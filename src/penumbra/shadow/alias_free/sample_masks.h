@@ -24,24 +24,17 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/scene/light.h"
+#include "penumbra/shadow/light_samples.h"
 
 namespace penumbra::afsm {
 
 inline constexpr int kMaxLightSamples = 1024;
 
-// The N light points of one frame: stratified on [0,1)^2 (LightSampleSet, fixed for every
-// view sample as in agrawala2000 §3 / sintorn2008 §4.2), mapped by AreaLight::sample_area.
-struct LightSamples {
-  std::vector<Vec3f> points;  // world space
-  std::vector<Vec2f> local;   // (q - c) . (s, t) / radius
-  Vec3f center, s, t, n;      // the light's centre and frame
-  float radius = 1;           // AreaLight::extent_radius()
-  int size() const { return static_cast<int>(points.size()); }
-};
-// Frame `frame`'s samples of light `light_index` (keyed by seed, light and frame only).
+// The shared light point set (shadow/light_samples.h), bounded by the masks' size here.
+using penumbra::LightSamples;
+using penumbra::light_samples_bytes;
+// penumbra::make_light_samples for 1 <= n <= kMaxLightSamples; throws naming --spp otherwise.
 LightSamples make_light_samples(const AreaLight& light, int n, uint64_t seed, int light_index, int frame);
-// What make_light_samples allocates for n samples (both arrays grown by doubling).
-inline uint64_t light_samples_bytes(int n) { return 2 * static_cast<uint64_t>(n) * (sizeof(Vec3f) + sizeof(Vec2f)); }
 
 // Words of 64 bits for n samples.
 inline int mask_words(int n) { return (n + 63) / 64; }

@@ -1,0 +1,128 @@
+#include "penumbra/shadow/soft_shadow_volumes/silhouette_edges.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <unordered_map>
+
+namespace penumbra::ssv {
+namespace {
+
+constexpr uint32_t kReversed = 0x80000000u;
+
+// A vertex by its bits: welding by exact position.
+struct VertexKey {
+  uint32_t x, y, z;
+  bool operator==(const VertexKey&) const = default;
+};
+VertexKey key_of(Vec3f p) { return {std::bit_cast<uint32_t>(p.x), std::bit_cast<uint32_t>(p.y), std::bit_cast<uint32_t>(p.z)}; }
+struct VertexHash {
+  size_t operator()(const VertexKey& k) const {
+    uint64_t h = k.x * 0x9e3779b97f4a7c15ull;
+    h ^= (h >> 29) + k.y * 0xbf58476d1ce4e5b9ull;
+    h ^= (h >> 31) + k.z * 0x94d049bb133111ebull;
+    return static_cast<size_t>(h ^ (h >> 32));
+  }
+};
+
+// Side of `x` relative to the plane through a, b, c: the sign of det[b - a, c - a, x - a].
+double side(Vec3f a, Vec3f b, Vec3f c, Vec3f x) {
+  const double ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z;
+  const double vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
+  const double wx = x.x - a.x, wy = x.y - a.y, wz = x.z - a.z;
+  return ux * (vy * wz - vz * wy) - uy * (vx * wz - vz * wx) + uz * (vx * wy - vy * wx);
+}
+
+// Whether the plane of triangle (a, b, w) cuts the light's region (or the triangle is
+// degenerate). A margin of a thousandth of the region keeps it conservative under rounding.
+bool plane_cuts_region(Vec3f a, Vec3f b, Vec3f w, const LightRegion& light) {
+  const Vec3f n = cross(b - a, w - a);
+  const float len = length(n);
+  if (!(len > 0)) return true;
+  const float at_centre = dot(n, light.center - a);
+  // The plane's values over the region span at_centre +- reach.
+  const float reach = light.planar ? light.half.x * std::abs(dot(n, light.s)) + light.half.y * std::abs(dot(n, light.t))
+                                   : light.radius * len;
+  return std::abs(at_centre) <= reach * 1.001f + 1e-3f * light.radius * len + 1e-6f * len;
+}
+
+}  // namespace
+
+LightRegion light_region(const AreaLight& light) {
+  LightRegion r;
+  r.center = light.center;
+  r.radius = light.extent_radius();
+  r.planar = light.shape != LightShape::Ellipsoid;
+  r.s = light.frame.s;
+  r.t = light.frame.t;
+  r.half = light.shape == LightShape::Rect ? light.size * 0.5f : Vec2f{light.radius, light.radius};
+  return r;
+}
+
+std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightRegion& light) {
+  std::vector<SilhouetteEdge> out;
+  for (const SceneObject& obj : scene.objects) {
+    const TriangleMesh& m = obj.mesh;
+    const float opacity = obj.material.opacity;
+    // Welded vertex ids, then each undirected edge's third vertices.
+    std::unordered_map<VertexKey, uint32_t, VertexHash> ids;
+    std::vector<Vec3f> points;
+    std::unordered_map<uint64_t, std::vector<uint32_t>> edges;  // (id_lo, id_hi) -> third vertex ids
+    ids.reserve(m.positions.size());
+    auto id_of = [&](Vec3f p) {
+      auto [it, inserted] = ids.emplace(key_of(p), static_cast<uint32_t>(points.size()));
+      if (inserted) points.push_back(p);
+      return it->second;
+    };
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+      const float alpha = opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
+      if (!(alpha > 0)) continue;
+      uint32_t v[3];
+      for (int k = 0; k < 3; ++k) v[k] = id_of(m.vertex(t, k));
+      if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // degenerate: blocks nothing
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t i = v[k], j = v[(k + 1) % 3];
+        const uint64_t key = static_cast<uint64_t>(std::min(i, j)) << 32 | std::max(i, j);
+        // The third vertex, and whether the triangle runs along the edge from its high id to
+        // its low one (top bit).
+        edges[key].push_back(v[(k + 2) % 3] | (i > j ? kReversed : 0u));
+      }
+    }
+    // In a fixed order (the map's is not): by key.
+    std::vector<std::pair<uint64_t, const std::vector<uint32_t>*>> sorted;
+    sorted.reserve(edges.size());
+    for (const auto& [key, thirds] : edges) sorted.emplace_back(key, &thirds);
+    std::sort(sorted.begin(), sorted.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (const auto& [key, thirds] : sorted) {
+      Vec3f a = points[key >> 32], b = points[key & 0xFFFFFFFFu];
+      // a -> b along the first triangle's winding: on a consistently wound mesh, the planes
+      // (b - a) x (w_0 - a) and -(b - a) x (w_1 - a) are then both triangles' outward sides,
+      // the same for every edge (what the method's hierarchy bounds, NodeFacing).
+      if (thirds->front() & kReversed) std::swap(a, b);
+      std::vector<uint32_t> w = *thirds;
+      for (uint32_t& x : w) x &= ~kReversed;
+      if (w.size() == 2) {
+        const Vec3f w0 = points[w[0]], w1 = points[w[1]];
+        // §3.1: a silhouette for some light point iff the triangles face it differently; the
+        // facing changes only where a point crosses one of the two planes.
+        const bool cut = plane_cuts_region(a, b, w0, light) || plane_cuts_region(a, b, w1, light);
+        const bool silhouette_from_centre = (side(a, b, light.center, w0) > 0) == (side(a, b, light.center, w1) > 0);
+        if (!cut && !silhouette_from_centre) continue;
+        out.push_back({a, b, {w0, w1}, 2});
+        continue;
+      }
+      // Boundary edges (§3.4) and non-manifold ones (their triangles' parts add up).
+      for (size_t i = 0; i < w.size(); i += 2) {
+        SilhouetteEdge e{a, b, {points[w[i]], Vec3f(0.0f)}, 1};
+        if (i + 1 < w.size()) {
+          e.w[1] = points[w[i + 1]];
+          e.triangles = 2;
+        }
+        out.push_back(e);
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace penumbra::ssv

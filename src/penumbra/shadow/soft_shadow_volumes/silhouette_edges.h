@@ -1,0 +1,55 @@
+// The potential silhouette edges of a scene's casters with respect to a whole area light
+// (Laine et al. 2005 §3.1): the edges whose adjacent triangles can face a point of the light
+// differently, plus every boundary edge of an open mesh (§3.4: an open surface's border
+// changes the depth complexity by one wherever it is seen).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra::ssv {
+
+// One edge a-b and the third vertices of up to two of its triangles (an edge with more is
+// split into several entries: their contributions add up, depth_complexity.h).
+struct SilhouetteEdge {
+  Vec3f a, b;
+  Vec3f w[2];
+  uint32_t triangles = 0;  // 1 (a boundary edge, or one part of a non-manifold edge) or 2
+};
+
+// The region of space the light's samples lie in: "the whole light" of the silhouette test.
+// Planar: the rectangle [-half.x, half.x] x [-half.y, half.y] around `center` in the plane
+// spanned by s and t (a rect itself; the square around a disk or a sphere's disk: every sample
+// lies there, light_samples.h); otherwise the ball of `radius` around the centre
+// (conservative for any shape).
+struct LightRegion {
+  Vec3f center;
+  float radius = 0;
+  bool planar = false;
+  Vec3f s, t;
+  Vec2f half{0, 0};
+};
+// The region of a light: planar for rect, disk and sphere, the ball of its extent radius for
+// an ellipsoid.
+LightRegion light_region(const AreaLight& light);
+
+// Edges are welded by position (bitwise equal vertices count as one, so meshes stored with
+// split vertices at seams and creases do not turn every crease into two boundary edges).
+// An edge with two triangles is kept when one of their planes cuts the region (some light
+// point sees one side, another the other) or, where neither does, when both triangles lie on
+// one side of the plane through the region's centre and the edge (the whole light sees a
+// silhouette). Triangles of zero opacity cast nothing and are left out.
+std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightRegion& light);
+
+// For memory estimates: a closed mesh has 3/2 edges per triangle (a triangle soup stored
+// without shared vertices up to 3: twice the estimate); what potential_silhouettes holds per
+// edge while it works (the welded vertices, the edge map's nodes and third-vertex lists, the
+// sorted keys), and what its result holds (grown by doubling).
+inline constexpr double kEdgesPerTriangle = 1.5;
+inline constexpr uint64_t kSilhouetteBuildBytesPerEdge = 40 + 112 + 16;
+inline constexpr uint64_t kSilhouetteResultBytesPerEdge = 2 * sizeof(SilhouetteEdge);
+
+}  // namespace penumbra::ssv
