@@ -31,14 +31,32 @@ struct RasterTriangle {
   // ray through a covered texel centre; the point is inside the triangle up to rounding).
   float opacity_on_line(Vec3f origin, Vec3f dir) const {
     if (!alpha) return opacity;
+    float b1, b2, s;
+    if (!line_crossing(origin, dir, &b1, &b2, &s)) return opacity * alpha->opacity(uv[0]);  // edge-on: no area
+    return opacity * alpha->opacity(uv_at(b1, b2));
+  }
+  // Where the line origin + s dir meets the triangle's plane: its barycentrics (b1, b2) and s
+  // (Moller-Trumbore's solution; inside the triangle iff b1, b2 >= 0 and b1 + b2 <= 1). False
+  // when the line is parallel to the plane.
+  bool line_crossing(Vec3f origin, Vec3f dir, float* b1, float* b2, float* s) const {
     const Vec3f e1 = p[1] - p[0], e2 = p[2] - p[0];
     const Vec3f pv = cross(dir, e2);
     const float det = dot(e1, pv);
-    if (det == 0) return opacity * alpha->opacity(uv[0]);  // edge-on: covers no area
+    if (det == 0) return false;
     const float inv = 1.0f / det;
-    const Vec3f tv = origin - p[0];
-    const float b1 = dot(tv, pv) * inv, b2 = dot(dir, cross(tv, e1)) * inv;
-    return opacity * alpha->opacity(uv_at(b1, b2));
+    const Vec3f tv = origin - p[0], qv = cross(tv, e1);
+    *b1 = dot(tv, pv) * inv;
+    *b2 = dot(dir, qv) * inv;
+    *s = dot(e2, qv) * inv;
+    return true;
+  }
+  // The opacity where the segment from origin to origin + dir crosses the triangle (0 where it
+  // misses it): what a shadow ray to one light sample meets.
+  float opacity_on_segment(Vec3f origin, Vec3f dir) const {
+    float b1, b2, s;
+    if (!line_crossing(origin, dir, &b1, &b2, &s) || !(b1 >= 0 && b2 >= 0 && b1 + b2 <= 1 && s > 0 && s < 1))
+      return 0.0f;
+    return alpha ? opacity * alpha->opacity(uv_at(b1, b2)) : opacity;
   }
   // Texture coordinates at barycentric (b1, b2) (P = (1-b1-b2) p0 + b1 p1 + b2 p2).
   Vec2f uv_at(float b1, float b2) const {

@@ -851,14 +851,11 @@ class AliasFreeSoft final : public AliasFreeBase {
   static Vec2f rotate(Vec2f g, Vec2f r) { return {r.x * g.x + r.y * g.y, -r.y * g.x + r.x * g.y}; }
 
   // Of the light samples `candidates` (those the whole triangle t hides from p, not yet in m),
-  // clears those whose segment from p meets t in a hole of its alpha mask (the segment's
-  // crossing of t's plane, Moller-Trumbore's barycentrics; the sample's position rotated by
-  // rot, the line rotation of §4.2 seen from the samples' side). True if any is left.
+  // clears those whose segment from p meets t in a hole of its alpha mask (where the segment
+  // crosses t's plane; the sample's position rotated by rot, the line rotation of §4.2 seen
+  // from the samples' side). True if any is left.
   static bool textured_bits(const RasterTriangle& t, Vec3f p, const afsm::LightSamples& samples, Vec3f c, Vec3f ls,
                             Vec3f lt, Vec2f rot, uint64_t* candidates, const uint64_t* m) {
-    const Vec3f e1 = t.p[1] - t.p[0], e2 = t.p[2] - t.p[0];
-    const Vec3f tv = p - t.p[0];
-    const Vec3f qv = cross(tv, e1);
     uint64_t left = 0;
     for (int w = 0; w < afsm::mask_words(samples.size()); ++w) {
       uint64_t bits = candidates[w] & ~m[w];
@@ -866,13 +863,8 @@ class AliasFreeSoft final : public AliasFreeBase {
         const int i = 64 * w + std::countr_zero(rest);
         const Vec2f u = samples.local[i];
         const Vec2f r{rot.x * u.x - rot.y * u.y, rot.y * u.x + rot.x * u.y};
-        const Vec3f d = c + ls * r.x + lt * r.y - p;  // p + d is the light sample
-        const Vec3f pv = cross(d, e2);
-        const float det = dot(e1, pv);
-        const float inv = det != 0 ? 1.0f / det : 0.0f;
-        const float b1 = dot(tv, pv) * inv, b2 = dot(d, qv) * inv;
         // The planes said the segment crosses the triangle: only the alpha is looked up here.
-        if (!(t.opacity * t.alpha->opacity(t.uv_at(b1, b2)) > 0)) bits &= ~(1ull << (i & 63));
+        if (!(t.opacity_on_line(p, c + ls * r.x + lt * r.y - p) > 0)) bits &= ~(1ull << (i & 63));
       }
       candidates[w] = bits;
       left |= bits;

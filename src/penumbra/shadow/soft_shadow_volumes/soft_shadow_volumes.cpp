@@ -369,7 +369,7 @@ class SoftShadowVolumes final : public ShadowMethod {
     bool front_side(Vec3f q) const { return dot(ng, q - p) >= 0; }
   };
   // Sets masked[i] for the light samples whose segment from its origin meets t where t's alpha
-  // texture is solid (Moller-Trumbore; the segment ends at the sample). Only the samples inside
+  // texture is solid (the segment ends at the sample). Only the samples inside
   // the box of t's shadow on the light's plane (its corners projected from the front origin,
   // padded) are tested.
   static void mask_samples(const RasterTriangle& t, const Origins& from, const LightSamples& samples, int n,
@@ -394,26 +394,14 @@ class SoftShadowVolumes final : public ShadowMethod {
         x0 = bx0 - pad, x1 = bx1 + pad, y0 = by0 - pad, y1 = by1 + pad;
       }
     }
-    const Vec3f e1 = t.p[1] - t.p[0], e2 = t.p[2] - t.p[0];
     const bool two = !(from.back == from.front);
-    const Vec3f tv_front = from.front - t.p[0], tv_back = from.back - t.p[0];
-    const Vec3f qv_front = cross(tv_front, e1), qv_back = cross(tv_back, e1);
     for (int i = 0; i < n; ++i) {
       if (masked[i]) continue;
       const Vec2f l = samples.local[i];
       if (l.x < x0 || l.x > x1 || l.y < y0 || l.y > y1) continue;
       const Vec3f q = samples.points[i];
-      const bool front = !two || from.front_side(q);
-      const Vec3f& tv = front ? tv_front : tv_back;
-      const Vec3f& qv = front ? qv_front : qv_back;
-      const Vec3f d = q - (front ? from.front : from.back);
-      const Vec3f pv = cross(d, e2);
-      const float det = dot(e1, pv);
-      if (det == 0) continue;
-      const float inv = 1.0f / det;
-      const float b1 = dot(tv, pv) * inv, b2 = dot(d, qv) * inv, s = dot(e2, qv) * inv;
-      if (!(b1 >= 0 && b2 >= 0 && b1 + b2 <= 1 && s > 0 && s < 1)) continue;
-      if (t.opacity * t.alpha->opacity(t.uv_at(b1, b2)) > 0) masked[i] = 1;
+      const Vec3f origin = !two || from.front_side(q) ? from.front : from.back;
+      if (t.opacity_on_segment(origin, q - origin) > 0) masked[i] = 1;
     }
   }
 
