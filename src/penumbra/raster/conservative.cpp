@@ -191,7 +191,7 @@ void ConservativeRasterizer::triangles(std::span<const RasterTriangle> tris, con
     raster_internal::ClipVertex poly[raster_internal::kMaxClipVertices];
     for (size_t i = begin; i < end; ++i) {
       const RasterTriangle& tri = tris[i];
-      if (!(tri.opacity > 0) || (filter.opaque_only && tri.opacity < 1)) continue;
+      if (!(tri.opacity > 0) || (filter.opaque_only && tri.semi_transparent())) continue;
       if (filter.culling != FaceCulling::None) {
         bool front = raster_internal::faces_light(tri, view);
         if (front != (filter.culling == FaceCulling::Back)) continue;

@@ -51,6 +51,7 @@ struct SetupTriangle {
   float dvdx, dvdy;        // per texel
   float opacity;
   uint32_t source;         // index into the input triangles
+  bool textured;           // the source has an alpha texture: opacity varies per fragment
 };
 
 // Sets up one triangle of (unsnapped) texel-space vertices and depth values v. Returns false
@@ -150,8 +151,9 @@ inline void clip_span(int64_t e, int64_t s, double inv_s, int width, int* lo, in
   }
 }
 
-// Calls fn(index, v) for every texel centre of r that t covers, row by row, with incremental
-// edge functions. Narrow boxes test every texel; wider ones compute each row's span first.
+// Calls fn(index, v, x, y) for every texel centre (x, y) of r that t covers, row by row, with
+// incremental edge functions. Narrow boxes test every texel; wider ones compute each row's
+// span first.
 template <class Fn>
 inline void scan(const SetupTriangle& t, const TexelRect& r, Fn&& fn) {
   const int x0 = std::max(r.x0, t.x0), x1 = std::min(r.x1, t.x1);
@@ -171,7 +173,7 @@ inline void scan(const SetupTriangle& t, const TexelRect& r, Fn&& fn) {
       int64_t f0 = e0, f1 = e1, f2 = e2;
       const float vrow = vx0 + t.dvdy * static_cast<float>(y - t.y0);
       for (int x = 0; x < width; ++x) {
-        if ((f0 | f1 | f2) >= 0) fn(row + x, vrow + t.dvdx * static_cast<float>(x));  // all >= 0
+        if ((f0 | f1 | f2) >= 0) fn(row + x, vrow + t.dvdx * static_cast<float>(x), x0 + x, y);  // all >= 0
         f0 += sx0; f1 += sx1; f2 += sx2;
       }
       e0 += sy0; e1 += sy1; e2 += sy2;
@@ -187,9 +189,36 @@ inline void scan(const SetupTriangle& t, const TexelRect& r, Fn&& fn) {
     clip_span(e1, sx1, inv1, width, &lo, &hi);
     clip_span(e2, sx2, inv2, width, &lo, &hi);
     const float vrow = vx0 + t.dvdy * static_cast<float>(y - t.y0);
-    for (int x = lo; x < hi; ++x) fn(row + x, vrow + t.dvdx * static_cast<float>(x));
+    for (int x = lo; x < hi; ++x) fn(row + x, vrow + t.dvdx * static_cast<float>(x), x0 + x, y);
     e0 += sy0; e1 += sy1; e2 += sy2;
   }
+}
+
+// The opacity of each fragment of a textured triangle (issue 20): the view's ray through the
+// texel centre meets the source triangle, whose alpha texture is looked up there.
+struct FragmentAlpha {
+  std::span<const RasterTriangle> triangles;
+  const LightView* view = nullptr;
+  float operator()(uint32_t source, int x, int y) const {
+    const LightView::TexelRay r = view->texel_ray({static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f});
+    return triangles[source].opacity_on_line(r.origin, r.dir);
+  }
+};
+
+// Calls fn(index, v, opacity) for every fragment of t in r that has some opacity: a triangle
+// without an alpha texture gives every fragment its opacity; a textured one drops the
+// fragments in the holes of its mask (xie2007 §5's fragments carry what is left).
+template <class Fn>
+inline void scan_fragments(const SetupTriangle& t, const TexelRect& r, const FragmentAlpha& alpha, Fn&& fn) {
+  if (!t.textured) {
+    const float a = t.opacity;
+    scan(t, r, [&](size_t i, float v, int, int) { fn(i, v, a); });
+    return;
+  }
+  scan(t, r, [&](size_t i, float v, int x, int y) {
+    const float a = alpha(t.source, x, y);
+    if (a > 0) fn(i, v, a);
+  });
 }
 
 // v -> linear depth, kept inside [near, far] (a centre covered only thanks to snapping, or
@@ -256,6 +285,7 @@ struct Rasterizer::Impl {
   std::vector<std::vector<Fragment>> tile_fragments;  // fragment_lists: each tile's output
   std::vector<uint32_t> counts;                       // fragment_lists: per texel
   std::atomic<size_t> fragments{0};
+  FragmentAlpha alpha;  // the current call's triangles and view
 
   // Culls, clips, sets up and bins every triangle.
   void set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
@@ -269,6 +299,7 @@ struct Rasterizer::Impl {
 void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
                                         const RasterFilter& filter, int tile_size) {
   grid = TileGrid(view.width(), view.height(), raster_internal::tile_shift(tile_size));
+  alpha = FragmentAlpha{tris, &view};
   const bool perspective = view.is_perspective();
   const raster_internal::TriangleClipper clipper(view);
   binner.run(tris.size(), kChunkSize, grid, [&](size_t, size_t begin, size_t end, std::vector<SetupTriangle>& out) {
@@ -277,7 +308,7 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
     double v[raster_internal::kMaxClipVertices];
     for (size_t i = begin; i < end; ++i) {
       const RasterTriangle& tri = tris[i];
-      if (!(tri.opacity > 0) || (filter.opaque_only && tri.opacity < 1)) continue;
+      if (!(tri.opacity > 0) || (filter.opaque_only && tri.semi_transparent())) continue;
       if (filter.culling != FaceCulling::None) {
         bool front = raster_internal::faces_light(tri, view);
         if (front != (filter.culling == FaceCulling::Back)) continue;
@@ -296,6 +327,7 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
         if (!set_up(fx, fy, fv, view.width(), view.height(), &st)) continue;
         st.opacity = tri.opacity;
         st.source = static_cast<uint32_t>(i);
+        st.textured = tri.alpha != nullptr;
         out.push_back(st);
       }
     }
@@ -311,9 +343,8 @@ void Rasterizer::Impl::gather_tile(int tile, const LightView& view, TileScratch&
   const float near = view.near(), far = view.far();
   s.gathered.clear();
   for (const SetupTriangle& t : binner.tile(tile)) {
-    const float opacity = t.opacity;
     const uint32_t source = t.source;
-    scan(t, rect, [&](size_t k, float v) {
+    scan_fragments(t, rect, alpha, [&](size_t k, float v, float opacity) {
       float z = linear_depth<kPerspective>(v, near, far);
       s.gathered.push_back({sort_key(z, source), opacity, static_cast<uint32_t>(k)});
     });
@@ -381,9 +412,8 @@ void Rasterizer::depth_map(std::span<const RasterTriangle> triangles, const Ligh
       float* opacity = out->opacity.data() + rect.y0 * rect.stride + rect.x0;
       uint32_t* tri = out->triangle.data() + rect.y0 * rect.stride + rect.x0;
       for (const SetupTriangle& t : im.binner.tile(tile)) {
-        const float a = t.opacity;
         const uint32_t source = t.source;
-        scan(t, rect, [&](size_t i, float v) {
+        scan_fragments(t, rect, im.alpha, [&](size_t i, float v, float a) {
           ++frags;
           float zf = linear_depth<kPerspective>(v, near, far);
           if (zf < z[i]) {  // strict: on equal depth the first triangle in input order stays
@@ -449,9 +479,8 @@ void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, co
       uint8_t* counts = out->counts.data() + rect.y0 * rect.stride + rect.x0;
       DepthSample* samples = out->samples.data() + (rect.y0 * rect.stride + rect.x0) * k;
       for (const SetupTriangle& t : im.binner.tile(tile)) {
-        const float a = t.opacity;
         const uint32_t source = t.source;
-        scan(t, rect, [&](size_t i, float v) {
+        scan_fragments(t, rect, im.alpha, [&](size_t i, float v, float a) {
           ++frags;
           const float z = linear_depth<kPerspective>(v, near, far);
           DepthSample* s = samples + i * k;
@@ -651,13 +680,13 @@ void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, cons
         const int k_lo = bin(lo - margin), k_hi = bin(hi + margin);
         if (k_lo == k_hi) {
           const uint32_t bit = 1u << k_lo;
-          scan(t, rect, [&](size_t i, float) {
+          scan_fragments(t, rect, im.alpha, [&](size_t i, float, float) {
             ++frags;
             masks[i] |= bit;
           });
           continue;
         }
-        scan(t, rect, [&](size_t i, float v) {
+        scan_fragments(t, rect, im.alpha, [&](size_t i, float v, float) {
           ++frags;
           masks[i] |= 1u << bin(v);
         });

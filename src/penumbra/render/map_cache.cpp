@@ -52,6 +52,17 @@ std::string MapCache::geometry_digest(const Scene& scene) {
     d.add_value(o.material.albedo);
     d.add_value(o.material.opacity);
     d.add_value<uint8_t>(o.material.two_sided);
+    // Texture coordinates and the alpha texture's texels decide where a mask lets light through.
+    add_array(d, o.mesh.uvs);
+    d.add_value<uint8_t>(static_cast<uint8_t>(o.material.alpha.mode));
+    d.add_value(o.material.alpha.cutoff);
+    d.add_value<uint8_t>(o.material.alpha.texture != nullptr);
+    if (o.material.alpha.texture) {
+      d.add_value(o.material.alpha.texture->width());
+      d.add_value(o.material.alpha.texture->height());
+      d.add_value<uint8_t>(o.material.alpha.texture->has_alpha());
+      add_array(d, o.material.alpha.texture->rgba());
+    }
     d.add_value<uint8_t>(o.closed);
     d.add_value<uint8_t>(o.sphere.has_value());
     if (o.sphere) {

@@ -126,7 +126,12 @@ void CameraPass::run(const Scene& scene, const RayTracer& tracer, uint64_t seed,
         } else {
           v.ns = v.ng;
         }
-        v.albedo = (back && !obj.material.two_sided) ? Vec3f(0.0f) : obj.material.albedo;
+        if (back && !obj.material.two_sided)
+          v.albedo = Vec3f(0.0f);
+        else if (obj.material.albedo_texture && !m.uvs.empty())
+          v.albedo = obj.material.albedo_at(m.uv_at(hit.prim, hit.u, hit.v));
+        else
+          v.albedo = obj.material.albedo;
         v.object = object;
         v.prim = hit.prim;
         v.pixel = static_cast<uint32_t>(row_pixel + r / spp);

@@ -67,6 +67,12 @@ void TriangleMesh::append(const TriangleMesh& other) {
     normals.insert(normals.end(), other.normals.begin(), other.normals.end());
   else
     normals.clear();
+  // Texture coordinates, like normals, survive only if both sides have them.
+  const bool keep_uvs = (was_empty || !uvs.empty()) && !other.uvs.empty();
+  if (keep_uvs)
+    uvs.insert(uvs.end(), other.uvs.begin(), other.uvs.end());
+  else
+    uvs.clear();
   indices.reserve(indices.size() + other.indices.size());
   for (uint32_t i : other.indices) indices.push_back(static_cast<uint32_t>(base + i));
   // Per-triangle opacity: a side without it is opaque (1).

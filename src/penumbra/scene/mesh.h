@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/scene/texture.h"
 
 namespace penumbra {
 
@@ -18,6 +19,19 @@ struct Material {
   // One-sided surfaces are black when seen from behind (as in Mitsuba's diffuse BSDF);
   // every surface casts shadows from both sides.
   bool two_sided = true;
+  // Optional base-colour texture (linear RGB after decoding), multiplied with `albedo` at the
+  // surface's texture coordinates (TriangleMesh::uvs).
+  std::shared_ptr<const Texture> albedo_texture;
+  // Alpha (issue 20): where the surface is (mask) or how much light it stops (blend), from a
+  // texture looked up at the surface's texture coordinates; multiplied with `opacity`.
+  SurfaceAlpha alpha;
+
+  // The albedo at texture coordinates uv (`albedo` where there is no texture).
+  Vec3f albedo_at(Vec2f uv) const { return albedo_texture ? albedo * albedo_texture->rgb(uv) : albedo; }
+  // Whether the surface's opacity varies over it (needs texture coordinates to be known).
+  bool alpha_textured() const { return alpha.active(); }
+  // Whether a shadow ray or a light-space map may find the surface semi-transparent.
+  bool semi_transparent() const { return opacity < 1.0f || (alpha.active() && alpha.mode == AlphaMode::Blend); }
 };
 
 struct TriangleMesh {
@@ -26,16 +40,27 @@ struct TriangleMesh {
   std::vector<uint32_t> indices;  // 3 per triangle
   // Optional per-triangle opacity, multiplied with the material's (furball strands).
   std::vector<float> triangle_opacity;
+  // Optional per-vertex texture coordinates (empty: none; required by a textured material).
+  std::vector<Vec2f> uvs;
 
   size_t triangle_count() const { return indices.size() / 3; }
   Vec3f vertex(size_t tri, int k) const { return positions[indices[3 * tri + k]]; }
+  // Texture coordinates at barycentric (b1, b2) of triangle tri: P = (1-b1-b2) p0 + b1 p1 + b2 p2
+  // (Embree's hit.u, hit.v). Only with uvs.
+  Vec2f uv_at(size_t tri, float b1, float b2) const {
+    const uint32_t* i = &indices[3 * tri];
+    const Vec2f a = uvs[i[0]], b = uvs[i[1]], c = uvs[i[2]];
+    const float b0 = 1.0f - b1 - b2;
+    return {b0 * a.x + b1 * b.x + b2 * c.x, b0 * a.y + b1 * b.y + b2 * c.y};
+  }
   Bounds3f bounds() const;
   // Applies an affine transform to positions (and the inverse transpose to normals).
   // A mirroring transform (negative determinant) also swaps two indices per triangle, so
   // windings keep facing the same side as the normals (outward for closed meshes).
   void transform(const Mat4& m);
   // Appends another mesh (indices offset). Normals are kept only if both meshes have them
-  // (or this one is empty); per-triangle opacity is filled with 1 where a side lacks it.
+  // (or this one is empty); per-triangle opacity is filled with 1 where a side lacks it;
+  // texture coordinates likewise survive only if both sides have them.
   void append(const TriangleMesh& other);
   // True when every edge is shared by exactly two triangles with opposite orientation:
   // a closed, consistently oriented surface (sintorn2008 §3.3 needs this). Vertices are

@@ -1,6 +1,7 @@
 #include "penumbra/scene/mesh_import.h"
 
 #include <assimp/BaseImporter.h>
+#include <assimp/GltfMaterial.h>
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
 #include <assimp/importerdesc.h>
@@ -8,12 +9,16 @@
 #include <assimp/scene.h>
 
 #include <array>
+#include <cmath>
+#include <memory>
+#include <span>
 #include <cctype>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/image.h"
 #include "penumbra/scene/mesh_file_checks.h"
 
 namespace penumbra {
@@ -51,9 +56,91 @@ void keep_only_readers_for(Assimp::Importer& importer, const fs::path& path) {
   }
 }
 
+
+// What penumbra reads of one material of the file: its base-colour texture and its alpha.
+struct MaterialTextures {
+  std::string name;
+  std::shared_ptr<const Texture> albedo;
+  SurfaceAlpha alpha;
+  bool textured() const { return albedo != nullptr || alpha.active(); }
+};
+
+struct ImportedPart {
+  std::string name;
+  Material material;
+  bool textured = false;
+  std::vector<unsigned> meshes;
+};
+
+// A texture a material names: embedded ("*N" or an embedded file name: glTF data URIs and
+// GLB buffers) or a file relative to the mesh file. Errors name both files.
+std::shared_ptr<const Texture> load_material_texture(const aiScene& scene, const aiString& ref, const fs::path& mesh,
+                                                     Texture::Encoding encoding) {
+  const std::string r = ref.C_Str();
+  if (const aiTexture* t = scene.GetEmbeddedTexture(r.c_str())) {
+    const std::string label = fmt::format("{} (embedded image {})", mesh.string(), r);
+    if (t->mHeight == 0)  // compressed: mWidth bytes of a PNG or JPEG file
+      return Texture::decode(std::span(reinterpret_cast<const unsigned char*>(t->pcData), t->mWidth), encoding, label);
+    // Raw ARGB8888 texels.
+    const size_t n = static_cast<size_t>(t->mWidth) * t->mHeight;
+    std::vector<float> rgba(4 * n);
+    for (size_t i = 0; i < n; ++i) {
+      const aiTexel& x = t->pcData[i];
+      const unsigned char c[3] = {x.r, x.g, x.b};
+      for (int k = 0; k < 3; ++k)
+        rgba[4 * i + k] = encoding == Texture::Encoding::Srgb ? srgb_to_linear(c[k] / 255.0f) : c[k] / 255.0f;
+      rgba[4 * i + 3] = x.a / 255.0f;
+    }
+    return std::make_shared<const Texture>(static_cast<int>(t->mWidth), static_cast<int>(t->mHeight), std::move(rgba),
+                                           true, label);
+  }
+  if (r.empty() || r[0] == '*') throw Error("{}: material names texture '{}', which the file does not embed", mesh.string(), r);
+  fs::path p(r);
+  if (!p.is_absolute()) p = (mesh.parent_path() / p).lexically_normal();
+  try {
+    return Texture::load(p, encoding);
+  } catch (const Error& e) {
+    throw Error("{}: texture of a material: {}", mesh.string(), e.what());
+  }
+}
+
+MaterialTextures read_material_textures(const aiScene& scene, unsigned index, const fs::path& mesh) {
+  const aiMaterial& m = *scene.mMaterials[index];
+  MaterialTextures out;
+  aiString name;
+  out.name = m.Get(AI_MATKEY_NAME, name) == AI_SUCCESS && name.length > 0 ? std::string(name.C_Str())
+                                                                          : fmt::format("material{}", index);
+  aiString ref;
+  // glTF's baseColorTexture is both BASE_COLOR and DIFFUSE in Assimp 5; OBJ's map_Kd DIFFUSE.
+  if (m.GetTexture(aiTextureType_BASE_COLOR, 0, &ref) == AI_SUCCESS || m.GetTexture(aiTextureType_DIFFUSE, 0, &ref) == AI_SUCCESS)
+    out.albedo = load_material_texture(scene, ref, mesh, Texture::Encoding::Srgb);
+  // OBJ's map_d: a mask (the practice of foliage assets); glTF's alphaMode and alphaCutoff.
+  aiString mode;
+  float cutoff = 0.5f;
+  if (m.GetTexture(aiTextureType_OPACITY, 0, &ref) == AI_SUCCESS) {
+    out.alpha.texture = load_material_texture(scene, ref, mesh, Texture::Encoding::Linear);
+    out.alpha.mode = AlphaMode::Mask;
+  } else if (m.Get(AI_MATKEY_GLTF_ALPHAMODE, mode) == AI_SUCCESS) {
+    const std::string s = mode.C_Str();
+    if (s == "MASK") out.alpha.mode = AlphaMode::Mask;
+    else if (s == "BLEND") out.alpha.mode = AlphaMode::Blend;
+    if (out.alpha.mode != AlphaMode::Opaque) {
+      if (!out.albedo || !out.albedo->has_alpha())
+        throw Error("{}: material {} has alphaMode {} but no base colour texture with an alpha channel", mesh.string(),
+                    out.name, s);
+      out.alpha.texture = out.albedo;
+    }
+  }
+  if (m.Get(AI_MATKEY_GLTF_ALPHACUTOFF, cutoff) == AI_SUCCESS) {
+    if (!(cutoff >= 0 && cutoff <= 1)) throw Error("{}: material {} has alphaCutoff {} outside [0, 1]", mesh.string(), out.name, cutoff);
+    out.alpha.cutoff = cutoff;
+  }
+  return out;
+}
+
 }  // namespace
 
-TriangleMesh import_mesh(const fs::path& path, MeshImportReport* report) {
+std::vector<SceneObject> import_mesh_parts(const fs::path& path, MeshImportReport* report) {
   const std::string name = path.string();
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error("{}: no such file", name);
@@ -95,68 +182,111 @@ TriangleMesh import_mesh(const fs::path& path, MeshImportReport* report) {
                                        aiProcess_PreTransformVertices | aiProcess_SortByPType);
   if (!scene) throw Error("{}: cannot import mesh: {}", name, importer.GetErrorString());
 
-  TriangleMesh out;
-  size_t degenerate = 0;
-  bool all_normals = true;
+  // Meshes are grouped by what penumbra reads of their material (issue 20): every mesh of a
+  // plain material (no texture, no alpha) goes into one part; each textured material is a
+  // part of its own, with texture coordinates.
+  std::vector<MaterialTextures> looks(scene->mNumMaterials);
+  for (unsigned k = 0; k < scene->mNumMaterials; ++k) looks[k] = read_material_textures(*scene, k, path);
+  std::vector<int> part_of_material(scene->mNumMaterials, -1);
+  std::vector<ImportedPart> parts;
+  int plain_part = -1;
   for (unsigned mi = 0; mi < scene->mNumMeshes; ++mi) {
     const aiMesh* m = scene->mMeshes[mi];
     if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
-    all_normals = all_normals && m->HasNormals();
+    const unsigned k = m->mMaterialIndex < looks.size() ? m->mMaterialIndex : ~0u;
+    int* slot = k != ~0u && looks[k].textured() ? &part_of_material[k] : &plain_part;
+    if (*slot < 0) {
+      *slot = static_cast<int>(parts.size());
+      parts.push_back({});
+      if (k != ~0u && looks[k].textured()) {
+        ImportedPart& part = parts.back();
+        part.name = looks[k].name;
+        part.material.albedo_texture = looks[k].albedo;
+        if (looks[k].albedo) part.material.albedo = Vec3f(1.0f);
+        part.material.alpha = looks[k].alpha;
+        part.textured = true;
+      }
+    }
+    parts[*slot].meshes.push_back(mi);
   }
-  for (unsigned mi = 0; mi < scene->mNumMeshes; ++mi) {
-    const aiMesh* m = scene->mMeshes[mi];
-    if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
-    const uint32_t base = static_cast<uint32_t>(out.positions.size());
-    for (unsigned v = 0; v < m->mNumVertices; ++v) {
-      const aiVector3D& p = m->mVertices[v];
-      Vec3f q(p.x, p.y, p.z);
-      if (!is_finite(q)) throw Error("{}: vertex {} of mesh {} is not finite", name, v, mi);
-      out.positions.push_back(q);
-      if (all_normals) {
-        const aiVector3D& n = m->mNormals[v];
-        Vec3f nn(n.x, n.y, n.z);
-        // Files do contain zero or NaN normals; a usable fallback is no smooth normal at
-        // all, decided below for the whole mesh.
-        out.normals.push_back(nn);
+
+  size_t degenerate = 0;
+  std::vector<SceneObject> out;
+  for (ImportedPart& part : parts) {
+    SceneObject obj;
+    obj.name = part.name;
+    obj.material = part.material;
+    TriangleMesh& mesh = obj.mesh;
+    bool all_normals = true;
+    for (unsigned mi : part.meshes) all_normals = all_normals && scene->mMeshes[mi]->HasNormals();
+    for (unsigned mi : part.meshes) {
+      const aiMesh* m = scene->mMeshes[mi];
+      if (part.textured && !m->HasTextureCoords(0))
+        throw Error("{}: mesh {} has a textured material ({}) but no texture coordinates", name, mi, part.name);
+      const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
+      for (unsigned v = 0; v < m->mNumVertices; ++v) {
+        const aiVector3D& p = m->mVertices[v];
+        Vec3f q(p.x, p.y, p.z);
+        if (!is_finite(q)) throw Error("{}: vertex {} of mesh {} is not finite", name, v, mi);
+        mesh.positions.push_back(q);
+        if (all_normals) {
+          const aiVector3D& n = m->mNormals[v];
+          // Files do contain zero or NaN normals; a usable fallback is no smooth normal at
+          // all, decided below for the whole mesh.
+          mesh.normals.push_back(Vec3f(n.x, n.y, n.z));
+        }
+        if (part.textured) {
+          const aiVector3D& t = m->mTextureCoords[0][v];
+          if (!std::isfinite(t.x) || !std::isfinite(t.y))
+            throw Error("{}: texture coordinates of vertex {} of mesh {} are not finite", name, v, mi);
+          mesh.uvs.push_back({t.x, t.y});
+        }
+      }
+      for (unsigned f = 0; f < m->mNumFaces; ++f) {
+        const aiFace& face = m->mFaces[f];
+        if (face.mNumIndices != 3) continue;
+        const uint32_t a = base + face.mIndices[0], b = base + face.mIndices[1], c = base + face.mIndices[2];
+        // A triangle of zero area (two corners equal, or all three on a line) casts no shadow,
+        // and the rasterizing methods' edge set-up divides by its area: dropped.
+        // In double: the cross product of a tiny but valid triangle can underflow in float.
+        const auto corner = [&](uint32_t i) {
+          const Vec3f& p = mesh.positions[i];
+          return std::array<double, 3>{p.x, p.y, p.z};
+        };
+        const auto [pa, pb, pc] = std::array{corner(a), corner(b), corner(c)};
+        const double e1[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
+        const double e2[3] = {pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]};
+        const double nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2],
+                     nz = e1[0] * e2[1] - e1[1] * e2[0];
+        if (a == b || b == c || a == c || !(nx * nx + ny * ny + nz * nz > 0.0)) {
+          ++degenerate;
+          continue;
+        }
+        mesh.indices.insert(mesh.indices.end(), {a, b, c});
       }
     }
-    for (unsigned f = 0; f < m->mNumFaces; ++f) {
-      const aiFace& face = m->mFaces[f];
-      if (face.mNumIndices != 3) continue;
-      const uint32_t a = base + face.mIndices[0], b = base + face.mIndices[1], c = base + face.mIndices[2];
-      // A triangle of zero area (two corners equal, or all three on a line) casts no shadow,
-      // and the rasterizing methods' edge set-up divides by its area: dropped.
-      // In double: the cross product of a tiny but valid triangle can underflow in float.
-      const auto corner = [&](uint32_t i) {
-        const Vec3f& p = out.positions[i];
-        return std::array<double, 3>{p.x, p.y, p.z};
-      };
-      const auto [pa, pb, pc] = std::array{corner(a), corner(b), corner(c)};
-      const double e1[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
-      const double e2[3] = {pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]};
-      const double nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2],
-                   nz = e1[0] * e2[1] - e1[1] * e2[0];
-      if (a == b || b == c || a == c || !(nx * nx + ny * ny + nz * nz > 0.0)) {
-        ++degenerate;
-        continue;
+    // Normalise the normals; if any is degenerate, drop them all (flat shading) rather than
+    // shade some vertices black.
+    for (Vec3f& n : mesh.normals) {
+      float len = length(n);
+      if (!(len > 1e-12f) || !std::isfinite(len)) {
+        mesh.normals.clear();
+        break;
       }
-      out.indices.insert(out.indices.end(), {a, b, c});
+      n = n / len;
     }
+    if (mesh.triangle_count() > 0) out.push_back(std::move(obj));
   }
   if (report) report->degenerate_triangles = degenerate;
-  if (out.triangle_count() == 0)
+  if (out.empty())
     throw Error("{}: the file contains no triangles{}", name,
                 degenerate > 0 ? fmt::format(" of non-zero area ({} degenerate)", degenerate) : "");
-  // Normalise the normals; if any is degenerate, drop them all (flat shading) rather than
-  // shade some vertices black.
-  for (Vec3f& n : out.normals) {
-    float len = length(n);
-    if (!(len > 1e-12f) || !std::isfinite(len)) {
-      out.normals.clear();
-      break;
-    }
-    n = n / len;
-  }
+  return out;
+}
+
+TriangleMesh import_mesh(const fs::path& path, MeshImportReport* report) {
+  TriangleMesh out;
+  for (const SceneObject& part : import_mesh_parts(path, report)) out.append(part.mesh);
   return out;
 }
 

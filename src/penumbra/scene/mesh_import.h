@@ -4,6 +4,8 @@
 
 #include <filesystem>
 
+#include <vector>
+
 #include "penumbra/scene/mesh.h"
 
 namespace penumbra {
@@ -18,6 +20,16 @@ namespace penumbra {
 struct MeshImportReport {
   size_t degenerate_triangles = 0;
 };
+// The file's meshes as parts (issue 20): the meshes of every plain material (no texture, no
+// alpha) as one part, and one part per textured material, named after it, with its texture
+// coordinates (channel 0), its base-colour texture (sRGB decoded; albedo 1, so the texture
+// shows as it is) and its alpha: OBJ `map_d` is a mask (cutoff 0.5), glTF `alphaMode` MASK or
+// BLEND reads the base colour's alpha, with `alphaCutoff`. Textures are files relative to the
+// mesh file or embedded images (glTF data URIs, GLB). Colours of the file's materials are not
+// read: a scene gives them. Errors also name a missing or unreadable texture, and a textured
+// mesh without texture coordinates.
+std::vector<SceneObject> import_mesh_parts(const std::filesystem::path& path, MeshImportReport* report = nullptr);
+// Every part's mesh as one (no materials).
 TriangleMesh import_mesh(const std::filesystem::path& path, MeshImportReport* report = nullptr);
 
 }  // namespace penumbra

@@ -254,3 +254,87 @@ TEST(MeshImport, BadIndicesAndCoordinatesAreRefusedDegenerateTrianglesDropped) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// Issue 20: an OBJ whose material has map_Kd and map_d (a leaf card as asset libraries ship it)
+// imports as a part of its own with texture coordinates, the diffuse texture and a mask; a
+// second, plain material's meshes form the other part.
+TEST(MeshImportTextures, ObjMapDIsAMaskAndPlainMaterialsMergeIntoOnePart) {
+  test::TempDir dir("import_obj_textures");
+  // A 2 x 1 mask: left texel a hole, right texel solid; a 1 x 1 red diffuse image.
+  Texture(2, 1, {1, 1, 1, 0, 1, 1, 1, 1}, true).write_png((dir / "mask.png").string());
+  Texture(1, 1, {1, 0, 0, 1}, false).write_png((dir / "red.png").string());
+  write_text_file_atomic(dir / "cards.mtl",
+                         "newmtl leaf\nmap_Kd red.png\nmap_d mask.png\n"
+                         "newmtl bark\nKd 0.4 0.3 0.2\n");
+  write_text_file_atomic(dir / "cards.obj",
+                         "mtllib cards.mtl\n"
+                         "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                         "v 0 0 1\nv 1 0 1\nv 1 1 1\n"
+                         "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                         "usemtl leaf\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
+                         "usemtl bark\nf 5 6 7\n");
+  const std::vector<SceneObject> parts = import_mesh_parts(dir / "cards.obj");
+  ASSERT_EQ(parts.size(), 2u);
+  const auto leaf = std::find_if(parts.begin(), parts.end(), [](const SceneObject& o) { return o.name == "leaf"; });
+  ASSERT_NE(leaf, parts.end());
+  EXPECT_EQ(leaf->mesh.triangle_count(), 2u);
+  ASSERT_EQ(leaf->mesh.uvs.size(), leaf->mesh.positions.size());
+  EXPECT_EQ(leaf->material.alpha.mode, AlphaMode::Mask);
+  ASSERT_TRUE(leaf->material.alpha_textured());
+  ASSERT_TRUE(leaf->material.albedo_texture);
+  EXPECT_NEAR(leaf->material.albedo_at({0.5f, 0.5f}).x, 1.0f, 1e-3f);
+  EXPECT_NEAR(leaf->material.albedo_at({0.5f, 0.5f}).y, 0.0f, 1e-3f);
+  // Vertex (0.9, 0.5) of the card has uv (0.9, 0.5): the solid texel's side.
+  EXPECT_EQ(leaf->material.alpha.opacity({0.9f, 0.5f}), 1.0f);
+  EXPECT_EQ(leaf->material.alpha.opacity({0.6f, 0.5f}), 1.0f);
+  EXPECT_EQ(leaf->material.alpha.opacity({0.4f, 0.5f}), 0.0f);
+  const SceneObject& bark = parts[leaf == parts.begin() ? 1 : 0];
+  EXPECT_EQ(bark.mesh.triangle_count(), 1u);
+  EXPECT_FALSE(bark.material.alpha_textured());
+  EXPECT_TRUE(bark.mesh.uvs.empty());
+  // The merged mesh of every part, as before materials were read.
+  EXPECT_EQ(import_mesh(dir / "cards.obj").triangle_count(), 3u);
+
+  // A missing texture: one line naming the mesh file and the image.
+  write_text_file_atomic(dir / "cards.mtl", "newmtl leaf\nmap_Kd red.png\nmap_d gone.png\n");
+  const std::string msg = error_message([&] { import_mesh_parts(dir / "cards.obj"); });
+  EXPECT_NE(msg.find((dir / "cards.obj").string()), std::string::npos) << msg;
+  EXPECT_NE(msg.find((dir / "gone.png").string() + ": no such file"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos);
+}
+
+// The project's glTF file (scripts/make_leaf_cards.py): alphaMode MASK with the base colour's
+// alpha, embedded PNG, cutoff read; the leaf is where the generator's outline says, with glTF's
+// v (down) turned into penumbra's (up): the outline is wider near the base than near the tip.
+TEST(MeshImportTextures, ProjectsGltfLeafCardsAreMaskedTheRightWayUp) {
+  const fs::path file = fs::path(PENUMBRA_SOURCE_DIR) / "scenes/assets/leaf_cards.gltf";
+  const std::vector<SceneObject> parts = import_mesh_parts(file);
+  ASSERT_EQ(parts.size(), 1u);
+  const SceneObject& cards = parts[0];
+  EXPECT_EQ(cards.name, "leaf");
+  EXPECT_EQ(cards.mesh.triangle_count(), 6u);
+  EXPECT_EQ(cards.material.alpha.mode, AlphaMode::Mask);
+  EXPECT_FLOAT_EQ(cards.material.alpha.cutoff, 0.5f);
+  ASSERT_TRUE(cards.material.alpha_textured());
+  EXPECT_EQ(cards.material.alpha.texture->width(), 64);
+  // Card 0's corners: base-left (-0.5, 0.8, 0.5) has uv (0, 0), tip-right (0.5, 0.8, -0.5) (1, 1).
+  for (size_t i = 0; i < cards.mesh.positions.size(); ++i) {
+    const Vec3f p = cards.mesh.positions[i];
+    if (std::abs(p.y - 0.8f) > 1e-6f || std::abs(p.x) > 0.5f + 1e-6f) continue;  // card 0 only
+    EXPECT_NEAR(cards.mesh.uvs[i].x, p.x + 0.5f, 1e-6f);
+    EXPECT_NEAR(cards.mesh.uvs[i].y, 0.5f - p.z, 1e-6f);
+  }
+  // u = 0.5 +- 0.32: inside the leaf at v = 0.3 (half width 0.339), outside at v = 0.7 (0.294).
+  const SurfaceAlpha& a = cards.material.alpha;
+  EXPECT_EQ(a.opacity({0.82f, 0.3f}), 1.0f);
+  EXPECT_EQ(a.opacity({0.18f, 0.3f}), 1.0f);
+  EXPECT_EQ(a.opacity({0.82f, 0.7f}), 0.0f);
+  EXPECT_EQ(a.opacity({0.5f, 0.5f}), 1.0f);
+  EXPECT_EQ(a.opacity({0.02f, 0.02f}), 0.0f);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -31,7 +31,8 @@ size_t Scene::triangle_count() const {
 }
 
 void Scene::finalize() {
-  for (auto& o : objects) o.closed = o.mesh.is_closed();
+  // A closed mesh with an alpha texture is not closed to light: its mask has holes.
+  for (auto& o : objects) o.closed = o.mesh.is_closed() && !o.material.alpha_textured();
   orient_sphere_lights();
 }
 
@@ -205,14 +206,38 @@ class SceneParser {
     std::optional<Vec3f> albedo;
     std::optional<float> opacity;
     std::optional<bool> two_sided;
+    std::shared_ptr<const Texture> albedo_texture, alpha_texture;
+    std::optional<AlphaMode> alpha_mode;
+    std::optional<float> alpha_cutoff;
     void apply(Material* m) const {
+      if (albedo_texture) {
+        m->albedo_texture = albedo_texture;
+        if (!albedo) m->albedo = Vec3f(1.0f);  // the texture as it is, unless tinted
+      }
       if (albedo) m->albedo = *albedo;
       if (opacity) m->opacity = *opacity;
       if (two_sided) m->two_sided = *two_sided;
+      if (alpha_texture) m->alpha.texture = alpha_texture;
+      if (alpha_mode) m->alpha.mode = *alpha_mode;
+      if (alpha_cutoff) m->alpha.cutoff = *alpha_cutoff;
+      // glTF's convention: without an alpha texture of its own, the alpha of the base colour.
+      if (m->alpha.mode != AlphaMode::Opaque && !m->alpha.texture && m->albedo_texture) m->alpha.texture = m->albedo_texture;
     }
   };
+  std::shared_ptr<const Texture> read_texture(const JsonValue& v, Texture::Encoding encoding) {
+    std::string rel = v.string();
+    if (rel.empty()) v.fail("expected an image file name, got an empty string");
+    fs::path p = fs::path(rel).is_absolute() ? fs::path(rel) : (folder_ / rel).lexically_normal();
+    try {
+      return Texture::load(p, encoding);
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const Error& e) {
+      v.fail(e.what());
+    }
+  }
   MaterialOverride read_material(const JsonValue& v) {
-    v.expect_object({"albedo", "opacity", "two_sided"});
+    v.expect_object({"albedo", "opacity", "two_sided", "albedo_texture", "alpha_texture", "alpha_mode", "alpha_cutoff"});
     MaterialOverride m;
     if (v.has("albedo")) {
       JsonValue a = v["albedo"];
@@ -221,6 +246,20 @@ class SceneParser {
     }
     if (v.has("opacity")) m.opacity = v["opacity"].in_range(0, 1);
     if (v.has("two_sided")) m.two_sided = v["two_sided"].boolean();
+    if (v.has("alpha_mode")) {
+      const std::string mode = v["alpha_mode"].one_of({"opaque", "mask", "blend"});
+      m.alpha_mode = mode == "mask" ? AlphaMode::Mask : mode == "blend" ? AlphaMode::Blend : AlphaMode::Opaque;
+    }
+    if (v.has("alpha_cutoff")) m.alpha_cutoff = v["alpha_cutoff"].in_range(0, 1);
+    if (v.has("albedo_texture")) m.albedo_texture = read_texture(v["albedo_texture"], Texture::Encoding::Srgb);
+    if (v.has("alpha_texture")) {
+      m.alpha_texture = read_texture(v["alpha_texture"], Texture::Encoding::Linear);
+      if (!m.alpha_mode) m.alpha_mode = AlphaMode::Mask;  // an alpha texture alone: a cut-out
+    }
+    if (m.alpha_mode && *m.alpha_mode != AlphaMode::Opaque && !m.alpha_texture &&
+        !(m.albedo_texture && m.albedo_texture->has_alpha()))
+      v["alpha_mode"].fail(fmt::format("\"{}\" needs an \"alpha_texture\" or an \"albedo_texture\" with an alpha channel",
+                                       to_string(*m.alpha_mode)));
     return m;
   }
 
@@ -243,10 +282,9 @@ class SceneParser {
       std::string rel = mv.string();
       if (rel.empty()) mv.fail("expected a file name, got an empty string");
       fs::path p = fs::path(rel).is_absolute() ? fs::path(rel) : (folder_ / rel).lexically_normal();
-      SceneObject o;
       try {
         MeshImportReport report;
-        o.mesh = import_mesh(p, &report);
+        parts = import_mesh_parts(p, &report);
         if (report.degenerate_triangles > 0)
           std::fprintf(stderr, "penumbra: warning: %s: %zu triangle(s) of zero area dropped\n", p.string().c_str(),
                        report.degenerate_triangles);
@@ -256,7 +294,6 @@ class SceneParser {
         mv.fail(e.what());
       }
       base_name = fs::path(rel).stem().string();
-      parts.push_back(std::move(o));
     } else if (v.has("shape")) {
       JsonValue sv = v["shape"];
       std::string shape = sv.one_of({"plane", "box", "sphere"});
@@ -312,6 +349,10 @@ class SceneParser {
       if (o.mesh.triangle_count() == 0) continue;  // e.g. a plant with leaves = 0
       o.name = parts.size() > 1 && !o.name.empty() ? name + "." + o.name : name;
       material.apply(&o.material);
+      // A texture is looked up at the surface's texture coordinates: the mesh must have them.
+      if ((o.material.albedo_texture || o.material.alpha_textured()) && o.mesh.uvs.size() != o.mesh.positions.size())
+        v.fail(fmt::format("{} has a texture in its material but no texture coordinates{}", o.name,
+                           v.has("shape") ? " (planes and boxes have them; spheres do not)" : ""));
       // An animated object keeps its parts as built, in its own space: each frame places
       // them anew from the keyed transform (animation.h).
       if (animation_ && animation_->animates(name)) animation_->add_part(name, v, t, out->size(), o);

@@ -350,3 +350,62 @@ TEST(SceneSuite, EveryShippedSceneLoads) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// Issue 20: material keys for textures, relative to the scene file's folder.
+TEST(SceneFileTextures, AlphaAndAlbedoTexturesOnAPlane) {
+  test::TempDir dir("scene_textures");
+  Texture(2, 1, {0.05f, 0.05f, 0.05f, 1, 0.9f, 0.9f, 0.9f, 1}, false).write_png((dir / "mask.png").string());
+  Texture(1, 1, {1, 0.5f, 0.25f, 0.5f}, true).write_png((dir / "base.png").string());
+  json d = minimal_doc();
+  d["objects"][0]["material"] = json::parse(R"({"alpha_texture": "mask.png", "alpha_cutoff": 0.4})");
+  d["objects"][1] = json::parse(
+      R"({"shape": "box", "size": [1, 1, 1], "material": {"albedo_texture": "base.png", "alpha_mode": "blend"}})");
+  Scene s = parse_scene(d, dir / "t.json");
+  const Material& plane = s.objects[0].material;
+  EXPECT_EQ(plane.alpha.mode, AlphaMode::Mask);  // an alpha texture alone is a cut-out
+  EXPECT_FLOAT_EQ(plane.alpha.cutoff, 0.4f);
+  ASSERT_TRUE(plane.alpha_textured());
+  EXPECT_FALSE(plane.alpha.texture->has_alpha());  // grey: its first channel
+  // The left texel's byte is sRGB(0.05) = 63, read as data (a mask is linear): 0.25 < 0.4.
+  EXPECT_EQ(plane.alpha.opacity({0.25f, 0.5f}), 0.0f);
+  EXPECT_EQ(plane.alpha.opacity({0.75f, 0.5f}), 1.0f);
+  EXPECT_EQ(s.objects[0].mesh.uvs.size(), 4u);
+  const Material& box = s.objects[1].material;
+  EXPECT_EQ(box.alpha.mode, AlphaMode::Blend);
+  EXPECT_EQ(box.alpha.texture, box.albedo_texture);  // glTF's rule: the base colour's alpha
+  EXPECT_NEAR(box.alpha.opacity({0.5f, 0.5f}), 0.5f, 0.01f);
+  EXPECT_NEAR(box.albedo_at({0.5f, 0.5f}).x, 1.0f, 0.01f);  // albedo 1: the texture as it is
+  EXPECT_NEAR(box.albedo_at({0.5f, 0.5f}).y, 0.5f, 0.01f);  // written sRGB-encoded, read decoded
+  EXPECT_FALSE(s.objects[1].closed);  // a closed mesh with an alpha texture lets light through
+}
+
+TEST(SceneFileTextures, ErrorsNameTheKeyAndTheFile) {
+  test::TempDir dir("scene_texture_errors");
+  Texture(1, 1, {1, 1, 1, 1}, false).write_png((dir / "rgb.png").string());
+  auto error_for = [&](const char* object) {
+    json d = minimal_doc();
+    d["objects"][0] = json::parse(object);
+    return error_message([&] { parse_scene(d, dir / "t.json"); });
+  };
+  const std::string missing = error_for(R"({"shape": "plane", "size": [1, 1], "material": {"alpha_texture": "leaf.png"}})");
+  EXPECT_NE(missing.find("objects[0].material.alpha_texture"), std::string::npos) << missing;
+  EXPECT_NE(missing.find((dir / "leaf.png").string() + ": no such file"), std::string::npos) << missing;
+  const std::string no_alpha =
+      error_for(R"({"shape": "plane", "size": [1, 1], "material": {"albedo_texture": "rgb.png", "alpha_mode": "mask"}})");
+  EXPECT_NE(no_alpha.find("alpha_mode"), std::string::npos) << no_alpha;
+  EXPECT_NE(no_alpha.find("needs an \"alpha_texture\""), std::string::npos) << no_alpha;
+  const std::string bad_mode = error_for(R"({"shape": "plane", "size": [1, 1], "material": {"alpha_mode": "clip"}})");
+  EXPECT_NE(bad_mode.find("alpha_mode"), std::string::npos) << bad_mode;
+  const std::string sphere = error_for(R"({"shape": "sphere", "radius": 1, "material": {"alpha_texture": "rgb.png"}})");
+  EXPECT_NE(sphere.find("no texture coordinates"), std::string::npos) << sphere;
+  const std::string cutoff =
+      error_for(R"({"shape": "plane", "size": [1, 1], "material": {"alpha_texture": "rgb.png", "alpha_cutoff": 2}})");
+  EXPECT_NE(cutoff.find("alpha_cutoff"), std::string::npos) << cutoff;
+  for (const std::string& m : {missing, no_alpha, bad_mode, sphere, cutoff}) EXPECT_EQ(m.find('\n'), std::string::npos);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -27,6 +27,8 @@ TriangleMesh make_plane(Vec2f size) {
   add_vertex(m, {-hx, 0, hz}, up);
   add_vertex(m, {hx, 0, hz}, up);
   add_vertex(m, {hx, 0, -hz}, up);
+  // The image seen from above: u along +x, its top row (v = 1) at -z.
+  m.uvs = {{0, 1}, {0, 0}, {1, 0}, {1, 1}};
   add_triangle(m, 0, 1, 2);
   add_triangle(m, 0, 2, 3);
   return m;
@@ -42,7 +44,10 @@ TriangleMesh make_box(Vec3f size) {
   for (const auto& f : faces) {
     size_t base = m.positions.size();
     const float corner[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
-    for (const auto& c : corner) add_vertex(m, (f[0] + f[1] * c[0] + f[2] * c[1]) * half, f[0]);
+    for (const auto& c : corner) {
+      add_vertex(m, (f[0] + f[1] * c[0] + f[2] * c[1]) * half, f[0]);
+      m.uvs.push_back({0.5f * (c[0] + 1), 0.5f * (c[1] + 1)});  // the whole image on each face
+    }
     add_triangle(m, base, base + 1, base + 2);
     add_triangle(m, base, base + 2, base + 3);
   }

@@ -11,10 +11,12 @@
 namespace penumbra {
 
 // A w x d rectangle in the xz-plane centred at the origin, normal +y. Open (not closed).
+// Texture coordinates span it: u along +x, v = 1 at -z (the image as seen from above).
 TriangleMesh make_plane(Vec2f size);
 
 // An axis-aligned box centred at the origin with full edge lengths `size`. Closed; 24
-// vertices (flat faces: each corner has one copy per face so the normals stay sharp).
+// vertices (flat faces: each corner has one copy per face so the normals stay sharp); each
+// face carries the whole texture ([0,1]^2).
 TriangleMesh make_box(Vec3f size);
 
 // A closed UV sphere centred at the origin: `segments` slices around the y axis and

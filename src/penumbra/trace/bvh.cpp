@@ -153,9 +153,15 @@ std::vector<BvhTriangle> TriangleBvh::gather(const Scene& scene, bool skip_analy
     const SceneObject& obj = scene.objects[o];
     if (skip_analytic_spheres && obj.sphere) continue;
     const TriangleMesh& m = obj.mesh;
+    const bool textured = obj.material.alpha_textured() && m.uvs.size() == m.positions.size();
     for (size_t t = 0; t < m.triangle_count(); ++t) {
       BvhTriangle bt{m.vertex(t, 0), m.vertex(t, 1), m.vertex(t, 2), static_cast<uint32_t>(o), static_cast<uint32_t>(t),
                      obj.material.opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t])};
+      if (textured) {
+        // Cone queries see whole triangles: an alpha texture counts as its mean opacity.
+        const Vec2f uv[3] = {m.uvs[m.indices[3 * t]], m.uvs[m.indices[3 * t + 1]], m.uvs[m.indices[3 * t + 2]]};
+        bt.opacity *= obj.material.alpha.mean_opacity(uv);
+      }
       out.push_back(bt);
     }
   }

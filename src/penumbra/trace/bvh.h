@@ -30,7 +30,8 @@ class TriangleBvh {
   TriangleBvh() = default;
   // Builds over the given triangles (reordered into leaf order).
   explicit TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size = 4);
-  // Every triangle of every object of the scene, with its opacity (material x per-triangle).
+  // Every triangle of every object of the scene, with its opacity (material x per-triangle x,
+  // for an alpha texture, its mean over the triangle: SurfaceAlpha::mean_opacity).
   static std::vector<BvhTriangle> gather(const Scene& scene, bool skip_analytic_spheres);
 
   const std::vector<BvhNode>& nodes() const { return nodes_; }

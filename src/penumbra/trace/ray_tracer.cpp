@@ -24,10 +24,26 @@ RTCDevice shared_device() {
   return device;
 }
 
-// Per-geometry data the occlusion filter reads to attenuate shadow rays.
+// Per-geometry data the filters read: the occlusion filter to attenuate shadow rays, the
+// intersection filter to let camera rays through an alpha mask's holes.
 struct TransparencyData {
   float opacity = 1.0f;               // material opacity
   const float* triangle_opacity = nullptr;  // optional, per triangle
+  // Alpha texture (issue 20): the material's, and each triangle's three texture coordinates
+  // (copied, so a refit that replaces the scene's meshes leaves them valid).
+  SurfaceAlpha alpha;
+  std::vector<Vec2f> corner_uvs;
+  Vec2f uv(unsigned prim, float b1, float b2) const {
+    const Vec2f* c = &corner_uvs[3 * static_cast<size_t>(prim)];
+    const float b0 = 1.0f - b1 - b2;
+    return {b0 * c[0].x + b1 * c[1].x + b2 * c[2].x, b0 * c[0].y + b1 * c[1].y + b2 * c[2].y};
+  }
+  // The opacity the surface stops a shadow ray with at the hit (b1, b2) of triangle prim.
+  float opacity_at(unsigned prim, float b1, float b2) const {
+    float a = opacity * (triangle_opacity ? triangle_opacity[prim] : 1.0f);
+    if (alpha.active() && a > 0) a *= alpha.opacity(uv(prim, b1, b2));
+    return a;
+  }
 };
 
 // A ray that crosses exactly an edge shared by two triangles is reported on both (Embree's
@@ -74,17 +90,33 @@ void transparency_filter(const RTCFilterFunctionNArguments* args) {
     unsigned prim = RTCHitN_primID(args->hit, args->N, i);
     unsigned geom = RTCHitN_geomID(args->hit, args->N, i);
     float hit_t = RTCRayN_tfar(args->ray, args->N, i);
+    const float a = data->opacity_at(prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
+    if (!(a > 0)) {  // a hole of an alpha mask: nothing there
+      args->valid[i] = 0;
+      continue;
+    }
     RecentHits& recent = ctx->recent[id];
     if (recent.seen(hit_t, geom)) {  // the same surface through a shared edge
       args->valid[i] = 0;
       continue;
     }
     recent.add(hit_t, geom);
-    float a = data->opacity * (data->triangle_opacity ? data->triangle_opacity[prim] : 1.0f);
     float& t = ctx->transmittance[id];
     t *= (1.0f - a);
     if (t > kOpaqueCutoff) args->valid[i] = 0;  // reject the hit: keep tracing
     else t = 0.0f;                               // accept: the ray is blocked
+  }
+}
+
+// Intersection filter of alpha-textured geometry: a camera ray passes through where the
+// surface is not seen (SurfaceAlpha::seen: a mask's holes, a blend surface below its cutoff).
+void alpha_intersect_filter(const RTCFilterFunctionNArguments* args) {
+  const auto* data = static_cast<const TransparencyData*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    const Vec2f uv = data->uv(prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
+    if (!data->alpha.seen(uv)) args->valid[i] = 0;
   }
 }
 
@@ -175,12 +207,19 @@ void RayTracer::build(const Scene& scene) {
     auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                                3 * sizeof(uint32_t), m.triangle_count()));
     std::memcpy(idx, m.indices.data(), m.indices.size() * sizeof(uint32_t));
-    bool transparent = obj.material.opacity < 1.0f ||
+    const bool textured = obj.material.alpha_textured() && m.uvs.size() == m.positions.size();
+    bool transparent = obj.material.opacity < 1.0f || textured ||
                        std::any_of(m.triangle_opacity.begin(), m.triangle_opacity.end(), [](float a) { return a < 1.0f; });
     if (transparent) {
       TransparencyData& td = impl_->transparency[id];
       td.opacity = obj.material.opacity;
       td.triangle_opacity = m.triangle_opacity.empty() ? nullptr : m.triangle_opacity.data();
+      if (textured) {
+        td.alpha = obj.material.alpha;
+        td.corner_uvs.resize(m.indices.size());
+        for (size_t k = 0; k < m.indices.size(); ++k) td.corner_uvs[k] = m.uvs[m.indices[k]];
+        rtcSetGeometryIntersectFilterFunction(geom, alpha_intersect_filter);
+      }
       rtcSetGeometryUserData(geom, &td);
       rtcSetGeometryOccludedFilterFunction(geom, transparency_filter);
       has_transparency_ = true;

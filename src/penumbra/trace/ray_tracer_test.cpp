@@ -3,7 +3,9 @@
 // scene gives; a non-movable object or a changed vertex count rebuilds the scene.
 #include "penumbra/trace/ray_tracer.h"
 
+#include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -126,6 +128,40 @@ TEST(RayTracerRefit, AnObjectNotBuiltMovableOrWithOtherVerticesRebuilds) {
   tracer.update_objects(current, box);
   EXPECT_EQ(tracer.rebuilds(), 2);
   expect_same_queries(tracer, RayTracer(current), &ties);
+}
+
+
+// Issue 20: an alpha texture on a quad (2 x 1 texels, alpha 0 and 1: a bilinear ramp): shadow rays pass the mask's holes and stop at its solid
+// part; blend keeps 1 - alpha; camera rays pass a hole and hit the ground below.
+TEST(RayTracerAlpha, MaskHolesPassShadowAndCameraRaysBlendAttenuates) {
+  auto ramp = std::make_shared<const Texture>(2, 1, std::vector<float>{1, 1, 1, 0, 1, 1, 1, 1}, true, "ramp");
+  for (AlphaMode mode : {AlphaMode::Mask, AlphaMode::Blend}) {
+    SCOPED_TRACE(to_string(mode));
+    SceneObject leaf = testing::object(testing::quad_y(1.0f, -1, 1, -1, 1));
+    leaf.mesh.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};  // u along x
+    leaf.material.alpha = SurfaceAlpha{ramp, mode, 0.5f};
+    std::vector<SceneObject> occluders;
+    occluders.push_back(std::move(leaf));
+    const Scene scene = testing::ground_scene(std::move(occluders), testing::rect_light_down({0, 2, 0}, 1, 1));
+    const RayTracer tracer(scene);
+    EXPECT_TRUE(tracer.has_transparency());
+    for (float x : {-0.9f, -0.6f, -0.2f, 0.1f, 0.4f, 0.8f}) {
+      // u = (x + 1) / 2; bilinear between the texel centres at u = 0.25 (alpha 0) and 0.75
+      // (alpha 1), repeating: back down to 0 from u = 0.75 to 1.25.
+      const float u = (x + 1) / 2;
+      const float alpha = u < 0.25f ? 1 - (u + 0.25f) / 0.5f : u <= 0.75f ? (u - 0.25f) / 0.5f : 1 - (u - 0.75f) / 0.5f;
+      const ShadowRay r = shadow_ray_to({x, 0, 0.3f}, {0, 1, 0}, {x, 1.9f, 0.3f});
+      const float expected = mode == AlphaMode::Mask ? (alpha >= 0.5f ? 0.0f : 1.0f) : 1.0f - alpha;
+      EXPECT_NEAR(tracer.transmittance(r), expected, 1e-4f) << "x = " << x;
+      // Camera ray from above: the leaf where alpha reaches the cutoff, else the ground.
+      Ray down;
+      down.org = {x, 3, 0.3f};
+      down.dir = {0, -1, 0};
+      Hit hit;
+      ASSERT_TRUE(tracer.intersect(down, &hit));
+      EXPECT_EQ(hit.object, alpha >= 0.5f ? 1u : 0u) << "x = " << x;
+    }
+  }
 }
 
 }  // namespace

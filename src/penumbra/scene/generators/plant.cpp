@@ -12,7 +12,13 @@
 // a0 = a2 = branch_angle. Angles and lengths are jittered per module by `randomness`,
 // keyed by (seed, iteration, module), so the plant is a pure function of its parameters.
 // Leaves (two-sided diamonds, 2 triangles each) are attached to the twigs: the segments
-// grown in the last three iterations.
+// grown in the last three iterations. With leaf_texture = "mask" each leaf is instead a quad
+// carrying the generator's RGBA leaf image as an alpha mask (issue 20: foliage as asset
+// libraries ship it), and with "triangles" the same outline is modelled in triangles, for
+// comparing the two.
+#include <cmath>
+#include <memory>
+
 #include "penumbra/core/error.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/scene/generators.h"
@@ -137,6 +143,49 @@ void interpret(const std::vector<Module>& modules, std::vector<Segment>* segment
   }
 }
 
+// The outline of a textured leaf on its card ([0,1]^2, u across, v from base to tip): half
+// width h(v) = 0.46 sin(pi v) (1 - 0.3 v) around u = 0.5, a pointed oval. `leaf_texture`
+// "mask" draws it into an image, "triangles" models it as a polygon of the same curve: the two
+// cast the same shadow up to the image's resolution (~1/4 texel on the edge).
+struct LeafOutline {
+  static constexpr int kSegments = 24;  // per side; the chord error is ~1e-3 of the leaf's length
+  static float half_width(float v) { return 0.46f * std::sin(kPi * v) * (1.0f - 0.3f * v); }
+  std::vector<Vec2f> points;  // counter-clockwise (u right, v up)
+  Vec2f centre{0.5f, 0.45f};  // sees every edge from inside
+  LeafOutline() {
+    for (int i = 0; i <= kSegments; ++i) {  // right side, base to tip
+      const float v = static_cast<float>(i) / kSegments;
+      points.push_back({0.5f + half_width(v), v});
+    }
+    for (int i = kSegments - 1; i > 0; --i) {  // left side, tip to base
+      const float v = static_cast<float>(i) / kSegments;
+      points.push_back({0.5f - half_width(v), v});
+    }
+  }
+  bool inside(Vec2f uv) const { return std::abs(uv.x - 0.5f) <= half_width(uv.y) && uv.y >= 0 && uv.y <= 1; }
+};
+
+// The leaf's RGBA image: alpha = the outline's coverage of each texel (4 x 4 samples, so the
+// bilinear 0.5 contour follows the curve within a fraction of a texel); green with a lighter
+// midrib. Row 0 is the tip (v = 1).
+Texture leaf_image(const LeafOutline& outline, int resolution) {
+  const int n = resolution;
+  std::vector<float> rgba(static_cast<size_t>(n) * n * 4);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      int covered = 0;
+      for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i)
+          covered += outline.inside({(x + (i + 0.5f) / 4) / n, 1.0f - (y + (j + 0.5f) / 4) / n});
+      const float u = (x + 0.5f) / n;
+      const bool midrib = std::abs(u - 0.5f) < 0.02f;
+      const Vec3f c = midrib ? Vec3f(0.35f, 0.55f, 0.2f) : Vec3f(0.22f, 0.45f, 0.12f);
+      float* t = &rgba[(static_cast<size_t>(y) * n + x) * 4];
+      t[0] = c.x, t[1] = c.y, t[2] = c.z, t[3] = covered / 16.0f;
+    }
+  return Texture(n, n, std::move(rgba), true, "plant leaf image");
+}
+
 std::vector<SceneObject> generate_plant(const json& params) {
   const uint64_t seed = params["seed"].get<uint64_t>();
   const int leaves = params["leaves"].get<int>(), iterations = params["iterations"].get<int>();
@@ -170,10 +219,21 @@ std::vector<SceneObject> generate_plant(const json& params) {
     if (segs[i].gen > iterations - 3) twigs.push_back(i);
   }
 
+  const std::string leaf_mode = params["leaf_texture"].get<std::string>();
+  if (leaf_mode != "none" && leaf_mode != "mask" && leaf_mode != "triangles")
+    throw Error("leaf_texture \"{}\": expected \"none\", \"mask\" or \"triangles\"", leaf_mode);
+  const LeafOutline outline;
   SceneObject foliage;
   foliage.name = "leaves";
   foliage.material.albedo = Vec3f(0.22f, 0.45f, 0.12f);
   foliage.material.two_sided = true;
+  if (leaf_mode == "mask") {
+    // issue 20: a quad per leaf, the leaf drawn by the generator's own RGBA image.
+    auto image = std::make_shared<const Texture>(leaf_image(outline, params["leaf_texture_resolution"].get<int>()));
+    foliage.material.albedo = Vec3f(1.0f);
+    foliage.material.albedo_texture = image;
+    foliage.material.alpha = SurfaceAlpha{image, AlphaMode::Mask, 0.5f};
+  }
   TriangleMesh& m = foliage.mesh;
   m.positions.reserve(4 * static_cast<size_t>(leaves));
   m.indices.reserve(6 * static_cast<size_t>(leaves));
@@ -195,6 +255,26 @@ std::vector<SceneObject> generate_plant(const json& params) {
     w = rotate_about(w, d, 60.0f * (rng.next_float() - 0.5f));
     float len = leaf_size * height * (0.75f + 0.5f * rng.next_float()), half_width = 0.25f * len;
     uint32_t base = static_cast<uint32_t>(m.positions.size());
+    if (leaf_mode != "none") {
+      // The leaf's card: u across (along w), v from the base (pos) to the tip (pos + d len).
+      auto at = [&](Vec2f uv) { return pos + w * ((uv.x - 0.5f) * 2 * half_width) + d * (uv.y * len); };
+      if (leaf_mode == "mask") {
+        for (Vec2f uv : {Vec2f{0, 0}, Vec2f{1, 0}, Vec2f{1, 1}, Vec2f{0, 1}}) {
+          m.positions.push_back(at(uv));
+          m.uvs.push_back(uv);
+        }
+        // Counter-clockwise seen from the side cross(w, d) points to.
+        m.indices.insert(m.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+      } else {
+        // The same outline in triangles: a fan from an inner point of the (star-shaped) leaf.
+        m.positions.push_back(at(outline.centre));
+        for (Vec2f uv : outline.points) m.positions.push_back(at(uv));
+        const uint32_t n = static_cast<uint32_t>(outline.points.size());
+        for (uint32_t i = 0; i < n; ++i)
+          m.indices.insert(m.indices.end(), {base, base + 1 + i, base + 1 + (i + 1) % n});
+      }
+      continue;
+    }
     m.positions.push_back(pos);
     m.positions.push_back(pos + d * (0.4f * len) + w * half_width);
     m.positions.push_back(pos + d * len);
@@ -226,6 +306,10 @@ GeneratorRegistration reg(GeneratorInfo{
         {"branch_angle", 45.0, "branching angle in degrees (a0 = a2 of Honda's model)", 0, 120},
         {"randomness", 0.3, "jitter of angles and lengths (0 = the exact L-system)", 0, 1},
         {"sides", 5, "sides of the stem tubes", 3, 64},
+        {"leaf_texture", "none",
+         "leaf shape: \"none\" (diamonds of 2 triangles), \"mask\" (a quad per leaf with the generator's RGBA "
+         "leaf image, alpha-masked), \"triangles\" (the same leaf outline modelled as 48 triangles)"},
+        {"leaf_texture_resolution", 128, "size of the leaf image in texels (leaf_texture = mask)", 8, 4096},
     },
     generate_plant,
     plant_example,

@@ -176,7 +176,10 @@ class AliasFreeBase : public ShadowMethod {
           const Vec3f p = lists_.positions[slot];
           if (!(dot(pl.support, p - pl.v0) > 0)) continue;
           const Vec3f d = p - c;
-          if (dot(pl.edge[0], d) >= 0 && dot(pl.edge[1], d) >= 0 && dot(pl.edge[2], d) >= 0) shadowed[slot] = 1;
+          if (!(dot(pl.edge[0], d) >= 0 && dot(pl.edge[1], d) >= 0 && dot(pl.edge[2], d) >= 0)) continue;
+          // An alpha-textured caster (issue 20) blocks where the segment meets it inside its mask.
+          if (casters[index].alpha && !(casters[index].opacity_on_line(p, d) > 0)) continue;
+          shadowed[slot] = 1;
         }
       });
     }
@@ -512,6 +515,7 @@ class AliasFreeSoft final : public AliasFreeBase {
         cs.support_g = {dot(cs.normal, ls), dot(cs.normal, lt)};
         cs.support_h = dot(cs.normal, c - t.p[0]);
         cs.closed = scene.objects[t.object].closed;
+        if (t.alpha) cs.textured = &t;
         if (cs.closed) {
           // A closed mesh's triangle casts only toward the light samples behind it (it faces
           // away from them), whatever p: that set is p's supporting-plane mask, computed once.
@@ -611,6 +615,13 @@ class AliasFreeSoft final : public AliasFreeBase {
           if (!influence.region(v, &polygon)) polygon.assign(whole, whole + 4);
           edge_regions.add(polygon);
         }
+        // The edges of an alpha mask's holes cast penumbrae anywhere inside an alpha-textured
+        // triangle (issue 20): its whole region is away from no silhouette.
+        for (const Caster& cs : casters) {
+          if (!cs.textured) continue;
+          if (!influence.region(cs.v, &polygon)) polygon.assign(whole, whole + 4);
+          edge_regions.add(polygon);
+        }
         stats_.extra["silhouette_edges"] = edge_regions.size();
         stats_.extra["edges"] = edges_.size();
         stencil.assign(static_cast<size_t>(view_.width()) * view_.height(), 0);
@@ -697,7 +708,9 @@ class AliasFreeSoft final : public AliasFreeBase {
           const afsm::Line behind{rotate(t.support_g * sign, rot), t.support_h * sign};
           afsm::SampleGrid::Range cells{survivors[j].x0, survivors[j].y0, survivors[j].x1, survivors[j].y1};
           bool on_grid = survivors[j].on_grid;
-          if (!on_grid) {
+          // An alpha-textured caster (issue 20) takes the masks below, then the mask's holes.
+          if (t.textured) on_grid = false;
+          if (!on_grid && !t.textured) {
             // Not decided in float (lines nearly parallel, or a big triangle): in double.
             int cutting = 0;
             for (int i = 0; i < 3; ++i) cutting += lut.side_of_disk(edges[i].g, edges[i].h) == 0;
@@ -764,6 +777,9 @@ class AliasFreeSoft final : public AliasFreeBase {
             for (int w = 0; w < words; ++w) left |= (hidden[w] &= edge[w]);
             any = left != 0;
           }
+          // The samples the whole triangle hides; an alpha-textured one hides those whose segment
+          // from p meets it inside its mask.
+          if (any && t.textured) any = textured_bits(*t.textured, slabs.positions[slot], samples, c, ls, lt, rot, hidden, m);
           if (any) {
             uint64_t missing = 0;
             for (int w = 0; w < words; ++w) missing |= lut.all()[w] & ~(m[w] |= hidden[w]);
@@ -834,6 +850,28 @@ class AliasFreeSoft final : public AliasFreeBase {
   // g rotated by -alpha, (cos alpha, sin alpha) = r.
   static Vec2f rotate(Vec2f g, Vec2f r) { return {r.x * g.x + r.y * g.y, -r.y * g.x + r.x * g.y}; }
 
+  // Of the light samples `candidates` (those the whole triangle t hides from p, not yet in m),
+  // clears those whose segment from p meets t in a hole of its alpha mask (where the segment
+  // crosses t's plane; the sample's position rotated by rot, the line rotation of §4.2 seen
+  // from the samples' side). True if any is left.
+  static bool textured_bits(const RasterTriangle& t, Vec3f p, const afsm::LightSamples& samples, Vec3f c, Vec3f ls,
+                            Vec3f lt, Vec2f rot, uint64_t* candidates, const uint64_t* m) {
+    uint64_t left = 0;
+    for (int w = 0; w < afsm::mask_words(samples.size()); ++w) {
+      uint64_t bits = candidates[w] & ~m[w];
+      for (uint64_t rest = bits; rest; rest &= rest - 1) {
+        const int i = 64 * w + std::countr_zero(rest);
+        const Vec2f u = samples.local[i];
+        const Vec2f r{rot.x * u.x - rot.y * u.y, rot.y * u.x + rot.x * u.y};
+        // The planes said the segment crosses the triangle: only the alpha is looked up here.
+        if (!(t.opacity_on_line(p, c + ls * r.x + lt * r.y - p) > 0)) bits &= ~(1ull << (i & 63));
+      }
+      candidates[w] = bits;
+      left |= bits;
+    }
+    return left != 0;
+  }
+
   struct Caster {
     Vec3f v[3];
     Vec3f normal;     // cross(v1 - v0, v2 - v0)
@@ -842,6 +880,7 @@ class AliasFreeSoft final : public AliasFreeBase {
     float support_h;
     bool closed;
     size_t support_mask = 0;  // closed, without jitter: index into support_masks
+    const RasterTriangle* textured = nullptr;  // an alpha-textured caster's triangle (issue 20)
   };
 
   bool use_lut_;

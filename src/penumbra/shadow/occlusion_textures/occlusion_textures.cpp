@@ -180,7 +180,7 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
     }
     const SceneObject& o = scene.objects[i];
     const size_t first = triangles_.size();
-    append_raster_triangles(o.mesh, o.material.opacity, static_cast<uint32_t>(i), &triangles_);
+    append_raster_triangles(o.mesh, o.material, static_cast<uint32_t>(i), &triangles_);
     if (options_.cull_back_faces && o.closed) {
       auto facing_away = [&](const RasterTriangle& t) {
         return !(dot(cross(t.p[1] - t.p[0], t.p[2] - t.p[0]), eye - t.p[0]) > 0);

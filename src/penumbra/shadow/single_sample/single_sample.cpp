@@ -211,8 +211,16 @@ class SingleSampleSoftShadows final : public ShadowMethod {
       const TriangleMesh& m = obj.mesh;
       const size_t count = m.triangle_count();
       all_count += count;
+      // An alpha texture (issue 20) counts as its mean over each triangle: the cone query
+      // measures distances to whole triangles, not to a mask's edges (docs/methods/single-sample.md).
+      const bool textured = obj.material.alpha_textured() && m.uvs.size() == m.positions.size();
       auto opacity = [&](size_t t) {
-        return obj.material.opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
+        float a = obj.material.opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
+        if (textured) {
+          const Vec2f uv[3] = {m.uvs[m.indices[3 * t]], m.uvs[m.indices[3 * t + 1]], m.uvs[m.indices[3 * t + 2]]};
+          a *= obj.material.alpha.mean_opacity(uv);
+        }
+        return a;
       };
       bool opaque = true;
       for (size_t t = 0; t < count && opaque; ++t) opaque = opacity(t) >= 1.0f;

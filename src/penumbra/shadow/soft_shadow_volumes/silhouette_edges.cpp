@@ -62,6 +62,9 @@ LightRegion light_region(const AreaLight& light) {
 std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightRegion& light) {
   std::vector<SilhouetteEdge> out;
   for (const SceneObject& obj : scene.objects) {
+    // An alpha-textured object's shadow edges are its mask's, not its triangles' (ssv-rt
+    // tests those casters per light sample instead).
+    if (obj.material.alpha_textured()) continue;
     const TriangleMesh& m = obj.mesh;
     const float opacity = obj.material.opacity;
     // Welded vertex ids, then each undirected edge's third vertices.

@@ -15,6 +15,10 @@
 //     (depth_complexity.h), relative to one reference sample whose absolute depth complexity
 //     one Embree ray gives by counting the surfaces it crosses (§3.3). A sample is visible
 //     iff its depth complexity is 0; V = visible / N.
+// Alpha-textured casters (issue 20) have no silhouette edges of their own (a mask's holes
+// are not bounded by edges): they are left out of the edges and of the reference ray's count
+// and tested per light sample instead, each segment from o where it meets the triangle
+// (their own hierarchy, walked with the same pyramid), so V stays sample-exact.
 // Restrictions: semi-transparent casters count as opaque (the depth complexity counts
 // surfaces; zero-opacity triangles are left out); every light is sampled on the plane of its
 // samples (rect, disk; sphere and ellipsoid on their central disk/ellipse, as afsm).
@@ -26,6 +30,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
+#include "penumbra/raster/raster_triangle.h"
 #include "penumbra/shadow/light_samples.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/soft_shadow_volumes/crossing_kernel.h"
@@ -99,12 +104,28 @@ class SoftShadowVolumes final : public ShadowMethod {
     for (size_t i = 0; i < edges_.size(); ++i) facing_[i] = ssv::edge_facing(edges_[i]);
     build_node_facing();
     opacity_.clear();
-    for (const SceneObject& obj : ctx.scene->objects) {
+    std::vector<BvhTriangle> textured;
+    for (size_t o = 0; o < ctx.scene->objects.size(); ++o) {
+      const SceneObject& obj = ctx.scene->objects[o];
       const TriangleMesh& m = obj.mesh;
-      std::vector<float> alpha(m.triangle_count(), obj.material.opacity);
+      // Alpha-textured objects: zero here (the reference ray does not count them), listed
+      // for the per-sample test.
+      const bool alpha_textured = obj.material.alpha_textured();
+      std::vector<float> alpha(m.triangle_count(), alpha_textured ? 0.0f : obj.material.opacity);
       for (size_t t = 0; t < m.triangle_opacity.size() && t < alpha.size(); ++t) alpha[t] *= m.triangle_opacity[t];
       opacity_.push_back(std::move(alpha));
+      if (alpha_textured) {
+        std::vector<RasterTriangle> tris;
+        append_raster_triangles(m, obj.material, static_cast<uint32_t>(o), &tris);
+        for (const RasterTriangle& t : tris) {
+          if (!(t.opacity > 0)) continue;
+          textured.push_back({t.p[0], t.p[1], t.p[2], t.object, static_cast<uint32_t>(textured_.size()), t.opacity});
+          textured_.push_back(t);
+        }
+      }
     }
+    textured_bvh_ = textured.empty() ? TriangleBvh() : TriangleBvh(std::move(textured));
+    stats_.extra["alpha_textured_triangles"] = textured_.size();
     stats_.extra["silhouette_edges"] = edges_.size();
   }
 
@@ -135,6 +156,7 @@ class SoftShadowVolumes final : public ShadowMethod {
         const size_t padded = ssv::padded_samples(static_cast<size_t>(n));
         std::vector<float> x(padded, 0.0f), y(padded, 0.0f), z(padded, 0.0f);
         std::vector<int32_t> depth(padded);
+        std::vector<uint8_t> masked(padded);  // blocked by an alpha-textured caster
         std::vector<uint32_t> stack;
         uint64_t tests = 0, updates = 0, hits = 0;
         for (size_t k = begin; k < end; ++k) {
@@ -190,6 +212,34 @@ class SoftShadowVolumes final : public ShadowMethod {
               if (ssv::add_edge_crossings(edges_[i], o, r, offsets, depth.data())) ++updates;
             }
           }
+          // Alpha-textured casters: each light sample's segment, where it meets one. A receiver
+          // that is itself alpha-textured is neither in the edges nor in the reference count, so
+          // its own surface is decided as Embree decides it: the segments to the samples behind
+          // its plane start on that side (no correction below).
+          const bool textured_receiver = ctx.scene->objects[s.object].material.alpha_textured();
+          const Origins origins{o, textured_receiver ? offset_ray_origin(s.p, s.ng, s.p - light.center) : o, s.p,
+                                dot(s.ng, light.center - s.p) >= 0 ? s.ng : -s.ng};
+          if (!textured_bvh_.empty()) {
+            std::fill(masked.begin(), masked.end(), 0);
+            stack.clear();
+            stack.push_back(0);
+            const std::vector<BvhNode>& tnodes = textured_bvh_.nodes();
+            while (!stack.empty()) {
+              const BvhNode& node = tnodes[stack.back()];
+              stack.pop_back();
+              bool cut = false;
+              for (const Plane& p : planes) cut = cut || outside(node.bounds, p);
+              if (cut) continue;
+              if (!node.leaf()) {
+                stack.push_back(node.first);
+                stack.push_back(node.first + 1);
+                continue;
+              }
+              for (uint32_t i = node.first; i < node.first + node.count; ++i)
+                mask_samples(textured_[textured_bvh_.triangles()[i].prim], origins, samples, n, masked.data());
+            }
+            for (int i = 0; i < n; ++i) depth[i] += masked[i];
+          }
           // The receiver's own surface, decided as a shadow ray from the offset origin
           // (shadow_ray_to) decides it: Embree starts each ray on the side of the surface its
           // light sample is on. On a closed mesh a sample behind the tangent plane starts inside
@@ -202,7 +252,7 @@ class SoftShadowVolumes final : public ShadowMethod {
           for (int i = 0; i < n; ++i) {
             const bool front = dot(s.ng, samples.points[i] - s.p) >= 0;
             if (closed) visible += depth[i] == 0 && front;
-            else visible += depth[i] - (front != centre_side) == 0;
+            else visible += depth[i] - (front != centre_side && !textured_receiver) == 0;
           }
           out.visibility[k] = static_cast<float>(visible) / static_cast<float>(n);
         }
@@ -310,6 +360,53 @@ class SoftShadowVolumes final : public ShadowMethod {
     return count;
   }
 
+  // Where the segments to the light samples start for the alpha-textured casters: `front` for
+  // the samples on the side of the receiver's plane (through p, ng pointing to the light's
+  // centre) the centre is on, `back` for the others (the same point unless the receiver is
+  // itself alpha-textured).
+  struct Origins {
+    Vec3f front, back, p, ng;
+    bool front_side(Vec3f q) const { return dot(ng, q - p) >= 0; }
+  };
+  // Sets masked[i] for the light samples whose segment from its origin meets t where t's alpha
+  // texture is solid (the segment ends at the sample). Only the samples inside
+  // the box of t's shadow on the light's plane (its corners projected from the front origin,
+  // padded) are tested.
+  static void mask_samples(const RasterTriangle& t, const Origins& from, const LightSamples& samples, int n,
+                           uint8_t* masked) {
+    const Vec3f o = from.front;
+    float x0 = -kInfinity, x1 = kInfinity, y0 = -kInfinity, y1 = kInfinity;
+    {
+      const float h = dot(samples.n, samples.center - o);
+      float bx0 = kInfinity, bx1 = -kInfinity, by0 = kInfinity, by1 = -kInfinity;
+      bool bounded = true;
+      for (int k = 0; k < 3 && bounded; ++k) {
+        const Vec3f d = t.p[k] - o;
+        const float dn = dot(samples.n, d);
+        bounded = h != 0 && dn != 0 && (h / dn) > 0;  // the corner's ray from o reaches the plane
+        if (!bounded) break;
+        const Vec3f q = o + d * (h / dn) - samples.center;
+        const float u = dot(q, samples.s) / samples.radius, v = dot(q, samples.t) / samples.radius;
+        bx0 = std::min(bx0, u), bx1 = std::max(bx1, u), by0 = std::min(by0, v), by1 = std::max(by1, v);
+      }
+      if (bounded) {
+        const float pad = 1e-3f * (1.0f + std::max(bx1 - bx0, by1 - by0));
+        x0 = bx0 - pad, x1 = bx1 + pad, y0 = by0 - pad, y1 = by1 + pad;
+      }
+    }
+    const bool two = !(from.back == from.front);
+    for (int i = 0; i < n; ++i) {
+      if (masked[i]) continue;
+      const Vec2f l = samples.local[i];
+      if (l.x < x0 || l.x > x1 || l.y < y0 || l.y > y1) continue;
+      const Vec3f q = samples.points[i];
+      const Vec3f origin = !two || from.front_side(q) ? from.front : from.back;
+      if (t.opacity_on_segment(origin, q - origin) > 0) masked[i] = 1;
+    }
+  }
+
+  std::vector<RasterTriangle> textured_;  // the alpha-textured casters
+  TriangleBvh textured_bvh_;               // over textured_ (prim = index into it)
   std::vector<ssv::SilhouetteEdge> edges_;  // in bvh_'s leaf order
   std::vector<ssv::EdgeFacing> facing_;      // the same order
   std::vector<NodeFacing> node_facing_;      // per node of bvh_
