@@ -58,6 +58,33 @@ class LightSampleSet {
   bool per_pixel_ = false;
 };
 
+// A piecewise-constant density on [0,1]^2 from a width x height grid of non-negative values
+// (cell (x, y) covers [x, x+1]/width x [y, y+1]/height, row y = 0 at v = 0), sampled by
+// inverting the marginal over rows and the row's conditional (pbrt-v4's PiecewiseConstant2D):
+// importance sampling of a textured light by its texels (issue 20 part 3). The warp is
+// continuous and monotonic in each coordinate, so stratified inputs stay stratified. A grid
+// that sums to zero samples uniformly.
+class PiecewiseConstant2D {
+ public:
+  PiecewiseConstant2D() = default;
+  PiecewiseConstant2D(const std::vector<float>& values, int width, int height);
+  int width() const { return width_; }
+  int height() const { return height_; }
+  // The point for u in [0,1)^2.
+  Vec2f sample(Vec2f u) const;
+  // Its density with respect to area on [0,1]^2 (1 for a constant grid).
+  float pdf(Vec2f p) const;
+  // The mean of the values.
+  float mean() const { return mean_; }
+
+ private:
+  int width_ = 1, height_ = 1;
+  float mean_ = 0;
+  std::vector<float> values_;          // row-major, normalised to mean 1 (all 1 when the sum is 0)
+  std::vector<float> marginal_cdf_;    // height + 1
+  std::vector<float> conditional_cdf_;  // height rows of width + 1
+};
+
 // Shirley-Chiu concentric map from [0,1)^2 to the unit disk: keeps strata compact.
 Vec2f square_to_disk_concentric(Vec2f u);
 // Uniform direction inside a cone of half-angle acos(cos_max) around +z.

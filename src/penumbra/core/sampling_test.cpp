@@ -66,5 +66,48 @@ TEST(Sampling, ConcentricDiskStaysInsideAndCoversArea) {
   EXPECT_NEAR(static_cast<double>(inside_half) / n, 0.25, 0.01);
 }
 
+// Issue 20 part 3: a piecewise-constant density on a 4 x 2 grid. Samples land in each cell in
+// proportion to its value (empty cells never), the pdf is the normalised value (mean 1), and a
+// stratified input stays stratified (each column of the input lands in one cell run).
+TEST(PiecewiseConstant2D, SamplesFollowTheValuesAndThePdfIsNormalised) {
+  const std::vector<float> values = {1, 0, 3, 4,   // row 0: v in [0, 0.5)
+                                     2, 2, 0, 8};  // row 1
+  const PiecewiseConstant2D d(values, 4, 2);
+  EXPECT_FLOAT_EQ(d.mean(), 20.0f / 8);
+  std::vector<int> hits(8, 0);
+  Rng rng(7, 1);
+  const int n = 200000;
+  for (int i = 0; i < n; ++i) {
+    const Vec2f p = d.sample(rng.next_2d());
+    ASSERT_TRUE(p.x >= 0 && p.x <= 1 && p.y >= 0 && p.y <= 1);
+    const int cx = std::min(3, static_cast<int>(p.x * 4)), cy = std::min(1, static_cast<int>(p.y * 2));
+    ++hits[cy * 4 + cx];
+  }
+  double integral = 0;
+  for (int k = 0; k < 8; ++k) {
+    EXPECT_NEAR(static_cast<double>(hits[k]) / n, values[k] / 20.0, 0.004) << k;
+    const Vec2f centre{(k % 4 + 0.5f) / 4, (k / 4 + 0.5f) / 2};
+    EXPECT_FLOAT_EQ(d.pdf(centre), values[k] / 2.5f);
+    integral += d.pdf(centre) / 8;
+  }
+  EXPECT_NEAR(integral, 1.0, 1e-6);
+  EXPECT_EQ(hits[1], 0);
+  EXPECT_EQ(hits[6], 0);
+  // Monotonic in u.x within a row: a warp, not a shuffle.
+  float last = -1;
+  for (int i = 0; i < 100; ++i) {
+    const Vec2f p = d.sample({(i + 0.5f) / 100, 0.9f});
+    EXPECT_GE(p.x, last);
+    last = p.x;
+  }
+  // All zero: uniform.
+  const PiecewiseConstant2D zero(std::vector<float>(8, 0.0f), 4, 2);
+  const Vec2f q = zero.sample({0.3f, 0.7f});
+  EXPECT_NEAR(q.x, 0.3f, 1e-6f);
+  EXPECT_NEAR(q.y, 0.7f, 1e-6f);
+  EXPECT_THROW(PiecewiseConstant2D({1, -1}, 2, 1), Error);
+  EXPECT_THROW(PiecewiseConstant2D({1, 1, 1}, 2, 1), Error);
+}
+
 }  // namespace
 }  // namespace penumbra

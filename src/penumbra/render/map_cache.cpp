@@ -92,6 +92,14 @@ std::string MapCache::key(const std::string& geometry_digest, const std::string&
   d.add_value(l.radius);
   d.add_value(l.radii);
   d.add_value(l.radiance);
+  // A textured light's samples follow its image (one channel's table).
+  d.add_value(l.texture_channel);
+  d.add_value<uint8_t>(l.texture != nullptr);
+  if (l.texture) {
+    d.add_value(l.texture->image->width());
+    d.add_value(l.texture->image->height());
+    add_array(d, l.texture->image->rgba());
+  }
   d.add_value(ctx.light_index);
   d.add_value(ctx.seed);
   d.add_value(ctx.light_samples);

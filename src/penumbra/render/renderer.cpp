@@ -1,5 +1,7 @@
 #include "penumbra/render/renderer.h"
 
+#include <cstdio>
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -182,7 +184,7 @@ RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSett
     // One instance per light, each keeping its maps (Renderer::methods_); the setting named is
     // the one that drives most of their bytes together.
     MemoryTally lights;
-    for (const AreaLight& light : scene.lights) {
+    for (const AreaLight& light : expand_textured_lights(scene.lights)) {
       q.light = &light;
       const MemoryEstimate m = info.estimate_memory(params, q);
       lights.add(m.bytes, m.setting);
@@ -231,6 +233,13 @@ void check_render_memory(const Scene& scene, const RenderSettings& settings) {
 
 Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene), settings_(std::move(settings)) {
   if (scene_.lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
+  // A textured light is drawn as one light per colour channel (issue 20 part 3).
+  scene_.lights = expand_textured_lights(scene.lights);
+  if (scene_.lights.size() != scene.lights.size() && MethodRegistry::get(settings_.method).uniform_light)
+    std::fprintf(stderr,
+                 "penumbra: note: %s models the light as uniform: a light's radiance_texture counts as its mean colour "
+                 "(docs/scene-format.md)\n",
+                 settings_.method.c_str());
   check_render_memory(scene_, settings_);
   tracer_ = std::make_unique<RayTracer>(scene_, settings_.movable_objects);
   for (size_t l = 0; l < scene_.lights.size(); ++l) {
@@ -267,12 +276,14 @@ bool same_light(const AreaLight& a, const AreaLight& b) {
   auto eq = [](Vec3f x, Vec3f y) { return x.x == y.x && x.y == y.y && x.z == y.z; };
   return a.shape == b.shape && eq(a.center, b.center) && eq(a.frame.s, b.frame.s) && eq(a.frame.t, b.frame.t) &&
          eq(a.frame.n, b.frame.n) && a.size.x == b.size.x && a.size.y == b.size.y && a.radius == b.radius &&
-         eq(a.radii, b.radii) && eq(a.radiance, b.radiance);
+         eq(a.radii, b.radii) && eq(a.radiance, b.radiance) && a.texture == b.texture &&
+         a.texture_channel == b.texture_channel;
 }
 }  // namespace
 
-void Renderer::set_lights(const std::vector<AreaLight>& lights) {
-  if (lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
+void Renderer::set_lights(const std::vector<AreaLight>& given) {
+  if (given.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
+  const std::vector<AreaLight> lights = expand_textured_lights(given);
   for (size_t l = 0; l < lights.size(); ++l) {
     if (l < scene_.lights.size() && same_light(lights[l], scene_.lights[l])) continue;
     if (l < methods_.size()) {

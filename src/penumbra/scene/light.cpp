@@ -41,7 +41,57 @@ float AreaLight::diameter() const {
 
 float AreaLight::extent_radius() const { return 0.5f * diameter(); }
 
+LightTexture::LightTexture(std::shared_ptr<const Texture> img) : image(std::move(img)) {
+  const int w = image->width(), h = image->height();
+  // Tables with row 0 at v = 0: the image's bottom row.
+  std::vector<float> values[4];
+  for (auto& v : values) v.resize(static_cast<size_t>(w) * h);
+  double sum[3] = {0, 0, 0};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float* t = &image->rgba()[(static_cast<size_t>(h - 1 - y) * w + x) * 4];
+      const size_t i = static_cast<size_t>(y) * w + x;
+      for (int c = 0; c < 3; ++c) {
+        values[c][i] = std::max(0.0f, t[c]);
+        sum[c] += values[c][i];
+      }
+      values[3][i] = penumbra::luminance(Vec3f(values[0][i], values[1][i], values[2][i]));
+    }
+  for (int c = 0; c < 3; ++c) channel[c] = PiecewiseConstant2D(values[c], w, h);
+  luminance = PiecewiseConstant2D(values[3], w, h);
+  const double n = static_cast<double>(w) * h;
+  mean = Vec3f(static_cast<float>(sum[0] / n), static_cast<float>(sum[1] / n), static_cast<float>(sum[2] / n));
+}
+
+std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights) {
+  std::vector<AreaLight> out;
+  for (const AreaLight& l : lights) {
+    if (!l.textured() || l.texture_channel >= 0) {
+      out.push_back(l);
+      continue;
+    }
+    const size_t first = out.size();
+    for (int c = 0; c < 3; ++c) {
+      const float r = l.radiance[c] * l.texture->mean[c];
+      if (!(r > 0)) continue;
+      AreaLight channel = l;
+      channel.radiance = Vec3f(0.0f);
+      channel.radiance[c] = r;
+      channel.texture_channel = c;
+      out.push_back(channel);
+    }
+    if (out.size() == first) {  // a black light: one light of zero radiance
+      AreaLight black = l;
+      black.radiance = Vec3f(0.0f);
+      black.texture_channel = 0;
+      out.push_back(black);
+    }
+  }
+  return out;
+}
+
 Vec3f AreaLight::sample_area(Vec2f u) const {
+  if (textured()) u = texture->table(texture_channel).sample(u);
   if (shape == LightShape::Rect)
     return center + frame.s * ((u.x - 0.5f) * size.x) + frame.t * ((u.y - 0.5f) * size.y);
   Vec2f d = square_to_disk_concentric(u);
@@ -255,7 +305,8 @@ LightPointSampler::LightPointSampler(const AreaLight& light, Vec3f p) : light_(&
     return;
   }
   mode_ = Mode::Area;
-  if (light.shape != LightShape::Rect) return;
+  // A textured rect: area samples through its table, weighted as uniform ones (sample_area).
+  if (light.shape != LightShape::Rect || light.textured()) return;
   // Spherical rectangle set-up (Urena, Fajardo, King 2013, "An Area-Preserving
   // Parametrization for Spherical Rectangles", Algorithm 1): the rectangle's frame with p
   // at the origin, the four corner planes and the solid angle.

@@ -8,17 +8,34 @@
 // ellipse, and its outline is A of the unit sphere's outline polygon.
 #pragma once
 
-#include <string>
+#include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/scene/texture.h"
 #include "penumbra/scene/light_batch.h"
 
 namespace penumbra {
 
 enum class LightShape { Rect, Disk, Sphere, Ellipsoid };
 const char* to_string(LightShape s);
+
+// An emission image over a rect light (issue 20 part 3; sintorn2008 §1, §4: a stained-glass
+// window, a lamp shade): linear RGB multiplied with the light's radiance, u along frame.s and v
+// along frame.t, (0, 0) at the corner center - s size.x/2 - t size.y/2. With one sampling
+// table per colour channel (its texels' values) and one for luminance.
+struct LightTexture {
+  std::shared_ptr<const Texture> image;
+  Vec3f mean{1, 1, 1};                // the image's mean colour
+  PiecewiseConstant2D channel[3];      // importance sampling of R, G, B
+  PiecewiseConstant2D luminance;
+  explicit LightTexture(std::shared_ptr<const Texture> image);
+  // The table of channel c (0..2), or luminance for c < 0.
+  const PiecewiseConstant2D& table(int c) const { return c >= 0 && c < 3 ? channel[c] : luminance; }
+};
 
 struct AreaLight {
   LightShape shape = LightShape::Rect;
@@ -33,6 +50,12 @@ struct AreaLight {
   float radius = 0.5f;  // disk, sphere
   Vec3f radii{0.5f, 0.5f, 0.5f};  // ellipsoid: semi-axes along frame.s, frame.t, frame.n
   Vec3f radiance{1, 1, 1};
+  // Rect only: an emission texture (radiance times the image). A renderer draws such a light as
+  // one light per colour channel (expand_textured_lights): that light's texture_channel says
+  // whose table sample_area() follows; -1 (the light as a scene gives it) follows luminance.
+  std::shared_ptr<const LightTexture> texture;
+  int texture_channel = -1;
+  bool textured() const { return texture != nullptr && shape == LightShape::Rect; }
 
   // rect and disk: the emitting area; sphere: its cross-section disk; ellipsoid: its central
   // ellipse facing frame.n (pi radii.x radii.y).
@@ -46,6 +69,10 @@ struct AreaLight {
 
   // Map u in [0,1)^2 uniformly onto the light's area: the rect, the disk, or for a sphere
   // the disk through its centre perpendicular to frame.n (what a light-space method sees).
+  // A textured rect maps u through its texture's table instead: the points follow the
+  // emission, while every caller keeps weighting them as uniform area samples. That is exact
+  // importance sampling for a light whose radiance is the texture's mean (what
+  // expand_textured_lights gives each channel): E = mean L A E[V G] = integral of L V G.
   Vec3f sample_area(Vec2f u) const;
   // For a sphere, the disk perpendicular to the direction toward `p` (the silhouette seen
   // from p); for an ellipsoid, A of the unit sphere's disk toward A^-1(p) (the central
@@ -107,6 +134,13 @@ struct AreaLight {
   // Whether the emitting side faces p (spheres and ellipsoids: whether p is outside).
   bool faces(Vec3f p) const;
 };
+
+// The lights a renderer draws for `lights`: each textured rect becomes three lights, one per
+// colour channel with radiance = that channel of radiance x the image's mean (zero channels
+// left out) and sampling that channel's table; V of each is the fraction of its channel's
+// emission a point sees, so composing V x unshadowed irradiance per light gives coloured
+// penumbrae with every light-sampling method unchanged. Other lights are kept as they are.
+std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights);
 
 // Direction sampling toward a light from one point p: the per-point set-up (the spherical
 // rectangle's corner normals and solid angle, the cone's frame) is done once, then each

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 
 #include "penumbra/core/rng.h"
 #include "penumbra/core/sampling.h"
@@ -447,6 +448,66 @@ TEST(AreaLight, FarRectIrradianceKeepsItsDigits) {
     l.unshadowed_irradiance_scalar(p, nrm, e);
     EXPECT_NEAR(e[3], expected, 1e-5 * expected) << h;
   }
+}
+
+// Issue 20 part 3: a textured rect's area samples follow its image (here a 2 x 2 image, one
+// bright texel at the top right: v up, u along frame.s), and expand_textured_lights gives one
+// light per non-zero channel, radiance = radiance x the channel's mean, each sampling its
+// channel's table.
+TEST(AreaLight, TexturedRectSamplesFollowTheImageAndExpandsPerChannel) {
+  AreaLight l;
+  l.shape = LightShape::Rect;
+  l.center = {0, 3, 0};
+  l.frame = Frame::from_zx({0, -1, 0}, {1, 0, 0});  // s = +x, t = +z
+  l.size = {2, 1};
+  l.radiance = {2, 2, 2};
+  // Row 0 (top, v = 1): texel (1, 0) bright white; the others dim red.
+  std::vector<float> rgba = {0.1f, 0, 0, 1, 3, 3, 3, 1,  // top row
+                             0.1f, 0, 0, 1, 0.1f, 0, 0, 1};
+  l.texture = std::make_shared<const LightTexture>(std::make_shared<const Texture>(2, 2, rgba, false, "t"));
+  EXPECT_NEAR(l.texture->mean.x, (0.3f + 3) / 4, 1e-6f);
+  EXPECT_NEAR(l.texture->mean.y, 3 / 4.0f, 1e-6f);
+  const std::vector<AreaLight> lights = expand_textured_lights(std::span(&l, 1));
+  ASSERT_EQ(lights.size(), 3u);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_EQ(lights[c].texture_channel, c);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(lights[c].radiance[k], k == c ? 2 * l.texture->mean[c] : 0.0f, 1e-6f);
+  }
+  // Green lives in the top-right texel only: x > 0 (u > 0.5), z > 0 (v > 0.5).
+  Rng rng(3, 4);
+  int red_top_right = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3f g = lights[1].sample_area(rng.next_2d());
+    ASSERT_GT(g.x, 0.0f);
+    ASSERT_GT(g.z, 0.0f);
+    ASSERT_LE(g.x, 1.0f);
+    ASSERT_LE(g.z, 0.5f);
+    const Vec3f r = lights[0].sample_area(rng.next_2d());
+    red_top_right += r.x > 0 && r.z > 0;
+  }
+  // Red: 3 of 3.3 in the top-right texel.
+  EXPECT_NEAR(red_top_right / 4000.0, 3 / 3.3, 0.02);
+  // The direction sampler of a textured light samples by area through the table, weighted as
+  // uniform area samples: the irradiance estimate of the channel light is the closed form's.
+  const Vec3f p{0.3f, 0, 0.2f}, n{0, 1, 0};
+  const LightPointSampler sampler(lights[1], p);
+  ASSERT_TRUE(sampler.valid());
+  double e = 0;
+  const int m = 20000;
+  for (int i = 0; i < m; ++i) {
+    AreaLight::DirectionSample ds;
+    ASSERT_TRUE(sampler.sample(rng.next_2d(), &ds));
+    const Vec3f q = p + ds.dir * ds.dist;
+    EXPECT_GT(q.x, 0.0f);
+    e += std::max(0.0f, dot(ds.dir, n)) / ds.pdf;
+  }
+  // Exact for the texture: the green emission of the top-right quarter, divided by its mean.
+  AreaLight quarter = l;
+  quarter.texture.reset();
+  quarter.size = {1, 0.5f};
+  quarter.center = {0.5f, 3, 0.25f};
+  const double exact = quarter.unshadowed_irradiance_scalar(p, n) * 4;  // the quarter's emission / mean (1/4)
+  EXPECT_NEAR(e / m, exact, 0.01 * exact);
 }
 
 }  // namespace

@@ -306,7 +306,7 @@ TEST(MeshImportTextures, ObjMapDIsAMaskAndPlainMaterialsMergeIntoOnePart) {
   EXPECT_EQ(msg.find('\n'), std::string::npos);
 }
 
-// The project's glTF file (scripts/make_leaf_cards.py): alphaMode MASK with the base colour's
+// The project's glTF file (scripts/make_assets.py): alphaMode MASK with the base colour's
 // alpha, embedded PNG, cutoff read; the leaf is where the generator's outline says, with glTF's
 // v (down) turned into penumbra's (up): the outline is wider near the base than near the tip.
 TEST(MeshImportTextures, ProjectsGltfLeafCardsAreMaskedTheRightWayUp) {

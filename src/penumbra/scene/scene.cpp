@@ -158,10 +158,15 @@ class SceneParser {
     v.expect_object();
     std::string type = v["type"].one_of({"rect", "disk", "sphere", "ellipsoid"});
     AreaLight l;
+    if (type != "rect" && v.has("radiance_texture"))
+      v["radiance_texture"].fail(fmt::format("only a rect light carries a texture, not a {}", type));
     if (type == "rect") {
-      v.expect_object({"type", "center", "normal", "u", "size", "radiance"});
+      v.expect_object({"type", "center", "normal", "u", "size", "radiance", "radiance_texture"});
       l.shape = LightShape::Rect;
       l.size = v["size"].positive_vec2();
+      // Issue 20 part 3: an emission image over the rect (linear RGB: PNG and JPEG sRGB-decoded).
+      if (v.has("radiance_texture"))
+        l.texture = std::make_shared<const LightTexture>(read_texture(v["radiance_texture"], Texture::Encoding::Srgb));
     } else if (type == "disk") {
       v.expect_object({"type", "center", "normal", "u", "radius", "radiance"});
       l.shape = LightShape::Disk;

@@ -409,3 +409,34 @@ TEST(SceneFileTextures, ErrorsNameTheKeyAndTheFile) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// Issue 20 part 3: "radiance_texture" on a rect light, relative to the scene file; an error on
+// other light types and for a missing file.
+TEST(SceneFileTextures, RadianceTextureOnARectLight) {
+  test::TempDir dir("scene_light_texture");
+  Texture(2, 1, {1, 0, 0, 1, 0, 0, 1, 1}, false).write_png((dir / "glass.png").string());
+  json d = minimal_doc();
+  d["lights"][0]["radiance_texture"] = "glass.png";
+  d["lights"][0]["radiance"] = json::array({2, 2, 2});
+  const Scene s = parse_scene(d, dir / "t.json");
+  ASSERT_TRUE(s.lights[0].textured());
+  EXPECT_NEAR(s.lights[0].texture->mean.x, 0.5f, 1e-3f);
+  EXPECT_NEAR(s.lights[0].texture->mean.y, 0.0f, 1e-3f);
+  EXPECT_EQ(expand_textured_lights(s.lights).size(), 2u);  // red and blue
+
+  json disk = minimal_doc();
+  disk["lights"][0] = json::parse(
+      R"({"type": "disk", "center": [0, 3, 0], "normal": [0, -1, 0], "radius": 1, "radiance_texture": "glass.png"})");
+  const std::string not_rect = error_message([&] { parse_scene(disk, dir / "t.json"); });
+  EXPECT_NE(not_rect.find("lights[0].radiance_texture"), std::string::npos) << not_rect;
+  EXPECT_NE(not_rect.find("only a rect light"), std::string::npos) << not_rect;
+  d["lights"][0]["radiance_texture"] = "window.png";
+  const std::string missing = error_message([&] { parse_scene(d, dir / "t.json"); });
+  EXPECT_NE(missing.find((dir / "window.png").string() + ": no such file"), std::string::npos) << missing;
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -142,6 +142,11 @@ struct MethodInfo {
   // are rendered: one that fits its light view to the view samples, or one that predicts a
   // pixel from its neighbours'. The registration says why.
   bool tile_exact = true;
+  // Whether the method models the light as uniform (its centre, its size, its outline) rather
+  // than by points on it: a textured light (AreaLight::texture) then counts as its mean colour,
+  // and a render says so in one line. False for every method that takes points on the light
+  // (AreaLight::sample_area, LightPointSampler), which follow the texture (issue 20 part 3).
+  bool uniform_light = false;
 };
 
 // The registry of shadow methods by name. Methods register from their own source file:

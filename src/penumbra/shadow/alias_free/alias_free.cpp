@@ -921,6 +921,9 @@ const MethodRegistration hard_registration({
     [](const ParamSet& p) { return std::make_unique<AliasFreeHard>(p); },
     /*samples_light=*/false,
     AliasFreeHard::memory,
+    /*tile_exact=*/true,
+    // A textured light counts as its mean colour: the light is its centre, size or outline.
+    /*uniform_light=*/true,
 });
 
 std::vector<ParamSpec> soft_specs() {

@@ -27,6 +27,9 @@ const MethodRegistration registration({
     /*samples_light=*/false,
     // No estimate: its rays go in streams of 256 on the stack; nothing grows with a setting.
     /*estimate_memory=*/{},
+    /*tile_exact=*/true,
+    // A textured light counts as its mean colour: the light is its centre, size or outline.
+    /*uniform_light=*/true,
 });
 
 }  // namespace

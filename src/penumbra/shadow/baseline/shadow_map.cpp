@@ -108,6 +108,8 @@ const MethodRegistration registration({
     // so a crop's map has other texels than the whole frame's and its lookups differ near
     // shadow edges.
     /*tile_exact=*/false,
+    // A textured light counts as its mean colour: the light is its centre, size or outline.
+    /*uniform_light=*/true,
 });
 
 }  // namespace

@@ -47,6 +47,8 @@ const MethodRegistration registration({
     [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, p.get_int("components")); },
     // Not tile-exact: the depth map is fitted to the rendered view samples (as shadow-map's).
     /*tile_exact=*/false,
+    // A textured light counts as its mean colour: the light is its centre, size or outline.
+    /*uniform_light=*/true,
 });
 
 }  // namespace

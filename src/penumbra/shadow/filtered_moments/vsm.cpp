@@ -29,6 +29,8 @@ const MethodRegistration registration({
     // Not tile-exact: the depth map is fitted to the rendered view samples (as shadow-map's
     // and pcss's), so a crop's lookups read another map.
     /*tile_exact=*/false,
+    // A textured light counts as its mean colour: the light is its centre, size or outline.
+    /*uniform_light=*/true,
 });
 
 }  // namespace

@@ -95,6 +95,9 @@ const MethodRegistration registration({
     [](const ParamSet& p) { return std::make_unique<OcclusionTexturesMethod>(p); },
     /*samples_light=*/false,
     memory,
+    /*tile_exact=*/true,
+    // A textured light counts as its mean colour: the light is its centre, size or outline.
+    /*uniform_light=*/true,
 });
 
 }  // namespace

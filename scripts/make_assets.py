@@ -1,5 +1,7 @@
 #!/usr/bin/env python3
-"""Writes scenes/assets/leaf_cards.gltf: leaf cards as asset libraries ship foliage (issue 20).
+"""Writes the project's own asset files in scenes/assets/ (issue 20):
+
+leaf_cards.gltf: leaf cards as asset libraries ship foliage.
 
 Three quads ("cards") share one material whose base colour texture is an RGBA leaf image,
 with glTF's alphaMode MASK (alphaCutoff 0.5) and doubleSided: the leaf is where the image's
@@ -11,8 +13,12 @@ around u = 0.5, v from the base (0) to the tip (1).
 Card 0 lies flat at y = 0.8 over [-0.5, 0.5] x [-0.5, 0.5], u along +x, its base at z = +0.5
 and its tip at z = -0.5 (tests look through it). Cards 1 and 2 are tilted copies beside it.
 
+stained_glass.png: a window for a textured rect light (sintorn2008 §1: "a stained-glass
+window"): 64 x 64, four coloured panes (red, green, blue, amber) in dark lead cames, a lighter
+diamond in the middle.
+
 Python's standard library only; run from the repository root:
-    /usr/bin/python3 scripts/make_leaf_cards.py
+    /usr/bin/python3 scripts/make_assets.py
 """
 import base64
 import json
@@ -31,6 +37,37 @@ def inside(u, v):
     return 0.0 <= v <= 1.0 and abs(u - 0.5) <= half_width(v)
 
 
+def png(rows, colour_type):
+    """An 8-bit PNG from rows of bytes (colour_type 2: RGB, 6: RGBA), each row's filter byte first."""
+    width = (len(rows[0]) - 1) // (3 if colour_type == 2 else 4)
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", width, len(rows), 8, colour_type, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(b"".join(rows), 9)) + chunk(b"IEND", b"")
+
+
+def stained_glass_png():
+    size = 64
+    panes = [[(200, 30, 30), (40, 160, 60)], [(40, 70, 200), (230, 170, 40)]]  # sRGB, [image row half][column half]
+    rows = []
+    for y in range(size):
+        row = bytearray([0])
+        for x in range(size):
+            lead = x % 32 in (0, 31) or y % 32 in (0, 31)
+            diamond = abs(x - 31.5) + abs(y - 31.5) < 12
+            if lead:
+                c = (25, 25, 25)
+            elif diamond:
+                c = (245, 240, 220)
+            else:
+                c = panes[y // 32][x // 32]
+            row += bytes(c)
+        rows.append(bytes(row))
+    return png(rows, 2)
+
+
 def leaf_png():
     """RGBA, 8 bits: alpha = coverage of the outline (4 x 4 samples per texel), green with a
     lighter midrib; row 0 at the top is the tip (glTF's v = 0 is the image's top)."""
@@ -44,13 +81,7 @@ def leaf_png():
             r, g, b = (150, 194, 124) if midrib else (130, 180, 97)  # sRGB of linear (0.3, 0.55, 0.2) / (0.22, 0.45, 0.12)
             row += bytes([r, g, b, round(255 * covered / 16)])
         rows.append(bytes(row))
-    raw = b"".join(rows)
-
-    def chunk(kind, data):
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
-
-    header = struct.pack(">IIBBBBB", SIZE, SIZE, 8, 6, 0, 0, 0)  # 8-bit RGBA
-    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
+    return png(rows, 6)
 
 
 def card(origin, across, along):
@@ -83,7 +114,7 @@ def main():
     lo = [min(p[k] for p in positions) for k in range(3)]
     hi = [max(p[k] for p in positions) for k in range(3)]
     doc = {
-        "asset": {"version": "2.0", "generator": "penumbra scripts/make_leaf_cards.py"},
+        "asset": {"version": "2.0", "generator": "penumbra scripts/make_assets.py"},
         "scene": 0,
         "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0, "name": "leaf_cards"}],
@@ -110,6 +141,8 @@ def main():
     with open("scenes/assets/leaf_cards.gltf", "w") as f:
         json.dump(doc, f, indent=1)
         f.write("\n")
+    with open("scenes/assets/stained_glass.png", "wb") as f:
+        f.write(stained_glass_png())
 
 
 if __name__ == "__main__":
