@@ -60,6 +60,13 @@ std::shared_ptr<const Texture> from_8bit(const unsigned char* data, int w, int h
   return std::make_shared<const Texture>(w, h, std::move(rgba), alpha, name);
 }
 
+// Larger images are refused before they are decoded: 8192^2 texels are 1 GiB of floats.
+constexpr int kMaxSide = 8192;
+void check_size(int w, int h, const std::string& name) {
+  if (w > kMaxSide || h > kMaxSide)
+    throw Error("{}: a {}x{} image; textures are read up to {}x{}", name, w, h, kMaxSide, kMaxSide);
+}
+
 std::string lower_extension(const fs::path& p) {
   std::string ext = p.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -73,6 +80,7 @@ std::shared_ptr<const Texture> Texture::decode(std::span<const unsigned char> by
   if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
     throw Error("{}: image too large ({} bytes)", name, bytes.size());
   int w = 0, h = 0, n = 0;
+  if (stbi_info_from_memory(bytes.data(), static_cast<int>(bytes.size()), &w, &h, &n)) check_size(w, h, name);
   unsigned char* data = stbi_load_from_memory(bytes.data(), static_cast<int>(bytes.size()), &w, &h, &n, 0);
   if (!data) throw Error("{}: cannot read image: {}", name, stbi_failure_reason());
   std::unique_ptr<unsigned char, void (*)(void*)> guard(data, stbi_image_free);
@@ -84,6 +92,7 @@ std::shared_ptr<const Texture> Texture::load(const fs::path& path, Encoding enco
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error("{}: no such file", name);
   if (fs::is_directory(path, ec)) throw Error("{}: is a folder, not an image", name);
+  if (!fs::is_regular_file(path, ec)) throw Error("{}: not a regular file", name);
   if (lower_extension(path) == ".exr") {
     // Linear floats: RGB (or one channel as grey), no alpha.
     Image img = read_image(name);
@@ -95,6 +104,7 @@ std::shared_ptr<const Texture> Texture::load(const fs::path& path, Encoding enco
     return std::make_shared<const Texture>(img.width(), img.height(), std::move(rgba), false, name);
   }
   int w = 0, h = 0, n = 0;
+  if (stbi_info(name.c_str(), &w, &h, &n)) check_size(w, h, name);
   unsigned char* data = stbi_load(name.c_str(), &w, &h, &n, 0);
   if (!data) throw Error("{}: cannot read image: {}", name, stbi_failure_reason());
   std::unique_ptr<unsigned char, void (*)(void*)> guard(data, stbi_image_free);

@@ -39,7 +39,8 @@ class Texture {
   // mask image).
   Texture(int width, int height, std::vector<float> rgba, bool has_alpha, std::string name = {});
 
-  // Reads a PNG, JPEG, TGA or BMP file (stb_image) or an EXR file. Errors name the file.
+  // Reads a PNG, JPEG, TGA or BMP file (stb_image) or an EXR file, up to 8192 x 8192 texels.
+  // Errors name the file (missing, not a regular file, unreadable, too large).
   static std::shared_ptr<const Texture> load(const std::filesystem::path& path, Encoding encoding);
   // The same from an image file's bytes (a glTF file's embedded image); `name` for messages.
   static std::shared_ptr<const Texture> decode(std::span<const unsigned char> bytes, Encoding encoding,

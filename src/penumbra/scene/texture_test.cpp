@@ -121,6 +121,12 @@ TEST(Texture, BadFilesGiveOneLineErrorsNamingThem) {
   EXPECT_EQ(message(garbage).rfind(garbage.string() + ": cannot read image", 0), 0u) << message(garbage);
   EXPECT_NE(message(dir.path()).find("is a folder"), std::string::npos);
   EXPECT_THROW(Texture(2, 2, std::vector<float>(3), true, "short"), Error);
+  EXPECT_EQ(message("/dev/null"), "/dev/null: not a regular file");
+  // A PNG header claiming 100000 x 1 texels is refused before decoding.
+  const unsigned char wide[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R',
+                                0, 1, 0x86, 0xa0, 0, 0, 0, 1, 8, 6, 0, 0, 0, 0, 0, 0, 0};
+  const std::string huge = test::error_message([&] { Texture::decode(wide, Texture::Encoding::Srgb, "wide.png"); });
+  EXPECT_NE(huge.find("wide.png: a 100000x1 image; textures are read up to 8192x8192"), std::string::npos) << huge;
 }
 
 }  // namespace
