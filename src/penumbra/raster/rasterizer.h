@@ -15,6 +15,10 @@
 // the unsnapped vertices: 1/z is affine in texel space for a perspective view, z for an
 // orthographic one, and z = the linear depth of the LightView.
 //
+// Alpha textures (issue 20): a triangle that carries one (RasterTriangle::alpha) is looked up
+// per fragment where the view's ray through the texel centre meets it; a mask's holes drop the
+// fragment, a blend texture scales its opacity. Every mode sees the same fragments.
+//
 // Every result is independent of the thread count. No mode allocates per fragment; a
 // Rasterizer keeps its scratch memory between calls, so keep one per thread of control and
 // reuse it (it is not itself safe to call from several threads at once).
