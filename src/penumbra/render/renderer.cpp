@@ -235,7 +235,8 @@ Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene),
   if (scene_.lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
   // A textured light is drawn as one light per colour channel (issue 20 part 3).
   scene_.lights = expand_textured_lights(scene.lights);
-  if (scene_.lights.size() != scene.lights.size() && MethodRegistry::get(settings_.method).uniform_light)
+  const bool textured = std::any_of(scene.lights.begin(), scene.lights.end(), [](const AreaLight& l) { return l.textured(); });
+  if (textured && MethodRegistry::get(settings_.method).uniform_light)
     std::fprintf(stderr,
                  "penumbra: note: %s models the light as uniform: a light's radiance_texture counts as its mean colour "
                  "(docs/scene-format.md)\n",

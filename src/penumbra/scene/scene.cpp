@@ -390,8 +390,8 @@ Camera parse_camera(const json& camera, const std::string& context) {
   return parser.read_camera(JsonValue(camera, context, "camera"));
 }
 
-std::vector<AreaLight> parse_lights(const json& lights, const std::string& context) {
-  SceneParser parser(context, fs::path());
+std::vector<AreaLight> parse_lights(const json& lights, const std::string& context, const fs::path& folder) {
+  SceneParser parser(context, folder);
   return parser.read_lights(JsonValue(lights, context, "lights"));
 }
 

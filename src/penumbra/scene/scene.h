@@ -52,8 +52,10 @@ Scene load_scene(const std::filesystem::path& path);
 Scene parse_scene(const nlohmann::json& doc, const std::filesystem::path& origin);
 // A scene file's "camera" and "lights" values alone, validated exactly as in a scene file;
 // messages start with `context` and name the key path ("camera.eye", "lights[0].size").
-// parse_lights does not orient sphere lights (Scene::orient_sphere_lights does).
+// parse_lights does not orient sphere lights (Scene::orient_sphere_lights does); a relative
+// "radiance_texture" is found in `folder` (the scene file's).
 Camera parse_camera(const nlohmann::json& camera, const std::string& context);
-std::vector<AreaLight> parse_lights(const nlohmann::json& lights, const std::string& context);
+std::vector<AreaLight> parse_lights(const nlohmann::json& lights, const std::string& context,
+                                    const std::filesystem::path& folder = {});
 
 }  // namespace penumbra

@@ -92,7 +92,8 @@ ViewState view_from_document(const json& scene_doc, const Scene& scene) {
   v.lights = scene_doc.at("lights");
   const std::string context = scene.source.string();
   v.parsed_camera = parse_camera(v.camera, context);
-  v.parsed_lights = parse_lights(v.lights, context);
+  v.folder = scene.source.parent_path();
+  v.parsed_lights = parse_lights(v.lights, context, v.folder);
   orient_sphere_lights(v.parsed_lights, scene.bounds());
   return v;
 }
@@ -113,7 +114,7 @@ ViewState apply_view_patch(const ViewState& current, const json& patch, const Bo
     next.lights = patch["lights"];
   }
   next.parsed_camera = parse_camera(next.camera, kContext);
-  next.parsed_lights = parse_lights(next.lights, kContext);
+  next.parsed_lights = parse_lights(next.lights, kContext, next.folder);
   orient_sphere_lights(next.parsed_lights, scene_bounds);
   if (changed_camera) *changed_camera = next.camera != current.camera;
   if (changed_lights) *changed_lights = next.lights != current.lights;

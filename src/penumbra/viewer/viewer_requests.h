@@ -46,6 +46,7 @@ struct ViewState {
   nlohmann::json lights;  // an array, as in a scene file
   Camera parsed_camera;
   std::vector<AreaLight> parsed_lights;  // sphere lights oriented toward `scene` (Scene::orient_sphere_lights)
+  std::filesystem::path folder;          // the scene file's: where a light's radiance_texture is found
 };
 
 // The view of a scene document (its "camera" and "lights"), parsed.

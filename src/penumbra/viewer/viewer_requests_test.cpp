@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "penumbra/core/error.h"
+#include "penumbra/scene/json_reader.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/viewer/viewer_requests.h"
 
@@ -121,6 +122,20 @@ TEST(ViewerRequests, QueryStringsSplitAtTheFirstEqualsSignAndDecodeEscapes) {
   EXPECT_TRUE(parse_query_string("/api/state").empty());
   EXPECT_THROW(parse_query_string("/api/frame?a=%4"), Error);
   EXPECT_THROW(parse_query_string("/api/frame?a=%zz"), Error);
+}
+
+// A textured light (issue 20) in the viewer: its radiance_texture is found in the scene file's
+// folder, when the view is read and after a patch that moves the light.
+TEST(ViewerRequests, ATexturedLightsImageIsFoundBesideTheSceneFile) {
+  const Scene scene = load_scene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/stained-glass.json");
+  const json doc = read_json_file(scene.source);
+  const ViewState v0 = view_from_document(doc, scene);
+  ASSERT_TRUE(v0.parsed_lights[0].textured());
+  json moved = doc["lights"];
+  moved[0]["center"] = json::array({-1.0, 3.0, -0.8});
+  const ViewState v1 = apply_view_patch(v0, json{{"lights", moved}}, scene.bounds());
+  ASSERT_TRUE(v1.parsed_lights[0].textured());
+  EXPECT_EQ(v1.parsed_lights[0].center.x, -1.0f);
 }
 
 }  // namespace
