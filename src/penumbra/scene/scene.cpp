@@ -226,7 +226,8 @@ class SceneParser {
       if (alpha_mode) m->alpha.mode = *alpha_mode;
       if (alpha_cutoff) m->alpha.cutoff = *alpha_cutoff;
       // glTF's convention: without an alpha texture of its own, the alpha of the base colour.
-      if (m->alpha.mode != AlphaMode::Opaque && !m->alpha.texture && m->albedo_texture) m->alpha.texture = m->albedo_texture;
+      if (m->alpha.mode != AlphaMode::Opaque && !m->alpha.texture && m->albedo_texture && m->albedo_texture->has_alpha())
+        m->alpha.texture = m->albedo_texture;
     }
   };
   std::shared_ptr<const Texture> read_texture(const JsonValue& v, Texture::Encoding encoding) {
@@ -261,10 +262,6 @@ class SceneParser {
       m.alpha_texture = read_texture(v["alpha_texture"], Texture::Encoding::Linear);
       if (!m.alpha_mode) m.alpha_mode = AlphaMode::Mask;  // an alpha texture alone: a cut-out
     }
-    if (m.alpha_mode && *m.alpha_mode != AlphaMode::Opaque && !m.alpha_texture &&
-        !(m.albedo_texture && m.albedo_texture->has_alpha()))
-      v["alpha_mode"].fail(fmt::format("\"{}\" needs an \"alpha_texture\" or an \"albedo_texture\" with an alpha channel",
-                                       to_string(*m.alpha_mode)));
     return m;
   }
 
@@ -354,6 +351,11 @@ class SceneParser {
       if (o.mesh.triangle_count() == 0) continue;  // e.g. a plant with leaves = 0
       o.name = parts.size() > 1 && !o.name.empty() ? name + "." + o.name : name;
       material.apply(&o.material);
+      // An alpha mode needs an alpha: the object's own (a mesh file's material) or the scene's.
+      if (o.material.alpha.mode != AlphaMode::Opaque && !o.material.alpha.texture)
+        v["material"]["alpha_mode"].fail(
+            fmt::format("\"{}\" needs an \"alpha_texture\" or an \"albedo_texture\" with an alpha channel{}",
+                        to_string(o.material.alpha.mode), parts.size() > 1 ? fmt::format(" (part {})", o.name) : ""));
       // A texture is looked up at the surface's texture coordinates: the mesh must have them.
       if ((o.material.albedo_texture || o.material.alpha_textured()) && o.mesh.uvs.size() != o.mesh.positions.size())
         v.fail(fmt::format("{} has a texture in its material but no texture coordinates{}", o.name,

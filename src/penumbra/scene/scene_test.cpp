@@ -440,3 +440,27 @@ TEST(SceneFileTextures, RadianceTextureOnARectLight) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// The scene's material overrides a mesh file's alpha mode and keeps its alpha texture: an OBJ
+// leaf card whose map_d makes a mask becomes a blend.
+TEST(SceneFileTextures, SceneAlphaModeOverridesAMeshFilesAndKeepsItsTexture) {
+  test::TempDir dir("scene_alpha_override");
+  Texture(2, 1, {1, 1, 1, 0.25f, 1, 1, 1, 1}, true).write_png((dir / "mask.png").string());
+  write_text_file_atomic(dir / "card.mtl", "newmtl leaf\nmap_d mask.png\n");
+  write_text_file_atomic(dir / "card.obj",
+                         "mtllib card.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                         "usemtl leaf\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n");
+  json d = minimal_doc();
+  d["objects"][1] = json::parse(R"({"mesh": "card.obj", "material": {"alpha_mode": "blend"}})");
+  const Scene s = parse_scene(d, dir / "t.json");
+  const Material& m = s.objects[1].material;
+  EXPECT_EQ(m.alpha.mode, AlphaMode::Blend);
+  ASSERT_TRUE(m.alpha_textured());
+  EXPECT_NEAR(m.alpha.opacity({0.25f, 0.5f}), 0.25f, 0.01f);
+}
+
+}  // namespace
+}  // namespace penumbra
