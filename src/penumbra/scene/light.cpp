@@ -52,6 +52,7 @@ LightTexture::LightTexture(std::shared_ptr<const Texture> img) : image(std::move
       const float* t = &image->rgba()[(static_cast<size_t>(h - 1 - y) * w + x) * 4];
       const size_t i = static_cast<size_t>(y) * w + x;
       for (int c = 0; c < 3; ++c) {
+        if (!std::isfinite(t[c])) throw Error("{}: texel ({}, {}) is not finite", image->name(), x, h - 1 - y);
         values[c][i] = std::max(0.0f, t[c]);
         sum[c] += values[c][i];
       }

@@ -32,6 +32,7 @@ struct LightTexture {
   Vec3f mean{1, 1, 1};                // the image's mean colour
   PiecewiseConstant2D channel[3];      // importance sampling of R, G, B
   PiecewiseConstant2D luminance;
+  // Throws Error naming the image if a texel is not finite.
   explicit LightTexture(std::shared_ptr<const Texture> image);
   // The table of channel c (0..2), or luminance for c < 0.
   const PiecewiseConstant2D& table(int c) const { return c >= 0 && c < 3 ? channel[c] : luminance; }

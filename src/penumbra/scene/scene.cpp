@@ -165,8 +165,14 @@ class SceneParser {
       l.shape = LightShape::Rect;
       l.size = v["size"].positive_vec2();
       // Issue 20 part 3: an emission image over the rect (linear RGB: PNG and JPEG sRGB-decoded).
-      if (v.has("radiance_texture"))
-        l.texture = std::make_shared<const LightTexture>(read_texture(v["radiance_texture"], Texture::Encoding::Srgb));
+      if (v.has("radiance_texture")) {
+        std::shared_ptr<const Texture> image = read_texture(v["radiance_texture"], Texture::Encoding::Srgb);
+        try {
+          l.texture = std::make_shared<const LightTexture>(std::move(image));
+        } catch (const Error& e) {
+          v["radiance_texture"].fail(e.what());
+        }
+      }
     } else if (type == "disk") {
       v.expect_object({"type", "center", "normal", "u", "radius", "radiance"});
       l.shape = LightShape::Disk;

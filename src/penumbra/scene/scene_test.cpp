@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/image.h"
 #include "penumbra/core/testing.h"
 #include "penumbra/scene/json_reader.h"
 
@@ -436,6 +439,14 @@ TEST(SceneFileTextures, RadianceTextureOnARectLight) {
   d["lights"][0]["radiance_texture"] = "window.png";
   const std::string missing = error_message([&] { parse_scene(d, dir / "t.json"); });
   EXPECT_NE(missing.find((dir / "window.png").string() + ": no such file"), std::string::npos) << missing;
+  // An EXR with an infinite texel: refused, naming the key, the file and the texel.
+  Image hot(2, 1, 3, 1.0f);
+  hot.at(1, 0, 2) = std::numeric_limits<float>::infinity();
+  write_image((dir / "hot.exr").string(), hot);
+  d["lights"][0]["radiance_texture"] = "hot.exr";
+  const std::string infinite = error_message([&] { parse_scene(d, dir / "t.json"); });
+  EXPECT_NE(infinite.find("lights[0].radiance_texture"), std::string::npos) << infinite;
+  EXPECT_NE(infinite.find((dir / "hot.exr").string() + ": texel (1, 0) is not finite"), std::string::npos) << infinite;
 }
 
 }  // namespace
