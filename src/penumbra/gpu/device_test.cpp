@@ -1,0 +1,146 @@
+#include "penumbra/gpu/device.h"
+
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/gpu/buffer.h"
+#include "penumbra/gpu/commands.h"
+#include "penumbra/gpu/gpu_test_util.h"
+#include "penumbra/gpu/shaders.h"
+
+namespace penumbra::gpu {
+namespace {
+
+using testing::GpuTest;
+
+TEST(DeviceChoice, ParsesTheThreeForms) {
+  EXPECT_FALSE(DeviceChoice::parse("cpu").gpu);
+  EXPECT_TRUE(DeviceChoice::parse("gpu").gpu);
+  EXPECT_EQ(DeviceChoice::parse("gpu").index, -1);
+  EXPECT_EQ(DeviceChoice::parse("gpu:2").index, 2);
+  EXPECT_EQ(DeviceChoice::parse("gpu:2").to_string(), "gpu:2");
+  for (const char* bad : {"", "GPU", "gpu:", "gpu:-1", "gpu:x", "cuda", "gpu:99999999"})
+    EXPECT_THROW(DeviceChoice::parse(bad), Error) << bad;
+  try {
+    DeviceChoice::parse("tpu");
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--device tpu"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SpirvModules, EveryKernelIsEmbeddedWithItsName) {
+  ASSERT_FALSE(spirv_modules().empty());
+  for (const SpirvModule& m : spirv_modules()) {
+    ASSERT_GE(m.words.size(), 5u) << m.name;
+    EXPECT_EQ(m.words[0], 0x07230203u) << m.name << ": not SPIR-V";
+  }
+  EXPECT_NE(find_spirv("test_rng"), nullptr);
+  EXPECT_EQ(find_spirv("no_such_kernel"), nullptr);
+}
+
+TEST_F(GpuTest, ListsTheDeviceItOpened) {
+  const std::vector<DeviceInfo> all = list_devices();
+  ASSERT_FALSE(all.empty());
+  const DeviceInfo& d = device().info();
+  ASSERT_LT(d.index, static_cast<int>(all.size()));
+  EXPECT_EQ(all[d.index].name, d.name);
+  EXPECT_TRUE(d.usable);
+  EXPECT_GT(d.subgroup_size, 0u);
+  EXPECT_GT(d.memory_bytes, 0u);
+  EXPECT_FALSE(d.driver.empty());
+}
+
+TEST_F(GpuTest, ADeviceIndexThatDoesNotExistIsAOneLineError) {
+  const size_t n = list_devices().size();
+  try {
+    Device::get(static_cast<int>(n) + 3);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(fmt::format("gpu:{}", n + 3)), std::string::npos) << m;
+    EXPECT_NE(m.find("penumbra devices"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+}
+
+TEST_F(GpuTest, BuffersRoundTripAndCountTheirBytes) {
+  const uint64_t before = device().allocated_bytes();
+  {
+    std::vector<uint32_t> v(1000);
+    std::iota(v.begin(), v.end(), 7u);
+    Buffer b = make_buffer<uint32_t>(device(), v, "a test buffer");
+    EXPECT_GE(device().allocated_bytes(), before + 4000);
+    EXPECT_NE(b.address(), 0u);
+    EXPECT_EQ(b.download_vector<uint32_t>(1000), v);
+    CommandList cl(device());
+    cl.fill(b, 0xdeadbeefu, 400, 40);
+    cl.submit();
+    const std::vector<uint32_t> w = b.download_vector<uint32_t>(1000);
+    for (size_t i = 0; i < 1000; ++i) EXPECT_EQ(w[i], i >= 100 && i < 110 ? 0xdeadbeefu : v[i]) << i;
+  }
+  EXPECT_EQ(device().allocated_bytes(), before);
+}
+
+TEST_F(GpuTest, TheGeneratorDrawsTheCpusNumbersBitForBit) {
+  constexpr uint32_t kStreams = 300, kDraws = 17;  // more than one group, not a multiple of it
+  std::vector<uint64_t> keys;
+  Rng pick(12345);
+  for (uint32_t i = 0; i < kStreams; ++i)
+    for (int k = 0; k < 4; ++k) keys.push_back(pick.next_u64() >> (i % 3 == 0 ? 40 : 0));
+  Buffer key_buf = make_buffer<uint64_t>(device(), keys, "keys");
+  Buffer u64_buf(device(), kStreams * kDraws * 8, "u64 draws");
+  Buffer float_buf(device(), kStreams * kDraws * 4, "float draws");
+  struct Push {
+    uint64_t keys, out_u64, out_float;
+    uint32_t streams, draws;
+  } push{key_buf.address(), u64_buf.address(), float_buf.address(), kStreams, kDraws};
+  CommandList cl(device());
+  cl.stage("rng");
+  cl.dispatch("test_rng", kStreams, push);
+  const StageTimes t = cl.submit();
+  ASSERT_EQ(t.ms.size(), 1u);
+  EXPECT_EQ(t.ms[0].first, "rng");
+  EXPECT_GE(t.ms[0].second, 0.0);
+  const std::vector<uint64_t> u = u64_buf.download_vector<uint64_t>(kStreams * kDraws);
+  const std::vector<float> f = float_buf.download_vector<float>(kStreams * kDraws);
+  for (uint32_t i = 0; i < kStreams; ++i) {
+    Rng a(keys[4 * i], keys[4 * i + 1], keys[4 * i + 2], keys[4 * i + 3]), b = a;
+    for (uint32_t k = 0; k < kDraws; ++k) {
+      ASSERT_EQ(u[i * kDraws + k], a.next_u64()) << "stream " << i << " draw " << k;
+      ASSERT_EQ(f[i * kDraws + k], b.next_float()) << "stream " << i << " draw " << k;
+    }
+  }
+}
+
+TEST_F(GpuTest, AFailedAllocationOrSubmissionIsAOneLineErrorNamingTheCall) {
+  testing::fail_next(testing::Failure::Allocation);
+  try {
+    Buffer b(device(), 1 << 20, "the test's buffer");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("vkAllocateMemory"), std::string::npos) << m;
+    EXPECT_NE(m.find("the test's buffer"), std::string::npos) << m;
+    EXPECT_NE(m.find("VK_ERROR_OUT_OF_DEVICE_MEMORY"), std::string::npos) << m;
+  }
+  Buffer b(device(), 64, "a buffer");
+  CommandList cl(device());
+  cl.fill(b, 1);
+  testing::fail_next(testing::Failure::Submission);
+  try {
+    cl.submit();
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("vkQueueSubmit"), std::string::npos) << e.what();
+  }
+  // The device is still usable after either.
+  cl.fill(b, 5);
+  cl.submit();
+  EXPECT_EQ(b.download_vector<uint32_t>(1)[0], 5u);
+}
+
+}  // namespace
+}  // namespace penumbra::gpu

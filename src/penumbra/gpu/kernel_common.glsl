@@ -1,0 +1,29 @@
+// What every penumbra kernel starts with (#include "penumbra/gpu/kernel_common.glsl" right
+// after #version): the extensions the device layer enables (gpu/device.h), and the thread
+// index of a 1D dispatch that CommandList::dispatch may have folded into a 2D grid.
+#ifndef PENUMBRA_GPU_KERNEL_COMMON_GLSL
+#define PENUMBRA_GPU_KERNEL_COMMON_GLSL
+
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int8 : require
+#extension GL_EXT_shader_8bit_storage : require
+#extension GL_EXT_shader_atomic_int64 : require
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_buffer_reference2 : require
+#extension GL_EXT_scalar_block_layout : require
+
+// The global index of this thread in a 1D dispatch of N threads (check it against N: the last
+// group runs past it).
+uint pn_thread_index() {
+  return gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+}
+
+// Buffer references every kernel may use: a buffer is its device address (gpu/buffer.h).
+layout(buffer_reference, scalar) buffer Floats { float v[]; };
+layout(buffer_reference, scalar) buffer Uints { uint v[]; };
+layout(buffer_reference, scalar) buffer Uint64s { uint64_t v[]; };
+layout(buffer_reference, scalar) buffer Vec2s { vec2 v[]; };
+layout(buffer_reference, scalar) buffer Vec3s { vec3 v[]; };
+layout(buffer_reference, scalar) buffer Vec4s { vec4 v[]; };
+
+#endif
