@@ -53,26 +53,10 @@ Vec2f LightSampleSet::sample(int i, uint32_t pixel) const {
   return s;
 }
 
-Vec2f square_to_disk_concentric(Vec2f u) {
-  float ox = 2.0f * u.x - 1.0f, oy = 2.0f * u.y - 1.0f;
-  if (ox == 0 && oy == 0) return {0, 0};
-  float r, theta;
-  if (std::abs(ox) > std::abs(oy)) {
-    r = ox;
-    theta = (kPi / 4) * (oy / ox);
-  } else {
-    r = oy;
-    theta = (kPi / 2) - (kPi / 4) * (ox / oy);
-  }
-  return {r * std::cos(theta), r * std::sin(theta)};
-}
+// sampling_shared.h: the same warps the GPU kernels use.
+Vec2f square_to_disk_concentric(Vec2f u) { return shader::concentric_disk(u); }
 
-Vec3f square_to_cone(Vec2f u, float cos_max) {
-  float cos_t = (1.0f - u.x) + u.x * cos_max;
-  float sin_t = std::sqrt(std::max(0.0f, 1.0f - cos_t * cos_t));
-  float phi = 2.0f * kPi * u.y;
-  return {std::cos(phi) * sin_t, std::sin(phi) * sin_t, cos_t};
-}
+Vec3f square_to_cone(Vec2f u, float cos_max) { return shader::uniform_cone(u, cos_max); }
 
 PiecewiseConstant2D::PiecewiseConstant2D(const std::vector<float>& values, int width, int height)
     : width_(width), height_(height) {
@@ -111,24 +95,8 @@ PiecewiseConstant2D::PiecewiseConstant2D(const std::vector<float>& values, int w
   marginal_cdf_[height] = 1.0f;
 }
 
-namespace {
-// Inverts a CDF of n cells (n + 1 entries from 0 to 1) at u: the cell and the position in it.
-float invert_cdf(const float* cdf, int n, float u, int* cell) {
-  const float* it = std::upper_bound(cdf, cdf + n + 1, u);
-  // cdf[i] <= u < cdf[i + 1]: never an empty cell (u < 1 = cdf[n]).
-  const int i = std::clamp(static_cast<int>(it - cdf) - 1, 0, n - 1);
-  const float width = cdf[i + 1] - cdf[i];
-  const float t = width > 0 ? std::clamp((u - cdf[i]) / width, 0.0f, 1.0f) : 0.5f;
-  *cell = i;
-  return (static_cast<float>(i) + t) / static_cast<float>(n);
-}
-}  // namespace
-
 Vec2f PiecewiseConstant2D::sample(Vec2f u) const {
-  int row = 0, col = 0;
-  const float v = invert_cdf(marginal_cdf_.data(), height_, u.y, &row);
-  const float x = invert_cdf(&conditional_cdf_[static_cast<size_t>(row) * (width_ + 1)], width_, u.x, &col);
-  return {x, v};
+  return shader::piecewise_constant_2d_sample(marginal_cdf_.data(), conditional_cdf_.data(), width_, height_, u);
 }
 
 float PiecewiseConstant2D::pdf(Vec2f p) const {

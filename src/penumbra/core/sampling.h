@@ -7,6 +7,7 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/core/sampling_shared.h"
 
 namespace penumbra {
 
@@ -24,10 +25,11 @@ class StratifiedGrid {
  public:
   explicit StratifiedGrid(int n);
   int size() const { return cols_ * rows_; }
-  Vec2f sample(int i, Vec2f u) const {
-    int cx = i % cols_, cy = i / cols_;
-    return {(cx + u.x) * inv_cols_, (cy + u.y) * inv_rows_};
-  }
+  Vec2f sample(int i, Vec2f u) const { return shader::stratified_cell(i, cols_, inv_cols_, inv_rows_, u); }
+  // What the GPU kernels take to draw the same cells (sampling_shared.h stratified_cell).
+  int cols() const { return cols_; }
+  float inv_cols() const { return inv_cols_; }
+  float inv_rows() const { return inv_rows_; }
 
  private:
   int cols_ = 1, rows_ = 1;
@@ -76,6 +78,10 @@ class PiecewiseConstant2D {
   float pdf(Vec2f p) const;
   // The mean of the values.
   float mean() const { return mean_; }
+  // The tables sample() inverts (what the GPU uploads): height + 1 marginal entries, then
+  // height rows of width + 1 conditional ones.
+  const std::vector<float>& marginal_cdf() const { return marginal_cdf_; }
+  const std::vector<float>& conditional_cdf() const { return conditional_cdf_; }
 
  private:
   int width_ = 1, height_ = 1;
@@ -89,6 +95,6 @@ class PiecewiseConstant2D {
 Vec2f square_to_disk_concentric(Vec2f u);
 // Uniform direction inside a cone of half-angle acos(cos_max) around +z.
 Vec3f square_to_cone(Vec2f u, float cos_max);
-inline float cone_pdf(float cos_max) { return 1.0f / (2.0f * kPi * (1.0f - cos_max)); }
+inline float cone_pdf(float cos_max) { return shader::uniform_cone_pdf(cos_max); }
 
 }  // namespace penumbra

@@ -7,15 +7,18 @@
 // Rules for a shared header:
 // - include this file first, wrap the body in PN_SHARED_BEGIN / PN_SHARED_END, guard with
 //   #ifndef (GLSL has no #pragma once);
-// - types: float, int, uint, bool, uint64_t, vec2, vec3, structs of them; float literals with an
-//   f suffix (1.0f: a bare 1.0 is a double in C++), unsigned ones with u, 64-bit with UL;
+// - types: float, int, uint, bool, uint64_t, vec2, vec3, double, dvec3, structs of them; float
+//   literals with an f suffix (1.0f: a bare 1.0 is a double in C++ and a float in GLSL), double
+//   constants as double(0.5f), unsigned literals with u, 64-bit with UL;
 // - conversions written out (float(i), uint(x)); no references or pointers: out and inout
 //   parameters as PN_OUT(T) and PN_INOUT(T); no overloading on the argument type alone;
-// - the GLSL built-ins below only (C++ gets them here), no swizzles beyond .x .y .z.
+// - the GLSL built-ins below only (C++ gets them here), no swizzles beyond .x .y .z;
+// - arrays as PN_FLOAT_ARRAY parameters read with PN_AT (in GLSL after kernel_common.glsl).
 #ifndef PENUMBRA_CORE_SHADER_COMPAT_H
 #define PENUMBRA_CORE_SHADER_COMPAT_H
 
 #ifdef __cplusplus
+#include <bit>
 #include <cmath>
 #include <cstdint>
 
@@ -47,7 +50,28 @@ inline float floor(float x) { return std::floor(x); }
 inline float sign(float x) { return x > 0 ? 1.0f : (x < 0 ? -1.0f : 0.0f); }
 inline bool isinf(float x) { return std::isinf(x); }
 inline bool isnan(float x) { return std::isnan(x); }
+inline uint floatBitsToUint(float x) { return std::bit_cast<uint>(x); }
+// GLSL's dvec3, for the sums that need double precision (Lambert's polygon formula).
+struct dvec3 {
+  double x = 0, y = 0, z = 0;
+  dvec3() = default;
+  dvec3(double x_, double y_, double z_) : x(x_), y(y_), z(z_) {}
+  explicit dvec3(Vec3f v) : x(v.x), y(v.y), z(v.z) {}
+  explicit dvec3(double s) : x(s), y(s), z(s) {}
+  dvec3 operator+(dvec3 o) const { return {x + o.x, y + o.y, z + o.z}; }
+  dvec3 operator-(dvec3 o) const { return {x - o.x, y - o.y, z - o.z}; }
+  dvec3 operator*(double s) const { return {x * s, y * s, z * s}; }
+};
+inline double dot(dvec3 a, dvec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline dvec3 cross(dvec3 a, dvec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+// atan2 in double where the device has it (the CPU); GLSL has trigonometry in float only.
+inline double atan2_double(double y, double x) { return std::atan2(y, x); }
 }  // namespace penumbra::shader
+
+// Read-only float arrays: a pointer in C++, a buffer reference (kernel_common.glsl's Floats)
+// in GLSL; element i is PN_AT(array, i).
+#define PN_FLOAT_ARRAY const float*
+#define PN_AT(array, i) array[i]
 
 #define PN_SHARED_BEGIN namespace penumbra::shader {
 #define PN_SHARED_END }
@@ -56,6 +80,9 @@ inline bool isnan(float x) { return std::isnan(x); }
 #define PN_CONST inline constexpr
 #define PN_INLINE inline
 #else
+#define PN_FLOAT_ARRAY Floats
+#define PN_AT(array, i) array.v[i]
+double atan2_double(double y, double x) { return double(atan(float(y), float(x))); }
 #define PN_SHARED_BEGIN
 #define PN_SHARED_END
 #define PN_OUT(T) out T

@@ -17,6 +17,7 @@
 #include "penumbra/core/sampling.h"
 #include "penumbra/scene/texture.h"
 #include "penumbra/scene/light_batch.h"
+#include "penumbra/scene/light_shared.h"
 
 namespace penumbra {
 
@@ -67,6 +68,8 @@ struct AreaLight {
   // Largest distance from the centre to a point of the light (the "light radius" of
   // xie2007 eq. 4 and sintorn2008).
   float extent_radius() const;
+  // The light as light_shared.h's functions take it (the CPU and the GPU kernels).
+  shader::LightGeometry geometry() const;
 
   // Map u in [0,1)^2 uniformly onto the light's area: the rect, the disk, or for a sphere
   // the disk through its centre perpendicular to frame.n (what a light-space method sees).
@@ -136,6 +139,11 @@ struct AreaLight {
   bool faces(Vec3f p) const;
 };
 
+// cos and sin of 2 pi i / 256 for i < 256, interleaved (512 floats): the vertices of the disk's
+// and the ellipsoid's 256-gons (light_shared.h light_irradiance), computed once; the GPU
+// uploads the same floats.
+const float* unit_circle_table();
+
 // The lights a renderer draws for `lights`: each textured rect becomes three lights, one per
 // colour channel with radiance = that channel of radiance x the image's mean (zero channels
 // left out) and sampling that channel's table; V of each is the fraction of its channel's
@@ -150,7 +158,7 @@ class LightPointSampler {
  public:
   LightPointSampler(const AreaLight& light, Vec3f p);
   // False if p sees no part of the emitting side (sample() must not be called then).
-  bool valid() const { return mode_ != Mode::None; }
+  bool valid() const { return state_.mode != shader::kSamplerNone; }
   bool sample(Vec2f u, AreaLight::DirectionSample* out) const;
   // The samples u_i = (ux[i], uy[i]), i < n, at once into `out` (structure of arrays; SIMD for
   // rects and spheres, light_batch.h): the same directions as sample() up to rounding.
@@ -159,19 +167,12 @@ class LightPointSampler {
   int sample_batch(const float* ux, const float* uy, int n, LightSampleBatch& out) const;
 
  private:
-  enum class Mode { None, SphericalRect, Cone, Area, Ellipse };
   const AreaLight* light_;
-  Vec3f p_;
-  Mode mode_ = Mode::None;
-  // Spherical rectangle (Urena et al. 2013) in the rectangle's frame around p, and the cone
-  // toward a sphere: the set-up the SIMD kernels and sample() share.
+  shader::LightGeometry geometry_;
+  shader::LightSampler state_;  // light_shared.h: the mode and its per-point set-up
+  // The SIMD kernels' copies of the spherical rectangle's and the cone's set-up.
   light_kernels::SphericalRect rect_{};
   light_kernels::Cone cone_{};
-  float dist2_ = 0;
-  // Area sampling of an ellipsoid's contour ellipse seen from p; the squared distance to its
-  // centre is dist2_, the cosine there (to scale the weights to about 1) contour_cos_.
-  AreaLight::Ellipse ellipse_;
-  float contour_cos_ = 1;
 };
 
 }  // namespace penumbra

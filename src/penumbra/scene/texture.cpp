@@ -1,4 +1,5 @@
 #include "penumbra/scene/texture.h"
+#include "penumbra/scene/texture_shared.h"
 
 #include <stb_image.h>
 #include <stb_image_write.h>
@@ -112,24 +113,9 @@ std::shared_ptr<const Texture> Texture::load(const fs::path& path, Encoding enco
 }
 
 Texture::Footprint Texture::footprint(Vec2f uv) const {
-  // Repeat, then texel space with row 0 at the top: v = 1 is the image's first row.
-  const float u = uv.x - std::floor(uv.x), v = uv.y - std::floor(uv.y);
-  const float x = u * width_ - 0.5f, y = (1.0f - v) * height_ - 0.5f;
-  const float fx = std::floor(x), fy = std::floor(y);
-  const float tx = x - fx, ty = y - fy;
-  auto wrap = [](int i, int n) { return ((i % n) + n) % n; };
-  const int x0 = wrap(static_cast<int>(fx), width_), x1 = wrap(static_cast<int>(fx) + 1, width_);
-  const int y0 = wrap(static_cast<int>(fy), height_), y1 = wrap(static_cast<int>(fy) + 1, height_);
-  Footprint f;
-  f.i[0] = static_cast<size_t>(y0) * width_ + x0;
-  f.i[1] = static_cast<size_t>(y0) * width_ + x1;
-  f.i[2] = static_cast<size_t>(y1) * width_ + x0;
-  f.i[3] = static_cast<size_t>(y1) * width_ + x1;
-  f.w[0] = (1 - tx) * (1 - ty);
-  f.w[1] = tx * (1 - ty);
-  f.w[2] = (1 - tx) * ty;
-  f.w[3] = tx * ty;
-  return f;
+  // texture_shared.h: the lookup the GPU kernels make too.
+  const shader::TexelFootprint t = shader::texel_footprint(uv, width_, height_);
+  return Footprint{{t.i0, t.i1, t.i2, t.i3}, {t.w0, t.w1, t.w2, t.w3}};
 }
 
 Vec3f Texture::rgb(Vec2f uv) const {

@@ -1,0 +1,195 @@
+// Ray queries against the bound scene (gpu/scene_access.glsl): a stack-based traversal of the
+// two-level BVH (Aila & Laine 2009, "Understanding the Efficiency of Ray Traversal on GPUs":
+// both children's boxes in the parent, the nearer child first for closest hits), with the
+// CPU ray tracer's rules (trace/ray_tracer.cpp):
+//   trace_closest        the nearest hit a camera ray stops at (alpha masks let it through);
+//   trace_transmittance  the fraction of light along a shadow segment: 0 at an opaque hit,
+//                        (1 - opacity) per semi-transparent surface crossed, once per surface
+//                        where a ray crosses the edge two triangles share.
+// Triangles are tested with Moller-Trumbore (u, v: the barycentrics of vertices 1 and 2, as
+// Embree reports them); t in (0, tmax].
+#ifndef PENUMBRA_GPU_BVH_TRAVERSE_GLSL
+#define PENUMBRA_GPU_BVH_TRAVERSE_GLSL
+
+#include "penumbra/gpu/scene_access.glsl"
+
+// Two BVH levels of at most kMaxBvhDepth (gpu/bvh_builder.h) levels each push at most one entry
+// a level, plus an instance's entry and exit marks.
+#define PN_TRAVERSAL_STACK 96
+const uint kEnterInstance = 0x80000000u;  // | instance index
+const uint kExitInstance = 0xffffffffu;
+const uint kMissObject = 0xffffffffu;
+
+struct RayHit {
+  float t;
+  uint object;
+  uint prim;
+  float u;
+  float v;
+};
+
+// 1/d without infinities (so box tests never compute 0 * inf).
+vec3 safe_inverse(vec3 d) {
+  const float eps = 1e-20f;
+  return vec3(1.0f / (abs(d.x) > eps ? d.x : (d.x >= 0.0f ? eps : -eps)),
+              1.0f / (abs(d.y) > eps ? d.y : (d.y >= 0.0f ? eps : -eps)),
+              1.0f / (abs(d.z) > eps ? d.z : (d.z >= 0.0f ? eps : -eps)));
+}
+
+// The entry distance of the ray into the box, or +inf if it misses it within (0, tmax].
+float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tmax) {
+  vec3 t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
+  vec3 tn = min(t0, t1), tf = max(t0, t1);
+  float enter = max(max(tn.x, tn.y), max(tn.z, 0.0f));
+  float leave = min(min(tf.x, tf.y), min(tf.z, tmax));
+  return enter <= leave ? enter : 1.0f / 0.0f;
+}
+
+// Moller-Trumbore: true and (t, u, v) where the ray meets the triangle with t in (0, tmax].
+bool intersect_triangle(GpuTriangle tri, vec3 o, vec3 d, float tmax, out float t, out float u, out float v) {
+  vec3 e1 = tri.v1 - tri.v0, e2 = tri.v2 - tri.v0;
+  vec3 pv = cross(d, e2);
+  float det = dot(e1, pv);
+  if (det == 0.0f) return false;
+  float inv = 1.0f / det;
+  vec3 tv = o - tri.v0;
+  u = dot(tv, pv) * inv;
+  if (u < 0.0f || u > 1.0f) return false;
+  vec3 qv = cross(tv, e1);
+  v = dot(d, qv) * inv;
+  if (v < 0.0f || u + v > 1.0f) return false;
+  t = dot(e2, qv) * inv;
+  return t > 0.0f && t <= tmax;
+}
+
+// An instance's transform of a point and of a direction.
+vec3 to_object_point(GpuInstance in, vec3 p) {
+  return vec3(dot(in.to_object_x, p) + in.to_object_tx, dot(in.to_object_y, p) + in.to_object_ty,
+              dot(in.to_object_z, p) + in.to_object_tz);
+}
+vec3 to_object_vector(GpuInstance in, vec3 d) {
+  return vec3(dot(in.to_object_x, d), dot(in.to_object_y, d), dot(in.to_object_z, d));
+}
+
+// The traversal both queries share. CLOSEST: keep the nearest accepted hit; otherwise multiply
+// transmittance and stop when nothing is left. The per-hit rule is in the macro's caller.
+#define PN_TRAVERSE(ON_TRIANGLE)                                                                   \
+  {                                                                                                \
+    uint stack[PN_TRAVERSAL_STACK];                                                                \
+    int sp = 0;                                                                                    \
+    vec3 o = org, d = dir, inv_d = safe_inverse(dir);                                              \
+    uint inst_object = kInstanceObject;                                                            \
+    bool in_blas = g_scene.root_is_blas != 0u;                                                     \
+    stack[sp++] = g_scene.root;                                                                    \
+    while (sp > 0 && !pn_done) {                                                                   \
+      uint e = stack[--sp];                                                                        \
+      if (e == kExitInstance) {                                                                    \
+        o = org, d = dir, inv_d = safe_inverse(dir);                                               \
+        in_blas = false;                                                                           \
+        inst_object = kInstanceObject;                                                             \
+        continue;                                                                                  \
+      }                                                                                            \
+      if ((e & kEnterInstance) != 0u) {                                                            \
+        GpuInstance in = g_instances.v[e & ~kEnterInstance];                                       \
+        if (in.identity == 0u) {                                                                   \
+          o = to_object_point(in, org);                                                            \
+          d = to_object_vector(in, dir);                                                           \
+          inv_d = safe_inverse(d);                                                                 \
+        }                                                                                          \
+        inst_object = in.object;                                                                   \
+        in_blas = true;                                                                            \
+        stack[sp++] = kExitInstance;                                                               \
+        stack[sp++] = in.root;                                                                     \
+        continue;                                                                                  \
+      }                                                                                            \
+      GpuBvhNode n = g_nodes.v[e];                                                                 \
+      float h0 = n.child0 == kEmptyChild ? 1.0f / 0.0f : box_entry(n.lo0, n.hi0, o, inv_d, pn_tmax); \
+      float h1 = n.child1 == kEmptyChild ? 1.0f / 0.0f : box_entry(n.lo1, n.hi1, o, inv_d, pn_tmax); \
+      for (int k = 0; k < 2; ++k) {                                                                \
+        /* the farther child first onto the stack, so the nearer is popped first */                \
+        bool first = (h1 < h0) == (k == 0);                                                        \
+        float h = first ? h1 : h0;                                                                 \
+        uint child = first ? n.child1 : n.child0;                                                  \
+        uint count = first ? n.count1 : n.count0;                                                  \
+        if (isinf(h)) continue;                                                                    \
+        if (count == 0u) {                                                                         \
+          stack[sp++] = child;                                                                     \
+        } else if (!in_blas) {                                                                     \
+          for (uint i = 0u; i < count; ++i) stack[sp++] = kEnterInstance | (child + i);            \
+        } else {                                                                                   \
+          for (uint i = 0u; i < count && !pn_done; ++i) {                                          \
+            GpuTriangle tri = g_triangles.v[child + i];                                            \
+            float t, u, v;                                                                         \
+            if (!intersect_triangle(tri, o, d, pn_tmax, t, u, v)) continue;                        \
+            uint object = tri.object != kInstanceObject ? tri.object : inst_object;                \
+            ON_TRIANGLE                                                                            \
+          }                                                                                        \
+        }                                                                                          \
+      }                                                                                            \
+    }                                                                                              \
+  }
+
+// The nearest hit along org + t dir, t in (0, tmax], that a camera ray stops at.
+bool trace_closest(vec3 org, vec3 dir, float tmax, out RayHit hit) {
+  hit.t = tmax;
+  hit.object = kMissObject;
+  hit.prim = 0u;
+  hit.u = 0.0f;
+  hit.v = 0.0f;
+  float pn_tmax = tmax;
+  bool pn_done = false;
+  PN_TRAVERSE({
+    if (surface_seen(object, tri.prim, u, v)) {
+      pn_tmax = t;
+      hit.t = t;
+      hit.object = object;
+      hit.prim = tri.prim;
+      hit.u = u;
+      hit.v = v;
+    }
+  })
+  return hit.object != kMissObject;
+}
+
+// Below this a shadow ray counts as blocked (ray_tracer.cpp kOpaqueCutoff).
+const float kOpaqueCutoff = 1e-4f;
+
+// The fraction of light along org + t dir, t in (0, tmax] (see the header comment).
+float trace_transmittance(vec3 org, vec3 dir, float tmax) {
+  float pn_tmax = tmax;
+  bool pn_done = false;
+  float transmit = 1.0f;
+  bool opaque_scene = g_scene.has_transparency == 0u;
+  // The last few surfaces crossed (ray_tracer.cpp RecentHits): a ray through an edge two
+  // triangles of one surface share meets both; it is attenuated once.
+  float recent_t[4];
+  uint recent_object[4];
+  int recent_count = 0, recent_next = 0;
+  PN_TRAVERSE({
+    if (opaque_scene) {
+      transmit = 0.0f;
+      pn_done = true;
+    } else {
+      float a = surface_opacity(object, tri.prim, u, v);
+      if (a > 0.0f) {
+        bool seen = false;
+        float eps = 1e-5f * max(1.0f, t);
+        for (int r = 0; r < recent_count; ++r) seen = seen || (recent_object[r] == object && abs(recent_t[r] - t) <= eps);
+        if (!seen) {
+          recent_t[recent_next] = t;
+          recent_object[recent_next] = object;
+          recent_next = (recent_next + 1) % 4;
+          recent_count = min(recent_count + 1, 4);
+          transmit *= 1.0f - a;
+          if (!(transmit > kOpaqueCutoff)) {
+            transmit = 0.0f;
+            pn_done = true;
+          }
+        }
+      }
+    }
+  })
+  return transmit;
+}
+
+#endif
