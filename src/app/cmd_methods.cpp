@@ -4,10 +4,18 @@
 #include <fmt/format.h>
 
 #include "app/command.h"
+#include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/shadow_method.h"
 
 namespace penumbra::app {
 namespace {
+
+// The devices a method runs on, as --device names them.
+nlohmann::json devices_json(const std::string& name) {
+  nlohmann::json d = {"cpu"};
+  if (find_gpu_method(name)) d.push_back("gpu");
+  return d;
+}
 
 int run_methods(const std::string& name, bool json) {
   std::vector<const MethodInfo*> list;
@@ -21,14 +29,17 @@ int run_methods(const std::string& name, bool json) {
         params.push_back({{"name", p.name}, {"type", to_string(p.type)}, {"default", p.default_value},
                           {"doc", p.doc}, {"choices", p.choices}});
       out.push_back({{"name", m->name}, {"description", m->description}, {"samples_light", m->samples_light},
-                     {"tile_exact", m->tile_exact}, {"params", params}});
+                     {"tile_exact", m->tile_exact}, {"devices", devices_json(m->name)},
+                     {"params", params}});
     }
     std::printf("%s\n", out.dump(2).c_str());
     return 0;
   }
+  if (name.empty()) std::printf("%-20s %-9s %s\n", "method", "devices", "description");
   for (const MethodInfo* m : list) {
-    std::printf("%-20s %s\n", m->name.c_str(), m->description.c_str());
+    std::printf("%-20s %-9s %s\n", m->name.c_str(), method_devices(m->name).c_str(), m->description.c_str());
     if (name.empty()) continue;
+    if (!find_gpu_method(m->name)) std::printf("  (CPU only: --device gpu refuses it)\n");
     if (m->samples_light) std::printf("  (samples the light: --spp N sets the light samples per point)\n");
     if (!m->tile_exact)
       std::printf("  (not tile-exact: a `render --crop` window may differ from the whole frame's pixels there)\n");
@@ -43,7 +54,9 @@ int run_methods(const std::string& name, bool json) {
                   p.doc.c_str(), extra.c_str());
     }
   }
-  if (name.empty()) std::printf("\n`penumbra methods NAME` lists a method's parameters (set with -p key=value).\n");
+  if (name.empty())
+    std::printf("\n`penumbra methods NAME` lists a method's parameters (set with -p key=value); devices: where "
+                "--device can run it (`penumbra devices` lists the GPUs).\n");
   return 0;
 }
 

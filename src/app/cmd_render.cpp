@@ -42,6 +42,7 @@ struct RenderOptions {
   std::vector<std::string> params;
   std::string memory_limit;
   std::string map_cache;  // a folder of light-space data kept between runs
+  std::string device = "cpu";  // --device cpu | gpu | gpu:N
   bool quiet = false;
   std::string dask;             // a Dask scheduler's address: the frame's tiles render there
   int tile = 256;               // with --dask: the tiles' side in pixels
@@ -56,6 +57,7 @@ RenderResult render_on_dask(const RenderOptions& o, nlohmann::json* stats, int* 
   if (o.coherent_shading) throw Error("--coherent-shading: not available with --dask");
   if (!o.memory_limit.empty()) throw Error("--memory-limit: not available with --dask (each worker has its own)");
   if (!o.map_cache.empty()) throw Error("--map-cache: not available with --dask");
+  if (o.device != "cpu") throw Error("--device {}: not available with --dask yet (the workers render on their CPUs)", o.device);
   RunSetup setup = RunSetup::from_file(o.scene);
   if (!o.resolution.empty()) setup.apply("resolution", o.resolution);
   if (o.pixel_samples > 0) setup.apply("pixel_samples", std::to_string(o.pixel_samples));
@@ -105,6 +107,7 @@ RenderSettings render_settings(const RenderOptions& o, const PixelWindow& crop) 
   settings.progress = !o.quiet;
   if (!o.memory_limit.empty()) settings.memory_limit = parse_memory_size(o.memory_limit, "--memory-limit");
   settings.map_cache = o.map_cache;
+  settings.device = gpu::DeviceChoice::parse(o.device);
   return settings;
 }
 
@@ -113,7 +116,8 @@ std::string render_description(const RenderOptions& o, const Scene& scene, const
   const std::string samples =
       MethodRegistry::get(o.method).samples_light ? fmt::format(", {} light samples", o.spp) : std::string();
   const std::string window = o.crop.empty() ? std::string() : " cropped to " + crop.to_string();
-  return fmt::format("{}, {}x{}{}{}", o.method, scene.camera.width, scene.camera.height, window, samples);
+  const std::string device = o.device == "cpu" ? std::string() : " on " + o.device;
+  return fmt::format("{}{}, {}x{}{}{}", o.method, device, scene.camera.width, scene.camera.height, window, samples);
 }
 
 // `--frame-range A:B` (or `-o movie.mp4`): the frames of an animated scene, one render each
@@ -245,10 +249,15 @@ int run_render(const RenderOptions& o) {
     if (o.dask.empty()) stats = render_stats_json(scene, o.method, settings, r);
     write_text_file_atomic(o.stats_json, stats.dump(2) + "\n");
   }
-  if (!o.quiet)
-    std::fprintf(stderr, "%s: %s: %.1f ms (%.1f ms camera pass), %llu shadow rays -> %s\n", o.scene.c_str(),
-                 render_description(o, scene, crop).c_str(), r.total_ms, r.camera_pass_ms,
+  if (!o.quiet) {
+    // On a GPU, the GPU time of the frame's stages beside the wall time (which includes the upload).
+    const std::string gpu = r.gpu_ms.is_object()
+                                ? fmt::format(", GPU {:.2f} ms on {}", r.gpu_ms.value("total", 0.0), r.device)
+                                : std::string();
+    std::fprintf(stderr, "%s: %s: %.1f ms (%.1f ms camera pass%s), %llu shadow rays -> %s\n", o.scene.c_str(),
+                 render_description(o, scene, crop).c_str(), r.total_ms, r.camera_pass_ms, gpu.c_str(),
                  static_cast<unsigned long long>(r.stats.rays_traced), out.c_str());
+  }
   return 0;
 }
 
@@ -294,6 +303,10 @@ const CommandRegistration registration("render", 10, [](CLI::App& app) {
                   "keep light-space maps in this folder between runs (created if needed): a method that can (lam) "
                   "reads them instead of precomputing when the geometry, lights, parameters, seed and --spp are "
                   "the same; hits and sizes in --stats-json (docs/animation.md)");
+  cmd->add_option("--device", o->device,
+                  "where the frame renders: cpu, gpu (the first usable Vulkan device) or gpu:N (`penumbra devices`); "
+                  "`penumbra methods` shows which methods run on the GPU (docs/gpu.md)")
+      ->capture_default_str();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
   cmd->add_option("--dask", o->dask,
                   "render the frame as tiles on the Dask scheduler at tcp://HOST:PORT (docs/distributed.md)");

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "app/command.h"
+#include "penumbra/gpu/device.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/interrupt.h"
 
@@ -58,7 +59,17 @@ int main(int argc, char** argv) {
   penumbra::install_interrupt_handlers();
   try {
     for (auto& [sub, run] : commands)
-      if (sub && sub->parsed()) return run();
+      if (sub && sub->parsed()) {
+        const int status = run();
+        // Under PENUMBRA_GPU_VALIDATION any message of the Vulkan validation layers is a failure
+        // (they were printed as they came): the tests run the command line that way.
+        if (const uint64_t n = penumbra::gpu::validation_message_count(); n > 0 && status == 0) {
+          std::fprintf(stderr, "penumbra: error: the Vulkan validation layers reported %llu problem(s)\n",
+                       static_cast<unsigned long long>(n));
+          return 3;
+        }
+        return status;
+      }
   } catch (const penumbra::Interrupted&) {
     if (penumbra::claim_interrupt_message()) std::fprintf(stderr, "penumbra: error: interrupted\n");
     return 130;

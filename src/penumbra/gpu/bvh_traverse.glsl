@@ -18,7 +18,6 @@
 #define PN_TRAVERSAL_STACK 96
 const uint kEnterInstance = 0x80000000u;  // | instance index
 const uint kExitInstance = 0xffffffffu;
-const uint kMissObject = 0xffffffffu;
 
 struct RayHit {
   float t;
@@ -42,7 +41,7 @@ float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tmax) {
   vec3 tn = min(t0, t1), tf = max(t0, t1);
   float enter = max(max(tn.x, tn.y), max(tn.z, 0.0f));
   float leave = min(min(tf.x, tf.y), min(tf.z, tmax));
-  return enter <= leave ? enter : 1.0f / 0.0f;
+  return enter <= leave ? enter : pn_inf();
 }
 
 // Moller-Trumbore: true and (t, u, v) where the ray meets the triangle with t in (0, tmax].
@@ -63,71 +62,115 @@ bool intersect_triangle(GpuTriangle tri, vec3 o, vec3 d, float tmax, out float t
 }
 
 // An instance's transform of a point and of a direction.
-vec3 to_object_point(GpuInstance in, vec3 p) {
-  return vec3(dot(in.to_object_x, p) + in.to_object_tx, dot(in.to_object_y, p) + in.to_object_ty,
-              dot(in.to_object_z, p) + in.to_object_tz);
+vec3 to_object_point(GpuInstance inst, vec3 p) {
+  return vec3(dot(inst.to_object_x, p) + inst.to_object_tx, dot(inst.to_object_y, p) + inst.to_object_ty,
+              dot(inst.to_object_z, p) + inst.to_object_tz);
 }
-vec3 to_object_vector(GpuInstance in, vec3 d) {
-  return vec3(dot(in.to_object_x, d), dot(in.to_object_y, d), dot(in.to_object_z, d));
+vec3 to_object_vector(GpuInstance inst, vec3 d) {
+  return vec3(dot(inst.to_object_x, d), dot(inst.to_object_y, d), dot(inst.to_object_z, d));
 }
 
-// The traversal both queries share. CLOSEST: keep the nearest accepted hit; otherwise multiply
-// transmittance and stop when nothing is left. The per-hit rule is in the macro's caller.
-#define PN_TRAVERSE(ON_TRIANGLE)                                                                   \
-  {                                                                                                \
-    uint stack[PN_TRAVERSAL_STACK];                                                                \
-    int sp = 0;                                                                                    \
-    vec3 o = org, d = dir, inv_d = safe_inverse(dir);                                              \
-    uint inst_object = kInstanceObject;                                                            \
-    bool in_blas = g_scene.root_is_blas != 0u;                                                     \
-    stack[sp++] = g_scene.root;                                                                    \
-    while (sp > 0 && !pn_done) {                                                                   \
-      uint e = stack[--sp];                                                                        \
-      if (e == kExitInstance) {                                                                    \
-        o = org, d = dir, inv_d = safe_inverse(dir);                                               \
-        in_blas = false;                                                                           \
-        inst_object = kInstanceObject;                                                             \
-        continue;                                                                                  \
-      }                                                                                            \
-      if ((e & kEnterInstance) != 0u) {                                                            \
-        GpuInstance in = g_instances.v[e & ~kEnterInstance];                                       \
-        if (in.identity == 0u) {                                                                   \
-          o = to_object_point(in, org);                                                            \
-          d = to_object_vector(in, dir);                                                           \
-          inv_d = safe_inverse(d);                                                                 \
-        }                                                                                          \
-        inst_object = in.object;                                                                   \
-        in_blas = true;                                                                            \
-        stack[sp++] = kExitInstance;                                                               \
-        stack[sp++] = in.root;                                                                     \
-        continue;                                                                                  \
-      }                                                                                            \
-      GpuBvhNode n = g_nodes.v[e];                                                                 \
-      float h0 = n.child0 == kEmptyChild ? 1.0f / 0.0f : box_entry(n.lo0, n.hi0, o, inv_d, pn_tmax); \
-      float h1 = n.child1 == kEmptyChild ? 1.0f / 0.0f : box_entry(n.lo1, n.hi1, o, inv_d, pn_tmax); \
-      for (int k = 0; k < 2; ++k) {                                                                \
-        /* the farther child first onto the stack, so the nearer is popped first */                \
-        bool first = (h1 < h0) == (k == 0);                                                        \
-        float h = first ? h1 : h0;                                                                 \
-        uint child = first ? n.child1 : n.child0;                                                  \
-        uint count = first ? n.count1 : n.count0;                                                  \
-        if (isinf(h)) continue;                                                                    \
-        if (count == 0u) {                                                                         \
-          stack[sp++] = child;                                                                     \
-        } else if (!in_blas) {                                                                     \
-          for (uint i = 0u; i < count; ++i) stack[sp++] = kEnterInstance | (child + i);            \
-        } else {                                                                                   \
-          for (uint i = 0u; i < count && !pn_done; ++i) {                                          \
-            GpuTriangle tri = g_triangles.v[child + i];                                            \
-            float t, u, v;                                                                         \
-            if (!intersect_triangle(tri, o, d, pn_tmax, t, u, v)) continue;                        \
-            uint object = tri.object != kInstanceObject ? tri.object : inst_object;                \
-            ON_TRIANGLE                                                                            \
-          }                                                                                        \
-        }                                                                                          \
-      }                                                                                            \
-    }                                                                                              \
+// Below this a shadow ray counts as blocked (ray_tracer.cpp kOpaqueCutoff).
+const float kOpaqueCutoff = 1e-4f;
+
+// The traversal both queries share (closest: keep the nearest hit a camera ray stops at;
+// otherwise: multiply the transmittance and stop when nothing is left). Both callers pass a
+// constant `closest`, so each gets its own specialised copy once inlined.
+void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, inout float transmit) {
+  uint stack[PN_TRAVERSAL_STACK];
+  int sp = 0;
+  vec3 o = org, d = dir, inv_d = safe_inverse(dir);
+  uint inst_object = kInstanceObject;
+  bool in_blas = g_scene.root_is_blas != 0u;
+  bool done = false;
+  bool opaque_scene = g_scene.has_transparency == 0u;
+  // The last few surfaces a shadow ray crossed (ray_tracer.cpp RecentHits): a ray through an
+  // edge two triangles of one surface share meets both; it is attenuated once.
+  float recent_t[4];
+  uint recent_object[4];
+  int recent_count = 0, recent_next = 0;
+  stack[sp++] = g_scene.root;
+  while (sp > 0 && !done) {
+    uint e = stack[--sp];
+    if (e == kExitInstance) {  // back to the world's ray
+      o = org;
+      d = dir;
+      inv_d = safe_inverse(dir);
+      in_blas = false;
+      inst_object = kInstanceObject;
+      continue;
+    }
+    if ((e & kEnterInstance) != 0u) {  // into an instance's BLAS, in its space
+      GpuInstance inst = g_instances.v[e & ~kEnterInstance];
+      if (inst.identity == 0u) {
+        o = to_object_point(inst, org);
+        d = to_object_vector(inst, dir);
+        inv_d = safe_inverse(d);
+      }
+      inst_object = inst.object;
+      in_blas = true;
+      stack[sp++] = kExitInstance;
+      stack[sp++] = inst.root;
+      continue;
+    }
+    GpuBvhNode n = g_nodes.v[e];
+    float h0 = n.child0 == kEmptyChild ? pn_inf() : box_entry(n.lo0, n.hi0, o, inv_d, tmax);
+    float h1 = n.child1 == kEmptyChild ? pn_inf() : box_entry(n.lo1, n.hi1, o, inv_d, tmax);
+    for (int k = 0; k < 2 && !done; ++k) {
+      // The farther child goes onto the stack first, so the nearer is popped first.
+      bool second = (h1 < h0) == (k == 0);
+      float h = second ? h1 : h0;
+      if (isinf(h)) continue;
+      uint child = second ? n.child1 : n.child0;
+      uint count = second ? n.count1 : n.count0;
+      if (count == 0u) {
+        stack[sp++] = child;
+        continue;
+      }
+      if (!in_blas) {  // a TLAS leaf: its instances
+        for (uint i = 0u; i < count; ++i) stack[sp++] = kEnterInstance | (child + i);
+        continue;
+      }
+      for (uint i = 0u; i < count && !done; ++i) {
+        GpuTriangle tri = g_triangles.v[child + i];
+        float t, u, v;
+        if (!intersect_triangle(tri, o, d, tmax, t, u, v)) continue;
+        uint object = tri.object != kInstanceObject ? tri.object : inst_object;
+        if (closest) {
+          if (!surface_seen(object, tri.prim, u, v)) continue;  // an alpha mask's hole
+          tmax = t;
+          hit.t = t;
+          hit.object = object;
+          hit.prim = tri.prim;
+          hit.u = u;
+          hit.v = v;
+          continue;
+        }
+        if (opaque_scene) {
+          transmit = 0.0f;
+          done = true;
+          continue;
+        }
+        float a = surface_opacity(object, tri.prim, u, v);
+        if (!(a > 0.0f)) continue;  // a hole of an alpha mask: nothing there
+        bool seen = false;
+        float eps = 1e-5f * max(1.0f, t);
+        for (int r = 0; r < recent_count; ++r)
+          seen = seen || (recent_object[r] == object && abs(recent_t[r] - t) <= eps);
+        if (seen) continue;  // the same surface through a shared edge
+        recent_t[recent_next] = t;
+        recent_object[recent_next] = object;
+        recent_next = (recent_next + 1) % 4;
+        recent_count = min(recent_count + 1, 4);
+        transmit *= 1.0f - a;
+        if (!(transmit > kOpaqueCutoff)) {
+          transmit = 0.0f;
+          done = true;
+        }
+      }
+    }
   }
+}
 
 // The nearest hit along org + t dir, t in (0, tmax], that a camera ray stops at.
 bool trace_closest(vec3 org, vec3 dir, float tmax, out RayHit hit) {
@@ -136,59 +179,21 @@ bool trace_closest(vec3 org, vec3 dir, float tmax, out RayHit hit) {
   hit.prim = 0u;
   hit.u = 0.0f;
   hit.v = 0.0f;
-  float pn_tmax = tmax;
-  bool pn_done = false;
-  PN_TRAVERSE({
-    if (surface_seen(object, tri.prim, u, v)) {
-      pn_tmax = t;
-      hit.t = t;
-      hit.object = object;
-      hit.prim = tri.prim;
-      hit.u = u;
-      hit.v = v;
-    }
-  })
+  float unused = 1.0f;
+  traverse(org, dir, tmax, true, hit, unused);
   return hit.object != kMissObject;
 }
 
-// Below this a shadow ray counts as blocked (ray_tracer.cpp kOpaqueCutoff).
-const float kOpaqueCutoff = 1e-4f;
-
 // The fraction of light along org + t dir, t in (0, tmax] (see the header comment).
 float trace_transmittance(vec3 org, vec3 dir, float tmax) {
-  float pn_tmax = tmax;
-  bool pn_done = false;
+  RayHit unused;
+  unused.t = tmax;
+  unused.object = kMissObject;
+  unused.prim = 0u;
+  unused.u = 0.0f;
+  unused.v = 0.0f;
   float transmit = 1.0f;
-  bool opaque_scene = g_scene.has_transparency == 0u;
-  // The last few surfaces crossed (ray_tracer.cpp RecentHits): a ray through an edge two
-  // triangles of one surface share meets both; it is attenuated once.
-  float recent_t[4];
-  uint recent_object[4];
-  int recent_count = 0, recent_next = 0;
-  PN_TRAVERSE({
-    if (opaque_scene) {
-      transmit = 0.0f;
-      pn_done = true;
-    } else {
-      float a = surface_opacity(object, tri.prim, u, v);
-      if (a > 0.0f) {
-        bool seen = false;
-        float eps = 1e-5f * max(1.0f, t);
-        for (int r = 0; r < recent_count; ++r) seen = seen || (recent_object[r] == object && abs(recent_t[r] - t) <= eps);
-        if (!seen) {
-          recent_t[recent_next] = t;
-          recent_object[recent_next] = object;
-          recent_next = (recent_next + 1) % 4;
-          recent_count = min(recent_count + 1, 4);
-          transmit *= 1.0f - a;
-          if (!(transmit > kOpaqueCutoff)) {
-            transmit = 0.0f;
-            pn_done = true;
-          }
-        }
-      }
-    }
-  })
+  traverse(org, dir, tmax, false, unused, transmit);
   return transmit;
 }
 

@@ -18,6 +18,8 @@ uint pn_thread_index() {
   return gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
 }
 
+float pn_inf() { return uintBitsToFloat(0x7f800000u); }
+
 // Buffer references every kernel may use: a buffer is its device address (gpu/buffer.h).
 layout(buffer_reference, scalar) buffer Floats { float v[]; };
 layout(buffer_reference, scalar) buffer Uints { uint v[]; };

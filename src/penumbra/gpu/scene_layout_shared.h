@@ -54,6 +54,8 @@ struct GpuTriangle {
   uint pad;
 };
 PN_CONST uint kInstanceObject = 0xffffffffu;
+// The object of a ray that hit nothing (trace/ray_tracer.h Hit::kMiss).
+PN_CONST uint kMissObject = 0xffffffffu;
 
 // An instance, 112 bytes: a BLAS placed in the world.
 //   bytes  0-47  to_world: rows of the 3x4 affine matrix (object -> world), 3 x (vec3, float)

@@ -15,7 +15,9 @@
 #include "penumbra/core/sampling.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/render/coherent_shading.h"
+#include "penumbra/render/gpu_renderer.h"
 #include "penumbra/render/map_cache.h"
+#include "penumbra/shadow/gpu_method.h"
 
 namespace penumbra {
 
@@ -231,6 +233,59 @@ void check_render_memory(const Scene& scene, const RenderSettings& settings) {
               need.method_setting);
 }
 
+GpuMemoryEstimate estimate_gpu_render_memory(const Scene& scene, const RenderSettings& settings) {
+  GpuMemoryEstimate e;
+  const PixelWindow window = crop_window(settings.crop, scene.camera);
+  const uint64_t pixels = static_cast<uint64_t>(window.width()) * static_cast<uint64_t>(window.height());
+  const uint64_t slots = pixels * static_cast<uint64_t>(std::max(1, scene.camera.samples_per_pixel));
+  e.scene_bytes = gpu::GpuScene::estimate_bytes(scene);
+  e.frame_bytes = gpu_frame_bytes(slots, pixels) + (settings.frames > 1 ? slots * 16 : 0);
+  const GpuMethodInfo* info = find_gpu_method(settings.method);
+  if (info && info->estimate_memory) {
+    MemoryQuery q;
+    q.view_samples = slots;
+    q.light_samples = settings.light_samples;
+    q.triangles = scene.triangle_count();
+    q.threads = 1;
+    const ParamSet params = resolve_method_params(settings.method, scene, settings.params);
+    MemoryTally lights;
+    for (const AreaLight& light : expand_textured_lights(scene.lights)) {
+      q.light = &light;
+      const MemoryEstimate m = info->estimate_memory(params, q);
+      lights.add(m.bytes, m.setting);
+    }
+    const MemoryEstimate all = lights.estimate();
+    e.method_bytes = all.bytes;
+    e.method_setting = all.setting;
+  }
+  return e;
+}
+
+void check_gpu_render_memory(const Scene& scene, const RenderSettings& settings, const gpu::Device& device) {
+  const uint64_t capacity = device.memory_capacity();
+  const bool user_limit = settings.memory_limit > 0 && settings.memory_limit < capacity;
+  const uint64_t limit = user_limit ? settings.memory_limit : capacity;
+  const GpuMemoryEstimate need = estimate_gpu_render_memory(scene, settings);
+  if (need.total() <= limit) return;
+  // The largest part names what to lower.
+  std::string lower = "camera.resolution or camera.samples_per_pixel (--resolution, --pixel-samples)";
+  if (need.scene_bytes >= need.frame_bytes && need.scene_bytes >= need.method_bytes)
+    lower = "the scene's triangle count";
+  else if (need.method_bytes > need.frame_bytes && !need.method_setting.empty())
+    lower = need.method_setting == kLightSamplesSetting || need.method_setting == kViewSamplesSetting ||
+                    need.method_setting == kTrianglesSetting
+                ? need.method_setting
+                : fmt::format("-p {}.{}", settings.method, need.method_setting);
+  throw Error("{}: {} on {} needs about {} of GPU memory ({} for the scene, {} for the frame, {} for the method), over "
+              "{}; lower {}{}",
+              scene.source.string(), settings.method, device.info().name, format_bytes(need.total()),
+              format_bytes(need.scene_bytes), format_bytes(need.frame_bytes), format_bytes(need.method_bytes),
+              user_limit ? fmt::format("the memory limit of {}", format_bytes(limit))
+                         : fmt::format("the {} this GPU can give a render (90% of its {})", format_bytes(limit),
+                                       format_bytes(device.info().memory_bytes)),
+              lower, user_limit ? " or raise --memory-limit" : "");
+}
+
 Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene), settings_(std::move(settings)) {
   if (scene_.lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
   // A textured light is drawn as one light per colour channel (issue 20 part 3).
@@ -241,6 +296,19 @@ Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene),
                  "penumbra: note: %s models the light as uniform: a light's radiance_texture counts as its mean colour "
                  "(docs/scene-format.md)\n",
                  settings_.method.c_str());
+  if (settings_.device.gpu) {
+    // The method must have a GPU version (one line otherwise), and the render must fit.
+    if (!find_gpu_method(settings_.method)) create_gpu_method(settings_.method, scene_, settings_.params);
+    if (settings_.coherent_shading)
+      throw Error("--coherent-shading is not on the GPU yet: render with --device cpu");
+    if (!settings_.map_cache.empty())
+      throw Error("--map-cache is not on the GPU yet: render with --device cpu");
+    gpu::Device& device = gpu::Device::get(settings_.device);
+    check_gpu_render_memory(scene_, settings_, device);
+    gpu_ = std::make_unique<GpuRenderer>(scene_, settings_, device);
+    resolved_params_ = resolve_method_params(settings_.method, scene_, settings_.params).to_json();
+    return;
+  }
   check_render_memory(scene_, settings_);
   tracer_ = std::make_unique<RayTracer>(scene_, settings_.movable_objects);
   for (size_t l = 0; l < scene_.lights.size(); ++l) {
@@ -251,6 +319,13 @@ Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene),
   prepared_.assign(scene_.lights.size(), false);
   if (!settings_.map_cache.empty()) map_cache_ = std::make_unique<MapCache>(settings_.map_cache);
 }
+
+const RayTracer& Renderer::tracer() const {
+  if (!tracer_) throw Error("Renderer::tracer: a render on the GPU has no Embree scene");
+  return *tracer_;
+}
+
+int Renderer::refits() const { return gpu_ ? gpu_->refits() : tracer_->refits(); }
 
 Renderer::~Renderer() = default;
 
@@ -285,6 +360,14 @@ bool same_light(const AreaLight& a, const AreaLight& b) {
 void Renderer::set_lights(const std::vector<AreaLight>& given) {
   if (given.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
   const std::vector<AreaLight> lights = expand_textured_lights(given);
+  if (gpu_) {
+    std::vector<bool> changed(lights.size());
+    for (size_t l = 0; l < lights.size(); ++l)
+      changed[l] = !(l < scene_.lights.size() && same_light(lights[l], scene_.lights[l]));
+    scene_.lights = lights;
+    gpu_->set_lights(scene_, changed, settings_);
+    return;
+  }
   for (size_t l = 0; l < lights.size(); ++l) {
     if (l < scene_.lights.size() && same_light(lights[l], scene_.lights[l])) continue;
     if (l < methods_.size()) {
@@ -320,6 +403,10 @@ void Renderer::set_objects(const std::vector<SceneObject>& objects, std::span<co
     if (o >= objects.size()) throw Error("{}: set_objects: no object {}", scene_.source.string(), o);
     scene_.objects[o] = objects[o];
   }
+  if (gpu_) {
+    gpu_->set_objects(scene_, moved, settings_);
+    return;
+  }
   tracer_->update_objects(scene_, moved);
   geometry_digest_.clear();
   for (size_t l = 0; l < methods_.size(); ++l) {
@@ -332,6 +419,10 @@ void Renderer::set_objects(const std::vector<SceneObject>& objects, std::span<co
 }
 
 void Renderer::prepare() {
+  if (gpu_) {
+    gpu_->prepare(scene_, settings_);
+    return;
+  }
   for (size_t l = 0; l < scene_.lights.size(); ++l) {
     if (prepared_[l]) continue;
     const ShadowContext ctx = light_context(l);
@@ -340,10 +431,16 @@ void Renderer::prepare() {
 }
 
 bool Renderer::prepared() const {
+  if (gpu_) return gpu_->prepared();
   return std::all_of(prepared_.begin(), prepared_.end(), [](bool p) { return p; });
 }
 
 RenderResult Renderer::render() {
+  if (gpu_) {
+    RenderResult r = gpu_->render(scene_, settings_);
+    r.resolved_params = resolved_params_;
+    return r;
+  }
   Timer total;
   RenderResult result;
   result.resolved_params = resolved_params_;
@@ -498,6 +595,8 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
                         {"total_ms", r.total_ms},
                         {"stats", r.stats.to_json()}};
   if (!r.map_cache.is_null()) doc["map_cache"] = r.map_cache;
+  doc["device"] = r.device;
+  if (!r.gpu_ms.is_null()) doc["gpu_ms"] = r.gpu_ms;
   return doc;
 }
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "penumbra/core/image.h"
+#include "penumbra/gpu/device.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -52,6 +53,9 @@ struct RenderSettings {
   // animated scene's object tracks (SequenceRenderer). The Embree scene is then built two-level
   // with these objects' BVHs refittable (RayTracer), so a move refits instead of rebuilding.
   std::vector<uint32_t> movable_objects;
+  // Where the frame is rendered (--device): the CPU, or a Vulkan GPU (render/gpu_renderer.h:
+  // the whole frame on the device; the method must have a GPU version, gpu_method.h).
+  gpu::DeviceChoice device;
 };
 
 // What a render of `scene` will allocate, estimated before anything is: the camera pass (a
@@ -71,6 +75,17 @@ uint64_t default_memory_limit();
 // larger part's) when the estimate exceeds settings.memory_limit (or the default).
 void check_render_memory(const Scene& scene, const RenderSettings& settings);
 
+// The same on a GPU: what the scene, the frame's per-slot buffers and each light's GPU method
+// will hold in device memory, against the device's capacity (90% of its largest memory heap) or
+// --memory-limit where lower. Throws an Error naming the device, the estimate and what to lower.
+struct GpuMemoryEstimate {
+  uint64_t scene_bytes = 0, frame_bytes = 0, method_bytes = 0;
+  std::string method_setting;
+  uint64_t total() const { return scene_bytes + frame_bytes + method_bytes; }
+};
+GpuMemoryEstimate estimate_gpu_render_memory(const Scene& scene, const RenderSettings& settings);
+void check_gpu_render_memory(const Scene& scene, const RenderSettings& settings, const gpu::Device& device);
+
 struct RenderResult {
   // The pixels of the camera's image rendered (RenderSettings::crop, or the whole image): the
   // images are its size, pixel (x, y) of the whole image at (x - window.x0, y - window.y0).
@@ -85,6 +100,11 @@ struct RenderResult {
   // With RenderSettings::map_cache: MapCache::stats_json() of the renderer's cache (hits and
   // misses since the Renderer was made); null otherwise.
   nlohmann::json map_cache;
+  // The device that rendered it ("cpu", or the GPU's name), and on a GPU the GPU time of each
+  // stage in ms (timestamps: camera_pass, the method's stages, compose, resolve; "total"), plus
+  // "readback", the host's time to copy the image back.
+  std::string device = "cpu";
+  nlohmann::json gpu_ms;
 };
 
 // The camera pass on Embree: primary rays through each pixel (jittered when the camera
@@ -114,6 +134,7 @@ ViewSamples camera_pass(const Scene& scene, const RayTracer& tracer, uint64_t se
 // Renders frames of one scene with one method, keeping the method's light-space
 // structures between frames: set_camera() re-runs the camera pass only.
 class MapCache;
+class GpuRenderer;
 
 class Renderer {
  public:
@@ -144,7 +165,11 @@ class Renderer {
   // (the viewer does it while the view is still, so the next camera move costs a display).
   void prepare();
   RenderResult render();
-  const RayTracer& tracer() const { return *tracer_; }
+  // The Embree scene of a render on the CPU (a render on the GPU has none: throws).
+  const RayTracer& tracer() const;
+  // How many set_objects calls refit the moved objects' BVHs (Embree's, or the GPU's).
+  int refits() const;
+  bool on_gpu() const { return gpu_ != nullptr; }
   const Scene& scene() const { return scene_; }
   // The method instance serving light i (for tests and statistics).
   ShadowMethod& method(int light) { return *methods_[light]; }
@@ -152,7 +177,8 @@ class Renderer {
  private:
   Scene scene_;
   RenderSettings settings_;
-  std::unique_ptr<RayTracer> tracer_;
+  std::unique_ptr<RayTracer> tracer_;  // on the CPU
+  std::unique_ptr<GpuRenderer> gpu_;   // on a GPU (then no tracer_ and no methods_)
   std::vector<std::unique_ptr<ShadowMethod>> methods_;
   std::vector<bool> prepared_;
   nlohmann::json resolved_params_;

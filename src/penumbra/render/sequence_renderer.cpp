@@ -35,10 +35,10 @@ SequenceRenderer::Frame SequenceRenderer::render(int frame) {
     animation.set_camera_and_lights(frame, current_);
     if (!moved.empty()) {
       Timer timer;
-      const int refits = renderer_->tracer().refits();
+      const int refits = renderer_->refits();
       renderer_->set_objects(current_.objects, moved);
       out.moved_objects = static_cast<int>(moved.size());
-      out.refit = renderer_->tracer().refits() > refits;
+      out.refit = renderer_->refits() > refits;
       out.geometry_update_ms = timer.elapsed_ms();
     }
     renderer_->set_camera(current_.camera);

@@ -1,4 +1,5 @@
 #include "penumbra/scene/camera.h"
+#include "penumbra/scene/camera_shared.h"
 
 #include <cmath>
 #include <cstdint>
@@ -89,10 +90,8 @@ CameraProjection::CameraProjection(const Camera& camera)
 // fused multiply-adds, no errno from sqrt), so the row loop vectorises and gives the same
 // floats as one ray at a time.
 Vec3f CameraProjection::ray_direction(float px, float py) const {
-  // Image x grows to the right and y downward; camera-space y grows upward.
-  const float x = (2.0f * px / width_ - 1.0f) * tan_half_ * aspect_;
-  const float y = (1.0f - 2.0f * py / height_) * tan_half_;
-  return normalize(frame_.s * x + frame_.t * y - frame_.n);
+  // camera_shared.h: the GPU's camera pass uses the same function.
+  return shader::camera_ray_direction(frame_.s, frame_.t, frame_.n, tan_half_, aspect_, width_, height_, px, py);
 }
 
 void CameraProjection::row_directions(float py, int x_begin, int count, float* __restrict dx, float* __restrict dy,

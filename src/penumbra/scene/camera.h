@@ -54,6 +54,10 @@ class CameraProjection {
   // ray_direction(x + 0.5, py) for the pixel centres x = x_begin .. x_begin+count-1 of one
   // row, into (dx[x - x_begin], ...): the same floats, in a loop the compiler vectorises.
   void row_directions(float py, int x_begin, int count, float* dx, float* dy, float* dz) const;
+  // What the GPU's camera pass takes to compute the same directions (camera_shared.h).
+  const Frame& frame() const { return frame_; }
+  float tan_half() const { return tan_half_; }
+  float aspect() const { return aspect_; }
 
  private:
   Frame frame_;

@@ -3,11 +3,13 @@
 // methods can be compared pixel for pixel.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
 #include "penumbra/core/math.h"
 #include "penumbra/scene/camera.h"
+#include "penumbra/shadow/view_samples_shared.h"
 
 namespace penumbra {
 
@@ -24,6 +26,10 @@ struct ViewSample {
 // A cache line each: the camera pass writes them straight to their place, and a renderer
 // keeps the buffer from frame to frame.
 static_assert(sizeof(ViewSample) == 64);
+// The GPU's record has the same bytes (view_samples_shared.h).
+static_assert(sizeof(ViewSample) == sizeof(shader::GpuViewSample) && offsetof(ViewSample, albedo) == 36 &&
+              offsetof(ViewSample, object) == offsetof(shader::GpuViewSample, object) &&
+              offsetof(ViewSample, sub) == offsetof(shader::GpuViewSample, sub));
 
 // The key a method's random numbers for one view sample derive from: its camera ray (the
 // global pixel and the ray's index within it), not its index in ViewSamples::samples, which

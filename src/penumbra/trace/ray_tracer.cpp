@@ -1,4 +1,5 @@
 #include "penumbra/trace/ray_tracer.h"
+#include "penumbra/trace/ray_shared.h"
 
 #include <embree3/rtcore.h>
 
@@ -142,25 +143,13 @@ void copy_positions(const TriangleMesh& m, float* v) {
 }
 }  // namespace
 
-Vec3f offset_ray_origin(Vec3f p, Vec3f ng, Vec3f dir) {
-  // Embree's watertight triangle test is accurate to a few ulps of the coordinates, so
-  // the offset scales with the largest coordinate; 2^-15 relative is ~250 ulps.
-  float scale = 1.0f + std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
-  float eps = scale * 3.0e-5f;
-  float len = length(ng);
-  if (len == 0) return p;
-  Vec3f n = ng / len;
-  return p + n * (dot(n, dir) >= 0 ? eps : -eps);
-}
+// ray_shared.h: the GPU's rays leave and end where these do.
+Vec3f offset_ray_origin(Vec3f p, Vec3f ng, Vec3f dir) { return shader::offset_ray_origin_shared(p, ng, dir); }
 
 ShadowRay shadow_ray_to(Vec3f p, Vec3f ng, Vec3f q) {
   ShadowRay r;
-  r.org = offset_ray_origin(p, ng, q - p);
-  Vec3f d = q - r.org;
-  float dist = length(d);
-  r.dir = dist > 0 ? d / dist : Vec3f(0, 1, 0);
+  shader::shadow_segment(p, ng, q, r.org, r.dir, r.tfar);
   r.tnear = 0.0f;
-  r.tfar = dist * (1.0f - 1e-5f);
   return r;
 }
 
@@ -387,8 +376,7 @@ void RayTracer::transmittance(std::span<const ShadowRay> rays, std::span<float> 
 void RayTracer::transmittance_fan(Vec3f p, Vec3f ng, const float* x, const float* y, const float* z, size_t n,
                                   float* out) const {
   // The offset of offset_ray_origin, computed once for the fan.
-  const float scale = 1.0f + std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
-  const float eps = scale * 3.0e-5f;
+  const float eps = shader::ray_offset_epsilon(p);
   const float len = length(ng);
   const Vec3f n_unit = len > 0 ? ng / len : Vec3f(0, 0, 0);
   // Incoherent streams of single rays (rtcOccluded1M): measured on bunny, plant and furball,
@@ -401,20 +389,19 @@ void RayTracer::transmittance_fan(Vec3f p, Vec3f ng, const float* x, const float
   for (size_t b = 0; b < n; b += kChunk) {
     const size_t m = std::min(kChunk, n - b);
     for (size_t i = 0; i < m; ++i) {
-      const float dx = x[b + i], dy = y[b + i], dz = z[b + i];
-      // offset_ray_origin: off the surface on the side the ray leaves into.
-      const float side = n_unit.x * dx + n_unit.y * dy + n_unit.z * dz >= 0 ? eps : -eps;
+      // ray_shared.h fan_segment: off the surface on the side the ray leaves into, the segment
+      // t in [0, 1) ending just short of the light as shadow_ray_to's does.
+      Vec3f org, dir;
+      shader::fan_segment(p, n_unit, eps, Vec3f(x[b + i], y[b + i], z[b + i]), org, dir);
       RTCRay& r = rays[i];
-      r.org_x = p.x + n_unit.x * side;
-      r.org_y = p.y + n_unit.y * side;
-      r.org_z = p.z + n_unit.z * side;
-      // Unnormalised direction to the light point: the segment is t in [0, 1), ending just
-      // short of the light as shadow_ray_to's does.
-      r.dir_x = p.x + dx - r.org_x;
-      r.dir_y = p.y + dy - r.org_y;
-      r.dir_z = p.z + dz - r.org_z;
+      r.org_x = org.x;
+      r.org_y = org.y;
+      r.org_z = org.z;
+      r.dir_x = dir.x;
+      r.dir_y = dir.y;
+      r.dir_z = dir.z;
       r.tnear = 0.0f;
-      r.tfar = 1.0f - 1e-5f;
+      r.tfar = shader::kFanTfar;
       r.mask = 0xFFFFFFFFu;
       r.flags = 0;
       r.time = 0;

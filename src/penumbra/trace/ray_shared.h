@@ -1,0 +1,46 @@
+// Shadow-ray set-up in the common subset of C++ and GLSL (core/shader_compat.h): where a
+// shadow ray leaves a surface and where it ends, for the CPU ray tracer (trace/ray_tracer.h)
+// and the GPU's (gpu/bvh_traverse.glsl), so both devices trace the same segments.
+#ifndef PENUMBRA_TRACE_RAY_SHARED_H
+#define PENUMBRA_TRACE_RAY_SHARED_H
+
+#include "penumbra/core/shader_compat.h"
+
+PN_SHARED_BEGIN
+
+// The offset off a surface at p: Embree's watertight triangle test is accurate to a few ulps of
+// the coordinates, so it scales with the largest coordinate; 2^-15 relative is ~250 ulps.
+PN_INLINE float ray_offset_epsilon(vec3 p) { return (1.0f + max(abs(p.x), max(abs(p.y), abs(p.z)))) * 3.0e-5f; }
+
+// p moved off its surface (geometric normal ng) to the side `dir` leaves into.
+PN_INLINE vec3 offset_ray_origin_shared(vec3 p, vec3 ng, vec3 dir) {
+  float eps = ray_offset_epsilon(p);
+  float len = length(ng);
+  if (len == 0.0f) return p;
+  vec3 n = ng / len;
+  return p + n * (dot(n, dir) >= 0.0f ? eps : -eps);
+}
+
+// A shadow segment from surface point p (normal ng) to q: origin, unit direction, and its end
+// just short of q (trace/ray_tracer.h shadow_ray_to; tnear 0).
+PN_INLINE void shadow_segment(vec3 p, vec3 ng, vec3 q, PN_OUT(vec3) org, PN_OUT(vec3) dir, PN_OUT(float) tfar) {
+  org = offset_ray_origin_shared(p, ng, q - p);
+  vec3 d = q - org;
+  float dist = length(d);
+  dir = dist > 0.0f ? d / dist : vec3(0.0f, 1.0f, 0.0f);
+  tfar = dist * (1.0f - 1e-5f);
+}
+
+// One ray of a fan toward a light's samples (RayTracer::transmittance_fan): from p offset by
+// `eps` along the unit normal n_unit to the side of the light point p + d, toward p + d, as an
+// unnormalised direction whose segment is t in (0, 1 - 1e-5].
+PN_INLINE void fan_segment(vec3 p, vec3 n_unit, float eps, vec3 d, PN_OUT(vec3) org, PN_OUT(vec3) dir) {
+  float side = n_unit.x * d.x + n_unit.y * d.y + n_unit.z * d.z >= 0.0f ? eps : -eps;
+  org = vec3(p.x + n_unit.x * side, p.y + n_unit.y * side, p.z + n_unit.z * side);
+  dir = vec3(p.x + d.x - org.x, p.y + d.y - org.y, p.z + d.z - org.z);
+}
+PN_CONST float kFanTfar = 1.0f - 1e-5f;
+
+PN_SHARED_END
+
+#endif  // PENUMBRA_TRACE_RAY_SHARED_H
