@@ -4,7 +4,10 @@
 #include <cstdint>
 #include <functional>
 #include <span>
+#include <vector>
 
+#include "penumbra/core/sampling.h"
+#include "penumbra/scene/light_batch.h"
 #include "penumbra/shadow/view_samples.h"
 
 namespace penumbra {
@@ -47,5 +50,19 @@ uint64_t trace_light_fans(const ShadowContext& ctx, const ViewSamples& samples, 
                           const std::function<void(size_t, const LightFan&)>& visit);
 // Bytes trace_light_fans holds per worker thread for n samples.
 uint64_t light_fan_bytes(int n);
+
+// One view sample's light samples as trace_light_fans draws them, before they are traced: the
+// buffers (reused from point to point) and the drawing itself. For the code that traces the
+// same rays elsewhere (the GPU tracer's tests compare it with Embree ray for ray).
+struct LightFanDraw {
+  std::vector<float> ux, uy;  // the stratified points on [0,1)^2, padded (LightSampleBatch)
+  LightSampleBatch batch;     // x, y, z: the vector from the point to each light sample
+  std::vector<float> cosine;  // f_i of LightFan
+  explicit LightFanDraw(int n);
+};
+// Draws view sample s's fan into `draw` (keyed by ctx's seed, light and frame); returns how many
+// samples it kept (the first `count` of draw.batch and draw.cosine).
+int draw_light_fan(const ShadowContext& ctx, const ViewSample& s, int n, const StratifiedGrid& grid,
+                   LightSampling sampling, LightFanDraw& draw);
 
 }  // namespace penumbra
