@@ -471,6 +471,7 @@ RenderResult Renderer::render() {
   });
   result.total_ms = total.elapsed_ms();
   if (map_cache_) result.map_cache = map_cache_->stats_json();
+  result.tracer = tracer_->stats_json();
   return result;
 }
 
@@ -498,6 +499,7 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
                         {"total_ms", r.total_ms},
                         {"stats", r.stats.to_json()}};
   if (!r.map_cache.is_null()) doc["map_cache"] = r.map_cache;
+  if (!r.tracer.is_null()) doc["embree"] = r.tracer;
   return doc;
 }
 

@@ -85,6 +85,9 @@ struct RenderResult {
   // With RenderSettings::map_cache: MapCache::stats_json() of the renderer's cache (hits and
   // misses since the Renderer was made); null otherwise.
   nlohmann::json map_cache;
+  // The renderer's Embree scene: RayTracer::stats_json() (its build time, bytes, BVHs and
+  // instances).
+  nlohmann::json tracer;
 };
 
 // The camera pass on Embree: primary rays through each pixel (jittered when the camera
