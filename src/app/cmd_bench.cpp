@@ -1,4 +1,4 @@
-// penumbra bench [--suite quick|full|perf|walk] [--methods ...] [--scenes a,b] [-o DIR]
+// penumbra bench [--suite quick|full|perf|walk|wide] [--methods ...] [--scenes a,b] [-o DIR]
 // The performance suite: every method on the scene suite, median of several runs, as a
 // ratio to `reference` measured in the same run (docs/benchmarks.md).
 #include <cstdio>
@@ -84,8 +84,9 @@ const CommandRegistration registration("bench", 70, [](CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("bench", "performance suite: every method on the scene suite, as a ratio to reference");
   cmd->add_option("--suite", o->suite, "quick (128^2, 16 spp, 3 runs), full (512^2, 256 spp, 5 runs) or perf (issue 14's targets: "
                   "ratios at 256^2 interleaved with reference, times at 512^2; PASS/MISS per target) or walk (the animated "
-                  "scenes' frames 0-7 at 256^2, 256 spp: cost per frame with reuse; lam >= 50x reference per frame)")
-      ->check(CLI::IsMember({"quick", "full", "perf", "walk"}))->capture_default_str();
+                  "scenes' frames 0-7 at 256^2, 256 spp: cost per frame with reuse; lam >= 50x reference per frame) or wide "
+                  "(the 100-tree forest, 5.9 M triangles, at 256^2, 64 spp, one run; with load time and memory)")
+      ->check(CLI::IsMember({"quick", "full", "perf", "walk", "wide"}))->capture_default_str();
   cmd->add_option("--methods", o->methods, "methods, comma-separated, or 'all' (reference is always added; perf: their targets only)")
       ->delimiter(',')->capture_default_str();
   cmd->add_option("--scenes", o->scenes, "scenes instead of the suite's: names in --scenes-dir or files")->delimiter(',');

@@ -97,6 +97,15 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     s.sequence_targets = {lam_walk};
     return s;
   }
+  if (name == "wide") {
+    // Issue 32: a wide scene of millions of triangles, most of them instances of a few meshes.
+    s.scenes = {scenes_dir / "forest-100.json"};
+    s.resolution = 256;
+    s.light_samples = 64;
+    s.runs = 1;
+    s.warmup_runs = 0;
+    return s;
+  }
   for (const char* scene : {"bunny", "contact", "furball", "knot", "plant"})
     s.scenes.push_back(scenes_dir / (std::string(scene) + ".json"));
   if (name == "quick") {
@@ -110,7 +119,7 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     s.runs = 5;
     s.warmup_runs = 1;
   } else {
-    throw Error("--suite {}: unknown suite (quick, full, perf, walk)", name);
+    throw Error("--suite {}: unknown suite (quick, full, perf, walk, wide)", name);
   }
   return s;
 }
@@ -139,13 +148,23 @@ json scene_entry(const Comparison& c, const std::string& name) {
     }
     ms.push_back(m);
   }
-  return {{"scene", c.scene},
-          {"name", name},
-          {"resolution", {c.width, c.height}},
-          {"triangles", c.triangles},
-          {"speedup_basis", c.speedup_basis},
-          {"reference_shadow_ms", c.speedup_basis_ms},
-          {"methods", ms}};
+  json out = {{"scene", c.scene},
+              {"name", name},
+              {"resolution", {c.width, c.height}},
+              {"triangles", c.triangles},
+              {"load_ms", c.load_ms},
+              // The most memory the process has held by the end of this scene's runs.
+              {"peak_rss_bytes", peak_rss_bytes()},
+              {"speedup_basis", c.speedup_basis},
+              {"reference_shadow_ms", c.speedup_basis_ms},
+              {"methods", ms}};
+  // The Embree scene every method's renderer builds alike: the first successful run's.
+  for (const MethodRun& r : c.runs)
+    if (r.ok && !r.tracer.is_null()) {
+      out["embree"] = r.tracer;
+      break;
+    }
+  return out;
 }
 
 // The value of a time target in every timed run of `r`: its whole frame or one phase.
@@ -616,6 +635,22 @@ std::string bench_markdown(const json& r) {
       md << " " << cell << " |";
     }
     md << "\n";
+  }
+  // Each scene's size and what loading it cost (not in the methods' times).
+  for (const json& s : r.at("scenes")) {
+    if (!s.contains("load_ms")) continue;
+    std::string line = fmt::format("\n- {}: {} triangles; scene load {} ms", s.value("name", "?"),
+                                   format_grouped(s.value("triangles", uint64_t{0})),
+                                   format_significant(s.value("load_ms", 0.0), 3));
+    if (s.contains("embree")) {
+      const json& e = s["embree"];
+      line += fmt::format(", Embree build {} ms ({} BVHs, {} instances, {} triangles stored, {})",
+                          format_significant(e.value("build_ms", 0.0), 3), e.value("geometries", 0),
+                          e.value("instances", 0), format_grouped(e.value("stored_triangles", uint64_t{0})),
+                          format_bytes(e.value("bytes", uint64_t{0})));
+    }
+    if (s.contains("peak_rss_bytes")) line += fmt::format("; peak resident memory {}", format_bytes(s.value("peak_rss_bytes", uint64_t{0})));
+    md << line << "\n";
   }
   // Failures, with their messages, below the table.
   for (const json& s : r.at("scenes")) {

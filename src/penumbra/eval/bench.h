@@ -57,7 +57,9 @@ struct BenchSuite {
 // quick: 128^2, 16 light samples, 3 runs; full: 512^2, 256 light samples, 5 runs; both on
 // bunny, contact, furball, knot and plant from `scenes_dir`. perf: perf_targets() on bunny and
 // plant, 256^2 for the ratio targets (the time targets fix their own 512^2), 5 runs. walk:
-// bunny-walk, plant-light and furball-spin, 8 frames at 256^2, 256 light samples.
+// bunny-walk, plant-light and furball-spin, 8 frames at 256^2, 256 light samples. wide: the
+// forest of 100 trees (forest-100, 5.9 M triangles, issue 32) at 256^2, 64 light samples, one
+// run; each scene's entry also has its load time, Embree build and peak memory.
 BenchSuite bench_suite(const std::string& name, const std::filesystem::path& scenes_dir);
 
 struct BenchOptions {

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "penumbra/core/error.h"
+#include "penumbra/scene/json_reader.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/testing/compare_fixture.h"
 
@@ -34,6 +35,15 @@ TEST(Bench, SuitesAreDefined) {
   EXPECT_GE(f.runs, 3);
   EXPECT_THROW(bench_suite("huge", "scenes"), Error);
   EXPECT_TRUE(q.targets.empty());
+  // Issue 32: the 100-tree forest (its file is the generator's scene at trees = 100).
+  BenchSuite w = bench_suite("wide", std::string(PENUMBRA_SOURCE_DIR) + "/scenes");
+  ASSERT_EQ(w.scenes.size(), 1u);
+  EXPECT_EQ(w.scenes[0].stem(), "forest-100");
+  EXPECT_EQ(w.resolution, 256);
+  EXPECT_EQ(w.light_samples, 64);
+  const json doc = read_json_file(w.scenes[0]);
+  EXPECT_EQ(doc["objects"][1]["generator"], "forest");
+  EXPECT_EQ(doc["objects"][1]["params"]["trees"], 100);
 }
 
 // The perf suite lists the targets of issue 14 part 2, no more and no fewer (not a timing test).
@@ -141,8 +151,15 @@ TEST(Bench, RatiosToTheReferenceMeasuredInTheSameRun) {
     EXPECT_NEAR(m["speedup"].get<double>(), ref_ms / t[1], 1e-9);
   }
   EXPECT_DOUBLE_EQ(scene["methods"][0]["speedup"].get<double>(), 1.0);
+  // What loading the scene cost, beside the methods' times.
+  EXPECT_GT(scene["load_ms"].get<double>(), 0);
+  EXPECT_GT(scene["peak_rss_bytes"].get<uint64_t>(), 0u);
+  EXPECT_EQ(scene["embree"]["triangles"], scene["triangles"]);
+  EXPECT_GT(scene["embree"]["bytes"].get<uint64_t>(), 0u);
 
   std::string md = bench_markdown(r);
+  EXPECT_NE(md.find("- contact: 2,222 triangles; scene load "), std::string::npos) << md;
+  EXPECT_NE(md.find("; peak resident memory "), std::string::npos) << md;
   EXPECT_NE(md.find("| method | contact |"), std::string::npos) << md;
   EXPECT_NE(md.find("| `reference` | "), std::string::npos) << md;
   EXPECT_NE(md.find("(1.00×)"), std::string::npos) << md;

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <sys/resource.h>
 #include <tbb/global_control.h>
 
 #include "penumbra/core/file_util.h"
@@ -67,6 +68,12 @@ json machine_json() {
           {"threads", tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)},
           {"compiler", fmt::format("g++ {}", __VERSION__)},
           {"build", build}};
+}
+
+uint64_t peak_rss_bytes() {
+  struct rusage usage {};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return static_cast<uint64_t>(usage.ru_maxrss) * 1024;  // KiB on Linux
 }
 
 namespace {
@@ -195,6 +202,7 @@ MethodRun summarize(MethodRenders& p, const GroundTruth* truth, const CompareOpt
   run.times = {m.total_ms, m.camera_pass_ms, med};
   run.run_shadow_ms = times;
   run.stats = m.stats;
+  run.tracer = m.tracer;
   run.params = m.resolved_params;
   run.view_samples = m.view_sample_count;
   RenderResult& first = results.front();
@@ -299,8 +307,11 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
   Timer wall;
   if (options.methods.empty()) throw Error("compare: no methods to run");
   setup.check_plain_params(options.methods);
+  Timer load;
   const Scene scene = setup.load();
+  const double load_ms = load.elapsed_ms();
   Comparison c = comparison_header(setup, scene);
+  c.load_ms = load_ms;
 
   const int runs = std::max(1, options.runs) + std::max(0, options.warmup_runs);
   const uint64_t per_render = render_units(setup);

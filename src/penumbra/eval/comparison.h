@@ -65,6 +65,7 @@ struct MethodRun {
   std::vector<double> run_total_ms;   // every timed run: the whole render
   std::vector<std::vector<std::pair<std::string, double>>> run_phases_ms;  // every timed run
   MethodStats stats;            // of the median run: phases, rays, memory, extra
+  nlohmann::json tracer;        // of the median run: its Embree scene (RenderResult::tracer)
   size_t view_samples = 0;
   // Against the ground truth (NaN without one).
   ErrorStats v;                         // on V
@@ -106,6 +107,7 @@ struct Comparison {
   std::string description;      // the scene's "description"
   int width = 0, height = 0, pixel_samples = 1;
   size_t triangles = 0, lights = 0;
+  double load_ms = 0;           // the scene's load (run_comparison: parsing, mesh import, generators)
   int light_samples = 0, reference_samples = 0;
   uint64_t seed = 0;
   std::vector<std::string> params;  // the run's method parameter settings
@@ -171,6 +173,8 @@ Image display_srgb(const Image& linear);
 
 // CPU model, logical cores, worker threads, compiler, build type.
 nlohmann::json machine_json();
+// The most resident memory this process has held so far (getrusage's ru_maxrss), in bytes.
+uint64_t peak_rss_bytes();
 // A number for JSON: finite as is, +/-infinity as "inf"/"-inf", NaN as null.
 nlohmann::json json_number(double v);
 // Local time now, "2024-05-01T12:34:56".

@@ -568,6 +568,7 @@ RenderResult Renderer::render() {
   });
   result.total_ms = total.elapsed_ms();
   if (map_cache_) result.map_cache = map_cache_->stats_json();
+  result.tracer = tracer_->stats_json();
   return result;
 }
 
@@ -597,6 +598,7 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
   if (!r.map_cache.is_null()) doc["map_cache"] = r.map_cache;
   doc["device"] = r.device;
   if (!r.gpu_ms.is_null()) doc["gpu_ms"] = r.gpu_ms;
+  if (!r.tracer.is_null()) doc["embree"] = r.tracer;
   return doc;
 }
 

@@ -105,6 +105,9 @@ struct RenderResult {
   // "readback", the host's time to copy the image back.
   std::string device = "cpu";
   nlohmann::json gpu_ms;
+  // The renderer's Embree scene: RayTracer::stats_json() (its build time, bytes, BVHs and
+  // instances).
+  nlohmann::json tracer;
 };
 
 // The camera pass on Embree: primary rays through each pixel (jittered when the camera

@@ -96,12 +96,7 @@ std::vector<uint32_t> Animation::movable_objects() const {
 void Animation::place_objects(int frame, Scene& scene) const {
   for (const ObjectTracks& o : objects) {
     const ObjectTransform t = transform_at(o, frame);
-    for (const ObjectTracks::Part& part : o.parts) {
-      SceneObject& placed = scene.objects[part.index];
-      placed.mesh = part.unplaced.mesh;
-      placed.sphere = part.unplaced.sphere;
-      place_object(placed, t);
-    }
+    for (const ObjectTracks::Part& part : o.parts) place_object(scene.objects[part.index], part.unplaced, t);
   }
 }
 
@@ -297,6 +292,15 @@ std::shared_ptr<const Animation> AnimationReader::finish(const Scene& scene) {
     object_json_.at(o.name).fail(fmt::format("no object of that name (the objects: {})", names));
   }
   check_frames(scene);
+  // The parts keep the scene's mesh sharing (the loader unshares a mesh placed once); a part
+  // still shared is placed from its shared mesh, so it need not keep a copy of its own.
+  for (Animation::ObjectTracks& o : animation_.objects)
+    for (Animation::ObjectTracks::Part& part : o.parts) {
+      if (!scene.objects[part.index].shared_mesh)
+        part.unplaced.unshare();
+      else
+        part.unplaced.mesh = TriangleMesh{};
+    }
   return std::make_shared<const Animation>(std::move(animation_));
 }
 

@@ -72,8 +72,9 @@ class Animation {
     // The object's own transform keys: the parts of the transform that have no track.
     ObjectTransform base;
     // The object's parts (one, or a generator's several) as built, before any transform:
-    // each frame places them anew, so the animated transform applies to the object exactly
-    // as a static one would.
+    // each frame places them anew (place_object), so the animated transform applies to the
+    // object exactly as a static one would. A part of a shared mesh (SceneObject::shared_mesh)
+    // keeps the sharing and its placement in the generator's space, not a mesh of its own.
     struct Part {
       size_t index;  // into Scene::objects
       SceneObject unplaced;

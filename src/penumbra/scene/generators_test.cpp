@@ -38,16 +38,17 @@ bool same_geometry(const std::vector<SceneObject>& a, const std::vector<SceneObj
 TEST(Generators, RegistryListsThePaperAnalogues) {
   std::vector<std::string> names;
   for (const auto& g : generators()) names.push_back(g.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"furball", "knot", "plant"}));  // sorted
+  EXPECT_EQ(names, (std::vector<std::string>{"forest", "furball", "knot", "plant"}));  // sorted
   std::string msg = error_message([] { find_generator("teapot"); });
-  EXPECT_EQ(msg, "unknown generator \"teapot\" (available: furball, knot, plant)");
+  EXPECT_EQ(msg, "unknown generator \"teapot\" (available: forest, furball, knot, plant)");
 }
 
 TEST(Generators, DeterministicFromSeed) {
   for (const auto& g : generators()) {
     SCOPED_TRACE(g.name);
     // Small instances keep the test fast.
-    json small = g.name == "plant" ? json{{"leaves", 200}, {"iterations", 6}}
+    json small = g.name == "plant"    ? json{{"leaves", 200}, {"iterations", 6}}
+                 : g.name == "forest" ? json{{"trees", 3}, {"leaves", 100}, {"iterations", 5}}
                  : g.name == "furball" ? json{{"strands", 100}}
                                        : json{{"segments", 64}};
     auto a = run(g.name, small), b = run(g.name, small);

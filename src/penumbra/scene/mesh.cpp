@@ -46,13 +46,50 @@ bool ObjectTransform::similarity() const {
   return std::abs(std::abs(scale.y) - ax) <= 1e-6f * ax && std::abs(std::abs(scale.z) - ax) <= 1e-6f * ax;
 }
 
+namespace {
+bool is_identity(const Mat4& a) {
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      if (a.m[r][c] != (r == c ? 1.0f : 0.0f)) return false;
+  return true;
+}
+}  // namespace
+
 void place_object(SceneObject& object, const ObjectTransform& t) {
+  // A shared object placed already (a generator's) stays as it is under the identity (a scene
+  // file's generator entry without a transform), rather than computing the same mesh again.
+  if (object.shared_mesh && t == ObjectTransform{} && !is_identity(object.placement)) return;
   const Mat4 m = t.matrix();
-  object.mesh.transform(m);
+  if (object.shared_mesh) {
+    // One transform by the whole placement (the first one exactly t.matrix(), as for an
+    // object of its own), so that mesh == *shared_mesh transformed by placement, bit for bit.
+    object.placement = is_identity(object.placement) ? m : m * object.placement;
+    object.mesh = *object.shared_mesh;
+    object.mesh.transform(object.placement);
+  } else {
+    object.mesh.transform(m);
+  }
   if (object.sphere && t.similarity())
     object.sphere = SphereShape{m.transform_point(object.sphere->center), object.sphere->radius * std::abs(t.scale.x)};
   else
     object.sphere.reset();
+}
+
+void place_object(SceneObject& placed, const SceneObject& unplaced, const ObjectTransform& t) {
+  placed.shared_mesh = unplaced.shared_mesh;
+  placed.placement = unplaced.placement;
+  // A shared object's mesh is computed from its shared mesh: no copy of the unplaced one.
+  if (!placed.shared_mesh) placed.mesh = unplaced.mesh;
+  placed.sphere = unplaced.sphere;
+  place_object(placed, t);
+}
+
+void unshare_single_placements(std::vector<SceneObject>& objects) {
+  std::unordered_map<const TriangleMesh*, int> users;
+  for (const SceneObject& o : objects)
+    if (o.shared_mesh) ++users[o.shared_mesh.get()];
+  for (SceneObject& o : objects)
+    if (o.shared_mesh && users[o.shared_mesh.get()] < 2) o.unshare();
 }
 
 void TriangleMesh::append(const TriangleMesh& other) {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -77,10 +78,30 @@ struct SphereShape {
 
 struct SceneObject {
   std::string name;  // "objects[2]" or the generator/mesh name, for messages and stats
-  TriangleMesh mesh;
+  TriangleMesh mesh;  // in world space: what every method reads
   Material material;
   bool closed = false;  // mesh.is_closed(), computed once at load
   std::optional<SphereShape> sphere;
+
+  // Mesh sharing (instancing): several objects placing one mesh (a mesh file named by several
+  // scene-file objects, the forest generator's trees) hold the same `shared_mesh`, that mesh in
+  // its own space, never changed, and each its `placement` (object-to-world). The ray tracer
+  // builds a shared mesh once (one Embree BVH, an instance per object); a GPU scene can hold it
+  // once likewise. Invariants, for the objects of a Scene:
+  // - shared_mesh empty: the object is a mesh of its own; placement is the identity, unused.
+  // - shared_mesh set: `mesh` equals a copy of *shared_mesh transformed by `placement` with
+  //   TriangleMesh::transform, bit for bit (place_object keeps it so: it transforms once, by
+  //   the whole placement), and at least two objects of the scene hold the pointer (the loader
+  //   unshares a mesh placed once, unshare_single_placements: instancing one copy only adds a
+  //   level to every ray's traversal).
+  // Material, name and sphere stay per object: objects sharing a mesh may differ in them.
+  // Code that changes `mesh` otherwise than by place_object must call unshare() first.
+  std::shared_ptr<const TriangleMesh> shared_mesh;
+  Mat4 placement;
+  void unshare() {
+    shared_mesh.reset();
+    placement = Mat4::identity();
+  }
 };
 
 // An object's placement as a scene file gives it (docs/scene-format.md, "Common keys"):
@@ -96,7 +117,16 @@ struct ObjectTransform {
 };
 
 // Moves an object built in its own space to where `t` puts it: its mesh, and its analytic
-// sphere, which stays one only under a similarity (dropped otherwise).
+// sphere, which stays one only under a similarity (dropped otherwise). A shared object
+// (SceneObject::shared_mesh) is placed by t.matrix() * placement, its mesh computed afresh
+// from the shared mesh by that one transform.
 void place_object(SceneObject& object, const ObjectTransform& t);
+// The same from the object as it was built (`unplaced`, e.g. an animation's keyed part): its
+// geometry (mesh, sphere and sharing) replaces `placed`'s, then placed by `t`; the rest of
+// `placed` (name, material) stays.
+void place_object(SceneObject& placed, const SceneObject& unplaced, const ObjectTransform& t);
+// Resets SceneObject::shared_mesh of every object that is the only one in `objects` to hold
+// its shared mesh (the invariant of SceneObject: a mesh placed once is an object of its own).
+void unshare_single_placements(std::vector<SceneObject>& objects);
 
 }  // namespace penumbra

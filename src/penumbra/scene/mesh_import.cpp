@@ -9,6 +9,7 @@
 #include <assimp/scene.h>
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <memory>
 #include <span>
@@ -140,7 +141,14 @@ MaterialTextures read_material_textures(const aiScene& scene, unsigned index, co
 
 }  // namespace
 
+namespace {
+std::atomic<size_t> g_mesh_file_reads{0};
+}  // namespace
+
+size_t mesh_file_reads() { return g_mesh_file_reads.load(); }
+
 std::vector<SceneObject> import_mesh_parts(const fs::path& path, MeshImportReport* report) {
+  ++g_mesh_file_reads;
   const std::string name = path.string();
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error("{}: no such file", name);

@@ -29,6 +29,9 @@ struct MeshImportReport {
 // read: a scene gives them. Errors also name a missing or unreadable texture, and a textured
 // mesh without texture coordinates.
 std::vector<SceneObject> import_mesh_parts(const std::filesystem::path& path, MeshImportReport* report = nullptr);
+// How many times import_mesh_parts (or import_mesh) was called in this process: a scene that
+// places one mesh file many times reads it once (the loader's cache; tested).
+size_t mesh_file_reads();
 // Every part's mesh as one (no materials).
 TriangleMesh import_mesh(const std::filesystem::path& path, MeshImportReport* report = nullptr);
 

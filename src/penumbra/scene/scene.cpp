@@ -2,7 +2,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <optional>
+#include <unordered_map>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/interrupt.h"
@@ -31,8 +33,20 @@ size_t Scene::triangle_count() const {
 }
 
 void Scene::finalize() {
-  // A closed mesh with an alpha texture is not closed to light: its mask has holes.
-  for (auto& o : objects) o.closed = o.mesh.is_closed() && !o.material.alpha_textured();
+  // A closed mesh with an alpha texture is not closed to light: its mask has holes. A shared
+  // mesh is checked once, in its own space: placing it neither opens nor closes it.
+  std::unordered_map<const TriangleMesh*, bool> shared_closed;
+  for (auto& o : objects) {
+    bool closed = false;
+    if (o.shared_mesh) {
+      auto [it, first] = shared_closed.try_emplace(o.shared_mesh.get(), false);
+      if (first) it->second = o.shared_mesh->is_closed();
+      closed = it->second;
+    } else {
+      closed = o.mesh.is_closed();
+    }
+    o.closed = closed && !o.material.alpha_textured();
+  }
   orient_sphere_lights();
 }
 
@@ -109,6 +123,8 @@ class SceneParser {
     animation_ = animation ? &*animation : nullptr;
     for (size_t i = 0; i < objects.size(); ++i) read_object(objects.at(i), &scene.objects);
     animation_ = nullptr;
+    mesh_files_.clear();
+    unshare_single_placements(scene.objects);
     if (root.has("methods")) {
       JsonValue methods = root["methods"];
       methods.expect_object();
@@ -290,17 +306,7 @@ class SceneParser {
       std::string rel = mv.string();
       if (rel.empty()) mv.fail("expected a file name, got an empty string");
       fs::path p = fs::path(rel).is_absolute() ? fs::path(rel) : (folder_ / rel).lexically_normal();
-      try {
-        MeshImportReport report;
-        parts = import_mesh_parts(p, &report);
-        if (report.degenerate_triangles > 0)
-          std::fprintf(stderr, "penumbra: warning: %s: %zu triangle(s) of zero area dropped\n", p.string().c_str(),
-                       report.degenerate_triangles);
-      } catch (const Interrupted&) {
-        throw;  // Ctrl-C ends the run, whatever this step would do with an error
-      } catch (const Error& e) {
-        mv.fail(e.what());
-      }
+      parts = mesh_file_parts(p, mv);
       base_name = fs::path(rel).stem().string();
     } else if (v.has("shape")) {
       JsonValue sv = v["shape"];
@@ -376,8 +382,41 @@ class SceneParser {
     }
   }
 
+  // A mesh file's parts, read once per scene load whatever the number of objects placing it:
+  // each part's mesh in the file's own space as a shared mesh (SceneObject::shared_mesh), the
+  // part itself without a mesh of its own. Keyed by the file's canonical path (import takes
+  // no options: the path alone decides what is read).
+  std::vector<SceneObject> mesh_file_parts(const fs::path& path, const JsonValue& where) {
+    std::error_code ec;
+    fs::path key = fs::weakly_canonical(path, ec);
+    if (ec) key = path;
+    auto it = mesh_files_.find(key);
+    if (it == mesh_files_.end()) {
+      std::vector<SceneObject> parts;
+      try {
+        MeshImportReport report;
+        parts = import_mesh_parts(path, &report);
+        if (report.degenerate_triangles > 0)
+          std::fprintf(stderr, "penumbra: warning: %s: %zu triangle(s) of zero area dropped\n", path.string().c_str(),
+                       report.degenerate_triangles);
+      } catch (const Interrupted&) {
+        throw;  // Ctrl-C ends the run, whatever this step would do with an error
+      } catch (const Error& e) {
+        where.fail(e.what());
+      }
+      for (SceneObject& part : parts) part.shared_mesh = std::make_shared<const TriangleMesh>(std::move(part.mesh));
+      it = mesh_files_.emplace(key, std::move(parts)).first;
+    }
+    // Each object gets the parts with a mesh to place (place_object transforms a copy of the
+    // shared one); objects placing a file once are unshared at the end of the load.
+    std::vector<SceneObject> parts = it->second;
+    for (SceneObject& part : parts) part.mesh = *part.shared_mesh;
+    return parts;
+  }
+
   std::string file_;
   fs::path folder_;
+  std::map<fs::path, std::vector<SceneObject>> mesh_files_;  // mesh_file_parts' cache, during parse()
   std::vector<std::optional<Vec3f>> light_u_;  // each light's "u", where given (animated normals need it)
   AnimationReader* animation_ = nullptr;       // while the objects of an animated scene are read
 };

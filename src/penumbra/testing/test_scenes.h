@@ -2,6 +2,10 @@
 // looking down at the receiver. Header-only; used by *_test.cpp files only.
 #pragma once
 
+#include <cstring>
+#include <memory>
+#include <vector>
+
 #include "penumbra/scene/scene.h"
 
 namespace penumbra::testing {
@@ -79,6 +83,71 @@ inline Scene ground_scene(std::vector<SceneObject> occluders, AreaLight light, i
   for (auto& o : occluders) s.objects.push_back(std::move(o));
   s.finalize();
   return s;
+}
+
+// A placement for the i-th of several copies of a mesh, on a 5 x 5 grid 1.4 apart at heights
+// 0.6-1.1 over the ground: turned, scaled, every seventh mirrored, every seventh (another)
+// stretched along x.
+inline ObjectTransform grid_placement(int i) {
+  ObjectTransform t;
+  t.translate = {(i % 5 - 2) * 1.4f, 0.6f + 0.1f * (i % 6), (i / 5 % 5 - 2) * 1.4f};
+  t.rotate = {11.0f * i, 29.0f * i, 5.0f * i};
+  t.scale = i % 7 == 3 ? Vec3f(-0.9f, 0.9f, 0.9f) : i % 7 == 5 ? Vec3f(1.4f, 0.6f, 1.0f) : Vec3f(0.7f + 0.02f * i);
+  return t;
+}
+
+// The ground of ground_scene under `light`, and `copies` objects placing one shared mesh
+// (SceneObject::shared_mesh) at grid_placement(0), (1), ...
+inline Scene instanced_scene(const std::shared_ptr<const TriangleMesh>& mesh, int copies, AreaLight light,
+                             int res = 32) {
+  std::vector<SceneObject> occluders;
+  for (int i = 0; i < copies; ++i) {
+    SceneObject o = object(TriangleMesh{}, Vec3f(0.3f + 0.02f * i, 0.6f, 0.5f));
+    o.shared_mesh = mesh;
+    place_object(o, grid_placement(i));
+    occluders.push_back(std::move(o));
+  }
+  return ground_scene(std::move(occluders), light, res);
+}
+
+// `s` with every object a mesh of its own (what the loader built before meshes were shared).
+inline Scene unshared(Scene s) {
+  for (SceneObject& o : s.objects) o.unshare();
+  return s;
+}
+
+// A scene document with a camera, a rect light and a 20 x 20 ground (objects[0]), for tests that
+// add objects to it.
+inline nlohmann::json ground_scene_doc() {
+  return nlohmann::json::parse(R"({
+    "camera": {"eye": [0, 6, 9], "target": [0, 0, 0], "resolution": [32, 32]},
+    "lights": [{"type": "rect", "center": [0, 8, 0], "normal": [0, -1, 0], "size": [2, 2]}],
+    "objects": [{"shape": "plane", "size": [20, 20]}]
+  })");
+}
+
+// An object transform as a scene file writes it.
+inline nlohmann::json transform_json(const ObjectTransform& t) {
+  auto v = [](Vec3f a) { return nlohmann::json::array({a.x, a.y, a.z}); };
+  return {{"translate", v(t.translate)}, {"rotate", v(t.rotate)}, {"scale", v(t.scale)}};
+}
+
+// Bit-for-bit equality of arrays and meshes.
+template <typename T>
+inline bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+inline bool same_bits(const TriangleMesh& a, const TriangleMesh& b) {
+  return same_bits(a.positions, b.positions) && same_bits(a.normals, b.normals) && same_bits(a.indices, b.indices) &&
+         same_bits(a.uvs, b.uvs) && same_bits(a.triangle_opacity, b.triangle_opacity);
+}
+
+// SceneObject's invariant: the world mesh is the shared mesh transformed by the placement.
+inline bool placed_exactly(const SceneObject& o) {
+  TriangleMesh m = *o.shared_mesh;
+  m.transform(o.placement);
+  return same_bits(m, o.mesh);
 }
 
 }  // namespace penumbra::testing

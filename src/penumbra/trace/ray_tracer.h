@@ -46,7 +46,11 @@ ShadowRay shadow_ray_to(Vec3f p, Vec3f ng, Vec3f q);
 class RayTracer {
  public:
   // Builds one BVH over every object of `scene` (Embree's single-level SAH build, the fastest
-  // to trace). With `movable` objects (the parts of an animated scene's object tracks,
+  // to trace). A shared mesh placed by several objects (SceneObject::shared_mesh) is built
+  // once, as a BVH of its own, and each object placing it is an Embree instance of it in the
+  // top level (a two-level scene: the objects of their own stay in the top level's BVH). Hits
+  // through an instance report the object, its world triangle and world normal as the flat
+  // scene would. With `movable` objects (the parts of an animated scene's object tracks,
   // SequenceRenderer), a two-level build instead: one BVH per object under a top level, the
   // movable objects' BVHs refittable (update_objects), so moving them costs a refit of their
   // BVHs and a rebuild of the top level over the objects, not a rebuild of the scene.
@@ -81,12 +85,28 @@ class RayTracer {
   // animated transform gives): the Embree scene follows `scene`, which must be the scene this
   // tracer serves from now on (the transparency filter reads its per-triangle opacities).
   // Objects built movable, with the vertex and triangle counts they were built with, are
-  // refit; anything else makes the whole scene rebuild.
+  // refit; an instance that still places the shared mesh it was built with only takes its new
+  // placement (SceneObject::placement) as its transform; anything else makes the whole scene
+  // rebuild.
   void update_objects(const Scene& scene, std::span<const uint32_t> objects);
 
   bool has_transparency() const { return has_transparency_; }
+  // The scene's triangles (world space, every object's), as the rays see them.
   size_t triangle_count() const { return triangle_count_; }
+  // What Embree holds: the triangles in its buffers (a shared mesh once, however many objects
+  // place it), its triangle geometries (one BVH each in a two-level scene: one per object of
+  // its own, one per shared mesh) and its instances (one per object placing a shared mesh).
+  size_t stored_triangle_count() const { return stored_triangle_count_; }
+  size_t geometry_count() const { return geometry_count_; }
+  size_t instance_count() const { return instance_count_; }
+  // The bytes the Embree device gained by the last build (BVHs, vertex and index buffers), as
+  // its memory monitor counts them; measured, so another tracer building at the same time
+  // would count in it.
+  size_t memory_bytes() const { return memory_bytes_; }
   double build_ms() const { return build_ms_; }
+  // The above as {"build_ms", "bytes", "triangles", "stored_triangles", "geometries",
+  // "instances"} (render statistics, the bench's load figures).
+  nlohmann::json stats_json() const;
   // update_objects() calls that refit the movable objects' BVHs, their total time, and the
   // calls that had to rebuild the scene.
   int refits() const { return refits_; }
@@ -97,7 +117,7 @@ class RayTracer {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   bool has_transparency_ = false;
-  size_t triangle_count_ = 0;
+  size_t triangle_count_ = 0, stored_triangle_count_ = 0, geometry_count_ = 0, instance_count_ = 0, memory_bytes_ = 0;
   double build_ms_ = 0;
   int refits_ = 0, rebuilds_ = 0;
   double refit_ms_ = 0;

@@ -19,6 +19,8 @@
 #include <cmath>
 #include <memory>
 
+#include "penumbra/scene/generators/plant.h"
+
 #include "penumbra/core/error.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/scene/generators.h"
@@ -186,13 +188,17 @@ Texture leaf_image(const LeafOutline& outline, int resolution) {
   return Texture(n, n, std::move(rgba), true, "plant leaf image");
 }
 
-std::vector<SceneObject> generate_plant(const json& params) {
-  const uint64_t seed = params["seed"].get<uint64_t>();
-  const int leaves = params["leaves"].get<int>(), iterations = params["iterations"].get<int>();
-  const int sides = params["sides"].get<int>();
-  const float height = params["height"].get<float>(), leaf_size = params["leaf_size"].get<float>();
-  const float trunk_radius = params["trunk_radius"].get<float>();
-  LSystem lsys{params["branch_angle"].get<float>(), params["randomness"].get<float>(), seed};
+}  // namespace
+
+std::shared_ptr<const Texture> plant_leaf_image(int resolution) {
+  return std::make_shared<const Texture>(leaf_image(LeafOutline(), resolution));
+}
+
+std::vector<SceneObject> grow_plant(const PlantSettings& p) {
+  const uint64_t seed = p.seed;
+  const int leaves = p.leaves, iterations = p.iterations, sides = p.sides;
+  const float height = p.height, leaf_size = p.leaf_size, trunk_radius = p.trunk_radius;
+  LSystem lsys{p.branch_angle, p.randomness, seed};
   std::vector<Segment> segs;
   std::vector<Chain> chains;
   interpret(lsys.derive(iterations), &segs, &chains);
@@ -219,7 +225,7 @@ std::vector<SceneObject> generate_plant(const json& params) {
     if (segs[i].gen > iterations - 3) twigs.push_back(i);
   }
 
-  const std::string leaf_mode = params["leaf_texture"].get<std::string>();
+  const std::string& leaf_mode = p.leaf_texture;
   if (leaf_mode != "none" && leaf_mode != "mask" && leaf_mode != "triangles")
     throw Error("leaf_texture \"{}\": expected \"none\", \"mask\" or \"triangles\"", leaf_mode);
   const LeafOutline outline;
@@ -229,7 +235,7 @@ std::vector<SceneObject> generate_plant(const json& params) {
   foliage.material.two_sided = true;
   if (leaf_mode == "mask") {
     // issue 20: a quad per leaf, the leaf drawn by the generator's own RGBA image.
-    auto image = std::make_shared<const Texture>(leaf_image(outline, params["leaf_texture_resolution"].get<int>()));
+    std::shared_ptr<const Texture> image = p.leaf_image ? p.leaf_image : plant_leaf_image(p.leaf_texture_resolution);
     foliage.material.albedo = Vec3f(1.0f);
     foliage.material.albedo_texture = image;
     foliage.material.alpha = SurfaceAlpha{image, AlphaMode::Mask, 0.5f};
@@ -283,6 +289,24 @@ std::vector<SceneObject> generate_plant(const json& params) {
     m.indices.insert(m.indices.end(), {base, base + 2, base + 1, base, base + 3, base + 2});
   }
   return {std::move(stems), std::move(foliage)};
+}
+
+namespace {
+
+std::vector<SceneObject> generate_plant(const json& params) {
+  PlantSettings p;
+  p.seed = params["seed"].get<uint64_t>();
+  p.leaves = params["leaves"].get<int>();
+  p.iterations = params["iterations"].get<int>();
+  p.sides = params["sides"].get<int>();
+  p.height = params["height"].get<float>();
+  p.leaf_size = params["leaf_size"].get<float>();
+  p.trunk_radius = params["trunk_radius"].get<float>();
+  p.branch_angle = params["branch_angle"].get<float>();
+  p.randomness = params["randomness"].get<float>();
+  p.leaf_texture = params["leaf_texture"].get<std::string>();
+  p.leaf_texture_resolution = params["leaf_texture_resolution"].get<int>();
+  return grow_plant(p);
 }
 
 json plant_example(const json& params) {

@@ -318,8 +318,9 @@ class AliasFreeSoft final : public AliasFreeBase {
   // light samples (a bit each), its flags, its rotation (jitter) and the SIMD copies of its
   // position; per caster, its set-ups, nearest depth and support mask, and per slab its
   // region (of the usual size, grown by doubling: every caster in every slab, where restrict
-  // and the slabs' far planes usually drop half) and the slab rasterizer's scratch, with a
-  // whole hull per caster while one slab's regions are computed. With silhouettes, the
+  // and the slabs' far planes usually drop half) and the slab rasterizer's scratch, for the
+  // slabs of one group (slab_group: those rasterized at once), with a whole hull per caster
+  // while one slab's regions are computed. With silhouettes, the
   // welded edges and their hash maps, their regions, the stencil and the centre's shadow
   // bits. Left out: a thread's buffer of one span's survivors (a row of texels' samples).
   static MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
@@ -350,7 +351,7 @@ class AliasFreeSoft final : public AliasFreeBase {
     const uint64_t per_slab =
         2 * t * (region_vertices * sizeof(Vec2f) + 2 * sizeof(uint32_t)) +
         ConservativeRasterizer::scratch_bytes(t, t * region_vertices, v.width, v.height, kSlabTile);
-    tally.add(t * per_caster + static_cast<uint64_t>(slabs) * per_slab, kTrianglesSetting);
+    tally.add(t * per_caster + static_cast<uint64_t>(slab_group(slabs)) * per_slab, kTrianglesSetting);
     if (p.get_bool("silhouettes")) {
       // At most three edges a triangle; a hash-map entry is a node of a few words.
       const uint64_t edges = 3 * t;
@@ -545,54 +546,54 @@ class AliasFreeSoft final : public AliasFreeBase {
         caster_near.push_back(std::min({z0, z1, z2}));
       }
     }
+    // Slab k's regions on its own far plane (§4.1); a caster wholly deeper than every sample of
+    // the slab shadows none of its samples. Computed in parallel, kept in caster order; made for a
+    // group of slabs just before their raster pass and dropped after it (below).
+    auto slab_regions = [&](int k) {
+      const afsm::InfluenceRegions influence(light, view_, slabs.far[k]);
+      constexpr int kMaxVertices = 3 * 8;  // the hull of 3 x (rect 4, disk 8, sphere 6) points
+      std::vector<Vec2f> hulls(casters.size() * kMaxVertices);
+      std::vector<uint8_t> sizes(casters.size(), 0);  // 0: none, 255: unbounded (whole image)
+      parallel_for(casters.size(), 256, [&](size_t begin, size_t end) {
+        std::vector<Vec2f> polygon;
+        for (size_t i = begin; i < end; ++i) {
+          if (!(caster_near[i] < slabs.far[k])) continue;
+          if (!influence.region(casters[i].v, &polygon)) {
+            sizes[i] = 255;
+            continue;
+          }
+          if (restrict_) {
+            // §4.3: a caster whose region covers no list (of this slab) does nothing.
+            float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+            for (Vec2f q : polygon) {
+              x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+            }
+            auto to_int = [](float f) { return static_cast<int>(std::clamp(f, -1e9f, 1e9f)); };
+            if (slabs.count_in(k, to_int(std::floor(x0)) - 1, to_int(std::floor(y0)) - 1,
+                               to_int(std::floor(x1)) + 2, to_int(std::floor(y1)) + 2) == 0)
+              continue;
+          }
+          sizes[i] = static_cast<uint8_t>(polygon.size());
+          std::copy(polygon.begin(), polygon.end(), hulls.begin() + i * kMaxVertices);
+        }
+      });
+      for (size_t i = 0; i < casters.size(); ++i) {
+        if (sizes[i] == 0) {
+          skipped++;
+          continue;
+        }
+        if (sizes[i] == 255) {
+          regions[k].add(whole);
+          unbounded++;
+        } else {
+          regions[k].add(std::span<const Vec2f>(hulls.data() + i * kMaxVertices, sizes[i]));
+        }
+        region_caster[k].push_back(static_cast<uint32_t>(i));
+      }
+    };
     {
       ScopedPhase phase(stats_, "regions");
       if (restrict_) slabs.build_summed_areas();
-      // Each slab's regions on its own far plane (§4.1); a caster wholly deeper than every
-      // sample of a slab shadows none of them. Computed in parallel, kept in caster order.
-      for (int k = 0; k < slabs.count; ++k) {
-        const afsm::InfluenceRegions influence(light, view_, slabs.far[k]);
-        constexpr int kMaxVertices = 3 * 8;  // the hull of 3 x (rect 4, disk 8, sphere 6) points
-        std::vector<Vec2f> hulls(casters.size() * kMaxVertices);
-        std::vector<uint8_t> sizes(casters.size(), 0);  // 0: none, 255: unbounded (whole image)
-        parallel_for(casters.size(), 256, [&](size_t begin, size_t end) {
-          std::vector<Vec2f> polygon;
-          for (size_t i = begin; i < end; ++i) {
-            if (!(caster_near[i] < slabs.far[k])) continue;
-            if (!influence.region(casters[i].v, &polygon)) {
-              sizes[i] = 255;
-              continue;
-            }
-            if (restrict_) {
-              // §4.3: a caster whose region covers no list (of this slab) does nothing.
-              float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
-              for (Vec2f q : polygon) {
-                x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
-              }
-              auto to_int = [](float f) { return static_cast<int>(std::clamp(f, -1e9f, 1e9f)); };
-              if (slabs.count_in(k, to_int(std::floor(x0)) - 1, to_int(std::floor(y0)) - 1,
-                                 to_int(std::floor(x1)) + 2, to_int(std::floor(y1)) + 2) == 0)
-                continue;
-            }
-            sizes[i] = static_cast<uint8_t>(polygon.size());
-            std::copy(polygon.begin(), polygon.end(), hulls.begin() + i * kMaxVertices);
-          }
-        });
-        for (size_t i = 0; i < casters.size(); ++i) {
-          if (sizes[i] == 0) {
-            skipped++;
-            continue;
-          }
-          if (sizes[i] == 255) {
-            regions[k].add(whole);
-            unbounded++;
-          } else {
-            regions[k].add(std::span<const Vec2f>(hulls.data() + i * kMaxVertices, sizes[i]));
-          }
-          region_caster[k].push_back(static_cast<uint32_t>(i));
-        }
-      }
-
       // §4.3: penumbrae are cast only by silhouette edges (an edge whose two faces do not
       // face the same way for every point of the light's disk, or a boundary edge). A sample
       // outside every silhouette edge's influence region sees all the light or none of it:
@@ -680,9 +681,8 @@ class AliasFreeSoft final : public AliasFreeBase {
       pc.closed = t.closed;
     }
     tbb::enumerable_thread_specific<Counters> counters;
+    size_t region_bytes = 0;  // the most the regions of one group of slabs held
     {
-      ScopedPhase phase(stats_, "raster");
-      // The (listed sample, caster) test of §4.2 for the slots [begin, end).
       // The (listed sample, caster) test of §4.2 for the slots [begin, end): the SIMD part
       // (pair_filter.h) settles most pairs; the rest are decided here.
       tbb::enumerable_thread_specific<std::vector<afsm::PairSurvivor>> survivor_buffers;
@@ -787,30 +787,53 @@ class AliasFreeSoft final : public AliasFreeBase {
           }
         }
       };
-      // The slabs' slots are disjoint: their passes run at once (each its own rasterizer,
-      // each parallel over its tiles), which keeps both cores busy where one slab's samples
-      // sit in a few tiles. Per texel the order of the casters stays the rasterizer's.
+      // The slabs' slots are disjoint: a group of slabs (slab_group) runs at once (each its own
+      // rasterizer, each parallel over its tiles), which keeps the cores busy
+      // where one slab's samples sit in a few tiles. A group's regions are made just before its
+      // pass and dropped after it: a wide scene's casters have regions in every slab (the
+      // 100-tree forest's 5.9 M triangles, 2.6 GiB of them a slab), and only one group's are
+      // held at a time. The result is the same: a sample's mask is the OR over the casters.
+      // Per texel the order of the casters stays the rasterizer's.
       if (slab_rasterizers_.size() < static_cast<size_t>(slabs.count)) slab_rasterizers_.resize(slabs.count);
       for (auto& r : slab_rasterizers_)
         if (!r) r = std::make_unique<ConservativeRasterizer>(kSlabTile);
-      parallel_for(slabs.count, 1, [&](size_t slab_begin, size_t slab_end) {
-      for (size_t slab_index = slab_begin; slab_index < slab_end; ++slab_index) {
-        const int slab = static_cast<int>(slab_index);
-        const std::vector<uint32_t>& caster_of = region_caster[slab];
-        slab_rasterizers_[slab]->polygon_spans(regions[slab], view_.width(), view_.height(),
-                                  [&](int y, int x0, int x1, uint32_t index) {
-          // The samples of slab `slab` in texels [x0, x1) of row y are one range of slots.
-          const uint32_t begin = slabs.begin(slab, lists_.texel(x0, y)), end = slabs.end(slab, lists_.texel(x1 - 1, y));
-          Counters& cnt = counters.local();
-          cnt.texel_visits += x1 - x0;
-          if (begin == end) {
-            cnt.empty_visits += x1 - x0;
-            return;
-          }
-          test(cnt, begin, end, caster_of[index]);
-        });
+      const int group = slab_group(slabs.count);
+      for (int first = 0; first < slabs.count; first += group) {
+        const int last = std::min(slabs.count, first + group);
+        {
+          ScopedPhase phase(stats_, "regions");
+          for (int k = first; k < last; ++k) slab_regions(k);
+        }
+        {
+          ScopedPhase phase(stats_, "raster");
+          parallel_for(static_cast<size_t>(last - first), 1, [&](size_t slab_begin, size_t slab_end) {
+            for (size_t slab_index = slab_begin; slab_index < slab_end; ++slab_index) {
+              const int slab = first + static_cast<int>(slab_index);
+              const std::vector<uint32_t>& caster_of = region_caster[slab];
+              slab_rasterizers_[slab]->polygon_spans(regions[slab], view_.width(), view_.height(),
+                                                     [&](int y, int x0, int x1, uint32_t index) {
+                // The samples of slab `slab` in texels [x0, x1) of row y are one range of slots.
+                const uint32_t begin = slabs.begin(slab, lists_.texel(x0, y)),
+                               end = slabs.end(slab, lists_.texel(x1 - 1, y));
+                Counters& cnt = counters.local();
+                cnt.texel_visits += x1 - x0;
+                if (begin == end) {
+                  cnt.empty_visits += x1 - x0;
+                  return;
+                }
+                test(cnt, begin, end, caster_of[index]);
+              });
+            }
+          });
+        }
+        size_t bytes = 0;
+        for (int k = first; k < last; ++k) {
+          bytes += regions[k].vertices.size() * sizeof(Vec2f) + region_caster[k].size() * sizeof(uint32_t);
+          regions[k] = ConvexPolygons{};
+          region_caster[k] = std::vector<uint32_t>{};
+        }
+        region_bytes = std::max(region_bytes, bytes);
       }
-      });
     }
     {
       ScopedPhase phase(stats_, "resolve");
@@ -824,9 +847,6 @@ class AliasFreeSoft final : public AliasFreeBase {
     }
     Counters total = center_counters;
     for (const Counters& c2 : counters) total.add(c2);
-    size_t region_bytes = 0;
-    for (int k = 0; k < slabs.count; ++k)
-      region_bytes += regions[k].vertices.size() * sizeof(Vec2f) + region_caster[k].size() * sizeof(uint32_t);
     report(total, casters.size(),
            center_memory + stencil.size() + blocked.size() * sizeof(uint64_t) +
                support_masks.size() * sizeof(uint64_t) + rotation.size() * sizeof(Vec2f) +
@@ -847,6 +867,13 @@ class AliasFreeSoft final : public AliasFreeBase {
   }
 
  private:
+  // How many of `slabs` depth slabs are rasterized at once, their regions held together: two
+  // (both cores of the development machine; each slab's pass is parallel over its tiles besides).
+  // Fixed, not the thread count, so that the memory a render holds and reports is the same on
+  // every machine (a comparison split over a cluster's workers checks it is).
+  static constexpr int kSlabsAtOnce = 2;
+  static int slab_group(int slabs) { return std::clamp(kSlabsAtOnce, 1, std::max(1, slabs)); }
+
   // g rotated by -alpha, (cos alpha, sin alpha) = r.
   static Vec2f rotate(Vec2f g, Vec2f r) { return {r.x * g.x + r.y * g.y, -r.y * g.x + r.x * g.y}; }
 
