@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "app/command.h"
+#include "penumbra/gpu/device.h"
 #include "app/common.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/parallel.h"
@@ -27,6 +28,7 @@ struct BenchCliOptions {
   std::vector<std::string> params;
   std::string output = ".";
   int threads = 0;
+  std::string device = "cpu";
   bool quiet = false;
 };
 
@@ -50,12 +52,17 @@ int run_bench_cli(const BenchCliOptions& o) {
   if (bo.suite.sequence_frames > 0 && (o.runs > 0 || o.warmup >= 0))
     throw Error("--runs/--warmup: the {} suite times every frame once (the frames are its runs)", o.suite);
   if (o.runs > 0) bo.suite.runs = o.runs;
-  if (o.resolution > 0) bo.suite.resolution = o.resolution;
+  if (o.resolution > 0) {
+    // The gpu suite keeps its 16:9 frame: --resolution sets its width.
+    if (bo.suite.height > 0) bo.suite.height = std::max(1, o.resolution * 9 / 16);
+    bo.suite.resolution = o.resolution;
+  }
   if (o.spp > 0) bo.suite.light_samples = o.spp;
   if (o.warmup >= 0) bo.suite.warmup_runs = o.warmup;
   bool custom = !o.scenes.empty() || o.runs > 0 || o.resolution > 0 || o.spp > 0 || o.warmup >= 0;
   if (custom) bo.suite.name += " (modified)";
   bo.methods = expand_method_list(o.methods);
+  bo.device = gpu::DeviceChoice::parse(o.device).to_string();  // a bad value fails before anything runs
   bo.params = o.params;
   bo.progress = !o.quiet;
   bo.command = command_line();
@@ -82,7 +89,8 @@ int run_bench_cli(const BenchCliOptions& o) {
 const CommandRegistration registration("bench", 70, [](CLI::App& app) {
   auto o = std::make_shared<BenchCliOptions>();
   CLI::App* cmd = app.add_subcommand("bench", "performance suite: every method on the scene suite, as a ratio to reference");
-  cmd->add_option("--suite", o->suite, "quick (128^2, 16 spp, 3 runs), full (512^2, 256 spp, 5 runs) or perf (issue 14's targets: "
+  cmd->add_option("--suite", o->suite, "quick (128^2, 16 spp, 3 runs), full (512^2, 256 spp, 5 runs), gpu (every GPU method "
+                  "against its CPU version, 1920x1080, 256 spp) or perf (issue 14's targets: "
                   "ratios at 256^2 interleaved with reference, times at 512^2; PASS/MISS per target) or walk (the animated "
                   "scenes' frames 0-7 at 256^2, 256 spp: cost per frame with reuse; lam >= 50x reference per frame) or wide "
                   "(the 100-tree forest, 5.9 M triangles, at 256^2, 64 spp, one run; with load time and memory)")
@@ -98,6 +106,9 @@ const CommandRegistration registration("bench", 70, [](CLI::App& app) {
   cmd->add_option("-p,--param", o->params, "setting key=value for every scene (repeatable), e.g. lam.samples=64");
   cmd->add_option("-o,--output", o->output, "folder for bench-results.json and bench-results.md")->capture_default_str();
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  cmd->add_option("--device", o->device,
+                  "where the methods render: cpu, gpu or gpu:N (the gpu suite: which GPU; docs/gpu.md)")
+      ->capture_default_str();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or table");
   return [o] { return run_bench_cli(*o); };
 });

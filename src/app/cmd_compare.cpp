@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "app/command.h"
+#include "penumbra/gpu/device.h"
 #include "app/common.h"
 #include "app/sequence.h"
 #include "penumbra/core/parallel.h"
@@ -38,6 +39,7 @@ struct CompareCliOptions {
   bool no_images = false;
   bool no_equal_quality = false;
   int threads = 0;
+  std::string device = "cpu";  // --device: every method's unless its --methods entry names one
   bool quiet = false;
   std::string dask;             // a Dask scheduler's address: the jobs run there
   std::string meshes = "ship";  // with --dask: ship the mesh files, or read them from a shared path
@@ -90,6 +92,7 @@ int run_compare(const CompareCliOptions& o) {
   setup.light_samples = o.spp;
   setup.reference_samples = o.reference_spp;
   setup.seed = o.seed;
+  setup.device = gpu::DeviceChoice::parse(o.device).to_string();
   if (!o.resolution.empty()) setup.apply("resolution", o.resolution);
   for (const std::string& kv : o.params) setup.apply(kv);
   CompareOptions co;
@@ -179,6 +182,10 @@ const CommandRegistration registration("compare", 50, [](CLI::App& app) {
   cmd->add_flag("--no-equal-quality", o->no_equal_quality,
                 "do not render the reference ladder (1, 2, 4, ... light samples) for the equal-quality columns");
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  cmd->add_option("--device", o->device,
+                  "where the methods render: cpu, gpu or gpu:N; a --methods entry NAME@gpu (or @cpu, @gpu:N) picks its "
+                  "own, so CPU and GPU versions compare side by side (the ground truth renders on the CPU)")
+      ->capture_default_str();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
   cmd->add_option("--dask", o->dask,
                   "run the jobs on the Dask scheduler at tcp://HOST:PORT (docs/distributed.md; needs the Python module)");

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "app/command.h"
+#include "penumbra/gpu/device.h"
 #include "app/common.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/eval/sweep.h"
@@ -34,6 +35,7 @@ struct SweepCliOptions {
   std::string cache_dir;
   bool no_cache = false;
   int threads = 0;
+  std::string device = "cpu";  // --device: every method's unless its --methods entry names one
   bool quiet = false;
   std::string dask;             // a Dask scheduler's address: the jobs run there
   std::string meshes = "ship";  // with --dask: ship the mesh files, or read them from a shared path
@@ -61,6 +63,7 @@ int run_sweep_cli(const SweepCliOptions& o) {
   setup.light_samples = o.spp;
   setup.reference_samples = o.reference_spp;
   setup.seed = o.seed;
+  setup.device = gpu::DeviceChoice::parse(o.device).to_string();
   if (!o.resolution.empty()) setup.apply("resolution", o.resolution);
   for (const std::string& kv : o.sets) setup.apply(kv);
 
@@ -165,6 +168,10 @@ const CommandRegistration registration("sweep", 60, [](CLI::App& app) {
   cmd->add_option("--cache-dir", o->cache_dir, "reference cache folder (default $PENUMBRA_CACHE_DIR or ~/.cache/penumbra)");
   cmd->add_flag("--no-cache", o->no_cache, "always render the ground truth, store nothing");
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  cmd->add_option("--device", o->device,
+                  "where the methods render: cpu, gpu or gpu:N; a --methods entry NAME@gpu (or @cpu, @gpu:N) picks its "
+                  "own, so CPU and GPU versions compare side by side (the ground truth renders on the CPU)")
+      ->capture_default_str();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or summary");
   cmd->add_option("--dask", o->dask,
                   "run the jobs on the Dask scheduler at tcp://HOST:PORT (docs/distributed.md; needs the Python module)");

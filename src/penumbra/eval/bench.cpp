@@ -97,6 +97,17 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     s.sequence_targets = {lam_walk};
     return s;
   }
+  if (name == "gpu") {
+    // Issue 28 part 7 / issue 31: the GPU methods against their CPU versions, at a GPU frame's size.
+    s.scenes = {scenes_dir / "bunny.json", scenes_dir / "plant.json"};
+    s.resolution = 1920;
+    s.height = 1080;
+    s.light_samples = 256;
+    s.runs = 5;
+    s.warmup_runs = 1;
+    s.devices = true;
+    return s;
+  }
   if (name == "wide") {
     // Issue 32: a wide scene of millions of triangles, most of them instances of a few meshes.
     s.scenes = {scenes_dir / "forest-100.json"};
@@ -119,7 +130,7 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     s.runs = 5;
     s.warmup_runs = 1;
   } else {
-    throw Error("--suite {}: unknown suite (quick, full, perf, walk, wide)", name);
+    throw Error("--suite {}: unknown suite (quick, full, perf, walk, wide, gpu)", name);
   }
   return s;
 }
@@ -236,6 +247,7 @@ json run_targets(const BenchOptions& o, const std::string& started, const Timer&
     g.setup = RunSetup::from_file(g.scene);
     g.setup.apply("resolution", std::to_string(g.resolution));
     g.setup.apply("spp", std::to_string(g.light_samples));
+    g.setup.device = o.device;
     for (const std::string& kv : o.params) g.setup.apply(kv);
     for (const std::string& kv : g.params) g.setup.apply(kv);
     g.setup.check_plain_params(g.methods);
@@ -361,6 +373,7 @@ std::vector<RunSetup> suite_setups(const BenchOptions& o, const std::vector<std:
     RunSetup setup = RunSetup::from_file(f);
     setup.apply("resolution", std::to_string(o.suite.resolution));
     setup.apply("spp", std::to_string(o.suite.light_samples));
+    setup.device = o.device;
     for (const std::string& kv : o.params) setup.apply(kv);
     setup.check_plain_params(methods);
     setups.push_back(std::move(setup));
@@ -504,6 +517,7 @@ json run_bench(const BenchOptions& o) {
   const BenchSuite& suite = o.suite;
   if (suite.scenes.empty()) throw Error("bench: no scenes");
   const std::string started = local_time_iso();
+  if (suite.devices) return run_gpu_suite(o);
   if (!suite.targets.empty()) return run_targets(o, started, wall);
   const std::vector<std::string> methods = methods_with_reference(o);
   if (suite.sequence_frames > 0) return run_sequences(o, methods, started, wall);
@@ -560,6 +574,7 @@ json run_bench(const BenchOptions& o) {
 }
 
 std::string bench_markdown(const json& r) {
+  if (r.contains("device")) return gpu_bench_markdown(r);
   std::ostringstream md;
   const json& st = r.at("settings");
   const json& mc = r.at("machine");

@@ -37,7 +37,8 @@ std::string perf_target_label(const PerfTarget& t, int suite_resolution);
 struct BenchSuite {
   std::string name;                               // "quick", "full", "perf" or "custom"
   std::vector<std::filesystem::path> scenes;      // scene files
-  int resolution = 128;                           // square images
+  int resolution = 128;                           // image width (square unless height > 0)
+  int height = 0;                                 // the gpu suite: 1080 (1920 x 1080)
   int light_samples = 16;
   int runs = 3;                                   // timed runs (median)
   int warmup_runs = 1;
@@ -52,6 +53,9 @@ struct BenchSuite {
   // A sequence suite's targets: the least per-frame speed-up over `reference` of a method on
   // a scene (the issue's "lam on the camera walk at least 50x").
   std::vector<PerfTarget> sequence_targets;
+  // The gpu suite (issue 28 part 7): every method with a GPU version on the GPU and on the
+  // CPU side by side (eval/bench_gpu.cpp), not against reference.
+  bool devices = false;
 };
 
 // quick: 128^2, 16 light samples, 3 runs; full: 512^2, 256 light samples, 5 runs; both on
@@ -59,7 +63,8 @@ struct BenchSuite {
 // plant, 256^2 for the ratio targets (the time targets fix their own 512^2), 5 runs. walk:
 // bunny-walk, plant-light and furball-spin, 8 frames at 256^2, 256 light samples. wide: the
 // forest of 100 trees (forest-100, 5.9 M triangles, issue 32) at 256^2, 64 light samples, one
-// run; each scene's entry also has its load time, Embree build and peak memory.
+// run; each scene's entry also has its load time, Embree build and peak memory. gpu: bunny and
+// plant at 1920x1080, 256 light samples, 5 runs after 1 warm-up on the GPU (BenchSuite::devices).
 BenchSuite bench_suite(const std::string& name, const std::filesystem::path& scenes_dir);
 
 struct BenchOptions {
@@ -70,6 +75,8 @@ struct BenchOptions {
   std::vector<std::string> params;   // run settings (RunSetup::apply), e.g. "lam.samples=64"
   bool progress = false;
   std::string command;               // recorded in the results
+  // --device: where every method renders (cpu, gpu, gpu:N); the gpu suite's GPU side.
+  std::string device = "cpu";
 };
 
 // Runs the suite; returns the bench-results.json document.
@@ -77,5 +84,9 @@ nlohmann::json run_bench(const BenchOptions& options);
 // The Markdown table: one row per method, one column per scene, "time ms (speed-up x)"; for a
 // target suite, first the targets with their measured value and PASS or MISS.
 std::string bench_markdown(const nlohmann::json& results);
+
+// The gpu suite (BenchSuite::devices; run_bench calls it) and its Markdown.
+nlohmann::json run_gpu_suite(const BenchOptions& options);
+std::string gpu_bench_markdown(const nlohmann::json& results);
 
 }  // namespace penumbra

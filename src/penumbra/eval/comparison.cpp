@@ -114,10 +114,14 @@ RenderSettings method_render_settings(const RunSetup& setup, const std::string& 
   settings.params = setup.overrides_for(spec);
   settings.light_samples = setup.light_samples;
   settings.seed = setup.seed;
+  settings.device = gpu::DeviceChoice::parse(spec.device.empty() ? setup.device : spec.device);
   return settings;
 }
 
 double shadow_time_ms(const RenderResult& r) {
+  // On a GPU the method's own stages, timed on the device (its phases are GPU times; the wall
+  // time also holds the submission and the read-back).
+  if (r.gpu_ms.is_object()) return std::max(0.0, r.stats.total_ms() - r.stats.phase("compose"));
   return std::max(0.0, r.total_ms - r.camera_pass_ms - r.stats.phase("compose"));
 }
 

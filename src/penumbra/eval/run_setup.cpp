@@ -11,6 +11,8 @@
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/generators.h"
 #include "penumbra/scene/json_reader.h"
+#include "penumbra/gpu/device.h"
+#include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/shadow_method.h"
 
 namespace penumbra {
@@ -130,14 +132,33 @@ MethodSpec parse_method_spec(const std::string& spec) {
   m.label = spec;
   std::vector<std::string> parts = split_list(spec, ':');
   if (parts.empty()) throw Error("--methods: empty method name");
-  m.name = MethodRegistry::get(parts[0]).name;  // throws listing the known methods
-  for (size_t i = 1; i < parts.size(); ++i) {
+  // name@device: gpu:N's number arrives as the next part.
+  std::string name = parts[0];
+  size_t first_param = 1;
+  if (const size_t at = name.find('@'); at != std::string::npos) {
+    m.device = name.substr(at + 1);
+    name = name.substr(0, at);
+    if (m.device == "gpu" && parts.size() > 1 && !parts[1].empty() &&
+        parts[1].find_first_not_of("0123456789") == std::string::npos) {
+      m.device += ":" + parts[1];
+      first_param = 2;
+    }
+    try {
+      gpu::DeviceChoice::parse(m.device);
+    } catch (const Error&) {
+      throw Error("--methods {}: device '{}' is not cpu, gpu or gpu:N", spec, m.device);
+    }
+  }
+  m.name = MethodRegistry::get(name).name;  // throws listing the known methods
+  if (!m.device.empty() && m.device != "cpu" && !find_gpu_method(m.name))
+    throw Error("--methods {}: {} has no GPU version yet (`penumbra methods` lists the devices)", spec, m.name);
+  for (size_t i = first_param; i < parts.size(); ++i) {
     auto eq = parts[i].find('=');
     if (eq == std::string::npos || eq == 0)
       throw Error("--methods {}: '{}' is not key=value (write method:key=value:key=value)", spec, parts[i]);
     m.params.push_back(parts[i]);
   }
-  if (m.params.empty()) m.label = m.name;  // "pcss:" is "pcss"
+  if (m.params.empty()) m.label = m.device.empty() ? m.name : m.name + "@" + m.device;  // "pcss:" is "pcss"
   return m;
 }
 
@@ -170,7 +191,8 @@ RunSetup RunSetup::from_file(const std::filesystem::path& scene_file) {
 nlohmann::json run_setup_json(const RunSetup& setup) {
   nlohmann::json j = {{"scene_doc", setup.scene_doc},         {"scene_path", setup.scene_path.string()},
           {"light_samples", setup.light_samples}, {"reference_samples", setup.reference_samples},
-          {"seed", setup.seed},                   {"method_params", setup.method_params}};
+          {"seed", setup.seed},                   {"method_params", setup.method_params},
+          {"device", setup.device}};
   if (setup.frame >= 0) j["frame"] = setup.frame;  // absent for a static scene, as before
   return j;
 }
@@ -185,6 +207,7 @@ RunSetup run_setup_from_json(const nlohmann::json& j) {
     s.seed = j.at("seed").get<uint64_t>();
     s.method_params = j.at("method_params").get<std::vector<std::string>>();
     s.frame = j.value("frame", -1);
+    s.device = j.value("device", std::string("cpu"));
   } catch (const nlohmann::json::exception& e) {
     throw Error("run setup: {}", e.what());
   }

@@ -20,12 +20,15 @@
 
 namespace penumbra {
 
-// One entry of a --methods list: a registered method, optionally with parameters of its own,
-// "name:key=value:key=value" (e.g. "pcss:variant=xie2007"), so that variants of one method
-// compare side by side. The label (the spec as written) names it in tables and plots.
+// One entry of a --methods list: a registered method, optionally on a device of its own and
+// with parameters of its own, "name[@device]:key=value:key=value" (e.g. "pcss:variant=xie2007",
+// "reference@gpu", "pcss@gpu:1:pcf_samples=16" is not: the device is cpu, gpu or gpu:N, so
+// "pcss@gpu:1" names gpu:1), so that variants of one method and its CPU and GPU versions compare
+// side by side. The label (the spec as written) names it in tables and plots.
 struct MethodSpec {
-  std::string label;                // "pcss:variant=xie2007"
+  std::string label;                // "pcss@gpu:variant=xie2007"
   std::string name;                 // "pcss"
+  std::string device;               // "gpu", "gpu:1", "cpu"; empty: the run's (RunSetup::device)
   std::vector<std::string> params;  // {"variant=xie2007"}
 };
 // Throws naming the spec for an unknown method or a parameter that is not key=value.
@@ -39,6 +42,9 @@ struct RunSetup {
   uint64_t seed = 0;
   // Method parameters in the order given: "method.key=value" and plain "key=value".
   std::vector<std::string> method_params;
+  // The device every method renders on unless its spec names one (--device: cpu, gpu, gpu:N).
+  // The ground truth renders on the CPU.
+  std::string device = "cpu";
   // The frame of an animated scene this run renders (issue 18: `compare --frame-range`), or
   // -1: the scene as written. load() gives the scene at this frame, and the reference cache
   // keys each frame's ground truth apart (the document alone is the same for every frame).

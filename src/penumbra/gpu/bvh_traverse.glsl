@@ -23,8 +23,9 @@ struct RayHit {
   float t;
   uint object;
   uint prim;
-  float u;
+  float u;  // barycentrics in the triangle's own mesh (a shared mesh's, for an instance)
   float v;
+  bool mirrored;  // the instance mirrors: the world mesh's barycentrics are (v, u)
 };
 
 // 1/d without infinities (so box tests never compute 0 * inf).
@@ -44,21 +45,35 @@ float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tmax) {
   return enter <= leave ? enter : pn_inf();
 }
 
-// Moller-Trumbore: true and (t, u, v) where the ray meets the triangle with t in (0, tmax].
+// Moller-Trumbore in Embree's formulation (its MoellerTrumboreIntersector1: e1 = v0 - v1,
+// e2 = v2 - v0, Ng = e2 x e1, the edge tests on the undivided values), so the GPU decides edge and
+// grazing cases as the CPU's Embree does: true and (t, u, v) where the ray meets the triangle with
+// t in (0, tmax].
 bool intersect_triangle(GpuTriangle tri, vec3 o, vec3 d, float tmax, out float t, out float u, out float v) {
-  vec3 e1 = tri.v1 - tri.v0, e2 = tri.v2 - tri.v0;
-  vec3 pv = cross(d, e2);
-  float det = dot(e1, pv);
-  if (det == 0.0f) return false;
-  float inv = 1.0f / det;
-  vec3 tv = o - tri.v0;
-  u = dot(tv, pv) * inv;
-  if (u < 0.0f || u > 1.0f) return false;
-  vec3 qv = cross(tv, e1);
-  v = dot(d, qv) * inv;
-  if (v < 0.0f || u + v > 1.0f) return false;
-  t = dot(e2, qv) * inv;
-  return t > 0.0f && t <= tmax;
+  vec3 e1 = tri.v0 - tri.v1, e2 = tri.v2 - tri.v0;
+  vec3 ng = cross(e2, e1);
+  vec3 c = tri.v0 - o;
+  vec3 r = cross(c, d);
+  float den = dot(ng, d);
+  float abs_den = abs(den);
+  bool flip = (floatBitsToUint(den) >> 31) != 0u;  // Embree XORs the sign of den in
+  float uu = dot(r, e2), vv = dot(r, e1);
+  if (flip) {
+    uu = -uu;
+    vv = -vv;
+  }
+  t = 0.0f;
+  u = 0.0f;
+  v = 0.0f;
+  if (den == 0.0f || uu < 0.0f || vv < 0.0f || uu + vv > abs_den) return false;
+  float tt = dot(ng, c);
+  if (flip) tt = -tt;
+  if (!(tt > 0.0f && tt <= abs_den * tmax)) return false;
+  float inv = 1.0f / abs_den;
+  t = tt * inv;
+  u = uu * inv;
+  v = vv * inv;
+  return true;
 }
 
 // An instance's transform of a point and of a direction.
@@ -81,6 +96,7 @@ void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, in
   int sp = 0;
   vec3 o = org, d = dir, inv_d = safe_inverse(dir);
   uint inst_object = kInstanceObject;
+  bool inst_mirrored = false;
   bool in_blas = g_scene.root_is_blas != 0u;
   bool done = false;
   bool opaque_scene = g_scene.has_transparency == 0u;
@@ -98,6 +114,7 @@ void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, in
       inv_d = safe_inverse(dir);
       in_blas = false;
       inst_object = kInstanceObject;
+      inst_mirrored = false;
       continue;
     }
     if ((e & kEnterInstance) != 0u) {  // into an instance's BLAS, in its space
@@ -108,6 +125,7 @@ void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, in
         inv_d = safe_inverse(d);
       }
       inst_object = inst.object;
+      inst_mirrored = inst.mirrored != 0u;
       in_blas = true;
       stack[sp++] = kExitInstance;
       stack[sp++] = inst.root;
@@ -144,6 +162,7 @@ void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, in
           hit.prim = tri.prim;
           hit.u = u;
           hit.v = v;
+          hit.mirrored = inst_mirrored;
           continue;
         }
         if (opaque_scene) {
@@ -179,6 +198,7 @@ bool trace_closest(vec3 org, vec3 dir, float tmax, out RayHit hit) {
   hit.prim = 0u;
   hit.u = 0.0f;
   hit.v = 0.0f;
+  hit.mirrored = false;
   float unused = 1.0f;
   traverse(org, dir, tmax, true, hit, unused);
   return hit.object != kMissObject;
@@ -192,6 +212,7 @@ float trace_transmittance(vec3 org, vec3 dir, float tmax) {
   unused.prim = 0u;
   unused.u = 0.0f;
   unused.v = 0.0f;
+  unused.mirrored = false;
   float transmit = 1.0f;
   traverse(org, dir, tmax, false, unused, transmit);
   return transmit;

@@ -78,8 +78,7 @@ GpuScene::GpuScene(Device& device, const Scene& scene, std::span<const uint32_t>
 
 std::vector<GpuTriangle> GpuScene::blas_triangles(const Scene& scene, const Blas& b) const {
   std::vector<GpuTriangle> tris;
-  for (uint32_t o : b.objects) {
-    const TriangleMesh& m = scene.objects[o].mesh;
+  auto add = [&](const TriangleMesh& m, uint32_t object) {
     const size_t n = m.triangle_count();
     for (size_t t = 0; t < n; ++t) {
       GpuTriangle g{};
@@ -87,26 +86,66 @@ std::vector<GpuTriangle> GpuScene::blas_triangles(const Scene& scene, const Blas
       g.v1 = m.vertex(t, 1);
       g.v2 = m.vertex(t, 2);
       g.prim = static_cast<uint32_t>(t);
-      g.object = b.world_space ? o : shader::kInstanceObject;
+      g.object = object;
       tris.push_back(g);
     }
+  };
+  if (b.shared) {
+    add(*b.shared, shader::kInstanceObject);  // each instance names its object
+    return tris;
   }
+  for (uint32_t o : b.objects) add(scene.objects[o].mesh, o);
   return tris;
+}
+
+shader::GpuInstance GpuScene::placed_instance(const SceneObject& object, uint32_t o) const {
+  const Mat4& m = object.placement;
+  const Mat4 inv = m.inverse();
+  GpuInstance in{};
+  in.to_world_x = {m.m[0][0], m.m[0][1], m.m[0][2]}, in.to_world_tx = m.m[0][3];
+  in.to_world_y = {m.m[1][0], m.m[1][1], m.m[1][2]}, in.to_world_ty = m.m[1][3];
+  in.to_world_z = {m.m[2][0], m.m[2][1], m.m[2][2]}, in.to_world_tz = m.m[2][3];
+  in.to_object_x = {inv.m[0][0], inv.m[0][1], inv.m[0][2]}, in.to_object_tx = inv.m[0][3];
+  in.to_object_y = {inv.m[1][0], inv.m[1][1], inv.m[1][2]}, in.to_object_ty = inv.m[1][3];
+  in.to_object_z = {inv.m[2][0], inv.m[2][1], inv.m[2][2]}, in.to_object_tz = inv.m[2][3];
+  const Vec3f a = in.to_world_x, b = in.to_world_y, c = in.to_world_z;
+  in.mirrored = dot(a, cross(b, c)) < 0 ? 1u : 0u;
+  in.object = o;
+  in.identity = 0;
+  return in;
 }
 
 void GpuScene::build(const Scene& scene) {
   Timer timer;
   const size_t objects = scene.objects.size();
-  // Which BLAS holds each object: a movable object's own, else the one world BLAS.
+  // Which BLAS holds each object: a shared mesh's (one BLAS per mesh, an instance per object
+  // placing it), a movable object's own, else the one world BLAS.
   blas_.clear();
   Blas world;
-  for (uint32_t o = 0; o < objects; ++o)
+  std::map<const TriangleMesh*, uint32_t> shared_blas;
+  for (uint32_t o = 0; o < objects; ++o) {
+    const SceneObject& obj = scene.objects[o];
+    if (obj.shared_mesh) continue;
     if (!movable_[o]) world.objects.push_back(o);
+  }
   if (!world.objects.empty() || objects == 0) blas_.push_back(std::move(world));
-  for (uint32_t o = 0; o < objects; ++o)
-    if (movable_[o]) blas_.push_back(Blas{{o}});
+  for (uint32_t o = 0; o < objects; ++o) {
+    const SceneObject& obj = scene.objects[o];
+    if (obj.shared_mesh) {
+      auto [it, added] = shared_blas.emplace(obj.shared_mesh.get(), static_cast<uint32_t>(blas_.size()));
+      if (added) {
+        Blas b;
+        b.shared = obj.shared_mesh.get();
+        blas_.push_back(std::move(b));
+      }
+      blas_[it->second].objects.push_back(o);
+    } else if (movable_[o]) {
+      blas_.push_back(Blas{{o}});
+    }
+  }
 
-  // Meshes: one per object, in world space (its vertices as the CPU holds them).
+  // Meshes: an object's own in world space (its vertices as the CPU holds them), a shared mesh
+  // once in its own space.
   std::vector<GpuMesh> meshes;
   std::vector<Vec3f> positions, normals;
   std::vector<Vec2f> uvs;
@@ -116,6 +155,7 @@ void GpuScene::build(const Scene& scene) {
   std::vector<GpuTexture> textures;
   std::vector<float> texels;
   std::map<const Texture*, uint32_t> texture_index;
+  std::map<const TriangleMesh*, uint32_t> shared_mesh_index;
   auto add_texture = [&](const std::shared_ptr<const Texture>& t) -> uint32_t {
     if (!t) return shader::kNoTexture;
     auto it = texture_index.find(t.get());
@@ -125,10 +165,7 @@ void GpuScene::build(const Scene& scene) {
     textures.push_back(g);
     return texture_index[t.get()] = static_cast<uint32_t>(textures.size() - 1);
   };
-  has_transparency_ = false;
-  for (uint32_t o = 0; o < objects; ++o) {
-    const SceneObject& obj = scene.objects[o];
-    const TriangleMesh& m = obj.mesh;
+  auto add_mesh = [&](const TriangleMesh& m) {
     GpuMesh gm{};
     gm.first_vertex = static_cast<uint32_t>(positions.size());
     gm.vertex_count = static_cast<uint32_t>(m.positions.size());
@@ -155,10 +192,24 @@ void GpuScene::build(const Scene& scene) {
       tri_opacity.resize(indices.size() / 3, 1.0f);
     }
     meshes.push_back(gm);
+    return static_cast<uint32_t>(meshes.size() - 1);
+  };
+  has_transparency_ = false;
+  object_mesh_.assign(objects, 0);
+  for (uint32_t o = 0; o < objects; ++o) {
+    const SceneObject& obj = scene.objects[o];
+    uint32_t mesh = 0;
+    if (obj.shared_mesh) {
+      auto it = shared_mesh_index.find(obj.shared_mesh.get());
+      mesh = it != shared_mesh_index.end() ? it->second : (shared_mesh_index[obj.shared_mesh.get()] = add_mesh(*obj.shared_mesh));
+    } else {
+      mesh = add_mesh(obj.mesh);
+    }
+    object_mesh_[o] = mesh;
     GpuObject g{};
     g.albedo = obj.material.albedo;
     g.opacity = obj.material.opacity;
-    g.mesh = o;
+    g.mesh = mesh;
     g.flags = object_flags(obj);
     g.albedo_texture = add_texture(obj.material.albedo_texture);
     g.alpha_texture = obj.material.alpha.active() ? add_texture(obj.material.alpha.texture) : shader::kNoTexture;
@@ -177,10 +228,20 @@ void GpuScene::build(const Scene& scene) {
   }
   object_instance_.assign(objects, 0);
   instances_.clear();
+  instance_blas_.clear();
   for (uint32_t i = 0; i < blas_.size(); ++i) {
+    if (blas_[i].shared) {
+      for (uint32_t o : blas_[i].objects) {
+        object_instance_[o] = static_cast<uint32_t>(instances_.size());
+        instances_.push_back(placed_instance(scene.objects[o], o));
+        instance_blas_.push_back(i);
+      }
+      continue;
+    }
     // World-space BLASes name each triangle's object themselves.
+    for (uint32_t o : blas_[i].objects) object_instance_[o] = static_cast<uint32_t>(instances_.size());
     instances_.push_back(identity_instance(0, shader::kInstanceObject));
-    for (uint32_t o : blas_[i].objects) object_instance_[o] = i;
+    instance_blas_.push_back(i);
   }
   for (uint32_t o = 0; o < objects; ++o) gpu_objects[o].instance = object_instance_[o];
 
@@ -212,7 +273,7 @@ void GpuScene::upload_bvhs() {
     triangle_offset += static_cast<uint32_t>(b.bvh.order.size());
   }
   // Room for the TLAS after the BLASes: one node per instance at most.
-  const size_t tlas_nodes = std::max<size_t>(1, blas_.size());
+  const size_t tlas_nodes = std::max<size_t>(1, instances_.size());
   nodes_ = Buffer(*device_, (node_offset + tlas_nodes) * sizeof(shader::GpuBvhNode), "the scene's BVH nodes");
   triangles_ = Buffer(*device_, std::max<uint64_t>(1, triangle_offset) * sizeof(GpuTriangle), "the scene's BVH triangles");
   desc_data_.nodes = nodes_.address();
@@ -230,11 +291,24 @@ void GpuScene::build_tlas(const Scene& scene) {
     std::vector<GpuTriangle> ordered(b.bvh.order.size());
     for (size_t k = 0; k < ordered.size(); ++k) ordered[k] = tris[b.bvh.order[k]];
     triangles_.upload<GpuTriangle>(ordered, b.triangle_offset * sizeof(GpuTriangle));
-    instances_[i].root = b.node_offset;
   }
   // The TLAS over the instances' world boxes, one instance a leaf (its box is the instance's).
   std::vector<Bounds3f> boxes(instances_.size());
-  for (size_t i = 0; i < instances_.size(); ++i) boxes[i] = root_box(blas_[i].bvh.nodes[0]);
+  for (size_t i = 0; i < instances_.size(); ++i) {
+    GpuInstance& in = instances_[i];
+    const Blas& b = blas_[instance_blas_[i]];
+    in.root = b.node_offset;
+    const Bounds3f local = root_box(b.bvh.nodes[0]);
+    if (in.identity || local.empty()) {
+      boxes[i] = local;
+      continue;
+    }
+    for (int c = 0; c < 8; ++c) {
+      const Vec3f q = local.corner(c);
+      boxes[i].extend({dot(in.to_world_x, q) + in.to_world_tx, dot(in.to_world_y, q) + in.to_world_ty,
+                       dot(in.to_world_z, q) + in.to_world_tz});
+    }
+  }
   tlas_ = build_bvh(boxes, 1);
   const uint32_t tlas_offset = blas_.empty() ? 0 : blas_.back().node_offset + static_cast<uint32_t>(blas_.back().bvh.nodes.size());
   std::vector<shader::GpuBvhNode> tnodes = tlas_.nodes;
@@ -265,27 +339,34 @@ void GpuScene::build_tlas(const Scene& scene) {
 
 void GpuScene::update_objects(const Scene& scene, std::span<const uint32_t> objects) {
   if (objects.empty()) return;
-  const bool all_movable = std::all_of(objects.begin(), objects.end(), [&](uint32_t o) {
-    return o < movable_.size() && movable_[o];
-  });
-  if (!all_movable || scene.objects.size() != movable_.size()) {
+  if (scene.objects.size() != movable_.size()) {
     build(scene);
     return;
   }
   Timer timer;
   for (uint32_t o : objects) {
-    Blas& b = blas_[object_instance_[o]];
-    const TriangleMesh& m = scene.objects[o].mesh;
-    if (m.triangle_count() != b.bvh.order.size()) {  // not the same triangles: start over
+    if (o >= movable_.size()) throw Error("GpuScene::update_objects: no object {}", o);
+    const SceneObject& obj = scene.objects[o];
+    GpuInstance& in = instances_[object_instance_[o]];
+    Blas& b = blas_[instance_blas_[object_instance_[o]]];
+    if (b.shared) {
+      // A placement of a shared mesh: only its instance moves (the same mesh, or start over).
+      if (obj.shared_mesh.get() != b.shared) {
+        build(scene);
+        return;
+      }
+      in = placed_instance(obj, o);
+      continue;
+    }
+    const TriangleMesh& m = obj.mesh;
+    const GpuMesh& mesh = mesh_records_[object_mesh_[o]];
+    // Only an object with a BLAS of its own can be refit; the same triangles, or start over.
+    if (!movable_[o] || obj.shared_mesh || m.triangle_count() != b.bvh.order.size() ||
+        mesh.vertex_count != m.positions.size()) {
       build(scene);
       return;
     }
     // The object's vertices (the camera pass reads them) and its BLAS refit.
-    const GpuMesh& mesh = mesh_records_[o];
-    if (mesh.vertex_count != m.positions.size()) {
-      build(scene);
-      return;
-    }
     positions_.upload<Vec3f>(m.positions, mesh.first_vertex * sizeof(Vec3f));
     if (mesh.flags & shader::kMeshNormals) normals_.upload<Vec3f>(m.normals, mesh.first_vertex * sizeof(Vec3f));
     const std::vector<GpuTriangle> tris = blas_triangles(scene, b);
@@ -309,17 +390,21 @@ uint64_t GpuScene::device_bytes() const {
 uint64_t GpuScene::estimate_bytes(const Scene& scene) {
   uint64_t triangles = 0, vertices = 0, texels = 0;
   std::map<const Texture*, uint64_t> textures;
+  std::map<const TriangleMesh*, bool> shared;
   for (const SceneObject& o : scene.objects) {
-    triangles += o.mesh.triangle_count();
-    vertices += o.mesh.positions.size();
+    const TriangleMesh* m = o.shared_mesh ? o.shared_mesh.get() : &o.mesh;
+    if (o.shared_mesh && !shared.emplace(m, true).second) continue;  // a shared mesh once
+    triangles += m->triangle_count();
+    vertices += m->positions.size();
+  }
+  for (const SceneObject& o : scene.objects)
     for (const auto& t : {o.material.albedo_texture, o.material.alpha.texture})
       if (t) textures[t.get()] = static_cast<uint64_t>(t->width()) * t->height();
-  }
   for (const auto& [t, n] : textures) texels += n;
   const uint64_t objects = scene.objects.size();
   return triangles * (sizeof(shader::GpuBvhNode) + sizeof(GpuTriangle) + 3 * sizeof(uint32_t) + sizeof(float)) +
-         vertices * (2 * sizeof(Vec3f) + sizeof(Vec2f)) + objects * (sizeof(GpuObject) + sizeof(GpuMesh) + sizeof(GpuInstance) +
-                                                                      2 * sizeof(shader::GpuBvhNode)) +
+         vertices * (2 * sizeof(Vec3f) + sizeof(Vec2f)) +
+         objects * (sizeof(GpuObject) + sizeof(GpuMesh) + sizeof(GpuInstance) + 2 * sizeof(shader::GpuBvhNode)) +
          texels * 16 + sizeof(shader::SceneDesc);
 }
 

@@ -45,22 +45,28 @@ class GpuScene {
  private:
   // A bottom-level BVH: which objects' triangles it holds, in which space.
   struct Blas {
-    std::vector<uint32_t> objects;  // their triangles, in object order, then mesh order
-    bool world_space = true;        // false: a shared mesh in its own space
+    // World space: these objects' triangles, in object order, then mesh order. Shared: the
+    // objects that place `shared` (one instance each).
+    std::vector<uint32_t> objects;
+    const TriangleMesh* shared = nullptr;  // a shared mesh, in its own space (SceneObject::shared_mesh)
     FlatBvh bvh;
     uint32_t node_offset = 0, triangle_offset = 0;  // where its nodes and triangles start
   };
   void build(const Scene& scene);
   void upload_bvhs();
   void build_tlas(const Scene& scene);
+  // The instance record of object o placing a shared mesh (its placement and inverse).
+  shader::GpuInstance placed_instance(const SceneObject& object, uint32_t o) const;
   std::vector<shader::GpuTriangle> blas_triangles(const Scene& scene, const Blas& b) const;
 
   Device* device_;
   std::vector<bool> movable_;
   std::vector<Blas> blas_;
-  std::vector<shader::GpuInstance> instances_;  // per BLAS placement
+  std::vector<shader::GpuInstance> instances_;  // per world-space BLAS, and per object placing a shared mesh
+  std::vector<uint32_t> instance_blas_;         // per instance: its BLAS
   std::vector<uint32_t> object_instance_;       // per object: its instance
   std::vector<shader::GpuMesh> mesh_records_;   // what meshes_ holds
+  std::vector<uint32_t> object_mesh_;           // per object: its GpuMesh
   FlatBvh tlas_;
   bool has_transparency_ = false;
   double build_ms_ = 0;

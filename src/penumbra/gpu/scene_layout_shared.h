@@ -62,7 +62,10 @@ PN_CONST uint kMissObject = 0xffffffffu;
 //   bytes 48-95  to_object: its inverse, likewise
 //   bytes 96-99  root: the BLAS's root node   100-103 object: Scene::objects index, or
 //                kInstanceObject for the world BLAS (each triangle says)
-//   bytes 104-107 identity: 1 when both matrices are the identity (the world BLAS)   108-111 0
+//   bytes 104-107 identity: 1 when both matrices are the identity (the world BLAS)
+//   bytes 108-111 mirrored: 1 when to_world mirrors (det < 0). The world mesh then lists each
+//                 triangle's vertices 1 and 2 swapped (SceneObject::shared_mesh), so a hit's
+//                 barycentrics in the world mesh are (v, u) of those in the shared one.
 struct GpuInstance {
   vec3 to_world_x;
   float to_world_tx;
@@ -79,7 +82,7 @@ struct GpuInstance {
   uint root;
   uint object;
   uint identity;
-  uint pad;
+  uint mirrored;
 };
 
 // Per object (Scene::objects order), 64 bytes: its material and where its mesh lives.

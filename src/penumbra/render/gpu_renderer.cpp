@@ -266,4 +266,17 @@ RenderResult GpuRenderer::render(const Scene& scene, const RenderSettings& setti
   return result;
 }
 
+ViewSamples GpuRenderer::download_view_samples() const {
+  ViewSamples vs;
+  vs.width = frame_width_;
+  vs.height = frame_height_;
+  vs.window = frame_window_;
+  vs.samples_per_pixel = frame_spp_;
+  if (frame_slots_ == 0) return vs;
+  std::vector<ViewSample> all = samples_.download_vector<ViewSample>(frame_slots_);
+  for (const ViewSample& s : all)
+    if (s.object != shader::kMissObject) vs.samples.push_back(s);
+  return vs;
+}
+
 }  // namespace penumbra

@@ -33,6 +33,10 @@ class GpuRenderer {
   void prepare(const Scene& scene, const RenderSettings& settings);
   RenderResult render(const Scene& scene, const RenderSettings& settings);
   int refits() const { return gpu_scene_->refits(); }
+  // The last render's view samples read back, the hits only, in slot order (as the CPU's camera
+  // pass lists them): for tests that hold the GPU's camera pass against the CPU's.
+  ViewSamples download_view_samples() const;
+  const gpu::GpuScene& gpu_scene() const { return *gpu_scene_; }
   gpu::Device& device() { return *device_; }
 
  private:

@@ -173,6 +173,7 @@ class Renderer {
   // How many set_objects calls refit the moved objects' BVHs (Embree's, or the GPU's).
   int refits() const;
   bool on_gpu() const { return gpu_ != nullptr; }
+  GpuRenderer* gpu() { return gpu_.get(); }
   const Scene& scene() const { return scene_; }
   // The method instance serving light i (for tests and statistics).
   ShadowMethod& method(int light) { return *methods_[light]; }

@@ -20,7 +20,8 @@ void main() {
   h.t = hit.t;
   h.object = hit.object;
   h.prim = hit.prim;
-  h.u = hit.u;
-  h.v = hit.v;
+  // Barycentrics of the world mesh, as Embree reports them (a mirroring instance swaps them).
+  h.u = hit.mirrored ? hit.v : hit.u;
+  h.v = hit.mirrored ? hit.u : hit.v;
   HitsOut(pc.p.results).v[i] = h;
 }

@@ -1,0 +1,230 @@
+// `penumbra bench --suite gpu` (issue 28 part 7, issue 31): every method that has a GPU version,
+// on the GPU and on this machine's CPU cores at the same settings in the same run. The GPU side
+// is timed by its timestamps (the GPU time of every stage of the frame; the read-back apart) as
+// the median of several runs after a warm-up; the CPU side once, at a quarter of the pixels
+// where the whole frame would take over 10 s (the table says so and compares per pixel).
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/interrupt.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/eval/bench.h"
+#include "penumbra/eval/comparison.h"
+#include "penumbra/eval/report_util.h"
+#include "penumbra/eval/run_setup.h"
+#include "penumbra/gpu/device.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/shadow/gpu_method.h"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+// A CPU render estimated to take longer than this at the suite's size renders at half the
+// width and height instead (issue 31).
+constexpr double kCpuBudgetMs = 10000;
+
+// The median of each stage over the runs (stage names as the first run lists them).
+json median_stages(const std::vector<json>& runs) {
+  json out = json::object();
+  if (runs.empty()) return out;
+  for (auto it = runs[0].begin(); it != runs[0].end(); ++it) {
+    std::vector<double> v;
+    for (const json& r : runs) v.push_back(r.value(it.key(), 0.0));
+    out[it.key()] = median_of(v);
+  }
+  return out;
+}
+
+Scene scene_at(const RunSetup& setup, int width, int height) {
+  RunSetup s = setup;
+  s.apply("resolution", fmt::format("{}x{}", width, height));
+  return s.load();
+}
+
+json gpu_side(const RunSetup& setup, const std::string& method, int width, int height, const BenchSuite& suite,
+              Progress& bar) {
+  const Scene scene = scene_at(setup, width, height);
+  RenderSettings settings = method_render_settings(setup, method + "@" + setup.device);
+  Renderer renderer(scene, settings);
+  std::vector<double> shadow, frame;
+  std::vector<json> stages;
+  uint64_t rays = 0;
+  for (int i = 0; i < suite.warmup_runs + suite.runs; ++i) {
+    throw_if_interrupted();
+    const RenderResult r = renderer.render();
+    bar.add(1);
+    if (i < suite.warmup_runs) continue;
+    shadow.push_back(shadow_time_ms(r));
+    frame.push_back(r.gpu_ms.value("total", 0.0));
+    stages.push_back(r.gpu_ms);
+    rays = r.stats.rays_traced;
+  }
+  json out = {{"resolution", {width, height}},
+              {"shadow_ms", median_of(shadow)},
+              {"frame_ms", median_of(frame)},
+              {"run_shadow_ms", shadow},
+              {"stages_ms", median_stages(stages)}};
+  if (rays > 0) {
+    out["rays_traced"] = rays;
+    const double trace_ms = out["stages_ms"].value("trace", 0.0);
+    if (trace_ms > 0) out["rays_per_s"] = static_cast<double>(rays) / (trace_ms * 1e-3);
+  }
+  return out;
+}
+
+json cpu_side(const RunSetup& setup, const std::string& method, int width, int height, Progress& bar) {
+  RenderSettings settings = method_render_settings(setup, method + "@cpu");
+  // A probe at half the width and height: over a quarter of the budget there, it stays there.
+  const int hw = std::max(1, width / 2), hh = std::max(1, height / 2);
+  const RenderResult probe = Renderer(scene_at(setup, hw, hh), settings).render();
+  bar.add(1);
+  const bool reduced = probe.total_ms * 4 > kCpuBudgetMs;
+  const RenderResult r = reduced ? probe : Renderer(scene_at(setup, width, height), settings).render();
+  if (!reduced) bar.add(1);
+  const int w = reduced ? hw : width, h = reduced ? hh : height;
+  return {{"resolution", {w, h}},
+          {"reduced", reduced},
+          {"shadow_ms", shadow_time_ms(r)},
+          {"total_ms", r.total_ms},
+          {"rays_traced", r.stats.rays_traced}};
+}
+
+double per_pixel(const json& side) {
+  const double pixels = side["resolution"][0].get<double>() * side["resolution"][1].get<double>();
+  return side.value("shadow_ms", 0.0) / std::max(1.0, pixels);
+}
+
+}  // namespace
+
+json run_gpu_suite(const BenchOptions& o) {
+  Timer wall;
+  const std::string started = local_time_iso();
+  const BenchSuite& suite = o.suite;
+  const gpu::DeviceChoice device = gpu::DeviceChoice::parse(o.device == "cpu" ? "gpu" : o.device);
+  const gpu::DeviceInfo info = gpu::Device::get(device).info();
+  // Every method with a GPU version (or those of --methods that have one), reference first.
+  std::vector<std::string> methods;
+  for (const std::string& m : o.methods) {
+    const std::string name = parse_method_spec(m).name;
+    if (find_gpu_method(name) && std::find(methods.begin(), methods.end(), name) == methods.end())
+      methods.push_back(name);
+  }
+  if (methods.empty()) throw Error("bench --suite gpu: none of the methods asked for has a GPU version");
+  std::stable_partition(methods.begin(), methods.end(), [](const std::string& m) { return m == "reference"; });
+  const int width = suite.resolution, height = suite.height > 0 ? suite.height : suite.resolution;
+  std::vector<RunSetup> setups;
+  for (const fs::path& f : suite.scenes) {
+    RunSetup setup = RunSetup::from_file(f);
+    setup.apply("spp", std::to_string(suite.light_samples));
+    for (const std::string& kv : o.params) setup.apply(kv);
+    setup.check_plain_params(methods);
+    setup.device = device.to_string();
+    setups.push_back(std::move(setup));
+  }
+  Progress bar("bench gpu",
+               setups.size() * methods.size() * static_cast<uint64_t>(suite.warmup_runs + suite.runs + 2), o.progress);
+  json scenes = json::array();
+  for (const RunSetup& setup : setups) {
+    json ms = json::array();
+    uint64_t triangles = 0;
+    for (const std::string& method : methods) {
+      json m = {{"method", method}};
+      try {
+        m["gpu"] = gpu_side(setup, method, width, height, suite, bar);
+        m["cpu"] = cpu_side(setup, method, width, height, bar);
+        m["cpu_over_gpu"] = per_pixel(m["cpu"]) / std::max(1e-12, per_pixel(m["gpu"]));
+        m["ok"] = true;
+      } catch (const Interrupted&) {
+        throw;
+      } catch (const std::exception& e) {
+        m["ok"] = false;
+        m["error"] = e.what();
+      }
+      ms.push_back(m);
+    }
+    try {
+      triangles = setup.load().triangle_count();
+    } catch (const std::exception&) {
+    }
+    scenes.push_back({{"scene", setup.scene_path.string()},
+                      {"name", setup.scene_path.stem().string()},
+                      {"triangles", triangles},
+                      {"methods", ms}});
+  }
+  bar.finish();
+  return {{"suite", suite.name},
+          {"device",
+           {{"name", info.name}, {"type", info.type}, {"driver", info.driver}, {"vulkan", info.api_version},
+            {"memory_bytes", info.memory_bytes}, {"subgroup_size", info.subgroup_size}}},
+          {"settings",
+           {{"resolution", {width, height}},
+            {"spp", suite.light_samples},
+            {"runs", suite.runs},
+            {"warmup_runs", suite.warmup_runs},
+            {"params", o.params}}},
+          {"timing",
+           "gpu: GPU time of the method's stages (timestamps; shadow_ms) and of the whole frame (frame_ms, read-back "
+           "apart), median of the runs; cpu: the same method on this machine's cores once, shadow_ms = total - camera "
+           "pass - compose, at half the width and height where the whole frame would take over 10 s; cpu_over_gpu: "
+           "the ratio of the shadow times per pixel"},
+          {"methods", methods},
+          {"machine", machine_json()},
+          {"started", started},
+          {"wall_ms", wall.elapsed_ms()},
+          {"command", o.command},
+          {"scenes", scenes}};
+}
+
+std::string gpu_bench_markdown(const json& r) {
+  std::ostringstream md;
+  const json& st = r.at("settings");
+  const json& dev = r.at("device");
+  const json& mc = r.at("machine");
+  md << fmt::format("Suite `{}`: {}×{} pixels, {} light samples; GPU: {} ({}, {}), median of {} runs after {} warm-up, "
+                    "timed by its timestamps; CPU: {}, {} threads, once; {}.\n\n",
+                    r.value("suite", "?"), st["resolution"][0].get<int>(), st["resolution"][1].get<int>(),
+                    st.value("spp", 0), dev.value("name", "?"), dev.value("driver", "?"), dev.value("type", "?"),
+                    st.value("runs", 0), st.value("warmup_runs", 0), mc.value("cpu", "?"), mc.value("threads", 0),
+                    r.value("started", "?"));
+  md << "GPU shadow: the GPU time of the method's stages (stage by stage in brackets); frame: every stage of the frame "
+        "(camera pass, method, compose, resolve); CPU: the same method on this machine's cores at the same settings "
+        "(* at half the width and height: it would take over 10 s); CPU/GPU: the ratio of the shadow times per "
+        "pixel.\n\n";
+  for (const json& s : r.at("scenes")) {
+    md << "**" << s.value("name", "?") << "** (" << s.value("triangles", 0) << " triangles)\n\n"
+       << "| method | GPU shadow | GPU frame | CPU shadow | CPU/GPU | shadow rays/s (GPU) |\n"
+       << "|---|---:|---:|---:|---:|---:|\n";
+    for (const json& m : s.at("methods")) {
+      md << "| `" << m.value("method", "?") << "` | ";
+      if (!m.value("ok", false)) {
+        md << "failed: " << m.value("error", "") << " | | | | |\n";
+        continue;
+      }
+      const json& g = m["gpu"];
+      const json& c = m["cpu"];
+      std::string stages;
+      for (auto it = g["stages_ms"].begin(); it != g["stages_ms"].end(); ++it) {
+        if (it.key() == "total" || it.key() == "readback" || it.key() == "camera_pass" || it.key() == "resolve") continue;
+        stages += (stages.empty() ? "" : ", ") + it.key() + " " + format_significant(it.value().get<double>(), 3);
+      }
+      md << format_significant(g.value("shadow_ms", 0.0), 3) << " ms (" << stages << ") | "
+         << format_significant(g.value("frame_ms", 0.0), 3) << " ms | "
+         << format_significant(c.value("shadow_ms", 0.0), 3) << " ms" << (c.value("reduced", false) ? "*" : "")
+         << " | " << format_significant(m.value("cpu_over_gpu", 0.0), 3) << "× | "
+         << (g.contains("rays_per_s") ? format_significant(g["rays_per_s"].get<double>() / 1e6, 3) + " M" : "—")
+         << " |\n";
+    }
+    md << "\n";
+  }
+  return md.str();
+}
+
+}  // namespace penumbra
