@@ -94,7 +94,7 @@ const CommandRegistration registration("bench", 70, [](CLI::App& app) {
                   "ratios at 256^2 interleaved with reference, times at 512^2; PASS/MISS per target) or walk (the animated "
                   "scenes' frames 0-7 at 256^2, 256 spp: cost per frame with reuse; lam >= 50x reference per frame) or wide "
                   "(the 100-tree forest, 5.9 M triangles, at 256^2, 64 spp, one run; with load time and memory)")
-      ->check(CLI::IsMember({"quick", "full", "perf", "walk", "wide"}))->capture_default_str();
+      ->check(CLI::IsMember({"quick", "full", "perf", "walk", "wide", "gpu"}))->capture_default_str();
   cmd->add_option("--methods", o->methods, "methods, comma-separated, or 'all' (reference is always added; perf: their targets only)")
       ->delimiter(',')->capture_default_str();
   cmd->add_option("--scenes", o->scenes, "scenes instead of the suite's: names in --scenes-dir or files")->delimiter(',');

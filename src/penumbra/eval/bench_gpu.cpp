@@ -212,7 +212,9 @@ std::string gpu_bench_markdown(const json& r) {
       const json& c = m["cpu"];
       std::string stages;
       for (auto it = g["stages_ms"].begin(); it != g["stages_ms"].end(); ++it) {
-        if (it.key() == "total" || it.key() == "readback" || it.key() == "camera_pass" || it.key() == "resolve") continue;
+        if (it.key() == "total" || it.key() == "readback" || it.key() == "camera_pass" || it.key() == "resolve" ||
+            it.key() == "compose")
+          continue;
         stages += (stages.empty() ? "" : ", ") + it.key() + " " + format_significant(it.value().get<double>(), 3);
       }
       md << format_significant(g.value("shadow_ms", 0.0), 3) << " ms (" << stages << ") | "
