@@ -32,7 +32,7 @@ PN_INLINE vec2 concentric_disk(vec2 u) {
     r = oy;
     theta = (kPiShared / 2.0f) - (kPiShared / 4.0f) * (ox / oy);
   }
-  return vec2(r * cos(theta), r * sin(theta));
+  return vec2(r * pn_cos(theta), r * pn_sin(theta));
 }
 
 // Uniform direction inside a cone of half-angle acos(cos_max) around +z.
@@ -40,7 +40,7 @@ PN_INLINE vec3 uniform_cone(vec2 u, float cos_max) {
   float cos_t = (1.0f - u.x) + u.x * cos_max;
   float sin_t = sqrt(max(0.0f, 1.0f - cos_t * cos_t));
   float phi = 2.0f * kPiShared * u.y;
-  return vec3(cos(phi) * sin_t, sin(phi) * sin_t, cos_t);
+  return vec3(pn_cos(phi) * sin_t, pn_sin(phi) * sin_t, cos_t);
 }
 PN_INLINE float uniform_cone_pdf(float cos_max) { return 1.0f / (2.0f * kPiShared * (1.0f - cos_max)); }
 

@@ -5,7 +5,6 @@
 #include <numeric>
 
 #include "penumbra/core/error.h"
-#include "penumbra/core/rng.h"
 #include "penumbra/gpu/buffer.h"
 #include "penumbra/gpu/commands.h"
 #include "penumbra/gpu/gpu_test_util.h"
@@ -82,37 +81,6 @@ TEST_F(GpuTest, BuffersRoundTripAndCountTheirBytes) {
     for (size_t i = 0; i < 1000; ++i) EXPECT_EQ(w[i], i >= 100 && i < 110 ? 0xdeadbeefu : v[i]) << i;
   }
   EXPECT_EQ(device().allocated_bytes(), before);
-}
-
-TEST_F(GpuTest, TheGeneratorDrawsTheCpusNumbersBitForBit) {
-  constexpr uint32_t kStreams = 300, kDraws = 17;  // more than one group, not a multiple of it
-  std::vector<uint64_t> keys;
-  Rng pick(12345);
-  for (uint32_t i = 0; i < kStreams; ++i)
-    for (int k = 0; k < 4; ++k) keys.push_back(pick.next_u64() >> (i % 3 == 0 ? 40 : 0));
-  Buffer key_buf = make_buffer<uint64_t>(device(), keys, "keys");
-  Buffer u64_buf(device(), kStreams * kDraws * 8, "u64 draws");
-  Buffer float_buf(device(), kStreams * kDraws * 4, "float draws");
-  struct Push {
-    uint64_t keys, out_u64, out_float;
-    uint32_t streams, draws;
-  } push{key_buf.address(), u64_buf.address(), float_buf.address(), kStreams, kDraws};
-  CommandList cl(device());
-  cl.stage("rng");
-  cl.dispatch("test_rng", kStreams, push);
-  const StageTimes t = cl.submit();
-  ASSERT_EQ(t.ms.size(), 1u);
-  EXPECT_EQ(t.ms[0].first, "rng");
-  EXPECT_GE(t.ms[0].second, 0.0);
-  const std::vector<uint64_t> u = u64_buf.download_vector<uint64_t>(kStreams * kDraws);
-  const std::vector<float> f = float_buf.download_vector<float>(kStreams * kDraws);
-  for (uint32_t i = 0; i < kStreams; ++i) {
-    Rng a(keys[4 * i], keys[4 * i + 1], keys[4 * i + 2], keys[4 * i + 3]), b = a;
-    for (uint32_t k = 0; k < kDraws; ++k) {
-      ASSERT_EQ(u[i * kDraws + k], a.next_u64()) << "stream " << i << " draw " << k;
-      ASSERT_EQ(f[i * kDraws + k], b.next_float()) << "stream " << i << " draw " << k;
-    }
-  }
 }
 
 TEST_F(GpuTest, AFailedAllocationOrSubmissionIsAOneLineErrorNamingTheCall) {

@@ -265,10 +265,10 @@ PN_INLINE LightSampler light_sampler_init(LightGeometry L, bool textured, vec3 p
   vec3 n1 = normalize(cross(v10, v11));
   vec3 n2 = normalize(cross(v11, v01));
   vec3 n3 = normalize(cross(v01, v00));
-  float g0 = acos(clamp(-dot(n0, n1), -1.0f, 1.0f));
-  float g1 = acos(clamp(-dot(n1, n2), -1.0f, 1.0f));
-  float g2 = acos(clamp(-dot(n2, n3), -1.0f, 1.0f));
-  float g3 = acos(clamp(-dot(n3, n0), -1.0f, 1.0f));
+  float g0 = pn_acos(clamp(-dot(n0, n1), -1.0f, 1.0f));
+  float g1 = pn_acos(clamp(-dot(n1, n2), -1.0f, 1.0f));
+  float g2 = pn_acos(clamp(-dot(n2, n3), -1.0f, 1.0f));
+  float g3 = pn_acos(clamp(-dot(n3, n0), -1.0f, 1.0f));
   S.b0 = n0.z;
   S.b1 = n2.z;
   S.k = 2.0f * kPiShared - g2 - g3;
@@ -303,7 +303,7 @@ PN_INLINE bool light_sampler_sample(LightSampler S, LightGeometry L, vec2 u, PN_
   }
   if (S.mode == kSamplerSphericalRect) {
     float au = u.x * S.solid_angle + S.k;
-    float fu = (cos(au) * S.b0 - S.b1) / sin(au);
+    float fu = (pn_cos(au) * S.b0 - S.b1) / pn_sin(au);
     float sign_fu = (floatBitsToUint(fu) >> 31) != 0u ? -1.0f : 1.0f;  // copysign(1, fu)
     float cu = sign_fu / sqrt(fu * fu + S.b0 * S.b0);
     cu = clamp(cu, -1.0f, 1.0f);
@@ -445,7 +445,7 @@ PN_INLINE float light_irradiance_polygon(LightGeometry L, vec3 p, vec3 n, PN_FLO
   } else if (L.shape == kLightDisk) {
     // A 256-gon inscribed in the disk, rescaled to the disk's area: the relative error of the
     // irradiance is below 1e-4 for any point.
-    float r = L.radius * sqrt((2.0f * kPiShared / float(kCircleSegments)) / sin(2.0f * kPiShared / float(kCircleSegments)));
+    float r = L.radius * sqrt((2.0f * kPiShared / float(kCircleSegments)) / pn_sin(2.0f * kPiShared / float(kCircleSegments)));
     for (int i = 0; i < kCircleSegments; ++i)
       polygon_irradiance_vertex(
           s, L.center + L.s * (r * PN_AT(unit_circle, uint(2 * i))) + L.t * (r * PN_AT(unit_circle, uint(2 * i + 1))), p);
@@ -453,7 +453,7 @@ PN_INLINE float light_irradiance_polygon(LightGeometry L, vec3 p, vec3 n, PN_FLO
     // Ellipsoid: the tangent cone from p, whose contour is A of the unit sphere's silhouette
     // circle seen from A^-1(p); a 256-gon inscribed in it, rescaled to the ellipse's area.
     LightEllipse e = light_contour_toward(L, p);
-    float scale = sqrt((2.0f * kPiShared / float(kCircleSegments)) / sin(2.0f * kPiShared / float(kCircleSegments)));
+    float scale = sqrt((2.0f * kPiShared / float(kCircleSegments)) / pn_sin(2.0f * kPiShared / float(kCircleSegments)));
     for (int i = 0; i < kCircleSegments; ++i)
       polygon_irradiance_vertex(
           s, e.center + (e.a * PN_AT(unit_circle, uint(2 * i)) + e.b * PN_AT(unit_circle, uint(2 * i + 1))) * scale, p);
