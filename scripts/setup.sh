@@ -68,7 +68,7 @@ if [ "$with_test_tools" -eq 1 ]; then
 fi
 
 # The configuration knows every target (the tests, benchmarks and Python module need only the
-# packages above); the build makes the ones asked for. A first build of the tool alone takes
-# about a third of the time of everything (README, "Set-up").
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release >/dev/null
+# packages above); the build makes the ones asked for. The library compiles in groups of files
+# (PENUMBRA_UNITY_BUILD): a first build in about half the time (README, "Set-up").
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DPENUMBRA_UNITY_BUILD=ON >/dev/null
 cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}"
