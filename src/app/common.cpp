@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iterator>
 #include <regex>
+#include <tuple>
 
 #include <unistd.h>
 
@@ -17,10 +18,15 @@ namespace penumbra::app {
 
 namespace fs = std::filesystem;
 
-void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples) {
-  if (!resolution.empty() &&
-      !parse_resolution(resolution, &scene.camera.width, &scene.camera.height))
+std::pair<int, int> resolution_option(const std::string& resolution) {
+  int w = 0, h = 0;
+  if (!parse_resolution(resolution, &w, &h))
     throw Error("--resolution {}: expected N or WxH with sides in [1, 16384], e.g. 256 or 512x384", resolution);
+  return {w, h};
+}
+
+void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples) {
+  if (!resolution.empty()) std::tie(scene.camera.width, scene.camera.height) = resolution_option(resolution);
   if (pixel_samples > 0) scene.camera.samples_per_pixel = pixel_samples;
 }
 

@@ -58,6 +58,54 @@ TEST(SceneFile, MinimalSceneAndDefaults) {
   EXPECT_TRUE(s.method_params.empty());
 }
 
+// The resolved camera and lights (what the viewer's page reads) hold every key of the format
+// but a texture, the parser's own values for those left out, and parse back to the same
+// camera and frames bit for bit.
+TEST(SceneFile, ResolvedCameraAndLightsFillEveryDefault) {
+  const json camera = json::parse(R"({"eye": [0, 1, 5], "target": [0, 0, 0]})");
+  const json lights = json::parse(R"([
+    {"type": "rect", "center": [0, 3, 0], "normal": [0.3, -1, 0.2], "size": [1, 2]},
+    {"type": "rect", "center": [0, 3, 0], "normal": [-1, 0, 0], "size": [1, 2], "radiance": [2, 3, 4]},
+    {"type": "disk", "center": [1, 3, 0], "normal": [0, -1, 0.5], "radius": 0.5},
+    {"type": "ellipsoid", "center": [0, 2, 1], "normal": [0.2, -1, 0], "radii": [0.5, 0.2, 0.1]},
+    {"type": "sphere", "center": [2, 3, 0], "radius": 0.3}])");
+  const Camera c = parse_camera(camera, kOrigin);
+  const std::vector<AreaLight> parsed = parse_lights(lights, kOrigin);
+  const json rc = resolved_camera_json(camera, c);
+  for (std::string_view key : camera_keys()) EXPECT_TRUE(rc.contains(key)) << "camera." << key;
+  EXPECT_EQ(rc.size(), camera_keys().size());
+  EXPECT_EQ(rc["up"], json::array({0, 1, 0}));
+  EXPECT_EQ(rc["fov_y"], 45);
+  EXPECT_EQ(rc["resolution"], json::array({512, 512}));
+  EXPECT_EQ(rc["samples_per_pixel"], 1);
+  EXPECT_EQ(rc["eye"], camera["eye"]);  // given keys as written
+  const Camera back = parse_camera(rc, kOrigin);
+  EXPECT_EQ(back.up, c.up);
+  EXPECT_EQ(back.fov_y, c.fov_y);
+  EXPECT_EQ(back.width, c.width);
+
+  const json rl = resolved_lights_json(lights, parsed);
+  ASSERT_EQ(rl.size(), lights.size());
+  for (size_t i = 0; i < rl.size(); ++i) {
+    for (std::string_view key : light_keys(parsed[i].shape))
+      if (key != "radiance_texture") EXPECT_TRUE(rl[i].contains(key)) << "lights[" << i << "]." << key;
+  }
+  EXPECT_EQ(rl[0]["u"], json::array({1, 0, 0}));  // the default rule's vector, not its projection
+  EXPECT_EQ(rl[1]["u"], json::array({0, 0, 1}));  // normal along x: z
+  EXPECT_EQ(rl[0]["radiance"], json::array({1, 1, 1}));
+  EXPECT_EQ(rl[1]["radiance"], json::array({2, 3, 4}));
+  EXPECT_FALSE(rl[4].contains("u"));  // a sphere has no frame of its own to give
+  const std::vector<AreaLight> again = parse_lights(rl, kOrigin);
+  for (size_t i = 0; i < 2; ++i) {  // rects: the same frame bit for bit
+    EXPECT_EQ(again[i].frame.s, parsed[i].frame.s) << i;
+    EXPECT_EQ(again[i].frame.t, parsed[i].frame.t) << i;
+  }
+  for (size_t i = 2; i < 4; ++i) {  // disk, ellipsoid: the frame's own axes
+    expect_near(again[i].frame.s, parsed[i].frame.s, 1e-6f);
+    expect_near(again[i].frame.t, parsed[i].frame.t, 1e-6f);
+  }
+}
+
 TEST(SceneFile, LightsAndMethods) {
   json d = minimal_doc();
   d["lights"] = json::parse(R"([
