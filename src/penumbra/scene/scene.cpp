@@ -279,6 +279,7 @@ class SceneParser {
     MaterialOverride material = v.has("material") ? read_material(v["material"]) : MaterialOverride{};
     std::vector<SceneObject> parts;
     std::string base_name;
+    fs::path mesh_file;  // for a mesh object
 
     if (v.has("mesh")) {
       allowed.push_back("mesh");
@@ -287,6 +288,7 @@ class SceneParser {
       std::string rel = mv.string();
       if (rel.empty()) mv.fail("expected a file name, got an empty string");
       fs::path p = fs::path(rel).is_absolute() ? fs::path(rel) : (folder_ / rel).lexically_normal();
+      mesh_file = p;
       try {
         MeshImportReport report;
         parts = import_mesh_parts(p, &report);
@@ -360,9 +362,17 @@ class SceneParser {
             fmt::format("\"{}\" needs an \"alpha_texture\" or an \"albedo_texture\" with an alpha channel{}",
                         to_string(o.material.alpha.mode), parts.size() > 1 ? fmt::format(" (part {})", o.name) : ""));
       // A texture is looked up at the surface's texture coordinates: the mesh must have them.
-      if ((o.material.albedo_texture || o.material.alpha_textured()) && o.mesh.uvs.size() != o.mesh.positions.size())
+      if ((o.material.albedo_texture || o.material.alpha_textured()) && o.mesh.uvs.size() != o.mesh.positions.size()) {
+        const char* texture = o.material.albedo_texture ? "albedo_texture" : "alpha_texture";
+        if (!mesh_file.empty())
+          v["mesh"].fail(fmt::format("{}: has no texture coordinates{}, which the material's {} needs (an OBJ gives "
+                                     "them with vt lines, a PLY with s,t or u,v, a glTF with TEXCOORD_0; OFF and "
+                                     "STL files have none)",
+                                     mesh_file.string(), parts.size() > 1 ? fmt::format(" in part {}", o.name) : "",
+                                     texture));
         v.fail(fmt::format("{} has a texture in its material but no texture coordinates{}", o.name,
                            v.has("shape") ? " (planes and boxes have them; spheres do not)" : ""));
+      }
       // An animated object keeps its parts as built, in its own space: each frame places
       // them anew from the keyed transform (animation.h).
       if (animation_ && animation_->animates(name)) animation_->add_part(name, v, t, out->size(), o);
