@@ -153,7 +153,7 @@ int run_compare(const CompareCliOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("compare", 50, [](CLI::App& app) {
+const CommandRegistration compare_command("compare", 50, [](CLI::App& app) {
   auto o = std::make_shared<CompareCliOptions>();
   CLI::App* cmd = app.add_subcommand("compare", "every method against the ground truth: an HTML page, JSON and CSV");
   cmd->add_option("scene", o->scene, "scene file (JSON)")->required();

@@ -83,7 +83,7 @@ int run_view(const ViewOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("view", 35, [](CLI::App& app) {
+const CommandRegistration view_command("view", 35, [](CLI::App& app) {
   auto o = std::make_shared<ViewOptions>();
   CLI::App* cmd = app.add_subcommand(
       "view", "interactive viewer in the browser: preview while moving, refine when still (docs/viewer.md)");
