@@ -91,17 +91,23 @@ namespace {
 // $PENUMBRA_PYTHONPATH, else what CMake built (the build tree's python/ folder while it
 // exists, else the installed package's folder).
 std::pair<std::string, std::string> python_and_path() {
+  std::string python, path, missing;
 #ifdef PENUMBRA_PYTHON_EXECUTABLE
-  std::string python = PENUMBRA_PYTHON_EXECUTABLE, path = PENUMBRA_PYTHON_BUILD_DIR;
-  if (!fs::exists(fs::path(path) / "penumbra" / "distributed.py")) path = PENUMBRA_PYTHON_INSTALL_PATH;
-#else
-  std::string python, path;
+  python = PENUMBRA_PYTHON_EXECUTABLE;
+  path = fs::exists(fs::path(PENUMBRA_PYTHON_BUILD_DIR) / "penumbra" / "distributed.py") ? PENUMBRA_PYTHON_BUILD_DIR
+                                                                                         : PENUMBRA_PYTHON_INSTALL_PATH;
+  // README command 1 builds the tool alone.
+  missing = fmt::format("neither built in {} (scripts/setup.sh --with-python builds it) nor installed in {}",
+                        PENUMBRA_PYTHON_BUILD_DIR, PENUMBRA_PYTHON_INSTALL_PATH);
 #endif
   if (const char* p = std::getenv("PENUMBRA_PYTHON"); p && *p) python = p;
-  if (const char* p = std::getenv("PENUMBRA_PYTHONPATH"); p && *p) path = p;
+  const char* env_path = std::getenv("PENUMBRA_PYTHONPATH");
+  if (env_path && *env_path) path = env_path;
   if (python.empty())
     throw Error("--dask: this penumbra was built without its Python module (cmake -DPENUMBRA_BUILD_PYTHON=ON), "
                 "or set PENUMBRA_PYTHON and PENUMBRA_PYTHONPATH");
+  if (!missing.empty() && !(env_path && *env_path) && !fs::exists(fs::path(path) / "penumbra" / "distributed.py"))
+    throw Error("--dask: penumbra's Python module is {}; or set PENUMBRA_PYTHONPATH", missing);
   return {python, path};
 }
 
