@@ -1,6 +1,11 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package penumbra needs, then configures and builds it.
-# Usage: scripts/setup.sh [--with-test-tools] [build-dir]   (default: build)
+# Installs every Debian 12 package penumbra needs, then configures it and builds the `penumbra`
+# tool (with the viewer's page compiled in): README command 1, so only what the main job needs.
+# Usage: scripts/setup.sh [--with-test-tools] [--with-python] [--all] [build-dir]   (default: build)
+#   --with-python      also builds the Python module (build/python/penumbra: `import penumbra`,
+#                      and what `--dask` runs; docs/python.md, docs/distributed.md)
+#   --all              builds everything: the tool, the Python module, the test suite and the
+#                      benchmarks (scripts/test.sh does this)
 #   --with-test-tools  also installs what some tests use but penumbra does not need:
 #                      chromium (the comparison page's and the viewer's headless-browser
 #                      tests; without it they skip with a message), Node.js and the viewer
@@ -12,10 +17,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=build
 with_test_tools=0
+targets=(--target penumbra_cli)
 for arg in "$@"; do
   case "$arg" in
     --with-test-tools) with_test_tools=1 ;;
-    -*) echo "scripts/setup.sh: unknown option $arg (usage: scripts/setup.sh [--with-test-tools] [build-dir])" >&2; exit 2 ;;
+    --with-python) [ "${targets[*]}" = "--target all" ] || targets+=(penumbra_python) ;;
+    --all) targets=(--target all) ;;
+    -*) echo "scripts/setup.sh: unknown option $arg (usage: scripts/setup.sh [--with-test-tools] [--with-python] [--all] [build-dir])" >&2; exit 2 ;;
     *) build_dir=$arg ;;
   esac
 done
@@ -59,5 +67,8 @@ if [ "$with_test_tools" -eq 1 ]; then
   npm ci --prefix src/penumbra/viewer/e2e --no-audit --no-fund --loglevel=error
 fi
 
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build "$build_dir" -j "$(nproc)"
+# The configuration knows every target (the tests, benchmarks and Python module need only the
+# packages above); the build makes the ones asked for. The library compiles in groups of files
+# (PENUMBRA_UNITY_BUILD): a first build in about half the time (README, "Set-up").
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DPENUMBRA_UNITY_BUILD=ON >/dev/null
+cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}"

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it (README command 2, .ci/run):
-#   1. scripts/setup.sh --with-test-tools: the packages, the test tools, the Release build in
-#      build/, then its test suite;
+#   1. scripts/setup.sh --with-test-tools --all: the packages, the test tools, the Release build
+#      of everything in build/ (the tool, the Python module, the tests and the benchmarks), then
+#      its test suite;
 #   2. a second build in build-san/ with clang: AddressSanitizer and UndefinedBehaviorSanitizer
 #      over everything (-O1) and the libFuzzer targets (fuzz/), then the same test suite under
 #      the sanitizers plus a 60-s run of each fuzzer (CTest label `fuzz`).
 # docs/reliability.md says what each part covers. Stops at the first failure.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh --with-test-tools build
+scripts/setup.sh --with-test-tools --all build
 ctest --test-dir build --output-on-failure -j 2
 CXX=clang++-14 cmake -S . -B build-san -DCMAKE_BUILD_TYPE=Release -DPENUMBRA_SANITIZE=ON -DPENUMBRA_FUZZ=ON \
   -DPENUMBRA_BUILD_BENCH=OFF >/dev/null

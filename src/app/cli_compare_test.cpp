@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 
@@ -63,6 +64,47 @@ TEST_F(CliCompare, CompareWritesThePageJsonCsvAndImages) {
                               path("cache"), path("out2")));
   ASSERT_EQ(again.exit_code, 0) << again.err;
   EXPECT_TRUE(json::parse(slurp(dir_ / "out2" / "results.json"))["ground_truth"]["cached"].get<bool>());
+}
+
+// Issue 32: the cache's images serve any thread count, its times only the thread count (and
+// machine) that measured them. The summary says what each kind of speed-up divides and where
+// that time comes from.
+TEST_F(CliCompare, ACachedReferenceTimeServesOnlyItsOwnThreadCount) {
+  struct Result {
+    std::string summary, html;
+    json results;
+  };
+  const auto compare = [&](int threads, const std::string& out) {
+    CliRun r = run(fmt::format("compare scenes/contact.json --methods hard --resolution 24 --spp 4 --reference-spp 8 "
+                               "--threads {} --cache-dir {} -o {}",
+                               threads, path("cache"), path(out)));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return Result{r.out, slurp(dir_ / out / "index.html"), json::parse(slurp(dir_ / out / "results.json"))};
+  };
+  const auto expect_basis = [](const Result& r, const char* name, const char* text, bool cached) {
+    EXPECT_EQ(r.results["ground_truth"]["cached"].get<bool>(), cached);
+    EXPECT_EQ(r.results["ground_truth"]["time_basis"], name);
+    EXPECT_EQ(r.results["speedup_basis_time"], name);
+    EXPECT_TRUE(std::isfinite(r.results["methods"][0]["speedup"].get<double>()));
+    for (const json& rung : r.results["reference_ladder"]["rungs"]) EXPECT_EQ(rung["time_basis"], name);
+    EXPECT_NE(r.summary.find(fmt::format("speed-up over the ground truth's render at 8 light samples (time {})", text)),
+              std::string::npos)
+        << r.summary;
+    EXPECT_NE(r.summary.find(fmt::format("light samples (times {})", text)), std::string::npos) << r.summary;
+    EXPECT_NE(r.html.find(fmt::format("Reference time: {}.", text)), std::string::npos);
+    EXPECT_NE(r.html.find(fmt::format("Reference times: {}.", text)), std::string::npos);
+  };
+  const char* now = "measured now";
+  const char* here = "from the cache, same machine and threads";
+  expect_basis(compare(2, "a"), "measured", now, false);
+  expect_basis(compare(2, "b"), "cached_here", here, true);
+  // Another thread count: the images from the cache, the times measured again...
+  const Result c = compare(1, "c");
+  expect_basis(c, "measured", now, true);
+  for (const json& rung : c.results["reference_ladder"]["rungs"]) EXPECT_TRUE(rung["cached"].get<bool>());
+  // ... and kept beside the first: both thread counts now find their own.
+  expect_basis(compare(1, "d"), "cached_here", here, true);
+  expect_basis(compare(2, "e"), "cached_here", here, true);
 }
 
 TEST_F(CliCompare, TwoComparesSharingOneCacheAtOnceBothSucceed) {

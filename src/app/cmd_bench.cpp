@@ -86,7 +86,7 @@ int run_bench_cli(const BenchCliOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("bench", 70, [](CLI::App& app) {
+const CommandRegistration bench_command("bench", 70, [](CLI::App& app) {
   auto o = std::make_shared<BenchCliOptions>();
   CLI::App* cmd = app.add_subcommand("bench", "performance suite: every method on the scene suite, as a ratio to reference");
   cmd->add_option("--suite", o->suite, "quick (128^2, 16 spp, 3 runs), full (512^2, 256 spp, 5 runs), gpu (every GPU method "

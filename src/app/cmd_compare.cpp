@@ -84,6 +84,11 @@ void print_summary(const Comparison& c) {
     }
     std::printf("\n");
   }
+  // What the speed-ups divide, and whether its time was measured now (issue 32).
+  if (const std::string basis = speedup_basis_text(c); !basis.empty()) std::printf("speed-up over %s\n", basis.c_str());
+  if (c.has_ladder && !c.ladder.rungs.empty())
+    std::printf("eq-speedup over the reference ladder at 1-%d light samples (times %s)\n",
+                c.ladder.rungs.back().light_samples, ladder_time_basis_text(c.ladder).c_str());
 }
 
 int run_compare(const CompareCliOptions& o) {
@@ -156,7 +161,7 @@ int run_compare(const CompareCliOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("compare", 50, [](CLI::App& app) {
+const CommandRegistration compare_command("compare", 50, [](CLI::App& app) {
   auto o = std::make_shared<CompareCliOptions>();
   CLI::App* cmd = app.add_subcommand("compare", "every method against the ground truth: an HTML page, JSON and CSV");
   cmd->add_option("scene", o->scene, "scene file (JSON)")->required();

@@ -35,7 +35,7 @@ int run_devices(bool json) {
   return 0;
 }
 
-const CommandRegistration registration("devices", 25, [](CLI::App& app) {
+const CommandRegistration devices_command("devices", 25, [](CLI::App& app) {
   auto json = std::make_shared<bool>(false);
   CLI::App* cmd = app.add_subcommand("devices", "list the Vulkan devices --device gpu:N can name");
   cmd->add_flag("--json", *json, "machine-readable output");

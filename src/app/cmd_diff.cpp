@@ -86,7 +86,7 @@ int run_diff(const DiffOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("diff", 40, [](CLI::App& app) {
+const CommandRegistration diff_command("diff", 40, [](CLI::App& app) {
   auto o = std::make_shared<DiffOptions>();
   CLI::App* cmd = app.add_subcommand("diff", "error of image A against reference B (MAE, RMSE, PSNR, max, FLIP)");
   cmd->add_option("a", o->a, "test image (.exr, .png)")->required();

@@ -60,7 +60,7 @@ int run_methods(const std::string& name, bool json) {
   return 0;
 }
 
-const CommandRegistration registration("methods", 20, [](CLI::App& app) {
+const CommandRegistration methods_command("methods", 20, [](CLI::App& app) {
   auto name = std::make_shared<std::string>();
   auto json = std::make_shared<bool>(false);
   CLI::App* cmd = app.add_subcommand("methods", "list the shadow methods and their parameters");

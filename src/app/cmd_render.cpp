@@ -261,7 +261,7 @@ int run_render(const RenderOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("render", 10, [](CLI::App& app) {
+const CommandRegistration render_command("render", 10, [](CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
   CLI::App* cmd = app.add_subcommand("render", "render a scene with one shadow method");
   cmd->add_option("scene", o->scene, "scene file (JSON)")->required();

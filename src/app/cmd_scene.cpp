@@ -34,7 +34,7 @@ int run_scene(const SceneOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("scene", 30, [](CLI::App& app) {
+const CommandRegistration scene_command("scene", 30, [](CLI::App& app) {
   auto o = std::make_shared<SceneOptions>();
   CLI::App* cmd = app.add_subcommand("scene", "write a ready scene file around a procedural generator");
   cmd->add_option("name", o->name, "generator: plant, furball, knot");

@@ -136,7 +136,7 @@ int run_sweep_cli(const SweepCliOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("sweep", 60, [](CLI::App& app) {
+const CommandRegistration sweep_command("sweep", 60, [](CLI::App& app) {
   auto o = std::make_shared<SweepCliOptions>();
   CLI::App* cmd = app.add_subcommand("sweep", "vary one setting over a list of values: CSV and SVG plots of error and time");
   cmd->add_option("scene", o->scene, "scene file (JSON)")->required();

@@ -1,4 +1,4 @@
-// penumbra view SCENE [--port N] [--bind ADDR] [--no-browser]: the interactive viewer
+// penumbra view SCENE [--port N] [--bind ADDR] [--no-browser] [--resolution N|WxH]: the interactive viewer
 // (docs/viewer.md). Serves until Ctrl-C.
 #include <spawn.h>
 #include <sys/wait.h>
@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "app/command.h"
+#include "app/common.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/render/map_cache.h"
@@ -30,6 +31,7 @@ struct ViewOptions {
   int threads = 0;
   int idle_ms = 300;
   std::string map_cache;
+  std::string resolution;
 };
 
 // Opens `url` with $BROWSER or xdg-open, without a shell; a failure is a note, not an error
@@ -50,6 +52,11 @@ void open_browser(const std::string& url) {
 int run_view(const ViewOptions& o) {
   ThreadLimit limit(o.threads);
   nlohmann::json doc = read_json_file(o.scene);
+  // As the scene's own camera.resolution: the view, its frames and a saved scene file have it.
+  if (!o.resolution.empty() && doc.is_object() && doc.contains("camera") && doc["camera"].is_object()) {
+    const auto [w, h] = resolution_option(o.resolution);
+    doc["camera"]["resolution"] = {w, h};
+  }
   Scene scene = parse_scene(doc, o.scene);
   viewer::SessionOptions session_options;
   session_options.idle_ms = o.idle_ms;
@@ -76,7 +83,7 @@ int run_view(const ViewOptions& o) {
   return 0;
 }
 
-const CommandRegistration registration("view", 35, [](CLI::App& app) {
+const CommandRegistration view_command("view", 35, [](CLI::App& app) {
   auto o = std::make_shared<ViewOptions>();
   CLI::App* cmd = app.add_subcommand(
       "view", "interactive viewer in the browser: preview while moving, refine when still (docs/viewer.md)");
@@ -90,6 +97,7 @@ const CommandRegistration registration("view", 35, [](CLI::App& app) {
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
   cmd->add_option("--map-cache", o->map_cache,
                   "keep lam's maps in this folder between sessions (created if needed; docs/animation.md)");
+  cmd->add_option("--resolution", o->resolution, "image size N or WxH (overrides the scene's camera)");
   cmd->add_option("--idle-ms", o->idle_ms, "how long the view must be still before the final method refines")
       ->capture_default_str()->check(CLI::Range(0, 60000));
   return [o] { return run_view(*o); };

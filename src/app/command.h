@@ -1,5 +1,7 @@
 // Subcommands of the `penumbra` tool register themselves from their own source file
-// (cmd_render.cpp, cmd_compare.cpp, ...), so adding one touches no shared file.
+// (cmd_render.cpp, cmd_compare.cpp, ...), so adding one touches no shared file. Each
+// registration object is named after its command (`const CommandRegistration render_command`):
+// the unity build (PENUMBRA_UNITY_BUILD) compiles several command files as one.
 #pragma once
 
 #include <functional>

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iterator>
 #include <regex>
+#include <tuple>
 
 #include <unistd.h>
 
@@ -17,10 +18,15 @@ namespace penumbra::app {
 
 namespace fs = std::filesystem;
 
-void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples) {
-  if (!resolution.empty() &&
-      !parse_resolution(resolution, &scene.camera.width, &scene.camera.height))
+std::pair<int, int> resolution_option(const std::string& resolution) {
+  int w = 0, h = 0;
+  if (!parse_resolution(resolution, &w, &h))
     throw Error("--resolution {}: expected N or WxH with sides in [1, 16384], e.g. 256 or 512x384", resolution);
+  return {w, h};
+}
+
+void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples) {
+  if (!resolution.empty()) std::tie(scene.camera.width, scene.camera.height) = resolution_option(resolution);
   if (pixel_samples > 0) scene.camera.samples_per_pixel = pixel_samples;
 }
 
@@ -85,17 +91,23 @@ namespace {
 // $PENUMBRA_PYTHONPATH, else what CMake built (the build tree's python/ folder while it
 // exists, else the installed package's folder).
 std::pair<std::string, std::string> python_and_path() {
+  std::string python, path, missing;
 #ifdef PENUMBRA_PYTHON_EXECUTABLE
-  std::string python = PENUMBRA_PYTHON_EXECUTABLE, path = PENUMBRA_PYTHON_BUILD_DIR;
-  if (!fs::exists(fs::path(path) / "penumbra" / "distributed.py")) path = PENUMBRA_PYTHON_INSTALL_PATH;
-#else
-  std::string python, path;
+  python = PENUMBRA_PYTHON_EXECUTABLE;
+  path = fs::exists(fs::path(PENUMBRA_PYTHON_BUILD_DIR) / "penumbra" / "distributed.py") ? PENUMBRA_PYTHON_BUILD_DIR
+                                                                                         : PENUMBRA_PYTHON_INSTALL_PATH;
+  // README command 1 builds the tool alone.
+  missing = fmt::format("neither built in {} (scripts/setup.sh --with-python builds it) nor installed in {}",
+                        PENUMBRA_PYTHON_BUILD_DIR, PENUMBRA_PYTHON_INSTALL_PATH);
 #endif
   if (const char* p = std::getenv("PENUMBRA_PYTHON"); p && *p) python = p;
-  if (const char* p = std::getenv("PENUMBRA_PYTHONPATH"); p && *p) path = p;
+  const char* env_path = std::getenv("PENUMBRA_PYTHONPATH");
+  if (env_path && *env_path) path = env_path;
   if (python.empty())
     throw Error("--dask: this penumbra was built without its Python module (cmake -DPENUMBRA_BUILD_PYTHON=ON), "
                 "or set PENUMBRA_PYTHON and PENUMBRA_PYTHONPATH");
+  if (!missing.empty() && !(env_path && *env_path) && !fs::exists(fs::path(path) / "penumbra" / "distributed.py"))
+    throw Error("--dask: penumbra's Python module is {}; or set PENUMBRA_PYTHONPATH", missing);
   return {python, path};
 }
 

@@ -3,6 +3,7 @@
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -14,6 +15,8 @@ namespace penumbra::app {
 
 // --resolution N or WxH and --pixel-samples N applied to the scene's camera (0/empty: keep).
 void apply_camera_overrides(Scene& scene, const std::string& resolution, int pixel_samples);
+// --resolution's value (N or WxH) as width and height; a bad value is a one-line error.
+std::pair<int, int> resolution_option(const std::string& resolution);
 // Checks an output path before any work: a known extension and an existing folder.
 void check_output_path(const std::string& path, const std::vector<std::string>& extensions);
 // "--memory-limit" values: bytes, or a number with K, M, G or T (binary units: 8G = 8 GiB).

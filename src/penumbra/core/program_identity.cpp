@@ -1,8 +1,13 @@
 #include "penumbra/core/program_identity.h"
 
 #include <dlfcn.h>
+#include <unistd.h>
 
+#include <fstream>
 #include <system_error>
+#include <thread>
+
+#include <fmt/format.h>
 
 namespace penumbra {
 
@@ -30,6 +35,24 @@ json program_identity() {
   fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   if (ec) return json("unknown");
   return file_identity(exe);
+}
+
+std::string cpu_model() {
+  std::ifstream f("/proc/cpuinfo");
+  for (std::string line; std::getline(f, line);) {
+    if (line.rfind("model name", 0) != 0) continue;
+    const size_t colon = line.find(':');
+    const size_t start = colon == std::string::npos ? colon : line.find_first_not_of(" \t", colon + 1);
+    if (start != std::string::npos) return line.substr(start);
+  }
+  return "unknown";
+}
+
+std::string machine_identity() {
+  char host[256] = {};
+  if (::gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+  return fmt::format("{} / {} / {} logical cores", *host ? host : "unknown host", cpu_model(),
+                     std::thread::hardware_concurrency());
 }
 
 }  // namespace penumbra

@@ -4,7 +4,6 @@
 #include <cctype>
 #include <cmath>
 #include <ctime>
-#include <fstream>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -12,10 +11,11 @@
 
 #include <fmt/format.h>
 #include <sys/resource.h>
-#include <tbb/global_control.h>
 
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/program_identity.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/eval/report_util.h"
@@ -49,15 +49,7 @@ std::string local_time_iso() {
 }
 
 json machine_json() {
-  std::string cpu = "unknown";
-  std::ifstream f("/proc/cpuinfo");
-  for (std::string line; std::getline(f, line);) {
-    if (line.rfind("model name", 0) == 0) {
-      auto colon = line.find(':');
-      if (colon != std::string::npos) cpu = line.substr(line.find_first_not_of(" \t", colon + 1));
-      break;
-    }
-  }
+  const std::string cpu = cpu_model();
 #ifdef NDEBUG
   const char* build = "Release (NDEBUG)";
 #else
@@ -65,7 +57,7 @@ json machine_json() {
 #endif
   return {{"cpu", cpu},
           {"logical_cores", std::thread::hardware_concurrency()},
-          {"threads", tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)},
+          {"threads", max_threads()},
           {"compiler", fmt::format("g++ {}", __VERSION__)},
           {"build", build}};
 }
@@ -286,11 +278,18 @@ void apply_ladder(Comparison& c, ReferenceLadder ladder) {
   }
 }
 
+bool speedups_over_ground_truth(const Comparison& c) {
+  for (const MethodRun& r : c.runs)
+    if (r.method == "reference" && r.ok) return false;
+  return true;
+}
+
 void apply_speedups(Comparison& c) {
   // Against the reference method at the same spp when it was compared, else against the
   // ground truth's own render.
   c.speedup_basis.clear();
   c.speedup_basis_ms = 0;
+  c.speedup_time_basis = TimeBasis::kMeasuredNow;
   for (const MethodRun& r : c.runs)
     if (r.method == "reference" && r.ok) {
       c.speedup_basis = "reference";
@@ -302,9 +301,33 @@ void apply_speedups(Comparison& c) {
       compose = c.truth.stats["phases_ms"]["compose"].get<double>();
     c.speedup_basis = "ground truth";
     c.speedup_basis_ms = std::max(0.0, c.truth.total_ms - c.truth.camera_pass_ms - compose);
+    c.speedup_time_basis = c.truth.time_basis;
   }
+  // Another machine's or thread count's time divided by this run's would mislead.
+  if (c.speedup_time_basis == TimeBasis::kCachedElsewhere) return;
   for (MethodRun& r : c.runs)
     if (r.ok && !c.speedup_basis.empty() && r.times.shadow_ms > 0) r.speedup = c.speedup_basis_ms / r.times.shadow_ms;
+}
+
+std::string speedup_basis_text(const Comparison& c) {
+  if (c.speedup_basis.empty()) return "";
+  const std::string what = c.speedup_basis == "reference"
+                               ? fmt::format("reference at {} light samples in this run", c.light_samples)
+                               : fmt::format("the ground truth's render at {} light samples", c.truth.light_samples);
+  return fmt::format("{} (time {}{})", what, time_basis_text(c.speedup_time_basis),
+                     c.speedup_time_basis == TimeBasis::kCachedElsewhere ? ": no speed-ups" : "");
+}
+
+std::string ladder_time_basis_text(const ReferenceLadder& ladder) {
+  std::vector<std::pair<TimeBasis, std::string>> groups;  // in the order of the rungs
+  for (const LadderRung& r : ladder.rungs) {
+    if (groups.empty() || groups.back().first != r.time_basis) groups.emplace_back(r.time_basis, "");
+    groups.back().second += (groups.back().second.empty() ? "" : ", ") + std::to_string(r.light_samples);
+  }
+  if (groups.size() == 1) return time_basis_text(groups[0].first);
+  std::string out;
+  for (const auto& [basis, spp] : groups) out += fmt::format("{}{} spp {}", out.empty() ? "" : "; ", spp, time_basis_text(basis));
+  return out;
 }
 
 Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) {
@@ -352,6 +375,13 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
 
   if (std::optional<ReferenceLadder> ladder = comparison_ladder(c, setup, scene, options, bar))
     apply_ladder(c, std::move(*ladder));
+  if (c.has_ground_truth && speedups_over_ground_truth(c) && c.truth.time_basis == TimeBasis::kCachedElsewhere) {
+    // The speed-ups divide the ground truth's time: it must be this machine's, at these threads.
+    bar->set_total(bar->total() + per_render);
+    budget.begin("compare: timing the ground truth on this machine", per_render);
+    time_ground_truth(c.truth, setup, scene, options.cache_dir, bar);
+    budget.end();
+  }
   own.finish();
   apply_speedups(c);
   c.wall_ms = wall.elapsed_ms();
@@ -488,9 +518,16 @@ MethodRun method_run_from_json(const json& m) {
 }
 
 json ground_truth_json(const GroundTruth& t) {
-  return {{"method", "reference"}, {"spp", t.light_samples}, {"seed", t.seed},
-          {"params", t.params},    {"total_ms", t.total_ms}, {"camera_pass_ms", t.camera_pass_ms},
-          {"stats", t.stats},      {"cached", t.from_cache}, {"cache_key", t.key}};
+  return {{"method", "reference"},
+          {"spp", t.light_samples},
+          {"seed", t.seed},
+          {"params", t.params},
+          {"total_ms", t.total_ms},
+          {"camera_pass_ms", t.camera_pass_ms},
+          {"time_basis", time_basis_name(t.time_basis)},
+          {"stats", t.stats},
+          {"cached", t.from_cache},
+          {"cache_key", t.key}};
 }
 
 GroundTruth ground_truth_from_json(const json& j) {
@@ -502,6 +539,7 @@ GroundTruth ground_truth_from_json(const json& j) {
   t.camera_pass_ms = j.at("camera_pass_ms").get<double>();
   t.stats = j.at("stats");
   t.from_cache = j.at("cached").get<bool>();
+  t.time_basis = time_basis_from_name(j.value("time_basis", t.from_cache ? "cached_elsewhere" : "measured"));
   t.key = j.at("cache_key").get<std::string>();
   return t;
 }
@@ -516,6 +554,7 @@ json reference_ladder_json(const ReferenceLadder& ladder) {
                      {"total_ms", r.total_ms},
                      {"camera_pass_ms", r.camera_pass_ms},
                      {"run_shadow_ms", r.run_shadow_ms},
+                     {"time_basis", time_basis_name(r.time_basis)},
                      {"cached", r.from_cache},
                      {"cache_key", r.key}});
   return {{"method", "reference"},
@@ -541,6 +580,7 @@ ReferenceLadder reference_ladder_from_json(const json& j) {
     rung.camera_pass_ms = r.at("camera_pass_ms").get<double>();
     rung.run_shadow_ms = r.at("run_shadow_ms").get<std::vector<double>>();
     rung.from_cache = r.at("cached").get<bool>();
+    rung.time_basis = time_basis_from_name(r.value("time_basis", rung.from_cache ? "cached_elsewhere" : "measured"));
     rung.key = r.at("cache_key").get<std::string>();
     ladder.rungs.push_back(std::move(rung));
   }
@@ -627,6 +667,7 @@ json comparison_json(const Comparison& c) {
             {"params", c.params},
             {"speedup_basis", c.speedup_basis},
             {"speedup_basis_ms", c.speedup_basis_ms},
+            {"speedup_basis_time", time_basis_name(c.speedup_time_basis)},
             {"machine", c.machine},
             {"started", c.started},
             {"wall_ms", c.wall_ms},
@@ -653,6 +694,7 @@ Comparison comparison_from_json(const json& j) {
   c.params = j.at("params").get<std::vector<std::string>>();
   c.speedup_basis = j.at("speedup_basis").get<std::string>();
   c.speedup_basis_ms = j.at("speedup_basis_ms").get<double>();
+  c.speedup_time_basis = time_basis_from_name(j.value("speedup_basis_time", "measured"));
   c.machine = j.at("machine");
   c.started = j.at("started").get<std::string>();
   c.wall_ms = j.at("wall_ms").get<double>();

@@ -120,6 +120,10 @@ struct Comparison {
   // "ground truth" (the ground truth's render, when `reference` is not compared).
   std::string speedup_basis;
   double speedup_basis_ms = 0;
+  // Where speedup_basis_ms comes from (issue 32): measured now, or from the cache where this
+  // machine measured it with this thread count. A time from another machine or thread count
+  // (kCachedElsewhere) is no basis: the speed-ups are then left out.
+  TimeBasis speedup_time_basis = TimeBasis::kMeasuredNow;
   nlohmann::json machine;       // machine_json()
   std::string started;          // local time, ISO 8601
   double wall_ms = 0;
@@ -152,8 +156,20 @@ std::optional<ReferenceLadder> comparison_ladder(const Comparison& c, const RunS
                                                  const CompareOptions& options, Progress* progress = nullptr);
 // Sets c's ladder and every method's equal-quality points on it.
 void apply_ladder(Comparison& c, ReferenceLadder ladder);
-// Every method's speedup: against `reference` when it was compared, else the ground truth's render.
+// Every method's speedup: against `reference` when it was compared, else the ground truth's
+// render, whose time must be this machine's at this thread count (time_ground_truth): a time
+// from elsewhere gives no speed-ups.
 void apply_speedups(Comparison& c);
+// Whether the speed-ups divide the ground truth's time: no `reference` among c's methods ran.
+bool speedups_over_ground_truth(const Comparison& c);
+// The basis of each kind of speed-up in words, for the terminal and the page: "reference at
+// 256 light samples in this run (time measured now)", "the ground truth's render at 1024 light
+// samples (time from the cache, same machine and threads)"; empty without speed-ups.
+std::string speedup_basis_text(const Comparison& c);
+// Where the ladder's times come from: "measured now", "from the cache, same machine and
+// threads", or per group of rungs ("1, 2, 4 spp from the cache, same machine and threads; 8 spp
+// measured now").
+std::string ladder_time_basis_text(const ReferenceLadder& ladder);
 // The render settings of one --methods entry: its method, parameters, light samples and seed.
 RenderSettings method_render_settings(const RunSetup& setup, const std::string& label);
 // A render's shadow time: total - camera pass - compose (the method's prepare + evaluate).

@@ -10,6 +10,7 @@
 #include <regex>
 
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/eval/metrics.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/testing/compare_fixture.h"
@@ -301,6 +302,72 @@ TEST(Comparison, SpeedupAgainstTheGroundTruthWithoutTheReferenceMethod) {
   EXPECT_EQ(c.speedup_basis, "ground truth");
   EXPECT_GT(c.speedup_basis_ms, 0);
   EXPECT_TRUE(std::isfinite(c.runs[0].speedup));
+}
+
+// Issue 32: a cached time is a speed-up's basis only where this machine measured it with this
+// thread count. Entries whose times another machine measured (their records renamed here) are
+// timed again, their images and errors still from the cache; the entry then keeps both
+// records. And a time from elsewhere that reaches apply_speedups (a cluster's job that did not
+// time it) gives no speed-ups.
+TEST(Comparison, ACachedTimeFromAnotherMachineIsTimedAgain) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"hard"};
+  o.cache_dir = dir / "cache";
+  const RunSetup setup = tiny_contact_setup();
+  ThreadLimit limit(1);
+  const Comparison first = run_comparison(setup, o);
+  ASSERT_TRUE(first.has_ladder);
+  EXPECT_EQ(first.truth.time_basis, TimeBasis::kMeasuredNow);
+  const Comparison second = run_comparison(setup, o);
+  EXPECT_EQ(second.truth.time_basis, TimeBasis::kCachedHere);
+  EXPECT_EQ(second.truth.total_ms, first.truth.total_ms);
+  EXPECT_EQ(second.speedup_time_basis, TimeBasis::kCachedHere);
+  for (const LadderRung& r : second.ladder.rungs) {
+    EXPECT_TRUE(r.from_cache);
+    EXPECT_EQ(r.time_basis, TimeBasis::kCachedHere);
+  }
+  EXPECT_EQ(ladder_time_basis_text(second.ladder), "from the cache, same machine and threads");
+
+  // Every record of the cache now says another machine measured it.
+  for (const auto& e : std::filesystem::directory_iterator(o.cache_dir)) {
+    if (e.path().extension() != ".json") continue;
+    json entry = json::parse(slurp(e.path()));
+    ASSERT_EQ(entry["timings"].size(), 1u) << e.path();
+    entry["timings"][0]["machine"] = "elsewhere / another CPU / 64 logical cores";
+    write_text_file_atomic(e.path(), entry.dump());
+  }
+  const Comparison third = run_comparison(setup, o);
+  EXPECT_TRUE(third.truth.from_cache);
+  EXPECT_EQ(third.truth.visibility.data(), first.truth.visibility.data());
+  EXPECT_EQ(third.truth.time_basis, TimeBasis::kMeasuredNow);
+  EXPECT_EQ(third.speedup_time_basis, TimeBasis::kMeasuredNow);
+  EXPECT_TRUE(std::isfinite(third.runs[0].speedup));
+  ASSERT_EQ(third.ladder.rungs.size(), second.ladder.rungs.size());
+  for (size_t k = 0; k < third.ladder.rungs.size(); ++k) {
+    EXPECT_TRUE(third.ladder.rungs[k].from_cache);
+    EXPECT_EQ(third.ladder.rungs[k].time_basis, TimeBasis::kMeasuredNow);
+    EXPECT_EQ(third.ladder.rungs[k].v_mae, second.ladder.rungs[k].v_mae);  // the cached errors
+  }
+  EXPECT_NE(speedup_basis_text(third).find("(time measured now)"), std::string::npos) << speedup_basis_text(third);
+  for (const auto& e : std::filesystem::directory_iterator(o.cache_dir))
+    if (e.path().extension() == ".json")
+      EXPECT_EQ(json::parse(slurp(e.path()))["timings"].size(), 2u) << e.path();
+  EXPECT_EQ(run_comparison(setup, o).truth.time_basis, TimeBasis::kCachedHere);
+
+  Comparison elsewhere = second;
+  elsewhere.truth.time_basis = TimeBasis::kCachedElsewhere;
+  for (MethodRun& r : elsewhere.runs) r.speedup = std::nan("");
+  apply_speedups(elsewhere);
+  EXPECT_EQ(elsewhere.speedup_basis, "ground truth");
+  EXPECT_TRUE(std::isnan(elsewhere.runs[0].speedup));
+  EXPECT_NE(speedup_basis_text(elsewhere).find("another machine or thread count: no speed-ups"), std::string::npos);
+  EXPECT_NE(comparison_html(elsewhere).find("so no speed-ups are given"), std::string::npos);
+  // results.json carries the bases back.
+  const Comparison back = comparison_from_json(comparison_json(third));
+  EXPECT_EQ(back.truth.time_basis, TimeBasis::kMeasuredNow);
+  EXPECT_EQ(back.ladder.rungs[0].time_basis, TimeBasis::kMeasuredNow);
+  EXPECT_EQ(comparison_from_json(comparison_json(second)).speedup_time_basis, TimeBasis::kCachedHere);
 }
 
 // --- results.json against the page's table

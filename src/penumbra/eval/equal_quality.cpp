@@ -18,20 +18,40 @@ using nlohmann::json;
 
 namespace {
 
+// A rung's times, as a cache entry's "timings" keep them.
+json rung_times_json(const LadderRung& r) {
+  return {{"shadow_ms", r.shadow_ms},
+          {"total_ms", r.total_ms},
+          {"camera_pass_ms", r.camera_pass_ms},
+          {"run_shadow_ms", r.run_shadow_ms}};
+}
+
+// A cached rung: its errors, and the times this machine measured with these threads, else the
+// newest record's (kCachedElsewhere). Throws on a damaged entry.
 LadderRung rung_from_json(const json& e) {
   LadderRung r;
   r.light_samples = e.at("spp").get<int>();
   r.v_mae = e.at("v_mae").is_number() ? e["v_mae"].get<double>() : std::nan("");
   r.flip = e.at("flip").is_number() ? e["flip"].get<double>() : std::nan("");
-  r.shadow_ms = e.at("shadow_ms").get<double>();
-  r.total_ms = e.at("total_ms").get<double>();
-  r.camera_pass_ms = e.at("camera_pass_ms").get<double>();
-  r.run_shadow_ms = e.at("run_shadow_ms").get<std::vector<double>>();
+  json t = find_timing(e, current_timing_origin());
+  r.time_basis = TimeBasis::kCachedHere;
+  if (t.is_null()) {
+    t = e.at("timings").at(e.at("timings").size() - 1);
+    r.time_basis = TimeBasis::kCachedElsewhere;
+  }
+  r.shadow_ms = t.at("shadow_ms").get<double>();
+  r.total_ms = t.at("total_ms").get<double>();
+  r.camera_pass_ms = t.at("camera_pass_ms").get<double>();
+  r.run_shadow_ms = t.at("run_shadow_ms").get<std::vector<double>>();
+  r.from_cache = true;
   return r;
 }
 
+// The rung at `samples` rendered warmup_runs + runs times: its times, and its errors against
+// `truth` (from the first render) when `measure` (a re-timing of a cached rung keeps the
+// cached errors, the same numbers).
 LadderRung render_rung(const RunSetup& setup, const Scene& scene, const GroundTruth& truth, int samples, int runs,
-                       int warmup_runs, Progress* progress) {
+                       int warmup_runs, Progress* progress, bool measure = true) {
   RenderSettings settings;
   settings.method = "reference";
   // The ground truth's own parameters: the ladder is the ground truth at fewer samples.
@@ -45,7 +65,7 @@ LadderRung render_rung(const RunSetup& setup, const Scene& scene, const GroundTr
   const int renders = std::max(0, warmup_runs) + std::max(1, runs);
   for (int i = 0; i < renders; ++i) {
     RenderResult r = render_scene(scene, settings);
-    if (i == 0) {
+    if (i == 0 && measure) {
       rung.v_mae = compare_images(r.visibility, truth.visibility).mae;
       rung.flip = flip(r.color, truth.color).mean;
     }
@@ -87,29 +107,36 @@ ReferenceLadder render_reference_ladder(const RunSetup& setup, const Scene& scen
         loaded = false;  // damaged: rendered again below
       }
     }
-    if (loaded) {
-      rung.from_cache = true;
-    } else {
+    if (!loaded || rung.time_basis == TimeBasis::kCachedElsewhere) {
       if (progress) {
         // Rungs are rendered as far as needed: their units join the bar as they start.
         const uint64_t units = static_cast<uint64_t>(scene.camera.width) * scene.camera.height *
                                std::max(1, scene.camera.samples_per_pixel) * std::max<size_t>(1, scene.lights.size()) *
                                (std::max(0, warmup_runs) + std::max(1, runs));
         progress->set_total(progress->total() + units);
-        progress->set_label(fmt::format("compare: reference ladder, {} light samples", n));
+        progress->set_label(fmt::format("compare: reference ladder, {} light samples{}", n,
+                                        loaded ? " (timing it on this machine)" : ""));
       }
-      rung = render_rung(setup, scene, truth, n, runs, warmup_runs, progress);
-      store_ladder_rung(cache_dir, key,
-                        {{"spp", n},
-                         {"seed", ladder.seed},
-                         {"v_mae", json_number(rung.v_mae)},
-                         {"flip", json_number(rung.flip)},
-                         {"shadow_ms", rung.shadow_ms},
-                         {"total_ms", rung.total_ms},
-                         {"camera_pass_ms", rung.camera_pass_ms},
-                         {"run_shadow_ms", rung.run_shadow_ms},
-                         {"ground_truth_key", truth.key},
-                         {"scene", setup.scene_path.string()}});
+      const LadderRung fresh = render_rung(setup, scene, truth, n, runs, warmup_runs, progress, /*measure=*/!loaded);
+      json entry = cached;
+      if (loaded) {
+        // Only the times are new: the errors (and the images they come from) are the cached ones.
+        rung.shadow_ms = fresh.shadow_ms;
+        rung.total_ms = fresh.total_ms;
+        rung.camera_pass_ms = fresh.camera_pass_ms;
+        rung.run_shadow_ms = fresh.run_shadow_ms;
+      } else {
+        rung = fresh;
+        entry = {{"spp", n},
+                 {"seed", ladder.seed},
+                 {"v_mae", json_number(rung.v_mae)},
+                 {"flip", json_number(rung.flip)},
+                 {"ground_truth_key", truth.key},
+                 {"scene", setup.scene_path.string()}};
+      }
+      rung.time_basis = TimeBasis::kMeasuredNow;
+      put_timing(entry, current_timing_origin(), rung_times_json(rung));
+      store_ladder_rung(cache_dir, key, entry);
     }
     rung.key = key;
     ladder.rungs.push_back(rung);

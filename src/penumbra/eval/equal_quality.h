@@ -26,8 +26,9 @@ struct LadderRung {
   double flip = std::numeric_limits<double>::quiet_NaN();   // mean FLIP of the colour image
   double shadow_ms = 0;                 // total - camera pass - compose, median of the runs
   double total_ms = 0, camera_pass_ms = 0;
-  std::vector<double> run_shadow_ms;    // every timed run (of the render that made the entry)
-  bool from_cache = false;
+  std::vector<double> run_shadow_ms;    // every timed run (of the render that timed it)
+  bool from_cache = false;              // its errors came from the cache
+  TimeBasis time_basis = TimeBasis::kMeasuredNow;  // where its times come from
   std::string key;                      // its cache key
 };
 
@@ -40,7 +41,9 @@ struct ReferenceLadder {
 // Renders (or loads from `cache_dir`) the rungs 1, 2, 4, ... up to the ground truth's light
 // samples, stopping after the first rung whose mean |dV| is at most `target_v` and whose FLIP
 // is at most `target_flip` (the best of the compared methods; NaN: no condition). `runs`
-// timed renders (median) after `warmup_runs` untimed ones per rung rendered.
+// timed renders (median) after `warmup_runs` untimed ones per rung rendered. A cached rung
+// whose times another machine or thread count measured is rendered again for its times alone
+// (issue 32; reference_cache.h, TimingOrigin), which the entry then records beside the others.
 ReferenceLadder render_reference_ladder(const RunSetup& setup, const Scene& scene, const GroundTruth& truth,
                                         double target_v, double target_flip, const std::filesystem::path& cache_dir,
                                         int runs = 1, int warmup_runs = 0, Progress* progress = nullptr);

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
 #include <map>
 #include <system_error>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/hash.h"
 #include "penumbra/core/interrupt.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/core/program_identity.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/render/renderer.h"
@@ -36,6 +38,53 @@ std::string file_checksum(const fs::path& p) {
 }
 
 }  // namespace
+
+TimingOrigin current_timing_origin() { return {machine_identity(), max_threads()}; }
+
+namespace {
+// Each TimeBasis's name in results.json and its words, in the order of the enum.
+struct TimeBasisWords {
+  const char* name;
+  const char* text;
+};
+constexpr TimeBasisWords kTimeBasisWords[] = {
+    {"measured", "measured now"},
+    {"cached_here", "from the cache, same machine and threads"},
+    {"cached_elsewhere", "from the cache, another machine or thread count"}};
+static_assert(std::size(kTimeBasisWords) == static_cast<size_t>(TimeBasis::kCachedElsewhere) + 1);
+}  // namespace
+
+const char* time_basis_text(TimeBasis b) { return kTimeBasisWords[static_cast<int>(b)].text; }
+const char* time_basis_name(TimeBasis b) { return kTimeBasisWords[static_cast<int>(b)].name; }
+
+TimeBasis time_basis_from_name(const std::string& name) {
+  for (size_t b = 0; b < std::size(kTimeBasisWords); ++b)
+    if (name == kTimeBasisWords[b].name) return static_cast<TimeBasis>(b);
+  return TimeBasis::kCachedElsewhere;
+}
+
+namespace {
+bool measured_by(const json& record, const TimingOrigin& origin) {
+  return record.is_object() && record.value("machine", "") == origin.machine &&
+         record.value("threads", -1) == origin.threads;
+}
+}  // namespace
+
+json find_timing(const json& entry, const TimingOrigin& origin) {
+  if (!entry.is_object() || !entry.contains("timings") || !entry["timings"].is_array()) return nullptr;
+  for (const json& t : entry["timings"])
+    if (measured_by(t, origin)) return t;
+  return nullptr;
+}
+
+void put_timing(json& entry, const TimingOrigin& origin, json times) {
+  json& all = entry["timings"];
+  if (!all.is_array()) all = json::array();
+  for (auto it = all.begin(); it != all.end();) it = measured_by(*it, origin) ? all.erase(it) : std::next(it);
+  times["machine"] = origin.machine;
+  times["threads"] = origin.threads;
+  all.push_back(std::move(times));  // the newest last
+}
 
 fs::path default_cache_dir() {
   if (const char* d = std::getenv("PENUMBRA_CACHE_DIR"); d && *d) return fs::path(d);
@@ -82,6 +131,34 @@ CachePaths cache_paths(const fs::path& dir, const std::string& key) {
   return {dir / fmt::format("reference-{}.exr", key), dir / fmt::format("reference-{}.json", key)};
 }
 
+json truth_times_json(const GroundTruth& gt) {
+  return {{"total_ms", gt.total_ms}, {"camera_pass_ms", gt.camera_pass_ms}, {"stats", gt.stats}};
+}
+
+// The entry's times: those this machine measured with this thread count, else the newest
+// record (another machine's or thread count's: kCachedElsewhere). Throws on a damaged entry.
+void read_cached_times(const json& meta, GroundTruth* gt) {
+  json t = find_timing(meta, current_timing_origin());
+  gt->time_basis = TimeBasis::kCachedHere;
+  if (t.is_null()) {
+    t = meta.at("timings").at(meta.at("timings").size() - 1);
+    gt->time_basis = TimeBasis::kCachedElsewhere;
+  }
+  gt->total_ms = t.at("total_ms").get<double>();
+  gt->camera_pass_ms = t.at("camera_pass_ms").get<double>();
+  gt->stats = t.at("stats");
+}
+
+RenderSettings ground_truth_settings(const RunSetup& setup, Progress* progress) {
+  RenderSettings settings;
+  settings.method = "reference";
+  settings.params = setup.overrides_for("reference", /*explicit_only=*/true);
+  settings.light_samples = setup.reference_samples;
+  settings.seed = ground_truth_seed(setup.seed);
+  settings.progress_bar = progress;
+  return settings;
+}
+
 bool load_cached(const fs::path& dir, const std::string& key, int width, int height, GroundTruth* out) {
   CachePaths p = cache_paths(dir, key);
   std::error_code ec;
@@ -100,9 +177,7 @@ bool load_cached(const fs::path& dir, const std::string& key, int width, int hei
     out->light_samples = meta.at("reference_spp").get<int>();
     out->seed = meta.at("seed").get<uint64_t>();
     out->params = meta.at("params");
-    out->total_ms = meta.at("total_ms").get<double>();
-    out->camera_pass_ms = meta.at("camera_pass_ms").get<double>();
-    out->stats = meta.at("stats");
+    read_cached_times(meta, out);
     out->from_cache = true;
     out->key = key;
     out->cache_file = p.exr;
@@ -131,12 +206,7 @@ GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const fs::pa
   gt.key = ground_truth_key(setup, &key_doc);
   if (!cache_dir.empty() && load_cached(cache_dir, gt.key, scene.camera.width, scene.camera.height, &gt)) return gt;
 
-  RenderSettings settings;
-  settings.method = "reference";
-  settings.params = setup.overrides_for("reference", /*explicit_only=*/true);
-  settings.light_samples = setup.reference_samples;
-  settings.seed = ground_truth_seed(setup.seed);
-  settings.progress_bar = progress;
+  const RenderSettings settings = ground_truth_settings(setup, progress);
   RenderResult r = render_scene(scene, settings);
   gt.color = std::move(r.color);
   gt.visibility = std::move(r.visibility);
@@ -146,6 +216,7 @@ GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const fs::pa
   gt.total_ms = r.total_ms;
   gt.camera_pass_ms = r.camera_pass_ms;
   gt.stats = r.stats.to_json();
+  gt.time_basis = TimeBasis::kMeasuredNow;
   gt.from_cache = false;
 
   if (!cache_dir.empty()) {
@@ -157,12 +228,10 @@ GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const fs::pa
                    {"reference_spp", gt.light_samples},
                    {"seed", gt.seed},
                    {"params", gt.params},
-                   {"total_ms", gt.total_ms},
-                   {"camera_pass_ms", gt.camera_pass_ms},
-                   {"stats", gt.stats},
                    {"scene", setup.scene_path.string()},
                    {"exr_checksum", file_checksum(p.exr)},
                    {"key_document", key_doc}};
+      put_timing(meta, current_timing_origin(), truth_times_json(gt));
       write_text_file_atomic(p.meta, meta.dump(1) + "\n");
       gt.cache_file = p.exr;
       prune_cache(cache_dir, uintmax_t(2) << 30);
@@ -174,6 +243,28 @@ GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const fs::pa
     }
   }
   return gt;
+}
+
+void time_ground_truth(GroundTruth& truth, const RunSetup& setup, const Scene& scene, const fs::path& cache_dir,
+                       Progress* progress) {
+  if (truth.time_basis != TimeBasis::kCachedElsewhere) return;
+  const RenderResult r = render_scene(scene, ground_truth_settings(setup, progress));
+  truth.total_ms = r.total_ms;
+  truth.camera_pass_ms = r.camera_pass_ms;
+  truth.stats = r.stats.to_json();
+  truth.time_basis = TimeBasis::kMeasuredNow;
+  if (cache_dir.empty() || !truth.from_cache) return;
+  try {
+    const CachePaths p = cache_paths(cache_dir, truth.key);
+    json meta = json::parse(read_text_file(p.meta));
+    put_timing(meta, current_timing_origin(), truth_times_json(truth));
+    write_text_file_atomic(p.meta, meta.dump(1) + "\n");
+  } catch (const Interrupted&) {
+    throw;  // Ctrl-C ends the run, whatever this step would do with an error
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "penumbra: warning: reference cache %s: the new time not recorded: %s\n",
+                 cache_dir.string().c_str(), e.what());
+  }
 }
 
 uint64_t ladder_seed(uint64_t seed) { return seed ^ 0xd1b54a32d192ed03ull; }

@@ -19,6 +19,39 @@ namespace penumbra {
 
 class Progress;
 
+// Who measured a time (issue 32): the machine (machine_identity(): host, CPU model, logical
+// cores) and the worker threads. The images of the cache do not depend on the thread count
+// (core/parallel.h); their times do. So a cached time is a speed-up's basis only where the same
+// machine and thread count measured it; elsewhere the reference is timed again.
+struct TimingOrigin {
+  std::string machine;
+  int threads = 0;
+  bool operator==(const TimingOrigin&) const = default;
+};
+// This process now: its machine and max_threads().
+TimingOrigin current_timing_origin();
+
+// Where a time of the reference (the ground truth's, a ladder rung's) comes from.
+enum class TimeBasis {
+  kMeasuredNow,      // rendered and timed in this run
+  kCachedHere,       // from the cache, measured on this machine with this thread count
+  kCachedElsewhere,  // from the cache, measured on another machine or with other threads: never
+                     // a speed-up's basis
+};
+// "measured now", "from the cache, same machine and threads", "from the cache, another machine
+// or thread count".
+const char* time_basis_text(TimeBasis b);
+// results.json's names: "measured", "cached_here", "cached_elsewhere" (and back; an unknown name
+// is kCachedElsewhere).
+const char* time_basis_name(TimeBasis b);
+TimeBasis time_basis_from_name(const std::string& name);
+
+// A cache entry keeps its times per origin: "timings", a list of {"machine", "threads", ...}.
+// The record `origin` measured, or null.
+nlohmann::json find_timing(const nlohmann::json& entry, const TimingOrigin& origin);
+// Adds `times` (an object) as `origin`'s record, replacing an older one of the same origin.
+void put_timing(nlohmann::json& entry, const TimingOrigin& origin, nlohmann::json times);
+
 struct GroundTruth {
   Image color;       // linear RGB
   Image visibility;  // V
@@ -28,6 +61,7 @@ struct GroundTruth {
   double total_ms = 0;            // of the render that made it (possibly an earlier run)
   double camera_pass_ms = 0;
   nlohmann::json stats;           // MethodStats::to_json() of that render
+  TimeBasis time_basis = TimeBasis::kMeasuredNow;  // where total_ms and the stats come from
   bool from_cache = false;
   std::string key;                // the cache key (32 hex digits)
   std::filesystem::path cache_file;  // the .exr, when cached or written
@@ -52,6 +86,13 @@ bool ground_truth_cached(const RunSetup& setup, const std::filesystem::path& cac
 // `progress` (optional) is advanced while rendering.
 GroundTruth ground_truth(const RunSetup& setup, const Scene& scene, const std::filesystem::path& cache_dir,
                          Progress* progress = nullptr);
+
+// Makes `truth`'s time one this machine measured with this thread count, for a speed-up over
+// it: a time from the cache that another machine or thread count measured (kCachedElsewhere)
+// is measured again by rendering the ground truth once more (its image is not used: the cached
+// one is the same), and the cache entry records it beside the others. Otherwise nothing.
+void time_ground_truth(GroundTruth& truth, const RunSetup& setup, const Scene& scene,
+                       const std::filesystem::path& cache_dir, Progress* progress = nullptr);
 
 // --- The reference ladder of the equal-quality search (eval/equal_quality.h): the reference
 // at 1, 2, 4, ... light samples measured against the ground truth. Its entries hold numbers

@@ -547,9 +547,10 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
   }
   if (truth) {
     h << "<p class=\"meta\">Ground truth: <b>reference</b> (ray tracing the real geometry) at <b>"
-      << c.truth.light_samples << "</b> light samples (with a seed of its own); rendered in "
-      << format_significant(c.truth.total_ms / 1000.0, 3) << " s"
-      << (c.truth.from_cache ? " (loaded from the reference cache)" : "") << ".</p>\n";
+      << c.truth.light_samples << "</b> light samples (with a seed of its own)"
+      << (c.truth.from_cache ? ", loaded from the reference cache" : "") << "; its render takes "
+      << format_significant(c.truth.total_ms / 1000.0, 3) << " s (time " << time_basis_text(c.truth.time_basis)
+      << ").</p>\n";
   } else {
     h << "<p class=\"meta\">No ground truth (timings only).</p>\n";
   }
@@ -559,7 +560,10 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
               ? std::string("<b>reference</b> method at the same light samples, in this run")
               : std::string("<b>ground-truth</b> render (the reference at ") + std::to_string(c.truth.light_samples) +
                     " light samples)")
-      << " (" << format_significant(c.speedup_basis_ms, 3) << " ms) / the method's shadow time.</p>\n";
+      << " (" << format_significant(c.speedup_basis_ms, 3) << " ms) / the method's shadow time. <span id=\"speedup-basis\">"
+      << "Reference time: " << time_basis_text(c.speedup_time_basis)
+      << (c.speedup_time_basis == TimeBasis::kCachedElsewhere ? ", so no speed-ups are given" : "")
+      << ".</span></p>\n";
   h << "<p class=\"meta\">Machine: " << xml_escape(c.machine.value("cpu", "?")) << ", "
     << c.machine.value("threads", 0) << " threads, " << xml_escape(c.machine.value("compiler", "")) << ", "
     << xml_escape(c.machine.value("build", "")) << ". Started " << xml_escape(c.started) << ", took "
@@ -632,8 +636,6 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
   // --- equal quality: the ladder and the error-time charts
   if (c.has_ladder && !c.ladder.rungs.empty()) {
     const LadderRung& last = c.ladder.rungs.back();
-    bool cached = false;
-    for (const LadderRung& r : c.ladder.rungs) cached = cached || r.from_cache;
     h << "<h2>Equal quality</h2>\n<p class=\"meta\">The <b>reference ladder</b>: the reference at 1, 2, 4, …, "
       << last.light_samples << " light samples (with a seed of its own; rendered as far as the best method needed, at "
       << "most the ground truth's " << c.ladder.max_samples << "), measured against the ground truth like every "
@@ -641,13 +643,14 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
       << "rung at least as good as the method and the one before it bracket it, and the light samples and the "
       << "reference's shadow time are interpolated between them, straight lines in log-log. ≥ N: the method is "
       << "better than every rung; ≤ 1: the reference at one sample is already as good. The speed-up at equal "
-      << "quality is that reference time / the method's shadow time"
-      << (cached ? " (ladder times from the run that rendered them, kept in the reference cache)" : "")
-      << ".</p>\n<table id=\"ladder\"><thead><tr><th>light samples</th><th>mean |ΔV|</th><th>FLIP</th>"
-      << "<th>shadow ms</th></tr></thead>\n<tbody>\n";
+      << "quality is that reference time / the method's shadow time. <span id=\"ladder-basis\">Reference times: "
+      << ladder_time_basis_text(c.ladder) << ".</span>"
+      << "</p>\n<table id=\"ladder\"><thead><tr><th>light samples</th><th>mean |ΔV|</th><th>FLIP</th>"
+      << "<th>shadow ms</th><th>time</th></tr></thead>\n<tbody>\n";
     for (const LadderRung& r : c.ladder.rungs)
       h << "<tr><td>" << r.light_samples << "</td><td>" << format_significant(r.v_mae, 3) << "</td><td>"
-        << format_significant(r.flip, 3) << "</td><td>" << format_significant(r.shadow_ms, 3) << "</td></tr>\n";
+        << format_significant(r.flip, 3) << "</td><td>" << format_significant(r.shadow_ms, 3) << "</td><td>"
+        << time_basis_text(r.time_basis) << "</td></tr>\n";
     h << "</tbody></table>\n";
   }
   // Inline SVG (without its XML declaration): the page stays one file.

@@ -225,8 +225,15 @@ std::vector<SceneObject> import_mesh_parts(const fs::path& path, MeshImportRepor
     obj.name = part.name;
     obj.material = part.material;
     TriangleMesh& mesh = obj.mesh;
-    bool all_normals = true;
-    for (unsigned mi : part.meshes) all_normals = all_normals && scene->mMeshes[mi]->HasNormals();
+    // Texture coordinates (channel 0: OBJ vt, PLY s,t / u,v / texture_u,texture_v, glTF
+    // TEXCOORD_0) are kept for every part whose meshes all have them, textured or not: a scene
+    // file's material may put a texture on a mesh whose file has no material (issue 32: leaf
+    // cards from one tool, the leaf image chosen in the scene). Like normals, all or none.
+    bool all_normals = true, all_uvs = true;
+    for (unsigned mi : part.meshes) {
+      all_normals = all_normals && scene->mMeshes[mi]->HasNormals();
+      all_uvs = all_uvs && scene->mMeshes[mi]->HasTextureCoords(0);
+    }
     for (unsigned mi : part.meshes) {
       const aiMesh* m = scene->mMeshes[mi];
       if (part.textured && !m->HasTextureCoords(0))
@@ -243,7 +250,7 @@ std::vector<SceneObject> import_mesh_parts(const fs::path& path, MeshImportRepor
           // all, decided below for the whole mesh.
           mesh.normals.push_back(Vec3f(n.x, n.y, n.z));
         }
-        if (part.textured) {
+        if (all_uvs) {
           const aiVector3D& t = m->mTextureCoords[0][v];
           if (!std::isfinite(t.x) || !std::isfinite(t.y))
             throw Error("{}: texture coordinates of vertex {} of mesh {} are not finite", name, v, mi);

@@ -21,13 +21,15 @@ struct MeshImportReport {
   size_t degenerate_triangles = 0;
 };
 // The file's meshes as parts (issue 20): the meshes of every plain material (no texture, no
-// alpha) as one part, and one part per textured material, named after it, with its texture
-// coordinates (channel 0), its base-colour texture (sRGB decoded; albedo 1, so the texture
-// shows as it is) and its alpha: OBJ `map_d` is a mask (cutoff 0.5), glTF `alphaMode` MASK or
+// alpha) as one part, and one part per textured material, named after it, with its
+// base-colour texture (sRGB decoded; albedo 1, so the texture shows as it is) and its alpha: OBJ `map_d` is a mask (cutoff 0.5), glTF `alphaMode` MASK or
 // BLEND reads the base colour's alpha, with `alphaCutoff`. Textures are files relative to the
 // mesh file or embedded images (glTF data URIs, GLB). Colours of the file's materials are not
-// read: a scene gives them. Errors also name a missing or unreadable texture, and a textured
-// mesh without texture coordinates.
+// read: a scene gives them. Every part keeps the texture coordinates (channel 0: OBJ `vt`,
+// PLY `s,t`, `u,v` or `texture_u,texture_v`, glTF TEXCOORD_0) when all its meshes have them,
+// so a scene file's material can texture a mesh file without materials; a textured
+// material's part must have them. Errors also name a missing or unreadable texture, and a
+// textured mesh without texture coordinates.
 std::vector<SceneObject> import_mesh_parts(const std::filesystem::path& path, MeshImportReport* report = nullptr);
 // How many times import_mesh_parts (or import_mesh) was called in this process: a scene that
 // places one mesh file many times reads it once (the loader's cache; tested).

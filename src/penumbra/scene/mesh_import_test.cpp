@@ -6,10 +6,12 @@
 #include <cstring>
 #include <fstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/testing.h"
+#include "penumbra/eval/report_util.h"
 
 namespace penumbra {
 namespace {
@@ -334,6 +336,129 @@ TEST(MeshImportTextures, ProjectsGltfLeafCardsAreMaskedTheRightWayUp) {
   EXPECT_EQ(a.opacity({0.82f, 0.7f}), 0.0f);
   EXPECT_EQ(a.opacity({0.5f, 0.5f}), 1.0f);
   EXPECT_EQ(a.opacity({0.02f, 0.02f}), 0.0f);
+}
+
+// Issue 32: texture coordinates come from every format that has them, whether or not the file
+// has a material: a scene file's material may texture the mesh. Each mesh below is the unit
+// square (two triangles) with uv = (x, y) at every corner, written the way other tools write it.
+void expect_uv_is_xy(const TriangleMesh& m, const std::string& what) {
+  SCOPED_TRACE(what);
+  EXPECT_EQ(m.triangle_count(), 2u);
+  ASSERT_EQ(m.uvs.size(), m.positions.size());
+  for (size_t i = 0; i < m.positions.size(); ++i) {
+    EXPECT_NEAR(m.uvs[i].x, m.positions[i].x, 1e-6f) << "vertex " << i;
+    EXPECT_NEAR(m.uvs[i].y, m.positions[i].y, 1e-6f) << "vertex " << i;
+  }
+}
+
+const float kSquare[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+
+// An ASCII PLY square whose vertices carry uv as the properties `u_name` and `v_name`.
+std::string square_ply(const std::string& u_name, const std::string& v_name) {
+  std::string s = fmt::format(
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+      "property float {}\nproperty float {}\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n",
+      u_name, v_name);
+  for (const auto& p : kSquare) s += fmt::format("{} {} 0 {} {}\n", p[0], p[1], p[0], p[1]);
+  return s + "3 0 1 2\n3 0 2 3\n";
+}
+
+// A glTF square per entry of `with_uvs` (one mesh each, side by side along z), with
+// TEXCOORD_0 where true, buffers embedded as data URIs; no material.
+std::string square_gltf(const std::vector<bool>& with_uvs) {
+  std::string bin;
+  auto put = [&](const void* p, size_t n) { bin.append(static_cast<const char*>(p), n); };
+  for (const auto& p : kSquare) put(std::array<float, 3>{p[0], p[1], 0}.data(), 12);  // positions: bytes 0..48
+  for (const auto& p : kSquare) {
+    // glTF's v runs down the image (penumbra's up): the file holds 1 - v.
+    const float uv[2] = {p[0], 1 - p[1]};
+    put(uv, 8);  // bytes 48..80
+  }
+  for (uint16_t i : {0, 1, 2, 0, 2, 3}) put(&i, 2);  // bytes 80..92
+  std::string meshes, nodes, node_list;
+  for (size_t k = 0; k < with_uvs.size(); ++k) {
+    meshes += fmt::format(R"({}{{"primitives": [{{"attributes": {{"POSITION": 0{}}}, "indices": 2}}]}})",
+                          k ? ", " : "", with_uvs[k] ? R"(, "TEXCOORD_0": 1)" : "");
+    nodes += fmt::format(R"({}{{"mesh": {}, "translation": [0, 0, {}]}})", k ? ", " : "", k, k);
+    node_list += fmt::format("{}{}", k ? ", " : "", k);
+  }
+  return fmt::format(
+      R"({{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [{}]}}], "nodes": [{}], "meshes": [{}],
+          "buffers": [{{"uri": "data:application/octet-stream;base64,{}", "byteLength": {}}}],
+          "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 32}},
+                          {{"buffer": 0, "byteOffset": 80, "byteLength": 12}}],
+          "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+                        {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}},
+                        {{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}}]}})",
+      node_list, nodes, meshes, base64_encode(bin), bin.size());
+}
+
+TEST(MeshImportUvs, EveryFormatKeepsItsTextureCoordinatesWithoutAMaterial) {
+  test::TempDir dir("import_uvs");
+  // OBJ: vt lines, no mtllib (the way leaf cards come from a modelling tool without materials).
+  write_text_file_atomic(dir / "card.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                                           "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n");
+  std::vector<SceneObject> parts = import_mesh_parts(dir / "card.obj");
+  ASSERT_EQ(parts.size(), 1u);
+  expect_uv_is_xy(parts[0].mesh, "OBJ vt");
+  EXPECT_FALSE(parts[0].material.albedo_texture);
+  // PLY: the three namings other tools write (Assimp 5.2 reads each as texture coordinates).
+  for (const auto& [u, v] : std::vector<std::pair<std::string, std::string>>{{"s", "t"}, {"u", "v"}, {"texture_u", "texture_v"}}) {
+    const fs::path file = dir / fmt::format("square_{}.ply", u);
+    write_text_file_atomic(file, square_ply(u, v));
+    expect_uv_is_xy(import_mesh(file), "PLY " + u + "," + v);
+  }
+  // Binary big-endian PLY with double s,t, and MeshLab's per-face `texcoord` lists.
+  {
+    std::string s = "ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+                    "property double z\nproperty double s\nproperty double t\nelement face 2\n"
+                    "property list uchar int vertex_indices\nend_header\n";
+    for (const auto& p : kSquare)
+      for (double c : {double(p[0]), double(p[1]), 0.0, double(p[0]), double(p[1])}) put_be(s, c);
+    for (const auto& f : {std::array<int32_t, 3>{0, 1, 2}, std::array<int32_t, 3>{0, 2, 3}}) {
+      put_be(s, uint8_t{3});
+      for (int32_t i : f) put_be(s, i);
+    }
+    write_text_file_atomic(dir / "square_be.ply", s);
+    expect_uv_is_xy(import_mesh(dir / "square_be.ply"), "binary big-endian PLY s,t");
+    std::string w = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                    "element face 2\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\n"
+                    "end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 6 0 0 1 0 1 1\n3 0 2 3 6 0 0 1 1 0 1\n";
+    write_text_file_atomic(dir / "square_wedge.ply", w);
+    expect_uv_is_xy(import_mesh(dir / "square_wedge.ply"), "PLY face texcoord (MeshLab)");
+  }
+  // glTF TEXCOORD_0, no material; v turned up.
+  write_text_file_atomic(dir / "square.gltf", square_gltf({true}));
+  expect_uv_is_xy(import_mesh(dir / "square.gltf"), "glTF TEXCOORD_0");
+  // Formats without texture coordinates, and files that have none: no uvs.
+  write_text_file_atomic(dir / "square.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n");
+  write_text_file_atomic(dir / "square.stl", "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                             "vertex 1 1 0\nendloop\nendfacet\nfacet normal 0 0 1\nouter loop\n"
+                                             "vertex 0 0 0\nvertex 1 1 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n");
+  write_text_file_atomic(dir / "bare.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n");
+  for (const char* name : {"square.off", "square.stl", "bare.obj"}) {
+    const TriangleMesh m = import_mesh(dir / name);
+    EXPECT_EQ(m.triangle_count(), 2u) << name;
+    EXPECT_TRUE(m.uvs.empty()) << name;
+  }
+}
+
+// The meshes of plain materials merge into one part: it keeps uvs when every mesh has them,
+// and has none (never uvs for some vertices only) when one lacks them.
+TEST(MeshImportUvs, AMergedPartKeepsUvsOnlyWhenEveryMeshHasThem) {
+  test::TempDir dir("import_uvs_merged");
+  write_text_file_atomic(dir / "both.gltf", square_gltf({true, true}));
+  std::vector<SceneObject> parts = import_mesh_parts(dir / "both.gltf");
+  ASSERT_EQ(parts.size(), 1u);
+  EXPECT_EQ(parts[0].mesh.triangle_count(), 4u);
+  ASSERT_EQ(parts[0].mesh.uvs.size(), parts[0].mesh.positions.size());
+  for (size_t i = 0; i < parts[0].mesh.positions.size(); ++i)
+    EXPECT_NEAR(parts[0].mesh.uvs[i].x, parts[0].mesh.positions[i].x, 1e-6f);
+  write_text_file_atomic(dir / "one.gltf", square_gltf({true, false}));
+  parts = import_mesh_parts(dir / "one.gltf");
+  ASSERT_EQ(parts.size(), 1u);
+  EXPECT_EQ(parts[0].mesh.triangle_count(), 4u);
+  EXPECT_TRUE(parts[0].mesh.uvs.empty());
 }
 
 }  // namespace

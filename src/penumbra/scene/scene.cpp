@@ -50,12 +50,16 @@ void Scene::finalize() {
   orient_sphere_lights();
 }
 
+namespace {
+// A rect light's default u: world x projected onto the light's plane (z if the normal is
+// along x), so a rect light facing straight down has its width along x and height along z.
+Vec3f default_rect_u(Vec3f unit_normal) { return std::abs(unit_normal.x) > 0.999f ? Vec3f(0, 0, 1) : Vec3f(1, 0, 0); }
+}  // namespace
+
 Frame light_frame(LightShape shape, Vec3f normal, const std::optional<Vec3f>& u) {
   const Vec3f n = normalize(normal);
   if (u) return Frame::from_zx(n, normalize(*u));
-  // Default u: world x projected onto the light's plane (z if the normal is along x), so a
-  // rect light facing straight down has its width along x and height along z.
-  if (shape == LightShape::Rect) return Frame::from_zx(n, std::abs(n.x) > 0.999f ? Vec3f(0, 0, 1) : Vec3f(1, 0, 0));
+  if (shape == LightShape::Rect) return Frame::from_zx(n, default_rect_u(n));
   return Frame::from_z(n);
 }
 
@@ -138,7 +142,7 @@ class SceneParser {
   }
 
   Camera read_camera(const JsonValue& v) {
-    v.expect_object({"eye", "target", "up", "fov_y", "resolution", "samples_per_pixel"});
+    v.expect_object(camera_keys());
     Camera c;
     c.eye = v["eye"].vec3();
     c.target = v["target"].vec3();
@@ -176,9 +180,10 @@ class SceneParser {
     AreaLight l;
     if (type != "rect" && v.has("radiance_texture"))
       v["radiance_texture"].fail(fmt::format("only a rect light carries a texture, not a {}", type));
+    l.shape = type == "rect" ? LightShape::Rect : type == "disk" ? LightShape::Disk
+              : type == "ellipsoid" ? LightShape::Ellipsoid : LightShape::Sphere;
+    v.expect_object(light_keys(l.shape));
     if (type == "rect") {
-      v.expect_object({"type", "center", "normal", "u", "size", "radiance", "radiance_texture"});
-      l.shape = LightShape::Rect;
       l.size = v["size"].positive_vec2();
       // Issue 20 part 3: an emission image over the rect (linear RGB: PNG and JPEG sRGB-decoded).
       if (v.has("radiance_texture")) {
@@ -189,18 +194,10 @@ class SceneParser {
           v["radiance_texture"].fail(e.what());
         }
       }
-    } else if (type == "disk") {
-      v.expect_object({"type", "center", "normal", "u", "radius", "radiance"});
-      l.shape = LightShape::Disk;
-      l.radius = v["radius"].positive();
     } else if (type == "ellipsoid") {
       // Semi-axes along u, normal x u and normal; light-space methods look along normal.
-      v.expect_object({"type", "center", "radii", "u", "normal", "radiance"});
-      l.shape = LightShape::Ellipsoid;
       l.radii = v["radii"].positive_vec3();
-    } else {
-      v.expect_object({"type", "center", "radius", "radiance"});
-      l.shape = LightShape::Sphere;
+    } else {  // disk, sphere
       l.radius = v["radius"].positive();
     }
     l.center = v["center"].vec3();
@@ -298,6 +295,7 @@ class SceneParser {
     MaterialOverride material = v.has("material") ? read_material(v["material"]) : MaterialOverride{};
     std::vector<SceneObject> parts;
     std::string base_name;
+    fs::path mesh_file;  // for a mesh object
 
     if (v.has("mesh")) {
       allowed.push_back("mesh");
@@ -306,6 +304,7 @@ class SceneParser {
       std::string rel = mv.string();
       if (rel.empty()) mv.fail("expected a file name, got an empty string");
       fs::path p = fs::path(rel).is_absolute() ? fs::path(rel) : (folder_ / rel).lexically_normal();
+      mesh_file = p;
       parts = mesh_file_parts(p, mv);
       base_name = fs::path(rel).stem().string();
     } else if (v.has("shape")) {
@@ -369,9 +368,17 @@ class SceneParser {
             fmt::format("\"{}\" needs an \"alpha_texture\" or an \"albedo_texture\" with an alpha channel{}",
                         to_string(o.material.alpha.mode), parts.size() > 1 ? fmt::format(" (part {})", o.name) : ""));
       // A texture is looked up at the surface's texture coordinates: the mesh must have them.
-      if ((o.material.albedo_texture || o.material.alpha_textured()) && o.mesh.uvs.size() != o.mesh.positions.size())
+      if ((o.material.albedo_texture || o.material.alpha_textured()) && o.mesh.uvs.size() != o.mesh.positions.size()) {
+        const char* texture = o.material.albedo_texture ? "albedo_texture" : "alpha_texture";
+        if (!mesh_file.empty())
+          v["mesh"].fail(fmt::format("{}: has no texture coordinates{}, which the material's {} needs (an OBJ gives "
+                                     "them with vt lines, a PLY with s,t or u,v, a glTF with TEXCOORD_0; OFF and "
+                                     "STL files have none)",
+                                     mesh_file.string(), parts.size() > 1 ? fmt::format(" in part {}", o.name) : "",
+                                     texture));
         v.fail(fmt::format("{} has a texture in its material but no texture coordinates{}", o.name,
                            v.has("shape") ? " (planes and boxes have them; spheres do not)" : ""));
+      }
       // An animated object keeps its parts as built, in its own space: each frame places
       // them anew from the keyed transform (animation.h).
       if (animation_ && animation_->animates(name)) animation_->add_part(name, v, t, out->size(), o);
@@ -440,6 +447,57 @@ Camera parse_camera(const json& camera, const std::string& context) {
 std::vector<AreaLight> parse_lights(const json& lights, const std::string& context, const fs::path& folder) {
   SceneParser parser(context, folder);
   return parser.read_lights(JsonValue(lights, context, "lights"));
+}
+
+const std::vector<std::string_view>& camera_keys() {
+  static const std::vector<std::string_view> keys = {"eye", "target", "up", "fov_y", "resolution", "samples_per_pixel"};
+  return keys;
+}
+
+const std::vector<std::string_view>& light_keys(LightShape shape) {
+  static const std::vector<std::string_view> rect = {"type", "center", "normal", "u", "size", "radiance",
+                                                     "radiance_texture"};
+  static const std::vector<std::string_view> disk = {"type", "center", "normal", "u", "radius", "radiance"};
+  static const std::vector<std::string_view> ellipsoid = {"type", "center", "radii", "u", "normal", "radiance"};
+  static const std::vector<std::string_view> sphere = {"type", "center", "radius", "radiance"};
+  switch (shape) {
+    case LightShape::Rect: return rect;
+    case LightShape::Disk: return disk;
+    case LightShape::Ellipsoid: return ellipsoid;
+    case LightShape::Sphere: break;
+  }
+  return sphere;
+}
+
+namespace {
+json vec_json(Vec3f v) { return json::array({v.x, v.y, v.z}); }
+// Adds `key` = `value` unless the document has the key.
+void default_key(json& doc, const char* key, json value) {
+  if (!doc.contains(key)) doc[key] = std::move(value);
+}
+}  // namespace
+
+json resolved_camera_json(const json& camera, const Camera& c) {
+  json out = camera;
+  default_key(out, "up", vec_json(c.up));
+  default_key(out, "fov_y", c.fov_y);
+  default_key(out, "resolution", json::array({c.width, c.height}));
+  default_key(out, "samples_per_pixel", c.samples_per_pixel);
+  return out;
+}
+
+json resolved_lights_json(const json& lights, const std::vector<AreaLight>& parsed) {
+  json out = lights;
+  for (size_t i = 0; i < out.size() && i < parsed.size(); ++i) {
+    json& l = out[i];
+    const AreaLight& a = parsed[i];
+    default_key(l, "radiance", vec_json(a.radiance));
+    // The u that gives the light's frame: the default rule's vector itself for a rect (so the
+    // frame is the same bit for bit), the frame's first axis for a disk or an ellipsoid.
+    if (a.shape == LightShape::Rect) default_key(l, "u", vec_json(default_rect_u(a.frame.n)));
+    else if (a.shape != LightShape::Sphere) default_key(l, "u", vec_json(a.frame.s));
+  }
+  return out;
 }
 
 }  // namespace penumbra

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -57,5 +58,19 @@ Scene parse_scene(const nlohmann::json& doc, const std::filesystem::path& origin
 Camera parse_camera(const nlohmann::json& camera, const std::string& context);
 std::vector<AreaLight> parse_lights(const nlohmann::json& lights, const std::string& context,
                                     const std::filesystem::path& folder = {});
+
+// The keys a scene file's camera, and a light of each shape, may hold (docs/scene-format.md).
+const std::vector<std::string_view>& camera_keys();
+const std::vector<std::string_view>& light_keys(LightShape shape);
+
+// A scene file's "camera" and "lights" as resolved: the keys as written, and every key the
+// file left out that has a default added with the value the parser took for it (camera `up`,
+// `fov_y`, `resolution`, `samples_per_pixel`; a light's `radiance`, and `u` for every light
+// that has a frame to give: the default rule's vector for a rect, the frame's first axis for
+// a disk or ellipsoid). So a reader (the viewer's page, /api/state) needs no table of defaults:
+// only `radiance_texture`, whose default is none, may be absent. `parsed` is what the
+// document parsed to (parse_camera, parse_lights).
+nlohmann::json resolved_camera_json(const nlohmann::json& camera, const Camera& parsed);
+nlohmann::json resolved_lights_json(const nlohmann::json& lights, const std::vector<AreaLight>& parsed);
 
 }  // namespace penumbra

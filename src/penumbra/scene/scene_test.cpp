@@ -7,6 +7,7 @@
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/image.h"
 #include "penumbra/core/testing.h"
+#include "penumbra/render/renderer.h"
 #include "penumbra/scene/json_reader.h"
 
 namespace penumbra {
@@ -56,6 +57,54 @@ TEST(SceneFile, MinimalSceneAndDefaults) {
   EXPECT_EQ(s.triangle_count(), 2u + 12u);
   expect_near(s.bounds().lo, {-2, -0.5f, -2});
   EXPECT_TRUE(s.method_params.empty());
+}
+
+// The resolved camera and lights (what the viewer's page reads) hold every key of the format
+// but a texture, the parser's own values for those left out, and parse back to the same
+// camera and frames bit for bit.
+TEST(SceneFile, ResolvedCameraAndLightsFillEveryDefault) {
+  const json camera = json::parse(R"({"eye": [0, 1, 5], "target": [0, 0, 0]})");
+  const json lights = json::parse(R"([
+    {"type": "rect", "center": [0, 3, 0], "normal": [0.3, -1, 0.2], "size": [1, 2]},
+    {"type": "rect", "center": [0, 3, 0], "normal": [-1, 0, 0], "size": [1, 2], "radiance": [2, 3, 4]},
+    {"type": "disk", "center": [1, 3, 0], "normal": [0, -1, 0.5], "radius": 0.5},
+    {"type": "ellipsoid", "center": [0, 2, 1], "normal": [0.2, -1, 0], "radii": [0.5, 0.2, 0.1]},
+    {"type": "sphere", "center": [2, 3, 0], "radius": 0.3}])");
+  const Camera c = parse_camera(camera, kOrigin);
+  const std::vector<AreaLight> parsed = parse_lights(lights, kOrigin);
+  const json rc = resolved_camera_json(camera, c);
+  for (std::string_view key : camera_keys()) EXPECT_TRUE(rc.contains(key)) << "camera." << key;
+  EXPECT_EQ(rc.size(), camera_keys().size());
+  EXPECT_EQ(rc["up"], json::array({0, 1, 0}));
+  EXPECT_EQ(rc["fov_y"], 45);
+  EXPECT_EQ(rc["resolution"], json::array({512, 512}));
+  EXPECT_EQ(rc["samples_per_pixel"], 1);
+  EXPECT_EQ(rc["eye"], camera["eye"]);  // given keys as written
+  const Camera back = parse_camera(rc, kOrigin);
+  EXPECT_EQ(back.up, c.up);
+  EXPECT_EQ(back.fov_y, c.fov_y);
+  EXPECT_EQ(back.width, c.width);
+
+  const json rl = resolved_lights_json(lights, parsed);
+  ASSERT_EQ(rl.size(), lights.size());
+  for (size_t i = 0; i < rl.size(); ++i) {
+    for (std::string_view key : light_keys(parsed[i].shape))
+      if (key != "radiance_texture") EXPECT_TRUE(rl[i].contains(key)) << "lights[" << i << "]." << key;
+  }
+  EXPECT_EQ(rl[0]["u"], json::array({1, 0, 0}));  // the default rule's vector, not its projection
+  EXPECT_EQ(rl[1]["u"], json::array({0, 0, 1}));  // normal along x: z
+  EXPECT_EQ(rl[0]["radiance"], json::array({1, 1, 1}));
+  EXPECT_EQ(rl[1]["radiance"], json::array({2, 3, 4}));
+  EXPECT_FALSE(rl[4].contains("u"));  // a sphere has no frame of its own to give
+  const std::vector<AreaLight> again = parse_lights(rl, kOrigin);
+  for (size_t i = 0; i < 2; ++i) {  // rects: the same frame bit for bit
+    EXPECT_EQ(again[i].frame.s, parsed[i].frame.s) << i;
+    EXPECT_EQ(again[i].frame.t, parsed[i].frame.t) << i;
+  }
+  for (size_t i = 2; i < 4; ++i) {  // disk, ellipsoid: the frame's own axes
+    expect_near(again[i].frame.s, parsed[i].frame.s, 1e-6f);
+    expect_near(again[i].frame.t, parsed[i].frame.t, 1e-6f);
+  }
 }
 
 TEST(SceneFile, LightsAndMethods) {
@@ -408,6 +457,58 @@ TEST(SceneFileTextures, ErrorsNameTheKeyAndTheFile) {
       error_for(R"({"shape": "plane", "size": [1, 1], "material": {"alpha_texture": "rgb.png", "alpha_cutoff": 2}})");
   EXPECT_NE(cutoff.find("alpha_cutoff"), std::string::npos) << cutoff;
   for (const std::string& m : {missing, no_alpha, bad_mode, sphere, cutoff}) EXPECT_EQ(m.find('\n'), std::string::npos);
+}
+
+// Issue 32: leaf cards as they often arrive, the geometry from one tool (an OBJ with vt lines
+// and no mtllib), the leaf image chosen in the scene file. The card at y = 1 has a mask whose
+// left half (u < 0.5, x < 0) is a hole; a near-point light straight above; the camera below
+// the card looks straight down at the ground (image right = +x). The ground under the hole is
+// lit and under the solid half shadowed; without the mask both halves are shadowed.
+TEST(SceneFileTextures, ObjWithVtAndNoMtllibTakesASceneAlphaTexture) {
+  test::TempDir dir("scene_obj_uvs");
+  Texture(2, 1, {1, 1, 1, 0, 1, 1, 1, 1}, true).write_png((dir / "mask.png").string());
+  write_text_file_atomic(dir / "card.obj", "v -1 1 -1\nv 1 1 -1\nv 1 1 1\nv -1 1 1\n"
+                                           "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 4/4 3/3\nf 1/1 3/3 2/2\n");
+  json d = json::parse(R"({
+    "camera": {"eye": [0, 0.5, 0], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 60, "resolution": [32, 32]},
+    "lights": [{"type": "rect", "center": [0, 4, 0], "normal": [0, -1, 0], "size": [0.01, 0.01]}],
+    "objects": [{"shape": "plane", "size": [8, 8]},
+                {"mesh": "card.obj", "material": {"alpha_texture": "mask.png"}}]})");
+  const auto visibility = [&](const json& doc) {
+    const Scene s = parse_scene(doc, dir / "t.json");
+    RenderSettings settings;
+    settings.method = "hard";
+    return render_scene(s, settings).visibility;
+  };
+  const Image masked = visibility(d);
+  EXPECT_GT(masked.at(6, 16), 0.99f);   // x < 0: under the hole
+  EXPECT_LT(masked.at(25, 16), 0.01f);  // x > 0: under the solid half
+  d["objects"][1].erase("material");
+  const Image solid = visibility(d);
+  EXPECT_LT(solid.at(6, 16), 0.01f);
+  EXPECT_LT(solid.at(25, 16), 0.01f);
+}
+
+// A scene-file texture on a mesh file without texture coordinates: one line naming the scene
+// key and the mesh file (OFF and STL carry none; an OBJ without vt lines has none).
+TEST(SceneFileTextures, ATextureOnAMeshWithoutUvsNamesTheMeshFile) {
+  test::TempDir dir("scene_no_uvs");
+  Texture(1, 1, {1, 1, 1, 1}, true).write_png((dir / "mask.png").string());
+  write_text_file_atomic(dir / "tri.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  write_text_file_atomic(dir / "tri.stl", "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                          "vertex 0 1 0\nendloop\nendfacet\nendsolid s\n");
+  write_text_file_atomic(dir / "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  for (const char* mesh : {"tri.off", "tri.stl", "tri.obj"}) {
+    for (const char* key : {"alpha_texture", "albedo_texture"}) {
+      json d = minimal_doc();
+      d["objects"][1] = {{"mesh", mesh}, {"material", {{key, "mask.png"}}}};
+      const std::string msg = error_message([&] { parse_scene(d, dir / "t.json"); });
+      EXPECT_EQ(msg, fmt::format("{}: objects[1].mesh: {}: has no texture coordinates, which the material's {} needs "
+                                 "(an OBJ gives them with vt lines, a PLY with s,t or u,v, a glTF with TEXCOORD_0; "
+                                 "OFF and STL files have none)",
+                                 (dir / "t.json").string(), (dir / mesh).string(), key));
+    }
+  }
 }
 
 }  // namespace

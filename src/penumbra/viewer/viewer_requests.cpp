@@ -86,6 +86,9 @@ json merged_method_params(const Scene& scene, const ViewerSettings& settings) {
   return table;
 }
 
+json ViewState::resolved_camera() const { return resolved_camera_json(camera, parsed_camera); }
+json ViewState::resolved_lights() const { return resolved_lights_json(lights, parsed_lights); }
+
 ViewState view_from_document(const json& scene_doc, const Scene& scene) {
   ViewState v;
   v.camera = scene_doc.at("camera");

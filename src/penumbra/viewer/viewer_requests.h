@@ -47,6 +47,12 @@ struct ViewState {
   Camera parsed_camera;
   std::vector<AreaLight> parsed_lights;  // sphere lights oriented toward `scene` (Scene::orient_sphere_lights)
   std::filesystem::path folder;          // the scene file's: where a light's radiance_texture is found
+
+  // The camera and the lights with every default filled in (resolved_camera_json,
+  // resolved_lights_json): what GET /api/state hands the page, which then reads no key the
+  // scene file may leave out. `camera` and `lights` stay as written (a saved scene file).
+  nlohmann::json resolved_camera() const;
+  nlohmann::json resolved_lights() const;
 };
 
 // The view of a scene document (its "camera" and "lights"), parsed.

@@ -75,9 +75,10 @@ class Viewer : public ::testing::Test {
     fs::remove_all(dir_);
   }
 
-  // A box and the tetrahedron on a ground plane under a rect light, 40 x 40 pixels.
-  void start(SessionOptions options = {}, std::string bind = "127.0.0.1") {
-    const std::string text = R"({
+  // A box and the tetrahedron on a ground plane under a rect light, 40 x 40 pixels; or the
+  // scene `text`.
+  void start(SessionOptions options = {}, std::string bind = "127.0.0.1", std::string text = "") {
+    if (text.empty()) text = R"({
       "camera": {"eye": [0, 3, 3], "target": [0, 0, 0], "fov_y": 40, "resolution": [40, 40]},
       "lights": [{"type": "rect", "center": [-0.3, 2.5, 0.2], "normal": [0.1, -1, 0], "size": [0.8, 0.8],
                   "radiance": [5, 5, 5]}],
@@ -175,6 +176,61 @@ TEST_F(Viewer, FrameEqualsTheCliRenderOfTheSavedSceneBitForBit) {
     EXPECT_TRUE(frame->body == cli) << "the viewer's frame and the CLI's file differ (" << frame->body.size()
                                     << " vs " << cli.size() << " bytes)";
   }
+}
+
+// A scene file that leaves out every optional key: /api/state hands the page the camera and
+// each light with every default filled in (the page reads no key a file may omit; issue 32),
+// the scene's own keys as written, and the same after a patch that leaves keys out again.
+TEST_F(Viewer, StateOfAMinimalSceneHasEveryDefaultFilledIn) {
+  SessionOptions options;
+  options.idle_ms = 100000;  // no refinement: only the state is looked at
+  start(options, "127.0.0.1", R"({
+    "camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+    "lights": [{"type": "rect", "center": [0, 2.5, 0], "normal": [0, -1, 0], "size": [0.8, 0.8]},
+               {"type": "disk", "center": [1, 2.5, 0], "normal": [0, -1, 0.3], "radius": 0.3},
+               {"type": "sphere", "center": [-1, 2.5, 0], "radius": 0.2},
+               {"type": "ellipsoid", "center": [0, 2.5, 1], "normal": [0, -1, 0], "radii": [0.3, 0.2, 0.1]}],
+    "objects": [{"shape": "plane", "size": [6, 6]}]
+  })");
+  const auto check = [](const json& st, const std::string& where) {
+    SCOPED_TRACE(where);
+    for (const json* camera : {&st["camera"], &st["initial"]["camera"]}) {
+      for (std::string_view key : camera_keys()) EXPECT_TRUE(camera->contains(key)) << "camera." << key;
+      EXPECT_EQ((*camera)["up"], json::array({0, 1, 0}));
+      EXPECT_EQ((*camera)["fov_y"], 45);
+      EXPECT_EQ((*camera)["resolution"], json::array({512, 512}));
+      EXPECT_EQ((*camera)["samples_per_pixel"], 1);
+    }
+    for (const json* lights : {&st["lights"], &st["initial"]["lights"]}) {
+      ASSERT_EQ(lights->size(), 4u);
+      const LightShape shapes[] = {LightShape::Rect, LightShape::Disk, LightShape::Sphere, LightShape::Ellipsoid};
+      for (size_t i = 0; i < 4; ++i)
+        for (std::string_view key : light_keys(shapes[i]))
+          if (key != "radiance_texture") EXPECT_TRUE((*lights)[i].contains(key)) << "lights[" << i << "]." << key;
+      EXPECT_EQ((*lights)[0]["u"], json::array({1, 0, 0}));
+      EXPECT_EQ((*lights)[0]["radiance"], json::array({1, 1, 1}));
+    }
+  };
+  auto r = get("/api/state");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  check(json::parse(r->body), "as loaded");
+  // The saved scene stays as written: the defaults are the page's view, not the file's.
+  EXPECT_FALSE(json::parse(get("/api/scene")->body)["camera"].contains("up"));
+  auto moved = post("/api/view", R"({"camera": {"eye": [0.5, 3, 3]},
+      "lights": [{"type": "rect", "center": [0, 2.4, 0], "normal": [0, -1, 0], "size": [0.8, 0.8]},
+                 {"type": "disk", "center": [1, 2.5, 0], "normal": [0, -1, 0.3], "radius": 0.3},
+                 {"type": "sphere", "center": [-1, 2.5, 0], "radius": 0.2},
+                 {"type": "ellipsoid", "center": [0, 2.5, 1], "normal": [0, -1, 0], "radii": [0.3, 0.2, 0.1]}]})");
+  ASSERT_EQ(moved->status, 200) << moved->body;
+  const json st = json::parse(get("/api/state")->body);
+  check(st, "after a patch");
+  EXPECT_EQ(st["camera"]["eye"], json::array({0.5, 3, 3}));
+  EXPECT_EQ(st["lights"][0]["center"], json::array({0, 2.4, 0}));
+  // What the page sends back (the resolved lights, as it got them) is a valid view.
+  auto same = post("/api/view", json{{"lights", st["lights"]}}.dump());
+  ASSERT_EQ(same->status, 200) << same->body;
+  EXPECT_EQ(json::parse(get("/api/state")->body)["lights"], st["lights"]);
 }
 
 // Every malformed request is answered 400 (or 403/404/405/413) with a one-line JSON error,

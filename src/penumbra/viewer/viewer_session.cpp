@@ -146,10 +146,10 @@ json ViewerSession::state() const {
   json status = status_;
   status["cancelled"] = counters_.cancelled;
   return {{"generation", generation_},
-          {"camera", view_.camera},
-          {"lights", view_.lights},
+          {"camera", view_.resolved_camera()},
+          {"lights", view_.resolved_lights()},
           {"bounds", bounds_json(bounds_)},
-          {"initial", {{"camera", initial_view_.camera}, {"lights", initial_view_.lights}}},
+          {"initial", {{"camera", initial_view_.resolved_camera()}, {"lights", initial_view_.resolved_lights()}}},
           {"settings", settings_.to_json()},
           {"status", std::move(status)},
           {"counters",

@@ -65,7 +65,8 @@ class ViewerSession {
   std::string scene_file_name() const;
   // GET /api/methods.
   static nlohmann::json methods_json();
-  // GET /api/state.
+  // GET /api/state: the view (camera and lights resolved: every default filled in, so the page
+  // reads no key a scene file may leave out), the settings, the status and the counters.
   nlohmann::json state() const;
   ViewerSettings settings() const;
 

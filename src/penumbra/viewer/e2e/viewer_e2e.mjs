@@ -9,16 +9,24 @@
 //      (progressive refinement == --frames K) within 2/255 on >= 99.9% of pixels
 //   6. key `2` switches the final method
 //   7. compare = reference, then `d`: a diff layer arrives
+//   8. every scene file (with --scenes DIR and --scene-format FILE): each scene of DIR at 64x64
+//      and a set of scene files generated from the format's own list of optional keys
+//      (docs/scene-format.md's tables), each leaving one of them out (and one leaving out all):
+//      the server serves it, a first frame is drawn, no page error, no error line (issue 32:
+//      a camera without "up" once gave a black canvas)
 //
 //   node viewer_e2e.mjs --penumbra build/penumbra --scene scenes/bunny.json \
-//        --chromium /usr/bin/chromium [--screenshots DIR] [--port 18421] [--web DIR]
+//        --chromium /usr/bin/chromium [--screenshots DIR] [--port 18421] [--web DIR] \
+//        [--scenes scenes --scene-format docs/scene-format.md]
 //
 // Exit 0: pass; 77: skipped (puppeteer-core or Chromium missing); else: failed, with one
 // line per failed check. `--penumbra mock_server.mjs` runs it against the mock server.
 
 import { spawn } from 'node:child_process';
 import fs from 'node:fs';
+import os from 'node:os';
 import path from 'node:path';
+import zlib from 'node:zlib';
 
 const SKIP = 77;
 const argv = process.argv.slice(2);
@@ -29,6 +37,9 @@ const shots = opt('--screenshots', null), port = opt('--port', '18421');
 // server, to test page edits without rebuilding penumbra. Only the three page files are
 // intercepted; the API goes to the server untouched.
 const webDir = opt('--web', null);
+// Step 8's inputs: a folder of scene files, and the scene format's page whose tables list the
+// optional keys.
+const scenesDir = opt('--scenes', null), sceneFormat = opt('--scene-format', null);
 if (!penumbra || !scene) {
   console.error('usage: node viewer_e2e.mjs --penumbra PATH --scene PATH --chromium PATH [--screenshots DIR]');
   process.exit(2);
@@ -63,9 +74,10 @@ async function killServer() {
 process.on('exit', () => { if (server && server.exitCode === null) try { server.kill('SIGKILL'); } catch (_) { /* gone */ } });
 for (const sig of ['SIGINT', 'SIGTERM']) process.on(sig, () => { killServer(); process.exit(1); });
 
-function startServer() {
+function startServer(sceneFile = scene, extra = []) {
+  serverLog.length = 0;
   return new Promise((resolve, reject) => {
-    server = spawn(penumbra, ['view', scene, '--no-browser', '--port', port], { stdio: ['ignore', 'pipe', 'pipe'] });
+    server = spawn(penumbra, ['view', sceneFile, '--no-browser', '--port', port, ...extra], { stdio: ['ignore', 'pipe', 'pipe'] });
     let out = '';
     const timer = setTimeout(() => reject(new Error('the server printed no "serving" line within 60 s')), 60000);
     const keep = (d) => { for (const l of String(d).split('\n')) if (l.trim()) { serverLog.push(l); if (serverLog.length > 40) serverLog.shift(); } };
@@ -88,6 +100,7 @@ const refinedJS = `(() => { const v = ${V}; const f = v && v.lastMainFrame;
   return !!(f && v.state && f.kind === 'final' && f.frame === f.frames && f.generation === v.state.generation); })()`;
 
 let browser = null, page = null;
+let pageContext = '';  // step 8: the scene a page error belongs to
 // JPEG: the page's screenshots for docs/viewer.md, a quarter of the PNG's size.
 async function shot(name) {
   if (!shots) return;
@@ -124,7 +137,7 @@ async function run() {
     });
     console.log(`        (the page comes from ${webDir}, not from the server)`);
   }
-  page.on('pageerror', (e) => fail(`page error: ${String(e.message || e).split('\n')[0]}`));
+  page.on('pageerror', (e) => fail(`${pageContext}page error: ${String(e.message || e).split('\n')[0]}`));
 
   // 2. first frame, not uniform
   t = performance.now();
@@ -251,6 +264,158 @@ async function run() {
   const d7 = await page.evaluate(() => ({ diff: window.penumbraViewer.layers.diff, legend: document.getElementById('legend').textContent }));
   console.log(`step 7 compare: compare layer after ${tc}; diff ${d7.diff.width}x${d7.diff.height} mean |ΔV| ${d7.diff.mean_dv}, legend "${d7.legend}" (${secs(t)})`);
   if (d7.diff.mean_dv == null) fail('step 7: the diff layer has no mean_dv');
+
+  if (scenesDir && sceneFormat) await everyScene();
+}
+
+// ---- step 8: every scene file ------------------------------------------------------------------
+// The rows `| \`key\` | ... |` of the first table after `heading` in the scene format's page, as
+// arrays of cells (escaped pipes kept).
+function tableAfter(md, heading) {
+  const start = md.indexOf(heading);
+  if (start < 0) throw new Error(`${sceneFormat}: no "${heading}"`);
+  const rows = [];
+  let inTable = false;
+  for (const line of md.slice(start + heading.length).split('\n')) {
+    if (line.startsWith('|')) {
+      inTable = true;
+      const cells = line.split(/(?<!\\)\|/).slice(1, -1).map((c) => c.trim());
+      const m = cells[0].match(/^`([a-z_]+)`$/);
+      if (m) rows.push([m[1], ...cells.slice(1)]);
+    } else if (inTable) break;
+  }
+  if (!rows.length) throw new Error(`${sceneFormat}: no table of keys after "${heading}"`);
+  return rows;
+}
+// The optional keys the format lists: where, key, and for a light the types that have it.
+function optionalKeys(md) {
+  const out = [];
+  for (const [key, , required] of tableAfter(md, '## Top level')) if (!required.startsWith('yes')) out.push({ where: 'top', key });
+  for (const [key, , dflt] of tableAfter(md, '## `camera`')) if (dflt !== 'required') out.push({ where: 'camera', key });
+  for (const [key, types, , dflt] of tableAfter(md, '## `lights`')) {
+    if (dflt === 'required') continue;
+    const all = ['rect', 'disk', 'ellipsoid', 'sphere'];
+    out.push({ where: 'light', key, types: types === 'all' ? all : all.filter((t) => types.includes(t)) });
+  }
+  for (const [key] of tableAfter(md, '### Common keys')) out.push({ where: 'object', key });
+  for (const [key] of tableAfter(md, '`material` (only the given fields')) out.push({ where: 'material', key });
+  return out;
+}
+// A w x h RGBA PNG (8-bit, unfiltered rows): an albedo texture with a disc of alpha, so that
+// leaving out alpha_texture keeps a valid mask.
+function writePng(file, w, h) {
+  const crcTable = Array.from({ length: 256 }, (_, n) => {
+    let c = n;
+    for (let k = 0; k < 8; k++) c = c & 1 ? 0xedb88320 ^ (c >>> 1) : c >>> 1;
+    return c >>> 0;
+  });
+  const crc = (buf) => { let c = 0xffffffff; for (const b of buf) c = crcTable[(c ^ b) & 0xff] ^ (c >>> 8); return (c ^ 0xffffffff) >>> 0; };
+  const chunk = (type, data) => {
+    const out = Buffer.alloc(12 + data.length);
+    out.writeUInt32BE(data.length, 0); out.write(type, 4, 'latin1'); data.copy(out, 8);
+    out.writeUInt32BE(crc(out.subarray(4, 8 + data.length)), 8 + data.length);
+    return out;
+  };
+  const ihdr = Buffer.alloc(13);
+  ihdr.writeUInt32BE(w, 0); ihdr.writeUInt32BE(h, 4); ihdr[8] = 8; ihdr[9] = 6;  // 8-bit RGBA
+  const raw = Buffer.alloc(h * (1 + 4 * w));
+  for (let y = 0; y < h; y++) for (let x = 0; x < w; x++) {
+    const o = y * (1 + 4 * w) + 1 + 4 * x, inside = Math.hypot(x + 0.5 - w / 2, y + 0.5 - h / 2) < w * 0.4;
+    raw[o] = 200; raw[o + 1] = 160 + (x % 2) * 40; raw[o + 2] = 40; raw[o + 3] = inside ? 255 : 0;
+  }
+  fs.writeFileSync(file, Buffer.concat([Buffer.from([137, 80, 78, 71, 13, 10, 26, 10]), chunk('IHDR', ihdr),
+    chunk('IDAT', zlib.deflateSync(raw)), chunk('IEND', Buffer.alloc(0))]));
+}
+// A scene that gives every key the format lists (the lights one of each type), 48 x 48: the
+// generated files each leave one optional key out of it. A key the format lists that this
+// scene does not give fails the test: the generated set follows the format's page.
+function fullScene(dir) {
+  writePng(path.join(dir, 'leaf.png'), 16, 16);
+  const glass = path.resolve(scenesDir, 'assets', 'stained_glass.png');
+  return {
+    description: 'every optional key given (viewer_e2e.mjs step 8)',
+    camera: { eye: [0.3, 2.4, 3.4], target: [0, 0.3, 0], up: [0, 1, 0], fov_y: 40, resolution: [48, 48], samples_per_pixel: 1 },
+    lights: [
+      { type: 'rect', center: [-0.6, 2.6, 0.4], normal: [0.2, -1, -0.1], u: [1, 0, 0], size: [0.8, 0.6], radiance: [4, 4, 4], radiance_texture: glass },
+      { type: 'disk', center: [0.7, 2.4, 0], normal: [0, -1, 0.2], u: [1, 0, 0], radius: 0.3, radiance: [3, 3, 3] },
+      { type: 'ellipsoid', center: [0, 2.7, -0.6], normal: [0, -1, 0], u: [1, 0, 0], radii: [0.3, 0.2, 0.1], radiance: [3, 3, 3] },
+      { type: 'sphere', center: [0.9, 2.2, 0.9], radius: 0.2, radiance: [2, 2, 2] },
+    ],
+    objects: [
+      { shape: 'plane', size: [4, 4] },
+      { shape: 'box', size: [0.6, 0.6, 0.6], name: 'card', scale: [1, 1, 0.2], rotate: [0, 30, 0], translate: [0, 0.35, 0],
+        material: { albedo: [0.9, 0.8, 0.7], opacity: 1, two_sided: true, albedo_texture: 'leaf.png', alpha_texture: 'leaf.png',
+                    alpha_mode: 'mask', alpha_cutoff: 0.5 } },
+      { shape: 'sphere', radius: 0.2, segments: 16, translate: [-0.8, 0.2, 0.5] },
+    ],
+    methods: { pcss: { blocker_samples: 8 } },
+    animation: { frames: 2, camera: { fov_y: [{ frame: 0, value: 40 }, { frame: 1, value: 42 }] } },
+  };
+}
+// [name, document] of every generated scene: one per optional key left out (a light key once
+// per light type that has it), and one leaving out all of them.
+function generatedScenes(dir) {
+  const full = fullScene(dir);
+  const keys = optionalKeys(fs.readFileSync(sceneFormat, 'utf8'));
+  // What holds key k in `doc`: the document, its camera, the textured card or its material, or
+  // each light of a type that has the key.
+  const holders = (doc, k) => (k.where === 'top' ? [doc] : k.where === 'camera' ? [doc.camera]
+    : k.where === 'object' ? [doc.objects[1]] : k.where === 'material' ? [doc.objects[1].material]
+      : doc.lights.filter((l) => k.types.includes(l.type))).filter(Boolean);
+  const out = [];
+  for (const k of keys) {
+    const where = holders(full, k);
+    if (!where.length || where.some((h) => !(k.key in h)))
+      throw new Error(`${sceneFormat} lists the optional key ${k.where}.${k.key}, which the full scene of viewer_e2e.mjs does not give: add it`);
+    where.forEach((_, i) => {
+      const doc = structuredClone(full);
+      const h = holders(doc, k)[i];
+      delete h[k.key];
+      out.push([`no-${k.where === 'light' ? `${h.type}-light` : k.where}-${k.key}`, doc]);
+    });
+  }
+  const bare = structuredClone(full);
+  for (const k of keys) for (const h of holders(bare, k)) delete h[k.key];
+  for (const o of bare.objects) for (const k of keys) if (k.where === 'object') delete o[k.key];
+  delete bare.objects[2].segments;  // the shapes' own optional key
+  out.push(['bare', bare]);
+  return out;
+}
+async function everyScene() {
+  const t = performance.now();
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'penumbra-e2e-'));
+  try {
+    const cases = fs.readdirSync(scenesDir).filter((f) => f.endsWith('.json')).sort()
+      .map((f) => ({ name: f, file: path.resolve(scenesDir, f), args: ['--resolution', '64'] }));
+    for (const [name, doc] of generatedScenes(dir)) {
+      const file = path.join(dir, `${name}.json`);
+      fs.writeFileSync(file, JSON.stringify(doc, null, 1));
+      cases.push({ name, file, args: [] });
+    }
+    const times = [];
+    for (const c of cases) {
+      const t1 = performance.now();
+      pageContext = `step 8: ${c.name}: `;
+      try {
+        await killServer();
+        const url = await startServer(c.file, [...c.args, '--idle-ms', '60000']);
+        await page.goto(url, { waitUntil: 'domcontentloaded' });
+        await waitFor(`${V} && ${V}.frameCount > 0`, 60000, 'a first frame');
+        const err = await page.$eval('#error-line', (e) => (e.hidden ? '' : e.textContent));
+        if (err) fail(`${pageContext}the page shows an error: ${err}`);
+        times.push(performance.now() - t1);
+      } catch (e) {
+        fail(`${pageContext}${String(e.message || e).split('\n')[0]}`);
+        if (serverLog.length) console.log(`  server output (last lines):\n    ${serverLog.slice(-5).join('\n    ')}`);
+      }
+    }
+    pageContext = '';
+    console.log(`step 8 every scene: ${cases.length} scene files (${cases.length - times.length} failed), ` +
+      `a first frame each in at most ${(Math.max(0, ...times) / 1000).toFixed(2)} s (${secs(t)})`);
+  } finally {
+    await killServer();
+    fs.rmSync(dir, { recursive: true, force: true });
+  }
 }
 
 let code = 0;

@@ -773,6 +773,10 @@
   });
 
   // ---- start -------------------------------------------------------------------------------
+  // st.camera and st.lights come resolved (docs/viewer.md, GET /api/state): every key a scene
+  // file may leave out is filled in with its default (camera up, fov_y, resolution; a light's
+  // radiance and u), so the page reads those without fallbacks; only radiance_texture may be
+  // absent, and the page never reads it.
   function applyState(st) {
     V.state = st;
     camera = clone(st.camera);
