@@ -141,15 +141,38 @@ PN_INLINE bool raster_set_up(vec2 p0, vec2 p1, vec2 p2, double v0, double v1, do
   return true;
 }
 
-// Whether t covers the centre of texel (x, y): the three edge functions, exactly.
-PN_INLINE bool raster_covers(RasterSetup t, int x, int y) {
+// The three edge functions at the centre of texel (x, y), exactly. One texel to the right adds
+// a * 256 to each, one row down b * 256 (raster_step_x / raster_step_y): a scan adds instead of
+// multiplying, with the same integers.
+struct RasterEdges {
+  int64_t e0;
+  int64_t e1;
+  int64_t e2;
+};
+PN_INLINE RasterEdges raster_edges_at(RasterSetup t, int x, int y) {
   int64_t px = int64_t(x) * int64_t(kRasterSubpixel) + int64_t(kRasterHalfTexel);
   int64_t py = int64_t(y) * int64_t(kRasterSubpixel) + int64_t(kRasterHalfTexel);
-  int64_t e0 = int64_t(t.a0) * px + int64_t(t.b0) * py + t.c0;
-  int64_t e1 = int64_t(t.a1) * px + int64_t(t.b1) * py + t.c1;
-  int64_t e2 = int64_t(t.a2) * px + int64_t(t.b2) * py + t.c2;
-  return e0 >= int64_t(0) && e1 >= int64_t(0) && e2 >= int64_t(0);
+  RasterEdges e;
+  e.e0 = int64_t(t.a0) * px + int64_t(t.b0) * py + t.c0;
+  e.e1 = int64_t(t.a1) * px + int64_t(t.b1) * py + t.c1;
+  e.e2 = int64_t(t.a2) * px + int64_t(t.b2) * py + t.c2;
+  return e;
 }
+PN_INLINE RasterEdges raster_step_x(RasterSetup t, RasterEdges e) {
+  e.e0 += int64_t(t.a0) * int64_t(kRasterSubpixel);
+  e.e1 += int64_t(t.a1) * int64_t(kRasterSubpixel);
+  e.e2 += int64_t(t.a2) * int64_t(kRasterSubpixel);
+  return e;
+}
+PN_INLINE RasterEdges raster_step_y(RasterSetup t, RasterEdges e) {
+  e.e0 += int64_t(t.b0) * int64_t(kRasterSubpixel);
+  e.e1 += int64_t(t.b1) * int64_t(kRasterSubpixel);
+  e.e2 += int64_t(t.b2) * int64_t(kRasterSubpixel);
+  return e;
+}
+// Whether the centre is covered: all three edge functions >= 0 (the fill rule is in c).
+PN_INLINE bool raster_inside(RasterEdges e) { return e.e0 >= int64_t(0) && e.e1 >= int64_t(0) && e.e2 >= int64_t(0); }
+PN_INLINE bool raster_covers(RasterSetup t, int x, int y) { return raster_inside(raster_edges_at(t, x, y)); }
 
 // The depth plane at the centre of texel (x, y), summed as rasterizer.cpp's scan sums it along a
 // span that starts at column span_x0: v0 + dvdx (span_x0 - x0), then the row, then the column

@@ -1,7 +1,7 @@
 #version 460
 // The GPU rasterizer's fill (gpu/raster/raster_layout_shared.h; rasterizer.cpp depth_map): one
 // thread per work item, a set-up triangle and one 16 x 16-texel tile. Every texel centre of the
-// tile the triangle covers (raster_covers: exact int64 edge functions, top-left rule) is a
+// tile the triangle covers (exact int64 edge functions, stepped by addition; top-left rule) is a
 // fragment at the depth plane's linear depth (summed as the CPU's scan sums it); an
 // alpha-textured triangle is looked up where the ray through the centre meets it, and a mask's
 // holes drop the fragment. The fragment's key (ordered z bits << 32 | input index) goes into the
@@ -32,9 +32,11 @@ void main() {
     bool textured = raster_textured(tri.object);
     bool perspective = view.perspective != 0u;
     Uint64s keys = Uint64s(pc.p.keys);
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        if (!raster_covers(t, x, y)) continue;
+    RasterEdges row = raster_edges_at(t, x0, y0);
+    for (int y = y0; y < y1; ++y, row = raster_step_y(t, row)) {
+      RasterEdges e = row;
+      for (int x = x0; x < x1; ++x, e = raster_step_x(t, e)) {
+        if (!raster_inside(e)) continue;
         // The CPU's span starts at the later of its 64-texel tile's first column and the box's.
         int span_x0 = max(t.x0, (x / kRasterCpuTile) * kRasterCpuTile);
         float z = raster_linear_depth(raster_plane_value(t, x, y, span_x0), view.near, view.far, perspective);
@@ -42,6 +44,7 @@ void main() {
         ++fragments;
         atomicMin(keys.v[uint(y) * uint(view.width) + uint(x)], raster_depth_key(z, t.source));
       }
+    }
   }
   uint total = subgroupAdd(fragments);
   if (subgroupElect() && total > 0u) atomicAdd(state.s.fragments, uint64_t(total));
