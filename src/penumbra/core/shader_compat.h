@@ -7,7 +7,7 @@
 // Rules for a shared header:
 // - include this file first, wrap the body in PN_SHARED_BEGIN / PN_SHARED_END, guard with
 //   #ifndef (GLSL has no #pragma once);
-// - types: float, int, uint, bool, uint64_t, vec2, vec3, double, dvec3, structs of them; float
+// - types: float, int, uint, bool, int64_t, uint64_t, vec2, vec3, double, dvec3, structs of them; float
 //   literals with an f suffix (1.0f: a bare 1.0 is a double in C++ and a float in GLSL), double
 //   constants as double(0.5f), unsigned literals with u, 64-bit with UL;
 // - conversions written out (float(i), uint(x)); no references or pointers: out and inout
@@ -16,7 +16,10 @@
 // - trigonometry as pn_sin, pn_cos, pn_acos and atan2_double: Vulkan lets a GPU's built-in sin and
 //   cos be off by 2^-11 (absolute) and atan by 4096 ulp, so the GPU side gets its own (Cephes'
 //   polynomials, within a few ulp of libm), the CPU side libm's;
-// - arrays as PN_FLOAT_ARRAY parameters read with PN_AT (in GLSL after kernel_common.glsl).
+// - arrays as PN_FLOAT_ARRAY parameters read with PN_AT (in GLSL after kernel_common.glsl);
+// - PN_PRECISE on a variable whose value must be the CPU's float for float: GLSL's `precise`
+//   forbids the driver to fuse or reorder what computes it (C++ does neither without -ffast-math
+//   and without FMA in the target, penumbra's build).
 #ifndef PENUMBRA_CORE_SHADER_COMPAT_H
 #define PENUMBRA_CORE_SHADER_COMPAT_H
 
@@ -39,6 +42,8 @@ inline int min(int a, int b) { return a < b ? a : b; }
 inline int max(int a, int b) { return a > b ? a : b; }
 inline uint min(uint a, uint b) { return a < b ? a : b; }
 inline uint max(uint a, uint b) { return a > b ? a : b; }
+inline int64_t min(int64_t a, int64_t b) { return a < b ? a : b; }
+inline int64_t max(int64_t a, int64_t b) { return a > b ? a : b; }
 inline float clamp(float x, float lo, float hi) { return min(max(x, lo), hi); }
 inline double clamp(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
 inline float abs(float x) { return std::fabs(x); }
@@ -54,6 +59,7 @@ inline float sign(float x) { return x > 0 ? 1.0f : (x < 0 ? -1.0f : 0.0f); }
 inline bool isinf(float x) { return std::isinf(x); }
 inline bool isnan(float x) { return std::isnan(x); }
 inline uint floatBitsToUint(float x) { return std::bit_cast<uint>(x); }
+inline float uintBitsToFloat(uint x) { return std::bit_cast<float>(x); }
 // GLSL's dvec3, for the sums that need double precision (Lambert's polygon formula).
 struct dvec3 {
   double x = 0, y = 0, z = 0;
@@ -82,6 +88,7 @@ inline double atan2_double(double y, double x) { return std::atan2(y, x); }
 #define PN_INOUT(T) T&
 #define PN_CONST inline constexpr
 #define PN_INLINE inline
+#define PN_PRECISE
 #else
 #define PN_FLOAT_ARRAY Floats
 #define PN_AT(array, i) array.v[i]
@@ -173,6 +180,7 @@ double atan2_double(double y, double x) {
 #define PN_INOUT(T) inout T
 #define PN_CONST const
 #define PN_INLINE
+#define PN_PRECISE precise
 #endif
 
 #endif  // PENUMBRA_CORE_SHADER_COMPAT_H

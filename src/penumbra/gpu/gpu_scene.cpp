@@ -257,6 +257,13 @@ void GpuScene::build(const Scene& scene) {
   objects_ = make_buffer<GpuObject>(d, gpu_objects, "the scene's objects");
   textures_ = make_buffer<GpuTexture>(d, textures, "the scene's texture table");
   texels_ = make_buffer<float>(d, texels, "the scene's textures");
+  // Each object's first triangle in the scene's numbering (the rasterizer's input order).
+  std::vector<uint32_t> object_triangles(objects + 1, 0);
+  for (uint32_t o = 0; o < objects; ++o)
+    object_triangles[o + 1] = object_triangles[o] + static_cast<uint32_t>(scene.objects[o].mesh.triangle_count());
+  object_triangles_ = make_buffer<uint32_t>(d, object_triangles, "the scene's triangle numbering");
+  desc_data_.object_triangles = object_triangles_.address();
+  desc_data_.triangle_count = object_triangles[objects];
   desc_data_.object_count = static_cast<uint32_t>(objects);
   desc_data_.has_transparency = has_transparency_ ? 1u : 0u;
   upload_bvhs();
@@ -382,7 +389,7 @@ void GpuScene::update_objects(const Scene& scene, std::span<const uint32_t> obje
 uint64_t GpuScene::device_bytes() const {
   uint64_t total = 0;
   for (const Buffer* b : {&nodes_, &triangles_, &instances_buf_, &objects_, &meshes_, &positions_, &normals_, &uvs_,
-                          &indices_, &triangle_opacity_, &textures_, &texels_, &desc_})
+                          &indices_, &triangle_opacity_, &textures_, &texels_, &object_triangles_, &desc_})
     total += b->bytes();
   return total;
 }
@@ -403,9 +410,9 @@ uint64_t GpuScene::estimate_bytes(const Scene& scene) {
   for (const auto& [t, n] : textures) texels += n;
   const uint64_t objects = scene.objects.size();
   return triangles * (sizeof(shader::GpuBvhNode) + sizeof(GpuTriangle) + 3 * sizeof(uint32_t) + sizeof(float)) +
-         vertices * (2 * sizeof(Vec3f) + sizeof(Vec2f)) +
-         objects * (sizeof(GpuObject) + sizeof(GpuMesh) + sizeof(GpuInstance) + 2 * sizeof(shader::GpuBvhNode)) +
-         texels * 16 + sizeof(shader::SceneDesc);
+         vertices * (2 * sizeof(Vec3f) + sizeof(Vec2f)) + objects * (sizeof(GpuObject) + sizeof(GpuMesh) + sizeof(GpuInstance) +
+                                                                      2 * sizeof(shader::GpuBvhNode)) +
+         texels * 16 + (objects + 1) * sizeof(uint32_t) + sizeof(shader::SceneDesc);
 }
 
 }  // namespace penumbra::gpu

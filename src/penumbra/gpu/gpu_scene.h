@@ -40,6 +40,8 @@ class GpuScene {
   int refits() const { return refits_; }
   int blas_count() const { return static_cast<int>(blas_.size()); }
   size_t instance_count() const { return instances_.size(); }
+  // Triangles of all objects (SceneDesc::triangle_count): the GPU rasterizer's input.
+  uint64_t triangle_count() const { return desc_data_.triangle_count; }
   bool has_transparency() const { return has_transparency_; }
 
  private:
@@ -73,7 +75,7 @@ class GpuScene {
   int refits_ = 0;
   // Device buffers (SceneDesc's arrays).
   Buffer nodes_, triangles_, instances_buf_, objects_, meshes_, positions_, normals_, uvs_, indices_,
-      triangle_opacity_, textures_, texels_, desc_;
+      triangle_opacity_, textures_, texels_, object_triangles_, desc_;
   shader::SceneDesc desc_data_{};
 };
 

@@ -34,6 +34,15 @@ void scene_bind(uint64_t desc) {
   g_meshes = Meshes(g_scene.meshes);
 }
 
+// An instance's object -> world transform of a point, and the inverse transpose for normals.
+vec3 instance_point(GpuInstance inst, vec3 q) {
+  return vec3(dot(inst.to_world_x, q) + inst.to_world_tx, dot(inst.to_world_y, q) + inst.to_world_ty,
+              dot(inst.to_world_z, q) + inst.to_world_tz);
+}
+vec3 instance_normal(GpuInstance inst, vec3 m) {
+  return inst.to_object_x * m.x + inst.to_object_y * m.y + inst.to_object_z * m.z;
+}
+
 // Vertex k (0..2) of triangle prim of mesh m: its index into the vertex arrays.
 uint mesh_vertex(GpuMesh m, uint prim, uint k) {
   return m.first_vertex + Uints(g_scene.indices).v[3u * (m.first_triangle + prim) + k];

@@ -142,7 +142,7 @@ struct GpuTexture {
   uint has_alpha;
 };
 
-// Where everything is: one 112-byte block whose device address every kernel that reads the
+// Where everything is: one 128-byte block whose device address every kernel that reads the
 // scene takes (push constant `scene`).
 struct SceneDesc {
   uint64_t nodes;             // GpuBvhNode[]
@@ -161,6 +161,12 @@ struct SceneDesc {
   uint root_is_blas;          // 1: one instance with the identity, traversed without the TLAS
   uint has_transparency;      // 1: some caster is semi-transparent or alpha-textured
   uint object_count;
+  // uint[object_count + 1]: the first triangle of each object in the scene's numbering (object
+  // order, then mesh order: raster_triangle.h gather_raster_triangles'), then the total. The GPU
+  // rasterizer maps its input triangle index back to (object, prim) through it.
+  uint64_t object_triangles;
+  uint triangle_count;        // the total
+  uint pad;
 };
 
 PN_SHARED_END
@@ -172,7 +178,7 @@ static_assert(sizeof(penumbra::shader::GpuInstance) == 112);
 static_assert(sizeof(penumbra::shader::GpuObject) == 64);
 static_assert(sizeof(penumbra::shader::GpuMesh) == 32);
 static_assert(sizeof(penumbra::shader::GpuTexture) == 16);
-static_assert(sizeof(penumbra::shader::SceneDesc) == 112);
+static_assert(sizeof(penumbra::shader::SceneDesc) == 128);
 #endif
 
 #endif  // PENUMBRA_GPU_SCENE_LAYOUT_SHARED_H

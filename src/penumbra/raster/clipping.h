@@ -4,6 +4,7 @@
 #pragma once
 
 #include "penumbra/raster/light_view.h"
+#include "penumbra/raster/raster_shared.h"
 #include "penumbra/raster/raster_triangle.h"
 
 namespace penumbra::raster_internal {
@@ -16,11 +17,11 @@ struct ClipVertex {
 
 // How far (in texels) geometry may reach beyond each side of the image before it is clipped.
 // With images of at most 16384 texels this keeps snapped coordinates below 2^23 and every
-// edge-function product below 2^49 (rasterizer.cpp).
-inline constexpr float kGuardBand = 16384.0f;
+// edge-function product below 2^49 (raster_shared.h; the GPU rasterizer clips alike).
+inline constexpr float kGuardBand = shader::kRasterGuardBand;
 
 // A triangle clipped to a convex polygon can gain one vertex per plane.
-inline constexpr int kMaxClipVertices = 3 + 6;
+inline constexpr int kMaxClipVertices = shader::kRasterMaxClipVertices;
 
 // Transforms triangles into homogeneous texel space and clips them against
 // near <= z <= far and the guard band; built once per render.

@@ -161,6 +161,29 @@ void LightView::finish() {
     set_row(2, forward_, 0);
     m.m[3][0] = 0; m.m[3][1] = 0; m.m[3][2] = 0; m.m[3][3] = 1;
   }
+  shader::RasterView& s = shared_;
+  s = {};
+  s.row0 = {m.m[0][0], m.m[0][1], m.m[0][2]};
+  s.off0 = m.m[0][3];
+  s.row1 = {m.m[1][0], m.m[1][1], m.m[1][2]};
+  s.off1 = m.m[1][3];
+  s.row2 = {m.m[2][0], m.m[2][1], m.m[2][2]};
+  s.off2 = m.m[2][3];
+  s.row3 = {m.m[3][0], m.m[3][1], m.m[3][2]};
+  s.off3 = m.m[3][3];
+  s.eye = eye_;
+  s.near = near_;
+  s.right = right_;
+  s.far = far_;
+  s.up = up_;
+  s.width = width_;
+  s.forward = forward_;
+  s.height = height_;
+  s.l = l_;
+  s.r = r_;
+  s.b = b_;
+  s.t = t_;
+  s.perspective = kind_ == ProjectionKind::Perspective ? 1u : 0u;
 }
 
 Vec3f LightView::to_texel(Vec3f world) const {
@@ -170,11 +193,9 @@ Vec3f LightView::to_texel(Vec3f world) const {
 }
 
 LightView::TexelRay LightView::texel_ray(Vec2f texel) const {
-  float u = l_ + (r_ - l_) * texel.x / static_cast<float>(width_);
-  float v = t_ - (t_ - b_) * texel.y / static_cast<float>(height_);
-  if (kind_ == ProjectionKind::Perspective)
-    return {eye_, right_ * (u / near_) + up_ * (v / near_) + forward_};
-  return {eye_ + right_ * u + up_ * v, forward_};
+  TexelRay ray;
+  shader::raster_texel_ray(shared_, texel.x, texel.y, ray.origin, ray.dir);
+  return ray;
 }
 
 float LightView::texel_world_size(float z) const {

@@ -20,6 +20,7 @@
 #include <array>
 
 #include "penumbra/core/math.h"
+#include "penumbra/raster/raster_shared.h"
 
 namespace penumbra {
 
@@ -114,6 +115,8 @@ class LightView {
   // World-space width of one texel at linear depth z (constant for orthographic views):
   // the scale of a depth-map sample, for biases and thresholds.
   float texel_world_size(float z) const;
+  // The view as kernels and the shared functions of raster_shared.h read it (RasterView).
+  const shader::RasterView& shared() const { return shared_; }
 
  private:
   // frustum() and orthographic() after their own depth checks: checks the resolution and
@@ -128,6 +131,7 @@ class LightView {
   float l_ = -1, r_ = 1, b_ = -1, t_ = 1;
   Vec3f eye_, right_{1, 0, 0}, up_{0, 1, 0}, forward_{0, 0, -1};
   Mat4 view_, projection_, texel_projection_;
+  shader::RasterView shared_{};
 };
 
 }  // namespace penumbra

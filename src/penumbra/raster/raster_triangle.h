@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/raster/raster_shared.h"
 #include "penumbra/scene/mesh.h"
 
 namespace penumbra {
@@ -39,16 +40,7 @@ struct RasterTriangle {
   // (Moller-Trumbore's solution; inside the triangle iff b1, b2 >= 0 and b1 + b2 <= 1). False
   // when the line is parallel to the plane.
   bool line_crossing(Vec3f origin, Vec3f dir, float* b1, float* b2, float* s) const {
-    const Vec3f e1 = p[1] - p[0], e2 = p[2] - p[0];
-    const Vec3f pv = cross(dir, e2);
-    const float det = dot(e1, pv);
-    if (det == 0) return false;
-    const float inv = 1.0f / det;
-    const Vec3f tv = origin - p[0], qv = cross(tv, e1);
-    *b1 = dot(tv, pv) * inv;
-    *b2 = dot(dir, qv) * inv;
-    *s = dot(e2, qv) * inv;
-    return true;
+    return shader::triangle_line_crossing(p[0], p[1], p[2], origin, dir, *b1, *b2, *s);
   }
   // The opacity where the segment from origin to origin + dir crosses the triangle (0 where it
   // misses it): what a shadow ray to one light sample meets.

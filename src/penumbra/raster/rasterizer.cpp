@@ -13,6 +13,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/clipping.h"
+#include "penumbra/raster/raster_shared.h"
 #include "penumbra/raster/tiling.h"
 
 namespace penumbra {
@@ -22,93 +23,24 @@ using raster_internal::ClipVertex;
 using raster_internal::TileBinner;
 using raster_internal::TileGrid;
 
-// Vertices are snapped to 1/256 texel. With the guard band (clipping.h) every snapped
-// coordinate stays below 2^23 in magnitude, edge coefficients below 2^24 and edge-function
-// values below 2^49: exact in int64, so coverage is decided without rounding and the fill
-// rule holds exactly.
-constexpr int kSubpixelBits = 8;
-constexpr int64_t kSubpixel = int64_t{1} << kSubpixelBits;
-constexpr int64_t kHalfTexel = kSubpixel / 2;
 // Input triangles per setup task: fixed, so binning order never depends on the thread count.
 constexpr size_t kChunkSize = 1024;
+// Snapping, edge functions and the depth plane are raster_shared.h's (the GPU rasterizer's too).
+constexpr int64_t kSubpixel = shader::kRasterSubpixel;
+constexpr int64_t kHalfTexel = shader::kRasterHalfTexel;
 
-int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
-int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
-// Round half away from zero: a pure function of the value (shared vertices snap alike) that
-// compiles to one conversion instead of a libm call.
-int32_t round_to_int(double x) { return static_cast<int32_t>(x + (x >= 0 ? 0.5 : -0.5)); }
-
-// A triangle ready to scan: three edge functions E = a X + b Y + c over snapped texel
-// coordinates (X, Y in 1/256 texel), positive inside, with the fill-rule bias folded into c
-// so that "E >= 0 for all three" is the coverage test; the texels whose centres can be
-// covered; and the plane of the interpolated depth quantity v (1/z for a perspective view, z
-// for an orthographic one, both affine in texel space).
-struct SetupTriangle {
-  int64_t c[3];
-  int32_t a[3], b[3];
-  int32_t x0, y0, x1, y1;  // [x0, x1) x [y0, y1), inside the image
-  float v0;                // v at the centre of texel (x0, y0)
-  float dvdx, dvdy;        // per texel
+// A triangle ready to scan (shader::RasterSetup: edge functions, texel box, depth plane, source)
+// and the opacity it casts with.
+struct SetupTriangle : shader::RasterSetup {
   float opacity;
-  uint32_t source;         // index into the input triangles
-  bool textured;           // the source has an alpha texture: opacity varies per fragment
+  bool textured;  // the source has an alpha texture: opacity varies per fragment
 };
 
 // Sets up one triangle of (unsnapped) texel-space vertices and depth values v. Returns false
 // when it covers no texel centre of the image.
 bool set_up(const float tx[3], const float ty[3], const double v[3], int width, int height,
             SetupTriangle* t) {
-  int32_t X[3], Y[3];
-  for (int k = 0; k < 3; ++k) {
-    X[k] = round_to_int(static_cast<double>(tx[k]) * kSubpixel);
-    Y[k] = round_to_int(static_cast<double>(ty[k]) * kSubpixel);
-  }
-  int64_t area = int64_t{X[1] - X[0]} * (Y[2] - Y[0]) - int64_t{Y[1] - Y[0]} * (X[2] - X[0]);
-  if (area == 0) return false;  // degenerate after snapping: covers no sample
-  // Orient so the interior is on the positive side of every edge. In a y-down image a
-  // positive area is a clockwise-looking triangle, for which "top" edges run in +x and
-  // "left" edges run in -y.
-  int order[3] = {0, 1, 2};
-  if (area < 0) std::swap(order[1], order[2]);
-
-  int32_t minX = std::min({X[0], X[1], X[2]}), maxX = std::max({X[0], X[1], X[2]});
-  int32_t minY = std::min({Y[0], Y[1], Y[2]}), maxY = std::max({Y[0], Y[1], Y[2]});
-  // Texels whose centre (256 i + 128) lies in the snapped bounding box.
-  t->x0 = static_cast<int32_t>(std::max<int64_t>(0, ceil_div(minX - kHalfTexel, kSubpixel)));
-  t->x1 = static_cast<int32_t>(std::min<int64_t>(width, floor_div(maxX - kHalfTexel, kSubpixel) + 1));
-  t->y0 = static_cast<int32_t>(std::max<int64_t>(0, ceil_div(minY - kHalfTexel, kSubpixel)));
-  t->y1 = static_cast<int32_t>(std::min<int64_t>(height, floor_div(maxY - kHalfTexel, kSubpixel) + 1));
-  if (t->x0 >= t->x1 || t->y0 >= t->y1) return false;
-
-  for (int e = 0; e < 3; ++e) {
-    int i = order[e], j = order[(e + 1) % 3];
-    int32_t dx = X[j] - X[i], dy = Y[j] - Y[i];
-    // E(P) = cross(V_j - V_i, P - V_i) = dx (Py - Yi) - dy (Px - Xi).
-    t->a[e] = -dy;
-    t->b[e] = dx;
-    t->c[e] = int64_t{dy} * X[i] - int64_t{dx} * Y[i];
-    // Top-left rule: a centre exactly on an edge belongs to the triangle only if the edge is
-    // a top edge (horizontal, interior below) or a left edge. So each centre on an edge
-    // shared by two triangles is covered by exactly one of them.
-    bool top_left = dy < 0 || (dy == 0 && dx > 0);
-    if (!top_left) t->c[e] -= 1;
-  }
-
-  // Depth plane from the unsnapped vertices: the depth at a texel centre is the true plane's,
-  // whatever the snapping did to coverage.
-  double ux = double{tx[1]} - tx[0], uy = double{ty[1]} - ty[0];
-  double wx = double{tx[2]} - tx[0], wy = double{ty[2]} - ty[0];
-  double det = ux * wy - uy * wx;
-  double gx = 0, gy = 0;
-  if (det != 0) {
-    double dv1 = v[1] - v[0], dv2 = v[2] - v[0];
-    gx = (dv1 * wy - dv2 * uy) / det;
-    gy = (dv2 * ux - dv1 * wx) / det;
-  }
-  t->v0 = static_cast<float>(v[0] + gx * (t->x0 + 0.5 - tx[0]) + gy * (t->y0 + 0.5 - ty[0]));
-  t->dvdx = static_cast<float>(gx);
-  t->dvdy = static_cast<float>(gy);
-  return true;
+  return shader::raster_set_up({tx[0], ty[0]}, {tx[1], ty[1]}, {tx[2], ty[2]}, v[0], v[1], v[2], width, height, *t);
 }
 
 // A rectangle of texels and how to index them: texel (x, y) is element
@@ -160,11 +92,11 @@ inline void scan(const SetupTriangle& t, const TexelRect& r, Fn&& fn) {
   const int y0 = std::max(r.y0, t.y0), y1 = std::min(r.y1, t.y1);
   if (x0 >= x1 || y0 >= y1) return;
   const int64_t px = x0 * kSubpixel + kHalfTexel, py = y0 * kSubpixel + kHalfTexel;
-  int64_t e0 = t.a[0] * px + t.b[0] * py + t.c[0];
-  int64_t e1 = t.a[1] * px + t.b[1] * py + t.c[1];
-  int64_t e2 = t.a[2] * px + t.b[2] * py + t.c[2];
-  const int64_t sx0 = t.a[0] * kSubpixel, sx1 = t.a[1] * kSubpixel, sx2 = t.a[2] * kSubpixel;
-  const int64_t sy0 = t.b[0] * kSubpixel, sy1 = t.b[1] * kSubpixel, sy2 = t.b[2] * kSubpixel;
+  int64_t e0 = t.a0 * px + t.b0 * py + t.c0;
+  int64_t e1 = t.a1 * px + t.b1 * py + t.c1;
+  int64_t e2 = t.a2 * px + t.b2 * py + t.c2;
+  const int64_t sx0 = t.a0 * kSubpixel, sx1 = t.a1 * kSubpixel, sx2 = t.a2 * kSubpixel;
+  const int64_t sy0 = t.b0 * kSubpixel, sy1 = t.b1 * kSubpixel, sy2 = t.b2 * kSubpixel;
   const float vx0 = t.v0 + t.dvdx * static_cast<float>(x0 - t.x0);
   const int width = x1 - x0;
   size_t row = r.index(x0, y0);
@@ -225,8 +157,7 @@ inline void scan_fragments(const SetupTriangle& t, const TexelRect& r, const Fra
 // float error, can extrapolate a hair beyond the clipped triangle).
 template <bool kPerspective>
 inline float linear_depth(float v, float near, float far) {
-  float z = kPerspective ? (v > 0 ? 1.0f / v : far) : v;
-  return std::min(std::max(z, near), far);
+  return shader::raster_linear_depth(v, near, far, kPerspective);
 }
 
 template <class F>
@@ -237,18 +168,10 @@ void dispatch_projection(const LightView& view, F&& f) {
     f(std::false_type{});
 }
 
-// Fragments sort by (z, triangle) as one unsigned 64-bit key, computed once per fragment:
-// the float's bits made monotonic (negative depths occur in orthographic views with
-// near < 0), then the triangle index. Ties in z thus keep triangle (input) order.
-inline uint64_t sort_key(float z, uint32_t triangle) {
-  uint32_t bits = std::bit_cast<uint32_t>(z);
-  bits = (bits & 0x80000000u) ? ~bits : bits | 0x80000000u;
-  return uint64_t{bits} << 32 | triangle;
-}
-inline float key_depth(uint64_t key) {
-  uint32_t bits = static_cast<uint32_t>(key >> 32);
-  return std::bit_cast<float>((bits & 0x80000000u) ? bits & 0x7fffffffu : ~bits);
-}
+// Fragments sort by (z, triangle) as one unsigned 64-bit key, computed once per fragment
+// (raster_shared.h raster_depth_key): ties in z keep triangle (input) order.
+inline uint64_t sort_key(float z, uint32_t triangle) { return shader::raster_depth_key(z, triangle); }
+inline float key_depth(uint64_t key) { return shader::raster_key_depth(key); }
 
 struct KeyedFragment {
   uint64_t key;

@@ -9,15 +9,14 @@
 
 namespace penumbra {
 
-LightView fit_shadow_view(Vec3f eye, Vec3f dir, Vec3f up, std::span<const Vec3f> receivers,
-                          const Bounds3f& casters, const ShadowViewFit& fit) {
+ShadowViewFrame shadow_view_frame(Vec3f eye, Vec3f dir, Vec3f up, const Bounds3f& casters,
+                                  std::span<const Vec3f> receivers, const ShadowViewFit& fit) {
   if (fit.resolution < 1 || fit.resolution > 16384)
     throw Error("fit_shadow_view: resolution {} must be between 1 and 16384", fit.resolution);
   if (!(fit.max_fov > 0) || !(fit.max_fov < 180))
     throw Error("fit_shadow_view: max_fov {} must be in (0, 180) degrees", fit.max_fov);
   // The view axes (LightView owns the convention).
   const LightView axes = LightView::perspective(eye, dir, up, 90.0f, 1, 1, 1.0f, 2.0f);
-  const Vec3f right = axes.right(), upv = axes.up(), fwd = axes.forward();
   float min_near = fit.min_near;
   if (!(min_near > 0)) {
     Bounds3f all = casters;
@@ -25,33 +24,56 @@ LightView fit_shadow_view(Vec3f eye, Vec3f dir, Vec3f up, std::span<const Vec3f>
       for (Vec3f p : receivers) all.extend(p);
     min_near = all.empty() ? 1e-6f : 1e-4f * std::max(length(all.diagonal()), 1e-6f);
   }
+  ShadowViewFrame f{dir, up, {}};
+  f.axes.eye = eye;
+  f.axes.min_near = min_near;
+  f.axes.right = axes.right();
+  f.axes.up = axes.up();
+  f.axes.forward = axes.forward();
+  return f;
+}
+
+void ShadowViewRange::add(const ShadowViewRange& o) {
+  x0 = std::min(x0, o.x0); x1 = std::max(x1, o.x1); y0 = std::min(y0, o.y0);
+  y1 = std::max(y1, o.y1); z0 = std::min(z0, o.z0); z1 = std::max(z1, o.z1);
+}
+
+void ShadowViewRange::add(float x, float y, float z) {
+  x0 = std::min(x0, x); x1 = std::max(x1, x);
+  y0 = std::min(y0, y); y1 = std::max(y1, y);
+  z0 = std::min(z0, z); z1 = std::max(z1, z);
+}
+
+ShadowViewRange reduce_receivers(const ShadowViewFrame& frame, std::span<const Vec3f> receivers) {
   // Extents of x/z and y/z over the receivers in front, and their depth range.
-  struct Range {
-    float x0 = kInfinity, x1 = -kInfinity, y0 = kInfinity, y1 = -kInfinity, z0 = kInfinity, z1 = -kInfinity;
-    void add(const Range& o) {
-      x0 = std::min(x0, o.x0); x1 = std::max(x1, o.x1); y0 = std::min(y0, o.y0);
-      y1 = std::max(y1, o.y1); z0 = std::min(z0, o.z0); z1 = std::max(z1, o.z1);
-    }
-  };
   const size_t chunk = 16384;
-  std::vector<Range> parts((receivers.size() + chunk - 1) / chunk);
+  std::vector<ShadowViewRange> parts((receivers.size() + chunk - 1) / chunk);
   parallel_for(parts.size(), 1, [&](size_t b, size_t e) {
     for (size_t c = b; c < e; ++c) {
-      Range r;
+      ShadowViewRange r;
       for (size_t k = c * chunk; k < std::min(receivers.size(), (c + 1) * chunk); ++k) {
-        Vec3f d = receivers[k] - eye;
-        float z = dot(d, fwd);
-        if (!(z >= min_near)) continue;
-        float x = dot(d, right) / z, y = dot(d, upv) / z;
-        r.x0 = std::min(r.x0, x); r.x1 = std::max(r.x1, x);
-        r.y0 = std::min(r.y0, y); r.y1 = std::max(r.y1, y);
-        r.z0 = std::min(r.z0, z); r.z1 = std::max(r.z1, z);
+        float x, y, z;
+        if (shader::shadow_view_project(frame.axes, receivers[k], x, y, z)) r.add(x, y, z);
       }
       parts[c] = r;
     }
   });
-  Range r;
-  for (const Range& p : parts) r.add(p);
+  ShadowViewRange r;
+  for (const ShadowViewRange& p : parts) r.add(p);
+  return r;
+}
+
+LightView fit_shadow_view(Vec3f eye, Vec3f dir, Vec3f up, std::span<const Vec3f> receivers,
+                          const Bounds3f& casters, const ShadowViewFit& fit) {
+  const ShadowViewFrame frame = shadow_view_frame(eye, dir, up, casters, receivers, fit);
+  return build_shadow_view(frame, reduce_receivers(frame, receivers), casters, fit);
+}
+
+LightView build_shadow_view(const ShadowViewFrame& frame, const ShadowViewRange& range, const Bounds3f& casters,
+                            const ShadowViewFit& fit) {
+  ShadowViewRange r = range;
+  const Vec3f eye = frame.axes.eye, fwd = frame.axes.forward;
+  const float min_near = frame.axes.min_near;
   if (!(r.z1 >= r.z0)) throw Error("fit_shadow_view: no receiver lies in front of the eye");
   const float cap = std::tan(radians(fit.max_fov) * 0.5f);
   r.x0 = std::max(r.x0, -cap); r.x1 = std::min(r.x1, cap);
@@ -88,7 +110,8 @@ LightView fit_shadow_view(Vec3f eye, Vec3f dir, Vec3f up, std::span<const Vec3f>
     l -= grow;
     rr += grow;
   }
-  return LightView::frustum(eye, dir, up, l * near, rr * near, b * near, t * near, near, far, width, height);
+  return LightView::frustum(eye, frame.dir, frame.up, l * near, rr * near, b * near, t * near, near, far, width,
+                           height);
 }
 
 }  // namespace penumbra

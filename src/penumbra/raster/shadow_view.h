@@ -22,6 +22,7 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/raster/light_view.h"
+#include "penumbra/raster/shadow_view_shared.h"
 
 namespace penumbra {
 
@@ -39,9 +40,33 @@ struct ShadowViewFit {
 // The fitted view from `eye` along `dir` (`up` fixes the roll). `receivers`: the points to
 // look up (those at linear depth < min_near are ignored); `casters`: bounds of the
 // geometry to rasterize (usually Scene::bounds()). Throws penumbra::Error when no receiver
-// lies in front of the eye.
+// lies in front of the eye. The three steps below, in one call.
 LightView fit_shadow_view(Vec3f eye, Vec3f dir, Vec3f up, std::span<const Vec3f> receivers,
                           const Bounds3f& casters, const ShadowViewFit& fit);
+
+// The fit in three steps, so the receivers can be reduced where they are (the GPU reduces them
+// on the device, shadow/shadow_map_common_gpu.h) and the view built by this one code.
+// 1. The view's frame: its axes and min_near (from the casters' bounds; where there are none,
+//    from the receivers'). Throws on a resolution or max_fov out of range.
+struct ShadowViewFrame {
+  Vec3f dir, up;                // as given (LightView::frustum takes them)
+  shader::ShadowViewAxes axes;  // eye, min_near, right, up, forward
+};
+ShadowViewFrame shadow_view_frame(Vec3f eye, Vec3f dir, Vec3f up, const Bounds3f& casters,
+                                  std::span<const Vec3f> receivers, const ShadowViewFit& fit);
+// 2. The receivers' extents of x/z, y/z and z in that frame (shadow_view_project; the
+//    receivers nearer than min_near are ignored). Empty (x0 > x1) when none is left.
+struct ShadowViewRange {
+  float x0 = kInfinity, x1 = -kInfinity, y0 = kInfinity, y1 = -kInfinity, z0 = kInfinity, z1 = -kInfinity;
+  void add(const ShadowViewRange& o);
+  void add(float x, float y, float z);
+};
+ShadowViewRange reduce_receivers(const ShadowViewFrame& frame, std::span<const Vec3f> receivers);
+// 3. The view: the window of the range, capped at max_fov, with a little slack, near before
+//    every caster, far beyond the farthest receiver, square texels. Throws when the range is
+//    empty or lies wholly outside the field of view.
+LightView build_shadow_view(const ShadowViewFrame& frame, const ShadowViewRange& range, const Bounds3f& casters,
+                            const ShadowViewFit& fit);
 
 // The largest image a view fitted at this resolution can have, for memory estimates before
 // the fit: the shorter side depends on the receivers, so resolution x resolution bounds it.

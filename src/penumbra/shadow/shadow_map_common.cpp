@@ -73,6 +73,21 @@ LightView light_view_from(const AreaLight& light, Vec3f eye, std::span<const Vec
   return fit_shadow_view(eye, light.frame.n, light.frame.t, receivers, casters, fit);
 }
 
+shader::ShadowMapView shadow_map_view(const LightView& view, float z_min) {
+  shader::ShadowMapView m{};
+  m.view = view.shared();
+  m.focal = focal_texels(view);
+  m.inv_focal = 1.0f / m.focal;
+  m.z_min = z_min;
+  return m;
+}
+
+bool same_fitted_view(const LightView& a, const LightView& b) {
+  return a.width() == b.width() && a.height() == b.height() && a.near() == b.near() && a.far() == b.far() &&
+         a.window_left() == b.window_left() && a.window_right() == b.window_right() &&
+         a.window_bottom() == b.window_bottom() && a.window_top() == b.window_top();
+}
+
 void ShadowDepthMap::render(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view) {
   if (!view.is_perspective()) throw Error("ShadowDepthMap: the view must be perspective");
   view_ = view;
@@ -80,48 +95,12 @@ void ShadowDepthMap::render(Rasterizer& rasterizer, std::span<const RasterTriang
   float zmin = kInfinity;
   for (float z : map_.z) zmin = std::min(zmin, z);
   z_min_ = zmin;
-  eye_ = view.eye();
-  right_ = view.right();
-  up_ = view.up();
-  forward_ = view.forward();
-  const Mat4& m = view.texel_projection();
-  row_x_ = {m.m[0][0], m.m[0][1], m.m[0][2]};
-  row_y_ = {m.m[1][0], m.m[1][1], m.m[1][2]};
-  off_x_ = m.m[0][3];
-  off_y_ = m.m[1][3];
-  inv_focal_ = 1.0f / focal_texels(view);
-  width_f_ = static_cast<float>(map_.width);
-  height_f_ = static_cast<float>(map_.height);
+  shared_ = shadow_map_view(view, zmin);
 }
 
 size_t ShadowDepthMap::memory_bytes() const {
   return map_.z.size() * sizeof(float) + map_.depth.size() * sizeof(float) + map_.opacity.size() * sizeof(float) +
          map_.triangle.size() * sizeof(uint32_t);
-}
-
-Receiver ShadowDepthMap::receiver(Vec3f p, Vec3f ng, const BiasParams& b) const {
-  Receiver r;
-  Vec3f t = view_.to_texel(p);
-  r.texel = {t.x, t.y};
-  r.z = t.z;
-  r.s = view_.texel_world_size(std::max(t.z, view_.near()));
-  r.ng = ng;
-  Vec3f to_eye = view_.eye() - p;
-  r.faces = dot(ng, to_eye) > 0;
-  r.plane_num = -dot(ng, to_eye);
-  // dot(ng, texel_ray(x, y).dir) with dir = right u / near + up v / near + forward,
-  // u = l + (r - l) x / W, v = t - (t - b) y / H (LightView::texel_ray).
-  const float nr = dot(ng, view_.right()) / view_.near(), nu = dot(ng, view_.up()) / view_.near();
-  r.plane_a = nr * (view_.window_right() - view_.window_left()) / static_cast<float>(view_.width());
-  r.plane_b = -nu * (view_.window_top() - view_.window_bottom()) / static_cast<float>(view_.height());
-  r.plane_c = nr * view_.window_left() + nu * view_.window_top() + dot(ng, view_.forward());
-  // The tangent plane's linear depth along texel rays d(x, y) (unit forward component) is
-  // plane_num / dot(ng, d); one texel moves d by right / f (or up / f), so the depth changes
-  // by s * |(ng.right, ng.up)| / |ng.d| per texel. On the view axis that is tan(theta).
-  float den = t.z > 0 ? std::abs(dot(ng, (p - view_.eye()) / t.z)) : 0.0f;
-  float lateral = std::sqrt(dot(ng, view_.right()) * dot(ng, view_.right()) + dot(ng, view_.up()) * dot(ng, view_.up()));
-  r.slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
-  return r;
 }
 
 void LightCentreMap::prepare(const Scene& scene, MethodStats& stats) {
@@ -146,12 +125,7 @@ bool LightCentreMap::update(const AreaLight& light, const ViewSamples& vs, const
       outside += !(t.z >= view.near() && t.x >= 0 && t.y >= 0 && t.x < view.width() && t.y < view.height());
     }
   }
-  const LightView& old = map_.view();
-  bool same = valid_ && old.width() == view.width() && old.height() == view.height() && old.near() == view.near() &&
-              old.far() == view.far() && old.window_left() == view.window_left() &&
-              old.window_right() == view.window_right() && old.window_bottom() == view.window_bottom() &&
-              old.window_top() == view.window_top();
-  if (!same) {
+  if (!(valid_ && same_fitted_view(map_.view(), view))) {
     ScopedPhase phase(stats, "raster");
     map_.render(rasterizer_, triangles_, view);
     valid_ = true;

@@ -1,7 +1,8 @@
 // What the shadow-map methods share (`shadow-map`, `pcss`, `multi-view-sm` in baseline/, and
 // `vsm`, `evsm`, `msm` in filtered_moments/): their bias parameters, the view from a point on
 // the light, the light-centre depth map, and the depth comparison of a view sample against
-// one depth map. docs/methods/shadow-map.md states the conventions.
+// one depth map. docs/methods/shadow-map.md states the conventions. The per-sample math is
+// shadow_map_shared.h's (the GPU kernels run the same functions); ShadowDepthMap calls it.
 //
 // A view sample p (geometric normal ng) seen from a map whose eye is e:
 // - p is *in front of the light* when dot(p - c, n) > 0 (c, n: the light's centre and
@@ -39,6 +40,7 @@
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/scene/light.h"
 #include "penumbra/shadow/params.h"
+#include "penumbra/shadow/shadow_map_shared.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/stats.h"
 #include "penumbra/shadow/view_samples.h"
@@ -50,6 +52,8 @@ struct BiasParams {
   float slope_bias = 1.0f;    // texels, scaled by the receiver's depth slope k
   float max_slope = 10.0f;    // cap on k (and on the receiver plane's slope)
   bool receiver_plane = false;
+  // As the shared functions take them (shadow_map_shared.h).
+  shader::ShadowBias shared() const { return {bias, slope_bias, max_slope, receiver_plane ? 1u : 0u}; }
 };
 
 // The view parameters every shadow-map baseline has.
@@ -70,7 +74,9 @@ ViewParams view_params(const ParamSet& p);
 void add_map_memory(MemoryTally& tally, int resolution, const MemoryQuery& q);
 
 // Whether p is in front of the light's emitting plane (see above).
-inline bool in_front_of_light(const AreaLight& light, Vec3f p) { return dot(p - light.center, light.frame.n) > 0.0f; }
+inline bool in_front_of_light(const AreaLight& light, Vec3f p) {
+  return shader::sm_in_front_of_light(light.center, light.frame.n, p);
+}
 
 // Positions of the view samples in front of the light (the receivers a map must cover).
 std::vector<Vec3f> receiver_points(const ViewSamples& vs, const AreaLight& light);
@@ -81,23 +87,12 @@ std::vector<Vec3f> receiver_points(const ViewSamples& vs, const AreaLight& light
 LightView light_view_from(const AreaLight& light, Vec3f eye, std::span<const Vec3f> receivers,
                           const Bounds3f& casters, int resolution, float max_fov);
 
-// A view sample as one map sees it.
-struct Receiver {
-  Vec2f texel;       // its projection, texel space
-  float z = 0;       // its linear depth
-  float s = 0;       // world size of one texel at z
-  // Linear-depth change of p's tangent plane per texel, in texel widths s (tan of the
-  // angle between ng and the ray for a point on the view axis), clamped to max_slope.
-  float slope = 0;
-  // The receiver plane: its depth along the ray through texel-space point (x, y) is
-  // plane_num / (plane_a x + plane_b y + plane_c) (the denominator is dot(ng, ray dir)).
-  float plane_num = 0;  // dot(ng, p - eye)
-  float plane_a = 0, plane_b = 0, plane_c = 0;
-  Vec3f ng;
-  bool faces = false;   // dot(ng, eye - p) > 0
-};
+// A view sample as one map sees it (texel, depth, texel size, depth slope, receiver plane,
+// facing): shadow_map_shared.h's ShadowReceiver.
+using Receiver = shader::ShadowReceiver;
 
-// One depth map and its view, with the comparisons of the header comment.
+// One depth map and its view, with the comparisons of the header comment (shadow_map_shared.h's
+// functions over the map's planes).
 class ShadowDepthMap {
  public:
   // Renders the nearest surface of `triangles` seen from `view` (semi-transparent casters
@@ -109,64 +104,34 @@ class ShadowDepthMap {
   // The smallest depth in the map (+inf if it is empty): xie2007's z_min.
   float z_min() const { return z_min_; }
   size_t memory_bytes() const;
+  // The view as the shared functions take it (with focal length and z_min).
+  const shader::ShadowMapView& shared() const { return shared_; }
 
-  Receiver receiver(Vec3f p, Vec3f ng, const BiasParams& b) const;
+  Receiver receiver(Vec3f p, Vec3f ng, const BiasParams& b) const {
+    return shader::sm_receiver(shared_, p, ng, b.shared());
+  }
 
   // The depth a surface at texel (x, y) must be in front of to block the receiver.
   float reference_depth(const Receiver& r, int x, int y, const BiasParams& b) const {
-    float dx = x + 0.5f - r.texel.x, dy = y + 0.5f - r.texel.y;
-    float reach = std::max(1.0f, std::sqrt(dx * dx + dy * dy));
-    if (!b.receiver_plane) return r.z - b.bias - b.slope_bias * r.s * r.slope * reach;
-    float limit = b.max_slope * r.s * reach;
-    float den = r.plane_a * (x + 0.5f) + r.plane_b * (y + 0.5f) + r.plane_c;
-    // The ray meets the plane in front when den has the sign of plane_num (both negative
-    // for a plane facing the eye); otherwise the plane is beyond its horizon: far away.
-    float zp = den * r.plane_num > 0 ? r.plane_num / den : kInfinity;
-    // Nothing behind p can block it (every point of a segment from p to the light is at
-    // most as deep as p), however far the plane runs.
-    return std::clamp(zp, r.z - limit, r.z) - b.bias;
+    return shader::sm_reference_depth(r, x, y, b.shared());
   }
 
   // The fraction of light texel (x, y) lets through to a receiver whose reference depth
   // there is `ref`: 1 outside the map or when its surface is not in front of ref,
   // otherwise 1 - opacity.
   float transmit(int x, int y, float ref) const {
-    if (x < 0 || y < 0 || x >= map_.width || y >= map_.height) return 1.0f;
-    size_t i = map_.index(x, y);
-    return map_.z[i] < ref ? 1.0f - map_.opacity[i] : 1.0f;
+    return shader::sm_transmit(map_.z.data(), map_.opacity.data(), map_.width, map_.height, x, y, ref);
   }
   // The same at a texel-space point (its texel: floor of the coordinates).
   float transmit_at(const Receiver& r, Vec2f texel, const BiasParams& b) const {
-    int x = static_cast<int>(std::floor(texel.x)), y = static_cast<int>(std::floor(texel.y));
-    if (x < 0 || y < 0 || x >= map_.width || y >= map_.height) return 1.0f;
-    return transmit(x, y, reference_depth(r, x, y, b));
+    return shader::sm_transmit_at(map_.z.data(), map_.opacity.data(), shared_, r, texel, b.shared());
   }
   // The hard-shadow lookup of one point at its own texel: 0 when p lies on a closed
   // object and does not face the eye, else transmit_at(receiver(p, ng), its texel). The
   // same numbers as those calls, with the per-map set-up hoisted (what multi-view-sm and
   // shadow-map do per point and map).
   float lookup(Vec3f p, Vec3f ng, bool closed, const BiasParams& b) const {
-    if (b.receiver_plane) {
-      Receiver r = receiver(p, ng, b);
-      return !r.faces && closed ? 0.0f : transmit_at(r, r.texel, b);
-    }
-    const Vec3f d = p - eye_;
-    const float plane_num = dot(ng, d);
-    if (!(plane_num < 0) && closed) return 0.0f;  // faces: dot(ng, eye - p) > 0
-    const float z = dot(d, forward_);
-    const float inv_z = 1.0f / z;
-    const float tx = (dot(row_x_, p) + off_x_) * inv_z, ty = (dot(row_y_, p) + off_y_) * inv_z;
-    if (!(tx >= 0) || !(ty >= 0) || !(tx < width_f_) || !(ty < height_f_)) return 1.0f;
-    const size_t i = map_.index(static_cast<int>(tx), static_cast<int>(ty));
-    const float zt = map_.z[i];
-    // Cheap early out: a surface farther than p never blocks.
-    if (!(zt < z)) return 1.0f;
-    const float nr = dot(ng, right_), nu = dot(ng, up_);
-    const float lateral = std::sqrt(nr * nr + nu * nu), den = std::abs(plane_num) * inv_z;
-    const float slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
-    // Own texel: reach max(1, d_t) = 1; s = z / focal.
-    const float ref = z - b.bias - b.slope_bias * z * inv_focal_ * slope;
-    return zt < ref ? 1.0f - map_.opacity[i] : 1.0f;
+    return shader::sm_lookup(map_.z.data(), map_.opacity.data(), shared_, p, ng, closed, b.shared());
   }
 
   // Depth of the nearest surface at a texel-space point (+inf outside the map or empty).
@@ -180,10 +145,15 @@ class ShadowDepthMap {
   LightView view_;
   DepthMap map_;
   float z_min_ = kInfinity;
-  // lookup()'s hoisted view: texel x = (row_x . p + off_x) / z, likewise y.
-  Vec3f eye_, right_, up_, forward_, row_x_, row_y_;
-  float off_x_ = 0, off_y_ = 0, inv_focal_ = 0, width_f_ = 0, height_f_ = 0;
+  shader::ShadowMapView shared_{};
 };
+
+// The view for the shared functions: `view`'s RasterView, its focal length and `z_min`.
+shader::ShadowMapView shadow_map_view(const LightView& view, float z_min);
+
+// Whether two fitted views are the same (resolution, depth range, window): a map rendered for
+// one serves the other (LightCentreMap re-renders only when they differ).
+bool same_fitted_view(const LightView& a, const LightView& b);
 
 // The scene's triangles and the map from the light's centre (shadow-map, pcss), fitted to
 // the receivers of the view samples it is asked about and re-rendered only when their
@@ -229,8 +199,7 @@ inline Vec2f kernel_offset(const LightView& v, float focal, Vec3f q) {
 // focal_texels; the paper's "resolution" for a view whose window is one unit wide at unit
 // distance). Zero when p.z <= z_min (nothing can be in front of p).
 inline float xie2007_filter_size(float focal, float light_radius, float z_min, float pz) {
-  if (!(pz > z_min) || !(z_min > 0)) return 0.0f;
-  return focal * light_radius * (1.0f / z_min - 1.0f / pz);
+  return shader::sm_xie2007_filter_size(focal, light_radius, z_min, pz);
 }
 
 // Fernando 2005 (PCSS): penumbra width at the receiver, w = (d_receiver - d_blocker) *

@@ -15,15 +15,6 @@ layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { CameraPassParams p; } pc;
 layout(buffer_reference, scalar) writeonly buffer ViewSamplesOut { GpuViewSample v[]; };
 
-// An instance's object -> world transform of a point, and the inverse transpose for normals.
-vec3 instance_point(GpuInstance inst, vec3 q) {
-  return vec3(dot(inst.to_world_x, q) + inst.to_world_tx, dot(inst.to_world_y, q) + inst.to_world_ty,
-              dot(inst.to_world_z, q) + inst.to_world_tz);
-}
-vec3 instance_normal(GpuInstance inst, vec3 m) {
-  return inst.to_object_x * m.x + inst.to_object_y * m.y + inst.to_object_z * m.z;
-}
-
 void main() {
   uint slot = pn_thread_index();
   uint spp = uint(pc.p.spp);

@@ -29,34 +29,16 @@
 #include "penumbra/core/progress.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/raster/shadow_view.h"
+#include "penumbra/shadow/baseline/pcss_common.h"
 #include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/shadow/shadow_method.h"
 
 namespace penumbra {
 namespace {
 
-using shadow_map::BiasParams;
-using shadow_map::in_front_of_light;
-using shadow_map::kernel_offset;
-using shadow_map::Receiver;
-
-// Cranley-Patterson rotation: a toroidal shift keeps the stratification.
-Vec2f rotate(Vec2f u, Vec2f shift) {
-  u = u + shift;
-  if (u.x >= 1.0f) u.x -= 1.0f;
-  if (u.y >= 1.0f) u.y -= 1.0f;
-  return u;
-}
-
 class Pcss final : public ShadowMethod {
  public:
-  explicit Pcss(const ParamSet& p)
-      : view_(shadow_map::view_params(p)),
-        blocker_samples_(p.get_int("blocker_samples")),
-        pcf_samples_(p.get_int("pcf_samples")),
-        xie_(p.get_string("variant") == "xie2007"),
-        jitter_(p.get_bool("jitter")),
-        bias_(shadow_map::bias_params(p)) {}
+  explicit Pcss(const ParamSet& p) : s_(p) {}
 
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
@@ -65,103 +47,48 @@ class Pcss final : public ShadowMethod {
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
     const AreaLight& light = *ctx.light;
-    if (!map_.update(light, vs, view_, stats_)) {
+    if (!map_.update(light, vs, s_.view, stats_)) {
       std::fill(out.visibility.begin(), out.visibility.end(), 0.0f);
       return;
     }
     ScopedPhase phase(stats_, "filter");
     const shadow_map::ShadowDepthMap& sm = map_.map();
-    const float focal = focal_texels(sm.view());
-    const float z_min = sm.z_min();
-    const uint64_t key = hash_combine(hash_combine(ctx.seed, 0x50435353u /* "PCSS" */ + ctx.light_index), ctx.frame);
-    // Stratified kernels on the light's parameter square, shifted per pixel
-    // (Cranley-Patterson) unless jitter=false.
-    const std::vector<Vec2f> blocker_base = LightSampleSet(blocker_samples_, key, false).base();
-    const std::vector<Vec2f> pcf_base = LightSampleSet(pcf_samples_, hash_combine(key, 1), false).base();
+    const DepthMap& map = sm.map();
+    const shader::ShadowBias bias = s_.bias.shared();
+    const uint64_t key = pcss::kernel_key(ctx);
+    const pcss::Kernels kernels = pcss::kernels(s_, key);
+    const shader::PcssLight pl = pcss::shared_light(light);
+    const PiecewiseConstant2D* table = pcss::light_table(light);
+    const float* marginal = table ? table->marginal_cdf().data() : nullptr;
+    const float* conditional = table ? table->conditional_cdf().data() : nullptr;
     std::atomic<uint64_t> texels{0}, no_blocker{0};
     parallel_for(vs.size(), 1024, [&](size_t begin, size_t end) {
       uint64_t local = 0, unblocked = 0;
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
-        if (!in_front_of_light(light, s.p)) {
-          out.visibility[k] = 0.0f;
-          continue;
-        }
-        Receiver rc = sm.receiver(s.p, s.ng, bias_);
-        if (xie_) {
-          const bool closed = ctx.scene->objects[s.object].closed;
-          out.visibility[k] = rc.faces || !closed ? xie2007(sm, rc, pcf_base, jitter_ ? Rng(key, 0x5050u, s.pixel).next_2d() : Vec2f(0, 0),
-                                                 focal, light.extent_radius(), z_min, &local)
-                                       : 0.0f;
-          continue;
-        }
-        // On a closed object, light points behind p's own surface are blocked by it.
-        const bool closed = ctx.scene->objects[s.object].closed;
-        // 1. Blocker search over the light's shape projected onto z_min.
-        const float search = rc.z > z_min ? 1.0f / z_min - 1.0f / rc.z : 0.0f;
-        double sum = 0;
-        int count = 0;
-        const Vec2f shift = jitter_ ? Rng(key, 0x5050u, s.pixel).next_2d() : Vec2f(0, 0);
-        for (int i = 0; i < blocker_samples_; ++i) {
-          Vec3f q = light.sample_area(rotate(blocker_base[i], shift));
-          if (closed && dot(s.ng, q - s.p) <= 0) continue;
-          Vec2f t = rc.texel + kernel_offset(sm.view(), focal, q) * search;
-          int x = static_cast<int>(std::floor(t.x)), y = static_cast<int>(std::floor(t.y));
-          ++local;
-          if (x < 0 || y < 0 || x >= sm.map().width || y >= sm.map().height) continue;
-          float z = sm.map().z[sm.map().index(x, y)];
-          if (z < sm.reference_depth(rc, x, y, bias_)) {
-            sum += z;
-            ++count;
-          }
-        }
-        // 2. Penumbra estimate: the light's shape scaled by (1/d_b - 1/z_p).
-        const float scale = count > 0 ? std::max(0.0f, 1.0f / static_cast<float>(sum / count) - 1.0f / rc.z) : 0.0f;
-        unblocked += count == 0;
-        // 3. PCF over that kernel (with no blocker, only p's own horizon darkens it).
-        float v = 0;
-        for (int i = 0; i < pcf_samples_; ++i) {
-          Vec3f q = light.sample_area(rotate(pcf_base[i], shift));
-          if (closed && dot(s.ng, q - s.p) <= 0) continue;
-          if (count == 0) {
-            v += 1.0f;
-            continue;
-          }
-          v += sm.transmit_at(rc, rc.texel + kernel_offset(sm.view(), focal, q) * scale, bias_);
-          ++local;
-        }
-        out.visibility[k] = v / static_cast<float>(pcf_samples_);
+        const Vec2f shift = s_.jitter ? pcss::pixel_shift(key, s.pixel) : Vec2f(0, 0);
+        uint32_t read = 0;
+        bool none = false;
+        // shadow_map_shared.h: blocker search, penumbra estimate, PCF (or xie2007's filter).
+        out.visibility[k] = shader::pcss_visibility(
+            map.z.data(), map.opacity.data(), sm.shared(), bias, pl, marginal, conditional,
+            reinterpret_cast<const float*>(kernels.blocker.data()), s_.blocker_samples,
+            reinterpret_cast<const float*>(kernels.pcf.data()), s_.pcf_samples, s_.xie2007 ? 1u : 0u, shift, s.p, s.ng,
+            ctx.scene->objects[s.object].closed, read, none);
+        local += read;
+        unblocked += none;
       }
       texels += local;
       no_blocker += unblocked;
       if (ctx.progress) ctx.progress->add(end - begin);
     });
     stats_.texels_visited += texels.load();
-    stats_.extra["z_min"] = z_min;
-    if (!xie_) stats_.extra["samples_without_blockers"] = no_blocker.load();
+    stats_.extra["z_min"] = sm.z_min();
+    if (!s_.xie2007) stats_.extra["samples_without_blockers"] = no_blocker.load();
   }
 
  private:
-  // xie2007 §3: stochastic samples in a disk of radius filter_size (eq. 1) around p's
-  // texel; the fraction of blockers.
-  float xie2007(const shadow_map::ShadowDepthMap& sm, const Receiver& rc, const std::vector<Vec2f>& base, Vec2f shift,
-                float focal, float light_radius, float z_min, uint64_t* texels) const {
-    const float radius = shadow_map::xie2007_filter_size(focal, light_radius, z_min, rc.z);
-    float v = 0;
-    for (int i = 0; i < pcf_samples_; ++i) {
-      Vec2f d = square_to_disk_concentric(rotate(base[i], shift));
-      v += sm.transmit_at(rc, rc.texel + d * radius, bias_);
-    }
-    *texels += pcf_samples_;
-    return v / static_cast<float>(pcf_samples_);
-  }
-
-  shadow_map::ViewParams view_;
-  int blocker_samples_;
-  int pcf_samples_;
-  bool xie_;
-  bool jitter_;
-  BiasParams bias_;
+  pcss::Settings s_;
   shadow_map::LightCentreMap map_;
 };
 

@@ -14,8 +14,6 @@ namespace penumbra {
 namespace {
 
 using shadow_map::BiasParams;
-using shadow_map::in_front_of_light;
-using shadow_map::Receiver;
 
 class ShadowMapMethod final : public ShadowMethod {
  public:
@@ -35,37 +33,19 @@ class ShadowMapMethod final : public ShadowMethod {
     }
     ScopedPhase phase(stats_, "lookup");
     const shadow_map::ShadowDepthMap& sm = map_.map();
-    const int r = pcf_;
-    const float inv_taps = 1.0f / static_cast<float>((2 * r + 1) * (2 * r + 1));
+    const DepthMap& map = sm.map();
+    const shader::ShadowBias bias = bias_.shared();
     std::atomic<uint64_t> texels{0};
     parallel_for(vs.size(), 4096, [&](size_t begin, size_t end) {
       uint64_t local = 0;
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
-        if (!in_front_of_light(light, s.p)) {
-          out.visibility[k] = 0.0f;
-          continue;
-        }
-        const bool closed = ctx.scene->objects[s.object].closed;
-        if (r == 0) {  // one texel: the hoisted lookup (same numbers, tested)
-          out.visibility[k] = sm.lookup(s.p, s.ng, closed, bias_);
-          ++local;
-          continue;
-        }
-        Receiver rc = sm.receiver(s.p, s.ng, bias_);
-        if (!rc.faces && closed) {
-          out.visibility[k] = 0.0f;
-          continue;
-        }
-        const int x0 = static_cast<int>(std::floor(rc.texel.x)), y0 = static_cast<int>(std::floor(rc.texel.y));
-        float v = 0;
-        for (int dy = -r; dy <= r; ++dy)
-          for (int dx = -r; dx <= r; ++dx) {
-            int x = x0 + dx, y = y0 + dy;
-            v += sm.transmit(x, y, sm.reference_depth(rc, x, y, bias_));
-          }
-        local += (2 * r + 1) * (2 * r + 1);
-        out.visibility[k] = v * inv_taps;
+        uint32_t read = 0;
+        // shadow_map_shared.h: the hard lookup, or PCF over (2 pcf + 1)^2 texels.
+        out.visibility[k] = shader::shadow_map_visibility(map.z.data(), map.opacity.data(), sm.shared(), bias, pcf_,
+                                                          light.center, light.frame.n, s.p, s.ng,
+                                                          ctx.scene->objects[s.object].closed, read);
+        local += read;
       }
       texels += local;
       if (ctx.progress) ctx.progress->add(end - begin);

@@ -1,0 +1,175 @@
+#include "penumbra/gpu/raster/gpu_rasterizer.h"
+
+#include <algorithm>
+#include <cstddef>
+
+#include "penumbra/core/error.h"
+#include "penumbra/gpu/raster/raster_layout_shared.h"
+
+namespace penumbra::gpu {
+namespace {
+
+using shader::GpuRasterItem;
+using shader::GpuRasterState;
+using shader::GpuRasterTriangle;
+
+constexpr uint32_t kEmptyWord = 0xffffffffu;  // an empty key (both words), an empty z_min
+constexpr uint64_t kMaxCapacity = 0xffffffffu;  // items and triangles are indexed by uint32
+
+uint64_t tiles(int width, int height) {
+  const uint64_t t = shader::kRasterTile;
+  return ((static_cast<uint64_t>(width) + t - 1) / t) * ((static_cast<uint64_t>(height) + t - 1) / t);
+}
+
+// The first capacities for a scene and a map (scratch_bytes counts these).
+uint64_t initial_triangles(uint64_t triangles) { return triangles + triangles / 8 + 64; }
+uint64_t initial_items(uint64_t triangles, int width, int height) {
+  return 2 * triangles + 2 * tiles(width, height) + 1024;
+}
+
+// Room for `needed` with a margin, so a scene that grows a little does not retry every frame.
+uint64_t grown(uint64_t needed) { return needed + needed / 4 + 64; }
+
+}  // namespace
+
+void GpuDepthMap::resize(Device& device, int w, int h) {
+  if (w == width_ && h == height_ && !keys_.empty()) return;
+  const uint64_t n = static_cast<uint64_t>(w) * static_cast<uint64_t>(h);
+  keys_ = Buffer(device, n * 8, "a depth map's keys");
+  z_ = Buffer(device, n * 4, "a depth map's depths");
+  depth_ = Buffer(device, n * 4, "a depth map's window depths");
+  opacity_ = Buffer(device, n * 4, "a depth map's opacities");
+  triangle_ = Buffer(device, n * 4, "a depth map's triangles");
+  if (view_record_.empty()) view_record_ = Buffer(device, sizeof(shader::RasterView), "a depth map's view");
+  width_ = w;
+  height_ = h;
+}
+
+DepthMap GpuDepthMap::download() const {
+  DepthMap m;
+  m.resize(width_, height_);
+  const uint64_t n = static_cast<uint64_t>(width_) * height_;
+  z_.download(m.z.data(), n * 4);
+  depth_.download(m.depth.data(), n * 4);
+  opacity_.download(m.opacity.data(), n * 4);
+  triangle_.download(m.triangle.data(), n * 4);
+  return m;
+}
+
+uint64_t GpuDepthMap::device_bytes() const {
+  uint64_t total = 0;
+  for (const Buffer* b : {&keys_, &z_, &depth_, &opacity_, &triangle_, &view_record_}) total += b->bytes();
+  return total;
+}
+
+uint64_t GpuDepthMap::bytes(int w, int h) {
+  return static_cast<uint64_t>(w) * static_cast<uint64_t>(h) * (8 + 4 * 4) + sizeof(shader::RasterView);
+}
+
+GpuRasterizer::GpuRasterizer(Device& device) : device_(&device) {
+  state_ = Buffer(device, sizeof(GpuRasterState), "the rasterizer's counters");
+}
+
+uint64_t GpuRasterizer::scratch_bytes(uint64_t triangles, int width, int height) {
+  return initial_triangles(triangles) * sizeof(GpuRasterTriangle) +
+         initial_items(triangles, width, height) * sizeof(GpuRasterItem) + sizeof(GpuRasterState);
+}
+
+void GpuRasterizer::set_capacities_for_testing(uint32_t triangles, uint32_t items) {
+  triangles_ = Buffer(*device_, std::max<uint64_t>(1, triangles) * sizeof(GpuRasterTriangle), "the set-up triangles");
+  items_ = Buffer(*device_, std::max<uint64_t>(1, items) * sizeof(GpuRasterItem), "the rasterizer's work items");
+  triangle_capacity_ = triangles;
+  item_capacity_ = items;
+}
+
+void GpuRasterizer::ensure_capacity(uint64_t triangles, uint64_t items) {
+  if (triangles > kMaxCapacity || items > kMaxCapacity)
+    throw Error("GPU rasterizer: {} set-up triangles and {} work items are more than one map can index (at most {})",
+                triangles, items, kMaxCapacity);
+  if (triangles > triangle_capacity_) {
+    triangles_ = Buffer();  // free first: the old buffer's contents are not needed
+    triangles_ = Buffer(*device_, triangles * sizeof(GpuRasterTriangle), "the set-up triangles");
+    triangle_capacity_ = static_cast<uint32_t>(triangles);
+  }
+  if (items > item_capacity_) {
+    items_ = Buffer();
+    items_ = Buffer(*device_, items * sizeof(GpuRasterItem), "the rasterizer's work items");
+    item_capacity_ = static_cast<uint32_t>(items);
+  }
+}
+
+void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string_view stage, const GpuScene& scene,
+                              const LightView& view, const RasterFilter& filter, GpuDepthMap* out) {
+  // The host writes the view record and may reallocate buffers below: nothing recorded before
+  // may still be waiting to read them.
+  submit();
+  const uint64_t triangles = scene.triangle_count();
+  if (triangle_capacity_ == 0 || item_capacity_ == 0)
+    ensure_capacity(std::min(kMaxCapacity, initial_triangles(triangles)),
+                    std::min(kMaxCapacity, initial_items(triangles, view.width(), view.height())));
+  out->resize(*device_, view.width(), view.height());
+  out->view_ = view;
+  const shader::RasterView record = view.shared();
+  out->view_record_.upload(&record, sizeof(record));
+  const uint64_t texels = static_cast<uint64_t>(view.width()) * view.height();
+
+  stats_ = {};
+  stats_.triangles = triangles;
+  attempts_ = 0;
+  for (;;) {
+    ++attempts_;
+    cl.stage(stage);
+    cl.fill(out->keys_, kEmptyWord);
+    cl.fill(state_, 0);
+    cl.fill(state_, kEmptyWord, offsetof(GpuRasterState, z_min_bits), 4);
+    shader::RasterSetupParams sp{};
+    sp.scene = scene.address();
+    sp.view = out->view_record_.address();
+    sp.state = state_.address();
+    sp.triangles = triangles_.address();
+    sp.items = items_.address();
+    sp.triangle_count = static_cast<uint32_t>(triangles);
+    sp.triangle_capacity = triangle_capacity_;
+    sp.item_capacity = item_capacity_;
+    sp.culling = filter.culling == FaceCulling::None ? 0u : filter.culling == FaceCulling::Back ? 1u : 2u;
+    sp.opaque_only = filter.opaque_only ? 1u : 0u;
+    cl.dispatch("raster_setup", triangles, sp);
+    shader::RasterFillParams fp{};
+    fp.scene = scene.address();
+    fp.view = out->view_record_.address();
+    fp.state = state_.address();
+    fp.triangles = triangles_.address();
+    fp.items = items_.address();
+    fp.keys = out->keys_.address();
+    fp.triangle_capacity = triangle_capacity_;
+    fp.item_capacity = item_capacity_;
+    cl.dispatch("raster_fill_args", 1, fp);
+    cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
+    shader::RasterResolveParams rp{};
+    rp.scene = scene.address();
+    rp.view = out->view_record_.address();
+    rp.state = state_.address();
+    rp.keys = out->keys_.address();
+    rp.z = out->z_.address();
+    rp.depth = out->depth_.address();
+    rp.opacity = out->opacity_.address();
+    rp.triangle = out->triangle_.address();
+    cl.dispatch("raster_resolve", texels, rp);
+    submit();
+    GpuRasterState s{};
+    state_.download(&s, sizeof(s));
+    if (s.setup_count <= triangle_capacity_ && s.item_count <= item_capacity_) {
+      stats_.setup = s.setup_count;
+      stats_.bin_entries = s.item_count;
+      stats_.fragments = s.fragments;
+      out->z_min_ = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
+      return;
+    }
+    // Too small: every count is what the written triangles asked for, so grow to at least that
+    // (the items of triangles that found no room are counted on the next try).
+    ensure_capacity(std::max<uint64_t>(triangle_capacity_, s.setup_count > triangle_capacity_ ? grown(s.setup_count) : 0),
+                    std::max<uint64_t>(item_capacity_, s.item_count > item_capacity_ ? grown(s.item_count) : 0));
+  }
+}
+
+}  // namespace penumbra::gpu

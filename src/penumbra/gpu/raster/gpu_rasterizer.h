@@ -1,0 +1,102 @@
+// The compute rasterizer (docs/raster.md, "The GPU rasterizer"): the CPU rasterizer's depth
+// maps (raster/rasterizer.h) rendered on the device from the GpuScene, with the same semantics
+// and the same arithmetic (raster/raster_shared.h): triangles in homogeneous texel space clipped
+// against near, far and the guard band, snapped to 1/256 texel, exact int64 edge functions with
+// the top-left rule, coverage at texel centres, depth from the unsnapped vertices, alpha looked
+// up per fragment, the nearest surface per texel with ties to the first triangle in input order
+// (object order, then mesh order: gather_raster_triangles' numbering, which the map's triangle
+// plane uses). Shared machinery: the shadow-map methods' maps today, layered maps, fragment lists
+// and conservative rasterization next (the kernels are named for their stage:
+// gpu/raster/kernels/raster_*.comp; the buffers are gpu/raster/raster_layout_shared.h's).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string_view>
+
+#include "penumbra/gpu/buffer.h"
+#include "penumbra/gpu/commands.h"
+#include "penumbra/gpu/gpu_scene.h"
+#include "penumbra/raster/depth_map.h"
+#include "penumbra/raster/light_view.h"
+#include "penumbra/raster/rasterizer.h"
+
+namespace penumbra::gpu {
+
+// A depth map on the device: DepthMap's planes (z, window depth, opacity, triangle), one buffer
+// each, and the view it was rendered from (its RasterView record, for kernels that look it up).
+class GpuDepthMap {
+ public:
+  int width() const { return width_; }
+  int height() const { return height_; }
+  bool empty() const { return width_ == 0; }
+  const LightView& view() const { return view_; }
+  // The smallest linear depth in the map (+inf when it is empty): xie2007's z_min.
+  float z_min() const { return z_min_; }
+
+  // Device addresses of the planes (float, float, float, uint per texel, row-major) and of the
+  // view's RasterView record (raster/raster_shared.h).
+  uint64_t z() const { return z_.address(); }
+  uint64_t depth() const { return depth_.address(); }
+  uint64_t opacity() const { return opacity_.address(); }
+  uint64_t triangle() const { return triangle_.address(); }
+  uint64_t view_record() const { return view_record_.address(); }
+
+  // The planes copied back into a DepthMap (tests and tools; a method never reads a map back).
+  DepthMap download() const;
+  uint64_t device_bytes() const;
+  // What a w x h map holds: the keys the fill writes (8 bytes a texel), the four planes and the
+  // view record.
+  static uint64_t bytes(int w, int h);
+
+ private:
+  friend class GpuRasterizer;
+  void resize(Device& device, int w, int h);
+  int width_ = 0, height_ = 0;
+  LightView view_;
+  float z_min_ = kInfinity;
+  Buffer keys_, z_, depth_, opacity_, triangle_, view_record_;
+};
+
+class GpuRasterizer {
+ public:
+  // Runs what a command list recorded and waits (a GPU method passes GpuFrame::flush, so the
+  // frame's GPU times include it; tests pass CommandList::submit).
+  using Submit = std::function<void()>;
+
+  explicit GpuRasterizer(Device& device);
+
+  // The nearest surface of every triangle of `scene` through each texel centre of `view`, with
+  // its opacity and input triangle index: the CPU's Rasterizer::depth_map. Submits what
+  // `commands` holds first (the map's buffers are rewritten from the host), records the four
+  // kernels in the GPU stage `stage`, submits them, and reads the counters back (a few bytes):
+  // where the set-up triangles or work items outgrew their buffers, it grows them and renders
+  // again.
+  void depth_map(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
+                 const LightView& view, const RasterFilter& filter, GpuDepthMap* out);
+
+  // The last call's counts (RasterStats; no times: those are the GPU stages') and how many
+  // renders it took (1 unless a buffer grew).
+  const RasterStats& stats() const { return stats_; }
+  int attempts() const { return attempts_; }
+
+  // The scratch a GpuRasterizer allocates for `triangles` triangles and a width x height map at
+  // first (what the memory estimates count): set-up triangles for every input triangle and an
+  // eighth more (fans of clipped ones), work items for two tiles a triangle and two triangles a
+  // tile (a ground plane), the counters.
+  static uint64_t scratch_bytes(uint64_t triangles, int width, int height);
+
+  // For tests: the capacities of the next render (0: sized from the scene and the map), to make
+  // it outgrow its buffers and retry.
+  void set_capacities_for_testing(uint32_t triangles, uint32_t items);
+
+ private:
+  void ensure_capacity(uint64_t triangles, uint64_t items);
+  Device* device_;
+  Buffer state_, triangles_, items_;
+  uint32_t triangle_capacity_ = 0, item_capacity_ = 0;
+  RasterStats stats_;
+  int attempts_ = 0;
+};
+
+}  // namespace penumbra::gpu

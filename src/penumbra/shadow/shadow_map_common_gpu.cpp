@@ -1,0 +1,118 @@
+#include "penumbra/shadow/shadow_map_common_gpu.h"
+
+#include "penumbra/core/error.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra::shadow_map {
+namespace {
+
+using shader::GpuReceiverRange;
+
+constexpr uint32_t kSmallest = 0xffffffffu;  // a range's minimum before any receiver
+
+// A float reduced as raster_order_bits back into the float.
+float range_float(uint32_t bits) { return shader::raster_order_float(bits); }
+
+}  // namespace
+
+void GpuLightCentreMap::prepare(const ShadowContext& ctx, GpuFrame& frame) {
+  casters_ = ctx.scene->bounds();
+  valid_ = false;
+  if (!rasterizer_) {
+    rasterizer_ = std::make_unique<gpu::GpuRasterizer>(*frame.device);
+    range_ = gpu::Buffer(*frame.device, sizeof(GpuReceiverRange), "the shadow map's receiver range");
+    block_ = gpu::Buffer(*frame.device, sizeof(shader::ShadowMapBlock), "the shadow map's view");
+    counters_ = gpu::Buffer(*frame.device, sizeof(shader::GpuShadowMapCounters), "the shadow map's counters");
+  }
+}
+
+bool GpuLightCentreMap::update(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
+                               const BiasParams& bias, MethodStats& stats) {
+  const AreaLight& light = *ctx.light;
+  gpu::CommandList& cl = *frame.commands;
+  // The fit: the receivers reduced on the device, 32 bytes read back, the view built here by
+  // the CPU's code (light_view_from's frame: from the light's centre along its normal).
+  ShadowViewFit fit;
+  fit.resolution = params.resolution;
+  fit.max_fov = params.max_fov;
+  const ShadowViewFrame frame_axes = shadow_view_frame(light.center, light.frame.n, light.frame.t, casters_, {}, fit);
+  cl.stage("fit");
+  cl.fill(range_, 0);
+  for (uint64_t offset : {offsetof(GpuReceiverRange, x0), offsetof(GpuReceiverRange, y0), offsetof(GpuReceiverRange, z0)})
+    cl.fill(range_, kSmallest, offset, 4);
+  shader::FitReceiversParams fp{};
+  fp.samples = frame.view_samples;
+  fp.range = range_.address();
+  fp.axes = frame_axes.axes;
+  fp.light_center = light.center;
+  fp.slots = frame.slots;
+  fp.light_n = light.frame.n;
+  cl.dispatch("shadow_fit_receivers", frame.slots, fp);
+  frame.flush();
+  GpuReceiverRange r{};
+  range_.download(&r, sizeof(r));
+  if (r.receivers == 0) return false;
+  ShadowViewRange range;
+  if (r.fitted > 0) {
+    range.x0 = range_float(r.x0);
+    range.x1 = range_float(r.x1);
+    range.y0 = range_float(r.y0);
+    range.y1 = range_float(r.y1);
+    range.z0 = range_float(r.z0);
+    range.z1 = range_float(r.z1);
+  }
+  const LightView view = build_shadow_view(frame_axes, range, casters_, fit);
+  // Rendered again only when the fitted view changed (LightCentreMap::update's rule).
+  if (!(valid_ && same_fitted_view(map_.view(), view))) {
+    rasterizer_->depth_map(cl, frame.flush, "raster", *frame.scene, view, RasterFilter{}, &map_);
+    shader::ShadowMapBlock block{};
+    block.map = shadow_map_view(view, map_.z_min());
+    block.bias = bias.shared();
+    block_.upload(&block, sizeof(block));
+    valid_ = true;
+    ++renders_;
+  }
+  stats.memory_bytes = std::max<uint64_t>(stats.memory_bytes, map_.device_bytes());
+  stats.extra["map_width"] = map_.width();
+  stats.extra["map_height"] = map_.height();
+  return true;
+}
+
+shader::ShadowMapInputs GpuLightCentreMap::lookup_inputs(gpu::CommandList& commands, const GpuFrame& frame,
+                                                          const GpuShadowOutput& out, bool has_map) {
+  if (!counting_) commands.fill(counters_, 0);
+  counting_ = true;
+  shader::ShadowMapInputs in{};
+  in.scene = frame.scene->address();
+  in.samples = frame.view_samples;
+  in.visibility = out.visibility;
+  if (has_map) {
+    in.z = map_.z();
+    in.opacity = map_.opacity();
+  }
+  in.block = block_.address();
+  in.counters = counters_.address();
+  in.slots = frame.slots;
+  in.has_map = has_map ? 1u : 0u;
+  return in;
+}
+
+shader::GpuShadowMapCounters GpuLightCentreMap::collect(MethodStats& stats) {
+  shader::GpuShadowMapCounters c{};
+  if (!counting_) return c;
+  counters_.download(&c, sizeof(c));
+  counting_ = false;
+  stats.texels_visited += c.texels;
+  stats.extra["receivers_outside_map"] = c.outside;
+  return c;
+}
+
+void GpuLightCentreMap::add_memory(MemoryTally& tally, int resolution, const MemoryQuery& q) {
+  const ViewSize v = fitted_view_bound(resolution);
+  tally.add(gpu::GpuDepthMap::bytes(v.width, v.height), "resolution");
+  tally.add(gpu::GpuRasterizer::scratch_bytes(q.triangles, v.width, v.height), kTrianglesSetting);
+  tally.add(sizeof(GpuReceiverRange) + sizeof(shader::ShadowMapBlock) + sizeof(shader::GpuShadowMapCounters),
+            "resolution");
+}
+
+}  // namespace penumbra::shadow_map

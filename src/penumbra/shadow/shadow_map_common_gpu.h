@@ -1,0 +1,54 @@
+// What the shadow-map methods share on the GPU (`shadow-map`, `pcss`; shadow_map_common.h's
+// LightCentreMap on the device): the map from the light's centre fitted to the receivers of the
+// view samples, re-rendered only when the fitted view changes. The fit reduces the receivers on
+// the device (shadow/kernels/shadow_fit_receivers.comp) to 32 bytes the host reads back
+// (GpuFrame::flush) and builds the view from with the CPU's code (build_shadow_view), so the view
+// equals the CPU's up to float rounding; the map is the GPU rasterizer's (gpu/raster/).
+#pragma once
+
+#include "penumbra/gpu/raster/gpu_rasterizer.h"
+#include "penumbra/raster/shadow_view.h"
+#include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/shadow_map_common.h"
+#include "penumbra/shadow/shadow_map_kernels_shared.h"
+
+namespace penumbra::shadow_map {
+
+class GpuLightCentreMap {
+ public:
+  // The casters' bounds (the scene's); call again when the geometry changes.
+  void prepare(const ShadowContext& ctx, GpuFrame& frame);
+  // Makes the map serve frame.view_samples (stage "fit"; "raster" when it renders), uploading
+  // the view and `bias` (the method's, the same at every call) for the lookups (block()). False
+  // if no view sample is in front of the light (there is nothing to look up then; every V is 0).
+  bool update(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& view, const BiasParams& bias,
+              MethodStats& stats);
+
+  const gpu::GpuDepthMap& map() const { return map_; }
+  uint64_t renders() const { return renders_; }
+
+  // What a lookup kernel reads and writes (ShadowMapInputs): the view samples, where V goes, the
+  // map's planes and block (the current view and the bias), and the counters. The counters
+  // start from 0 at the first lookup after collect() and add up over the frames until then.
+  shader::ShadowMapInputs lookup_inputs(gpu::CommandList& commands, const GpuFrame& frame,
+                                        const GpuShadowOutput& out, bool has_map);
+  // Once the frame has run: the texels read and the receivers outside the map into `stats`
+  // (MethodStats::texels_visited, extra receivers_outside_map), and the counters for the rest;
+  // nothing (zeros) when no lookup ran since the last call.
+  shader::GpuShadowMapCounters collect(MethodStats& stats);
+
+  // One light's device memory at these parameters: the map (a resolution^2 bound), the
+  // rasterizer's scratch, the fit's and the lookups' few bytes.
+  static void add_memory(MemoryTally& tally, int resolution, const MemoryQuery& q);
+
+ private:
+  Bounds3f casters_;
+  std::unique_ptr<gpu::GpuRasterizer> rasterizer_;
+  gpu::GpuDepthMap map_;
+  gpu::Buffer range_, block_, counters_;
+  bool counting_ = false;  // a lookup ran since the last collect()
+  bool valid_ = false;
+  uint64_t renders_ = 0;
+};
+
+}  // namespace penumbra::shadow_map

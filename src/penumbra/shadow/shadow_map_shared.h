@@ -1,0 +1,325 @@
+// The shadow-map methods' per-sample math once for both devices, in the common subset of C++ and
+// GLSL (core/shader_compat.h): a view sample as one map sees it (its receiver), the biased depth
+// comparison, the transmittance of a texel, the hard lookup with its hoisted set-up, PCF
+// (`shadow-map`), and PCSS's blocker search, penumbra estimate and filter (Fernando 2005) with
+// xie2007 §3's variant (`pcss`). shadow_map_common.h's ShadowDepthMap and the CPU methods call
+// these functions; the GPU kernels (shadow/baseline/kernels/) include this header, so both
+// devices compute the same numbers (docs/methods/shadow-map.md and pcss.md state the rules).
+// The map is read through its planes: z (linear depth, +inf where empty) and opacity, row-major,
+// width x height (raster/depth_map.h; the GPU rasterizer writes the same planes).
+#ifndef PENUMBRA_SHADOW_SHADOW_MAP_SHARED_H
+#define PENUMBRA_SHADOW_SHADOW_MAP_SHARED_H
+
+#include "penumbra/core/sampling_shared.h"
+#include "penumbra/core/shader_compat.h"
+#include "penumbra/raster/raster_shared.h"
+#include "penumbra/scene/light_shared.h"
+
+PN_SHARED_BEGIN
+
+// One map's view as the lookups need it, 176 bytes (scalar layout): bytes 0-159 the RasterView
+// (raster/raster_shared.h), 160-163 focal (focal_texels: texels per unit of x/z), 164-167
+// inv_focal (1 / focal), 168-171 z_min (the map's smallest depth, +inf when empty), 172-175 (0).
+struct ShadowMapView {
+  RasterView view;
+  float focal;
+  float inv_focal;
+  float z_min;
+  uint pad;
+};
+
+// shadow_map_common.h BiasParams, 16 bytes.
+struct ShadowBias {
+  float bias;
+  float slope_bias;
+  float max_slope;
+  uint receiver_plane;
+};
+
+// A view sample as one map sees it (shadow_map_common.h Receiver).
+struct ShadowReceiver {
+  vec2 texel;  // its projection, texel space
+  float z;     // its linear depth
+  float s;     // world size of one texel at z
+  // Linear-depth change of p's tangent plane per texel, in texel widths s (tan of the angle
+  // between ng and the ray for a point on the view axis), clamped to max_slope.
+  float slope;
+  // The receiver plane: its depth along the ray through texel-space point (x, y) is
+  // plane_num / (plane_a x + plane_b y + plane_c) (the denominator is dot(ng, ray dir)).
+  float plane_num;  // dot(ng, p - eye)
+  float plane_a;
+  float plane_b;
+  float plane_c;
+  vec3 ng;
+  bool faces;  // dot(ng, eye - p) > 0
+};
+
+// Whether p is in front of the light's emitting plane (centre c, normal n): other points see
+// nothing of the light's emitting side.
+PN_INLINE bool sm_in_front_of_light(vec3 c, vec3 n, vec3 p) { return dot(p - c, n) > 0.0f; }
+
+// Row `row` (offset `off`) of the texel projection applied to p, summed as Mat4::
+// transform_homogeneous sums it.
+PN_INLINE float sm_row(vec3 row, float off, vec3 p) {
+  PN_PRECISE float h = row.x * p.x + row.y * p.y + row.z * p.z + off;
+  return h;
+}
+
+// ShadowDepthMap::receiver.
+PN_INLINE ShadowReceiver sm_receiver(ShadowMapView m, vec3 p, vec3 ng, ShadowBias b) {
+  RasterView v = m.view;
+  ShadowReceiver r;
+  // LightView::to_texel.
+  float w = sm_row(v.row3, v.off3, p);
+  float tz = sm_row(v.row2, v.off2, p);
+  r.texel = vec2(sm_row(v.row0, v.off0, p) / w, sm_row(v.row1, v.off1, p) / w);
+  r.z = tz;
+  // LightView::texel_world_size at max(z, near).
+  r.s = (v.r - v.l) / float(v.width) * max(tz, v.near) / v.near;
+  r.ng = ng;
+  vec3 to_eye = v.eye - p;
+  r.faces = dot(ng, to_eye) > 0.0f;
+  r.plane_num = -dot(ng, to_eye);
+  // dot(ng, texel_ray(x, y).dir) with dir = right u / near + up v / near + forward,
+  // u = l + (r - l) x / W, v = t - (t - b) y / H (LightView::texel_ray).
+  float nr = dot(ng, v.right) / v.near;
+  float nu = dot(ng, v.up) / v.near;
+  r.plane_a = nr * (v.r - v.l) / float(v.width);
+  r.plane_b = -nu * (v.t - v.b) / float(v.height);
+  r.plane_c = nr * v.l + nu * v.t + dot(ng, v.forward);
+  // The tangent plane's linear depth along texel rays d(x, y) (unit forward component) is
+  // plane_num / dot(ng, d); one texel moves d by right / f (or up / f), so the depth changes by
+  // s * |(ng.right, ng.up)| / |ng.d| per texel. On the view axis that is tan(theta).
+  float den = tz > 0.0f ? abs(dot(ng, (p - v.eye) * (1.0f / tz))) : 0.0f;
+  float lateral = sqrt(dot(ng, v.right) * dot(ng, v.right) + dot(ng, v.up) * dot(ng, v.up));
+  r.slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
+  return r;
+}
+
+// The depth a surface at texel (x, y) must be in front of to block the receiver
+// (ShadowDepthMap::reference_depth): slope-scaled bias, or the receiver plane.
+PN_INLINE float sm_reference_depth(ShadowReceiver r, int x, int y, ShadowBias b) {
+  float dx = float(x) + 0.5f - r.texel.x;
+  float dy = float(y) + 0.5f - r.texel.y;
+  float reach = max(1.0f, sqrt(dx * dx + dy * dy));
+  if (b.receiver_plane == 0u) return r.z - b.bias - b.slope_bias * r.s * r.slope * reach;
+  float limit = b.max_slope * r.s * reach;
+  float den = r.plane_a * (float(x) + 0.5f) + r.plane_b * (float(y) + 0.5f) + r.plane_c;
+  // The ray meets the plane in front when den has the sign of plane_num (both negative for a
+  // plane facing the eye); otherwise the plane is beyond its horizon: far away.
+  float zp = den * r.plane_num > 0.0f ? r.plane_num / den : uintBitsToFloat(0x7f800000u);
+  // Nothing behind p can block it (every point of a segment from p to the light is at most as
+  // deep as p), however far the plane runs.
+  return clamp(zp, r.z - limit, r.z) - b.bias;
+}
+
+// The fraction of light texel (x, y) lets through to a receiver whose reference depth there is
+// `ref`: 1 outside the map or when its surface is not in front of ref, otherwise 1 - opacity.
+PN_INLINE float sm_transmit(PN_FLOAT_ARRAY z, PN_FLOAT_ARRAY opacity, int width, int height, int x, int y,
+                            float ref) {
+  if (x < 0 || y < 0 || x >= width || y >= height) return 1.0f;
+  uint i = uint(y) * uint(width) + uint(x);
+  return PN_AT(z, i) < ref ? 1.0f - PN_AT(opacity, i) : 1.0f;
+}
+
+// The same at a texel-space point (its texel: the floor of the coordinates).
+PN_INLINE float sm_transmit_at(PN_FLOAT_ARRAY z, PN_FLOAT_ARRAY opacity, ShadowMapView m, ShadowReceiver r,
+                               vec2 texel, ShadowBias b) {
+  int x = int(floor(texel.x));
+  int y = int(floor(texel.y));
+  if (x < 0 || y < 0 || x >= m.view.width || y >= m.view.height) return 1.0f;
+  return sm_transmit(z, opacity, m.view.width, m.view.height, x, y, sm_reference_depth(r, x, y, b));
+}
+
+// The hard-shadow lookup of one point at its own texel (ShadowDepthMap::lookup): 0 when p lies
+// on a closed object and does not face the eye, else sm_transmit_at(sm_receiver(p, ng), its
+// texel). The same numbers as those calls, with the per-map set-up hoisted.
+PN_INLINE float sm_lookup(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapView m, vec3 p, vec3 ng, bool closed,
+                          ShadowBias b) {
+  if (b.receiver_plane != 0u) {
+    ShadowReceiver r = sm_receiver(m, p, ng, b);
+    return !r.faces && closed ? 0.0f : sm_transmit_at(zs, opacity, m, r, r.texel, b);
+  }
+  RasterView v = m.view;
+  vec3 d = p - v.eye;
+  float plane_num = dot(ng, d);
+  if (!(plane_num < 0.0f) && closed) return 0.0f;  // faces: dot(ng, eye - p) > 0
+  float z = dot(d, v.forward);
+  float inv_z = 1.0f / z;
+  float tx = sm_row(v.row0, v.off0, p) * inv_z;
+  float ty = sm_row(v.row1, v.off1, p) * inv_z;
+  if (!(tx >= 0.0f) || !(ty >= 0.0f) || !(tx < float(v.width)) || !(ty < float(v.height))) return 1.0f;
+  uint i = uint(ty) * uint(v.width) + uint(tx);
+  float zt = PN_AT(zs, i);
+  // Cheap early out: a surface farther than p never blocks.
+  if (!(zt < z)) return 1.0f;
+  float nr = dot(ng, v.right);
+  float nu = dot(ng, v.up);
+  float lateral = sqrt(nr * nr + nu * nu);
+  float den = abs(plane_num) * inv_z;
+  float slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
+  // Own texel: reach max(1, d_t) = 1; s = z / focal.
+  float ref = z - b.bias - b.slope_bias * z * m.inv_focal * slope;
+  return zt < ref ? 1.0f - PN_AT(opacity, i) : 1.0f;
+}
+
+// Whether a receiver lies outside the map: behind its near plane or beyond its window (not
+// covered; it counts as lit).
+PN_INLINE bool sm_outside(ShadowMapView m, vec3 p) {
+  RasterView v = m.view;
+  float w = sm_row(v.row3, v.off3, p);
+  float z = sm_row(v.row2, v.off2, p);
+  float x = sm_row(v.row0, v.off0, p) / w;
+  float y = sm_row(v.row1, v.off1, p) / w;
+  return !(z >= v.near && x >= 0.0f && y >= 0.0f && x < float(v.width) && y < float(v.height));
+}
+
+// `shadow-map`'s visibility of one view sample (shadow/baseline/shadow_map.cpp): 0 behind the
+// light's plane; the hard lookup (pcf = 0), or the mean transmittance of the (2 pcf + 1)^2 texels
+// around its own, each compared with its own reference depth (Reeves et al. 1987). `texels`
+// counts the texels read.
+PN_INLINE float shadow_map_visibility(PN_FLOAT_ARRAY z, PN_FLOAT_ARRAY opacity, ShadowMapView m, ShadowBias b,
+                                      int pcf, vec3 light_center, vec3 light_n, vec3 p, vec3 ng, bool closed,
+                                      PN_INOUT(uint) texels) {
+  if (!sm_in_front_of_light(light_center, light_n, p)) return 0.0f;
+  if (pcf == 0) {
+    texels += 1u;
+    return sm_lookup(z, opacity, m, p, ng, closed, b);
+  }
+  ShadowReceiver rc = sm_receiver(m, p, ng, b);
+  if (!rc.faces && closed) return 0.0f;
+  int x0 = int(floor(rc.texel.x));
+  int y0 = int(floor(rc.texel.y));
+  float v = 0.0f;
+  for (int dy = -pcf; dy <= pcf; ++dy)
+    for (int dx = -pcf; dx <= pcf; ++dx) {
+      int x = x0 + dx;
+      int y = y0 + dy;
+      v += sm_transmit(z, opacity, m.view.width, m.view.height, x, y, sm_reference_depth(rc, x, y, b));
+    }
+  uint taps = uint((2 * pcf + 1) * (2 * pcf + 1));
+  texels += taps;
+  return v * (1.0f / float(taps));
+}
+
+// What PCSS needs of the light: its geometry, its sampling table where it is textured
+// (AreaLight::sample_area warps u through it first; the tables are passed beside), and the
+// radius xie2007's eq. 1 uses (AreaLight::extent_radius).
+struct PcssLight {
+  LightGeometry geometry;
+  uint textured;
+  int table_width;
+  int table_height;
+  float extent_radius;
+};
+
+// AreaLight::sample_area: the light point for u in [0,1)^2.
+PN_INLINE vec3 pcss_light_point(PcssLight L, PN_FLOAT_ARRAY marginal, PN_FLOAT_ARRAY conditional, vec2 u) {
+  if (L.textured != 0u) u = piecewise_constant_2d_sample(marginal, conditional, L.table_width, L.table_height, u);
+  return light_sample_area(L.geometry, u);
+}
+
+// Cranley-Patterson rotation: a toroidal shift keeps the stratification.
+PN_INLINE vec2 pcss_rotate(vec2 u, vec2 shift) {
+  u = u + shift;
+  if (u.x >= 1.0f) u.x -= 1.0f;
+  if (u.y >= 1.0f) u.y -= 1.0f;
+  return u;
+}
+
+// Where a light point q lands in a map from the light's centre, per unit of
+// (1/z_blocker - 1/z_receiver) (shadow_map_common.h kernel_offset: the PCSS kernel, Fernando
+// 2005; xie2007 eq. 1 for a disk).
+PN_INLINE vec2 sm_kernel_offset(ShadowMapView m, vec3 q) {
+  vec3 d = q - m.view.eye;
+  return vec2(m.focal * dot(d, m.view.right), -m.focal * dot(d, m.view.up));
+}
+
+// Point i of a kernel of stratified points on [0,1)^2 (LightSampleSet::base, two floats each).
+PN_INLINE vec2 pcss_base(PN_FLOAT_ARRAY base, int i) {
+  return vec2(PN_AT(base, uint(2 * i)), PN_AT(base, uint(2 * i + 1)));
+}
+
+// xie2007 eq. 1 (shadow_map_common.h xie2007_filter_size): the radius in texels of the region
+// around a receiver's texel where blockers of a light of radius `light_radius` can lie.
+PN_INLINE float sm_xie2007_filter_size(float focal, float light_radius, float z_min, float pz) {
+  if (!(pz > z_min) || !(z_min > 0.0f)) return 0.0f;
+  return focal * light_radius * (1.0f / z_min - 1.0f / pz);
+}
+
+// PCSS's visibility of one view sample (shadow/baseline/pcss.cpp; the steps are its header's).
+// fernando (xie2007 = 0):
+//  1. blocker search over the light's shape projected through p onto the map's smallest depth:
+//     `blocker_samples` light points, a texel blocks when its depth is in front of p's reference
+//     depth there; d_b = the blockers' mean depth (Fernando 2005);
+//  2. penumbra estimate: the light's shape scaled by (1/d_b - 1/z_p);
+//  3. PCF over `pcf_samples` light points q looked up at texel(p) + kernel_offset(q) * scale.
+//  On a closed object, light points behind p's own surface count as blocked.
+// xie2007 (§3, eq. 1): no blocker search; `pcf_samples` points in the disk of radius
+//  filter_size around p's texel, V = the mean transmittance.
+// Both kernels are rotated by `shift` (Cranley-Patterson; 0 without jitter). `texels` counts the
+// texels read; `no_blocker` says the blocker search found none (fernando).
+PN_INLINE float pcss_visibility(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapView m, ShadowBias b,
+                                PcssLight L, PN_FLOAT_ARRAY marginal, PN_FLOAT_ARRAY conditional,
+                                PN_FLOAT_ARRAY blocker_base, int blocker_samples, PN_FLOAT_ARRAY pcf_base,
+                                int pcf_samples, uint xie2007, vec2 shift, vec3 p, vec3 ng, bool closed,
+                                PN_INOUT(uint) texels, PN_OUT(bool) no_blocker) {
+  no_blocker = false;
+  if (!sm_in_front_of_light(L.geometry.center, L.geometry.n, p)) return 0.0f;
+  ShadowReceiver rc = sm_receiver(m, p, ng, b);
+  float z_min = m.z_min;
+  if (xie2007 != 0u) {
+    if (!rc.faces && closed) return 0.0f;
+    float radius = sm_xie2007_filter_size(m.focal, L.extent_radius, z_min, rc.z);
+    float v = 0.0f;
+    for (int i = 0; i < pcf_samples; ++i) {
+      vec2 d = concentric_disk(pcss_rotate(pcss_base(pcf_base, i), shift));
+      v += sm_transmit_at(zs, opacity, m, rc, rc.texel + d * radius, b);
+    }
+    texels += uint(pcf_samples);
+    return v / float(pcf_samples);
+  }
+  // 1. Blocker search over the light's shape projected onto z_min.
+  float search = rc.z > z_min ? 1.0f / z_min - 1.0f / rc.z : 0.0f;
+  double sum = double(0.0f);
+  int count = 0;
+  for (int i = 0; i < blocker_samples; ++i) {
+    vec3 q = pcss_light_point(L, marginal, conditional, pcss_rotate(pcss_base(blocker_base, i), shift));
+    if (closed && dot(ng, q - p) <= 0.0f) continue;
+    vec2 t = rc.texel + sm_kernel_offset(m, q) * search;
+    int x = int(floor(t.x));
+    int y = int(floor(t.y));
+    texels += 1u;
+    if (x < 0 || y < 0 || x >= m.view.width || y >= m.view.height) continue;
+    float z = PN_AT(zs, uint(y) * uint(m.view.width) + uint(x));
+    if (z < sm_reference_depth(rc, x, y, b)) {
+      sum += double(z);
+      ++count;
+    }
+  }
+  // 2. Penumbra estimate: the light's shape scaled by (1/d_b - 1/z_p).
+  float scale = count > 0 ? max(0.0f, 1.0f / float(sum / double(count)) - 1.0f / rc.z) : 0.0f;
+  no_blocker = count == 0;
+  // 3. PCF over that kernel (with no blocker, only p's own horizon darkens it).
+  float v = 0.0f;
+  for (int i = 0; i < pcf_samples; ++i) {
+    vec3 q = pcss_light_point(L, marginal, conditional, pcss_rotate(pcss_base(pcf_base, i), shift));
+    if (closed && dot(ng, q - p) <= 0.0f) continue;
+    if (count == 0) {
+      v += 1.0f;
+      continue;
+    }
+    v += sm_transmit_at(zs, opacity, m, rc, rc.texel + sm_kernel_offset(m, q) * scale, b);
+    texels += 1u;
+  }
+  return v / float(pcf_samples);
+}
+
+PN_SHARED_END
+
+#ifdef __cplusplus
+static_assert(sizeof(penumbra::shader::ShadowMapView) == 176);
+static_assert(sizeof(penumbra::shader::ShadowBias) == 16);
+#endif
+
+#endif  // PENUMBRA_SHADOW_SHADOW_MAP_SHARED_H
