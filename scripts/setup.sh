@@ -11,7 +11,8 @@
 #                      tests; without it they skip with a message), Node.js and the viewer
 #                      test's npm packages (puppeteer-core, pinned in
 #                      src/penumbra/viewer/e2e/package-lock.json), clang and its sanitizer and
-#                      libFuzzer runtimes (the second build of scripts/test.sh)
+#                      libFuzzer runtimes (the second build of scripts/test.sh), spirv-tools and
+#                      the Vulkan validation layers (the GPU tests, docs/gpu.md)
 # Safe to run again: apt-get skips what is installed, CMake rebuilds what changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,11 +40,16 @@ packages=(
   pybind11-dev python3-dev python3-numpy   # the Python module (docs/python.md)
   python3-distributed   # Dask: penumbra.distributed and --dask (docs/distributed.md)
   ffmpeg         # `penumbra render -o movie.mp4` encodes the frames with it (docs/scene-format.md)
+  # The GPU backend (docs/gpu.md): Vulkan's headers and volk to build, glslc to compile the kernels,
+  # the Vulkan loader and Mesa's drivers (lavapipe: Vulkan on the CPU) for --device gpu on a
+  # machine without a GPU of its own.
+  libvulkan-dev libvulkan-volk-dev glslc libvulkan1 mesa-vulkan-drivers
 )
 if [ "$with_test_tools" -eq 1 ]; then
   packages+=(chromium)   # headless browser test of the `penumbra compare` page
   packages+=(python3-pytest)   # the Python module's tests
   packages+=(clang-14 libclang-rt-14-dev)   # the sanitizer and libFuzzer build (scripts/test.sh)
+  packages+=(spirv-tools vulkan-validationlayers)   # spirv-val on every kernel; the GPU tests run under validation
 fi
 missing=()
 for p in "${packages[@]}"; do
