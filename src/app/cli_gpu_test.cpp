@@ -1,0 +1,154 @@
+// The command line on the GPU (issue 28): --device on render, compare and bench, `penumbra
+// devices`, the devices column of `penumbra methods`, and the one-line errors that write nothing.
+// Run like every GPU test: on the machine's Vulkan device (lavapipe in CI), failing rather than
+// skipping without one where PENUMBRA_REQUIRE_GPU is set; a Vulkan validation message makes the
+// tool exit with 3 (app/main.cpp), so these fail on one too.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "penumbra/gpu/gpu_test_util.h"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+
+class CliGpu : public gpu::testing::GpuTest {
+ protected:
+  struct Run {
+    int exit_code;
+    std::string out, err;
+  };
+  void SetUp() override {
+    GpuTest::SetUp();
+    dir_ = fs::temp_directory_path() / fmt::format("penumbra-cli-gpu-{}-{}", ::getpid(),
+                                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    fs::remove_all(dir_);
+    GpuTest::TearDown();
+  }
+  Run run(const std::string& args) {
+    const std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
+    const int status = std::system(fmt::format("{} {} >{} 2>{}", PENUMBRA_CLI, args, out, err).c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+  }
+  static std::string slurp(const fs::path& p) {
+    std::ifstream f(p);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  }
+  static std::string scene(const std::string& name) { return std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name + ".json"; }
+  // A refused run: exit 1, one line naming `names`, nothing written.
+  void expect_refused(const std::string& args, const std::string& names) {
+    const fs::path out = dir_ / "refused.png";
+    const Run r = run(args + " -o " + out.string());
+    EXPECT_EQ(r.exit_code, 1) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(names), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+  fs::path dir_;
+};
+
+TEST_F(CliGpu, RenderOnTheGpuWritesTheImageAndItsGpuTimes) {
+  const fs::path out = dir_ / "x.exr", stats = dir_ / "s.json";
+  const Run r = run(fmt::format("render {} --device gpu -m reference --spp 4 --resolution 32 -o {} --stats-json {}",
+                                scene("bunny"), out.string(), stats.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(out));
+  EXPECT_NE(r.err.find("reference on gpu"), std::string::npos) << r.err;
+  const nlohmann::json s = nlohmann::json::parse(slurp(stats));
+  EXPECT_EQ(s["device"], device().info().name);
+  for (const char* stage : {"camera_pass", "trace", "compose", "resolve", "total", "readback"})
+    EXPECT_TRUE(s["gpu_ms"].contains(stage)) << stage;
+  EXPECT_GT(s["stats"]["rays_traced"].get<uint64_t>(), 0u);
+}
+
+TEST_F(CliGpu, BadDevicesAndMethodsWithoutAGpuVersionAreOneLineErrors) {
+  const std::string bunny = scene("bunny");
+  expect_refused(fmt::format("render {} --device gpu:97 -m hard", bunny), "gpu:97: this machine has");
+  expect_refused(fmt::format("render {} --device tpu -m hard", bunny), "--device tpu: expected cpu, gpu or gpu:N");
+  expect_refused(fmt::format("render {} --device gpu -m lam", bunny), "lam has no GPU version yet");
+  expect_refused(fmt::format("render {} --device gpu -m reference --memory-limit 64K", bunny), "GPU memory");
+}
+
+TEST_F(CliGpu, DevicesAndMethodsSayWhatRunsWhere) {
+  Run r = run("devices");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("gpu:0"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(device().info().name), std::string::npos) << r.out;
+  r = run("devices --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json d = nlohmann::json::parse(r.out);
+  ASSERT_FALSE(d.empty());
+  EXPECT_GT(d[0]["subgroup_size"].get<int>(), 0);
+  r = run("methods --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const auto& m : nlohmann::json::parse(r.out)) {
+    const bool gpu = std::find(m["devices"].begin(), m["devices"].end(), "gpu") != m["devices"].end();
+    const std::string name = m["name"];
+    if (name == "reference" || name == "hard" || name == "shadow-map" || name == "pcss") EXPECT_TRUE(gpu) << name;
+    if (name == "lam") EXPECT_FALSE(gpu) << name;
+  }
+}
+
+TEST_F(CliGpu, CompareRunsACpuAndAGpuVersionSideBySide) {
+  const fs::path out = dir_ / "cmp";
+  const Run r = run(fmt::format(
+      "compare {} --methods reference,reference@gpu,hard@gpu,pcss@gpu:pcf_samples=8 --spp 4 --reference-spp 16 "
+      "--resolution 24 --cache-dir {} -o {} -q",
+      scene("bunny"), (dir_ / "cache").string(), out.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json results = nlohmann::json::parse(slurp(out / "results.json"));
+  int ok = 0;
+  for (const auto& m : results["methods"]) {
+    EXPECT_TRUE(m.value("ok", false)) << m.dump();
+    ok += m.value("ok", false);
+  }
+  EXPECT_EQ(ok, 4);
+  // A device name that is none, and a method without a GPU version, before anything renders.
+  Run bad = run(fmt::format("compare {} --methods reference@tpu -o {} -q", scene("bunny"), (dir_ / "bad").string()));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("device 'tpu'"), std::string::npos) << bad.err;
+  bad = run(fmt::format("compare {} --methods lam@gpu -o {} -q", scene("bunny"), (dir_ / "bad").string()));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("lam has no GPU version"), std::string::npos) << bad.err;
+}
+
+TEST_F(CliGpu, TheGpuBenchSuiteRunsAtASmallSize) {
+  const fs::path out = dir_ / "bench";
+  const Run r = run(fmt::format("bench --suite gpu --scenes-dir {}/scenes --scenes bunny --resolution 32 --spp 4 "
+                                "--runs 1 --warmup 0 --methods reference,hard,shadow-map,pcss -o {} -q",
+                                PENUMBRA_SOURCE_DIR, out.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json b = nlohmann::json::parse(slurp(out / "bench-results.json"));
+  EXPECT_EQ(b["device"]["name"], device().info().name);
+  ASSERT_EQ(b["scenes"].size(), 1u);
+  int ok = 0;
+  for (const auto& m : b["scenes"][0]["methods"]) {
+    EXPECT_TRUE(m.value("ok", false)) << m.dump();
+    if (!m.value("ok", false)) continue;
+    ++ok;
+    EXPECT_GT(m["gpu"]["shadow_ms"].get<double>(), 0.0);
+    EXPECT_GT(m["cpu"]["shadow_ms"].get<double>(), 0.0);
+    EXPECT_GT(m["cpu_over_gpu"].get<double>(), 0.0);
+    if (m["method"] == "reference") EXPECT_GT(m["gpu"]["rays_per_s"].get<double>(), 0.0);
+  }
+  EXPECT_EQ(ok, 4);
+  EXPECT_NE(slurp(out / "bench-results.md").find("| `reference` |"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace penumbra
