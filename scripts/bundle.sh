@@ -40,7 +40,8 @@ is_glibc() {
   return 1
 }
 # The library a soname resolves to on this machine.
-resolve() { ldconfig -p | awk -v n="$1" '$1 == n && /x86-64/ {print $NF; exit}'; }
+# (awk reads to the end: an early exit would end ldconfig with SIGPIPE, a failure under pipefail.)
+resolve() { ldconfig -p | awk -v n="$1" '!found && $1 == n && /x86-64/ {print $NF; found = 1}'; }
 copy_with_deps() {
   local file=$1
   while read -r name path; do
