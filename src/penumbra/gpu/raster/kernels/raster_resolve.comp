@@ -6,7 +6,7 @@
 // +inf, +inf, 0 and kNoTriangle. The map's smallest z goes into GpuRasterState::z_min_bits.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "penumbra/gpu/kernel_common.glsl"
-#include "penumbra/gpu/raster/raster_access.glsl"
+#include "penumbra/gpu/raster/raster_stages.glsl"
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { RasterResolveParams p; } pc;
@@ -17,29 +17,15 @@ void main() {
   uint z_bits = 0xffffffffu;  // this texel's share of the map's smallest z (none: the identity)
   if (i < uint(view.width) * uint(view.height)) {
     uint64_t key = Uint64s(pc.p.keys).v[i];
-    if (key == ~0UL) {
-      Floats(pc.p.z).v[i] = pn_inf();
-      Floats(pc.p.depth).v[i] = pn_inf();
-      Floats(pc.p.opacity).v[i] = 0.0f;
-      Uints(pc.p.triangle).v[i] = 0xffffffffu;
-    } else {
-      scene_bind(pc.p.scene);
-      float z = raster_key_depth(key);
-      uint g = uint(key & 0xffffffffUL);
-      uint object, prim;
-      raster_source(g, object, prim);
-      int x = int(i % uint(view.width)), y = int(i / uint(view.width));
-      float opacity =
-          raster_textured(object) ? raster_fragment_opacity(view, object, prim, x, y) : raster_opacity(object, prim);
-      // LightView::window_depth.
-      float near = view.near, far = view.far;
-      float depth = view.perspective != 0u ? far * (z - near) / ((far - near) * z) : (z - near) / (far - near);
-      Floats(pc.p.z).v[i] = z;
-      Floats(pc.p.depth).v[i] = depth;
-      Floats(pc.p.opacity).v[i] = opacity;
-      Uints(pc.p.triangle).v[i] = g;
-      z_bits = raster_order_bits(z);
-    }
+    if (key != ~0UL) scene_bind(pc.p.scene);
+    float z, depth, opacity;
+    uint triangle;
+    raster_resolve_key(view, key, int(i % uint(view.width)), int(i / uint(view.width)), z, depth, opacity, triangle);
+    Floats(pc.p.z).v[i] = z;
+    Floats(pc.p.depth).v[i] = depth;
+    Floats(pc.p.opacity).v[i] = opacity;
+    Uints(pc.p.triangle).v[i] = triangle;
+    if (key != ~0UL) z_bits = raster_order_bits(z);
   }
   // One atomic per subgroup.
   z_bits = subgroupMin(z_bits);

@@ -7,7 +7,7 @@
 // item per 16 x 16-texel tile of its texel box. Counters run on past the capacities, so the host
 // knows how much room a second try needs.
 #include "penumbra/gpu/kernel_common.glsl"
-#include "penumbra/gpu/raster/raster_access.glsl"
+#include "penumbra/gpu/raster/raster_stages.glsl"
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { RasterSetupParams p; } pc;
@@ -39,40 +39,9 @@ void main() {
   scene_bind(pc.p.scene);
   RasterView view = RasterViewRef(pc.p.view).v;
   uint object, prim;
-  raster_source(g, object, prim);
-  if (!(raster_opacity(object, prim) > 0.0f)) return;
-  if (pc.p.opaque_only != 0u && raster_semi_transparent(object, prim)) return;
-  vec3 p0, p1, p2;
-  raster_vertices(object, prim, p0, p1, p2);
-  if (pc.p.culling != 0u) {
-    // clipping.h faces_light: the light sees the side cross(p1 - p0, p2 - p0) points to.
-    vec3 n = cross(p1 - p0, p2 - p0);
-    bool front = view.perspective != 0u ? dot(n, view.eye - p0) > 0.0f : dot(n, view.forward) < 0.0f;
-    if (front != (pc.p.culling == 1u)) return;
-  }
-  vec4 poly[kRasterMaxClipVertices];
-  poly[0] = raster_project(view, p0);
-  poly[1] = raster_project(view, p1);
-  poly[2] = raster_project(view, p2);
-  uint any = 0u, all = 0x3fu;
-  for (int k = 0; k < 3; ++k) {
-    uint code = raster_outcode(view, poly[k]);
-    any |= code;
-    all &= code;
-  }
-  if (all != 0u) return;  // every vertex outside one plane
-  int n = any == 0u ? 3 : raster_clip(view, any, poly);
-  if (n == 0) return;
-  bool perspective = view.perspective != 0u;
   vec2 t[kRasterMaxClipVertices];
   double v[kRasterMaxClipVertices];
-  for (int k = 0; k < n; ++k) {
-    precise float x = poly[k].x / poly[k].w;
-    precise float y = poly[k].y / poly[k].w;
-    t[k] = vec2(x, y);
-    precise double d = perspective ? 1.0LF / double(poly[k].w) : double(poly[k].z);
-    v[k] = d;
-  }
+  int n = raster_polygon(view, g, pc.p.culling, pc.p.opaque_only != 0u, object, prim, t, v);
   // A clipped polygon becomes a fan; shared fan edges follow the fill rule like any other.
   for (int k = 1; k + 1 < n; ++k) {
     GpuRasterTriangle r;

@@ -1,0 +1,30 @@
+#version 460
+// The batch mode's fill (gpu/raster/raster_batch_layout_shared.h): one thread per work item, a
+// set-up triangle and one 16 x 16-texel tile of its view: raster_fill_tile (the one mode's fill,
+// raster_fill.comp) into that view's keys.
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#include "penumbra/gpu/kernel_common.glsl"
+#include "penumbra/gpu/raster/raster_batch_layout_shared.h"
+#include "penumbra/gpu/raster/raster_stages.glsl"
+
+layout(local_size_x = 64) in;
+layout(push_constant, scalar) uniform Push { RasterBatchFillParams p; } pc;
+layout(buffer_reference, scalar) readonly buffer BatchViews { GpuRasterBatchView v[]; };
+layout(buffer_reference, scalar) readonly buffer BatchTriangles { GpuRasterBatchTriangle v[]; };
+
+void main() {
+  uint i = pn_thread_index();
+  RasterStateRef state = RasterStateRef(pc.p.state);
+  // raster_fill_args dispatched nothing past the items written (none after an overflow).
+  uint items = uint(min(state.s.item_count, uint64_t(pc.p.item_capacity)));
+  uint fragments = 0u;
+  if (i < items) {
+    scene_bind(pc.p.scene);
+    GpuRasterItem item = RasterItems(pc.p.items).v[i];
+    GpuRasterBatchTriangle tri = BatchTriangles(pc.p.triangles).v[item.triangle];
+    GpuRasterBatchView view = BatchViews(pc.p.views).v[tri.view];
+    fragments = raster_fill_tile(view.view, tri.t.s, tri.t.object, tri.t.prim, item.tile, pc.p.keys, view.first_texel);
+  }
+  uint total = subgroupAdd(fragments);
+  if (subgroupElect() && total > 0u) atomicAdd(state.s.fragments, uint64_t(total));
+}
