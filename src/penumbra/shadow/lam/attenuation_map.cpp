@@ -8,15 +8,13 @@
 #include "penumbra/core/binary_io.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/scene/scene.h"
 
 namespace penumbra::lam {
 
-// The largest depth change per texel a surface's gradient may have, relative to depth:
-// steeper than this (within a few degrees of edge-on) is clamped.
-constexpr float kMaxSlope = 0.05f;
 
 LightAxes light_axes(const AreaLight& light) {
   // Exactly what LightView::frustum(eye, n, t, ...) builds, so views and axes agree.
@@ -207,121 +205,55 @@ LightView sample_view(const LightAxes& a, const LightView& ref, Vec3f sample, in
 // ---------------------------------------------------------------------------------------
 // Lookup.
 
-namespace {
-
-// The lookup in one texel's layers [l, e) (sorted by depth): the attenuation of the layer
-// nearest to z within tol (>= 0); kOccluded if none matches but one lies in front of z;
-// kUndefined if none lies at or in front of z.
-constexpr float kOccluded = -1.0f, kUndefined = -2.0f;
-
-inline float lookup(const Layer* l, const Layer* e, float z, float tol) {
-  float best = tol, result = kUndefined;
-  for (; l != e; ++l) {
-    float d = std::abs(l->z - z);
-    if (d <= best) {
-      best = d;
-      result = l->attenuation;
-    } else if (l->z < z) {
-      result = kOccluded;  // in front (a later match overrides it)
-    } else {
-      break;  // behind z beyond the best match: no later layer can be nearer
-    }
-  }
-  return result;
-}
-
-}  // namespace
-
 LookupClass AttenuationMap::classify(int x, int y, float z, float* attenuation) const {
   size_t i = static_cast<size_t>(y) * width_ + x;
-  float r = lookup(layers_.data() + offsets_[i], layers_.data() + offsets_[i + 1], z, depth_tolerance(epsilon_, z));
+  float r = shader::lam_lookup(reinterpret_cast<const float*>(layers_.data()), offsets_[i], offsets_[i + 1], z,
+                               depth_tolerance(epsilon_, z));
   if (r >= 0) {
     *attenuation = r;
     return LookupClass::Match;
   }
-  return r == kOccluded ? LookupClass::Occluded : LookupClass::Undefined;
+  return r == shader::kLamOccluded ? LookupClass::Occluded : LookupClass::Undefined;
 }
 
-namespace {
-
-// One texel: the common single-layer case without the loop.
-inline float lookup_texel(const Layer* layers, const uint32_t* offsets, size_t t, float z, float eps) {
-  const uint32_t b = offsets[t], e = offsets[t + 1];
-  const float tol = depth_tolerance(eps, z);
-  if (e - b == 1) {
-    const Layer& l = layers[b];
-    const float d = l.z - z;
-    return std::abs(d) <= tol ? l.attenuation : (d < 0 ? kOccluded : kUndefined);
-  }
-  return lookup(layers + b, layers + e, z, tol);
+void AttenuationMap::update_shared() {
+  shader::LamMapView& m = shared_;
+  m = {};
+  m.row0 = {proj_[0][0], proj_[0][1], proj_[0][2]};
+  m.off0 = proj_[0][3];
+  m.row1 = {proj_[1][0], proj_[1][1], proj_[1][2]};
+  m.off1 = proj_[1][3];
+  m.row2 = {proj_[2][0], proj_[2][1], proj_[2][2]};
+  m.off2 = proj_[2][3];
+  m.near = near_;
+  m.far = far_;
+  m.width = width_;
+  m.height = height_;
+  m.eye = eye_;
+  m.u0 = u0_;
+  m.right = right_;
+  m.v1 = v1_;
+  m.up = up_;
+  m.delta = delta_;
+  m.forward = forward_;
+  m.epsilon = epsilon_;
+  m.light_center = light_center_;
+  m.light_area = light_area_;
+  m.light_normal = light_normal_;
+  m.light_radius = light_radius_;
+  m.outline_count = static_cast<uint32_t>(outline_.size());
+  m.slope = slope_ ? 1u : 0u;
+  m.solid = std::find(solid_.begin(), solid_.end(), true) != solid_.end() ? 1u : 0u;
+  m.empty = empty() ? 1u : 0u;
 }
-
-}  // namespace
 
 template <bool kBilinear, bool kSlope>
 inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, uint64_t& texels) const {
-  const float z = proj_[2][0] * p.x + proj_[2][1] * p.y + proj_[2][2] * p.z + proj_[2][3];
-  if (!(z >= near_ && z <= far_)) return 1.0f;
-  const float inv = 1.0f / z;
-  const float x = (proj_[0][0] * p.x + proj_[0][1] * p.y + proj_[0][2] * p.z + proj_[0][3]) * inv;
-  const float y = (proj_[1][0] * p.x + proj_[1][1] * p.y + proj_[1][2] * p.z + proj_[1][3]) * inv;
-  if (!(x >= 0 && y >= 0 && x < static_cast<float>(width_) && y < static_cast<float>(height_))) return 1.0f;
-  // p's surface as a plane in the reference view: linear depth on the ray through texel
-  // point (X, Y) is nd / (nr X - nu Y + nf) (u = u0 + X delta, v = v1 - Y delta). The layers
-  // hold depths at texel centres, so p's depth is carried to the same centres.
-  float nd = 0, nr = 0, nu = 0, nf = 0, den_p = 0;
-  bool plane = false;
-  if constexpr (kSlope) {
-    nd = dot(n, p - eye_);
-    nr = dot(n, right_) * delta_;
-    nu = dot(n, up_) * delta_;
-    nf = dot(n, forward_) + dot(n, right_) * u0_ + dot(n, up_) * v1_;
-    den_p = nr * x - nu * y + nf;
-    plane = den_p != 0;  // false for n = 0 too
-  }
-  const float cap = 2 * kMaxSlope * z;
-  // Depth of p's plane on the ray through the centre (cx, cy), clamped; p's own depth where
-  // the plane turns edge-on in between.
-  auto depth_at = [&](float cx, float cy) {
-    if constexpr (!kSlope) return z;
-    if (!plane) return z;
-    float den = nr * cx - nu * cy + nf;
-    if (!(den * den_p > 0)) return z;
-    return std::clamp(nd / den, z - cap, z + cap);
-  };
-  const Layer* layers = layers_.data();
-  const uint32_t* offsets = offsets_.data();
-  if constexpr (!kBilinear) {
-    int ix = std::min(static_cast<int>(x), width_ - 1), iy = std::min(static_cast<int>(y), height_ - 1);
-    ++texels;
-    float zt = depth_at(ix + 0.5f, iy + 0.5f);
-    float r = lookup_texel(layers, offsets, static_cast<size_t>(iy) * width_ + ix, zt, epsilon_);
-    return r >= 0 ? r : (r == kOccluded ? 0.0f : 1.0f);
-  } else {
-    // Bilinear over the 4 texel centres around p (percentage-closer style, agrawala2000
-    // §6.1); texels that p's surface does not reach (kUndefined) drop out of the weights.
-    const float fx = x - 0.5f, fy = y - 0.5f;  // >= -0.5
-    const int x0 = static_cast<int>(fx + 1.0f) - 1, y0 = static_cast<int>(fy + 1.0f) - 1;
-    const float wx = fx - static_cast<float>(x0), wy = fy - static_cast<float>(y0);
-    float sum = 0, wsum = 0;
-    auto texel = [&](int tx, int ty, float w) {
-      if (tx < 0 || ty < 0 || tx >= width_ || ty >= height_) return;
-      ++texels;
-      const float zt = depth_at(tx + 0.5f, ty + 0.5f);
-      const float r = lookup_texel(layers, offsets, static_cast<size_t>(ty) * width_ + tx, zt, epsilon_);
-      if (r >= 0) {
-        sum += w * r;
-        wsum += w;
-      } else if (r == kOccluded) {
-        wsum += w;
-      }
-    };
-    texel(x0, y0, (1 - wx) * (1 - wy));
-    texel(x0 + 1, y0, wx * (1 - wy));
-    texel(x0, y0 + 1, (1 - wx) * wy);
-    texel(x0 + 1, y0 + 1, wx * wy);
-    return wsum > 0 ? sum / wsum : 1.0f;
-  }
+  uint32_t t = 0;
+  const float v = shader::lam_visibility(reinterpret_cast<const float*>(layers_.data()), offsets_.data(), 1, shared_, p,
+                                         n, kBilinear, kSlope, t);
+  texels += t;
+  return v;
 }
 
 namespace {
@@ -384,43 +316,13 @@ bool AttenuationMap::read(std::istream& in) {
       if (m.offsets_[i] > m.offsets_[i + 1]) return false;
   }
   m.solid_.assign(solid.begin(), solid.end());
+  m.update_shared();
   *this = std::move(m);
   return true;
 }
 
 float AttenuationMap::front_fraction(Vec3f p, Vec3f n) const {
-  if (outline_.empty() || !(length_squared(n) > 0)) return 1.0f;
-  // Quick exits: the plane misses the light's bounding sphere (n is unit length).
-  const float sc = dot(n, light_center_ - p);
-  if (sc >= light_radius_) return 1.0f;
-  if (sc <= -light_radius_) return 0.0f;
-  const size_t m = outline_.size();
-  float side[kMaxOutline];
-  int front = 0;
-  for (size_t i = 0; i < m; ++i) {
-    side[i] = dot(n, outline_[i] - p);
-    front += side[i] > 0;
-  }
-  if (front == static_cast<int>(m)) return 1.0f;
-  if (front == 0) return 0.0f;
-  // Area of the outline clipped to the front half-space (Sutherland-Hodgman, one plane),
-  // as a fan around the light centre.
-  float area = 0;
-  Vec3f first{}, prev{};
-  bool have = false;
-  auto emit = [&](Vec3f v) {
-    if (have) area += dot(light_normal_, cross(prev - light_center_, v - light_center_));
-    else first = v;
-    prev = v;
-    have = true;
-  };
-  for (size_t i = 0; i < m; ++i) {
-    size_t j = (i + 1) % m;
-    if (side[i] > 0) emit(outline_[i]);
-    if ((side[i] > 0) != (side[j] > 0)) emit(outline_[i] + (outline_[j] - outline_[i]) * (side[i] / (side[i] - side[j])));
-  }
-  area += dot(light_normal_, cross(prev - light_center_, first - light_center_));
-  return std::clamp(0.5f * area / light_area_, 0.0f, 1.0f);
+  return shader::lam_front_fraction(reinterpret_cast<const float*>(outline_.data()), shared_, p, n);
 }
 
 float AttenuationMap::visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels) const {
@@ -471,31 +373,13 @@ struct BuildLayer {
   uint16_t stamp;  // 1 + index of the last light sample that counted this layer
 };
 
-// A warped depth-map pixel: the texel (ix, iy) whose centre is the top-left of the 4 it
-// splats into, and its depth.
-// splats into, the depth extrapolated to that texel's centre along the surface's local
-// plane, and the plane's depth gradient per reference texel (x, y).
+// A warped depth-map pixel (lam_shared.h LamSplat, in 16 bytes): the texel (ix, iy) whose
+// centre is the top-left of the 4 it splats into, the depth extrapolated to that texel's
+// centre along the surface's local plane, and the plane's depth gradient per reference texel.
 struct Splat {
   int16_t ix, iy;
   float z00, gx, gy;
 };
-
-// Depth gradient along one image axis at a pixel from its two neighbours (zm at -1, zp at
-// +1): central where both lie on the same surface, else the one-sided difference that does.
-inline float axis_gradient(float zm, float z, float zp) {
-  const float jump = 4 * kMaxSlope * z;
-  bool okm = std::abs(zm - z) <= jump, okp = std::abs(zp - z) <= jump;  // false for +inf
-  float dm = z - zm, dp = zp - z;
-  if (okm && okp) {
-    // A crease or a small step: the gentler side.
-    if (std::abs(dm - dp) > 0.5f * (std::abs(dm) + std::abs(dp)) + 1e-6f * z)
-      return std::abs(dm) < std::abs(dp) ? dm : dp;
-    return 0.5f * (dm + dp);
-  }
-  if (okm) return dm;
-  if (okp) return dp;
-  return 0.0f;
-}
 
 constexpr int kBandRows = 8;   // rows of the reference view one insertion task owns
 constexpr int kChunkRows = 8;  // source rows per warp task
@@ -504,21 +388,20 @@ constexpr int kChunkRows = 8;  // source rows per warp task
 
 class Builder {
  public:
+  static AttenuationMap frame(const AreaLight& light, const ShadowRegion& region, int samples,
+                              const BuildOptions& opt);
   static AttenuationMap build(std::span<const RasterTriangle> tris, const AreaLight& light, const ShadowRegion& region,
                               std::span<const Vec2f> samples, const BuildOptions& opt, BuildStats* st);
 };
 
-AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLight& light, const ShadowRegion& region,
-                              std::span<const Vec2f> samples, const BuildOptions& opt, BuildStats* st) {
-  if (samples.empty()) throw Error("lam: no light samples");
-  if (samples.size() > 65535) throw Error("lam: at most 65535 light samples (got {})", samples.size());
+AttenuationMap Builder::frame(const AreaLight& light, const ShadowRegion& region, int samples,
+                              const BuildOptions& opt) {
+  if (samples < 1) throw Error("lam: no light samples");
+  if (samples > 65535) throw Error("lam: at most 65535 light samples (got {})", samples);
   if (opt.max_layers < 1 || opt.max_layers > 255) throw Error("lam: max_layers {} must be in [1, 255]", opt.max_layers);
   if (!(opt.epsilon >= 0)) throw Error("lam: epsilon {} must be >= 0", opt.epsilon);
-  BuildStats local;
-  BuildStats& s = st ? *st : local;
-  s = BuildStats{};
   AttenuationMap map;
-  map.samples_ = static_cast<int>(samples.size());
+  map.samples_ = samples;
   map.epsilon_ = opt.epsilon;
   map.solid_ = opt.solid_objects;
   {
@@ -536,31 +419,45 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
     if (area < 0) map.light_normal_ = -map.light_normal_;  // counter-clockwise around the normal
     map.light_radius_ = radius * (1 + 1e-5f);
   }
-  if (region.empty) return map;
+  if (!region.empty) {
+    const LightAxes axes = light_axes(light);
+    map.view_ = reference_view(axes, region, opt.resolution);
+    const LightView& ref = map.view_;
+    map.slope_ = opt.slope;
+    map.delta_ = (ref.window_right() - ref.window_left()) / (ref.near() * ref.width());
+    map.u0_ = ref.window_left() / ref.near();
+    map.v1_ = ref.window_top() / ref.near();
+    map.eye_ = axes.eye;
+    map.right_ = axes.right;
+    map.up_ = axes.up;
+    map.forward_ = axes.forward;
+    map.width_ = ref.width();
+    map.height_ = ref.height();
+    map.near_ = ref.near();
+    map.far_ = ref.far();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) map.proj_[r][c] = ref.texel_projection().m[r][c];
+  }
+  map.update_shared();
+  return map;
+}
+
+AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLight& light, const ShadowRegion& region,
+                              std::span<const Vec2f> samples, const BuildOptions& opt, BuildStats* st) {
+  BuildStats local;
+  BuildStats& s = st ? *st : local;
+  s = BuildStats{};
+  AttenuationMap map = frame(light, region, static_cast<int>(samples.size()), opt);
+  if (map.empty()) return map;
 
   const LightAxes axes = light_axes(light);
-  map.view_ = reference_view(axes, region, opt.resolution);
   const LightView& ref = map.view_;
   const int W = ref.width(), H = ref.height();
   const size_t texels = static_cast<size_t>(W) * H;
   const int K = opt.max_layers;
-  const float delta = (ref.window_right() - ref.window_left()) / (ref.near() * W);
+  const float delta = map.delta_;
   const float eps = opt.epsilon;
   const bool slope = opt.slope;
-  map.slope_ = slope;
-  map.delta_ = delta;
-  map.u0_ = ref.window_left() / ref.near();
-  map.v1_ = ref.window_top() / ref.near();
-  map.eye_ = axes.eye;
-  map.right_ = axes.right;
-  map.up_ = axes.up;
-  map.forward_ = axes.forward;
-  map.width_ = W;
-  map.height_ = H;
-  map.near_ = ref.near();
-  map.far_ = ref.far();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) map.proj_[r][c] = ref.texel_projection().m[r][c];
 
   std::vector<uint8_t> counts(texels, 0);
   // Uninitialised: slot i of a texel is read only once counts says it exists, so the
@@ -612,26 +509,16 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
           for (int x = 0; x < sw; ++x) {
             float z = zr[x];
             if (!(z < kInfinity)) continue;
-            float inv = 1.0f / z;
-            // Reference texel-space position minus 0.5: the top-left splat centre.
-            float fx = (x + 0.5f) + ox + bx * inv - 0.5f;
-            float fy = (y + 0.5f) + oy - by * inv - 0.5f;
-            if (!(fx >= -1.0f && fy >= -1.0f && fx < static_cast<float>(W) && fy < static_cast<float>(H))) continue;
-            const int ix = static_cast<int>(fx + 1.0f) - 1, iy = static_cast<int>(fy + 1.0f) - 1;  // floor
-            float gx = 0, gy = 0, z00 = z;
-            if (slope) {
-              // The surface's depth gradient in the sample view (per texel), carried through
-              // the warp's Jacobian J = I + a g^T (a = (-bx, by) / z^2): per reference texel
-              // it is g / (1 + g.a).
-              float sgx = axis_gradient(x > 0 ? zr[x - 1] : kInfinity, z, x + 1 < sw ? zr[x + 1] : kInfinity);
-              float sgy = axis_gradient(y > 0 ? zr[x - sw] : kInfinity, z, y + 1 < sh ? zr[x + sw] : kInfinity);
-              const float rden = 1.0f / std::max(1.0f + (-bx * sgx + by * sgy) * inv * inv, 0.2f);
-              const float cap = kMaxSlope * z;
-              gx = std::clamp(sgx * rden, -cap, cap);
-              gy = std::clamp(sgy * rden, -cap, cap);
-              z00 = z - gx * (fx - ix) - gy * (fy - iy);
-            }
-            out[m++] = {static_cast<int16_t>(ix), static_cast<int16_t>(iy), z00, gx, gy};
+            // Eq. 3: the reference texel-space position minus 0.5 (the top-left splat centre).
+            float fx, fy;
+            int ix, iy;
+            if (!shader::lam_warp(x, y, z, ox, oy, bx, by, W, H, fx, fy, ix, iy)) continue;
+            // With local planes: the surface's depth gradient from the neighbours, carried
+            // through the warp (lam_shared.h lam_splat).
+            const shader::LamSplat sp = shader::lam_splat(
+                z, x > 0 ? zr[x - 1] : kInfinity, x + 1 < sw ? zr[x + 1] : kInfinity, y > 0 ? zr[x - sw] : kInfinity,
+                y + 1 < sh ? zr[x + sw] : kInfinity, bx, by, fx, fy, ix, iy, slope);
+            out[m++] = {static_cast<int16_t>(ix), static_cast<int16_t>(iy), sp.z00, sp.gx, sp.gy};
             int b0 = std::max(iy, 0) / kBandRows, b1 = std::min(iy + 1, H - 1) / kBandRows;
             cnt[b0]++;
             if (b1 != b0) cnt[b1]++;
@@ -715,9 +602,9 @@ AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLi
           for (int j = 0; j < 2; ++j) {
             int ty = sp.iy + j;
             if (ty < row0 || ty >= row1) continue;
-            float zr = j ? sp.z00 + sp.gy : sp.z00;
-            if (sp.ix >= 0) insert(sp.ix, ty, zr);
-            if (sp.ix + 1 < W) insert(sp.ix + 1, ty, zr + sp.gx);
+            const shader::LamSplat plane{sp.ix, sp.iy, sp.z00, sp.gx, sp.gy};
+            if (sp.ix >= 0) insert(sp.ix, ty, shader::lam_splat_depth(plane, 0, j));
+            if (sp.ix + 1 < W) insert(sp.ix + 1, ty, shader::lam_splat_depth(plane, 1, j));
           }
         }
         band_layers[b] = new_layers;
@@ -793,6 +680,77 @@ uint64_t build_bytes(int resolution, int max_layers) {
                                chunks * bands * (sizeof(uint32_t) + sizeof(size_t));
   const uint64_t map = (texels + 1) * sizeof(uint32_t) + slots * sizeof(Layer);
   return texels * sizeof(uint8_t) + slots * sizeof(BuildLayer) + sample_view + map;
+}
+
+nlohmann::json build_statistics(const BuildStats& bs, const AttenuationMap& map, int light_samples,
+                                uint64_t ldi_bytes) {
+  nlohmann::json dc = nlohmann::json::array();
+  for (auto [k, c] : bs.depth_complexity) dc.push_back({{"samples", k}, {"depth_complexity", c}});
+  const LightView& v = map.view();
+  auto degrees_at = [&](float window) { return degrees(std::atan(window / v.near())); };
+  return {
+      {"light_samples", light_samples},
+      {"depth_complexity", std::move(dc)},
+      {"ldi",
+       {{"width", map.width()},
+        {"height", map.height()},
+        {"layers", bs.layers},
+        {"nonempty_texels", bs.nonempty_texels},
+        {"max_depth", bs.max_depth},
+        {"dropped_insertions", bs.dropped},
+        {"bytes", ldi_bytes},
+        {"window_degrees", map.empty() ? nlohmann::json(nullptr)
+                                        : nlohmann::json({degrees_at(v.window_left()), degrees_at(v.window_right()),
+                                                          degrees_at(v.window_bottom()), degrees_at(v.window_top())})}}},
+      {"sample_texels", bs.sample_texels},
+      {"splats", bs.splats},
+  };
+}
+
+BuildOptions build_options(const ParamSet& p) {
+  BuildOptions options;
+  options.resolution = p.get_int("resolution");
+  options.epsilon = p.get_float("epsilon");
+  options.max_layers = p.get_int("max_layers");
+  options.slope = p.get_bool("local_planes");
+  return options;
+}
+
+Filter display_filter(const ParamSet& p) {
+  return p.get_string("filter") == "nearest" ? Filter::Nearest : Filter::Bilinear;
+}
+
+BuildOptions options_for_scene(BuildOptions options, const Scene& scene) {
+  options.solid_objects.clear();
+  if (options.slope)
+    for (const SceneObject& o : scene.objects) options.solid_objects.push_back(o.closed);
+  return options;
+}
+
+LightSampleSet light_sample_set(const ShadowContext& ctx) {
+  return LightSampleSet(std::max(1, ctx.light_samples), hash_combine(ctx.seed, 0x4c414d00u + ctx.light_index),
+                        /*per_pixel=*/false);
+}
+
+AttenuationMap attenuation_map_frame(const AreaLight& light, const ShadowRegion& region, int light_samples,
+                                     const BuildOptions& options) {
+  return Builder::frame(light, region, light_samples, options);
+}
+
+std::vector<float> closed_mesh_orientations(const Scene& scene) {
+  std::vector<float> orientation(scene.objects.size(), 0.0f);
+  for (size_t o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& obj = scene.objects[o];
+    if (!obj.closed) continue;
+    const TriangleMesh& m = obj.mesh;
+    double volume = 0;
+    for (size_t t = 0; 3 * t + 2 < m.indices.size(); ++t) {
+      Vec3f a = m.positions[m.indices[3 * t]], b = m.positions[m.indices[3 * t + 1]], c = m.positions[m.indices[3 * t + 2]];
+      volume += dot(a, cross(b, c));
+    }
+    orientation[o] = volume > 0 ? 1.0f : (volume < 0 ? -1.0f : 0.0f);
+  }
+  return orientation;
 }
 
 AttenuationMap build_attenuation_map(std::span<const RasterTriangle> triangles, const AreaLight& light,

@@ -24,8 +24,12 @@
 #include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/core/sampling.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/raster/raster_triangle.h"
+#include "penumbra/shadow/lam/lam_shared.h"
+#include "penumbra/shadow/params.h"
+#include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/view_samples.h"
 
 namespace penumbra {
@@ -91,6 +95,10 @@ class AttenuationMap {
     return {layers_.data() + offsets_[i], offsets_[i + 1] - offsets_[i]};
   }
   size_t layer_count() const { return layers_.size(); }
+  // The frame and the light as the display's shared functions read them (lam_shared.h), and the
+  // light's outline (at most kMaxOutline points): what the GPU's display uploads.
+  const shader::LamMapView& shared() const { return shared_; }
+  std::span<const Vec3f> outline() const { return outline_; }
   size_t memory_bytes() const { return offsets_.size() * sizeof(uint32_t) + layers_.size() * sizeof(Layer); }
 
   // Visibility of world point p with geometric normal n (agrawala2000 §4, Display):
@@ -127,7 +135,7 @@ class AttenuationMap {
 
  private:
   friend class Builder;
-  static constexpr int kMaxOutline = 16;  // disk and sphere lights as 16-gons
+  static constexpr int kMaxOutline = shader::kLamMaxOutline;  // disk and sphere lights as 16-gons
   std::vector<Vec3f> outline_;
   Vec3f light_center_, light_normal_{0, 0, 1};
   float light_area_ = 1, light_radius_ = 0;
@@ -149,7 +157,11 @@ class AttenuationMap {
   float u0_ = 0, v1_ = 0, delta_ = 1;
   std::vector<uint32_t> offsets_;  // width * height + 1
   std::vector<Layer> layers_;
+  // The members above as lam_shared.h's functions take them (update_shared() after a change).
+  void update_shared();
+  shader::LamMapView shared_{};
 };
+static_assert(sizeof(Layer) == 2 * sizeof(float), "lam_shared.h reads the layers as (z, attenuation) floats");
 
 struct BuildOptions {
   int resolution = 512;   // texels along the longer side of the reference view (square texels)
@@ -188,6 +200,34 @@ struct BuildStats {
 AttenuationMap build_attenuation_map(std::span<const RasterTriangle> triangles, const AreaLight& light,
                                      const ShadowRegion& region, std::span<const Vec2f> light_samples,
                                      const BuildOptions& options, BuildStats* stats = nullptr);
+
+// The method's parameters (lam.cpp's table: resolution, epsilon, max_layers, local_planes, filter),
+// for its CPU and GPU versions.
+BuildOptions build_options(const ParamSet& p);
+Filter display_filter(const ParamSet& p);
+// What `options` needs of the scene at prepare: with local planes, which objects are solid.
+BuildOptions options_for_scene(BuildOptions options, const Scene& scene);
+// The light samples of the light ctx.light_index (agrawala2000 §3: the same stratified, jittered
+// samples for every surface point, banding rather than noise): max(1, ctx.light_samples) of them.
+LightSampleSet light_sample_set(const ShadowContext& ctx);
+
+// The map build_attenuation_map would return before any layer: its reference view, the light's
+// outline, the parameters (checked as build_attenuation_map checks them). The GPU builds the
+// layers on the device into this frame (lam_gpu.cpp).
+AttenuationMap attenuation_map_frame(const AreaLight& light, const ShadowRegion& region, int light_samples,
+                                     const BuildOptions& options);
+
+// Per scene object: +1 for a closed mesh wound outward, -1 inward (its signed volume), 0 for any
+// other (whose triangles are all kept): the triangles of a closed mesh that face away from every
+// point of the light are never the nearest surface seen from a light sample, so a sample's depth
+// map is the same without them (lam.cpp).
+std::vector<float> closed_mesh_orientations(const Scene& scene);
+
+// What a build reports (lam.cpp's stats.extra, on both devices): light_samples, depth_complexity
+// (per sample count), ldi (width, height, layers, nonempty_texels, max_depth,
+// dropped_insertions, `ldi_bytes` as bytes, window_degrees), sample_texels, splats.
+nlohmann::json build_statistics(const BuildStats& bs, const AttenuationMap& map, int light_samples,
+                                uint64_t ldi_bytes);
 
 // The most build_attenuation_map holds at once (for memory estimates) at this resolution
 // (the LDI's view is at most resolution^2 texels) and max_layers: the slots of every texel's

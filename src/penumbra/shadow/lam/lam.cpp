@@ -28,18 +28,7 @@ namespace {
 // (outward or inward windings) comes from the mesh's signed volume.
 std::vector<RasterTriangle> cull_hidden_back_faces(const Scene& scene, const AreaLight& light,
                                                    const std::vector<RasterTriangle>& tris) {
-  std::vector<float> orientation(scene.objects.size(), 0.0f);  // +1 outward, -1 inward, 0 keep all
-  for (size_t o = 0; o < scene.objects.size(); ++o) {
-    const SceneObject& obj = scene.objects[o];
-    if (!obj.closed) continue;
-    const TriangleMesh& m = obj.mesh;
-    double volume = 0;
-    for (size_t t = 0; 3 * t + 2 < m.indices.size(); ++t) {
-      Vec3f a = m.positions[m.indices[3 * t]], b = m.positions[m.indices[3 * t + 1]], c = m.positions[m.indices[3 * t + 2]];
-      volume += dot(a, cross(b, c));
-    }
-    orientation[o] = volume > 0 ? 1.0f : (volume < 0 ? -1.0f : 0.0f);
-  }
+  const std::vector<float> orientation = lam::closed_mesh_orientations(scene);
   const std::vector<Vec3f> outline = light.outline(32);
   std::vector<RasterTriangle> out;
   out.reserve(tris.size());
@@ -62,13 +51,8 @@ std::vector<RasterTriangle> cull_hidden_back_faces(const Scene& scene, const Are
 
 class LayeredAttenuationMaps final : public ShadowMethod {
  public:
-  explicit LayeredAttenuationMaps(const ParamSet& p) {
-    options_.resolution = p.get_int("resolution");
-    options_.epsilon = p.get_float("epsilon");
-    options_.max_layers = p.get_int("max_layers");
-    options_.slope = p.get_bool("local_planes");
-    filter_ = p.get_string("filter") == "nearest" ? lam::Filter::Nearest : lam::Filter::Bilinear;
-  }
+  explicit LayeredAttenuationMaps(const ParamSet& p)
+      : options_(lam::build_options(p)), filter_(lam::display_filter(p)) {}
 
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
@@ -77,39 +61,18 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     Timer t_fit;
     const lam::ShadowRegion region = lam::fit_shadow_region(*ctx.scene, *ctx.light);
     const double fit_ms = t_fit.elapsed_ms();
-    // The same stratified, jittered samples for every surface point (agrawala2000 §3):
-    // banding rather than noise.
-    const LightSampleSet set(n, hash_combine(ctx.seed, 0x4c414d00u + ctx.light_index), /*per_pixel=*/false);
+    const LightSampleSet set = lam::light_sample_set(ctx);
     Timer t_gather;
     const std::vector<RasterTriangle> all = gather_raster_triangles(*ctx.scene);
     const std::vector<RasterTriangle> tris = cull_hidden_back_faces(*ctx.scene, *ctx.light, all);
     const double gather_ms = t_gather.elapsed_ms();
     lam::BuildStats bs;
-    lam::BuildOptions options = options_;
-    if (options.slope)
-      for (const SceneObject& o : ctx.scene->objects) options.solid_objects.push_back(o.closed);
-    map_ = lam::build_attenuation_map(tris, *ctx.light, region, set.base(), options, &bs);
+    map_ = lam::build_attenuation_map(tris, *ctx.light, region, set.base(), lam::options_for_scene(options_, *ctx.scene),
+                                      &bs);
     bs.fit_ms = fit_ms;
 
-    nlohmann::json dc = nlohmann::json::array();
-    for (auto [k, c] : bs.depth_complexity) dc.push_back({{"samples", k}, {"depth_complexity", c}});
-    extra_ = {
-        {"light_samples", n},
-        {"depth_complexity", std::move(dc)},
-        {"ldi",
-         {{"width", map_.width()},
-          {"height", map_.height()},
-          {"layers", bs.layers},
-          {"nonempty_texels", bs.nonempty_texels},
-          {"max_depth", bs.max_depth},
-          {"dropped_insertions", bs.dropped},
-          {"bytes", map_.memory_bytes()},
-          {"window_degrees",
-           map_.empty() ? nlohmann::json(nullptr)
-                        : nlohmann::json({degrees(std::atan(map_.view().window_left() / map_.view().near())),
-                                          degrees(std::atan(map_.view().window_right() / map_.view().near())),
-                                          degrees(std::atan(map_.view().window_bottom() / map_.view().near())),
-                                          degrees(std::atan(map_.view().window_top() / map_.view().near()))})}}},
+    extra_ = lam::build_statistics(bs, map_, n, map_.memory_bytes());
+    extra_.update({
         {"precompute_ms",
          {{"fit", bs.fit_ms},
           {"gather", gather_ms},
@@ -118,9 +81,7 @@ class LayeredAttenuationMaps final : public ShadowMethod {
           {"insert", bs.insert_ms},
           {"finalize", bs.finalize_ms}}},
         {"triangles", {{"scene", all.size()}, {"rasterized", tris.size()}}},
-        {"sample_texels", bs.sample_texels},
-        {"splats", bs.splats},
-    };
+    });
     peak_bytes_ = bs.peak_bytes;
   }
 

@@ -1,0 +1,361 @@
+// Layered attenuation maps' per-pixel and per-texel math once for both devices, in the common
+// subset of C++ and GLSL (core/shader_compat.h): a light-sample pixel warped into the reference
+// view by eq. 3 and its local depth plane (the splat, agrawala2000 §4 Precompute), and the display
+// lookup of a view sample (agrawala2000 §4 Display) with the solid-object clamp. attenuation_map.cpp
+// calls these functions; the GPU kernels (lam/kernels/) include this header. Layouts below are
+// also the GPU's buffers (docs/methods/lam.md, "On the GPU").
+//
+// The finished map is read through two arrays:
+//   layers  two floats per layer, (z, attenuation), each texel's layers nearest first;
+//   ranges  texel t's layers are [ranges[t * stride], ranges[t * stride + 1]): the CPU's prefix
+//           offsets (stride 1, texels + 1 entries), the GPU's (first, end) pairs (stride 2).
+#ifndef PENUMBRA_SHADOW_LAM_LAM_SHARED_H
+#define PENUMBRA_SHADOW_LAM_LAM_SHARED_H
+
+#include "penumbra/core/shader_compat.h"
+
+// Read-only uint arrays, as PN_FLOAT_ARRAY is for floats.
+#ifdef __cplusplus
+#define LAM_UINT_ARRAY const uint*
+#else
+#define LAM_UINT_ARRAY Uints
+#endif
+
+PN_SHARED_BEGIN
+
+// The largest depth change per texel a surface's gradient may have, relative to depth: steeper
+// than this (within a few degrees of edge-on) is clamped.
+PN_CONST float kLamMaxSlope = 0.05f;
+// The light's outline as the map holds it: disk and sphere lights as 16-gons.
+PN_CONST int kLamMaxOutline = 16;
+// What a texel's lookup returns besides an attenuation (>= 0).
+PN_CONST float kLamOccluded = -1.0f;
+PN_CONST float kLamUndefined = -2.0f;
+
+// The reference view and the light as the display reads them (AttenuationMap's frame), 192 bytes:
+//   bytes   0-47  the texel projection's rows 0-2 (world -> (X z, Y z, z)), each (vec3, offset)
+//   bytes  48-63  near, far, width, height
+//   bytes  64-79  eye, u0 (the window's left edge at unit depth)
+//   bytes  80-95  right, v1 (its top edge)    96-111 up, delta (one texel at unit depth)
+//   bytes 112-127 forward, epsilon (relative depth tolerance)
+//   bytes 128-143 the light's centre, its outline's area
+//   bytes 144-159 the outline's unit normal (counter-clockwise), its radius (slightly grown)
+//   bytes 160-175 outline_count (points, <= kLamMaxOutline; 0: no solid clamp), slope (1: local
+//                 planes), solid (1: the map clamps closed objects by front_fraction), empty (1: no
+//                 layers at all: the shadow region was empty)
+//   bytes 176-191 (unused, 0)
+struct LamMapView {
+  vec3 row0;
+  float off0;
+  vec3 row1;
+  float off1;
+  vec3 row2;
+  float off2;
+  float near;
+  float far;
+  int width;
+  int height;
+  vec3 eye;
+  float u0;
+  vec3 right;
+  float v1;
+  vec3 up;
+  float delta;
+  vec3 forward;
+  float epsilon;
+  vec3 light_center;
+  float light_area;
+  vec3 light_normal;
+  float light_radius;
+  uint outline_count;
+  uint slope;
+  uint solid;
+  uint empty;
+  uint pad0;
+  uint pad1;
+  uint pad2;
+  uint pad3;
+};
+
+// The tolerance within which two linear depths are one surface: epsilon * z (relative).
+PN_INLINE float lam_depth_tolerance(float epsilon, float z) { return epsilon * z; }
+
+// ---------------------------------------------------------------------------------------------
+// Precompute: one pixel of a light sample's depth map (attenuation_map.cpp Builder).
+
+// A warped depth-map pixel: the reference texel (ix, iy) whose centre is the top-left of the 4 it
+// splats into, the depth carried to that texel's centre along the surface's local plane, and the
+// plane's depth gradient per reference texel (x, y).
+struct LamSplat {
+  int ix;
+  int iy;
+  float z00;
+  float gx;
+  float gy;
+};
+
+// Eq. 3 for pixel (x, y) at linear depth z of the view of a sample displaced by (bx, by) texels at
+// unit depth, whose texel-space origin lies (ox, oy) whole texels from the reference view's: the
+// reference texel-space point minus 0.5 (fx, fy: the top-left splat centre) and its floor
+// (ix, iy). False when the splat touches no texel of the W x H reference view.
+PN_INLINE bool lam_warp(int x, int y, float z, int ox, int oy, float bx, float by, int W, int H, PN_OUT(float) fx,
+                        PN_OUT(float) fy, PN_OUT(int) ix, PN_OUT(int) iy) {
+  float inv = 1.0f / z;
+  PN_PRECISE float wx = float(x) + 0.5f + float(ox) + bx * inv - 0.5f;
+  PN_PRECISE float wy = float(y) + 0.5f + float(oy) - by * inv - 0.5f;
+  fx = wx;
+  fy = wy;
+  ix = 0;
+  iy = 0;
+  if (!(fx >= -1.0f && fy >= -1.0f && fx < float(W) && fy < float(H))) return false;
+  ix = int(fx + 1.0f) - 1;  // floor, for fx >= -1
+  iy = int(fy + 1.0f) - 1;
+  return true;
+}
+
+// Depth gradient along one image axis at a pixel from its two neighbours (zm at -1, zp at +1;
+// +inf where empty or outside): central where both lie on the same surface, else the one-sided
+// difference that does.
+PN_INLINE float lam_axis_gradient(float zm, float z, float zp) {
+  float jump = 4.0f * kLamMaxSlope * z;
+  bool okm = abs(zm - z) <= jump;  // false for +inf
+  bool okp = abs(zp - z) <= jump;
+  float dm = z - zm;
+  float dp = zp - z;
+  if (okm && okp) {
+    // A crease or a small step: the gentler side.
+    if (abs(dm - dp) > 0.5f * (abs(dm) + abs(dp)) + 1e-6f * z) return abs(dm) < abs(dp) ? dm : dp;
+    return 0.5f * (dm + dp);
+  }
+  if (okm) return dm;
+  if (okp) return dp;
+  return 0.0f;
+}
+
+// The splat of pixel (x, y) at depth z whose warp lam_warp gave (fx, fy, ix, iy): without local
+// planes (slope false) its depth as is; with them, the surface's depth gradient in the sample view
+// (from the neighbours' depths left, right, up and down) carried through the warp's Jacobian
+// J = I + a g^T (a = (-bx, by) / z^2): per reference texel g / (1 + g.a), clamped, and the depth
+// carried to the centre of texel (ix, iy).
+PN_INLINE LamSplat lam_splat(float z, float zl, float zr, float zu, float zd, float bx, float by, float fx, float fy,
+                             int ix, int iy, bool slope) {
+  LamSplat s;
+  s.ix = ix;
+  s.iy = iy;
+  s.z00 = z;
+  s.gx = 0.0f;
+  s.gy = 0.0f;
+  if (!slope) return s;
+  float inv = 1.0f / z;
+  float sgx = lam_axis_gradient(zl, z, zr);
+  float sgy = lam_axis_gradient(zu, z, zd);
+  PN_PRECISE float den = 1.0f + (-bx * sgx + by * sgy) * inv * inv;
+  float rden = 1.0f / max(den, 0.2f);
+  float cap = kLamMaxSlope * z;
+  s.gx = clamp(sgx * rden, -cap, cap);
+  s.gy = clamp(sgy * rden, -cap, cap);
+  PN_PRECISE float z00 = z - s.gx * (fx - float(ix)) - s.gy * (fy - float(iy));
+  s.z00 = z00;
+  return s;
+}
+
+// The splat's depth at the centre of texel (ix + i, iy + j), i and j in {0, 1}: as the CPU's
+// insertion sums it (the row first, then the column).
+PN_INLINE float lam_splat_depth(LamSplat s, int i, int j) {
+  PN_PRECISE float row = j != 0 ? s.z00 + s.gy : s.z00;
+  PN_PRECISE float z = i != 0 ? row + s.gx : row;
+  return z;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Display (agrawala2000 §4: the paper uses hardware texturing for the display).
+
+// The lookup in one texel's layers [b, e) (sorted by depth): the attenuation of the layer nearest
+// to z within tol (>= 0); kLamOccluded if none matches but one lies in front of z; kLamUndefined
+// if none lies at or in front of z.
+PN_INLINE float lam_lookup(PN_FLOAT_ARRAY layers, uint b, uint e, float z, float tol) {
+  float best = tol;
+  float result = kLamUndefined;
+  for (uint l = b; l < e; ++l) {
+    float lz = PN_AT(layers, 2u * l);
+    float d = abs(lz - z);
+    if (d <= best) {
+      best = d;
+      result = PN_AT(layers, 2u * l + 1u);
+    } else if (lz < z) {
+      result = kLamOccluded;  // in front (a later match overrides it)
+    } else {
+      break;  // behind z beyond the best match: no later layer can be nearer
+    }
+  }
+  return result;
+}
+
+// lam_lookup in texel t's layers.
+PN_INLINE float lam_lookup_texel(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uint stride, uint t, float z,
+                                 float epsilon) {
+  return lam_lookup(layers, PN_AT(ranges, t * stride), PN_AT(ranges, t * stride + 1u), z,
+                    lam_depth_tolerance(epsilon, z));
+}
+
+// One row of the texel projection applied to p, summed as the CPU sums it.
+PN_INLINE float lam_row(vec3 row, float off, vec3 p) {
+  PN_PRECISE float h = row.x * p.x + row.y * p.y + row.z * p.z + off;
+  return h;
+}
+
+// The depth of p's plane (the plane through p with normal n; nd, nr, nu, nf below) on the ray
+// through texel-space point (cx, cy), clamped to z +- cap; p's own depth where the plane is not
+// used or turns edge-on in between (den_p: the plane's denominator at p).
+PN_INLINE float lam_plane_depth(bool plane, float nd, float nr, float nu, float nf, float den_p, float z, float cap,
+                                float cx, float cy) {
+  if (!plane) return z;
+  PN_PRECISE float den = nr * cx - nu * cy + nf;
+  if (!(den * den_p > 0.0f)) return z;
+  return clamp(nd / den, z - cap, z + cap);
+}
+
+// Visibility of world point p with geometric normal n (agrawala2000 §4, Display;
+// AttenuationMap::visibility): project into the reference view; per texel, the layer within
+// epsilon of p's depth gives its attenuation (with local planes, p's depth is first carried along
+// the plane through p with normal n to the texel's centre, where the layers' depths are; n = 0
+// skips that); no matching layer but one in front: umbra (0); no layer in front either: lit (1).
+// Bilinear weighs the 4 texels around p, skipping those without a layer at or in front of p.
+// Outside the shadow region: 1. `texels` counts the texels read.
+PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uint stride, LamMapView m, vec3 p,
+                               vec3 n, bool bilinear, bool slope, PN_INOUT(uint) texels) {
+  float z = lam_row(m.row2, m.off2, p);
+  if (!(z >= m.near && z <= m.far)) return 1.0f;
+  float inv = 1.0f / z;
+  PN_PRECISE float x = lam_row(m.row0, m.off0, p) * inv;
+  PN_PRECISE float y = lam_row(m.row1, m.off1, p) * inv;
+  if (!(x >= 0.0f && y >= 0.0f && x < float(m.width) && y < float(m.height))) return 1.0f;
+  // p's surface as a plane in the reference view: linear depth on the ray through texel point
+  // (X, Y) is nd / (nr X - nu Y + nf) (u = u0 + X delta, v = v1 - Y delta). The layers hold depths
+  // at texel centres, so p's depth is carried to the same centres.
+  float nd = 0.0f;
+  float nr = 0.0f;
+  float nu = 0.0f;
+  float nf = 0.0f;
+  float den_p = 0.0f;
+  bool plane = false;
+  if (slope) {
+    nd = dot(n, p - m.eye);
+    nr = dot(n, m.right) * m.delta;
+    nu = dot(n, m.up) * m.delta;
+    PN_PRECISE float f = dot(n, m.forward) + dot(n, m.right) * m.u0 + dot(n, m.up) * m.v1;
+    nf = f;
+    PN_PRECISE float dp = nr * x - nu * y + nf;
+    den_p = dp;
+    plane = den_p != 0.0f;  // false for n = 0 too
+  }
+  float cap = 2.0f * kLamMaxSlope * z;
+  if (!bilinear) {
+    int ix = min(int(x), m.width - 1);
+    int iy = min(int(y), m.height - 1);
+    texels += 1u;
+    float zt = lam_plane_depth(plane, nd, nr, nu, nf, den_p, z, cap, float(ix) + 0.5f, float(iy) + 0.5f);
+    float r = lam_lookup_texel(layers, ranges, stride, uint(iy) * uint(m.width) + uint(ix), zt, m.epsilon);
+    return r >= 0.0f ? r : (r == kLamOccluded ? 0.0f : 1.0f);
+  }
+  // Bilinear over the 4 texel centres around p (percentage-closer style, agrawala2000 §6.1);
+  // texels that p's surface does not reach (undefined) drop out of the weights.
+  float fx = x - 0.5f;
+  float fy = y - 0.5f;  // >= -0.5
+  int x0 = int(fx + 1.0f) - 1;
+  int y0 = int(fy + 1.0f) - 1;
+  float wx = fx - float(x0);
+  float wy = fy - float(y0);
+  float sum = 0.0f;
+  float wsum = 0.0f;
+  for (int k = 0; k < 4; ++k) {
+    int tx = x0 + (k & 1);
+    int ty = y0 + (k >> 1);
+    float w = ((k & 1) != 0 ? wx : 1.0f - wx) * ((k >> 1) != 0 ? wy : 1.0f - wy);
+    if (tx < 0 || ty < 0 || tx >= m.width || ty >= m.height) continue;
+    texels += 1u;
+    float zt = lam_plane_depth(plane, nd, nr, nu, nf, den_p, z, cap, float(tx) + 0.5f, float(ty) + 0.5f);
+    float r = lam_lookup_texel(layers, ranges, stride, uint(ty) * uint(m.width) + uint(tx), zt, m.epsilon);
+    if (r >= 0.0f) {
+      sum += w * r;
+      wsum += w;
+    } else if (r == kLamOccluded) {
+      wsum += w;
+    }
+  }
+  return wsum > 0.0f ? sum / wsum : 1.0f;
+}
+
+// Point i of the outline (three floats a point).
+PN_INLINE vec3 lam_outline_point(PN_FLOAT_ARRAY outline, uint i) {
+  return vec3(PN_AT(outline, 3u * i), PN_AT(outline, 3u * i + 1u), PN_AT(outline, 3u * i + 2u));
+}
+
+// One vertex of the clipped outline into the fan area around the light centre.
+PN_INLINE void lam_fan_vertex(vec3 v, vec3 c, vec3 normal, PN_INOUT(float) area, PN_INOUT(vec3) first,
+                              PN_INOUT(vec3) prev, PN_INOUT(bool) have) {
+  if (have)
+    area += dot(normal, cross(prev - c, v - c));
+  else
+    first = v;
+  prev = v;
+  have = true;
+}
+
+// The fraction of the light's area in front of the plane through p with unit normal n (1 for
+// n = 0; AttenuationMap::front_fraction): on a closed mesh the solid lies behind that plane, so the
+// light behind it is hidden.
+PN_INLINE float lam_front_fraction(PN_FLOAT_ARRAY outline, LamMapView m, vec3 p, vec3 n) {
+  if (m.outline_count == 0u || !(dot(n, n) > 0.0f)) return 1.0f;
+  // Quick exits: the plane misses the light's bounding sphere (n is unit length).
+  float sc = dot(n, m.light_center - p);
+  if (sc >= m.light_radius) return 1.0f;
+  if (sc <= -m.light_radius) return 0.0f;
+  uint count = min(m.outline_count, uint(kLamMaxOutline));
+  float side[kLamMaxOutline];
+  uint front = 0u;
+  for (uint i = 0u; i < count; ++i) {
+    side[i] = dot(n, lam_outline_point(outline, i) - p);
+    if (side[i] > 0.0f) front += 1u;
+  }
+  if (front == count) return 1.0f;
+  if (front == 0u) return 0.0f;
+  // Area of the outline clipped to the front half-space (Sutherland-Hodgman, one plane), as a fan
+  // around the light centre.
+  float area = 0.0f;
+  vec3 first = vec3(0.0f);
+  vec3 prev = vec3(0.0f);
+  bool have = false;
+  for (uint i = 0u; i < count; ++i) {
+    uint j = (i + 1u) % count;
+    vec3 a = lam_outline_point(outline, i);
+    if (side[i] > 0.0f) lam_fan_vertex(a, m.light_center, m.light_normal, area, first, prev, have);
+    if ((side[i] > 0.0f) != (side[j] > 0.0f)) {
+      vec3 b = lam_outline_point(outline, j);
+      lam_fan_vertex(a + (b - a) * (side[i] / (side[i] - side[j])), m.light_center, m.light_normal, area, first, prev,
+                     have);
+    }
+  }
+  area += dot(m.light_normal, cross(prev - m.light_center, first - m.light_center));
+  return clamp(0.5f * area / m.light_area, 0.0f, 1.0f);
+}
+
+// A view sample's V from the map: lam_visibility, and on a solid object (the map's solid flag and
+// the object closed) at most its front_fraction.
+PN_INLINE float lam_sample_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uint stride,
+                                      PN_FLOAT_ARRAY outline, LamMapView m, vec3 p, vec3 ng, bool closed,
+                                      bool bilinear, PN_INOUT(uint) texels) {
+  bool solid = m.solid != 0u && closed;
+  if (m.empty != 0u) return solid ? lam_front_fraction(outline, m, p, ng) : 1.0f;
+  float v = lam_visibility(layers, ranges, stride, m, p, ng, bilinear, m.slope != 0u, texels);
+  return v > 0.0f && solid ? min(v, lam_front_fraction(outline, m, p, ng)) : v;
+}
+
+PN_SHARED_END
+
+#ifdef __cplusplus
+static_assert(sizeof(penumbra::shader::LamSplat) == 20);
+static_assert(sizeof(penumbra::shader::LamMapView) == 192);
+#endif
+
+#endif  // PENUMBRA_SHADOW_LAM_LAM_SHARED_H
