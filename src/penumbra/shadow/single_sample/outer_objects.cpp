@@ -10,73 +10,9 @@
 
 namespace penumbra::single_sample {
 
-namespace {
-struct RayPoint {
-  float t, x, y;  // along the ray, and across it
-};
-
-// Clips the polygon to t >= near (sign = +1) or t <= far (sign = -1).
-int clip(const RayPoint* in, int n, RayPoint* out, float bound, float sign) {
-  int m = 0;
-  for (int i = 0; i < n; ++i) {
-    const RayPoint& p = in[i];
-    const RayPoint& q = in[(i + 1) % n];
-    float dp = sign * (p.t - bound), dq = sign * (q.t - bound);
-    if (dp >= 0) out[m++] = p;
-    if ((dp >= 0) != (dq >= 0)) {
-      float s = dp / (dp - dq);
-      out[m++] = {p.t + s * (q.t - p.t), p.x + s * (q.x - p.x), p.y + s * (q.y - p.y)};
-    }
-  }
-  return m;
-}
-
-// Squared distance from the origin to the convex polygon q[0..n) of the plane t = 1 (0
-// when the origin is inside; a polygon of zero area has no inside).
-float polygon_distance2(const Vec2f* q, int n) {
-  bool pos = false, neg = false;
-  float best2 = kInfinity;
-  for (int i = 0; i < n; ++i) {
-    Vec2f p = q[i], e = q[i + 1 == n ? 0 : i + 1] - q[i];
-    float side = cross(e, Vec2f(0, 0) - p);
-    pos |= side > 0;
-    neg |= side < 0;
-    float len2 = dot(e, e);
-    float s = len2 > 0 ? std::clamp(-dot(p, e) / len2, 0.0f, 1.0f) : 0.0f;
-    Vec2f closest = p + e * s;
-    best2 = std::min(best2, dot(closest, closest));
-  }
-  // The axis passes through the triangle (or its edge).
-  if (pos != neg) return 0.0f;
-  return best2;
-}
-}  // namespace
-
 float triangle_cone_distance2(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
                               Vec3f c) {
-  RayPoint poly[3];
-  int n = 0;
-  for (Vec3f x : {a, b, c}) {
-    Vec3f r = x - o;
-    poly[n++] = {dot(r, v), dot(r, e1), dot(r, e2)};
-  }
-  Vec2f q[5];
-  if (std::min({poly[0].t, poly[1].t, poly[2].t}) >= near && std::max({poly[0].t, poly[1].t, poly[2].t}) <= far) {
-    // The common case: the whole triangle lies in [near, far] along the ray. Perspective
-    // projection onto the plane t = 1; the ray's axis is the origin.
-    for (int i = 0; i < 3; ++i) {
-      float inv = 1.0f / poly[i].t;
-      q[i] = {poly[i].x * inv, poly[i].y * inv};
-    }
-    return polygon_distance2(q, 3);
-  }
-  RayPoint tmp[4], clipped[5];
-  n = clip(poly, 3, tmp, near, 1.0f);
-  if (n < 3) return kInfinity;
-  n = clip(tmp, n, clipped, far, -1.0f);
-  if (n < 3) return kInfinity;
-  for (int i = 0; i < n; ++i) q[i] = {clipped[i].x / clipped[i].t, clipped[i].y / clipped[i].t};
-  return polygon_distance2(q, n);
+  return shader::ss_triangle_cone_distance2(o, v, e1, e2, near, far, a, b, c);
 }
 
 float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,

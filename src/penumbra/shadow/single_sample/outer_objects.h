@@ -10,33 +10,18 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/scene/mesh.h"
+#include "penumbra/shadow/single_sample/single_sample_shared.h"
 
 namespace penumbra::single_sample {
 
-// parker1998 appendix: s = 3 tau^2 - 2 tau^3, the Bernstein cubic with the values and
-// slopes of the sinusoid (1 + sin(pi tau - pi/2)) / 2 at tau = 0 and 1. s is the light
-// that passes: 0 at the inner (real) surface, 1 at the outer object's boundary.
-inline float falloff(float tau) {
-  tau = std::clamp(tau, 0.0f, 1.0f);
-  return tau * tau * (3.0f - 2.0f * tau);
-}
-
-// The inverse of falloff on [0,1]: tau = 1/2 - sin(asin(1 - 2s) / 3).
-inline float inverse_falloff(float s) {
-  s = std::clamp(s, 0.0f, 1.0f);
-  return 0.5f - std::sin(std::asin(1.0f - 2.0f * s) / 3.0f);
-}
-
-// parker1998 appendix, sphere (centre c, radius R) and a shadow ray p = o + t v (unit v)
-// toward a light of diameter D at distance light_dist from o.
+// parker1998 appendix: the falloff s(tau) (0 at the inner surface, 1 at the outer object's
+// boundary), its inverse, and a sphere (centre c, radius R) against a shadow ray o + t v (unit v)
+// toward a light of diameter D at distance light_dist: single_sample_shared.h, which the GPU runs
+// too.
+inline float falloff(float tau) { return shader::ss_falloff(tau); }
+inline float inverse_falloff(float s) { return shader::ss_inverse_falloff(s); }
 inline float sphere_transmission(Vec3f o, Vec3f v, float light_dist, Vec3f c, float R, float D) {
-  float t0 = dot(c - o, v);
-  if (t0 < 0 || t0 > light_dist) return 1.0f;  // behind the point, or beyond the light
-  float b = D * t0 / light_dist;               // penumbra width at the occluder: b = a D / A
-  float d = length(o + v * t0 - c);            // distance from c to the ray
-  if (d < R) return 0.0f;
-  if (d > R + b) return 1.0f;
-  return falloff((d - R) / b);
+  return shader::ss_sphere_transmission(o, v, light_dist, c, R, D);
 }
 
 // The triangle's outer object generalised so that it is exact for every ray: a point x
@@ -52,7 +37,8 @@ float triangle_cone_distance(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, f
                              Vec3f c);
 
 // The squared version of triangle_cone_distance, without the final sqrt, for the search's
-// inner loop (it compares against a squared limit).
+// inner loop (it compares against a squared limit): single_sample_shared.h
+// ss_triangle_cone_distance2.
 float triangle_cone_distance2(Vec3f o, Vec3f v, Vec3f e1, Vec3f e2, float near, float far, Vec3f a, Vec3f b,
                               Vec3f c);
 

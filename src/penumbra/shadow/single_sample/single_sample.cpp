@@ -29,6 +29,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/shadow/single_sample/occluders.h"
 #include "penumbra/shadow/single_sample/outer_objects.h"
 #include "penumbra/shadow/single_sample/simd4.h"
 #include "penumbra/trace/bvh.h"
@@ -53,11 +54,6 @@ using namespace single_sample;  // f4, i4 and their helpers (simd4.h)
 
 enum class Combine { Min, Multiply, Add };
 
-struct Plane {
-  Vec3f n;  // unit normal
-  float d;  // dot(n, x) = d on the plane
-};
-
 // The shadow ray's frame: origin, unit direction v, two unit vectors across it, and their
 // component-wise absolute values (for box extents), with the search range in t.
 struct RayFrame {
@@ -69,13 +65,7 @@ struct RayFrame {
 // extent across the ray (its projection on e1 and e2) gives the smallest distance from the
 // axis, over the largest t. No sqrt, one division.
 inline float box_bound2(const Bounds3f& b, const RayFrame& r) {
-  Vec3f c = (b.lo + b.hi) * 0.5f - r.o, h = (b.hi - b.lo) * 0.5f;
-  float tc = dot(c, r.v), th = dot(h, r.av);
-  float tmax = std::min(tc + th, r.far);
-  if (tmax <= r.near || tc - th >= r.far) return kInfinity;
-  float dx = std::max(0.0f, std::abs(dot(c, r.e1)) - dot(h, r.ae1));
-  float dy = std::max(0.0f, std::abs(dot(c, r.e2)) - dot(h, r.ae2));
-  return (dx * dx + dy * dy) / (tmax * tmax);
+  return shader::ss_box_bound2(b.lo, b.hi, r.o, r.v, r.e1, r.e2, r.av, r.ae1, r.ae2, r.near, r.far);
 }
 
 // The packet search: W rays side by side in vectors F (floats) and I (ints) of W lanes:
@@ -162,13 +152,7 @@ PENUMBRA_INLINE F triangle_distance2(const BvhTriangle& tri, const RayFramePacke
 class SingleSampleSoftShadows final : public ShadowMethod {
  public:
   explicit SingleSampleSoftShadows(const ParamSet& p)
-      : equal_area_(p.get_string("diameter") == "equal-area"),
-        diameter_scale_(p.get_float("diameter_scale")),
-        contour_only_(p.get_string("candidates") != "all"),
-        band_(p.get_float("band")),
-        ring_(p.get_bool("neighbours")),
-        leaf_size_(p.get_int("leaf_size")),
-        packets_(p.get_int("packet") > 1) {
+      : settings_(occluder_settings(p)), packets_(p.get_int("packet") > 1) {
 #if PENUMBRA_HAVE_AVX2_DISPATCH
     __builtin_cpu_init();
     if (p.get_int("packet") == 8 && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) lanes_ = 8;
@@ -182,93 +166,20 @@ class SingleSampleSoftShadows final : public ShadowMethod {
     stats_.prepare_count++;
     const Scene& scene = *ctx.scene;
     scene_ = &scene;
-    const AreaLight& l = *ctx.light;
-    // parker1998 uses the light's diameter D. A rect has none: its diagonal over-states
-    // the penumbra, the diameter of the disk of equal area matches its mean width.
-    // An ellipsoid, likewise: the disk of its central ellipse's area, or its longest axis.
-    const bool elongated = l.shape == LightShape::Rect || l.shape == LightShape::Ellipsoid;
-    diameter_ = (elongated && equal_area_) ? 2.0f * std::sqrt(l.area() / kPi) : l.diameter();
-    diameter_ *= diameter_scale_;
-    // The search runs in a frame centred on the light with z toward the scene: every
-    // shadow ray ends at its origin and runs roughly along -z, and the contour triangles
-    // lie edge-on to the light, so boxes aligned with this frame are thin across the rays
-    // (world-axis boxes of the same slivers are not).
-    const Bounds3f scene_bounds = scene.bounds();
-    Vec3f toward = scene_bounds.center() - l.center;
-    light_frame_ = length_squared(toward) > 0 ? Frame::from_z(toward) : Frame::from_z(-l.frame.n);
-    light_pos_ = l.center;
-    {
-      const Bounds3f& b = scene_bounds;
-      scene_scale_ = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
-      plane_eps_ = 1e-4f * scene_scale_;
-    }
-    std::vector<BvhTriangle> tris;
-    size_t all_count = 0;
-    objects_.assign(scene.objects.size(), {});
-    for (size_t o = 0; o < scene.objects.size(); ++o) {
-      const SceneObject& obj = scene.objects[o];
-      if (obj.sphere) continue;  // parker1998's analytic sphere instead
-      const TriangleMesh& m = obj.mesh;
-      const size_t count = m.triangle_count();
-      all_count += count;
-      // An alpha texture (issue 20) counts as its mean over each triangle: the cone query
-      // measures distances to whole triangles, not to a mask's edges (docs/methods/single-sample.md).
-      const bool textured = obj.material.alpha_textured() && m.uvs.size() == m.positions.size();
-      auto opacity = [&](size_t t) {
-        float a = obj.material.opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
-        if (textured) {
-          const Vec2f uv[3] = {m.uvs[m.indices[3 * t]], m.uvs[m.indices[3 * t + 1]], m.uvs[m.indices[3 * t + 2]]};
-          a *= obj.material.alpha.mean_opacity(uv);
-        }
-        return a;
-      };
-      bool opaque = true;
-      for (size_t t = 0; t < count && opaque; ++t) opaque = opacity(t) >= 1.0f;
-      // With `contour`, only the triangles along an opaque mesh's contour seen from the
-      // light centre (outer_objects.h: the nearest point in cone space of a surface the
-      // ray misses lies on that contour). Semi-transparent objects keep every triangle: a
-      // ray may cross them and still see the light.
-      std::vector<uint8_t> keep;
-      if (contour_only_ && opaque) {
-        ObjectData& od = objects_[o];
-        od.topology = single_sample::build_topology(m);
-        od.ring = ring_;
-        keep = single_sample::contour_triangles(m, od.topology, l.center, band_ * diameter_);
-        if (ring_) {
-          // Planes in the light frame, from the welded vertices transformed once each.
-          const auto& topo = od.topology;
-          std::vector<Vec3f> pos(topo.vertex_first.size() - 1);
-          for (size_t i = 0; i < m.positions.size(); ++i) pos[topo.canon[i]] = to_light_space(m.positions[i]);
-          od.planes.resize(count);
-          parallel_for(count, 4096, [&](size_t b, size_t e) {
-            for (size_t t = b; t < e; ++t)
-              od.planes[t] = triangle_plane(
-                  BvhTriangle{pos[topo.corners[3 * t]], pos[topo.corners[3 * t + 1]], pos[topo.corners[3 * t + 2]]});
-          });
-          // The same planes in the order of the vertex fans, read contiguously by gather_ring.
-          od.fan_planes.resize(od.topology.vertex_tris.size());
-          parallel_for(od.fan_planes.size(), 16384, [&](size_t b, size_t e) {
-            for (size_t i = b; i < e; ++i) od.fan_planes[i] = od.planes[od.topology.vertex_tris[i]];
-          });
-          // A flat object (a ground plane): every neighbour lies in the receiver's plane
-          // and is excluded anyway.
-          bool flat = true;
-          for (size_t t = 1; t < count && flat; ++t)
-            flat = dot(od.planes[t].n, od.planes[0].n) > 1 - 1e-6f && std::abs(od.planes[t].d - od.planes[0].d) < plane_eps_;
-          od.ring = !flat;
-        }
-      }
-      for (size_t t = 0; t < count; ++t)
-        if (keep.empty() || keep[t])
-          tris.push_back({to_light_space(m.vertex(t, 0)), to_light_space(m.vertex(t, 1)),
-                          to_light_space(m.vertex(t, 2)), static_cast<uint32_t>(o), static_cast<uint32_t>(t),
-                          opacity(t)});
-    }
-    stats_.extra["occluder_triangles"] = tris.size();
-    stats_.extra["occluder_fraction"] = all_count ? static_cast<double>(tris.size()) / all_count : 0.0;
-    bvh_ = TriangleBvh(std::move(tris), leaf_size_);
-    planes_.clear();
-    for (const BvhTriangle& t : bvh_.triangles()) planes_.push_back(triangle_plane(t));
+    // The occluders (occluders.h, shared with the GPU version): D, the light frame, the
+    // candidate triangles in their BVH with their planes, the spheres, the meshes' topology.
+    Occluders occ = build_occluders(scene, *ctx.light, settings_);
+    diameter_ = occ.diameter;
+    light_frame_ = occ.light_frame;
+    light_pos_ = occ.light_pos;
+    plane_eps_ = occ.plane_eps;
+    objects_ = std::move(occ.objects);
+    spheres_ = std::move(occ.spheres);
+    planes_ = std::move(occ.planes);
+    bvh_ = std::move(occ.bvh);
+    const size_t all_count = occ.all_triangles;
+    stats_.extra["occluder_triangles"] = bvh_.triangles().size();
+    stats_.extra["occluder_fraction"] = all_count ? static_cast<double>(bvh_.triangles().size()) / all_count : 0.0;
     node_boxes_.clear();
     for (const BvhNode& n : bvh_.nodes()) node_boxes_.emplace_back(n.bounds);
     // The leaves' triangles as blocks of four for the SIMD distance test of search_single
@@ -289,10 +200,6 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         blocks_.push_back(block);
       }
     }
-    spheres_.clear();
-    for (size_t o = 0; o < scene.objects.size(); ++o)
-      if (scene.objects[o].sphere) spheres_.push_back({*scene.objects[o].sphere, static_cast<uint32_t>(o),
-                                                       scene.objects[o].material.opacity});
     stats_.memory_bytes = bvh_.memory_bytes() + blocks_.capacity() * sizeof(single_sample::TriangleBlock4) +
                           4 * leaf_block_.capacity() + planes_.capacity() * sizeof(Plane);
     for (const ObjectData& od : objects_)
@@ -384,17 +291,6 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   }
 
  private:
-  struct AnalyticSphere {
-    SphereShape shape;
-    uint32_t object;
-    float opacity;
-  };
-  struct ObjectData {
-    single_sample::MeshTopology topology;
-    std::vector<Plane> planes;      // per triangle, light frame
-    std::vector<Plane> fan_planes;  // planes[topology.vertex_tris[i]]
-    bool ring = false;   // receivers on it test the triangles around their own
-  };
   // Per-thread search state. `hints` carry the nearest triangle from one view sample (or
   // packet lane) to the next.
   struct Search {
@@ -467,9 +363,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   // origin's side), so every point of the plane is seen at least asin(n . v) off the ray:
   // perp / t >= tan(asin(n . v)) >= n . v.
   static bool leaves_plane(const RayFrame& r, const Plane& plane, float limit2) {
-    float side = dot(plane.n, r.o) - plane.d, nv = dot(plane.n, r.v);
-    if (side < 0) nv = -nv;
-    return nv >= 0 && nv * nv >= limit2;
+    return shader::ss_leaves_plane(r.o, r.v, plane, limit2);
   }
 
   // A triangle at squared cone distance d2 < lane.limit2 (BVH index `index`, ~0u for one
@@ -482,11 +376,11 @@ class SingleSampleSoftShadows final : public ShadowMethod {
         lane.best = index;
         return d2 > 0.0f;
       }
-      float si = 1.0f - t.opacity * (1.0f - falloff(std::sqrt(d2 / lane.k2)));
+      float si = shader::ss_occluder_transmission(t.opacity, d2, lane.k2);
       lane.limit2 = std::min(lane.limit2, lane.k2 * sqr(inverse_falloff(si)));
       return true;
     }
-    combine(lane.s, 1.0f - t.opacity * (1.0f - falloff(std::sqrt(d2 / lane.k2))));
+    combine(lane.s, shader::ss_occluder_transmission(t.opacity, d2, lane.k2));
     return lane.s > 0.0f;
   }
 
@@ -773,21 +667,7 @@ class SingleSampleSoftShadows final : public ShadowMethod {
 
 
   Vec3f to_light_space(Vec3f x) const { return light_frame_.to_local(x - light_pos_); }
-  // The unit normal and offset of t's plane (zero for a triangle without area).
-  static Plane triangle_plane(const BvhTriangle& t) {
-    Vec3f n = cross(t.v1 - t.v0, t.v2 - t.v0);
-    float len = length(n);
-    if (!(len > 0)) return {Vec3f(0.0f), kInfinity};
-    n = n / len;
-    return {n, dot(n, t.v0)};
-  }
-
-  bool equal_area_;
-  float diameter_scale_;
-  bool contour_only_;
-  float band_;
-  bool ring_;
-  int leaf_size_;
+  OccluderSettings settings_;
   bool packets_;
   int lanes_ = 4;  // rays per packet: 8 with AVX2
   float plane_eps_ = 1e-4f;
@@ -803,7 +683,6 @@ class SingleSampleSoftShadows final : public ShadowMethod {
   Vec3f light_pos_;
   std::vector<AnalyticSphere> spheres_;
   float diameter_ = 1.0f;
-  float scene_scale_ = 1.0f;
 };
 
 // One light's instance, all of it per triangle of the scene (at most every one is an
