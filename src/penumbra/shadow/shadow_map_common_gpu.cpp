@@ -15,6 +15,26 @@ float range_float(uint32_t bits) { return shader::raster_order_float(bits); }
 
 }  // namespace
 
+LightView view_from_range(const ShadowViewFrame& frame, const GpuReceiverRange& r, const Bounds3f& casters,
+                          const ShadowViewFit& fit) {
+  ShadowViewRange range;
+  if (r.fitted > 0) {
+    range.x0 = range_float(r.x0);
+    range.x1 = range_float(r.x1);
+    range.y0 = range_float(r.y0);
+    range.y1 = range_float(r.y1);
+    range.z0 = range_float(r.z0);
+    range.z1 = range_float(r.z1);
+  }
+  return build_shadow_view(frame, range, casters, fit);
+}
+
+GpuReceiverRange empty_receiver_range() {
+  GpuReceiverRange r{};
+  r.x0 = r.y0 = r.z0 = kSmallest;
+  return r;
+}
+
 void GpuLightCentreMap::prepare(const ShadowContext& ctx, GpuFrame& frame) {
   casters_ = ctx.scene->bounds();
   valid_ = false;
@@ -52,16 +72,7 @@ bool GpuLightCentreMap::update(const ShadowContext& ctx, GpuFrame& frame, const 
   GpuReceiverRange r{};
   range_.download(&r, sizeof(r));
   if (r.receivers == 0) return false;
-  ShadowViewRange range;
-  if (r.fitted > 0) {
-    range.x0 = range_float(r.x0);
-    range.x1 = range_float(r.x1);
-    range.y0 = range_float(r.y0);
-    range.y1 = range_float(r.y1);
-    range.z0 = range_float(r.z0);
-    range.z1 = range_float(r.z1);
-  }
-  const LightView view = build_shadow_view(frame_axes, range, casters_, fit);
+  const LightView view = view_from_range(frame_axes, r, casters_, fit);
   // Rendered again only when the fitted view changed (LightCentreMap::update's rule).
   if (!(valid_ && same_fitted_view(map_.view(), view))) {
     rasterizer_->depth_map(cl, frame.flush, "raster", *frame.scene, view, RasterFilter{}, &map_);

@@ -14,6 +14,14 @@
 
 namespace penumbra::shadow_map {
 
+// The view fitted to the receivers a fit kernel reduced into `r` (frame: the view's frame, as
+// shadow_view_frame gave it): build_shadow_view of the range's floats, the CPU's view up to float
+// rounding. Throws as fit_shadow_view does when no receiver lies beyond min_near.
+LightView view_from_range(const ShadowViewFrame& frame, const shader::GpuReceiverRange& r, const Bounds3f& casters,
+                          const ShadowViewFit& fit);
+// What a fit kernel's range starts from: no receiver, the identities of min and max.
+shader::GpuReceiverRange empty_receiver_range();
+
 class GpuLightCentreMap {
  public:
   // The casters' bounds (the scene's); call again when the geometry changes.

@@ -1,0 +1,41 @@
+#version 460
+// `multi-view-sm` on the GPU (multi_view_shadow_map.cpp): one thread per view-sample slot, the
+// hard lookup (shadow_map_shared.h sm_lookup, the CPU's function, with the method's biases) of its
+// point in each map of a batch, added to V in map order as the CPU adds them; the last batch
+// scales by 1 / maps. Texels read are counted per subgroup, then one atomic.
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#include "penumbra/gpu/kernel_common.glsl"
+#include "penumbra/gpu/scene_access.glsl"
+#include "penumbra/shadow/baseline/multi_view_shared.h"
+#include "penumbra/shadow/view_samples_shared.h"
+
+layout(local_size_x = 64) in;
+layout(push_constant, scalar) uniform Push { MultiViewLookupParams p; } pc;
+layout(buffer_reference, scalar) readonly buffer ViewSamplesIn { GpuViewSample v[]; };
+layout(buffer_reference, scalar) readonly buffer Maps { MultiViewMap m[]; };
+
+void main() {
+  uint i = pn_thread_index();
+  uint texels = 0u;
+  if (i < pc.p.slots) {
+    GpuViewSample s = ViewSamplesIn(pc.p.samples).v[i];
+    if (s.object != kMissObject) {
+      Floats visibility = Floats(pc.p.visibility);
+      float v = pc.p.first != 0u ? 0.0f : visibility.v[i];
+      if (sm_in_front_of_light(pc.p.light_center, pc.p.light_n, s.p)) {
+        scene_bind(pc.p.scene);
+        bool closed = (g_objects.v[s.object].flags & kObjectClosed) != 0u;
+        Maps maps = Maps(pc.p.maps);
+        for (uint m = 0u; m < pc.p.map_count; ++m) {
+          MultiViewMap map = maps.m[m];
+          uint64_t offset = map.first_texel * 4UL;
+          v += sm_lookup(Floats(pc.p.z + offset), Floats(pc.p.opacity + offset), map.map, s.p, s.ng, closed, pc.p.bias);
+        }
+        texels = pc.p.map_count;
+      }
+      visibility.v[i] = v * pc.p.scale;
+    }
+  }
+  texels = subgroupAdd(texels);
+  if (subgroupElect() && texels > 0u) atomicAdd(Uint64s(pc.p.counters).v[0], uint64_t(texels));
+}

@@ -1,0 +1,181 @@
+// `multi-view-sm` on the GPU (issue 30): the CPU version's light points (the same LightSampleSet
+// and sample_area), each point's view fitted to the receivers on the device (every view in one
+// pass over the view samples, kernels/multi_view_fit.comp; the host builds the views with the
+// CPU's code), the maps rendered many at once by the GPU rasterizer's batch mode
+// (gpu/raster/gpu_batch_rasterizer.h), and each view sample looked up in every map of a batch
+// (kernels/multi_view_lookup.comp, shadow_map_shared.h sm_lookup: the CPU's lookup and biases),
+// V summed in the CPU's order. The CPU renders one map at a time; the GPU holds a batch of maps
+// (GpuBatchRasterizer::batch_budget) so each pass fills the device. Same parameters as
+// multi_view_shadow_map.cpp's table.
+#include <algorithm>
+
+#include "penumbra/core/rng.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/gpu/raster/gpu_batch_rasterizer.h"
+#include "penumbra/raster/shadow_view.h"
+#include "penumbra/scene/scene.h"
+#include "penumbra/shadow/baseline/multi_view_shared.h"
+#include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/shadow_map_common_gpu.h"
+
+namespace penumbra {
+namespace {
+
+using shader::GpuReceiverRange;
+using shader::MultiViewMap;
+
+// The maps of one batch at most this many texels each: a fitted view at `resolution`.
+uint64_t map_texels(int resolution) {
+  const ViewSize v = fitted_view_bound(resolution);
+  return static_cast<uint64_t>(v.width) * static_cast<uint64_t>(v.height);
+}
+
+class MultiViewShadowMapGpu final : public GpuShadowMethod {
+ public:
+  explicit MultiViewShadowMapGpu(const ParamSet& p)
+      : view_(shadow_map::view_params(p)), bias_(shadow_map::bias_params(p)) {}
+
+  void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
+    stats_.prepare_count++;
+    casters_ = ctx.scene->bounds();
+    if (!rasterizer_) {
+      rasterizer_ = std::make_unique<gpu::GpuBatchRasterizer>(*frame.device);
+      counters_ = gpu::Buffer(*frame.device, sizeof(uint64_t), "multi-view-sm's counters");
+    }
+  }
+
+  void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
+    const AreaLight& light = *ctx.light;
+    gpu::CommandList& cl = *frame.commands;
+    const int maps = std::max(1, ctx.light_samples);
+    // The CPU's light points (multi_view_shadow_map.cpp): one fixed set per light and frame.
+    const LightSampleSet set(maps, hash_combine(hash_combine(ctx.seed, 0x4d5653u /* "MVS" */ + ctx.light_index), ctx.frame),
+                             /*per_pixel=*/false);
+    ShadowViewFit fit;
+    fit.resolution = view_.resolution;
+    fit.max_fov = view_.max_fov;
+    std::vector<ShadowViewFrame> frames;
+    std::vector<Vec3f> eyes;
+    for (int i = 0; i < maps; ++i) {
+      eyes.push_back(light.sample_area(set.sample(i, 0)));
+      frames.push_back(shadow_view_frame(eyes.back(), light.frame.n, light.frame.t, casters_, {}, fit));
+    }
+
+    // The fit: every view's receiver range in one pass, read back (32 bytes a view).
+    cl.stage("fit");
+    if (ranges_.bytes() < maps * sizeof(GpuReceiverRange)) {
+      ranges_ = gpu::Buffer(*frame.device, maps * sizeof(GpuReceiverRange), "multi-view-sm's receiver ranges");
+      eyes_ = gpu::Buffer(*frame.device, maps * sizeof(Vec3f), "multi-view-sm's light points");
+    }
+    const std::vector<GpuReceiverRange> empty(maps, shadow_map::empty_receiver_range());
+    ranges_.upload(empty.data(), maps * sizeof(GpuReceiverRange));
+    eyes_.upload(eyes.data(), maps * sizeof(Vec3f));
+    shader::MultiViewFitParams fp{};
+    fp.axes = frames[0].axes;  // the eyes differ; min_near and the axes are every view's
+    fp.samples = frame.view_samples;
+    fp.ranges = ranges_.address();
+    fp.eyes = eyes_.address();
+    fp.light_center = light.center;
+    fp.slots = frame.slots;
+    fp.light_n = light.frame.n;
+    fp.views = static_cast<uint32_t>(maps);
+    cl.dispatch("multi_view_fit", frame.slots, fp);
+    frame.flush();
+    const std::vector<GpuReceiverRange> ranges = ranges_.download_vector<GpuReceiverRange>(maps);
+
+    shader::MultiViewLookupParams lp{};
+    lp.scene = frame.scene->address();
+    lp.samples = frame.view_samples;
+    lp.visibility = out.visibility;
+    lp.counters = counters_.address();
+    lp.bias = bias_.shared();
+    lp.light_center = light.center;
+    lp.slots = frame.slots;
+    lp.light_n = light.frame.n;
+    if (!counting_) cl.fill(counters_, 0);
+    counting_ = true;
+    if (ranges[0].receivers == 0) {
+      // No receiver in front of the light: V = 0 everywhere, no map.
+      cl.stage("lookup");
+      lp.first = 1;
+      lp.scale = 1.0f;
+      cl.dispatch("multi_view_lookup", frame.slots, lp);
+      return;
+    }
+    std::vector<LightView> views;
+    for (int i = 0; i < maps; ++i) views.push_back(shadow_map::view_from_range(frames[i], ranges[i], casters_, fit));
+
+    // The maps in batches, each looked up by every view sample before the next is rendered.
+    const int batch = gpu::GpuBatchRasterizer::batch_size(frame.scene->triangle_count(), map_texels(view_.resolution),
+                                                          /*resolve=*/true, maps, gpu::GpuBatchRasterizer::batch_budget());
+    for (int b0 = 0; b0 < maps; b0 += batch) {
+      const int n = std::min(batch, maps - b0);
+      rasterizer_->depth_maps(cl, frame.flush, "raster", *frame.scene, std::span<const LightView>(views).subspan(b0, n),
+                              RasterFilter{}, /*resolve=*/true, &batch_);
+      std::vector<MultiViewMap> records(n);
+      for (int i = 0; i < n; ++i) {
+        records[i].map = shadow_map::shadow_map_view(views[b0 + i], kInfinity);  // z_min: unused by sm_lookup
+        records[i].first_texel = batch_.first_texel(i);
+      }
+      if (maps_.bytes() < n * sizeof(MultiViewMap))
+        maps_ = gpu::Buffer(*frame.device, n * sizeof(MultiViewMap), "multi-view-sm's batch of views");
+      maps_.upload(records.data(), n * sizeof(MultiViewMap));  // the rasterizer submitted the last lookups
+      cl.stage("lookup");
+      lp.maps = maps_.address();
+      lp.z = batch_.z();
+      lp.opacity = batch_.opacity();
+      lp.map_count = static_cast<uint32_t>(n);
+      lp.first = b0 == 0 ? 1u : 0u;
+      lp.scale = b0 + n == maps ? 1.0f / static_cast<float>(maps) : 1.0f;
+      cl.dispatch("multi_view_lookup", frame.slots, lp);
+    }
+    stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, batch_.device_bytes() + rasterizer_->scratch_device_bytes() +
+                                                                     ranges_.bytes() + eyes_.bytes() + maps_.bytes());
+    stats_.extra["maps"] = maps;
+    stats_.extra["maps_per_batch"] = batch;
+    stats_.extra["map_width"] = views.back().width();
+    stats_.extra["map_height"] = views.back().height();
+  }
+
+  // The texels read, counted on the device.
+  void collect_stats() override {
+    if (!counting_) return;
+    uint64_t texels = 0;
+    counters_.download(&texels, sizeof(texels));
+    stats_.texels_visited += texels;
+    counting_ = false;
+  }
+
+ private:
+  shadow_map::ViewParams view_;
+  shadow_map::BiasParams bias_;
+  Bounds3f casters_;
+  std::unique_ptr<gpu::GpuBatchRasterizer> rasterizer_;
+  gpu::GpuDepthMapBatch batch_;
+  gpu::Buffer ranges_, eyes_, maps_, counters_;
+  bool counting_ = false;
+};
+
+// One light's instance on the device: a batch of maps (resolution^2 texels each, their keys and
+// planes) and the rasterizer's scratch for it, the fit's ranges and light points, the batch's
+// view records.
+MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
+  MemoryTally tally;
+  const int maps = std::max(1, q.light_samples);
+  const uint64_t texels = map_texels(p.get_int("resolution"));
+  const int batch = gpu::GpuBatchRasterizer::batch_size(q.triangles, texels, /*resolve=*/true, maps,
+                                                        gpu::GpuBatchRasterizer::batch_budget());
+  tally.add(gpu::GpuDepthMapBatch::bytes(batch * texels, batch, /*resolve=*/true), "resolution");
+  tally.add(gpu::GpuBatchRasterizer::scratch_bytes(q.triangles, batch, batch * texels), kTrianglesSetting);
+  tally.add(static_cast<uint64_t>(maps) * (sizeof(GpuReceiverRange) + sizeof(Vec3f)) + batch * sizeof(MultiViewMap) +
+                sizeof(uint64_t),
+            kLightSamplesSetting);
+  return tally.estimate();
+}
+
+const GpuMethodRegistration registration({"multi-view-sm",
+                                          [](const ParamSet& p) { return std::make_unique<MultiViewShadowMapGpu>(p); },
+                                          memory});
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,66 @@
+// `multi-view-sm` on the GPU, byte by byte (multi_view_shadow_map_gpu.cpp): the fit of every light
+// point's view to the receivers (kernels/multi_view_fit.comp) and the lookups of each view sample
+// in a batch of maps (kernels/multi_view_lookup.comp, shadow_map_shared.h's sm_lookup: the CPU's
+// function). Common subset of C++ and GLSL (core/shader_compat.h), scalar block layout.
+#ifndef PENUMBRA_SHADOW_BASELINE_MULTI_VIEW_SHARED_H
+#define PENUMBRA_SHADOW_BASELINE_MULTI_VIEW_SHARED_H
+
+#include "penumbra/core/shader_compat.h"
+#include "penumbra/raster/shadow_view_shared.h"
+#include "penumbra/shadow/shadow_map_shared.h"
+
+PN_SHARED_BEGIN
+
+// One map of a batch as the lookups read it, 184 bytes: bytes 0-175 its ShadowMapView
+// (shadow_map_shared.h), 176-183 first_texel: where its texels start in the batch's z and opacity
+// planes (gpu/raster/gpu_batch_rasterizer.h GpuDepthMapBatch).
+struct MultiViewMap {
+  ShadowMapView map;
+  uint64_t first_texel;
+};
+
+// multi_view_fit.comp: one thread per view-sample slot, every light point's view in turn. The
+// views share their axes and min_near (`axes`, its eye unused) and differ in their eye, the light
+// point (vec3 per view). Each view's receivers reduce into its GpuReceiverRange
+// (shadow_map_kernels_shared.h), as shadow_fit_receivers.comp reduces one view's.
+struct MultiViewFitParams {
+  ShadowViewAxes axes;
+  uint64_t samples;  // GpuViewSample[slots]
+  uint64_t ranges;   // GpuReceiverRange[views]
+  uint64_t eyes;     // vec3[views]
+  vec3 light_center;  // receivers: dot(p - light_center, light_n) > 0
+  uint slots;
+  vec3 light_n;
+  uint views;
+};
+
+// multi_view_lookup.comp: one thread per view-sample slot, the batch's maps in order, each the
+// hard lookup sm_lookup (shadow_map.cpp's, with the method's biases). V accumulates in the
+// visibility buffer over the batches in the CPU's order: the first batch starts from 0, the last
+// multiplies by 1 / maps. A view sample behind the light's plane gets 0.
+struct MultiViewLookupParams {
+  uint64_t scene;       // SceneDesc (objects: which are closed)
+  uint64_t samples;     // GpuViewSample[slots]
+  uint64_t visibility;  // float per slot
+  uint64_t maps;        // MultiViewMap[map_count]
+  uint64_t z;           // the batch's planes (float per texel)
+  uint64_t opacity;
+  uint64_t counters;  // uint64: texels read
+  ShadowBias bias;
+  vec3 light_center;
+  uint slots;
+  vec3 light_n;
+  uint map_count;
+  uint first;  // 1: the first batch (V starts from 0)
+  float scale;  // V is multiplied by it after this batch's maps: 1 / maps for the last, else 1
+};
+
+PN_SHARED_END
+
+#ifdef __cplusplus
+static_assert(sizeof(penumbra::shader::MultiViewMap) == 184);
+static_assert(sizeof(penumbra::shader::MultiViewFitParams) <= 128);
+static_assert(sizeof(penumbra::shader::MultiViewLookupParams) <= 128);
+#endif
+
+#endif  // PENUMBRA_SHADOW_BASELINE_MULTI_VIEW_SHARED_H
