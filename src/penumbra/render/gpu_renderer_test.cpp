@@ -161,15 +161,7 @@ TEST_F(GpuFrame, ReferenceMatchesForEveryLightShapeAndATexturedLight) {
   using penumbra::testing::object;
   const std::vector<SceneObject> casters = {object(box({-0.6f, 0.3f, -0.4f}, {0.2f, 0.5f, 0.5f})),
                                             object(box({0.4f, 0, -0.9f}, {0.9f, 1.2f, -0.5f}))};
-  AreaLight rect = penumbra::testing::rect_light_down({0.2f, 2.0f, 0.1f}, 1.2f, 0.7f);
-  AreaLight disk = rect;
-  disk.shape = LightShape::Disk;
-  disk.radius = 0.5f;
-  AreaLight sphere = rect;
-  sphere.shape = LightShape::Sphere;
-  sphere.radius = 0.4f;
-  AreaLight ellipsoid = penumbra::testing::ellipsoid_light_down({0.2f, 2.0f, 0.1f}, {0.6f, 0.3f, 0.2f});
-  for (const AreaLight& light : {rect, disk, sphere, ellipsoid}) {
+  for (const AreaLight& light : penumbra::testing::every_light_shape({0.2f, 2.0f, 0.1f})) {
     Scene s = penumbra::testing::ground_scene(casters, light, 40);
     s.source = std::string("light shape ") + to_string(light.shape);
     expect_reference_matches(s, 16);
