@@ -73,6 +73,20 @@ TEST_F(CliGpu, BadDevicesAndMethodsWithoutAGpuVersionAreOneLineErrors) {
   expect_refused(fmt::format("render {} --device gpu -m reference --memory-limit 64K", bunny), "GPU memory");
 }
 
+TEST_F(CliGpu, AFailingVulkanCallIsOneLineAndWritesNothing) {
+  for (const char* failure : {"allocation", "submission"}) {
+    const fs::path out = dir_ / "x.png";
+    const Run r = penumbra::testing::run_cli(
+        dir_, fmt::format("render {} --device gpu -m hard --resolution 16 -o {}", scene("bunny"), out.string()),
+        fmt::format("PENUMBRA_GPU_TEST_FAIL={}", failure));
+    EXPECT_EQ(r.exit_code, 1) << failure << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string(failure) == "allocation" ? "vkAllocateMemory" : "vkQueueSubmit"), std::string::npos)
+        << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
 TEST_F(CliGpu, DevicesAndMethodsSayWhatRunsWhere) {
   Run r = run("devices");
   ASSERT_EQ(r.exit_code, 0) << r.err;

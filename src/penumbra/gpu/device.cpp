@@ -427,6 +427,15 @@ Device::Device(int index) : state_(std::make_unique<DeviceState>()) {
 Device::~Device() = default;  // never runs for the shared devices (see get)
 
 Device& Device::get(int index) {
+  // PENUMBRA_GPU_TEST_FAIL=allocation|submission: the process's first allocation or submission
+  // fails (testing::fail_next), so the command line's tests see its one-line error.
+  static const bool armed = [] {
+    const char* f = std::getenv("PENUMBRA_GPU_TEST_FAIL");
+    if (f && std::strcmp(f, "allocation") == 0) testing::fail_next(testing::Failure::Allocation);
+    if (f && std::strcmp(f, "submission") == 0) testing::fail_next(testing::Failure::Submission);
+    return true;
+  }();
+  (void)armed;
   static std::mutex mutex;
   // Opened once per index and never closed: pipelines stay compiled for the whole process,
   // and nothing is torn down during static destruction, when driver state may already be gone.
