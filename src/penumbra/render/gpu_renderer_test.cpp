@@ -259,6 +259,32 @@ TEST_F(GpuFrame, ARenderOverTheGpusMemoryIsRefusedUpFront) {
   EXPECT_THROW(Renderer(big, settings), Error);
 }
 
+TEST_F(GpuFrame, TheUpFrontEstimateCoversWhatARenderHolds) {
+  gpu::unit_circle_buffer(device());  // held once per device for the whole process
+  for (const char* method : {"reference", "hard", "shadow-map", "pcss"}) {
+    for (const char* name : {"bunny", "foliage"}) {
+      Scene scene = suite_scene(name, 48);
+      scene.camera.samples_per_pixel = 2;
+      RenderSettings settings;
+      settings.method = method;
+      settings.light_samples = 8;
+      settings.frames = 2;
+      settings.device = gpu::DeviceChoice::parse("gpu");
+      const uint64_t before = device().allocated_bytes();
+      const GpuMemoryEstimate estimate = estimate_gpu_render_memory(scene, settings);
+      {
+        Renderer r(scene, settings);
+        r.render();
+        const uint64_t held = device().allocated_bytes() - before;
+        EXPECT_LE(held, estimate.total()) << method << " on " << name << ": holds " << held << " bytes, estimated "
+                                          << estimate.total();
+        EXPECT_GT(held, estimate.total() / 20) << method << " on " << name << ": the estimate is far off";
+      }
+      EXPECT_EQ(device().allocated_bytes(), before) << method << ": a render's buffers outlive it";
+    }
+  }
+}
+
 TEST_F(GpuFrame, AFailedVulkanCallIsAnErrorAndTheDeviceStaysUsable) {
   RenderSettings settings;
   settings.method = "hard";
