@@ -439,13 +439,15 @@ Device& Device::get(int index) {
   static std::mutex mutex;
   // Opened once per index and never closed: pipelines stay compiled for the whole process,
   // and nothing is torn down during static destruction, when driver state may already be gone.
-  static std::map<int, Device*> devices;
+  // The table itself is never destroyed either, so the devices stay reachable to the end (a
+  // destroyed table would leave them to LeakSanitizer's exit check as leaks).
+  static auto* devices = new std::map<int, Device*>();
   std::lock_guard lock(mutex);
-  auto it = devices.find(index);
-  if (it != devices.end()) return *it->second;
+  auto it = devices->find(index);
+  if (it != devices->end()) return *it->second;
   Device* d = new Device(index);
-  devices[index] = d;
-  if (index < 0) devices[d->info().index] = d;
+  (*devices)[index] = d;
+  if (index < 0) (*devices)[d->info().index] = d;
   return *d;
 }
 
