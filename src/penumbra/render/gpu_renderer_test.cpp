@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -263,7 +264,11 @@ TEST_F(GpuFrame, ARenderOverTheGpusMemoryIsRefusedUpFront) {
 
 TEST_F(GpuFrame, TheUpFrontEstimateCoversWhatARenderHolds) {
   gpu::unit_circle_buffer(device());  // held once per device for the whole process
-  for (const char* method : {"reference", "hard", "shadow-map", "pcss"}) {
+  // Every method with a GPU version, at its default parameters.
+  std::vector<std::string> methods;
+  for (const MethodInfo* m : MethodRegistry::all())
+    if (find_gpu_method(m->name)) methods.push_back(m->name);
+  for (const std::string& method : methods) {
     for (const char* name : {"bunny", "foliage"}) {
       Scene scene = suite_scene(name, 48);
       scene.camera.samples_per_pixel = 2;
@@ -276,11 +281,15 @@ TEST_F(GpuFrame, TheUpFrontEstimateCoversWhatARenderHolds) {
       const GpuMemoryEstimate estimate = estimate_gpu_render_memory(scene, settings);
       {
         Renderer r(scene, settings);
-        r.render();
+        const RenderResult result = r.render();
         const uint64_t held = device().allocated_bytes() - before;
         EXPECT_LE(held, estimate.total()) << method << " on " << name << ": holds " << held << " bytes, estimated "
                                           << estimate.total();
-        EXPECT_GT(held, estimate.total() / 20) << method << " on " << name << ": the estimate is far off";
+        // A method may free its build storage before the render returns (lam's LDI build): the
+        // peak it reports counts too.
+        const uint64_t peak = std::max(held, result.stats.memory_bytes);
+        EXPECT_LE(peak, estimate.total()) << method << " on " << name << ": peaks at " << peak << " bytes";
+        EXPECT_GT(peak, estimate.total() / 20) << method << " on " << name << ": the estimate is far off";
       }
       EXPECT_EQ(device().allocated_bytes(), before) << method << ": a render's buffers outlive it";
     }
