@@ -28,9 +28,6 @@ uint64_t batch_first_items(uint64_t triangles, uint64_t views, uint64_t texels) 
 uint64_t g_budget_for_testing = 0;
 uint32_t g_first_triangles_for_testing = 0, g_first_items_for_testing = 0;
 
-// Room for `needed` with a margin (GpuRasterizer's rule).
-uint64_t batch_grown(uint64_t needed) { return needed + needed / 4 + 64; }
-
 }  // namespace
 
 DepthMap GpuDepthMapBatch::download(int i) const {
@@ -64,7 +61,8 @@ uint64_t GpuDepthMapBatch::bytes(uint64_t texels, uint64_t views, bool resolve) 
   return texels * (resolve ? 16 : 8) + views * sizeof(GpuRasterBatchView);
 }
 
-GpuBatchRasterizer::GpuBatchRasterizer(Device& device) : device_(&device) {
+GpuBatchRasterizer::GpuBatchRasterizer(Device& device)
+    : device_(&device), scratch_(sizeof(GpuRasterBatchTriangle), "the batch rasterizer") {
   state_ = Buffer(device, sizeof(GpuRasterState), "the batch rasterizer's counters");
   if (g_first_triangles_for_testing > 0 && g_first_items_for_testing > 0)
     set_capacities_for_testing(g_first_triangles_for_testing, g_first_items_for_testing);
@@ -77,8 +75,8 @@ uint64_t GpuBatchRasterizer::scratch_bytes(uint64_t triangles, uint64_t views, u
 
 uint64_t GpuBatchRasterizer::scratch_device_bytes() const {
   uint64_t total = 0;
-  for (const Buffer* b : {&state_, &triangles_, &items_, &orientation_, &outline_}) total += b->bytes();
-  return total;
+  for (const Buffer* b : {&state_, &orientation_, &outline_}) total += b->bytes();
+  return total + scratch_.device_bytes();
 }
 
 int GpuBatchRasterizer::batch_size(uint64_t triangles, uint64_t texels_per_view, bool resolve, int views,
@@ -106,29 +104,7 @@ void GpuBatchRasterizer::set_first_capacities_for_testing(uint32_t triangles, ui
 }
 
 void GpuBatchRasterizer::set_capacities_for_testing(uint32_t triangles, uint32_t items) {
-  triangles_ = Buffer(*device_, std::max<uint64_t>(1, triangles) * sizeof(GpuRasterBatchTriangle),
-                      "the batch's set-up triangles");
-  items_ = Buffer(*device_, std::max<uint64_t>(1, items) * sizeof(GpuRasterItem), "the batch's work items");
-  triangle_capacity_ = triangles;
-  item_capacity_ = items;
-}
-
-void GpuBatchRasterizer::ensure_capacity(uint64_t triangles, uint64_t items) {
-  if (triangles > kBatchMaxCapacity || items > kBatchMaxCapacity)
-    throw Error(
-        "GPU rasterizer: a batch of views needs {} set-up triangles and {} work items, more than one batch can "
-        "index (at most {}): lower the maps' resolution or the light samples",
-        triangles, items, kBatchMaxCapacity);
-  if (triangles > triangle_capacity_) {
-    triangles_ = Buffer();  // free first: the old contents are not needed
-    triangles_ = Buffer(*device_, triangles * sizeof(GpuRasterBatchTriangle), "the batch's set-up triangles");
-    triangle_capacity_ = static_cast<uint32_t>(triangles);
-  }
-  if (items > item_capacity_) {
-    items_ = Buffer();
-    items_ = Buffer(*device_, items * sizeof(GpuRasterItem), "the batch's work items");
-    item_capacity_ = static_cast<uint32_t>(items);
-  }
+  scratch_.set_for_testing(*device_, triangles, items);
 }
 
 void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::string_view stage,
@@ -182,7 +158,7 @@ void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::
   }
   const uint64_t want_triangles = std::min(kBatchMaxCapacity, batch_first_triangles(triangles, n_views));
   const uint64_t want_items = std::min(kBatchMaxCapacity, batch_first_items(triangles, n_views, texels));
-  if (triangle_capacity_ == 0 || item_capacity_ == 0) ensure_capacity(want_triangles, want_items);
+  if (scratch_.empty()) scratch_.ensure(*device_, want_triangles, want_items);
 
   stats_ = {};
   stats_.triangles = triangles * n_views;
@@ -196,32 +172,32 @@ void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::
     sp.scene = scene.address();
     sp.views = out->views_buffer_.address();
     sp.state = state_.address();
-    sp.triangles = triangles_.address();
-    sp.items = items_.address();
+    sp.triangles = scratch_.triangles_address();
+    sp.items = scratch_.items_address();
     sp.orientation = outline_count > 0 ? orientation_.address() : 0;
     sp.outline = outline_count > 0 ? outline_.address() : 0;
     sp.triangle_count = static_cast<uint32_t>(triangles);
     sp.view_count = static_cast<uint32_t>(n_views);
-    sp.triangle_capacity = triangle_capacity_;
-    sp.item_capacity = item_capacity_;
-    sp.culling = filter.culling == FaceCulling::None ? 0u : filter.culling == FaceCulling::Back ? 1u : 2u;
+    sp.triangle_capacity = scratch_.triangle_capacity();
+    sp.item_capacity = scratch_.item_capacity();
+    sp.culling = raster_culling_code(filter);
     sp.opaque_only = filter.opaque_only ? 1u : 0u;
     sp.outline_count = outline_count;
     cl.dispatch("raster_batch_setup", triangles * n_views, sp);
     // The one mode's indirect arguments: it reads only the counters and the capacities.
     shader::RasterFillParams ap{};
     ap.state = state_.address();
-    ap.triangle_capacity = triangle_capacity_;
-    ap.item_capacity = item_capacity_;
+    ap.triangle_capacity = scratch_.triangle_capacity();
+    ap.item_capacity = scratch_.item_capacity();
     cl.dispatch("raster_fill_args", 1, ap);
     shader::RasterBatchFillParams fp{};
     fp.scene = scene.address();
     fp.views = out->views_buffer_.address();
     fp.state = state_.address();
-    fp.triangles = triangles_.address();
-    fp.items = items_.address();
+    fp.triangles = scratch_.triangles_address();
+    fp.items = scratch_.items_address();
     fp.keys = out->keys_.address();
-    fp.item_capacity = item_capacity_;
+    fp.item_capacity = scratch_.item_capacity();
     cl.dispatch_indirect("raster_batch_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
     if (resolve) {
       shader::RasterBatchResolveParams rp{};
@@ -237,16 +213,9 @@ void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::
     submit();
     GpuRasterState s{};
     state_.download(&s, sizeof(s));
-    if (s.setup_count <= triangle_capacity_ && s.item_count <= item_capacity_) {
-      stats_.setup = s.setup_count;
-      stats_.bin_entries = s.item_count;
-      stats_.fragments = s.fragments;
+    if (scratch_.fitted_or_grown(*device_, s, &stats_)) {
       return;
     }
-    // Too small: every count is what the written triangles asked for, so grow to at least that
-    // (the items of triangles that found no room are counted on the next try).
-    ensure_capacity(std::max<uint64_t>(triangle_capacity_, s.setup_count > triangle_capacity_ ? batch_grown(s.setup_count) : 0),
-                    std::max<uint64_t>(item_capacity_, s.item_count > item_capacity_ ? batch_grown(s.item_count) : 0));
   }
 }
 

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstddef>
 
-#include "penumbra/core/error.h"
 #include "penumbra/gpu/raster/raster_layout_shared.h"
 
 namespace penumbra::gpu {
@@ -26,9 +25,6 @@ uint64_t initial_triangles(uint64_t triangles) { return triangles + triangles / 
 uint64_t initial_items(uint64_t triangles, int width, int height) {
   return 2 * triangles + 2 * tiles(width, height) + 1024;
 }
-
-// Room for `needed` with a margin, so a scene that grows a little does not retry every frame.
-uint64_t grown(uint64_t needed) { return needed + needed / 4 + 64; }
 
 }  // namespace
 
@@ -66,7 +62,8 @@ uint64_t GpuDepthMap::bytes(int w, int h) {
   return static_cast<uint64_t>(w) * static_cast<uint64_t>(h) * (8 + 4 * 4) + sizeof(shader::RasterView);
 }
 
-GpuRasterizer::GpuRasterizer(Device& device) : device_(&device) {
+GpuRasterizer::GpuRasterizer(Device& device)
+    : device_(&device), scratch_(sizeof(GpuRasterTriangle), "the rasterizer") {
   state_ = Buffer(device, sizeof(GpuRasterState), "the rasterizer's counters");
 }
 
@@ -76,26 +73,7 @@ uint64_t GpuRasterizer::scratch_bytes(uint64_t triangles, int width, int height)
 }
 
 void GpuRasterizer::set_capacities_for_testing(uint32_t triangles, uint32_t items) {
-  triangles_ = Buffer(*device_, std::max<uint64_t>(1, triangles) * sizeof(GpuRasterTriangle), "the set-up triangles");
-  items_ = Buffer(*device_, std::max<uint64_t>(1, items) * sizeof(GpuRasterItem), "the rasterizer's work items");
-  triangle_capacity_ = triangles;
-  item_capacity_ = items;
-}
-
-void GpuRasterizer::ensure_capacity(uint64_t triangles, uint64_t items) {
-  if (triangles > kMaxCapacity || items > kMaxCapacity)
-    throw Error("GPU rasterizer: {} set-up triangles and {} work items are more than one map can index (at most {})",
-                triangles, items, kMaxCapacity);
-  if (triangles > triangle_capacity_) {
-    triangles_ = Buffer();  // free first: the old buffer's contents are not needed
-    triangles_ = Buffer(*device_, triangles * sizeof(GpuRasterTriangle), "the set-up triangles");
-    triangle_capacity_ = static_cast<uint32_t>(triangles);
-  }
-  if (items > item_capacity_) {
-    items_ = Buffer();
-    items_ = Buffer(*device_, items * sizeof(GpuRasterItem), "the rasterizer's work items");
-    item_capacity_ = static_cast<uint32_t>(items);
-  }
+  scratch_.set_for_testing(*device_, triangles, items);
 }
 
 void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string_view stage, const GpuScene& scene,
@@ -104,8 +82,8 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
   // may still be waiting to read them.
   submit();
   const uint64_t triangles = scene.triangle_count();
-  if (triangle_capacity_ == 0 || item_capacity_ == 0)
-    ensure_capacity(std::min(kMaxCapacity, initial_triangles(triangles)),
+  if (scratch_.empty())
+    scratch_.ensure(*device_, std::min(kMaxCapacity, initial_triangles(triangles)),
                     std::min(kMaxCapacity, initial_items(triangles, view.width(), view.height())));
   out->resize(*device_, view.width(), view.height());
   out->view_ = view;
@@ -126,23 +104,23 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
     sp.scene = scene.address();
     sp.view = out->view_record_.address();
     sp.state = state_.address();
-    sp.triangles = triangles_.address();
-    sp.items = items_.address();
+    sp.triangles = scratch_.triangles_address();
+    sp.items = scratch_.items_address();
     sp.triangle_count = static_cast<uint32_t>(triangles);
-    sp.triangle_capacity = triangle_capacity_;
-    sp.item_capacity = item_capacity_;
-    sp.culling = filter.culling == FaceCulling::None ? 0u : filter.culling == FaceCulling::Back ? 1u : 2u;
+    sp.triangle_capacity = scratch_.triangle_capacity();
+    sp.item_capacity = scratch_.item_capacity();
+    sp.culling = raster_culling_code(filter);
     sp.opaque_only = filter.opaque_only ? 1u : 0u;
     cl.dispatch("raster_setup", triangles, sp);
     shader::RasterFillParams fp{};
     fp.scene = scene.address();
     fp.view = out->view_record_.address();
     fp.state = state_.address();
-    fp.triangles = triangles_.address();
-    fp.items = items_.address();
+    fp.triangles = scratch_.triangles_address();
+    fp.items = scratch_.items_address();
     fp.keys = out->keys_.address();
-    fp.triangle_capacity = triangle_capacity_;
-    fp.item_capacity = item_capacity_;
+    fp.triangle_capacity = scratch_.triangle_capacity();
+    fp.item_capacity = scratch_.item_capacity();
     cl.dispatch("raster_fill_args", 1, fp);
     cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
     shader::RasterResolveParams rp{};
@@ -158,17 +136,10 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
     submit();
     GpuRasterState s{};
     state_.download(&s, sizeof(s));
-    if (s.setup_count <= triangle_capacity_ && s.item_count <= item_capacity_) {
-      stats_.setup = s.setup_count;
-      stats_.bin_entries = s.item_count;
-      stats_.fragments = s.fragments;
+    if (scratch_.fitted_or_grown(*device_, s, &stats_)) {
       out->z_min_ = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
       return;
     }
-    // Too small: every count is what the written triangles asked for, so grow to at least that
-    // (the items of triangles that found no room are counted on the next try).
-    ensure_capacity(std::max<uint64_t>(triangle_capacity_, s.setup_count > triangle_capacity_ ? grown(s.setup_count) : 0),
-                    std::max<uint64_t>(item_capacity_, s.item_count > item_capacity_ ? grown(s.item_count) : 0));
   }
 }
 

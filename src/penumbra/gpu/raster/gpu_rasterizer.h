@@ -17,6 +17,7 @@
 #include "penumbra/gpu/buffer.h"
 #include "penumbra/gpu/commands.h"
 #include "penumbra/gpu/gpu_scene.h"
+#include "penumbra/gpu/raster/raster_scratch.h"
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/raster/rasterizer.h"
@@ -91,10 +92,9 @@ class GpuRasterizer {
   void set_capacities_for_testing(uint32_t triangles, uint32_t items);
 
  private:
-  void ensure_capacity(uint64_t triangles, uint64_t items);
   Device* device_;
-  Buffer state_, triangles_, items_;
-  uint32_t triangle_capacity_ = 0, item_capacity_ = 0;
+  Buffer state_;
+  RasterScratch scratch_;
   RasterStats stats_;
   int attempts_ = 0;
 };
