@@ -48,10 +48,9 @@ CommandList::CommandList(Device& device) : device_(&device) {
 
 CommandList::~CommandList() {
   DeviceState& s = device_->state();
-  if (command_buffer_) {
-    if (recording_) vkEndCommandBuffer(as_cb(command_buffer_));
-    s.free_command_buffer(as_cb(command_buffer_));
-  }
+  // A list still recording (a frame that threw before submitting) is freed without ending it:
+  // freeing a recording command buffer is valid, while ending one whose buffers are gone is not.
+  if (command_buffer_) s.free_command_buffer(as_cb(command_buffer_));
   vkDestroyQueryPool(s.device, as_pool(query_pool_), nullptr);
 }
 

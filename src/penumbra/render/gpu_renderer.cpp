@@ -1,6 +1,8 @@
 #include "penumbra/render/gpu_renderer.h"
 
 #include <algorithm>
+#include <exception>
+#include <memory>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/sampling.h"
@@ -15,6 +17,27 @@ constexpr uint32_t kOne = 0x3f800000u;  // 1.0f, as CommandList::fill writes wor
 // Stages of the frame itself; every other stage of a render is its method's.
 constexpr const char* kCameraStage = "camera_pass";
 constexpr const char* kResolveStage = "resolve";
+
+}  // namespace
+
+namespace {
+
+// Drops what a frame recorded when it throws before submitting (a method refusing its input in
+// prepare or evaluate): those commands read buffers that may be gone by then, and must never run
+// with the next frame's. The next frame makes a new command list.
+class DropUnsubmittedOnThrow {
+ public:
+  explicit DropUnsubmittedOnThrow(std::unique_ptr<gpu::CommandList>& commands) : commands_(commands) {}
+  ~DropUnsubmittedOnThrow() {
+    if (std::uncaught_exceptions() > exceptions_) commands_.reset();
+  }
+  DropUnsubmittedOnThrow(const DropUnsubmittedOnThrow&) = delete;
+  DropUnsubmittedOnThrow& operator=(const DropUnsubmittedOnThrow&) = delete;
+
+ private:
+  std::unique_ptr<gpu::CommandList>& commands_;
+  int exceptions_ = std::uncaught_exceptions();
+};
 
 }  // namespace
 
@@ -87,6 +110,8 @@ GpuFrame GpuRenderer::frame_for(size_t l) {
 }
 
 void GpuRenderer::prepare(const Scene& scene, const RenderSettings& settings) {
+  if (!commands_) commands_ = std::make_unique<gpu::CommandList>(*device_);
+  DropUnsubmittedOnThrow drop(commands_);
   for (size_t l = 0; l < methods_.size(); ++l) {
     if (prepared_[l]) continue;
     GpuFrame frame = frame_for(l);
@@ -135,6 +160,8 @@ RenderResult GpuRenderer::render(const Scene& scene, const RenderSettings& setti
     irradiance_sum_ = gpu::Buffer(*device_, slots * 12, "the frames' irradiance sums");
   }
   times_ = {};
+  if (!commands_) commands_ = std::make_unique<gpu::CommandList>(*device_);
+  DropUnsubmittedOnThrow drop(commands_);
   gpu::CommandList& cl = *commands_;
 
   // The camera pass.
