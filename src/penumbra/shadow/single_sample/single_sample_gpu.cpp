@@ -17,6 +17,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/single_sample/occluders.h"
+#include "penumbra/shadow/single_sample/single_sample_gpu.h"
 #include "penumbra/shadow/single_sample/single_sample_kernels_shared.h"
 
 namespace penumbra {
@@ -34,6 +35,11 @@ static_assert(sizeof(BvhTriangle) == sizeof(SsTriangle) && offsetof(BvhTriangle,
               offsetof(BvhTriangle, opacity) == offsetof(SsTriangle, opacity));
 static_assert(sizeof(BvhNode) == sizeof(SsNode) && offsetof(BvhNode, first) == offsetof(SsNode, first) &&
               offsetof(BvhNode, count) == offsetof(SsNode, count));
+
+int g_stack_levels_for_testing = 0;
+
+// The most BVH levels the search takes: its stack holds one entry a level and the root.
+int stack_levels() { return g_stack_levels_for_testing > 0 ? g_stack_levels_for_testing : shader::kSsStack - 1; }
 
 // The levels of the BVH below node 0 (a leaf alone: 1).
 int bvh_depth(const TriangleBvh& bvh) {
@@ -69,10 +75,10 @@ class SingleSampleGpu final : public GpuShadowMethod {
     // The search's stack holds one entry a level (and the root): a deeper BVH is refused, never
     // searched in part.
     const int depth = bvh_depth(occ.bvh);
-    if (depth + 1 > shader::kSsStack)
+    if (depth > stack_levels())
       throw Error("single-sample on the GPU: the occluder BVH is {} levels deep, more than the {} the search's stack "
                   "holds: raise leaf_size, or run it with --device cpu",
-                  depth, shader::kSsStack - 1);
+                  depth, stack_levels());
     SsSetup setup{};
     setup.light_pos = occ.light_pos;
     setup.diameter = occ.diameter;
@@ -165,4 +171,7 @@ const GpuMethodRegistration registration({"single-sample",
                                           memory});
 
 }  // namespace
+
+void single_sample::set_gpu_stack_levels_for_testing(int levels) { g_stack_levels_for_testing = levels; }
+
 }  // namespace penumbra

@@ -1,20 +1,27 @@
 // `single-sample` on the GPU against its CPU version (issue 29: mean |dV| at most 2e-3 at the same
 // seed): the pictures, every parameter it takes on the GPU, analytic spheres, crops, the one-line
-// error for what it does not take, the statistics and the memory estimate.
+// errors for what it does not take (neighbours, a BVH deeper than its stack), the statistics and
+// the memory estimate.
 #include <gtest/gtest.h>
 
 #include "penumbra/core/error.h"
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/single_sample/single_sample_gpu.h"
 #include "penumbra/testing/gpu_method_runs.h"
 
 namespace penumbra {
 namespace {
 
+using testing::mean_abs_dv;
 using testing::shipped_scene;
 
 class SingleSampleGpu : public testing::GpuMethodTest {
  protected:
   SingleSampleGpu() : GpuMethodTest("single-sample", 16, {}) {}
+  void TearDown() override {
+    single_sample::set_gpu_stack_levels_for_testing(0);
+    GpuMethodTest::TearDown();
+  }
 };
 
 TEST_F(SingleSampleGpu, BunnyGivesTheCpuPicture) {
@@ -56,6 +63,28 @@ TEST_F(SingleSampleGpu, NeighboursAreAOneLineErrorBeforeAnythingRuns) {
     EXPECT_NE(what.find("--device cpu"), std::string::npos) << what;
     EXPECT_EQ(what.find('\n'), std::string::npos) << what;
   }
+}
+
+// The search's fixed-size buffer is its stack (one entry a BVH level): an occluder BVH deeper
+// than it holds is refused in one line before anything is searched, never searched in part.
+TEST_F(SingleSampleGpu, ABvhDeeperThanTheStackIsAOneLineError) {
+  const Scene scene = shipped_scene("bunny.json", 32);
+  single_sample::set_gpu_stack_levels_for_testing(3);
+  Renderer r(scene, settings(true));
+  try {
+    r.render();
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("levels deep, more than the 3"), std::string::npos) << what;
+    EXPECT_NE(what.find("leaf_size"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  // The refused frame left nothing behind: the same renderer renders the CPU's picture once the
+  // stack takes the BVH (what the kernel's stack holds takes the bunny's at the smallest leaves).
+  single_sample::set_gpu_stack_levels_for_testing(0);
+  EXPECT_LE(mean_abs_dv(r.render().visibility, render_scene(scene, settings(false)).visibility), 2e-3);
+  EXPECT_LE(difference(scene, settings(true, {"leaf_size=1"})), 2e-3);
 }
 
 TEST_F(SingleSampleGpu, StatisticsAndMemoryEstimate) {
