@@ -103,28 +103,49 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
   // The host writes the view record and may reallocate buffers below: nothing recorded before
   // may still be waiting to read them.
   submit();
-  const uint64_t triangles = scene.triangle_count();
-  if (triangle_capacity_ == 0 || item_capacity_ == 0)
-    ensure_capacity(std::min(kMaxCapacity, initial_triangles(triangles)),
-                    std::min(kMaxCapacity, initial_items(triangles, view.width(), view.height())));
   out->resize(*device_, view.width(), view.height());
   out->view_ = view;
   const shader::RasterView record = view.shared();
   out->view_record_.upload(&record, sizeof(record));
   const uint64_t texels = static_cast<uint64_t>(view.width()) * view.height();
+  const GpuRasterState s = render_passes(
+      cl, submit, stage, scene, view, out->view_record_.address(), filter, 0, [&](const shader::RasterFillParams& setup) {
+        shader::RasterFillParams fp = setup;
+        fp.keys = out->keys_.address();
+        cl.fill(out->keys_, kEmptyWord);
+        cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
+        shader::RasterResolveParams rp{};
+        rp.scene = scene.address();
+        rp.view = out->view_record_.address();
+        rp.state = state_.address();
+        rp.keys = out->keys_.address();
+        rp.z = out->z_.address();
+        rp.depth = out->depth_.address();
+        rp.opacity = out->opacity_.address();
+        rp.triangle = out->triangle_.address();
+        cl.dispatch("raster_resolve", texels, rp);
+      });
+  out->z_min_ = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
+}
 
+GpuRasterState GpuRasterizer::render_passes(CommandList& cl, const Submit& submit, std::string_view stage,
+                                            const GpuScene& scene, const LightView& view, uint64_t view_record,
+                                            const RasterFilter& filter, uint64_t object_flags, const RecordFill& fill) {
+  const uint64_t triangles = scene.triangle_count();
+  if (triangle_capacity_ == 0 || item_capacity_ == 0)
+    ensure_capacity(std::min(kMaxCapacity, initial_triangles(triangles)),
+                    std::min(kMaxCapacity, initial_items(triangles, view.width(), view.height())));
   stats_ = {};
   stats_.triangles = triangles;
   attempts_ = 0;
   for (;;) {
     ++attempts_;
     cl.stage(stage);
-    cl.fill(out->keys_, kEmptyWord);
     cl.fill(state_, 0);
     cl.fill(state_, kEmptyWord, offsetof(GpuRasterState, z_min_bits), 4);
     shader::RasterSetupParams sp{};
     sp.scene = scene.address();
-    sp.view = out->view_record_.address();
+    sp.view = view_record;
     sp.state = state_.address();
     sp.triangles = triangles_.address();
     sp.items = items_.address();
@@ -133,28 +154,18 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
     sp.item_capacity = item_capacity_;
     sp.culling = filter.culling == FaceCulling::None ? 0u : filter.culling == FaceCulling::Back ? 1u : 2u;
     sp.opaque_only = filter.opaque_only ? 1u : 0u;
+    sp.object_flags = object_flags;
     cl.dispatch("raster_setup", triangles, sp);
     shader::RasterFillParams fp{};
     fp.scene = scene.address();
-    fp.view = out->view_record_.address();
+    fp.view = view_record;
     fp.state = state_.address();
     fp.triangles = triangles_.address();
     fp.items = items_.address();
-    fp.keys = out->keys_.address();
     fp.triangle_capacity = triangle_capacity_;
     fp.item_capacity = item_capacity_;
     cl.dispatch("raster_fill_args", 1, fp);
-    cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
-    shader::RasterResolveParams rp{};
-    rp.scene = scene.address();
-    rp.view = out->view_record_.address();
-    rp.state = state_.address();
-    rp.keys = out->keys_.address();
-    rp.z = out->z_.address();
-    rp.depth = out->depth_.address();
-    rp.opacity = out->opacity_.address();
-    rp.triangle = out->triangle_.address();
-    cl.dispatch("raster_resolve", texels, rp);
+    fill(fp);
     submit();
     GpuRasterState s{};
     state_.download(&s, sizeof(s));
@@ -162,8 +173,7 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
       stats_.setup = s.setup_count;
       stats_.bin_entries = s.item_count;
       stats_.fragments = s.fragments;
-      out->z_min_ = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
-      return;
+      return s;
     }
     // Too small: every count is what the written triangles asked for, so grow to at least that
     // (the items of triangles that found no room are counted on the next try).
