@@ -14,6 +14,7 @@
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/gpu/device.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/shadow/gpu_method.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra::testing {
@@ -82,6 +83,21 @@ inline RenderResult cpu_render_with_camera(Scene scene, const Camera& camera, co
                                            const std::vector<std::string>& params) {
   scene.camera = camera;
   return render_scene(scene, device_settings(method, params, false));
+}
+
+// The GPU version's device-memory estimate of `method` at `params` on `scene` for `view_samples`
+// camera rays (GpuMethodInfo::estimate_memory); a failure where it has none.
+inline MemoryEstimate gpu_memory_estimate(const std::string& method, const Scene& scene,
+                                          const std::vector<std::string>& params, uint64_t view_samples) {
+  const GpuMethodInfo* info = find_gpu_method(method);
+  EXPECT_NE(info, nullptr) << method;
+  if (!info) return {};
+  EXPECT_TRUE(info->estimate_memory) << method;
+  if (!info->estimate_memory) return {};
+  MemoryQuery q;
+  q.triangles = scene.triangle_count();
+  q.view_samples = view_samples;
+  return info->estimate_memory(resolve_method_params(method, scene, params), q);
 }
 
 // A mean |dV| as a test property (gtest XML): "1.2e-05".

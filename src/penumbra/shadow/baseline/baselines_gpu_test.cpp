@@ -113,16 +113,8 @@ TEST_F(BaselinesGpu, StagesAreNamedAndTheMapIsRenderedOnlyWhenTheFittedViewChang
 TEST_F(BaselinesGpu, MemoryEstimateCoversWhatTheMethodHolds) {
   const Scene scene = shipped("bunny.json", 32);
   for (const char* method : {"shadow-map", "pcss"}) {
-    const GpuMethodInfo* info = find_gpu_method(method);
-    ASSERT_NE(info, nullptr) << method;
-    ASSERT_TRUE(info->estimate_memory) << method;
-    MemoryQuery q;
-    q.triangles = scene.triangle_count();
-    q.view_samples = 32 * 32;
-    ParamSet small = resolve_method_params(method, scene, {"resolution=128"});
-    ParamSet large = resolve_method_params(method, scene, {"resolution=1024"});
-    const MemoryEstimate e = info->estimate_memory(small, q);
-    EXPECT_GT(info->estimate_memory(large, q).bytes, e.bytes) << method;
+    const MemoryEstimate e = testing::gpu_memory_estimate(method, scene, {"resolution=128"}, 32 * 32);
+    EXPECT_GT(testing::gpu_memory_estimate(method, scene, {"resolution=1024"}, 32 * 32).bytes, e.bytes) << method;
     const RenderResult r = render_scene(scene, settings(method, {"resolution=128"}, true));
     EXPECT_GT(r.stats.memory_bytes, 0u);
     EXPECT_LE(r.stats.memory_bytes, e.bytes) << method;

@@ -8,10 +8,10 @@
 // parameters as denoised.cpp's table.
 #include <algorithm>
 
-#include "penumbra/core/sampling.h"
 #include "penumbra/shadow/denoised/atrous_filter.h"
 #include "penumbra/shadow/denoised/denoised_kernels_shared.h"
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/light_fans_gpu.h"
 
 namespace penumbra {
 namespace {
@@ -38,24 +38,12 @@ class DenoisedGpu final : public GpuShadowMethod {
     if (!counting_) cl.fill(rays_, 0);
     counting_ = true;
     const Camera& camera = ctx.scene->camera;
-    const StratifiedGrid grid(samples_);
     cl.stage("trace");
     shader::DnFansParams fp{};
-    fp.scene = frame.scene->address();
-    fp.samples = frame.view_samples;
-    fp.light = frame.light;
+    fp.fans = light_fans_params(ctx, frame, samples_, /*area_sampling=*/false, rays_.address());
     fp.planes = record_.address();
-    fp.rays = rays_.address();
-    fp.seed = ctx.seed;
     fp.eye = camera.eye;
-    fp.slots = frame.slots;
     fp.forward = normalize(camera.target - camera.eye);
-    fp.light_index = ctx.light_index;
-    fp.frame = ctx.frame;
-    fp.n = samples_;
-    fp.grid_cols = grid.cols();
-    fp.inv_cols = grid.inv_cols();
-    fp.inv_rows = grid.inv_rows();
     cl.dispatch("dn_fans", frame.slots, fp);
 
     cl.stage("filter");

@@ -65,10 +65,7 @@ TEST_F(DenoisedGpu, CropsAMovedCameraStagesAndMemory) {
   const RenderResult moved = r.render();
   const RenderResult want = penumbra::testing::cpu_render_with_camera(scene, cam, "rt-denoised", {});
   EXPECT_LE(penumbra::testing::mean_abs_dv(want.visibility, moved.visibility), 2e-3);
-  MemoryQuery q;
-  q.view_samples = 48 * 48;
-  const MemoryEstimate e =
-      find_gpu_method("rt-denoised")->estimate_memory(resolve_method_params("rt-denoised", scene, {}), q);
+  const MemoryEstimate e = penumbra::testing::gpu_memory_estimate("rt-denoised", scene, {}, 48 * 48);
   EXPECT_GT(moved.stats.memory_bytes, 0u);
   EXPECT_LE(moved.stats.memory_bytes, e.bytes);
 }

@@ -15,6 +15,7 @@
 #define PENUMBRA_SHADOW_DENOISED_DENOISED_KERNELS_SHARED_H
 
 #include "penumbra/core/shader_compat.h"
+#include "penumbra/shadow/shadow_rays_shared.h"
 
 PN_SHARED_BEGIN
 
@@ -36,23 +37,14 @@ struct DnPlanes {
   uint64_t pad;
 };
 
-// dn_fans.comp: one thread per slot; the planes' set 0.
+// dn_fans.comp: one thread per slot; the planes' set 0. 120 bytes: the reference's fans
+// (shadow/shadow_rays_shared.h; its visibility and irradiance unused), the planes, and the
+// camera's eye and unit forward axis (the depth guide).
 struct DnFansParams {
-  uint64_t scene;    // SceneDesc
-  uint64_t samples;  // GpuViewSample[slots]
-  uint64_t light;    // GpuLight
-  uint64_t planes;   // DnPlanes
-  uint64_t rays;     // uint64: shadow rays traced, added to
-  uint64_t seed;
-  vec3 eye;  // the camera's, and its unit forward axis: the depth guide
-  uint slots;
+  LightFansParams fans;
+  uint64_t planes;  // DnPlanes
+  vec3 eye;
   vec3 forward;
-  int light_index;
-  int frame;
-  int n;          // light samples per view sample (1-8)
-  int grid_cols;  // StratifiedGrid(n)
-  float inv_cols;
-  float inv_rows;
 };
 
 // The filter's kernels: one thread per slot.
@@ -80,7 +72,7 @@ PN_SHARED_END
 
 #ifdef __cplusplus
 static_assert(sizeof(penumbra::shader::DnPlanes) == 104);
-static_assert(sizeof(penumbra::shader::DnFansParams) <= 128);
+static_assert(sizeof(penumbra::shader::DnFansParams) == 120);
 static_assert(sizeof(penumbra::shader::DnFilterParams) == 64);
 #endif
 

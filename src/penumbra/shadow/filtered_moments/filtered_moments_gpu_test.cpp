@@ -90,15 +90,9 @@ TEST_F(FilteredMomentsGpu, MemoryEstimateCoversWhatTheMethodHolds) {
   const Scene scene = shipped_scene("bunny.json", 32);
   for (const char* method : {"vsm", "evsm", "msm"})
     for (const char* prefilter : {"prefilter=sat", "prefilter=mipmap"}) {
-      const GpuMethodInfo* info = find_gpu_method(method);
-      ASSERT_NE(info, nullptr) << method;
-      ASSERT_TRUE(info->estimate_memory) << method;
-      MemoryQuery q;
-      q.triangles = scene.triangle_count();
-      q.view_samples = 32 * 32;
       const MemoryEstimate e =
-          info->estimate_memory(resolve_method_params(method, scene, {"resolution=128", prefilter}), q);
-      EXPECT_GT(info->estimate_memory(resolve_method_params(method, scene, {"resolution=1024", prefilter}), q).bytes,
+          penumbra::testing::gpu_memory_estimate(method, scene, {"resolution=128", prefilter}, 32 * 32);
+      EXPECT_GT(penumbra::testing::gpu_memory_estimate(method, scene, {"resolution=1024", prefilter}, 32 * 32).bytes,
                 e.bytes);
       const RenderResult r = render_scene(scene, device_settings(method, {"resolution=128", prefilter}, true));
       EXPECT_GT(r.stats.memory_bytes, 0u);

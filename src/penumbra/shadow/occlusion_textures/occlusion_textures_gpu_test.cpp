@@ -132,11 +132,8 @@ TEST_F(OcclusionTexturesGpu, StagesStatisticsCropsAndAMovedCamera) {
   EXPECT_GT(first.stats.extra.at("slicing_fragments").get<uint64_t>(), 0u);
   EXPECT_EQ(first.stats.extra.at("culled_objects").size(), 1u);  // the ground
   // The memory held is within the estimate the renderer checked.
-  MemoryQuery q;
-  q.triangles = scene.triangle_count();
-  q.view_samples = 32 * 32;
-  const MemoryEstimate e = find_gpu_method("occlusion-textures")
-                               ->estimate_memory(resolve_method_params("occlusion-textures", scene, {"resolution=128"}), q);
+  const MemoryEstimate e =
+      penumbra::testing::gpu_memory_estimate("occlusion-textures", scene, {"resolution=128"}, 32 * 32);
   EXPECT_GT(first.stats.memory_bytes, 0u);
   EXPECT_LE(first.stats.memory_bytes, e.bytes);
   // Another camera: the textures are the light's, kept; the picture is a fresh CPU render's.

@@ -16,19 +16,20 @@ layout(buffer_reference, scalar) readonly buffer ViewSamplesIn { GpuViewSample v
 void main() {
   uint i = pn_thread_index();
   uint traced = 0u;
-  if (i < pc.p.slots) {
+  if (i < pc.p.fans.slots) {
     DnPlanes planes = DnPlanesRef(pc.p.planes).p;
-    GpuViewSample s = ViewSamplesIn(pc.p.samples).v[i];
+    GpuViewSample s = ViewSamplesIn(pc.p.fans.samples).v[i];
     bool hit = s.object != kMissObject;
     Bytes(planes.valid).v[i] = uint8_t(hit ? 1 : 0);
     if (hit) {
-      scene_bind(pc.p.scene);
-      LightFan fan = light_fan_begin(pc.p.light, pc.p.seed, pc.p.light_index, pc.p.frame, false, pc.p.grid_cols,
-                                     pc.p.inv_cols, pc.p.inv_rows, s);
+      scene_bind(pc.p.fans.scene);
+      LightFansParams lf = pc.p.fans;
+      LightFan fan = light_fan_begin(lf.light, lf.seed, lf.light_index, lf.frame, lf.area_sampling != 0u,
+                                     lf.grid_cols, lf.inv_cols, lf.inv_rows, s);
       float ts[kDenoiseMaxSamples], fs[kDenoiseMaxSamples];
       int m = 0;
       DenoiseFanSums sums = dn_fan_begin();
-      for (int k = 0; k < pc.p.n; ++k) {
+      for (int k = 0; k < lf.n; ++k) {
         float t, f, a;
         if (!light_fan_trace(fan, k, t, f, a)) continue;
         dn_fan_add(sums, t, f, a);
@@ -38,7 +39,7 @@ void main() {
       }
       for (int k = 0; k < m; ++k) dn_fan_add_spread(sums, ts[k], fs[k]);
       traced = uint(m);
-      DenoisePixel px = dn_fan_pixel(sums, pc.p.n);
+      DenoisePixel px = dn_fan_pixel(sums, lf.n);
       Floats(planes.depth).v[i] = dn_view_depth(s.p, pc.p.eye, pc.p.forward);
       Vec3s(planes.normal).v[i] = s.ns;
       Floats(planes.shadowed[0]).v[i] = px.shadowed;
@@ -48,5 +49,5 @@ void main() {
     }
   }
   uint total = subgroupAdd(traced);
-  if (subgroupElect() && total > 0u) atomicAdd(Uint64s(pc.p.rays).v[0], uint64_t(total));
+  if (subgroupElect() && total > 0u) atomicAdd(Uint64s(pc.p.fans.rays).v[0], uint64_t(total));
 }
