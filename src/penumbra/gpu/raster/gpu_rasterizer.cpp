@@ -1,9 +1,11 @@
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 
 #include "penumbra/core/error.h"
+#include "penumbra/gpu/raster/raster_capacities_testing.h"
 #include "penumbra/gpu/raster/raster_layout_shared.h"
 
 namespace penumbra::gpu {
@@ -30,7 +32,31 @@ uint64_t initial_items(uint64_t triangles, int width, int height) {
 // Room for `needed` with a margin, so a scene that grows a little does not retry every frame.
 uint64_t grown(uint64_t needed) { return needed + needed / 4 + 64; }
 
+// RasterCapacitiesForTesting's state: the first capacities of new rasterizers while one lives.
+struct TestingCapacities {
+  std::atomic<bool> active{false};
+  uint32_t triangles = 0, items = 0;
+  std::atomic<int> retries{0};
+};
+TestingCapacities& testing_capacities() {
+  static TestingCapacities t;
+  return t;
+}
+
 }  // namespace
+
+RasterCapacitiesForTesting::RasterCapacitiesForTesting(uint32_t triangles, uint32_t items) {
+  TestingCapacities& t = testing_capacities();
+  if (t.active) throw Error("RasterCapacitiesForTesting: one is already in force");
+  t.triangles = triangles;
+  t.items = items;
+  t.retries = 0;
+  t.active = true;
+}
+
+RasterCapacitiesForTesting::~RasterCapacitiesForTesting() { testing_capacities().active = false; }
+
+int RasterCapacitiesForTesting::retries() const { return testing_capacities().retries; }
 
 void GpuDepthMap::resize(Device& device, int w, int h) {
   if (w == width_ && h == height_ && !keys_.empty()) return;
@@ -68,6 +94,8 @@ uint64_t GpuDepthMap::bytes(int w, int h) {
 
 GpuRasterizer::GpuRasterizer(Device& device) : device_(&device) {
   state_ = Buffer(device, sizeof(GpuRasterState), "the rasterizer's counters");
+  const TestingCapacities& t = testing_capacities();
+  if (t.active) set_capacities_for_testing(t.triangles, t.items);
 }
 
 uint64_t GpuRasterizer::scratch_bytes(uint64_t triangles, int width, int height) {
@@ -177,6 +205,7 @@ GpuRasterState GpuRasterizer::render_passes(CommandList& cl, const Submit& submi
     }
     // Too small: every count is what the written triangles asked for, so grow to at least that
     // (the items of triangles that found no room are counted on the next try).
+    if (testing_capacities().active) ++testing_capacities().retries;
     ensure_capacity(std::max<uint64_t>(triangle_capacity_, s.setup_count > triangle_capacity_ ? grown(s.setup_count) : 0),
                     std::max<uint64_t>(item_capacity_, s.item_count > item_capacity_ ? grown(s.item_count) : 0));
   }

@@ -50,16 +50,24 @@ TEST_F(DenoisedGpu, EveryParameterAndSeveralRaysAPixelWorkAsOnTheCpu) {
 
 TEST_F(DenoisedGpu, CropsAMovedCameraStagesAndMemory) {
   const Scene scene = shipped_scene("bunny.json", 48);
-  RenderSettings gpu = device_settings("rt-denoised", {}, true), cpu = device_settings("rt-denoised", {}, false);
-  gpu.crop = cpu.crop = PixelWindow{4, 6, 36, 30};
-  const RenderResult a = render_scene(scene, gpu), b = render_scene(scene, cpu);
+  const PixelWindow crop{4, 6, 36, 30};
+  RenderSettings cpu = device_settings("rt-denoised", {}, false);
+  cpu.crop = crop;
+  Renderer r(scene, device_settings("rt-denoised", {}, true));
+  r.set_crop(crop);
+  const RenderResult a = r.render(), b = render_scene(scene, cpu);
   EXPECT_EQ(a.visibility.width(), 32);
   EXPECT_LE(penumbra::testing::mean_abs_dv(a.visibility, b.visibility), 2e-3);
   for (const char* stage : {"trace", "filter"}) EXPECT_TRUE(a.gpu_ms.contains(stage)) << a.gpu_ms.dump();
   EXPECT_EQ(a.stats.extra.at("light_samples"), 4);
-  // The whole frame after a crop (the planes grow), then a moved camera: the CPU's pictures.
-  Renderer r(scene, device_settings("rt-denoised", {}, true));
-  r.render();
+  // The whole frame after the crop: the planes, sized for the crop, are too small and grow.
+  r.set_crop(PixelWindow{});
+  const RenderResult whole = r.render();
+  EXPECT_GT(whole.stats.memory_bytes, a.stats.memory_bytes);
+  EXPECT_LE(penumbra::testing::mean_abs_dv(render_scene(scene, device_settings("rt-denoised", {}, false)).visibility,
+                                           whole.visibility),
+            2e-3);
+  // Then a moved camera: the CPU's picture.
   const Camera cam = penumbra::testing::moved_camera(scene.camera, 0.2f);
   r.set_camera(cam);
   const RenderResult moved = r.render();

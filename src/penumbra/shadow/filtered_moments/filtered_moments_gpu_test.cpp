@@ -1,13 +1,14 @@
 // `vsm`, `evsm` and `msm` on the GPU against their CPU versions: the same pictures (mean |dV| at
 // most 2e-3, issue 30) on the bunny and the alpha-masked foliage with both prefilters and every
-// parameter, the stages and the rebuild rule, a moved camera, the statistics and the memory
-// estimate. Small renders: lavapipe is slow.
+// parameter, also when the map's rasterizer starts with buffers far too small; the stages and the
+// rebuild rule, a moved camera, the statistics and the memory estimate. Small renders: lavapipe is slow.
 #include <gtest/gtest.h>
 
 #include <string>
 #include <vector>
 
 #include "penumbra/gpu/gpu_test_util.h"
+#include "penumbra/gpu/raster/raster_capacities_testing.h"
 #include "penumbra/shadow/gpu_method.h"
 #include "penumbra/testing/gpu_method_runs.h"
 
@@ -50,6 +51,21 @@ TEST_F(FilteredMomentsGpu, EveryParameterWorksAsOnTheCpu) {
   };
   for (const auto& [method, params] : cases)
     EXPECT_LE(render_on_both(scene, method, params).mean_abs_dv, 2e-3) << method << " " << params[1];
+}
+
+TEST_F(FilteredMomentsGpu, RasterizerBuffersThatAreTooSmallGrowAndThePicturesAreTheCpus) {
+  // The moment map's set-up triangles and work items (the only buffers that grow with the scene)
+  // start at one each: the rasterizer must grow them and render the map again, dropping nothing.
+  for (const char* name : {"bunny.json", "foliage.json"}) {
+    const Scene scene = shipped_scene(name, 32);
+    for (const char* method : {"vsm", "evsm", "msm"}) {
+      const gpu::RasterCapacitiesForTesting tiny(1, 1);
+      const DevicePair d = render_on_both(scene, method, {"resolution=128"});
+      EXPECT_GE(tiny.retries(), 1) << name << " " << method;
+      EXPECT_GT(d.cpu_shadow, 10) << "no shadow to compare";
+      EXPECT_LE(d.mean_abs_dv, 2e-3) << name << " " << method;
+    }
+  }
 }
 
 TEST_F(FilteredMomentsGpu, StagesAndTheMomentsAreBuiltOnlyWhenTheMapIsRenderedAgain) {
