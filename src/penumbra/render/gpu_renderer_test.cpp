@@ -261,12 +261,19 @@ TEST_F(GpuFrame, ARenderOverTheGpusMemoryIsRefusedUpFront) {
 
 TEST_F(GpuFrame, TheUpFrontEstimateCoversWhatARenderHolds) {
   gpu::unit_circle_buffer(device());  // held once per device for the whole process
-  for (const char* method : {"reference", "hard", "shadow-map", "pcss"}) {
+  // Each method with its parameters (maps smaller than the defaults: lavapipe is slow).
+  const std::vector<std::pair<std::string, std::vector<std::string>>> methods = {
+      {"reference", {}}, {"hard", {}}, {"shadow-map", {}}, {"pcss", {}},
+      {"vsm", {"resolution=256"}}, {"evsm", {"resolution=256", "prefilter=mipmap"}}, {"msm", {"resolution=256"}},
+      {"occlusion-textures", {"resolution=256"}}, {"rt-denoised", {}}};
+  for (const auto& spec : methods) {
+    const std::string& method = spec.first;
     for (const char* name : {"bunny", "foliage"}) {
       Scene scene = suite_scene(name, 48);
       scene.camera.samples_per_pixel = 2;
       RenderSettings settings;
       settings.method = method;
+      settings.params = spec.second;
       settings.light_samples = 8;
       settings.frames = 2;
       settings.device = gpu::DeviceChoice::parse("gpu");
