@@ -56,10 +56,18 @@ PN_INLINE uint dn_index(DenoiseImage img, int x, int y) {
 PN_INLINE bool dn_inside(DenoiseImage img, int x, int y) { return x >= 0 && y >= 0 && x < img.width && y < img.height; }
 PN_INLINE bool dn_valid(DenoiseImage img, uint i) { return PN_AT(img.valid, i) != uint8_t(0); }
 
-// GuidedImage::ratio: V = S / U, or the fallback where U is 0, clamped to [0, 1].
+// The smallest normal float. GPUs flush subnormal floats to 0 (Vulkan allows it; lavapipe does),
+// and so does a CPU thread whose MXCSR has flush-to-zero and denormals-are-zero set (most likely
+// what Embree leaves on the threads it has run: without this, a CPU render's picture changed after
+// Embree's BVH builder had run in the same process, by 5e-4 mean |dV| on the foliage). Values below
+// it count as 0 wherever a decision or a division hangs on them.
+PN_CONST float kDenoiseSmallestNormal = 1.17549435e-38f;
+PN_INLINE float dn_flush_subnormal(float x) { return abs(x) < kDenoiseSmallestNormal ? 0.0f : x; }
+
+// GuidedImage::ratio: V = S / U, or the fallback where U is 0 (or subnormal), clamped to [0, 1].
 PN_INLINE float dn_ratio(DenoiseImage img, uint i) {
-  float u = PN_AT(img.unshadowed, i);
-  float v = u > 0.0f ? PN_AT(img.shadowed, i) / u : PN_AT(img.fallback, i);
+  float u = dn_flush_subnormal(PN_AT(img.unshadowed, i));
+  float v = u > 0.0f ? dn_flush_subnormal(PN_AT(img.shadowed, i)) / u : PN_AT(img.fallback, i);
   return clamp(v, 0.0f, 1.0f);
 }
 
@@ -144,11 +152,11 @@ PN_INLINE vec2 dn_depth_gradient(DenoiseImage img, int x, int y) {
   return vec2(dn_one_sided(img, x, y, 1, 0), dn_one_sided(img, x, y, 0, 1));
 }
 
-// A weight below the smallest normal float counts as 0: GPUs flush subnormal floats to 0 (Vulkan
-// allows it; lavapipe does), and a pixel whose every neighbour's weight is that small would
-// otherwise take its V from a subnormal weight on one device and its fallback on the other.
-// (Products of weights and signals are summed in double, where nothing is subnormal.)
-PN_INLINE float dn_normal_weight(float w) { return w < 1.17549435e-38f ? 0.0f : w; }
+// A weight below the smallest normal float counts as 0 (kDenoiseSmallestNormal): a pixel whose
+// every neighbour's weight is that small would otherwise take its V from a subnormal weight on one
+// device and its fallback on the other. (Products of weights and signals are summed in double,
+// where nothing is subnormal.)
+PN_INLINE float dn_normal_weight(float w) { return dn_flush_subnormal(w); }
 
 // §4.3 eq. 3 and 4: the depth and normal weights of q seen from p (gradient grad_p) at pixel
 // offset (dx, dy).
