@@ -124,7 +124,7 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
 
   // Casters: every object but the planar ones that cannot shadow anything.
   culled_.clear();
-  triangles_.clear();
+  triangles_ = RasterTriangles{};
   for (size_t i = 0; i < scene.objects.size(); ++i)
     if (options_.cull_planar && is_planar_non_caster(scene, i, light_)) culled_.push_back(static_cast<uint32_t>(i));
 
@@ -185,7 +185,8 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
       auto facing_away = [&](const RasterTriangle& t) {
         return !(dot(cross(t.p[1] - t.p[0], t.p[2] - t.p[0]), eye - t.p[0]) > 0);
       };
-      triangles_.erase(std::remove_if(triangles_.begin() + first, triangles_.end(), facing_away), triangles_.end());
+      std::vector<RasterTriangle>& list = triangles_.list;
+      list.erase(std::remove_if(list.begin() + first, list.end(), facing_away), list.end());
     }
   }
 

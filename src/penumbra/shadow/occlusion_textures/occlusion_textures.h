@@ -119,7 +119,7 @@ class OcclusionTextures {
   float R_ = 1, kx_ = 1, ky_ = 1, inv_fade_ = 1;  // texture side; texels per world unit at the light; 1 / fade length
   LightView view_;
   std::vector<uint32_t> culled_;
-  std::vector<RasterTriangle> triangles_;
+  RasterTriangles triangles_;
   Rasterizer rasterizer_;
   DepthBinMasks masks_;
   MipmapFilter mipmap_;
