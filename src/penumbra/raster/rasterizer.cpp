@@ -13,6 +13,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/clipping.h"
+#include "penumbra/raster/raster_bins_shared.h"
 #include "penumbra/raster/raster_shared.h"
 #include "penumbra/raster/tiling.h"
 
@@ -129,11 +130,11 @@ inline void scan(const SetupTriangle& t, const TexelRect& r, Fn&& fn) {
 // The opacity of each fragment of a textured triangle (issue 20): the view's ray through the
 // texel centre meets the source triangle, whose alpha texture is looked up there.
 struct FragmentAlpha {
-  std::span<const RasterTriangle> triangles;
+  RasterTriangleView triangles;
   const LightView* view = nullptr;
   float operator()(uint32_t source, int x, int y) const {
     const LightView::TexelRay r = view->texel_ray({static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f});
-    return triangles[source].opacity_on_line(r.origin, r.dir);
+    return triangles.opacity_on_line(triangles[source], r.origin, r.dir);
   }
 };
 
@@ -211,7 +212,7 @@ struct Rasterizer::Impl {
   FragmentAlpha alpha;  // the current call's triangles and view
 
   // Culls, clips, sets up and bins every triangle.
-  void set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
+  void set_up_triangles(RasterTriangleView tris, const LightView& view,
                         const RasterFilter& filter, int tile_size);
   // Collects the fragments of one tile into *out, grouped by texel (row-major within the
   // tile) and sorted by depth: s.offsets[k] .. s.offsets[k + 1] index *out for local texel k.
@@ -219,7 +220,7 @@ struct Rasterizer::Impl {
   void gather_tile(int tile, const LightView& view, TileScratch& s, std::vector<Fragment>* out);
 };
 
-void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
+void Rasterizer::Impl::set_up_triangles(RasterTriangleView tris, const LightView& view,
                                         const RasterFilter& filter, int tile_size) {
   grid = TileGrid(view.width(), view.height(), raster_internal::tile_shift(tile_size));
   alpha = FragmentAlpha{tris, &view};
@@ -231,7 +232,7 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
     double v[raster_internal::kMaxClipVertices];
     for (size_t i = begin; i < end; ++i) {
       const RasterTriangle& tri = tris[i];
-      if (!(tri.opacity > 0) || (filter.opaque_only && tri.semi_transparent())) continue;
+      if (!(tri.opacity > 0) || (filter.opaque_only && tris.semi_transparent(tri))) continue;
       if (filter.culling != FaceCulling::None) {
         bool front = raster_internal::faces_light(tri, view);
         if (front != (filter.culling == FaceCulling::Back)) continue;
@@ -250,7 +251,7 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
         if (!set_up(fx, fy, fv, view.width(), view.height(), &st)) continue;
         st.opacity = tri.opacity;
         st.source = static_cast<uint32_t>(i);
-        st.textured = tri.alpha != nullptr;
+        st.textured = tris.textured(tri);
         out.push_back(st);
       }
     }
@@ -306,7 +307,7 @@ Rasterizer::Rasterizer(int tile_size) : impl_(std::make_unique<Impl>()), tile_si
 
 Rasterizer::~Rasterizer() = default;
 
-void Rasterizer::depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::depth_map(RasterTriangleView triangles, const LightView& view,
                            const RasterFilter& filter, DepthMap* out) {
   Timer timer;
   Impl& im = *impl_;
@@ -373,7 +374,7 @@ void Rasterizer::depth_map(std::span<const RasterTriangle> triangles, const Ligh
 // than epsilon. Otherwise (a chain of fragments each within epsilon of the next) the result
 // can depend on the input order. A merged layer keeps the front's depth and triangle and
 // composes the opacities, 1 - prod(1 - a_i): what a ray crossing the coincident sheets keeps.
-void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::layered_depth_map(RasterTriangleView triangles, const LightView& view,
                                    const LayerOptions& options, LayeredDepthMap* out) {
   if (options.layers < 1 || options.layers > 255) throw Error("Rasterizer: layers = {} must be in [1, 255]", options.layers);
   if (!(options.distinct_epsilon >= 0)) throw Error("Rasterizer: distinct_epsilon must be >= 0");
@@ -451,7 +452,7 @@ void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, co
   stats_.raster_ms = timer.elapsed_ms();
 }
 
-void Rasterizer::fragment_lists(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::fragment_lists(RasterTriangleView triangles, const LightView& view,
                                 const RasterFilter& filter, FragmentLists* out,
                                 const FragmentReducer& reduce) {
   Timer timer;
@@ -535,7 +536,7 @@ void Rasterizer::fragment_lists(std::span<const RasterTriangle> triangles, const
   stats_.raster_ms = timer.elapsed_ms();
 }
 
-void Rasterizer::visit_fragments(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::visit_fragments(RasterTriangleView triangles, const LightView& view,
                                  const RasterFilter& filter, const FragmentVisitor& visit) {
   Timer timer;
   Impl& im = *impl_;
@@ -563,7 +564,7 @@ void Rasterizer::visit_fragments(std::span<const RasterTriangle> triangles, cons
   stats_.raster_ms = timer.elapsed_ms();
 }
 
-void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& view,
                                  const RasterFilter& filter, const DepthBins& bins, DepthBinMasks* out) {
   if (bins.count < 1 || bins.count > 32) throw Error("Rasterizer: {} depth bins must be in [1, 32]", bins.count);
   if (!(bins.width > 0) || !std::isfinite(bins.first)) throw Error("Rasterizer: depth bins need a finite start and a positive width");
@@ -578,8 +579,7 @@ void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, cons
   out->height = view.height();
   out->masks.resize(static_cast<size_t>(width) * view.height());
   im.fragments = 0;
-  const float first = bins.first, inv_width = 1.0f / bins.width;
-  const int last = bins.count - 1;
+  const shader::RasterDepthBins depth_bins = shader::raster_depth_bins(bins.first, bins.width, bins.count);
   dispatch_projection(view, [&](auto perspective) {
     constexpr bool kPerspective = decltype(perspective)::value;
     const float near = view.near(), far = view.far();
@@ -589,10 +589,7 @@ void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, cons
       uint32_t* masks = out->masks.data() + rect.y0 * rect.stride + rect.x0;
       for (int y = y0; y < y1; ++y) std::fill(masks + rect.index(x0, y), masks + rect.index(x1, y), 0u);
       size_t frags = 0;
-      auto bin = [&](float v) {
-        const float b = (linear_depth<kPerspective>(v, near, far) - first) * inv_width;
-        return b <= 0 ? 0 : std::min(last, static_cast<int>(b));
-      };
+      auto bin = [&](float v) { return shader::raster_depth_bin(depth_bins, linear_depth<kPerspective>(v, near, far)); };
       for (const SetupTriangle& t : im.binner.tile(tile)) {
         // Most triangles are far thinner than a bin: when the depth plane over the triangle's
         // texel box (with a margin far above float rounding) lies in one bin, every fragment
@@ -655,21 +652,21 @@ void LayeredDepthMap::resize(int w, int h, int layers) {
   resize_exact(samples, n * layers);
 }
 
-DepthMap render_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+DepthMap render_depth_map(RasterTriangleView triangles, const LightView& view,
                           const RasterFilter& filter) {
   DepthMap out;
   Rasterizer().depth_map(triangles, view, filter, &out);
   return out;
 }
 
-LayeredDepthMap render_layered_depth_map(std::span<const RasterTriangle> triangles,
+LayeredDepthMap render_layered_depth_map(RasterTriangleView triangles,
                                          const LightView& view, const LayerOptions& options) {
   LayeredDepthMap out;
   Rasterizer().layered_depth_map(triangles, view, options, &out);
   return out;
 }
 
-FragmentLists render_fragment_lists(std::span<const RasterTriangle> triangles,
+FragmentLists render_fragment_lists(RasterTriangleView triangles,
                                     const LightView& view, const RasterFilter& filter,
                                     const FragmentReducer& reduce) {
   FragmentLists out;

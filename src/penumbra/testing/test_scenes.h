@@ -108,19 +108,6 @@ inline std::vector<Vec3f> vertices_in_front_of(const Scene& scene, const AreaLig
   return out;
 }
 
-// A 4 x 4 ground under a rect light 1 above it that faces up, away from everything: no receiver
-// in front of the light, no shadow region; every V is 0 and nothing is lit.
-inline Scene light_facing_away_scene(int res = 16) {
-  Scene s;
-  s.objects.push_back(object(quad_y(0, -2, 2, -2, 2)));
-  AreaLight light = rect_light_down({0, 1, 0}, 0.5f, 0.5f);
-  light.frame = Frame::from_zx({0, 1, 0}, {1, 0, 0});
-  s.lights.push_back(light);
-  s.camera = top_camera(res);
-  s.finalize();
-  return s;
-}
-
 // A placement for the i-th of several copies of a mesh, on a 5 x 5 grid 1.4 apart at heights
 // 0.6-1.1 over the ground: turned, scaled, every seventh mirrored, every seventh (another)
 // stretched along x.

@@ -1,8 +1,11 @@
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 
+#include "penumbra/core/error.h"
+#include "penumbra/gpu/raster/raster_capacities_testing.h"
 #include "penumbra/gpu/raster/raster_layout_shared.h"
 
 namespace penumbra::gpu {
@@ -26,7 +29,31 @@ uint64_t initial_items(uint64_t triangles, int width, int height) {
   return 2 * triangles + 2 * tiles(width, height) + 1024;
 }
 
+// RasterCapacitiesForTesting's state: the first capacities of new rasterizers while one lives.
+struct TestingCapacities {
+  std::atomic<bool> active{false};
+  uint32_t triangles = 0, items = 0;
+  std::atomic<int> retries{0};
+};
+TestingCapacities& testing_capacities() {
+  static TestingCapacities t;
+  return t;
+}
+
 }  // namespace
+
+RasterCapacitiesForTesting::RasterCapacitiesForTesting(uint32_t triangles, uint32_t items) {
+  TestingCapacities& t = testing_capacities();
+  if (t.active) throw Error("RasterCapacitiesForTesting: one is already in force");
+  t.triangles = triangles;
+  t.items = items;
+  t.retries = 0;
+  t.active = true;
+}
+
+RasterCapacitiesForTesting::~RasterCapacitiesForTesting() { testing_capacities().active = false; }
+
+int RasterCapacitiesForTesting::retries() const { return testing_capacities().retries; }
 
 void GpuDepthMap::resize(Device& device, int w, int h) {
   if (w == width_ && h == height_ && !keys_.empty()) return;
@@ -65,6 +92,8 @@ uint64_t GpuDepthMap::bytes(int w, int h) {
 GpuRasterizer::GpuRasterizer(Device& device)
     : device_(&device), scratch_(sizeof(GpuRasterTriangle), "the rasterizer") {
   state_ = Buffer(device, sizeof(GpuRasterState), "the rasterizer's counters");
+  const TestingCapacities& t = testing_capacities();
+  if (t.active) set_capacities_for_testing(t.triangles, t.items);
 }
 
 uint64_t GpuRasterizer::scratch_bytes(uint64_t triangles, int width, int height) {
@@ -81,28 +110,49 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
   // The host writes the view record and may reallocate buffers below: nothing recorded before
   // may still be waiting to read them.
   submit();
-  const uint64_t triangles = scene.triangle_count();
-  if (scratch_.empty())
-    scratch_.ensure(*device_, std::min(kMaxCapacity, initial_triangles(triangles)),
-                    std::min(kMaxCapacity, initial_items(triangles, view.width(), view.height())));
   out->resize(*device_, view.width(), view.height());
   out->view_ = view;
   const shader::RasterView record = view.shared();
   out->view_record_.upload(&record, sizeof(record));
   const uint64_t texels = static_cast<uint64_t>(view.width()) * view.height();
+  const GpuRasterState s = render_passes(
+      cl, submit, stage, scene, view, out->view_record_.address(), filter, 0, [&](const shader::RasterFillParams& setup) {
+        shader::RasterFillParams fp = setup;
+        fp.keys = out->keys_.address();
+        cl.fill(out->keys_, kEmptyWord);
+        cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
+        shader::RasterResolveParams rp{};
+        rp.scene = scene.address();
+        rp.view = out->view_record_.address();
+        rp.state = state_.address();
+        rp.keys = out->keys_.address();
+        rp.z = out->z_.address();
+        rp.depth = out->depth_.address();
+        rp.opacity = out->opacity_.address();
+        rp.triangle = out->triangle_.address();
+        cl.dispatch("raster_resolve", texels, rp);
+      });
+  out->z_min_ = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
+}
 
+GpuRasterState GpuRasterizer::render_passes(CommandList& cl, const Submit& submit, std::string_view stage,
+                                            const GpuScene& scene, const LightView& view, uint64_t view_record,
+                                            const RasterFilter& filter, uint64_t object_flags, const RecordFill& fill) {
+  const uint64_t triangles = scene.triangle_count();
+  if (scratch_.empty())
+    scratch_.ensure(*device_, std::min(kMaxCapacity, initial_triangles(triangles)),
+                    std::min(kMaxCapacity, initial_items(triangles, view.width(), view.height())));
   stats_ = {};
   stats_.triangles = triangles;
   attempts_ = 0;
   for (;;) {
     ++attempts_;
     cl.stage(stage);
-    cl.fill(out->keys_, kEmptyWord);
     cl.fill(state_, 0);
     cl.fill(state_, kEmptyWord, offsetof(GpuRasterState, z_min_bits), 4);
     shader::RasterSetupParams sp{};
     sp.scene = scene.address();
-    sp.view = out->view_record_.address();
+    sp.view = view_record;
     sp.state = state_.address();
     sp.triangles = scratch_.triangles_address();
     sp.items = scratch_.items_address();
@@ -111,35 +161,23 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
     sp.item_capacity = scratch_.item_capacity();
     sp.culling = raster_culling_code(filter);
     sp.opaque_only = filter.opaque_only ? 1u : 0u;
+    sp.object_flags = object_flags;
     cl.dispatch("raster_setup", triangles, sp);
     shader::RasterFillParams fp{};
     fp.scene = scene.address();
-    fp.view = out->view_record_.address();
+    fp.view = view_record;
     fp.state = state_.address();
     fp.triangles = scratch_.triangles_address();
     fp.items = scratch_.items_address();
-    fp.keys = out->keys_.address();
     fp.triangle_capacity = scratch_.triangle_capacity();
     fp.item_capacity = scratch_.item_capacity();
     cl.dispatch("raster_fill_args", 1, fp);
-    cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
-    shader::RasterResolveParams rp{};
-    rp.scene = scene.address();
-    rp.view = out->view_record_.address();
-    rp.state = state_.address();
-    rp.keys = out->keys_.address();
-    rp.z = out->z_.address();
-    rp.depth = out->depth_.address();
-    rp.opacity = out->opacity_.address();
-    rp.triangle = out->triangle_.address();
-    cl.dispatch("raster_resolve", texels, rp);
+    fill(fp);
     submit();
     GpuRasterState s{};
     state_.download(&s, sizeof(s));
-    if (scratch_.fitted_or_grown(*device_, s, &stats_)) {
-      out->z_min_ = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
-      return;
-    }
+    if (scratch_.fitted_or_grown(*device_, s, &stats_)) return s;
+    if (testing_capacities().active) ++testing_capacities().retries;
   }
 }
 

@@ -17,6 +17,7 @@
 #include "penumbra/gpu/buffer.h"
 #include "penumbra/gpu/commands.h"
 #include "penumbra/gpu/gpu_scene.h"
+#include "penumbra/gpu/raster/raster_layout_shared.h"
 #include "penumbra/gpu/raster/raster_scratch.h"
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/light_view.h"
@@ -59,6 +60,8 @@ class GpuDepthMap {
   Buffer keys_, z_, depth_, opacity_, triangle_, view_record_;
 };
 
+class GpuDepthBinMasks;  // gpu_depth_bins.h
+
 class GpuRasterizer {
  public:
   // Runs what a command list recorded and waits (a GPU method passes GpuFrame::flush, so the
@@ -76,6 +79,15 @@ class GpuRasterizer {
   void depth_map(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
                  const LightView& view, const RasterFilter& filter, GpuDepthMap* out);
 
+  // Which depth bins each texel centre's fragments fall in: the CPU's Rasterizer::depth_bin_masks
+  // (eisemann2006 §3.4's slicing pass), the same way as depth_map (gpu_depth_bins.cpp).
+  // `object_flags`: the device address of a uint per scene object (kRasterObject* bits of
+  // raster_layout_shared.h: objects left out, objects culled to the faces toward the view's eye),
+  // or 0 for none.
+  void depth_bin_masks(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
+                       const LightView& view, const RasterFilter& filter, const DepthBins& bins,
+                       uint64_t object_flags, GpuDepthBinMasks* out);
+
   // The last call's counts (RasterStats; no times: those are the GPU stages') and how many
   // renders it took (1 unless a buffer grew).
   const RasterStats& stats() const { return stats_; }
@@ -92,6 +104,16 @@ class GpuRasterizer {
   void set_capacities_for_testing(uint32_t triangles, uint32_t items);
 
  private:
+  // Records the passes of one mode's fill and resolve, given the fill's parameters (all but
+  // `keys`, the mode's output).
+  using RecordFill = std::function<void(const shader::RasterFillParams&)>;
+  // What every mode runs: set-up (with the filter and the per-object flags), the fill's indirect
+  // arguments, the mode's fill and resolve (`fill`), then submits and reads the counters back;
+  // grows the buffers and renders again where they overflowed. The counters of the render that
+  // fitted (also in stats()).
+  shader::GpuRasterState render_passes(CommandList& commands, const Submit& submit, std::string_view stage,
+                                       const GpuScene& scene, const LightView& view, uint64_t view_record,
+                                       const RasterFilter& filter, uint64_t object_flags, const RecordFill& fill);
   Device* device_;
   Buffer state_;
   RasterScratch scratch_;

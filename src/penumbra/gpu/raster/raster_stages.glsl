@@ -15,14 +15,20 @@
 // Input triangle g (gather_raster_triangles' numbering) seen from `view`: its object and prim,
 // and the convex polygon left after the filter (opacity <= 0 casts nothing; `opaque_only` skips
 // semi-transparent triangles; `culling` 0 keeps both sides, 1 those facing the light, 2 those
-// facing away) and the clipping, as texel-space points t[] and the depth values v[] (1/w for a
-// perspective view, z for an orthographic one) the set-up interpolates. Returns the vertex count
-// (0: nothing left).
-int raster_polygon(RasterView view, uint g, uint culling, bool opaque_only, out uint object, out uint prim,
-                   out vec2 t[kRasterMaxClipVertices], out double v[kRasterMaxClipVertices]) {
+// facing away; `object_flags`, where not 0, a mode's per-object kRasterObject* flags: skip the
+// object, or keep only its triangles facing the light) and the clipping, as texel-space points t[]
+// and the depth values v[] (1/w for a perspective view, z for an orthographic one) the set-up
+// interpolates. Returns the vertex count (0: nothing left).
+int raster_polygon(RasterView view, uint g, uint culling, bool opaque_only, uint64_t object_flags, out uint object,
+                   out uint prim, out vec2 t[kRasterMaxClipVertices], out double v[kRasterMaxClipVertices]) {
   raster_source(g, object, prim);
   if (!(raster_opacity(object, prim) > 0.0f)) return 0;
   if (opaque_only && raster_semi_transparent(object, prim)) return 0;
+  if (object_flags != 0UL) {  // a mode's per-object choices
+    uint flags = Uints(object_flags).v[object];
+    if ((flags & kRasterObjectSkip) != 0u) return 0;
+    if ((flags & kRasterObjectFrontOnly) != 0u) culling = 1u;
+  }
   vec3 p0, p1, p2;
   raster_vertices(object, prim, p0, p1, p2);
   if (culling != 0u) {

@@ -11,34 +11,19 @@
 #include "penumbra/gpu/gpu_test_util.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/gpu_method.h"
-#include "penumbra/testing/test_scenes.h"
+#include "penumbra/testing/gpu_method_runs.h"
 
 namespace penumbra {
 namespace {
 
 using gpu::testing::GpuTest;
 
-Scene shipped(const std::string& name, int resolution) {
-  RunSetup setup = RunSetup::from_file(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name);
-  setup.apply("resolution", std::to_string(resolution));
-  return setup.load();
-}
-
+// The shipped scenes, render settings on either device and mean |dV| (testing/gpu_method_runs.h).
+Scene shipped(const std::string& name, int resolution) { return testing::shipped_scene(name, resolution); }
 RenderSettings settings(const std::string& method, std::vector<std::string> params, bool gpu) {
-  RenderSettings s;
-  s.method = method;
-  s.params = std::move(params);
-  s.seed = 7;
-  if (gpu) s.device = gpu::DeviceChoice::parse("gpu");
-  return s;
+  return testing::device_settings(method, std::move(params), gpu);
 }
-
-double mean_abs_dv(const Image& a, const Image& b) {
-  EXPECT_EQ(a.data().size(), b.data().size());
-  double sum = 0;
-  for (size_t i = 0; i < a.data().size(); ++i) sum += std::abs(a.data()[i] - b.data()[i]);
-  return sum / static_cast<double>(a.data().size());
-}
+using testing::mean_abs_dv;
 
 class BaselinesGpu : public GpuTest {
  protected:
@@ -89,13 +74,7 @@ TEST_F(BaselinesGpu, EveryParameterWorksAsOnTheCpu) {
 }
 
 TEST_F(BaselinesGpu, NoReceiverInFrontOfTheLightRendersNoMapAndTheCpuPicture) {
-  Scene scene;
-  scene.objects.push_back(testing::object(testing::quad_y(0, -2, 2, -2, 2)));
-  AreaLight light = testing::rect_light_down({0, 1, 0}, 0.5f, 0.5f);
-  light.frame = Frame::from_zx({0, 1, 0}, {1, 0, 0});  // facing up, away from the ground
-  scene.lights.push_back(light);
-  scene.camera = testing::top_camera(16);
-  scene.finalize();
+  const Scene scene = testing::light_facing_away_scene();  // facing up, away from the ground
   for (const char* method : {"shadow-map", "pcss"}) {
     const RenderResult cpu = render_scene(scene, settings(method, {"resolution=64"}, false));
     const RenderResult gpu = render_scene(scene, settings(method, {"resolution=64"}, true));
@@ -134,16 +113,8 @@ TEST_F(BaselinesGpu, StagesAreNamedAndTheMapIsRenderedOnlyWhenTheFittedViewChang
 TEST_F(BaselinesGpu, MemoryEstimateCoversWhatTheMethodHolds) {
   const Scene scene = shipped("bunny.json", 32);
   for (const char* method : {"shadow-map", "pcss"}) {
-    const GpuMethodInfo* info = find_gpu_method(method);
-    ASSERT_NE(info, nullptr) << method;
-    ASSERT_TRUE(info->estimate_memory) << method;
-    MemoryQuery q;
-    q.triangles = scene.triangle_count();
-    q.view_samples = 32 * 32;
-    ParamSet small = resolve_method_params(method, scene, {"resolution=128"});
-    ParamSet large = resolve_method_params(method, scene, {"resolution=1024"});
-    const MemoryEstimate e = info->estimate_memory(small, q);
-    EXPECT_GT(info->estimate_memory(large, q).bytes, e.bytes) << method;
+    const MemoryEstimate e = testing::gpu_memory_estimate(method, scene, {"resolution=128"}, 32 * 32);
+    EXPECT_GT(testing::gpu_memory_estimate(method, scene, {"resolution=1024"}, 32 * 32).bytes, e.bytes) << method;
     const RenderResult r = render_scene(scene, settings(method, {"resolution=128"}, true));
     EXPECT_GT(r.stats.memory_bytes, 0u);
     EXPECT_LE(r.stats.memory_bytes, e.bytes) << method;

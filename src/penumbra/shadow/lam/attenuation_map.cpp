@@ -390,7 +390,7 @@ class Builder {
  public:
   static AttenuationMap frame(const AreaLight& light, const ShadowRegion& region, int samples,
                               const BuildOptions& opt);
-  static AttenuationMap build(std::span<const RasterTriangle> tris, const AreaLight& light, const ShadowRegion& region,
+  static AttenuationMap build(RasterTriangleView tris, const AreaLight& light, const ShadowRegion& region,
                               std::span<const Vec2f> samples, const BuildOptions& opt, BuildStats* st);
 };
 
@@ -442,7 +442,7 @@ AttenuationMap Builder::frame(const AreaLight& light, const ShadowRegion& region
   return map;
 }
 
-AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLight& light, const ShadowRegion& region,
+AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, const ShadowRegion& region,
                               std::span<const Vec2f> samples, const BuildOptions& opt, BuildStats* st) {
   BuildStats local;
   BuildStats& s = st ? *st : local;
@@ -753,7 +753,7 @@ std::vector<float> closed_mesh_orientations(const Scene& scene) {
   return orientation;
 }
 
-AttenuationMap build_attenuation_map(std::span<const RasterTriangle> triangles, const AreaLight& light,
+AttenuationMap build_attenuation_map(RasterTriangleView triangles, const AreaLight& light,
                                      const ShadowRegion& region, std::span<const Vec2f> light_samples,
                                      const BuildOptions& options, BuildStats* stats) {
   return Builder::build(triangles, light, region, light_samples, options, stats);

@@ -63,12 +63,12 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     const double fit_ms = t_fit.elapsed_ms();
     const LightSampleSet set = lam::light_sample_set(ctx);
     Timer t_gather;
-    const std::vector<RasterTriangle> all = gather_raster_triangles(*ctx.scene);
-    const std::vector<RasterTriangle> tris = cull_hidden_back_faces(*ctx.scene, *ctx.light, all);
+    const RasterTriangles all = gather_raster_triangles(*ctx.scene);
+    const std::vector<RasterTriangle> tris = cull_hidden_back_faces(*ctx.scene, *ctx.light, all.list);
     const double gather_ms = t_gather.elapsed_ms();
     lam::BuildStats bs;
-    map_ = lam::build_attenuation_map(tris, *ctx.light, region, set.base(), lam::options_for_scene(options_, *ctx.scene),
-                                      &bs);
+    map_ = lam::build_attenuation_map(RasterTriangleView(tris, &all.textures), *ctx.light, region, set.base(),
+                                      lam::options_for_scene(options_, *ctx.scene), &bs);
     bs.fit_ms = fit_ms;
 
     extra_ = lam::build_statistics(bs, map_, n, map_.memory_bytes());

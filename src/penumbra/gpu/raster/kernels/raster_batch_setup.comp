@@ -63,7 +63,7 @@ void main() {
   uint object, prim;
   vec2 t[kRasterMaxClipVertices];
   double v[kRasterMaxClipVertices];
-  int n = raster_polygon(view, g, pc.p.culling, pc.p.opaque_only != 0u, object, prim, t, v);
+  int n = raster_polygon(view, g, pc.p.culling, pc.p.opaque_only != 0u, 0UL, object, prim, t, v);
   // A clipped polygon becomes a fan; shared fan edges follow the fill rule like any other.
   for (int k = 1; k + 1 < n; ++k) {
     GpuRasterBatchTriangle r;

@@ -1,7 +1,8 @@
 #version 460
 // The GPU rasterizer's set-up (gpu/raster/raster_layout_shared.h; rasterizer.cpp
 // set_up_triangles): one thread per input triangle. Triangles with opacity <= 0 cast nothing;
-// the filter culls by facing and semi-transparency; the rest are transformed to homogeneous texel
+// the filter culls by facing and semi-transparency, a mode's per-object flags leave objects out
+// or cull them to their front faces; the rest are transformed to homogeneous texel
 // space, clipped against near, far and the guard band (Sutherland-Hodgman), fanned, and each fan
 // triangle set up (raster/raster_shared.h raster_set_up, in double) and appended with one work
 // item per 16 x 16-texel tile of its texel box. Counters run on past the capacities, so the host
@@ -41,7 +42,7 @@ void main() {
   uint object, prim;
   vec2 t[kRasterMaxClipVertices];
   double v[kRasterMaxClipVertices];
-  int n = raster_polygon(view, g, pc.p.culling, pc.p.opaque_only != 0u, object, prim, t, v);
+  int n = raster_polygon(view, g, pc.p.culling, pc.p.opaque_only != 0u, pc.p.object_flags, object, prim, t, v);
   // A clipped polygon becomes a fan; shared fan edges follow the fill rule like any other.
   for (int k = 1; k + 1 < n; ++k) {
     GpuRasterTriangle r;
