@@ -17,6 +17,8 @@
 #include "penumbra/gpu/buffer.h"
 #include "penumbra/gpu/commands.h"
 #include "penumbra/gpu/gpu_scene.h"
+#include "penumbra/gpu/raster/gpu_raster_modes.h"
+#include "penumbra/gpu/raster/raster_layout_shared.h"
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/raster/rasterizer.h"
@@ -75,6 +77,18 @@ class GpuRasterizer {
   void depth_map(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
                  const LightView& view, const RasterFilter& filter, GpuDepthMap* out);
 
+  // The k = options.layers nearest distinct surfaces through each texel centre, nearest first
+  // (xie2007 §4.2): the CPU's Rasterizer::layered_depth_map, by peeling (gpu_rasterizer_layers.cpp).
+  // Submits, reads back and grows as depth_map does.
+  void layered_depth_map(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
+                         const LightView& view, const LayerOptions& options, GpuLayeredDepthMap* out);
+
+  // Every fragment through each texel centre with its opacity, each texel's sorted by depth
+  // (xie2007 §5): the CPU's Rasterizer::fragment_lists (gpu_rasterizer_layers.cpp). The fragments
+  // buffer grows to the total the counting pass found, and the lists render again.
+  void fragment_lists(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
+                      const LightView& view, const RasterFilter& filter, GpuFragmentLists* out);
+
   // The last call's counts (RasterStats; no times: those are the GPU stages') and how many
   // renders it took (1 unless a buffer grew).
   const RasterStats& stats() const { return stats_; }
@@ -89,9 +103,21 @@ class GpuRasterizer {
   // For tests: the capacities of the next render (0: sized from the scene and the map), to make
   // it outgrow its buffers and retry.
   void set_capacities_for_testing(uint32_t triangles, uint32_t items);
+  // For tests: the fragments the next fragment_lists call has room for at first.
+  void set_fragment_capacity_for_testing(uint32_t fragments) { fragment_capacity_for_testing_ = fragments; }
 
  private:
   void ensure_capacity(uint64_t triangles, uint64_t items);
+  // The start of every render: the first capacities, the view record uploaded, the stats cleared.
+  void begin(const GpuScene& scene, const LightView& view, Buffer& view_record);
+  // Records the counters' reset, raster_setup and raster_fill_args (the stage is open); returns
+  // the fill kernels' parameters without the map's keys.
+  shader::RasterFillParams record_setup(CommandList& cl, const GpuScene& scene, const Buffer& view_record,
+                                        const RasterFilter& filter);
+  // After a render's submit: true when every buffer held what it was asked to (the stats and
+  // *z_min are set); otherwise the buffers are grown for the next try.
+  bool finish_attempt(float* z_min);
+  uint32_t fragment_capacity_for_testing_ = 0;
   Device* device_;
   Buffer state_, triangles_, items_;
   uint32_t triangle_capacity_ = 0, item_capacity_ = 0;
