@@ -5,39 +5,24 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include "penumbra/eval/run_setup.h"
 #include "penumbra/gpu/gpu_test_util.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/testing/device_comparison.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra {
 namespace {
 
 using gpu::testing::GpuTest;
-
-Scene shipped(const std::string& name, int resolution) {
-  RunSetup setup = RunSetup::from_file(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name);
-  setup.apply("resolution", std::to_string(resolution));
-  return setup.load();
-}
+using testing::mean_abs_difference;
+using testing::shipped_scene;
 
 RenderSettings settings(const std::string& method, std::vector<std::string> params, bool gpu) {
-  RenderSettings s;
-  s.method = method;
-  s.params = std::move(params);
-  s.seed = 7;
-  if (gpu) s.device = gpu::DeviceChoice::parse("gpu");
-  return s;
-}
-
-double mean_abs_dv(const Image& a, const Image& b) {
-  EXPECT_EQ(a.data().size(), b.data().size());
-  double sum = 0;
-  for (size_t i = 0; i < a.data().size(); ++i) sum += std::abs(a.data()[i] - b.data()[i]);
-  return sum / static_cast<double>(a.data().size());
+  return testing::device_settings(method, std::move(params), gpu, 7);
 }
 
 class BaselinesGpu : public GpuTest {
@@ -51,10 +36,10 @@ class BaselinesGpu : public GpuTest {
     double shadow = 0;
     for (float v : cpu.visibility.data()) shadow += 1 - v;
     EXPECT_GT(shadow, 10) << "no shadow to compare";
-    return mean_abs_dv(cpu.visibility, gpu.visibility);
+    return mean_abs_difference(cpu.visibility, gpu.visibility);
   }
   void expect_same_pictures(const std::string& scene_file, int resolution) {
-    const Scene scene = shipped(scene_file, resolution);
+    const Scene scene = shipped_scene(scene_file, resolution);
     // Maps of 256 texels keep lavapipe fast; the kernels are the same at any size.
     const std::vector<std::vector<std::string>> cases = {
         {"resolution=256", "pcf=0"},
@@ -74,7 +59,7 @@ TEST_F(BaselinesGpu, AlphaMaskedFoliageGivesTheCpuPictures) { expect_same_pictur
 TEST_F(BaselinesGpu, SemiTransparentFurballGivesTheCpuPictures) { expect_same_pictures("furball.json", 64); }
 
 TEST_F(BaselinesGpu, EveryParameterWorksAsOnTheCpu) {
-  const Scene scene = shipped("bunny.json", 48);
+  const Scene scene = shipped_scene("bunny.json", 48);
   EXPECT_LE(difference(scene, "shadow-map",
                        {"resolution=200", "max_fov=60", "bias=0.01", "slope_bias=2", "max_slope=4",
                         "receiver_plane=true", "pcf=1"}),
@@ -84,7 +69,7 @@ TEST_F(BaselinesGpu, EveryParameterWorksAsOnTheCpu) {
                         "pcf_samples=13", "bias=0.002"}),
             1e-3);
   // A textured light: pcss's light points follow its table on both devices.
-  const Scene glass = shipped("stained-glass.json", 48);
+  const Scene glass = shipped_scene("stained-glass.json", 48);
   EXPECT_LE(difference(glass, "pcss", {"resolution=128", "blocker_samples=8", "pcf_samples=16"}), 1e-3);
 }
 
@@ -99,7 +84,7 @@ TEST_F(BaselinesGpu, NoReceiverInFrontOfTheLightRendersNoMapAndTheCpuPicture) {
   for (const char* method : {"shadow-map", "pcss"}) {
     const RenderResult cpu = render_scene(scene, settings(method, {"resolution=64"}, false));
     const RenderResult gpu = render_scene(scene, settings(method, {"resolution=64"}, true));
-    EXPECT_EQ(mean_abs_dv(cpu.visibility, gpu.visibility), 0.0) << method;
+    EXPECT_EQ(mean_abs_difference(cpu.visibility, gpu.visibility), 0.0) << method;
     for (float c : gpu.color.data()) ASSERT_EQ(c, 0.0f) << method;  // the light faces away
     EXPECT_TRUE(gpu.gpu_ms.contains("fit")) << method;
     EXPECT_FALSE(gpu.gpu_ms.contains("raster")) << method;
@@ -107,7 +92,7 @@ TEST_F(BaselinesGpu, NoReceiverInFrontOfTheLightRendersNoMapAndTheCpuPicture) {
 }
 
 TEST_F(BaselinesGpu, StagesAreNamedAndTheMapIsRenderedOnlyWhenTheFittedViewChanges) {
-  Scene scene = shipped("bunny.json", 48);
+  Scene scene = shipped_scene("bunny.json", 48);
   for (const char* method : {"shadow-map", "pcss"}) {
     std::vector<std::string> params = {"resolution=128"};
     if (std::string(method) == "pcss") params.insert(params.end(), {"pcf_samples=8", "blocker_samples=8"});
@@ -121,7 +106,7 @@ TEST_F(BaselinesGpu, StagesAreNamedAndTheMapIsRenderedOnlyWhenTheFittedViewChang
     // The same view samples: the same fitted view, no new map.
     const RenderResult second = r.render();
     EXPECT_FALSE(second.gpu_ms.contains("raster")) << method << " " << second.gpu_ms.dump();
-    EXPECT_EQ(mean_abs_dv(first.visibility, second.visibility), 0.0);
+    EXPECT_EQ(mean_abs_difference(first.visibility, second.visibility), 0.0);
     // Another camera sees other receivers: a new view, a new map.
     Camera cam = scene.camera;
     cam.eye = cam.eye + (cam.target - cam.eye) * 0.3f;
@@ -132,7 +117,7 @@ TEST_F(BaselinesGpu, StagesAreNamedAndTheMapIsRenderedOnlyWhenTheFittedViewChang
 }
 
 TEST_F(BaselinesGpu, MemoryEstimateCoversWhatTheMethodHolds) {
-  const Scene scene = shipped("bunny.json", 32);
+  const Scene scene = shipped_scene("bunny.json", 32);
   for (const char* method : {"shadow-map", "pcss"}) {
     const GpuMethodInfo* info = find_gpu_method(method);
     ASSERT_NE(info, nullptr) << method;
