@@ -47,10 +47,9 @@ CommandList::CommandList(Device& device) : device_(&device) {
 
 CommandList::~CommandList() {
   DeviceState& s = device_->state();
-  if (command_buffer_) {
-    if (recording_) vkEndCommandBuffer(as_cb(command_buffer_));
-    s.free_command_buffer(as_cb(command_buffer_));
-  }
+  // Freed as it is, even while recording: ending it first would validate what it recorded, whose
+  // buffers may be gone already (a render that throws part-way destroys them before its list).
+  if (command_buffer_) s.free_command_buffer(as_cb(command_buffer_));
   vkDestroyQueryPool(s.device, as_pool(query_pool_), nullptr);
 }
 
