@@ -30,13 +30,7 @@ class BaselinesGpu : public GpuTest {
   // Renders `scene` with `method` on both devices; returns mean |dV| and checks the GPU's V is
   // not trivially uniform where the CPU's has shadows.
   double difference(const Scene& scene, const std::string& method, const std::vector<std::string>& params) {
-    const RenderResult cpu = render_scene(scene, settings(method, params, false));
-    const RenderResult gpu = render_scene(scene, settings(method, params, true));
-    EXPECT_EQ(gpu.device, device().info().name);
-    double shadow = 0;
-    for (float v : cpu.visibility.data()) shadow += 1 - v;
-    EXPECT_GT(shadow, 10) << "no shadow to compare";
-    return mean_abs_difference(cpu.visibility, gpu.visibility);
+    return testing::render_on_both(scene, settings(method, params, false), device().info().name).mean_dv;
   }
   void expect_same_pictures(const std::string& scene_file, int resolution) {
     const Scene scene = shipped_scene(scene_file, resolution);
