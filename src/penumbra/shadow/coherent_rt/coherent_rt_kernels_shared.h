@@ -92,14 +92,15 @@ struct CrtTileBlock {
 
 // A tile's scratch, `words` uint32 words each (crt_tile_scratch_words): stamps (n sub^2),
 // packed cell flags (n), jittered samples (2 n), the queue (n), blocker points (3 n sub^2), light
-// points (3 n).
+// points (3 n), and the sampler's SoftShadState (16) kept from one dispatch of the tile's steps to
+// the next.
 PN_INLINE uint crt_tile_scratch_words(int n, int sub_grid) {
   uint cells = uint(n);
   uint subs = cells * uint(sub_grid) * uint(sub_grid);
-  return subs + cells + 2u * cells + cells + 3u * subs + 3u * cells;
+  return subs + cells + 2u * cells + cells + 3u * subs + 3u * cells + 16u;
 }
 
-// What the tiles count, 144 bytes (one atomic per tile and counter): SoftShadCounts, CrtTraceCounts
+// What the tiles count, 152 bytes (one atomic per tile and counter): SoftShadCounts, CrtTraceCounts
 // (overflow: some ray's span lists were too small: the host traces again with longer ones), the
 // own-plane cells and the BVH rays of tracer=geometry.
 struct CrtGpuCounters {
@@ -121,6 +122,11 @@ struct CrtGpuCounters {
   uint64_t own_plane_cells;
   uint64_t geometry_rays;
   uint overflow;
+  // Some tile's dispatch ran into the driver's loop limit (lavapipe: 65535 loop iterations per
+  // invocation; the loops then stop early, silently): what is written is wrong and the host traces
+  // again with fewer steps per dispatch. limited_after: the fewest steps such a tile had completed.
+  uint limited;
+  uint limited_after;
   uint pad;
 };
 
@@ -139,6 +145,11 @@ struct CrtTilesParams {
   uint64_t seed;
   int light_index;
   int frame;
+  // This dispatch's part of every tile's steps (Hilbert step x view sample of its pixel):
+  // [first_step, first_step + step_count). The sampler starts afresh at step 0.
+  int first_step;
+  int step_count;
+  int canary;  // 2: a loop of this many iterations tells whether the driver's loop limit was hit
 };
 
 // crt_links, crt_floors, crt_ranges and crt_connected's push constants.
@@ -162,7 +173,7 @@ PN_SHARED_END
 
 #ifdef __cplusplus
 static_assert(sizeof(penumbra::shader::CrtTileBlock) == 120);
-static_assert(sizeof(penumbra::shader::CrtGpuCounters) == 144);
+static_assert(sizeof(penumbra::shader::CrtGpuCounters) == 152);
 static_assert(sizeof(penumbra::shader::CrtTilesParams) <= 128);
 static_assert(sizeof(penumbra::shader::CrtBuildParams) <= 128);
 #endif

@@ -17,6 +17,7 @@ PN_SHARED_BEGIN
 
 // The most reference images a ray is traced through.
 PN_CONST int kCrtMaxMaps = 8;
+PN_CONST float kCrtLongest = 3.0e38f;  // a map's rank length when it is not finite
 
 // TraceOptions (1: on).
 struct CrtTraceOptions {
@@ -268,21 +269,33 @@ PN_INLINE void crt_trace(CrtImagesRef imgs, CrtTraceOptions o, vec3 p, vec3 q, b
     // A map whose image the ray misses says nothing about it.
     if (!depth_segment_clip_box(ps[k].segment, 0.0f, 0.0f, float(crt_width(imgs, k)), float(crt_height(imgs, k)), ta, tb))
       continue;
-    float dx = ps[k].segment.p1.x - ps[k].segment.p0.x;
-    float dy = ps[k].segment.p1.y - ps[k].segment.p0.y;
-    len[k] = (tb - ta) * sqrt(dx * dx + dy * dy);
+    // Ranked by the square of the clipped length (no square root: the same order, and the
+    // GPU's square roots may round otherwise); a NaN (an infinite length clipped to nothing)
+    // ranks last.
+    PN_PRECISE float dx = ps[k].segment.p1.x - ps[k].segment.p0.x;
+    PN_PRECISE float dy = ps[k].segment.p1.y - ps[k].segment.p0.y;
+    PN_PRECISE float span = tb - ta;
+    PN_PRECISE float len2 = (dx * dx + dy * dy) * (span * span);
+    len[k] = len2 <= kCrtLongest ? len2 : kCrtLongest;
     order[nvalid] = k;
     nvalid += 1;
   }
-  // §5.1.2 (after Chang): shortest clipped epipolar segment first (insertion sort: stable).
+  // §5.1.2 (after Chang): shortest clipped epipolar segment first, ties in map order. Each map's
+  // rank is counted and the maps placed by it, rather than sorted by swaps: lavapipe (Mesa 22.3)
+  // miscompiles a swap within a private array (the element saved before a store is read after
+  // it, so the order ends up with duplicates).
   if (o.ranking != 0u) {
-    for (int i = 1; i < nvalid; ++i) {
-      for (int j = i; j > 0 && len[order[j]] < len[order[j - 1]]; --j) {
-        int s = order[j];
-        order[j] = order[j - 1];
-        order[j - 1] = s;
+    int ranked[kCrtMaxMaps];
+    for (int i = 0; i < nvalid; ++i) {
+      int k = order[i];
+      int rank = 0;
+      for (int m = 0; m < nvalid; ++m) {
+        float lm = len[order[m]];
+        if (lm < len[k] || (lm == len[k] && m < i)) rank += 1;
       }
+      ranked[rank] = k;
     }
+    for (int i = 0; i < nvalid; ++i) order[i] = ranked[i];
   }
   bool connectedness = o.connectedness != 0u && !need_point;
   bool spans = o.clear_miss != 0u || o.occlusion_intervals != 0u;
