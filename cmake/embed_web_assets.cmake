@@ -49,11 +49,5 @@ const WebAsset* find_web_asset(std::string_view path) {
 
 }  // namespace penumbra::viewer
 ")
-# Only a changed file is written, so an unchanged page does not recompile.
-if(EXISTS "${OUTPUT}")
-  file(READ "${OUTPUT}" old)
-  if(old STREQUAL content)
-    return()
-  endif()
-endif()
-file(WRITE "${OUTPUT}" "${content}")
+include(${CMAKE_CURRENT_LIST_DIR}/write_if_changed.cmake)
+write_if_changed("${OUTPUT}" "${content}")

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "penumbra/gpu/gpu_test_util.h"
+#include "penumbra/testing/cli_run.h"
 
 namespace penumbra {
 namespace {
@@ -23,10 +24,7 @@ namespace fs = std::filesystem;
 
 class CliGpu : public gpu::testing::GpuTest {
  protected:
-  struct Run {
-    int exit_code;
-    std::string out, err;
-  };
+  using Run = penumbra::testing::CliRun;
   void SetUp() override {
     GpuTest::SetUp();
     dir_ = fs::temp_directory_path() / fmt::format("penumbra-cli-gpu-{}-{}", ::getpid(),
@@ -38,17 +36,8 @@ class CliGpu : public gpu::testing::GpuTest {
     fs::remove_all(dir_);
     GpuTest::TearDown();
   }
-  Run run(const std::string& args) {
-    const std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
-    const int status = std::system(fmt::format("{} {} >{} 2>{}", PENUMBRA_CLI, args, out, err).c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
-  }
-  static std::string slurp(const fs::path& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  }
+  Run run(const std::string& args) { return penumbra::testing::run_cli(dir_, args); }
+  static std::string slurp(const fs::path& p) { return penumbra::testing::slurp(p); }
   static std::string scene(const std::string& name) { return std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + name + ".json"; }
   // A refused run: exit 1, one line naming `names`, nothing written.
   void expect_refused(const std::string& args, const std::string& names) {
@@ -82,6 +71,20 @@ TEST_F(CliGpu, BadDevicesAndMethodsWithoutAGpuVersionAreOneLineErrors) {
   expect_refused(fmt::format("render {} --device tpu -m hard", bunny), "--device tpu: expected cpu, gpu or gpu:N");
   expect_refused(fmt::format("render {} --device gpu -m lam", bunny), "lam has no GPU version yet");
   expect_refused(fmt::format("render {} --device gpu -m reference --memory-limit 64K", bunny), "GPU memory");
+}
+
+TEST_F(CliGpu, AFailingVulkanCallIsOneLineAndWritesNothing) {
+  for (const char* failure : {"allocation", "submission"}) {
+    const fs::path out = dir_ / "x.png";
+    const Run r = penumbra::testing::run_cli(
+        dir_, fmt::format("render {} --device gpu -m hard --resolution 16 -o {}", scene("bunny"), out.string()),
+        fmt::format("PENUMBRA_GPU_TEST_FAIL={}", failure));
+    EXPECT_EQ(r.exit_code, 1) << failure << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string(failure) == "allocation" ? "vkAllocateMemory" : "vkQueueSubmit"), std::string::npos)
+        << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
 }
 
 TEST_F(CliGpu, DevicesAndMethodsSayWhatRunsWhere) {

@@ -24,16 +24,14 @@
 #include <vector>
 
 #include "penumbra/core/image.h"
+#include "penumbra/testing/cli_run.h"
 
 namespace penumbra {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int exit_code;
-  std::string out, err;
-};
+using testing::CliRun;
 
 class Cli : public ::testing::Test {
  protected:
@@ -46,18 +44,8 @@ class Cli : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   // `env`: variable assignments for the run ("PATH=/x").
-  CliRun run(const std::string& args, const std::string& env = "") {
-    std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
-    std::string cmd = fmt::format("{} {} {} >{} 2>{}", env, PENUMBRA_CLI, args, out, err);
-    int status = std::system(cmd.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
-  }
-  static std::string slurp(const fs::path& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  }
+  CliRun run(const std::string& args, const std::string& env = "") { return testing::run_cli(dir_, args, env); }
+  static std::string slurp(const fs::path& p) { return testing::slurp(p); }
   std::string write(const std::string& name, const std::string& text) {
     fs::path p = dir_ / name;
     std::ofstream(p) << text;

@@ -57,17 +57,18 @@ RenderResult render_on_dask(const RenderOptions& o, nlohmann::json* stats, int* 
   if (o.coherent_shading) throw Error("--coherent-shading: not available with --dask");
   if (!o.memory_limit.empty()) throw Error("--memory-limit: not available with --dask (each worker has its own)");
   if (!o.map_cache.empty()) throw Error("--map-cache: not available with --dask");
-  if (o.device != "cpu") throw Error("--device {}: not available with --dask yet (the workers render on their CPUs)", o.device);
   RunSetup setup = RunSetup::from_file(o.scene);
   if (!o.resolution.empty()) setup.apply("resolution", o.resolution);
   if (o.pixel_samples > 0) setup.apply("pixel_samples", std::to_string(o.pixel_samples));
   setup.light_samples = setup.reference_samples = o.spp;
   setup.seed = o.seed;
+  setup.device = gpu::DeviceChoice::parse(o.device).to_string();  // each tile on its worker's GPU
   const nlohmann::json request = {{"command", "render"}, {"setup", run_setup_json(setup)},
                                   {"method", o.method},   {"params", o.params},
                                   {"spp", o.spp},         {"seed", o.seed},
                                   {"frames", o.frames},   {"tile", o.tile},
                                   {"meshes", o.meshes},   {"frame_out", ""},
+                                  {"device", setup.device},
                                   {"stats_out", ""}};
   RenderResult r;
   *exit_status = run_on_dask(request, o.dask, [&](const nlohmann::json& sent) {

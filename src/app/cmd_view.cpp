@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "app/command.h"
+#include "penumbra/gpu/device.h"
 #include "app/common.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
@@ -32,6 +33,7 @@ struct ViewOptions {
   int idle_ms = 300;
   std::string map_cache;
   std::string resolution;
+  std::string device = "cpu";
 };
 
 // Opens `url` with $BROWSER or xdg-open, without a shell; a failure is a note, not an error
@@ -60,6 +62,9 @@ int run_view(const ViewOptions& o) {
   Scene scene = parse_scene(doc, o.scene);
   viewer::SessionOptions session_options;
   session_options.idle_ms = o.idle_ms;
+  session_options.device = gpu::DeviceChoice::parse(o.device);
+  if (!o.map_cache.empty() && session_options.device.gpu)
+    throw Error("--map-cache: not available with --device {} (the maps are the CPU's)", o.device);
   if (!o.map_cache.empty()) {
     MapCache check(o.map_cache);  // a bad folder fails here, in one line, before the server starts
     session_options.map_cache = o.map_cache;
@@ -95,6 +100,10 @@ const CommandRegistration view_command("view", 35, [](CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-browser", o->no_browser, "do not open a browser");
   cmd->add_option("--threads", o->threads, "worker threads (0 = all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  cmd->add_option("--device", o->device,
+                  "where previews and final frames render: cpu, gpu or gpu:N (docs/gpu.md); the page offers the "
+                  "methods that run there")
+      ->capture_default_str();
   cmd->add_option("--map-cache", o->map_cache,
                   "keep lam's maps in this folder between sessions (created if needed; docs/animation.md)");
   cmd->add_option("--resolution", o->resolution, "image size N or WxH (overrides the scene's camera)");

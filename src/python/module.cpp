@@ -27,6 +27,7 @@
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/eval/sweep.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/shadow/gpu_method.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadow/shadow_method.h"
@@ -121,8 +122,9 @@ struct RenderRequest {
 RenderRequest render_request(const PyScene& s, const std::string& method, int spp,
                              std::optional<std::pair<int, int>> resolution, uint64_t seed,
                              const std::optional<py::dict>& params, int threads, int frames,
-                             std::optional<std::tuple<int, int, int, int>> crop) {
+                             std::optional<std::tuple<int, int, int, int>> crop, const std::string& device) {
   MethodRegistry::get(method);  // throws, listing the registered methods, for an unknown one
+  const gpu::DeviceChoice choice = gpu::DeviceChoice::parse(device);  // "device=...": `--device`'s values
   if (spp < 1 || spp > (1 << 20)) throw Error("spp={}: expected an integer in [1, 1048576]", spp);
   if (frames < 1 || frames > 100000) throw Error("frames={}: expected an integer in [1, 100000]", frames);
   if (threads < 0) throw Error("threads={}: expected 0 (all cores) or more", threads);
@@ -139,6 +141,7 @@ RenderRequest render_request(const PyScene& s, const std::string& method, int sp
   settings.light_samples = spp;
   settings.seed = seed;
   settings.frames = frames;
+  settings.device = choice;
   if (crop) {
     const auto [x0, y0, x1, y1] = *crop;
     settings.crop = PixelWindow{x0, y0, x1, y1};
@@ -162,8 +165,9 @@ PyRenderResult to_python(const RenderRequest& q, const RenderResult& r) {
 
 PyRenderResult render(const PyScene& s, const std::string& method, int spp, std::optional<std::pair<int, int>> resolution,
                       uint64_t seed, const std::optional<py::dict>& params, int threads, int frames,
-                      std::optional<std::tuple<int, int, int, int>> crop, const std::string& map_cache) {
-  RenderRequest q = render_request(s, method, spp, resolution, seed, params, threads, frames, crop);
+                      std::optional<std::tuple<int, int, int, int>> crop, const std::string& map_cache,
+                      const std::string& device) {
+  RenderRequest q = render_request(s, method, spp, resolution, seed, params, threads, frames, crop, device);
   q.settings.map_cache = map_cache;
   RenderResult r = run_interruptible<RenderResult>([&] {
     ThreadLimit limit(threads);
@@ -179,8 +183,8 @@ PyRenderResult render(const PyScene& s, const std::string& method, int spp, std:
 class PyFrameRenderer {
  public:
   PyFrameRenderer(const PyScene& s, const std::string& method, int spp, uint64_t seed,
-                  const std::optional<py::dict>& params, int threads, int frames)
-      : request_(render_request(s, method, spp, std::nullopt, seed, params, threads, frames, std::nullopt)),
+                  const std::optional<py::dict>& params, int threads, int frames, const std::string& device)
+      : request_(render_request(s, method, spp, std::nullopt, seed, params, threads, frames, std::nullopt, device)),
         threads_(threads) {}
 
   PyRenderResult render(std::tuple<int, int, int, int> crop) {
@@ -205,8 +209,10 @@ class PyFrameRenderer {
   std::unique_ptr<Renderer> renderer_;
 };
 
-RunSetup run_setup(const PyScene& s, int spp, int reference_spp, uint64_t seed, const std::vector<std::string>& settings) {
+RunSetup run_setup(const PyScene& s, int spp, int reference_spp, uint64_t seed, const std::vector<std::string>& settings,
+                   const std::string& device = "cpu") {
   RunSetup setup;
+  setup.device = gpu::DeviceChoice::parse(device).to_string();
   setup.scene_doc = s.doc;
   setup.scene_path = s.path;
   setup.light_samples = spp;
@@ -282,9 +288,10 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readonly("stats", &PyRenderResult::stats, "the --stats-json document");
 
   py::class_<PyFrameRenderer>(m, "_FrameRenderer")
-      .def(py::init<const PyScene&, const std::string&, int, uint64_t, const std::optional<py::dict>&, int, int>(),
+      .def(py::init<const PyScene&, const std::string&, int, uint64_t, const std::optional<py::dict>&, int, int,
+                    const std::string&>(),
            py::arg("scene"), py::arg("method"), py::arg("spp"), py::arg("seed"), py::arg("params"), py::arg("threads"),
-           py::arg("frames"))
+           py::arg("frames"), py::arg("device") = "cpu")
       .def("render", &PyFrameRenderer::render, py::arg("crop"));
 
   m.def("load_scene", &load, py::arg("path"), "Loads and validates a scene file.");
@@ -306,14 +313,16 @@ PYBIND11_MODULE(_penumbra, m) {
   m.def("render", &render, py::arg("scene"), py::arg("method") = "reference", py::arg("spp") = 256,
         py::arg("resolution") = py::none(), py::arg("seed") = 0, py::arg("params") = py::none(),
         py::arg("threads") = 0, py::arg("frames") = 1, py::arg("crop") = py::none(), py::arg("map_cache") = "",
+        py::arg("device") = "cpu",
         "Renders `scene` with `method`: the pixels `penumbra render` writes for the same arguments. "
+        "device='gpu' (or 'gpu:N'): the whole frame on a Vulkan GPU, as `--device gpu` (docs/gpu.md). "
         "crop=(x0, y0, x1, y1): only those pixels (half-open), the images that window's size, each "
         "pixel equal to the whole frame's there. map_cache=folder: `--map-cache` (light-space maps kept "
         "on disk between runs; stats['map_cache'] says hits and sizes).");
   m.def("_compare", [](const PyScene& s, const std::vector<std::string>& methods, int spp, int reference_spp,
                        uint64_t seed, const std::vector<std::string>& settings, int runs, bool equal_quality,
-                       const std::string& cache_dir) {
-    RunSetup setup = run_setup(s, spp, reference_spp, seed, settings);
+                       const std::string& cache_dir, const std::string& device) {
+    RunSetup setup = run_setup(s, spp, reference_spp, seed, settings, device);
     CompareOptions options;
     options.methods = expand_method_list(methods);
     options.runs = runs;
@@ -325,8 +334,9 @@ PYBIND11_MODULE(_penumbra, m) {
   });
   m.def("_sweep", [](const PyScene& s, const std::string& key, const std::vector<std::string>& values,
                      const std::vector<std::string>& methods, int spp, int reference_spp, uint64_t seed,
-                     const std::vector<std::string>& settings, int runs, const std::string& cache_dir) {
-    RunSetup setup = run_setup(s, spp, reference_spp, seed, settings);
+                     const std::vector<std::string>& settings, int runs, const std::string& cache_dir,
+                     const std::string& device) {
+    RunSetup setup = run_setup(s, spp, reference_spp, seed, settings, device);
     SweepOptions options;
     options.key = key;
     options.values = values;
@@ -338,10 +348,31 @@ PYBIND11_MODULE(_penumbra, m) {
   });
   // --- penumbra.distributed's jobs. A run setup is the JSON text of run_setup_json().
   m.def("_run_setup", [](const PyScene& s, int spp, int reference_spp, uint64_t seed,
-                         const std::vector<std::string>& settings) {
-    return run_setup_json(run_setup(s, spp, reference_spp, seed, settings)).dump();
-  });
+                         const std::vector<std::string>& settings, const std::string& device) {
+    return run_setup_json(run_setup(s, spp, reference_spp, seed, settings, device)).dump();
+  }, py::arg("scene"), py::arg("spp"), py::arg("reference_spp"), py::arg("seed"), py::arg("settings"),
+     py::arg("device") = "cpu");
+  m.def("devices", [] {
+    nlohmann::json out = nlohmann::json::array();
+    for (const gpu::DeviceInfo& d : gpu::list_devices())
+      out.push_back({{"device", fmt::format("gpu:{}", d.index)}, {"name", d.name}, {"type", d.type},
+                     {"driver", d.driver}, {"vulkan", d.api_version}, {"memory_bytes", d.memory_bytes},
+                     {"subgroup_size", d.subgroup_size}, {"usable", d.usable}, {"unusable_reason", d.unusable_reason}});
+    return json_to_python(out);
+  }, "The Vulkan devices device='gpu:N' can name (`penumbra devices --json`): a list of dicts. Raises "
+     "penumbra.Error when this machine has no Vulkan loader.");
+  m.def("method_devices", [](const std::string& name) {
+    MethodRegistry::get(name);
+    std::vector<std::string> d = {"cpu"};
+    if (find_gpu_method(name)) d.push_back("gpu");
+    return d;
+  }, py::arg("name"), "The devices a method runs on: ['cpu'] or ['cpu', 'gpu'] (`penumbra methods`).");
   m.def("_tile_exact", [](const std::string& name) { return MethodRegistry::get(name).tile_exact; });
+  // The device a compare job of `label` renders on: its spec's (NAME@gpu) or the setup's.
+  m.def("_method_device", [](const std::string& setup_text, const std::string& label) {
+    const MethodSpec spec = parse_method_spec(label);
+    return spec.device.empty() ? setup_from_text(setup_text).device : spec.device;
+  });
   m.def("_expand_methods", [](const std::vector<std::string>& names) { return expand_method_list(names); });
   m.def("_check_methods", [](const std::string& setup, const std::vector<std::string>& methods) {
     setup_from_text(setup).check_plain_params(methods);

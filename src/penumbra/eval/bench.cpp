@@ -135,6 +135,20 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
   return s;
 }
 
+json bench_document(const BenchOptions& o, json settings, const std::string& timing,
+                    const std::vector<std::string>& methods, const std::string& started, double wall_ms, json scenes) {
+  settings["params"] = o.params;
+  return {{"suite", o.suite.name},
+          {"settings", std::move(settings)},
+          {"timing", timing},
+          {"methods", methods},
+          {"machine", machine_json()},
+          {"started", started},
+          {"wall_ms", wall_ms},
+          {"command", o.command},
+          {"scenes", std::move(scenes)}};
+}
+
 namespace {
 
 json scene_entry(const Comparison& c, const std::string& name) {
@@ -337,25 +351,19 @@ json run_targets(const BenchOptions& o, const std::string& started, const Timer&
   std::vector<std::string> methods = {"reference"};
   for (const PerfTarget& t : targets)
     if (std::find(methods.begin(), methods.end(), t.method) == methods.end()) methods.push_back(t.method);
-  return {{"suite", suite.name},
-          {"settings",
-           {{"resolution", suite.resolution},
-            {"spp", suite.light_samples},
-            {"runs", suite.runs},
-            {"warmup_runs", suite.warmup_runs},
-            {"params", o.params},
-            {"interleaved", true}}},
-          {"timing",
-           "speed-up targets: reference's median shadow_ms / the method's, their runs interleaved (method, "
-           "reference, method, ...) in one process; time targets: the median over the runs of the whole frame "
-           "(total_ms, camera pass included) or of one phase"},
-          {"methods", methods},
-          {"machine", machine_json()},
-          {"started", started},
-          {"wall_ms", wall.elapsed_ms()},
-          {"command", o.command},
-          {"targets", results},
-          {"scenes", scenes}};
+  json out = bench_document(
+      o,
+      {{"resolution", suite.resolution},
+       {"spp", suite.light_samples},
+       {"runs", suite.runs},
+       {"warmup_runs", suite.warmup_runs},
+       {"interleaved", true}},
+      "speed-up targets: reference's median shadow_ms / the method's, their runs interleaved (method, "
+      "reference, method, ...) in one process; time targets: the median over the runs of the whole frame "
+      "(total_ms, camera pass included) or of one phase",
+      methods, started, wall.elapsed_ms(), scenes);
+  out["targets"] = results;
+  return out;
 }
 
 // `reference` first (what every other row is measured against), then --methods.
@@ -487,25 +495,18 @@ json run_sequences(const BenchOptions& o, const std::vector<std::string>& method
     if (!entry.contains("result")) continue;  // its method or scene is not in this run
     targets.push_back(entry);
   }
-  json out = {{"suite", suite.name},
-              {"settings",
-               {{"resolution", suite.resolution},
-                {"spp", suite.light_samples},
-                {"frames", suite.sequence_frames},
-                {"runs", 1},
-                {"warmup_runs", 0},
-                {"params", o.params}}},
-              {"timing",
-               "per frame: shadow_ms = total - camera pass - compose of each frame, the median over frames 1..N-1 "
-               "(the first frame, which builds the light-space structures, is first_frame_shadow_ms); every "
-               "method renders the frames one after another keeping what stays valid (render/sequence_renderer.h); "
-               "speedup = reference's per-frame shadow_ms / the method's, the methods interleaved frame by frame"},
-              {"methods", methods},
-              {"machine", machine_json()},
-              {"started", started},
-              {"wall_ms", wall.elapsed_ms()},
-              {"command", o.command},
-              {"scenes", scenes}};
+  json out = bench_document(
+      o,
+      {{"resolution", suite.resolution},
+       {"spp", suite.light_samples},
+       {"frames", suite.sequence_frames},
+       {"runs", 1},
+       {"warmup_runs", 0}},
+      "per frame: shadow_ms = total - camera pass - compose of each frame, the median over frames 1..N-1 "
+      "(the first frame, which builds the light-space structures, is first_frame_shadow_ms); every "
+      "method renders the frames one after another keeping what stays valid (render/sequence_renderer.h); "
+      "speedup = reference's per-frame shadow_ms / the method's, the methods interleaved frame by frame",
+      methods, started, wall.elapsed_ms(), scenes);
   if (!targets.empty()) out["targets"] = targets;
   return out;
 }
@@ -555,22 +556,14 @@ json run_bench(const BenchOptions& o) {
     scenes.push_back(scene_entry(c, fs::path(c.scene).stem().string()));
   }
   bar.finish();
-  return {{"suite", suite.name},
-          {"settings",
-           {{"resolution", suite.resolution},
-            {"spp", suite.light_samples},
-            {"runs", suite.runs},
-            {"warmup_runs", suite.warmup_runs},
-            {"params", o.params}}},
-          {"timing",
-           "shadow_ms = total - camera pass - compose (the method's prepare + evaluate), median of the runs; "
-           "speedup = reference's shadow_ms / the method's, both measured in this run"},
-          {"methods", methods},
-          {"machine", machine_json()},
-          {"started", started},
-          {"wall_ms", wall.elapsed_ms()},
-          {"command", o.command},
-          {"scenes", scenes}};
+  return bench_document(o,
+                        {{"resolution", suite.resolution},
+                         {"spp", suite.light_samples},
+                         {"runs", suite.runs},
+                         {"warmup_runs", suite.warmup_runs}},
+                        "shadow_ms = total - camera pass - compose (the method's prepare + evaluate), median of the "
+                        "runs; speedup = reference's shadow_ms / the method's, both measured in this run",
+                        methods, started, wall.elapsed_ms(), scenes);
 }
 
 std::string bench_markdown(const json& r) {

@@ -85,6 +85,13 @@ nlohmann::json run_bench(const BenchOptions& options);
 // target suite, first the targets with their measured value and PASS or MISS.
 std::string bench_markdown(const nlohmann::json& results);
 
+// The bench-results.json document every suite writes: the suite's name, its `settings`, the
+// `timing` sentence that says what the times are, the methods, the machine, when it started, how
+// long it took, the command, and the suite's `scenes`.
+nlohmann::json bench_document(const BenchOptions& o, nlohmann::json settings, const std::string& timing,
+                              const std::vector<std::string>& methods, const std::string& started, double wall_ms,
+                              nlohmann::json scenes);
+
 // The gpu suite (BenchSuite::devices; run_bench calls it) and its Markdown.
 nlohmann::json run_gpu_suite(const BenchOptions& options);
 std::string gpu_bench_markdown(const nlohmann::json& results);

@@ -160,27 +160,16 @@ json run_gpu_suite(const BenchOptions& o) {
                       {"methods", ms}});
   }
   bar.finish();
-  return {{"suite", suite.name},
-          {"device",
-           {{"name", info.name}, {"type", info.type}, {"driver", info.driver}, {"vulkan", info.api_version},
-            {"memory_bytes", info.memory_bytes}, {"subgroup_size", info.subgroup_size}}},
-          {"settings",
-           {{"resolution", {width, height}},
-            {"spp", suite.light_samples},
-            {"runs", suite.runs},
-            {"warmup_runs", suite.warmup_runs},
-            {"params", o.params}}},
-          {"timing",
-           "gpu: GPU time of the method's stages (timestamps; shadow_ms) and of the whole frame (frame_ms, read-back "
-           "apart), median of the runs; cpu: the same method on this machine's cores once, shadow_ms = total - camera "
-           "pass - compose, at half the width and height where the whole frame would take over 10 s; cpu_over_gpu: "
-           "the ratio of the shadow times per pixel"},
-          {"methods", methods},
-          {"machine", machine_json()},
-          {"started", started},
-          {"wall_ms", wall.elapsed_ms()},
-          {"command", o.command},
-          {"scenes", scenes}};
+  json out = bench_document(
+      o, {{"resolution", {width, height}}, {"spp", suite.light_samples}, {"runs", suite.runs}, {"warmup_runs", suite.warmup_runs}},
+      "gpu: GPU time of the method's stages (timestamps; shadow_ms) and of the whole frame (frame_ms, read-back "
+      "apart), median of the runs; cpu: the same method on this machine's cores once, shadow_ms = total - camera "
+      "pass - compose, at half the width and height where the whole frame would take over 10 s; cpu_over_gpu: "
+      "the ratio of the shadow times per pixel",
+      methods, started, wall.elapsed_ms(), scenes);
+  out["device"] = {{"name", info.name}, {"type", info.type}, {"driver", info.driver}, {"vulkan", info.api_version},
+                   {"memory_bytes", info.memory_bytes}, {"subgroup_size", info.subgroup_size}};
+  return out;
 }
 
 std::string gpu_bench_markdown(const json& r) {

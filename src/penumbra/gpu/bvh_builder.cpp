@@ -25,7 +25,7 @@ struct BuildNode {
   BuildNode* child[2] = {nullptr, nullptr};
   RTCBounds box[2];
   uint32_t first = 0, count = 0;  // leaf: into the leaf-item list assembled below
-  const RTCBuildPrimitive* prims = nullptr;
+  const uint32_t* prim_ids = nullptr;  // leaf: its primitives' indices
 };
 
 void* create_node(RTCThreadLocalAllocator alloc, unsigned int children, void*) {
@@ -44,13 +44,14 @@ void set_bounds(void* node, const RTCBounds** bounds, unsigned int count, void*)
 }
 
 void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count, void*) {
-  // The primitives are copied: Embree reuses the array after the call.
-  void* p = rtcThreadLocalAlloc(alloc, sizeof(BuildNode) + count * sizeof(RTCBuildPrimitive), 16);
+  // The primitives' indices are copied (Embree reuses the array after the call), and only they:
+  // an RTCBuildPrimitive wants 32-byte alignment, which the space after the node lacks.
+  void* p = rtcThreadLocalAlloc(alloc, sizeof(BuildNode) + count * sizeof(uint32_t), 16);
   auto* n = new (p) BuildNode();
-  auto* copy = reinterpret_cast<RTCBuildPrimitive*>(n + 1);
-  std::copy(prims, prims + count, copy);
+  auto* ids = reinterpret_cast<uint32_t*>(n + 1);
+  for (size_t i = 0; i < count; ++i) ids[i] = prims[i].primID;
   n->leaf = true;
-  n->prims = copy;
+  n->prim_ids = ids;
   n->count = static_cast<uint32_t>(count);
   return n;
 }
@@ -71,7 +72,7 @@ struct Flattener {
     if (c->leaf) {
       child = static_cast<uint32_t>(out->order.size());
       count = c->count;
-      for (uint32_t i = 0; i < c->count; ++i) out->order.push_back(c->prims[i].primID);
+      for (uint32_t i = 0; i < c->count; ++i) out->order.push_back(c->prim_ids[i]);
     } else {
       child = flatten(c);
     }

@@ -191,14 +191,20 @@ void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, in
   }
 }
 
+RayHit no_hit(float tmax) {
+  RayHit h;
+  h.t = tmax;
+  h.object = kMissObject;
+  h.prim = 0u;
+  h.u = 0.0f;
+  h.v = 0.0f;
+  h.mirrored = false;
+  return h;
+}
+
 // The nearest hit along org + t dir, t in (0, tmax], that a camera ray stops at.
 bool trace_closest(vec3 org, vec3 dir, float tmax, out RayHit hit) {
-  hit.t = tmax;
-  hit.object = kMissObject;
-  hit.prim = 0u;
-  hit.u = 0.0f;
-  hit.v = 0.0f;
-  hit.mirrored = false;
+  hit = no_hit(tmax);
   float unused = 1.0f;
   traverse(org, dir, tmax, true, hit, unused);
   return hit.object != kMissObject;
@@ -206,13 +212,7 @@ bool trace_closest(vec3 org, vec3 dir, float tmax, out RayHit hit) {
 
 // The fraction of light along org + t dir, t in (0, tmax] (see the header comment).
 float trace_transmittance(vec3 org, vec3 dir, float tmax) {
-  RayHit unused;
-  unused.t = tmax;
-  unused.object = kMissObject;
-  unused.prim = 0u;
-  unused.u = 0.0f;
-  unused.v = 0.0f;
-  unused.mirrored = false;
+  RayHit unused = no_hit(tmax);
   float transmit = 1.0f;
   traverse(org, dir, tmax, false, unused, transmit);
   return transmit;

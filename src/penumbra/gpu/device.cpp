@@ -427,16 +427,27 @@ Device::Device(int index) : state_(std::make_unique<DeviceState>()) {
 Device::~Device() = default;  // never runs for the shared devices (see get)
 
 Device& Device::get(int index) {
+  // PENUMBRA_GPU_TEST_FAIL=allocation|submission: the process's first allocation or submission
+  // fails (testing::fail_next), so the command line's tests see its one-line error.
+  static const bool armed = [] {
+    const char* f = std::getenv("PENUMBRA_GPU_TEST_FAIL");
+    if (f && std::strcmp(f, "allocation") == 0) testing::fail_next(testing::Failure::Allocation);
+    if (f && std::strcmp(f, "submission") == 0) testing::fail_next(testing::Failure::Submission);
+    return true;
+  }();
+  (void)armed;
   static std::mutex mutex;
   // Opened once per index and never closed: pipelines stay compiled for the whole process,
   // and nothing is torn down during static destruction, when driver state may already be gone.
-  static std::map<int, Device*> devices;
+  // The table itself is never destroyed either, so the devices stay reachable to the end (a
+  // destroyed table would leave them to LeakSanitizer's exit check as leaks).
+  static auto* devices = new std::map<int, Device*>();
   std::lock_guard lock(mutex);
-  auto it = devices.find(index);
-  if (it != devices.end()) return *it->second;
+  auto it = devices->find(index);
+  if (it != devices->end()) return *it->second;
   Device* d = new Device(index);
-  devices[index] = d;
-  if (index < 0) devices[d->info().index] = d;
+  (*devices)[index] = d;
+  if (index < 0) (*devices)[d->info().index] = d;
   return *d;
 }
 

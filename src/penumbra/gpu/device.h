@@ -89,7 +89,9 @@ bool validation_enabled();
 
 namespace testing {
 // Makes the next device-memory allocation or the next queue submission report a Vulkan error,
-// as a driver out of memory or a lost device would: for the tests of the one-line errors.
+// as a driver out of memory or a lost device would: for the tests of the one-line errors. A
+// process started with PENUMBRA_GPU_TEST_FAIL=allocation (or submission) has it armed from the
+// start (the command line's tests).
 enum class Failure { None, Allocation, Submission };
 void fail_next(Failure failure);
 }  // namespace testing

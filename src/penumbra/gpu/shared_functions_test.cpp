@@ -119,15 +119,8 @@ void expect_light_functions_agree(Device& device, const AreaLight& light) {
 }
 
 TEST_F(SharedFunctions, EveryLightShapesSamplesAndIrradianceAgreeWithTheCpus) {
-  AreaLight rect = penumbra::testing::rect_light_down({0.2f, 2.0f, 0.1f}, 1.2f, 0.7f);
-  AreaLight disk = rect;
-  disk.shape = LightShape::Disk;
-  disk.radius = 0.5f;
-  AreaLight sphere = rect;
-  sphere.shape = LightShape::Sphere;
-  sphere.radius = 0.4f;
-  const AreaLight ellipsoid = penumbra::testing::ellipsoid_light_down({0.2f, 2.0f, 0.1f}, {0.6f, 0.3f, 0.2f});
-  for (const AreaLight& light : {rect, disk, sphere, ellipsoid}) expect_light_functions_agree(device(), light);
+  for (const AreaLight& light : penumbra::testing::every_light_shape({0.2f, 2.0f, 0.1f}))
+    expect_light_functions_agree(device(), light);
 }
 
 }  // namespace

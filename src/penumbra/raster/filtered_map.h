@@ -26,41 +26,36 @@
 
 #include <cstdint>
 #include <span>
+#include <type_traits>
 #include <vector>
+
+#include "penumbra/raster/filtered_map_shared.h"
 
 namespace penumbra {
 
-// The difference of two summed-area-table entries: exact in int32 for counts (wrapping
-// arithmetic gives the true difference, which is small), in the accumulator type otherwise.
-template <class Acc>
-inline Acc sat_difference(uint32_t a, uint32_t b) {
-  return static_cast<Acc>(static_cast<int32_t>(a - b));
-}
-template <class Acc>
-inline Acc sat_difference(double a, double b) {
-  return static_cast<Acc>(a - b);
-}
-
 // The integral over [x0, x1] x [y0, y1] of a texture whose summed-area table is T (entry
-// (x, y) = sum over [0, x) x [0, y)). The integral image F is bilinear in each texel:
-// F(i + fx, j + fy) = T(i, j) + fx Dx + fy Dy + fx fy c, with Dx = T(i+1, j) - T(i, j),
-// Dy = T(i, j+1) - T(i, j) and c the texel's value. Summed over the four corners with their
-// signs, the T terms make an exact count (for integer tables), and the Dx (Dy) terms of two
-// corners sharing a fraction differ by a sum along one column (row) of the box: every number
-// multiplied by a fraction is small, so nothing large cancels.
-// e(c, k): T at (i, j), (i+1, j), (i, j+1), (i+1, j+1) (k = 0..3) of corner c = (x0, y0),
-// (x1, y0), (x0, y1), (x1, y1) (c = 0..3); (fx0, fy0), (fx1, fy1): the corners' fractions
-// within their texels.
+// (x, y) = sum over [0, x) x [0, y)), from e(c, k): T at (i, j), (i+1, j), (i, j+1), (i+1, j+1)
+// (k = 0..3) of corner c = (x0, y0), (x1, y0), (x0, y1), (x1, y1) (c = 0..3); (fx0, fy0),
+// (fx1, fy1): the corners' fractions within their texels. Exact counts for uint32 tables
+// (wrapping differences), nothing large cancelling for any (filtered_map_shared.h explains the
+// arithmetic, which both devices run).
 template <class Acc, class E>
 Acc sat_box_integral(const E& e, Acc fx0, Acc fy0, Acc fx1, Acc fy1) {
-  const Acc count = sat_difference<Acc>(e(3, 0), e(2, 0)) - sat_difference<Acc>(e(1, 0), e(0, 0));
-  auto dx = [&](int c) { return e(c, 1) - e(c, 0); };  // exact (wrapping for counts)
-  auto dy = [&](int c) { return e(c, 2) - e(c, 0); };
-  auto texel = [&](int c) { return sat_difference<Acc>(e(c, 3) - e(c, 2), e(c, 1) - e(c, 0)); };
-  const Acc x1 = sat_difference<Acc>(dx(3), dx(1)), x0 = sat_difference<Acc>(dx(2), dx(0));
-  const Acc y1 = sat_difference<Acc>(dy(3), dy(2)), y0 = sat_difference<Acc>(dy(1), dy(0));
-  return count + (fx1 * x1 - fx0 * x0) + (fy1 * y1 - fy0 * y0) +
-         (fx1 * fy1 * texel(3) - fx0 * fy1 * texel(2) - fx1 * fy0 * texel(1) + fx0 * fy0 * texel(0));
+  using Entry = std::decay_t<decltype(e(0, 0))>;
+  if constexpr (std::is_same_v<Entry, uint32_t>) {
+    static_assert(std::is_same_v<Acc, float>, "counts are summed in float");
+    shader::SatCornersU q;
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 4; ++k) q.e[4 * c + k] = e(c, k);
+    return shader::sat_box_integral_uf(q, fx0, fy0, fx1, fy1);
+  } else {
+    static_assert(std::is_same_v<Entry, double>, "tables hold uint32 counts or doubles");
+    shader::SatCornersD q;
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 4; ++k) q.e[4 * c + k] = e(c, k);
+    if constexpr (std::is_same_v<Acc, float>) return shader::sat_box_integral_df(q, fx0, fy0, fx1, fy1);
+    else return shader::sat_box_integral_dd(q, fx0, fy0, fx1, fy1);
+  }
 }
 
 // A width x height map of `channels` float channels, texel-interleaved (texel (x, y)'s
@@ -84,11 +79,15 @@ class SummedAreaTable {
   // out[c] = the mean of channel c over [x0, x1] x [y0, y1] (x0 <= x1, y0 <= y1; a rectangle
   // of zero area reads as its point's texel).
   void box_mean(double x0, double y0, double x1, double y1, double* out) const;
+  // The table as the shared lookups read it (filtered_map_shared.h: channels interleaved).
+  const double* data() const { return data_.data(); }
+  shader::SatTableLayout layout() const;
+  const shader::FilteredChannels& outside() const { return outside_; }
 
  private:
   int width_ = 0, height_ = 0, channels_ = 0;
   size_t stride_ = 0;  // entries per row: (width + 1) * channels
-  double outside_[kMaxChannels] = {};
+  shader::FilteredChannels outside_{};
   std::vector<double> data_;
 };
 
@@ -99,7 +98,7 @@ class MipChain {
   void build(const ChannelImage& image, std::span<const float> outside);
   static uint64_t bytes(int width, int height, int channels);
   size_t memory_bytes() const;
-  int levels() const { return static_cast<int>(levels_.size()); }
+  int levels() const { return view_.levels; }
   // out[c] = the trilinear estimate of channel c's mean over the square of side `side`
   // texels centred on (cx, cy): level log2(side), bilinear within the two levels around it.
   void square_mean(float cx, float cy, float side, double* out) const;
@@ -110,16 +109,14 @@ class MipChain {
   // penumbrae (MAE 0.03-0.04 against the exact box on the tests' scenes); the tap grid comes
   // within a few texels of the box.
   void box_mean(float x0, float y0, float x1, float y1, double* out) const;
+  // The levels as the shared lookups read them (filtered_map_shared.h: one array, level after
+  // level).
+  const float* texels() const { return texels_.data(); }
+  const shader::MipChainView& view() const { return view_; }
 
  private:
-  struct Level {
-    int side = 0;
-    std::vector<float> texels;  // side x side x channels
-  };
-  void bilinear(int level, float x, float y, double* out) const;
-  int channels_ = 0;
-  float outside_[kMaxChannels] = {};
-  std::vector<Level> levels_;
+  shader::MipChainView view_{};
+  std::vector<float> texels_;  // every level, level 0 first
 };
 
 }  // namespace penumbra

@@ -13,6 +13,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/clipping.h"
+#include "penumbra/raster/raster_bins_shared.h"
 #include "penumbra/raster/raster_layers_shared.h"
 #include "penumbra/raster/raster_shared.h"
 #include "penumbra/raster/tiling.h"
@@ -580,8 +581,7 @@ void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, cons
   out->height = view.height();
   out->masks.resize(static_cast<size_t>(width) * view.height());
   im.fragments = 0;
-  const float first = bins.first, inv_width = 1.0f / bins.width;
-  const int last = bins.count - 1;
+  const shader::RasterDepthBins depth_bins = shader::raster_depth_bins(bins.first, bins.width, bins.count);
   dispatch_projection(view, [&](auto perspective) {
     constexpr bool kPerspective = decltype(perspective)::value;
     const float near = view.near(), far = view.far();
@@ -591,10 +591,7 @@ void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, cons
       uint32_t* masks = out->masks.data() + rect.y0 * rect.stride + rect.x0;
       for (int y = y0; y < y1; ++y) std::fill(masks + rect.index(x0, y), masks + rect.index(x1, y), 0u);
       size_t frags = 0;
-      auto bin = [&](float v) {
-        const float b = (linear_depth<kPerspective>(v, near, far) - first) * inv_width;
-        return b <= 0 ? 0 : std::min(last, static_cast<int>(b));
-      };
+      auto bin = [&](float v) { return shader::raster_depth_bin(depth_bins, linear_depth<kPerspective>(v, near, far)); };
       for (const SetupTriangle& t : im.binner.tile(tile)) {
         // Most triangles are far thinner than a bin: when the depth plane over the triangle's
         // texel box (with a margin far above float rounding) lies in one bin, every fragment

@@ -161,15 +161,7 @@ TEST_F(GpuFrame, ReferenceMatchesForEveryLightShapeAndATexturedLight) {
   using penumbra::testing::object;
   const std::vector<SceneObject> casters = {object(box({-0.6f, 0.3f, -0.4f}, {0.2f, 0.5f, 0.5f})),
                                             object(box({0.4f, 0, -0.9f}, {0.9f, 1.2f, -0.5f}))};
-  AreaLight rect = penumbra::testing::rect_light_down({0.2f, 2.0f, 0.1f}, 1.2f, 0.7f);
-  AreaLight disk = rect;
-  disk.shape = LightShape::Disk;
-  disk.radius = 0.5f;
-  AreaLight sphere = rect;
-  sphere.shape = LightShape::Sphere;
-  sphere.radius = 0.4f;
-  AreaLight ellipsoid = penumbra::testing::ellipsoid_light_down({0.2f, 2.0f, 0.1f}, {0.6f, 0.3f, 0.2f});
-  for (const AreaLight& light : {rect, disk, sphere, ellipsoid}) {
+  for (const AreaLight& light : penumbra::testing::every_light_shape({0.2f, 2.0f, 0.1f})) {
     Scene s = penumbra::testing::ground_scene(casters, light, 40);
     s.source = std::string("light shape ") + to_string(light.shape);
     expect_reference_matches(s, 16);
@@ -265,6 +257,39 @@ TEST_F(GpuFrame, ARenderOverTheGpusMemoryIsRefusedUpFront) {
   big.camera.width = big.camera.height = 16384;
   big.camera.samples_per_pixel = 64;
   EXPECT_THROW(Renderer(big, settings), Error);
+}
+
+TEST_F(GpuFrame, TheUpFrontEstimateCoversWhatARenderHolds) {
+  gpu::unit_circle_buffer(device());  // held once per device for the whole process
+  // Each method with its parameters (maps smaller than the defaults: lavapipe is slow).
+  const std::vector<std::pair<std::string, std::vector<std::string>>> methods = {
+      {"reference", {}}, {"hard", {}}, {"shadow-map", {}}, {"pcss", {}},
+      {"vsm", {"resolution=256"}}, {"evsm", {"resolution=256", "prefilter=mipmap"}}, {"msm", {"resolution=256"}},
+      {"occlusion-textures", {"resolution=256"}}, {"rt-denoised", {}}};
+  for (const auto& spec : methods) {
+    const std::string& method = spec.first;
+    for (const char* name : {"bunny", "foliage"}) {
+      Scene scene = suite_scene(name, 48);
+      scene.camera.samples_per_pixel = 2;
+      RenderSettings settings;
+      settings.method = method;
+      settings.params = spec.second;
+      settings.light_samples = 8;
+      settings.frames = 2;
+      settings.device = gpu::DeviceChoice::parse("gpu");
+      const uint64_t before = device().allocated_bytes();
+      const GpuMemoryEstimate estimate = estimate_gpu_render_memory(scene, settings);
+      {
+        Renderer r(scene, settings);
+        r.render();
+        const uint64_t held = device().allocated_bytes() - before;
+        EXPECT_LE(held, estimate.total()) << method << " on " << name << ": holds " << held << " bytes, estimated "
+                                          << estimate.total();
+        EXPECT_GT(held, estimate.total() / 20) << method << " on " << name << ": the estimate is far off";
+      }
+      EXPECT_EQ(device().allocated_bytes(), before) << method << ": a render's buffers outlive it";
+    }
+  }
 }
 
 TEST_F(GpuFrame, AFailedVulkanCallIsAnErrorAndTheDeviceStaysUsable) {

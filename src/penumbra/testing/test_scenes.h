@@ -62,6 +62,19 @@ inline AreaLight ellipsoid_light_down(Vec3f center, Vec3f radii, Vec3f radiance 
   return l;
 }
 
+// One light of each shape around `center` (a rect, a disk, a sphere and an ellipsoid, all facing
+// down), about a unit across: for tests that must hold for every light shape.
+inline std::vector<AreaLight> every_light_shape(Vec3f center) {
+  AreaLight rect = rect_light_down(center, 1.2f, 0.7f);
+  AreaLight disk = rect;
+  disk.shape = LightShape::Disk;
+  disk.radius = 0.5f;
+  AreaLight sphere = rect;
+  sphere.shape = LightShape::Sphere;
+  sphere.radius = 0.4f;
+  return {rect, disk, sphere, ellipsoid_light_down(center, {0.6f, 0.3f, 0.2f})};
+}
+
 // A camera straight above the origin looking down at the ground (image x = world x,
 // image rows = world +z going down the image).
 inline Camera top_camera(int res, float height = 4.0f, float fov = 60.0f) {

@@ -1,5 +1,7 @@
 #include "penumbra/viewer/viewer_requests.h"
 
+#include "penumbra/shadow/gpu_method.h"
+
 #include <cerrno>
 #include <cstdlib>
 
@@ -28,7 +30,7 @@ namespace {
 
 constexpr const char* kSettingsContext = "POST /api/settings";
 
-std::string method_name(const JsonValue& v, bool allow_auto, bool allow_none) {
+std::string method_name(const JsonValue& v, bool allow_auto, bool allow_none, bool gpu = false) {
   std::string name = v.string();
   if ((allow_auto && name == "auto") || (allow_none && name.empty())) return name;
   if (!MethodRegistry::find(name)) {
@@ -36,18 +38,22 @@ std::string method_name(const JsonValue& v, bool allow_auto, bool allow_none) {
     for (const MethodInfo* m : MethodRegistry::all()) known += (known.empty() ? "" : ", ") + m->name;
     v.fail(fmt::format("unknown shadow method '{}' (known: {}{})", name, allow_auto ? "auto, " : "", known));
   }
+  // A session on a GPU renders every frame there.
+  if (gpu && !find_gpu_method(name))
+    v.fail(fmt::format("{} has no GPU version yet, and this viewer renders on the GPU (penumbra view --device cpu)",
+                       name));
   return name;
 }
 
 }  // namespace
 
-ViewerSettings apply_settings(const ViewerSettings& current, const json& body, const Scene& scene) {
+ViewerSettings apply_settings(const ViewerSettings& current, const json& body, const Scene& scene, bool gpu) {
   JsonValue v(body, kSettingsContext);
   v.expect_object({"preview", "final", "compare", "spp", "frames", "params", "preview_scale", "heatmap_scale"});
   ViewerSettings s = current;
-  if (v.has("preview")) s.preview = method_name(v["preview"], /*allow_auto=*/true, false);
-  if (v.has("final")) s.final_method = method_name(v["final"], false, false);
-  if (v.has("compare")) s.compare = method_name(v["compare"], false, /*allow_none=*/true);
+  if (v.has("preview")) s.preview = method_name(v["preview"], /*allow_auto=*/true, false, gpu);
+  if (v.has("final")) s.final_method = method_name(v["final"], false, false, gpu);
+  if (v.has("compare")) s.compare = method_name(v["compare"], false, /*allow_none=*/true, gpu);
   if (v.has("spp")) s.spp = v["spp"].integer(1, 1 << 20);
   if (v.has("frames")) s.frames = v["frames"].integer(1, 100000);
   if (v.has("preview_scale")) {

@@ -33,8 +33,10 @@ struct ViewerSettings {
 
 // The settings after applying `body` (a JSON object with any of ViewerSettings' keys) to
 // `current`. Method names must be registered, and every method's parameters in "params"
-// must be accepted by the method's table (resolve_method_params with `scene`'s own table).
-ViewerSettings apply_settings(const ViewerSettings& current, const nlohmann::json& body, const Scene& scene);
+// must be accepted by the method's table (resolve_method_params with `scene`'s own table). On a
+// GPU session (`gpu`) the methods must have a GPU version.
+ViewerSettings apply_settings(const ViewerSettings& current, const nlohmann::json& body, const Scene& scene,
+                              bool gpu = false);
 
 // The scene's "methods" table with the settings' parameters merged over it (what a render
 // of the viewer uses, and what a saved scene file holds).

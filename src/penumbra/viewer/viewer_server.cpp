@@ -139,8 +139,8 @@ ViewerServer::ViewerServer(ViewerSession& session, ServerOptions options)
       res.set_header("Content-Disposition", fmt::format("attachment; filename=\"{}\"", name));
     });
   });
-  svr.Get("/api/methods", [](const httplib::Request&, httplib::Response& res) {
-    guarded(res, [&] { json_answer(res, 200, ViewerSession::methods_json()); });
+  svr.Get("/api/methods", [&session](const httplib::Request&, httplib::Response& res) {
+    guarded(res, [&] { json_answer(res, 200, session.methods_json()); });
   });
   svr.Get("/api/state", [&session](const httplib::Request&, httplib::Response& res) {
     guarded(res, [&] { json_answer(res, 200, session.state()); });

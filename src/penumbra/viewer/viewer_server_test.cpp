@@ -22,6 +22,8 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/viewer/viewer_server.h"
+#include "penumbra/gpu/gpu_test_util.h"
+#include "penumbra/shadow/gpu_method.h"
 
 namespace penumbra::viewer {
 namespace {
@@ -342,8 +344,9 @@ TEST_F(Viewer, ThePageAndTheMethodTableAreServed) {
 }
 
 // agrawala2000's workflow: a preview of the first view, then the final method refining to
-// the frame `--frames K` gives; a light move previews with occlusion-textures; once lam's
-// maps exist, a camera move previews with lam.
+// the frame `--frames K` gives; while the view is still, the auto preview measures every method
+// on the session's device (preview_choice.h); a light move then previews with the method of
+// least error whose measured time fits the frame-time target, and the frame says so.
 TEST_F(Viewer, PreviewsWhileMovingAndRefinesToTheFramesRenderWhenStill) {
   SessionOptions options;
   // A poll gets the latest frame of each layer: the final frames of this tiny scene would
@@ -368,25 +371,49 @@ TEST_F(Viewer, PreviewsWhileMovingAndRefinesToTheFramesRenderWhenStill) {
     worst = std::max(worst, std::abs(int(static_cast<unsigned char>(done.pixels[offset + i])) - int(expected[i])));
   EXPECT_LE(worst, 1);
 
-  // A light move: the preview is occlusion-textures', then the final frames follow.
+  // Still: every method is measured against the refined frame (or marked failed).
+  json calibration;
+  const auto end = Clock::now() + std::chrono::seconds(120);
+  while (Clock::now() < end) {
+    const json st = json::parse(get("/api/state")->body);
+    if (st["status"]["phase"] == "done" && st["status"].contains("calibration")) {
+      calibration = st["status"]["calibration"];
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(calibration.is_object()) << "the auto preview did not finish measuring";
+  EXPECT_EQ(calibration.size(), MethodRegistry::all().size());
+  // What the policy picks for a light move from those numbers.
+  std::string expected_choice;
+  double best = 1e300;
+  for (const auto& [name, m] : calibration.items()) {
+    if (m["failed"] || m["error"].is_null() || m["light_ms"].get<double>() > options.preview_target_ms) continue;
+    if (m["error"].get<double>() < best) best = m["error"].get<double>(), expected_choice = name;
+  }
+  ASSERT_FALSE(expected_choice.empty()) << calibration.dump();
+
+  // A light move: the preview is that method's, and the frame names the choice and its time.
   ASSERT_EQ(post("/api/view", R"({"lights": [{"type": "rect", "center": [0.3, 2.4, 0.2], "normal": [0, -1, 0],
                                    "size": [0.8, 0.8], "radiance": [5, 5, 5]}]})")->status, 200);
   Poll preview = poll_until([](const Poll& p) { return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview"; });
-  EXPECT_EQ(preview.layer("main")["method"], "occlusion-textures");
+  const json layer = preview.layer("main");
+  EXPECT_EQ(layer["method"], expected_choice);
+  EXPECT_EQ(layer["auto"]["method"], expected_choice);
+  EXPECT_EQ(layer["auto"]["move"], "light");
+  EXPECT_EQ(layer["auto"]["ms"], calibration[expected_choice]["light_ms"]);
   poll_until([](const Poll& p) { return final_done(p); });
-  // lam's maps are built after the first final frame; then a camera move previews with lam.
-  ASSERT_EQ(post("/api/view", R"({"camera": {"eye": [0.3, 3, 2.9]}})")->status, 200);
-  Poll camera = poll_until([](const Poll& p) { return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview"; });
-  EXPECT_EQ(camera.layer("main")["method"], "lam");
   // A chosen preview method is used whatever moved.
   ASSERT_EQ(post("/api/settings", R"({"preview": "pcss"})")->status, 200);
   ASSERT_EQ(post("/api/view", R"({"camera": {"eye": [0.2, 3, 2.9]}})")->status, 200);
   Poll chosen = poll_until([](const Poll& p) { return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview"; });
   EXPECT_EQ(chosen.layer("main")["method"], "pcss");
+  EXPECT_TRUE(chosen.layer("main")["auto"].is_null());
 }
 
-// `penumbra view --map-cache DIR`: lam's maps, built once the view is still, land in the
-// folder, and a second session with the same scene reads them back instead of building them.
+// `penumbra view --map-cache DIR`: lam's maps, built once the view is still (the auto preview
+// measures lam then), land in the folder, and a second session with the same scene reads them
+// back instead of building them.
 TEST_F(Viewer, MapCacheKeepsLamsMapsBetweenSessions) {
   SessionOptions options;
   options.map_cache = dir_ / "maps";
@@ -398,20 +425,25 @@ TEST_F(Viewer, MapCacheKeepsLamsMapsBetweenSessions) {
     for (const auto& e : fs::directory_iterator(options.map_cache)) n += e.path().extension() == ".map";
     return n;
   };
-  const auto end = Clock::now() + std::chrono::seconds(60);
-  while (entries() == 0 && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  auto measured = [&](const std::string& method) {
+    const json st = json::parse(get("/api/state")->body);
+    return st["status"].contains("calibration") && st["status"]["calibration"].contains(method);
+  };
+  auto end = Clock::now() + std::chrono::seconds(120);
+  while (!(entries() > 0 && measured("lam")) && Clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   ASSERT_EQ(entries(), 1);
   const auto written = fs::last_write_time(*fs::directory_iterator(options.map_cache));
   server_.reset();
   session_.reset();
   seq_ = 0;  // the new session counts its frames from the start
-  // The second session: the camera preview's first frame uses lam's maps read from the folder.
+  // The second session measures lam again: from the maps in the folder, not rebuilt.
   start(options);
   ASSERT_EQ(post("/api/settings", R"({"spp": 4})")->status, 200);
   poll_until([](const Poll& p) { return final_done(p); });
-  ASSERT_EQ(post("/api/view", R"({"camera": {"eye": [0.3, 3, 2.9]}})")->status, 200);
-  Poll camera = poll_until([](const Poll& p) { return !p.layer("main").is_null() && p.layer("main")["kind"] == "preview"; });
-  EXPECT_EQ(camera.layer("main")["method"], "lam");
+  end = Clock::now() + std::chrono::seconds(120);
+  while (!measured("lam") && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_TRUE(measured("lam"));
   EXPECT_EQ(entries(), 1);
   EXPECT_EQ(fs::last_write_time(*fs::directory_iterator(options.map_cache)), written);  // read, not rewritten
 }
@@ -483,6 +515,61 @@ TEST_F(Viewer, CompareGivesTheHeatMapAndMeanAbsoluteVisibilityError) {
   double sum = 0;
   for (size_t i = 0; i < va.pixel_count(); ++i) sum += std::abs(va.data()[i] - vb.data()[i]);
   EXPECT_NEAR(d["mean_dv"].get<double>(), sum / va.pixel_count(), 1e-4);
+}
+
+}  // namespace
+}  // namespace penumbra::viewer
+
+namespace penumbra::viewer {
+namespace {
+
+// `penumbra view --device gpu` (issue 30 part 2): every frame renders on the GPU, the state names
+// the device, the methods offered are those with a GPU version, and the auto preview measures
+// those on the GPU.
+class ViewerOnGpu : public gpu::testing::GpuTest {};
+
+TEST_F(ViewerOnGpu, ASessionOnTheGpuRendersThereAndOffersItsMethods) {
+  const json doc = json::parse(R"({
+    "camera": {"eye": [0, 3, 3], "target": [0, 0, 0], "fov_y": 40, "resolution": [32, 32]},
+    "lights": [{"type": "rect", "center": [-0.3, 2.5, 0.2], "normal": [0.1, -1, 0], "size": [0.8, 0.8],
+                "radiance": [5, 5, 5]}],
+    "objects": [{"name": "ground", "shape": "plane", "size": [6, 6]},
+                {"name": "box", "shape": "box", "size": [0.5, 0.5, 0.5], "translate": [0.5, 0.45, 0]}]
+  })");
+  SessionOptions options;
+  options.device = gpu::DeviceChoice::parse("gpu");
+  options.idle_ms = 50;
+  ViewerSession session(parse_scene(doc, "gpu-view.json"), doc, options);
+  EXPECT_EQ(session.state()["device"]["name"], device().info().name);
+  EXPECT_EQ(session.state()["device"]["choice"], "gpu");
+  for (const json& m : session.methods_json())
+    EXPECT_EQ(m["available"].get<bool>(), find_gpu_method(m["name"]) != nullptr) << m["name"];
+  // A method without a GPU version is refused in one line, and nothing changes.
+  try {
+    session.update_settings(json{{"final", "lam"}});
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("lam has no GPU version"), std::string::npos) << e.what();
+  }
+  session.update_settings(json{{"spp", 4}, {"frames", 2}});
+  // The final frames, then the auto preview's measurements: only GPU methods, on the GPU.
+  json calibration;
+  const auto end = Clock::now() + std::chrono::seconds(120);
+  while (Clock::now() < end) {
+    const json st = session.state();
+    if (st["status"]["phase"] == "done" && st["status"].contains("calibration")) {
+      calibration = st["status"]["calibration"];
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(calibration.is_object());
+  EXPECT_GT(session.counters().final_frames, 0u);
+  for (const auto& [name, m] : calibration.items()) {
+    EXPECT_NE(find_gpu_method(name), nullptr) << name << " measured on a GPU session";
+    EXPECT_FALSE(m["failed"].get<bool>()) << name;
+  }
+  EXPECT_TRUE(calibration.contains("reference"));
 }
 
 }  // namespace

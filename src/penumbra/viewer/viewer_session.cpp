@@ -1,5 +1,7 @@
 #include "penumbra/viewer/viewer_session.h"
 
+#include "penumbra/shadow/gpu_method.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -24,12 +26,30 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-// The auto preview's choices (docs/viewer.md): lam redisplays its layered attenuation maps
-// when only the camera moved (agrawala2000 §4); when a light moved they are stale, and
-// occlusion-textures rebuilds its light-space textures every frame at interactive cost
-// (eisemann2006 §4).
-constexpr const char* kCameraPreview = "lam";
-constexpr const char* kLightPreview = "occlusion-textures";
+// Every method that runs on `device`: the auto preview's candidates (preview_choice.h).
+std::vector<std::string> methods_on(const gpu::DeviceChoice& device) {
+  std::vector<std::string> out;
+  for (const MethodInfo* m : MethodRegistry::all())
+    if (!device.gpu || find_gpu_method(m->name)) out.push_back(m->name);
+  return out;
+}
+
+// `image` box-averaged down to w x h (a method's refined V to a calibration render's size).
+Image downsample(const Image& image, int w, int h) {
+  if (image.width() == w && image.height() == h) return image;
+  Image out(w, h, image.channels(), 0.0f);
+  std::vector<float> count(static_cast<size_t>(w) * h, 0.0f);
+  for (int y = 0; y < image.height(); ++y)
+    for (int x = 0; x < image.width(); ++x) {
+      const int ox = std::min(w - 1, x * w / image.width()), oy = std::min(h - 1, y * h / image.height());
+      const size_t o = static_cast<size_t>(oy) * w + ox;
+      for (int c = 0; c < image.channels(); ++c) out.pixel(o)[c] += image.pixel(static_cast<size_t>(y) * image.width() + x)[c];
+      count[o] += 1;
+    }
+  for (size_t i = 0; i < count.size(); ++i)
+    for (int c = 0; c < out.channels(); ++c) out.pixel(i)[c] /= std::max(1.0f, count[i]);
+  return out;
+}
 
 json bounds_json(const Bounds3f& b) {
   if (b.empty()) return {{"min", {0, 0, 0}}, {"max", {0, 0, 0}}};
@@ -70,8 +90,11 @@ ViewerSession::ViewerSession(Scene scene, json scene_doc, SessionOptions options
       doc_(std::move(scene_doc)),
       options_(options),
       bounds_(scene_.bounds()),
-      initial_view_(view_from_document(doc_, scene_)) {
+      initial_view_(view_from_document(doc_, scene_)),
+      chooser_(methods_on(options.device), options.preview_target_ms) {
   view_ = initial_view_;
+  // The device opens now: a bad one (`--device gpu:7`) is the command line's one-line error.
+  if (options_.device.gpu) device_name_ = gpu::Device::get(options_.device).info().name;
   last_change_ = Clock::now();
   refine_requested_ = true;  // the first frame: nothing moves yet
   pending_preview_ = true;
@@ -123,9 +146,11 @@ std::string ViewerSession::scene_file_name() const {
   return (stem.empty() ? std::string("scene") : stem) + "-view.json";
 }
 
-json ViewerSession::methods_json() {
+json ViewerSession::methods_json() const {
   json out = json::array();
   for (const MethodInfo* m : MethodRegistry::all()) {
+    const bool gpu = find_gpu_method(m->name) != nullptr;
+    json devices = gpu ? json{"cpu", "gpu"} : json{"cpu"};
     json params = json::array();
     for (const ParamSpec& p : m->params) {
       json spec = {{"name", p.name}, {"type", to_string(p.type)}, {"default", p.default_value},
@@ -136,6 +161,7 @@ json ViewerSession::methods_json() {
       params.push_back(std::move(spec));
     }
     out.push_back({{"name", m->name}, {"description", m->description}, {"samples_light", m->samples_light},
+                   {"devices", std::move(devices)}, {"available", !options_.device.gpu || gpu},
                    {"params", std::move(params)}});
   }
   return out;
@@ -146,6 +172,7 @@ json ViewerSession::state() const {
   json status = status_;
   status["cancelled"] = counters_.cancelled;
   return {{"generation", generation_},
+          {"device", {{"choice", options_.device.to_string()}, {"name", device_name_}}},
           {"camera", view_.resolved_camera()},
           {"lights", view_.resolved_lights()},
           {"bounds", bounds_json(bounds_)},
@@ -157,7 +184,8 @@ json ViewerSession::state() const {
             {"final_frames", counters_.final_frames},
             {"compare_frames", counters_.compare_frames},
             {"cancelled", counters_.cancelled},
-            {"stale_dropped", counters_.stale_dropped}}}};
+            {"stale_dropped", counters_.stale_dropped},
+            {"calibrations", counters_.calibrations}}}};
 }
 
 ViewerSettings ViewerSession::settings() const {
@@ -195,8 +223,12 @@ uint64_t ViewerSession::update_view(const json& patch) {
 
 json ViewerSession::update_settings(const json& body) {
   std::unique_lock<std::mutex> lock(mutex_);
-  ViewerSettings next = apply_settings(settings_, body, scene_);
+  ViewerSettings next = apply_settings(settings_, body, scene_, options_.device.gpu);
   if (next.to_json() == settings_.to_json()) return settings_.to_json();
+  // The auto preview's errors were measured against the final method's frames: measure again
+  // against the new ones.
+  if (next.final_method != settings_.final_method || next.spp != settings_.spp || next.params != settings_.params)
+    reset_measurements_ = true;
   const bool preview_changed = next.preview != settings_.preview || next.preview_scale != settings_.preview_scale;
   settings_ = std::move(next);
   // No movement: the final method starts at once (a preview only shows a new preview choice).
@@ -317,6 +349,7 @@ FrameFile ViewerSession::render_frame(const FrameRequest& request) {
   settings.light_samples = request.spp;
   settings.seed = request.seed;
   settings.frames = request.frames;
+  settings.device = options_.device;  // the session's frames and this one on the same device
   RenderResult r;
   {
     std::lock_guard<std::mutex> render_lock(render_mutex_);
@@ -385,18 +418,21 @@ Renderer& ViewerSession::renderer(const std::string& method, const Snapshot& s) 
   const std::string key = renderer_key(method, s);
   auto it = renderers_.find(key);
   if (it == renderers_.end()) {
-    // Each holds a copy of the scene and its own Embree scene: keep those in use (the
-    // preview, lam, the final and compare methods) and drop the others.
+    // Each holds a copy of the scene and its own Embree (or GPU) scene: keep those in use (the
+    // preview setting, the auto preview's current choices, the final and compare methods) and
+    // drop the others.
     for (auto e = renderers_.begin(); e != renderers_.end();) {
       const std::string m = e->first.substr(0, e->first.find('|'));
-      const bool in_use = m == kCameraPreview || m == kLightPreview || m == s.settings.preview ||
+      const bool in_use = m == auto_camera_ || m == auto_light_ || m == s.settings.preview ||
                           m == s.settings.final_method || m == s.settings.compare;
       e = in_use && e->first == renderer_key(m, s) ? std::next(e) : renderers_.erase(e);
     }
     RenderSettings rs;
     rs.method = method;
     rs.light_samples = s.settings.spp;
-    rs.map_cache = options_.map_cache;
+    rs.device = options_.device;
+    // The map cache is the CPU's (lam's maps); a GPU render refuses it.
+    if (!options_.device.gpu) rs.map_cache = options_.map_cache;
     it = renderers_.emplace(key, std::make_unique<Renderer>(scene_for(s.settings, s.view), rs)).first;
   }
   Renderer& r = *it->second;
@@ -433,6 +469,16 @@ ViewerSession::Job ViewerSession::next_job(Clock::time_point now) {
     job.kind = JobKind::Compare;
     return job;
   }
+  // Idle with a refined view: measure the auto preview's next candidate against it.
+  if (reset_measurements_) {
+    chooser_.reset_errors();
+    calibrated_generation_ = 0;
+    reset_measurements_ = false;
+  }
+  if (settings_.preview == "auto" && calibrated_generation_ != generation_) {
+    job.kind = JobKind::Calibrate;
+    return job;
+  }
   status_["phase"] = "done";
   job.wake_at = Clock::time_point::max();
   return job;
@@ -459,6 +505,7 @@ void ViewerSession::run() {
         case JobKind::Preview: run_preview(s, job); break;
         case JobKind::Refine: run_accumulation(s, final_, s.settings.final_method, "main"); break;
         case JobKind::Compare: run_accumulation(s, compare_, s.settings.compare, "compare"); break;
+        case JobKind::Calibrate: run_calibration(s); break;
         case JobKind::None: break;
       }
     } catch (const Cancelled&) {
@@ -484,20 +531,33 @@ void ViewerSession::run() {
   frames_cv_.notify_all();
 }
 
+bool ViewerSession::renderer_ready(const std::string& m, const Snapshot& s) {
+  auto it = renderers_.find(renderer_key(m, s));
+  if (it == renderers_.end()) return false;
+  it->second->set_lights(s.view.parsed_lights);  // keeps the structures of unchanged lights
+  return it->second->prepared();
+}
+
 void ViewerSession::run_preview(const Snapshot& s, const Job& job) {
   std::string method = s.settings.preview;
+  json auto_status = nullptr;
   if (method == "auto") {
-    method = kLightPreview;
-    if (!job.lights_changed) {
-      // lam only if its maps are those of the current lights (set_lights keeps them then).
-      auto it = renderers_.find(renderer_key(kCameraPreview, s));
-      if (it != renderers_.end()) {
-        it->second->set_lights(s.view.parsed_lights);
-        if (it->second->prepared()) method = kCameraPreview;
-      }
-    }
+    // From the session's measurements on its device (preview_choice.h), never a fixed list.
+    auto ready = [&](const std::string& m) { return renderer_ready(m, s); };
+    const PreviewChooser::Choice light = chooser_.choose(true, ready, s.settings.final_method);
+    const PreviewChooser::Choice camera = chooser_.choose(false, ready, s.settings.final_method);
+    auto_light_ = light.method;
+    auto_camera_ = camera.method;
+    const PreviewChooser::Choice& c = job.lights_changed ? light : camera;
+    method = c.method;
+    auto_status = {{"method", c.method},
+                   {"move", job.lights_changed ? "light" : "camera"},
+                   {"ms", c.ms < 0 ? json(nullptr) : json(c.ms)},
+                   {"error", c.error < 0 ? json(nullptr) : json(c.error)},
+                   {"reason", c.reason}};
   }
-  set_status({{"phase", "preview"}, {"method", method}, {"frame", 0}, {"frames", 0}, {"error", ""}});
+  set_status({{"phase", "preview"}, {"method", method}, {"frame", 0}, {"frames", 0}, {"error", ""},
+              {"auto", auto_status}});
   float& scale = preview_scale_.try_emplace(method, 1.0f).first->second;
   const float used = s.settings.preview_scale > 0 ? s.settings.preview_scale : scale;
   Camera cam = s.view.parsed_camera;
@@ -516,8 +576,61 @@ void ViewerSession::run_preview(const Snapshot& s, const Job& job) {
   }
   publish("main", s.generation,
           {{"method", method}, {"kind", "preview"}, {"frame", 1}, {"frames", 1}, {"ms", ms},
-           {"scale", used}, {"light_samples", light_samples_json(method, s.settings.spp)}},
+           {"scale", used}, {"auto", auto_status}, {"light_samples", light_samples_json(method, s.settings.spp)}},
           res.color, &Counters::previews);
+}
+
+void ViewerSession::run_calibration(const Snapshot& s) {
+  // Against the final method's refined V of this very view (run_accumulation finished it).
+  if (final_.key != accumulation_key(s, s.settings.final_method) || final_.frames_done < s.settings.frames) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (s.generation == generation_) calibrated_generation_ = s.generation;
+    return;
+  }
+  const std::string method = chooser_.next_to_calibrate();
+  if (method.empty()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (s.generation == generation_) calibrated_generation_ = s.generation;
+    status_["calibration"] = chooser_.to_json();
+    return;
+  }
+  set_status({{"phase", "measuring"}, {"method", method}});
+  Camera cam = s.view.parsed_camera;
+  const float scale = std::min(1.0f, std::sqrt(static_cast<float>(options_.calibration_pixels) /
+                                               std::max(1, cam.width * cam.height)));
+  cam.width = std::max(16, static_cast<int>(std::lround(cam.width * scale)));
+  cam.height = std::max(16, static_cast<int>(std::lround(cam.height * scale)));
+  try {
+    // A renderer of its own: its first frame builds the light-space structures (a light move's
+    // cost), its second reuses them (a camera move's). It is kept for the previews after.
+    Scene scene = scene_for(s.settings, s.view);
+    scene.camera = cam;
+    RenderSettings rs;
+    rs.method = method;
+    rs.light_samples = s.settings.spp;
+    rs.device = options_.device;
+    if (!options_.device.gpu) rs.map_cache = options_.map_cache;  // lam's maps: read or written there
+    auto r = std::make_unique<Renderer>(scene, rs);
+    Timer t1;
+    r->render();
+    const double light_ms = t1.elapsed_ms();
+    Timer t2;
+    const RenderResult second = r->render();
+    const double camera_ms = t2.elapsed_ms();
+    const Image truth = downsample(final_.mean_visibility(), second.visibility.width(), second.visibility.height());
+    double sum = 0;
+    for (size_t i = 0; i < truth.data().size(); ++i) sum += std::abs(truth.data()[i] - second.visibility.data()[i]);
+    const double error = truth.data().empty() ? 0 : sum / static_cast<double>(truth.data().size());
+    chooser_.record_calibration(method, light_ms, camera_ms, error, scale);
+    renderers_[renderer_key(method, s)] = std::move(r);
+  } catch (const Interrupted&) {
+    throw;  // a newer view (the measurement starts over for the next) or Ctrl-C
+  } catch (const std::exception&) {
+    chooser_.record_failure(method);  // it cannot render this scene here: never chosen
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++counters_.calibrations;
+  status_["calibration"] = chooser_.to_json();
 }
 
 std::string ViewerSession::accumulation_key(const Snapshot& s, const std::string& method) const {
@@ -564,22 +677,6 @@ void ViewerSession::run_accumulation(const Snapshot& s, Accumulation& acc, const
     acc.last_ms = ms;
     publish(layer, s.generation, meta(ms), acc.mean_color(),
             is_final ? &Counters::final_frames : &Counters::compare_frames);
-    if (is_final && acc.frames_done == 1 && s.settings.preview == "auto") {
-      // Once a final frame is up, build lam's maps for these lights, so that the next camera
-      // move previews with lam (agrawala2000 §4: the maps are precomputed per light).
-      try {
-        Renderer& lam = renderer(kCameraPreview, s);
-        if (!lam.prepared()) {
-          set_status({{"phase", "preparing"}, {"method", kCameraPreview}});
-          lam.prepare();
-        }
-      } catch (const Interrupted&) {
-        throw;  // a newer view (or Ctrl-C)
-      } catch (const Error&) {
-        // lam cannot serve this scene (its memory budget, say): camera moves keep previewing
-        // with occlusion-textures, and the refinement goes on.
-      }
-    }
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -26,6 +26,7 @@
 #include "penumbra/core/interrupt.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/viewer/preview_choice.h"
 #include "penumbra/viewer/viewer_requests.h"
 
 namespace penumbra::viewer {
@@ -40,6 +41,11 @@ struct SessionOptions {
   // built once the view is still, are written there and read back by a later session with
   // the same geometry and lights, whose first camera move then previews at display cost.
   std::filesystem::path map_cache;
+  // Where every render of the session runs (`penumbra view --device`): the CPU or a GPU. The
+  // methods offered are those with a version on it.
+  gpu::DeviceChoice device;
+  // The most pixels the auto preview's candidates are measured at (the view scaled down to it).
+  int calibration_pixels = 128 * 128;
 };
 
 // One finished frame of the current view as an image file (GET /api/frame).
@@ -63,8 +69,8 @@ class ViewerSession {
   nlohmann::json scene_file_document() const;
   // The name a saved scene file is offered under: "<scene file's stem>-view.json".
   std::string scene_file_name() const;
-  // GET /api/methods.
-  static nlohmann::json methods_json();
+  // GET /api/methods: every method, with the devices it runs on and whether this session's does.
+  nlohmann::json methods_json() const;
   // GET /api/state: the view (camera and lights resolved: every default filled in, so the page
   // reads no key a scene file may leave out), the settings, the status and the counters.
   nlohmann::json state() const;
@@ -92,6 +98,7 @@ class ViewerSession {
     uint64_t compare_frames = 0;  // frames of the compare method published
     uint64_t cancelled = 0;       // renders stopped by a newer view, settings or frame request
     uint64_t stale_dropped = 0;   // finished frames of an old view, not published
+    uint64_t calibrations = 0;    // auto-preview candidates measured
   };
   Counters counters() const;
   uint64_t generation() const;
@@ -99,7 +106,7 @@ class ViewerSession {
   void stop();
 
  private:
-  enum class JobKind { None, Preview, Refine, Compare };
+  enum class JobKind { None, Preview, Refine, Compare, Calibrate };
   struct Job {
     JobKind kind = JobKind::None;
     std::chrono::steady_clock::time_point wake_at{};  // for None: when to look again (max: never)
@@ -129,6 +136,10 @@ class ViewerSession {
   void run();
   Job next_job(std::chrono::steady_clock::time_point now);  // with mutex_ held
   void run_preview(const Snapshot& s, const Job& job);
+  // Measures the next auto-preview candidate at this view (PreviewChooser).
+  void run_calibration(const Snapshot& s);
+  // Whether method m's renderer holds light-space structures for the snapshot's lights.
+  bool renderer_ready(const std::string& m, const Snapshot& s);
   void run_accumulation(const Snapshot& s, Accumulation& acc, const std::string& method, const char* layer);
   // What an accumulation of `method` depends on: the view, --spp and the method's parameters.
   std::string accumulation_key(const Snapshot& s, const std::string& method) const;
@@ -152,6 +163,7 @@ class ViewerSession {
   const SessionOptions options_;
   const Bounds3f bounds_;
   const ViewState initial_view_;
+  std::string device_name_ = "cpu";  // the device's name (a GPU's, from Vulkan)
 
   mutable std::mutex mutex_;  // everything below up to the render thread's own state
   std::condition_variable work_cv_, frames_cv_;
@@ -169,6 +181,11 @@ class ViewerSession {
   nlohmann::json status_;
   Counters counters_;
   uint64_t refined_generation_ = 0, compared_generation_ = 0;  // done (or failed) for these
+  uint64_t calibrated_generation_ = 0;  // no candidate left to measure at this generation
+  bool reset_measurements_ = false;      // the final method changed: its errors are stale
+  // The auto preview's measurements and choice (render thread; to_json copied to status_).
+  PreviewChooser chooser_;
+  std::string auto_camera_, auto_light_;  // its current choices: their renderers are kept
 
   std::mutex render_mutex_;  // one render at a time: the render thread's or /api/frame's
 

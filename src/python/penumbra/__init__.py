@@ -21,15 +21,17 @@ from ._penumbra import (  # noqa: F401  (the extension module, src/python/module
     Scene,
     _compare as _penumbra_compare,
     _sweep as _penumbra_sweep,
+    devices,
     load_scene,
+    method_devices,
     method_params,
     methods,
     read_exr,
     render,
 )
 
-__all__ = ["Error", "Scene", "RenderResult", "load_scene", "methods", "method_params", "render", "compare", "sweep",
-           "read_exr"]
+__all__ = ["Error", "Scene", "RenderResult", "load_scene", "methods", "method_params", "method_devices", "devices",
+           "render", "compare", "sweep", "read_exr"]
 
 
 def _scene_from_dict(d, base_path="."):
@@ -54,20 +56,21 @@ Scene.to_dict = _scene_to_dict
 
 
 def compare(scene, methods=("all",), spp=256, reference_spp=1024, seed=0, settings=(), runs=1,
-            equal_quality=False, cache_dir=""):
+            equal_quality=False, cache_dir="", device="cpu"):
     """Every method in `methods` against the reference (the ground truth) on `scene`: the
     results.json structure of `penumbra compare` as Python data. `settings` are the
-    command line's -p/--set keys ("light.size_scale=2", "pcss.variant=xie2007", ...)."""
+    command line's -p/--set keys ("light.size_scale=2", "pcss.variant=xie2007", ...).
+    device: where the methods render ("cpu", "gpu", "gpu:N"); an entry "NAME@gpu" picks its own."""
     if isinstance(scene, (str, _os.PathLike)):
         scene = load_scene(_os.fspath(scene))
     if isinstance(methods, str):
         methods = [methods]
     return _json.loads(_penumbra_compare(scene, list(methods), spp, reference_spp, seed, list(settings), runs,
-                                         equal_quality, _os.fspath(cache_dir)))
+                                         equal_quality, _os.fspath(cache_dir), device))
 
 
 def sweep(scene, key, values, methods=("all",), spp=256, reference_spp=1024, seed=0, settings=(), runs=1,
-          cache_dir=""):
+          cache_dir="", device="cpu"):
     """One settings key (as `penumbra sweep --param KEY=V1,V2,...`: "light.size_scale",
     "spp", "pcss.pcf_samples", ...) varied over `values`, a comparison per value: the
     sweep.json structure of `penumbra sweep` as Python data."""
@@ -76,4 +79,4 @@ def sweep(scene, key, values, methods=("all",), spp=256, reference_spp=1024, see
     if isinstance(methods, str):
         methods = [methods]
     return _json.loads(_penumbra_sweep(scene, key, [str(v) for v in values], list(methods), spp, reference_spp, seed,
-                                       list(settings), runs, _os.fspath(cache_dir)))
+                                       list(settings), runs, _os.fspath(cache_dir), device))

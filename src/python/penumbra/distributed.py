@@ -190,6 +190,7 @@ def _job_truth(setup, payload, cache_dir, timed):
 
 @_locked
 def _job_method(setup, payload, label, runs, warmup_runs, keep_images):
+    _require_device(_penumbra._method_device(setup, label))
     setup, scene = _scene(setup, payload)
     return _penumbra._compare_method(setup, scene, label, runs, warmup_runs, keep_images, _worker_threads())
 
@@ -207,13 +208,14 @@ def _job_ladder(setup, payload, truth, entries, runs, warmup_runs, cache_dir):
 
 
 @_locked
-def _job_tile(setup, payload, method, spp, seed, params, frames, crop):
-    key = json.dumps([setup, payload["digest"] if payload else None, method, spp, seed, params, frames],
+def _job_tile(setup, payload, method, spp, seed, params, frames, crop, device="cpu"):
+    _require_device(device)
+    key = json.dumps([setup, payload["digest"] if payload else None, method, spp, seed, params, frames, device],
                      sort_keys=True)
     renderer = _FRAME_RENDERERS.pop(key, None)
     if renderer is None:
         _, scene = _scene(setup, payload)
-        renderer = _penumbra._FrameRenderer(scene, method, spp, seed, params, _worker_threads(), frames)
+        renderer = _penumbra._FrameRenderer(scene, method, spp, seed, params, _worker_threads(), frames, device)
     _FRAME_RENDERERS[key] = renderer  # the most recent last
     while len(_FRAME_RENDERERS) > _FRAME_RENDERERS_KEPT:
         _FRAME_RENDERERS.popitem(last=False)
@@ -233,12 +235,33 @@ def _client(client):
     return client
 
 
-def _setup_of(scene, spp, reference_spp, seed, settings):
+def _setup_of(scene, spp, reference_spp, seed, settings, device="cpu"):
     if isinstance(scene, (str, os.PathLike)):
         scene = load_scene(os.fspath(scene))
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a penumbra.Scene or a path, got {type(scene).__name__}")
-    return _penumbra._run_setup(scene, spp, reference_spp, seed, [str(s) for s in settings])
+    return _penumbra._run_setup(scene, spp, reference_spp, seed, [str(s) for s in settings], device)
+
+
+def _require_device(device):
+    """On a worker, before a GPU job: a usable Vulkan device, or one line naming the worker."""
+    if device == "cpu":
+        return
+    try:
+        usable = [d for d in _penumbra.devices() if d["usable"]]
+    except Error as e:  # no Vulkan loader at all
+        usable, why = [], str(e)
+    else:
+        why = "no usable Vulkan device"
+    index = int(device.split(":")[1]) if ":" in device else None
+    if not usable or (index is not None and not any(d["device"] == device for d in usable)):
+        try:
+            from distributed import get_worker
+            where = f"worker {get_worker().address}"
+        except (ImportError, ValueError):
+            where = "this worker"
+        raise Error(f"{where} cannot run a --device {device} job: {why} (run GPU jobs on workers with a GPU, "
+                    f"or use --device cpu)")
 
 
 def _report(progress, done, total, what):
@@ -326,14 +349,14 @@ def _compare_setup(client, setup, methods, ground_truth=True, runs=1, warmup_run
 
 
 def compare(client, scene, methods=("all",), spp=256, reference_spp=1024, seed=0, settings=(), runs=1, warmup_runs=0,
-            equal_quality=True, cache_dir="", meshes="ship", output=None, progress=False):
+            equal_quality=True, cache_dir="", meshes="ship", output=None, progress=False, device="cpu"):
     """penumbra.compare on a cluster: the ground truth rendered once and shared, a job per
     method, the reference ladder; returns the results.json structure (the same numbers as a
     local compare, times apart) and, with `output`, writes `penumbra compare`'s report there.
     `client`: a dask.distributed.Client or a scheduler address."""
     if isinstance(methods, str):
         methods = [methods]
-    setup = _setup_of(scene, spp, reference_spp, seed, settings)
+    setup = _setup_of(scene, spp, reference_spp, seed, settings, device)
     return _compare_setup(client, setup, methods, True, runs, warmup_runs, equal_quality, os.fspath(cache_dir),
                           meshes, output, progress=progress)
 
@@ -368,12 +391,13 @@ def _sweep_setup(client, setup, key, values, methods, ground_truth=True, runs=1,
 
 
 def sweep(client, scene, key, values, methods=("all",), spp=256, reference_spp=1024, seed=0, settings=(), runs=1,
-          warmup_runs=0, ground_truth=True, cache_dir="", meshes="ship", output=None, plots=(), progress=False):
+          warmup_runs=0, ground_truth=True, cache_dir="", meshes="ship", output=None, plots=(), progress=False,
+          device="cpu"):
     """penumbra.sweep on a cluster: every value's comparison as jobs, all at once; returns the
     sweep.json structure and, with `output`, writes sweep.csv, sweep.json and the plots there."""
     if isinstance(methods, str):
         methods = [methods]
-    setup = _setup_of(scene, spp, reference_spp, seed, settings)
+    setup = _setup_of(scene, spp, reference_spp, seed, settings, device)
     return _sweep_setup(client, setup, key, values, methods, ground_truth, runs, warmup_runs, os.fspath(cache_dir),
                         meshes, output, plots, progress=progress)
 
@@ -415,7 +439,7 @@ def _merge_stats(stats, width, height, tile, wall_ms):
 
 
 def _render_setup(client, setup, method="reference", spp=256, seed=0, params=None, frames=1, tile=256,
-                  meshes="ship", progress=False):
+                  meshes="ship", progress=False, device="cpu"):
     started = time.monotonic()
     client = _client(client)
     if not isinstance(tile, int) or tile < 1 or tile > 16384:
@@ -429,8 +453,8 @@ def _render_setup(client, setup, method="reference", spp=256, seed=0, params=Non
     if not _penumbra._tile_exact(method):
         tile = max(width, height)
     tiles = list(_tiles(width, height, tile))
-    futures = [client.submit(_job_tile, job_setup, payload, method, spp, seed, params, frames, crop, pure=False,
-                             retries=RETRIES) for crop in tiles]
+    futures = [client.submit(_job_tile, job_setup, payload, method, spp, seed, params, frames, crop, device,
+                             pure=False, retries=RETRIES) for crop in tiles]
     _wait(client, futures, "render", progress)
     color = np.zeros((height, width, 3), np.float32)
     visibility = np.ones((height, width), np.float32)
@@ -445,15 +469,17 @@ def _render_setup(client, setup, method="reference", spp=256, seed=0, params=Non
 
 
 def render(client, scene, method="reference", spp=256, resolution=None, seed=0, params=None, frames=1, tile=256,
-           meshes="ship", progress=False):
+           meshes="ship", progress=False, device="cpu"):
     """penumbra.render on a cluster, one job per `tile` x `tile` pixels: the same pixels as
-    penumbra.render(scene, method, spp, resolution, seed, params, frames=frames), bit for bit."""
+    penumbra.render(scene, method, spp, resolution, seed, params, frames=frames, device=device), bit
+    for bit. device='gpu': every tile on its worker's GPU; a worker without one refuses the job with
+    one line naming it."""
     settings = []
     if resolution is not None:
         w, h = resolution
         settings.append(f"resolution={int(w)}x{int(h)}")
-    setup = _setup_of(scene, spp, spp, seed, settings)
-    return _render_setup(client, setup, method, spp, seed, params, frames, tile, meshes, progress)
+    setup = _setup_of(scene, spp, spp, seed, settings, device)
+    return _render_setup(client, setup, method, spp, seed, params, frames, tile, meshes, progress, device)
 
 
 # --- `penumbra compare|sweep|render --dask ADDRESS` -------------------------------------------
@@ -477,7 +503,7 @@ def _run_request(request):
     elif command == "render":
         params = dict(kv.split("=", 1) for kv in request["params"])
         r = _render_setup(client, setup, request["method"], request["spp"], request["seed"], params,
-                          request["frames"], request["tile"], meshes, progress)
+                          request["frames"], request["tile"], meshes, progress, request.get("device", "cpu"))
         _penumbra._write_frame(request["frame_out"], r.color, r.visibility)
         with open(request["stats_out"], "w") as f:
             json.dump(r.stats, f)

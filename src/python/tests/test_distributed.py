@@ -215,3 +215,22 @@ def test_sigterm_stops_the_command_line_and_its_cluster_client(cluster, scene_fi
     assert not out.exists()
     # The tiles already running finish on their workers; the cluster serves the next client.
     client.wait_for_workers(2, timeout=60)
+
+
+def test_gpu_tiles_on_the_cluster_are_the_local_gpu_render(cluster, scene_file):
+    _, client = cluster
+    local = penumbra.render(penumbra.load_scene(str(scene_file)), "reference", spp=4, seed=1, device="gpu")
+    tiled = pd.render(client, str(scene_file), "reference", spp=4, seed=1, tile=16, device="gpu")
+    assert np.array_equal(tiled.visibility, local.visibility)
+    assert np.array_equal(tiled.color, local.color)
+
+
+def test_a_worker_without_a_gpu_refuses_a_gpu_job(scene_file):
+    from distributed import Client, LocalCluster
+    # A worker whose Vulkan loader finds no driver (VK_DRIVER_FILES names none): no device.
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=40, env={"VK_DRIVER_FILES": "/nonexistent/icd.json"}) as c, Client(c) as client:
+        with pytest.raises(penumbra.Error, match=r"cannot run a --device gpu job"):
+            pd.render(client, str(scene_file), "hard", tile=64, device="gpu")
+        # The same worker still renders on its CPU.
+        assert pd.render(client, str(scene_file), "hard", tile=64).visibility.shape == (36, 48)

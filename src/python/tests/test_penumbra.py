@@ -162,3 +162,51 @@ def test_sweep_returns_the_sweep_json_structure():
     assert all(r["method"] == "pcss" for r in rows)
     with pytest.raises(ValueError, match="no_such_key"):
         penumbra.sweep(scene, "no_such_key", [1], methods=["hard"])
+
+
+# --- The GPU (docs/gpu.md; issue 30 part 3): on this machine's Vulkan device (lavapipe in CI).
+
+def test_devices_and_what_runs_where():
+    devices = penumbra.devices()
+    assert devices and devices[0]["device"] == "gpu:0"
+    assert any(d["usable"] for d in devices)
+    assert all(d["subgroup_size"] > 0 for d in devices if d["usable"])
+    assert penumbra.method_devices("reference") == ["cpu", "gpu"]
+    assert penumbra.method_devices("lam")[0] == "cpu"
+    with pytest.raises(penumbra.Error, match="unknown shadow method"):
+        penumbra.method_devices("no-such-method")
+
+
+def test_render_on_the_gpu_gives_the_cpus_picture(tmp_path):
+    scene = penumbra.Scene.from_dict(TINY)
+    for method, spp in [("hard", 1), ("reference", 8)]:
+        cpu = penumbra.render(scene, method, spp=spp, seed=2)
+        gpu = penumbra.render(scene, method, spp=spp, seed=2, device="gpu")
+        assert gpu.stats["device"] != "cpu" and "gpu_ms" in gpu.stats
+        assert np.abs(cpu.visibility - gpu.visibility).mean() <= 1e-3, method
+    # The same pixels as `penumbra render --device gpu`.
+    import json
+    path = tmp_path / "tiny.json"
+    path.write_text(json.dumps(TINY))
+    out = tmp_path / "gpu.exr"
+    subprocess.run([CLI, "render", str(path), "-m", "reference", "--spp", "8", "--seed", "2", "--device", "gpu",
+                    "-o", str(out), "-q"], check=True)
+    r = penumbra.render(scene, "reference", spp=8, seed=2, device="gpu")
+    assert np.array_equal(r.visibility, penumbra.read_exr(str(out), "V"))
+    # Bad devices and CPU-only methods: penumbra.Error with the command line's line.
+    with pytest.raises(penumbra.Error, match="expected cpu, gpu or gpu:N"):
+        penumbra.render(scene, "hard", device="tpu")
+    with pytest.raises(penumbra.Error, match="this machine has"):
+        penumbra.render(scene, "hard", device="gpu:97")
+    with pytest.raises(penumbra.Error, match="lam has no GPU version"):
+        penumbra.render(scene, "lam", device="gpu")
+
+
+def test_compare_puts_cpu_and_gpu_versions_side_by_side():
+    scene = penumbra.Scene.from_dict(TINY)
+    r = penumbra.compare(scene, ["hard", "hard@gpu"], spp=4, reference_spp=16)
+    rows = {m["method"]: m for m in r["methods"]}
+    assert rows["hard"]["ok"] and rows["hard@gpu"]["ok"]
+    assert abs(rows["hard"]["v_mae"] - rows["hard@gpu"]["v_mae"]) <= 1e-3
+    r = penumbra.compare(scene, ["hard"], spp=4, reference_spp=16, device="gpu")
+    assert r["methods"][0]["ok"]

@@ -1,9 +1,11 @@
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 
 #include "penumbra/core/error.h"
+#include "penumbra/gpu/raster/raster_capacities_testing.h"
 #include "penumbra/gpu/raster/raster_layout_shared.h"
 
 namespace penumbra::gpu {
@@ -30,7 +32,31 @@ uint64_t initial_items(uint64_t triangles, int width, int height) {
 // Room for `needed` with a margin, so a scene that grows a little does not retry every frame.
 uint64_t grown(uint64_t needed) { return needed + needed / 4 + 64; }
 
+// RasterCapacitiesForTesting's state: the first capacities of new rasterizers while one lives.
+struct TestingCapacities {
+  std::atomic<bool> active{false};
+  uint32_t triangles = 0, items = 0;
+  std::atomic<int> retries{0};
+};
+TestingCapacities& testing_capacities() {
+  static TestingCapacities t;
+  return t;
+}
+
 }  // namespace
+
+RasterCapacitiesForTesting::RasterCapacitiesForTesting(uint32_t triangles, uint32_t items) {
+  TestingCapacities& t = testing_capacities();
+  if (t.active) throw Error("RasterCapacitiesForTesting: one is already in force");
+  t.triangles = triangles;
+  t.items = items;
+  t.retries = 0;
+  t.active = true;
+}
+
+RasterCapacitiesForTesting::~RasterCapacitiesForTesting() { testing_capacities().active = false; }
+
+int RasterCapacitiesForTesting::retries() const { return testing_capacities().retries; }
 
 void GpuDepthMap::resize(Device& device, int w, int h) {
   if (w == width_ && h == height_ && !keys_.empty()) return;
@@ -40,6 +66,7 @@ void GpuDepthMap::resize(Device& device, int w, int h) {
   depth_ = Buffer(device, n * 4, "a depth map's window depths");
   opacity_ = Buffer(device, n * 4, "a depth map's opacities");
   triangle_ = Buffer(device, n * 4, "a depth map's triangles");
+  if (view_record_.empty()) view_record_ = Buffer(device, sizeof(shader::RasterView), "a depth map's view");
   width_ = w;
   height_ = h;
 }
@@ -67,6 +94,8 @@ uint64_t GpuDepthMap::bytes(int w, int h) {
 
 GpuRasterizer::GpuRasterizer(Device& device) : device_(&device) {
   state_ = Buffer(device, sizeof(GpuRasterState), "the rasterizer's counters");
+  const TestingCapacities& t = testing_capacities();
+  if (t.active) set_capacities_for_testing(t.triangles, t.items);
 }
 
 uint64_t GpuRasterizer::scratch_bytes(uint64_t triangles, int width, int height) {
@@ -97,65 +126,6 @@ void GpuRasterizer::ensure_capacity(uint64_t triangles, uint64_t items) {
   }
 }
 
-void GpuRasterizer::begin(const GpuScene& scene, const LightView& view, Buffer& view_record) {
-  const uint64_t triangles = scene.triangle_count();
-  if (triangle_capacity_ == 0 || item_capacity_ == 0)
-    ensure_capacity(std::min(kMaxCapacity, initial_triangles(triangles)),
-                    std::min(kMaxCapacity, initial_items(triangles, view.width(), view.height())));
-  if (view_record.empty()) view_record = Buffer(*device_, sizeof(shader::RasterView), "a map's view");
-  const shader::RasterView record = view.shared();
-  view_record.upload(&record, sizeof(record));
-  stats_ = {};
-  stats_.triangles = triangles;
-  attempts_ = 0;
-}
-
-shader::RasterFillParams GpuRasterizer::record_setup(CommandList& cl, const GpuScene& scene, const Buffer& view_record,
-                                                     const RasterFilter& filter) {
-  const uint64_t triangles = scene.triangle_count();
-  cl.fill(state_, 0);
-  cl.fill(state_, kEmptyWord, offsetof(GpuRasterState, z_min_bits), 4);
-  shader::RasterSetupParams sp{};
-  sp.scene = scene.address();
-  sp.view = view_record.address();
-  sp.state = state_.address();
-  sp.triangles = triangles_.address();
-  sp.items = items_.address();
-  sp.triangle_count = static_cast<uint32_t>(triangles);
-  sp.triangle_capacity = triangle_capacity_;
-  sp.item_capacity = item_capacity_;
-  sp.culling = filter.culling == FaceCulling::None ? 0u : filter.culling == FaceCulling::Back ? 1u : 2u;
-  sp.opaque_only = filter.opaque_only ? 1u : 0u;
-  cl.dispatch("raster_setup", triangles, sp);
-  shader::RasterFillParams fp{};
-  fp.scene = scene.address();
-  fp.view = view_record.address();
-  fp.state = state_.address();
-  fp.triangles = triangles_.address();
-  fp.items = items_.address();
-  fp.triangle_capacity = triangle_capacity_;
-  fp.item_capacity = item_capacity_;
-  cl.dispatch("raster_fill_args", 1, fp);
-  return fp;
-}
-
-bool GpuRasterizer::finish_attempt(float* z_min) {
-  GpuRasterState s{};
-  state_.download(&s, sizeof(s));
-  if (s.setup_count <= triangle_capacity_ && s.item_count <= item_capacity_) {
-    stats_.setup = s.setup_count;
-    stats_.bin_entries = s.item_count;
-    stats_.fragments = s.fragments;
-    *z_min = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
-    return true;
-  }
-  // Too small: every count is what the written triangles asked for, so grow to at least that
-  // (the items of triangles that found no room are counted on the next try).
-  ensure_capacity(std::max<uint64_t>(triangle_capacity_, s.setup_count > triangle_capacity_ ? grown(s.setup_count) : 0),
-                  std::max<uint64_t>(item_capacity_, s.item_count > item_capacity_ ? grown(s.item_count) : 0));
-  return false;
-}
-
 void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string_view stage, const GpuScene& scene,
                               const LightView& view, const RasterFilter& filter, GpuDepthMap* out) {
   // The host writes the view record and may reallocate buffers below: nothing recorded before
@@ -163,27 +133,81 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
   submit();
   out->resize(*device_, view.width(), view.height());
   out->view_ = view;
-  begin(scene, view, out->view_record_);
+  const shader::RasterView record = view.shared();
+  out->view_record_.upload(&record, sizeof(record));
   const uint64_t texels = static_cast<uint64_t>(view.width()) * view.height();
+  const GpuRasterState s = render_passes(
+      cl, submit, stage, scene, view, out->view_record_.address(), filter, 0, [&](const shader::RasterFillParams& setup) {
+        shader::RasterFillParams fp = setup;
+        fp.keys = out->keys_.address();
+        cl.fill(out->keys_, kEmptyWord);
+        cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
+        shader::RasterResolveParams rp{};
+        rp.scene = scene.address();
+        rp.view = out->view_record_.address();
+        rp.state = state_.address();
+        rp.keys = out->keys_.address();
+        rp.z = out->z_.address();
+        rp.depth = out->depth_.address();
+        rp.opacity = out->opacity_.address();
+        rp.triangle = out->triangle_.address();
+        cl.dispatch("raster_resolve", texels, rp);
+      });
+  out->z_min_ = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
+}
+
+GpuRasterState GpuRasterizer::render_passes(CommandList& cl, const Submit& submit, std::string_view stage,
+                                            const GpuScene& scene, const LightView& view, uint64_t view_record,
+                                            const RasterFilter& filter, uint64_t object_flags, const RecordFill& fill) {
+  const uint64_t triangles = scene.triangle_count();
+  if (triangle_capacity_ == 0 || item_capacity_ == 0)
+    ensure_capacity(std::min(kMaxCapacity, initial_triangles(triangles)),
+                    std::min(kMaxCapacity, initial_items(triangles, view.width(), view.height())));
+  stats_ = {};
+  stats_.triangles = triangles;
+  attempts_ = 0;
   for (;;) {
     ++attempts_;
     cl.stage(stage);
-    cl.fill(out->keys_, kEmptyWord);
-    shader::RasterFillParams fp = record_setup(cl, scene, out->view_record_, filter);
-    fp.keys = out->keys_.address();
-    cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
-    shader::RasterResolveParams rp{};
-    rp.scene = scene.address();
-    rp.view = out->view_record_.address();
-    rp.state = state_.address();
-    rp.keys = out->keys_.address();
-    rp.z = out->z_.address();
-    rp.depth = out->depth_.address();
-    rp.opacity = out->opacity_.address();
-    rp.triangle = out->triangle_.address();
-    cl.dispatch("raster_resolve", texels, rp);
+    cl.fill(state_, 0);
+    cl.fill(state_, kEmptyWord, offsetof(GpuRasterState, z_min_bits), 4);
+    shader::RasterSetupParams sp{};
+    sp.scene = scene.address();
+    sp.view = view_record;
+    sp.state = state_.address();
+    sp.triangles = triangles_.address();
+    sp.items = items_.address();
+    sp.triangle_count = static_cast<uint32_t>(triangles);
+    sp.triangle_capacity = triangle_capacity_;
+    sp.item_capacity = item_capacity_;
+    sp.culling = filter.culling == FaceCulling::None ? 0u : filter.culling == FaceCulling::Back ? 1u : 2u;
+    sp.opaque_only = filter.opaque_only ? 1u : 0u;
+    sp.object_flags = object_flags;
+    cl.dispatch("raster_setup", triangles, sp);
+    shader::RasterFillParams fp{};
+    fp.scene = scene.address();
+    fp.view = view_record;
+    fp.state = state_.address();
+    fp.triangles = triangles_.address();
+    fp.items = items_.address();
+    fp.triangle_capacity = triangle_capacity_;
+    fp.item_capacity = item_capacity_;
+    cl.dispatch("raster_fill_args", 1, fp);
+    fill(fp);
     submit();
-    if (finish_attempt(&out->z_min_)) return;
+    GpuRasterState s{};
+    state_.download(&s, sizeof(s));
+    if (s.setup_count <= triangle_capacity_ && s.item_count <= item_capacity_) {
+      stats_.setup = s.setup_count;
+      stats_.bin_entries = s.item_count;
+      stats_.fragments = s.fragments;
+      return s;
+    }
+    // Too small: every count is what the written triangles asked for, so grow to at least that
+    // (the items of triangles that found no room are counted on the next try).
+    if (testing_capacities().active) ++testing_capacities().retries;
+    ensure_capacity(std::max<uint64_t>(triangle_capacity_, s.setup_count > triangle_capacity_ ? grown(s.setup_count) : 0),
+                    std::max<uint64_t>(item_capacity_, s.item_count > item_capacity_ ? grown(s.item_count) : 0));
   }
 }
 

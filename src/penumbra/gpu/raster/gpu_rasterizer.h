@@ -5,8 +5,8 @@
 // the top-left rule, coverage at texel centres, depth from the unsnapped vertices, alpha looked
 // up per fragment, the nearest surface per texel with ties to the first triangle in input order
 // (object order, then mesh order: gather_raster_triangles' numbering, which the map's triangle
-// plane uses). Shared machinery: the shadow-map methods' maps today, layered maps, fragment lists
-// and conservative rasterization next (the kernels are named for their stage:
+// plane uses). Shared machinery: depth maps, depth-bin masks, layered maps and fragment lists
+// (conservative rasterization next) (the kernels are named for their stage:
 // gpu/raster/kernels/raster_*.comp; the buffers are gpu/raster/raster_layout_shared.h's).
 #pragma once
 
@@ -60,6 +60,8 @@ class GpuDepthMap {
   Buffer keys_, z_, depth_, opacity_, triangle_, view_record_;
 };
 
+class GpuDepthBinMasks;  // gpu_depth_bins.h
+
 class GpuRasterizer {
  public:
   // Runs what a command list recorded and waits (a GPU method passes GpuFrame::flush, so the
@@ -76,6 +78,15 @@ class GpuRasterizer {
   // again.
   void depth_map(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
                  const LightView& view, const RasterFilter& filter, GpuDepthMap* out);
+
+  // Which depth bins each texel centre's fragments fall in: the CPU's Rasterizer::depth_bin_masks
+  // (eisemann2006 §3.4's slicing pass), the same way as depth_map (gpu_depth_bins.cpp).
+  // `object_flags`: the device address of a uint per scene object (kRasterObject* bits of
+  // raster_layout_shared.h: objects left out, objects culled to the faces toward the view's eye),
+  // or 0 for none.
+  void depth_bin_masks(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
+                       const LightView& view, const RasterFilter& filter, const DepthBins& bins,
+                       uint64_t object_flags, GpuDepthBinMasks* out);
 
   // The k = options.layers nearest distinct surfaces through each texel centre, nearest first
   // (xie2007 §4.2): the CPU's Rasterizer::layered_depth_map, by peeling (gpu_rasterizer_layers.cpp).
@@ -107,16 +118,17 @@ class GpuRasterizer {
   void set_fragment_capacity_for_testing(uint32_t fragments) { fragment_capacity_for_testing_ = fragments; }
 
  private:
+  // Records the passes of one mode's fill and resolve, given the fill's parameters (all but
+  // `keys`, the mode's output).
+  using RecordFill = std::function<void(const shader::RasterFillParams&)>;
+  // What every mode runs: set-up (with the filter and the per-object flags), the fill's indirect
+  // arguments, the mode's fill and resolve (`fill`), then submits and reads the counters back;
+  // grows the buffers and renders again where they overflowed. The counters of the render that
+  // fitted (also in stats()).
+  shader::GpuRasterState render_passes(CommandList& commands, const Submit& submit, std::string_view stage,
+                                       const GpuScene& scene, const LightView& view, uint64_t view_record,
+                                       const RasterFilter& filter, uint64_t object_flags, const RecordFill& fill);
   void ensure_capacity(uint64_t triangles, uint64_t items);
-  // The start of every render: the first capacities, the view record uploaded, the stats cleared.
-  void begin(const GpuScene& scene, const LightView& view, Buffer& view_record);
-  // Records the counters' reset, raster_setup and raster_fill_args (the stage is open); returns
-  // the fill kernels' parameters without the map's keys.
-  shader::RasterFillParams record_setup(CommandList& cl, const GpuScene& scene, const Buffer& view_record,
-                                        const RasterFilter& filter);
-  // After a render's submit: true when every buffer held what it was asked to (the stats and
-  // *z_min are set); otherwise the buffers are grown for the next try.
-  bool finish_attempt(float* z_min);
   uint32_t fragment_capacity_for_testing_ = 0;
   Device* device_;
   Buffer state_, triangles_, items_;

@@ -98,57 +98,72 @@ FragmentLists GpuFragmentLists::download() const {
   return f;
 }
 
+namespace {
+
+// Points `view_record` (allocated on first use) at `view`: the kernels' RasterView.
+void upload_view(Device& device, Buffer& view_record, const LightView& view) {
+  if (view_record.empty()) view_record = Buffer(device, sizeof(shader::RasterView), "a map's view");
+  const shader::RasterView record = view.shared();
+  view_record.upload(&record, sizeof(record));
+}
+
+float z_min_of(const GpuRasterState& s) {
+  return s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
+}
+
+}  // namespace
+
 void GpuRasterizer::layered_depth_map(CommandList& cl, const Submit& submit, std::string_view stage,
                                       const GpuScene& scene, const LightView& view, const LayerOptions& options,
                                       GpuLayeredDepthMap* out) {
   if (options.layers < 1 || options.layers > 255)
     throw Error("GPU rasterizer: layers = {} must be in [1, 255]", options.layers);
   if (!(options.distinct_epsilon >= 0)) throw Error("GPU rasterizer: distinct_epsilon must be >= 0");
+  // The host writes the view record and may reallocate buffers below: nothing recorded before
+  // may still be waiting to read them.
   submit();
   const int k = options.layers;
   out->resize(*device_, view.width(), view.height(), k);
   out->view_ = view;
-  begin(scene, view, out->view_record_);
+  upload_view(*device_, out->view_record_, view);
   const uint64_t texels = texel_count(view.width(), view.height());
-  for (;;) {
-    ++attempts_;
-    cl.stage(stage);
-    cl.fill(out->counts_, 0);
-    cl.fill(out->front_, kMinusInfinityBits);  // every fragment lies behind "no layer yet"
-    const shader::RasterFillParams fp = record_setup(cl, scene, out->view_record_, options.filter);
-    shader::RasterPeelParams pp{};
-    pp.scene = scene.address();
-    pp.view = out->view_record_.address();
-    pp.state = state_.address();
-    pp.triangles = fp.triangles;
-    pp.items = fp.items;
-    pp.keys = out->keys_.address();
-    pp.front = out->front_.address();
-    pp.samples = out->samples_.address();
-    pp.item_capacity = item_capacity_;
-    pp.k = static_cast<uint32_t>(k);
-    pp.epsilon = options.distinct_epsilon;
-    shader::RasterLayerResolveParams rp{};
-    rp.scene = scene.address();
-    rp.view = out->view_record_.address();
-    rp.state = state_.address();
-    rp.keys = out->keys_.address();
-    rp.front = out->front_.address();
-    rp.samples = out->samples_.address();
-    rp.counts = out->counts_.address();
-    rp.k = static_cast<uint32_t>(k);
-    // k peels, then one pass that only joins coincident fragments into the last layer.
-    for (int layer = 0; layer <= k; ++layer) {
-      pp.layer = static_cast<uint32_t>(layer);
-      if (layer < k) cl.fill(out->keys_, kEmptyWord);
-      cl.dispatch_indirect("raster_layer_peel", state_, offsetof(GpuRasterState, fill_groups_x), pp);
-      if (layer == k) break;
-      rp.layer = static_cast<uint32_t>(layer);
-      cl.dispatch("raster_layer_resolve", texels, rp);
-    }
-    submit();
-    if (finish_attempt(&out->z_min_)) return;
-  }
+  const GpuRasterState s = render_passes(
+      cl, submit, stage, scene, view, out->view_record_.address(), options.filter, 0,
+      [&](const shader::RasterFillParams& fp) {
+        cl.fill(out->counts_, 0);
+        cl.fill(out->front_, kMinusInfinityBits);  // every fragment lies behind "no layer yet"
+        shader::RasterPeelParams pp{};
+        pp.scene = scene.address();
+        pp.view = out->view_record_.address();
+        pp.state = state_.address();
+        pp.triangles = fp.triangles;
+        pp.items = fp.items;
+        pp.keys = out->keys_.address();
+        pp.front = out->front_.address();
+        pp.samples = out->samples_.address();
+        pp.item_capacity = item_capacity_;
+        pp.k = static_cast<uint32_t>(k);
+        pp.epsilon = options.distinct_epsilon;
+        shader::RasterLayerResolveParams rp{};
+        rp.scene = scene.address();
+        rp.view = out->view_record_.address();
+        rp.state = state_.address();
+        rp.keys = out->keys_.address();
+        rp.front = out->front_.address();
+        rp.samples = out->samples_.address();
+        rp.counts = out->counts_.address();
+        rp.k = static_cast<uint32_t>(k);
+        // k peels, then one pass that only joins coincident fragments into the last layer.
+        for (int layer = 0; layer <= k; ++layer) {
+          pp.layer = static_cast<uint32_t>(layer);
+          if (layer < k) cl.fill(out->keys_, kEmptyWord);
+          cl.dispatch_indirect("raster_layer_peel", state_, offsetof(GpuRasterState, fill_groups_x), pp);
+          if (layer == k) break;
+          rp.layer = static_cast<uint32_t>(layer);
+          cl.dispatch("raster_layer_resolve", texels, rp);
+        }
+      });
+  out->z_min_ = z_min_of(s);
 }
 
 void GpuRasterizer::fragment_lists(CommandList& cl, const Submit& submit, std::string_view stage,
@@ -157,45 +172,47 @@ void GpuRasterizer::fragment_lists(CommandList& cl, const Submit& submit, std::s
   submit();
   out->resize(*device_, view.width(), view.height());
   out->view_ = view;
-  begin(scene, view, out->view_record_);
+  upload_view(*device_, out->view_record_, view);
   const uint64_t texels = texel_count(view.width(), view.height());
-  if (texels >= 0xffffffffull) throw Error("GPU rasterizer: a {}x{} map has too many texels for fragment lists", view.width(), view.height());
+  if (texels >= 0xffffffffull)
+    throw Error("GPU rasterizer: a {}x{} map has too many texels for fragment lists", view.width(), view.height());
   // At first room for two fragments a texel (or what the last render needed), unless a test asks
   // for less.
   out->reserve(*device_, fragment_capacity_for_testing_ ? fragment_capacity_for_testing_
                                                         : std::max<uint64_t>(out->capacity_, 2 * texels));
   fragment_capacity_for_testing_ = 0;
+  int attempts = 0;
   for (;;) {
-    ++attempts_;
-    cl.stage(stage);
-    cl.fill(out->counts_, 0);
-    const shader::RasterFillParams fp = record_setup(cl, scene, out->view_record_, filter);
-    shader::RasterFragmentParams p{};
-    p.scene = scene.address();
-    p.view = out->view_record_.address();
-    p.state = state_.address();
-    p.triangles = fp.triangles;
-    p.items = fp.items;
-    p.counts = out->counts_.address();
-    p.offsets = out->offsets_.address();
-    p.fragments = out->fragments_.address();
-    p.item_capacity = item_capacity_;
-    p.fragment_capacity = out->capacity_;
-    cl.dispatch_indirect("raster_fragment_count", state_, offsetof(GpuRasterState, fill_groups_x), p);
-    out->scan_.exclusive(cl, out->counts_.address(), out->offsets_.address(), static_cast<uint32_t>(texels));
-    cl.fill(out->counts_, 0);  // the scatter's cursors
-    cl.dispatch_indirect("raster_fragment_scatter", state_, offsetof(GpuRasterState, fill_groups_x), p);
-    shader::RasterFragmentSortParams sp{};
-    sp.offsets = out->offsets_.address();
-    sp.fragments = out->fragments_.address();
-    sp.texels = static_cast<uint32_t>(texels);
-    sp.fragment_capacity = out->capacity_;
-    cl.dispatch("raster_fragment_sort", texels, sp);
-    submit();
-    float z_min = kInfinity;
-    if (!finish_attempt(&z_min)) continue;
-    if (stats_.fragments > 0xffffffffull)
-      throw Error("GPU rasterizer: {} fragments are more than one map's lists can index (at most {})", stats_.fragments,
+    const GpuRasterState s = render_passes(
+        cl, submit, stage, scene, view, out->view_record_.address(), filter, 0,
+        [&](const shader::RasterFillParams& fp) {
+          cl.fill(out->counts_, 0);
+          shader::RasterFragmentParams p{};
+          p.scene = scene.address();
+          p.view = out->view_record_.address();
+          p.state = state_.address();
+          p.triangles = fp.triangles;
+          p.items = fp.items;
+          p.counts = out->counts_.address();
+          p.offsets = out->offsets_.address();
+          p.fragments = out->fragments_.address();
+          p.item_capacity = item_capacity_;
+          p.fragment_capacity = out->capacity_;
+          cl.dispatch_indirect("raster_fragment_count", state_, offsetof(GpuRasterState, fill_groups_x), p);
+          out->scan_.exclusive(cl, out->counts_.address(), out->offsets_.address(), static_cast<uint32_t>(texels));
+          cl.fill(out->counts_, 0);  // the scatter's cursors
+          cl.dispatch_indirect("raster_fragment_scatter", state_, offsetof(GpuRasterState, fill_groups_x), p);
+          shader::RasterFragmentSortParams sp{};
+          sp.offsets = out->offsets_.address();
+          sp.fragments = out->fragments_.address();
+          sp.texels = static_cast<uint32_t>(texels);
+          sp.fragment_capacity = out->capacity_;
+          cl.dispatch("raster_fragment_sort", texels, sp);
+        });
+    attempts += attempts_;
+    attempts_ = attempts;  // every render of this call, the fragments' retries too
+    if (s.fragments > 0xffffffffull)
+      throw Error("GPU rasterizer: {} fragments are more than one map's lists can index (at most {})", s.fragments,
                   0xffffffffull);
     uint32_t total = 0;
     out->offsets_.download(&total, sizeof(total), texels * sizeof(uint32_t));

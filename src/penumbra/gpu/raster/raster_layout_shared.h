@@ -69,6 +69,11 @@ struct GpuRasterState {
 // empty), z (linear depth, +inf where empty), depth (window depth, +inf where empty), opacity
 // (0 where empty), triangle (input index, kNoTriangle = 0xffffffff where empty). 24 bytes a texel.
 
+// Per-object flags a mode may give the set-up (RasterSetupParams::object_flags, a uint per scene
+// object): leave the object out; keep only its triangles facing the view's eye (as culling 1).
+PN_CONST uint kRasterObjectSkip = 1u;
+PN_CONST uint kRasterObjectFrontOnly = 2u;
+
 // raster_setup.comp's push constants.
 struct RasterSetupParams {
   uint64_t scene;      // SceneDesc
@@ -82,6 +87,7 @@ struct RasterSetupParams {
   uint culling;      // 0 none, 1 keep triangles facing the light, 2 keep those facing away
   uint opaque_only;  // 1: skip semi-transparent triangles (RasterFilter::opaque_only)
   uint pad;
+  uint64_t object_flags;  // uint per scene object (kRasterObject*), or 0: none
 };
 
 // raster_fill_args.comp's and raster_fill.comp's push constants.

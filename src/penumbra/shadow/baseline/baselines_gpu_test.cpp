@@ -5,35 +5,41 @@
 
 #include <cmath>
 #include <string>
-#include <utility>
 #include <vector>
 
+#include "penumbra/eval/run_setup.h"
 #include "penumbra/gpu/gpu_test_util.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/gpu_method.h"
-#include "penumbra/testing/device_comparison.h"
-#include "penumbra/testing/test_scenes.h"
+#include "penumbra/testing/gpu_method_runs.h"
 
 namespace penumbra {
 namespace {
 
 using gpu::testing::GpuTest;
-using testing::mean_abs_difference;
-using testing::shipped_scene;
 
+// The shipped scenes, render settings on either device and mean |dV| (testing/gpu_method_runs.h).
+Scene shipped(const std::string& name, int resolution) { return testing::shipped_scene(name, resolution); }
 RenderSettings settings(const std::string& method, std::vector<std::string> params, bool gpu) {
-  return testing::device_settings(method, std::move(params), gpu, 7);
+  return testing::device_settings(method, std::move(params), gpu);
 }
+using testing::mean_abs_dv;
 
 class BaselinesGpu : public GpuTest {
  protected:
   // Renders `scene` with `method` on both devices; returns mean |dV| and checks the GPU's V is
   // not trivially uniform where the CPU's has shadows.
   double difference(const Scene& scene, const std::string& method, const std::vector<std::string>& params) {
-    return testing::render_on_both(scene, settings(method, params, false), device().info().name).mean_dv;
+    const RenderResult cpu = render_scene(scene, settings(method, params, false));
+    const RenderResult gpu = render_scene(scene, settings(method, params, true));
+    EXPECT_EQ(gpu.device, device().info().name);
+    double shadow = 0;
+    for (float v : cpu.visibility.data()) shadow += 1 - v;
+    EXPECT_GT(shadow, 10) << "no shadow to compare";
+    return mean_abs_dv(cpu.visibility, gpu.visibility);
   }
   void expect_same_pictures(const std::string& scene_file, int resolution) {
-    const Scene scene = shipped_scene(scene_file, resolution);
+    const Scene scene = shipped(scene_file, resolution);
     // Maps of 256 texels keep lavapipe fast; the kernels are the same at any size.
     const std::vector<std::vector<std::string>> cases = {
         {"resolution=256", "pcf=0"},
@@ -53,7 +59,7 @@ TEST_F(BaselinesGpu, AlphaMaskedFoliageGivesTheCpuPictures) { expect_same_pictur
 TEST_F(BaselinesGpu, SemiTransparentFurballGivesTheCpuPictures) { expect_same_pictures("furball.json", 64); }
 
 TEST_F(BaselinesGpu, EveryParameterWorksAsOnTheCpu) {
-  const Scene scene = shipped_scene("bunny.json", 48);
+  const Scene scene = shipped("bunny.json", 48);
   EXPECT_LE(difference(scene, "shadow-map",
                        {"resolution=200", "max_fov=60", "bias=0.01", "slope_bias=2", "max_slope=4",
                         "receiver_plane=true", "pcf=1"}),
@@ -63,22 +69,16 @@ TEST_F(BaselinesGpu, EveryParameterWorksAsOnTheCpu) {
                         "pcf_samples=13", "bias=0.002"}),
             1e-3);
   // A textured light: pcss's light points follow its table on both devices.
-  const Scene glass = shipped_scene("stained-glass.json", 48);
+  const Scene glass = shipped("stained-glass.json", 48);
   EXPECT_LE(difference(glass, "pcss", {"resolution=128", "blocker_samples=8", "pcf_samples=16"}), 1e-3);
 }
 
 TEST_F(BaselinesGpu, NoReceiverInFrontOfTheLightRendersNoMapAndTheCpuPicture) {
-  Scene scene;
-  scene.objects.push_back(testing::object(testing::quad_y(0, -2, 2, -2, 2)));
-  AreaLight light = testing::rect_light_down({0, 1, 0}, 0.5f, 0.5f);
-  light.frame = Frame::from_zx({0, 1, 0}, {1, 0, 0});  // facing up, away from the ground
-  scene.lights.push_back(light);
-  scene.camera = testing::top_camera(16);
-  scene.finalize();
+  const Scene scene = testing::light_facing_away_scene();  // facing up, away from the ground
   for (const char* method : {"shadow-map", "pcss"}) {
     const RenderResult cpu = render_scene(scene, settings(method, {"resolution=64"}, false));
     const RenderResult gpu = render_scene(scene, settings(method, {"resolution=64"}, true));
-    EXPECT_EQ(mean_abs_difference(cpu.visibility, gpu.visibility), 0.0) << method;
+    EXPECT_EQ(mean_abs_dv(cpu.visibility, gpu.visibility), 0.0) << method;
     for (float c : gpu.color.data()) ASSERT_EQ(c, 0.0f) << method;  // the light faces away
     EXPECT_TRUE(gpu.gpu_ms.contains("fit")) << method;
     EXPECT_FALSE(gpu.gpu_ms.contains("raster")) << method;
@@ -86,7 +86,7 @@ TEST_F(BaselinesGpu, NoReceiverInFrontOfTheLightRendersNoMapAndTheCpuPicture) {
 }
 
 TEST_F(BaselinesGpu, StagesAreNamedAndTheMapIsRenderedOnlyWhenTheFittedViewChanges) {
-  Scene scene = shipped_scene("bunny.json", 48);
+  Scene scene = shipped("bunny.json", 48);
   for (const char* method : {"shadow-map", "pcss"}) {
     std::vector<std::string> params = {"resolution=128"};
     if (std::string(method) == "pcss") params.insert(params.end(), {"pcf_samples=8", "blocker_samples=8"});
@@ -100,7 +100,7 @@ TEST_F(BaselinesGpu, StagesAreNamedAndTheMapIsRenderedOnlyWhenTheFittedViewChang
     // The same view samples: the same fitted view, no new map.
     const RenderResult second = r.render();
     EXPECT_FALSE(second.gpu_ms.contains("raster")) << method << " " << second.gpu_ms.dump();
-    EXPECT_EQ(mean_abs_difference(first.visibility, second.visibility), 0.0);
+    EXPECT_EQ(mean_abs_dv(first.visibility, second.visibility), 0.0);
     // Another camera sees other receivers: a new view, a new map.
     Camera cam = scene.camera;
     cam.eye = cam.eye + (cam.target - cam.eye) * 0.3f;
@@ -111,18 +111,10 @@ TEST_F(BaselinesGpu, StagesAreNamedAndTheMapIsRenderedOnlyWhenTheFittedViewChang
 }
 
 TEST_F(BaselinesGpu, MemoryEstimateCoversWhatTheMethodHolds) {
-  const Scene scene = shipped_scene("bunny.json", 32);
+  const Scene scene = shipped("bunny.json", 32);
   for (const char* method : {"shadow-map", "pcss"}) {
-    const GpuMethodInfo* info = find_gpu_method(method);
-    ASSERT_NE(info, nullptr) << method;
-    ASSERT_TRUE(info->estimate_memory) << method;
-    MemoryQuery q;
-    q.triangles = scene.triangle_count();
-    q.view_samples = 32 * 32;
-    ParamSet small = resolve_method_params(method, scene, {"resolution=128"});
-    ParamSet large = resolve_method_params(method, scene, {"resolution=1024"});
-    const MemoryEstimate e = info->estimate_memory(small, q);
-    EXPECT_GT(info->estimate_memory(large, q).bytes, e.bytes) << method;
+    const MemoryEstimate e = testing::gpu_memory_estimate(method, scene, {"resolution=128"}, 32 * 32);
+    EXPECT_GT(testing::gpu_memory_estimate(method, scene, {"resolution=1024"}, 32 * 32).bytes, e.bytes) << method;
     const RenderResult r = render_scene(scene, settings(method, {"resolution=128"}, true));
     EXPECT_GT(r.stats.memory_bytes, 0u);
     EXPECT_LE(r.stats.memory_bytes, e.bytes) << method;

@@ -14,13 +14,13 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/coherent_rt/coherent_rt_settings.h"
 #include "penumbra/shadow/gpu_method.h"
-#include "penumbra/testing/device_comparison.h"
+#include "penumbra/testing/gpu_method_runs.h"
 
 namespace penumbra {
 namespace {
 
 using gpu::testing::GpuTest;
-using testing::mean_abs_difference;
+using testing::mean_abs_dv;
 using testing::shipped_scene;
 
 RenderSettings settings(std::vector<std::string> params, bool gpu, int spp = 16) {
@@ -31,10 +31,12 @@ class CoherentRtGpu : public GpuTest {
  protected:
   // Mean |dV| between the devices; the colours (E composed) within a few times that relative.
   double difference(const Scene& scene, const std::vector<std::string>& params, int spp = 16) {
-    const testing::DevicePair both = testing::render_on_both(scene, settings(params, false, spp), device().info().name);
+    const testing::DevicePair both = testing::render_on_both(scene, settings(params, false, spp));
+    EXPECT_EQ(both.gpu.device, device().info().name);
+    EXPECT_GT(both.cpu_shadow, 10) << "no shadow to compare";
     const RenderResult& cpu = both.cpu;
     const RenderResult& gpu = both.gpu;
-    const double d = both.mean_dv;
+    const double d = both.mean_abs_dv;
     double color = 0, scale = 0;
     for (size_t i = 0; i < cpu.color.data().size(); ++i) {
       color += std::abs(cpu.color.data()[i] - gpu.color.data()[i]);
@@ -82,7 +84,7 @@ TEST_F(CoherentRtGpu, TilesKeepTheCpusOrderUnderCropsAndReRenders) {
   EXPECT_GT(first.stats.memory_bytes, 0u);
   // Prepared once: a second render traces the same images, the same picture.
   const RenderResult second = r.render();
-  EXPECT_EQ(mean_abs_difference(first.visibility, second.visibility), 0.0);
+  EXPECT_EQ(mean_abs_dv(first.visibility, second.visibility), 0.0);
   // A crop whose edges lie on tile boundaries shades its pixels as the whole frame does, and as
   // the CPU shades that crop; one that cuts tiles as the CPU shades it.
   for (PixelWindow w : {PixelWindow{16, 16, 48, 32}, PixelWindow{5, 9, 37, 30}}) {
@@ -92,7 +94,7 @@ TEST_F(CoherentRtGpu, TilesKeepTheCpusOrderUnderCropsAndReRenders) {
     cpu_crop.device = {};
     const RenderResult g = render_scene(scene, gpu_crop);
     const RenderResult c = render_scene(scene, cpu_crop);
-    EXPECT_LE(mean_abs_difference(c.visibility, g.visibility), 2e-3) << w.to_string();
+    EXPECT_LE(mean_abs_dv(c.visibility, g.visibility), 2e-3) << w.to_string();
   }
   // A camera move: the images are kept, the picture a fresh renderer gives.
   Camera cam = scene.camera;
@@ -102,7 +104,7 @@ TEST_F(CoherentRtGpu, TilesKeepTheCpusOrderUnderCropsAndReRenders) {
   Scene moved_scene = scene;
   moved_scene.camera = cam;
   const RenderResult fresh = render_scene(moved_scene, settings({"resolution=128", "tile=16"}, true, 8));
-  EXPECT_EQ(mean_abs_difference(moved.visibility, fresh.visibility), 0.0);
+  EXPECT_EQ(mean_abs_dv(moved.visibility, fresh.visibility), 0.0);
 }
 
 TEST_F(CoherentRtGpu, OcclusionSpanListsTooShortGrowAndGiveTheSamePicture) {
@@ -112,8 +114,8 @@ TEST_F(CoherentRtGpu, OcclusionSpanListsTooShortGrowAndGiveTheSamePicture) {
   const RenderResult grown = render_scene(scene, settings({"resolution=128"}, true, 8));
   coherent_rt::set_first_gpu_span_capacity_for_testing(0);
   EXPECT_GT(grown.stats.extra.at("span_retries").get<uint64_t>(), 0u) << "no list was too short";
-  EXPECT_EQ(mean_abs_difference(normal.visibility, grown.visibility), 0.0);
-  EXPECT_EQ(mean_abs_difference(normal.color, grown.color), 0.0);
+  EXPECT_EQ(mean_abs_dv(normal.visibility, grown.visibility), 0.0);
+  EXPECT_EQ(mean_abs_dv(normal.color, grown.color), 0.0);
 }
 
 TEST_F(CoherentRtGpu, OtherLightShapesAreAOneLineError) {

@@ -4,13 +4,16 @@
 // "Combining analytic direct illumination and stochastic shadows", §3): the stochastic
 // shadowed estimate S and the stochastic unshadowed estimate U of the same light samples are
 // filtered with the same weights, and V = filtered S / filtered U multiplies the analytic
-// unshadowed irradiance. docs/methods/rt-denoised.md.
+// unshadowed irradiance. The per-pixel arithmetic is atrous_shared.h's, which the GPU version
+// runs too. docs/methods/rt-denoised.md.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/shadow/denoised/atrous_shared.h"
+#include "penumbra/shadow/params.h"
 
 namespace penumbra::denoise {
 
@@ -32,6 +35,9 @@ struct GuidedImage {
   size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
   // V = S / U, or the fallback where U is 0, clamped to [0, 1].
   float ratio(size_t i) const;
+  // The planes as the shared functions read them (atrous_shared.h; valid while the image is
+  // not resized).
+  shader::DenoiseImage shared() const;
   // Bytes resize() allocates per pixel.
   static constexpr uint64_t kBytesPerPixel = 1 + 6 * sizeof(float) + sizeof(Vec3f);
 };
@@ -42,6 +48,14 @@ struct AtrousSettings {
   float sigma_n = 128.0f; // §4.3 eq. 4: normal exponent
   float sigma_l = 4.0f;   // §4.3 eq. 5: luminance (here: V)
 };
+
+// The settings of rt-denoised's parameters (denoised.cpp's table: iterations, sigma_z, sigma_n,
+// sigma_l), for both devices' versions.
+AtrousSettings atrous_settings_from(const ParamSet& p);
+
+// §4.1: below this many samples per pixel, the pixel's own sample variance is replaced by
+// the spatial estimate (SVGF uses it for histories shorter than 4 frames).
+inline constexpr int kMinSamplesForOwnVariance = 4;
 
 // §4.1's fallback for short histories: where a pixel holds fewer than 4 samples its own
 // sample variance says nothing, so the variance is estimated spatially as the variance of V

@@ -25,18 +25,10 @@
 namespace penumbra {
 namespace {
 
-// §4.1: below this many samples per pixel, the pixel's own sample variance is replaced by
-// the spatial estimate (SVGF uses it for histories shorter than 4 frames).
-constexpr int kMinSamplesForOwnVariance = 4;
-
 class DenoisedMethod final : public ShadowMethod {
  public:
-  explicit DenoisedMethod(const ParamSet& p) : samples_(p.get_int("samples")) {
-    settings_.iterations = p.get_int("iterations");
-    settings_.sigma_z = p.get_float("sigma_z");
-    settings_.sigma_n = p.get_float("sigma_n");
-    settings_.sigma_l = p.get_float("sigma_l");
-  }
+  explicit DenoisedMethod(const ParamSet& p)
+      : samples_(p.get_int("samples")), settings_(denoise::atrous_settings_from(p)) {}
 
   void prepare(const ShadowContext&) override { stats_.prepare_count++; }
   // Nothing prepared: every evaluate() traces the geometry as the tracer holds it now.
@@ -59,37 +51,29 @@ class DenoisedMethod final : public ShadowMethod {
       stats_.rays_traced += trace_light_fans(
           ctx, vs, samples_, LightSampling::SolidAngle, [&](size_t k, const LightFan& fan) {
             const ViewSample& s = vs.samples[k];
-            // Heitz et al. 2018 §3: the shadowed and unshadowed estimates of the same samples.
-            double sf = 0, f = 0, sa = 0, a = 0, sf2 = 0;
-            for (int i = 0; i < fan.count; ++i) {
-              const double t = fan.transmittance[i], fi = fan.irradiance[i], ai = fan.area_weight[i];
-              sf += t * fi;
-              f += fi;
-              sa += t * ai;
-              a += ai;
-            }
-            // The variance of the ratio estimate R = sum T f / sum f (delta method, as for
+            // Heitz et al. 2018 §3: the shadowed and unshadowed estimates of the same samples,
+            // and the variance of the ratio estimate R = sum T f / sum f (delta method, as for
             // self-normalised estimators): sum f_i^2 (T_i - R)^2 / (sum f_i)^2.
-            const double r = f > 0 ? sf / f : 0;
-            for (int i = 0; i < fan.count; ++i) {
-              const double d = fan.transmittance[i] - r;
-              sf2 += static_cast<double>(fan.irradiance[i]) * fan.irradiance[i] * d * d;
-            }
+            shader::DenoiseFanSums sums = shader::dn_fan_begin();
+            for (int i = 0; i < fan.count; ++i)
+              shader::dn_fan_add(sums, fan.transmittance[i], fan.irradiance[i], fan.area_weight[i]);
+            for (int i = 0; i < fan.count; ++i) shader::dn_fan_add_spread(sums, fan.transmittance[i], fan.irradiance[i]);
+            const shader::DenoisePixel px = shader::dn_fan_pixel(sums, samples_);
             denoise::GuidedImage& img = images[std::min<uint32_t>(s.sub, layers - 1)];
             const size_t i = pixel_of(s);
             img.valid[i] = 1;
-            img.depth[i] = dot(s.p - camera.eye, forward);
+            img.depth[i] = shader::dn_view_depth(s.p, camera.eye, forward);
             img.normal[i] = s.ns;
-            img.shadowed[i] = static_cast<float>(sf / samples_);
-            img.unshadowed[i] = static_cast<float>(f / samples_);
-            img.fallback[i] = a > 0 ? static_cast<float>(sa / a) : 0.0f;
-            img.variance[i] = f > 0 ? static_cast<float>(sf2 / (f * f)) : 0.0f;
+            img.shadowed[i] = px.shadowed;
+            img.unshadowed[i] = px.unshadowed;
+            img.fallback[i] = px.fallback;
+            img.variance[i] = px.variance;
           });
     }
     {
       ScopedPhase phase(stats_, "filter");
       for (denoise::GuidedImage& img : images) {
-        if (samples_ < kMinSamplesForOwnVariance) denoise::estimate_variance_spatially(img, settings_);
+        if (samples_ < denoise::kMinSamplesForOwnVariance) denoise::estimate_variance_spatially(img, settings_);
         denoise::atrous_filter(img, settings_);
       }
     }

@@ -6,7 +6,6 @@
 // of dark pixels on the far ground; 0.049 at 30, 0.069 at 40: the table's differences of huge
 // sums lose the small ones); larger exponents need prefilter=mipmap (no differences; about
 // 5x slower here). docs/methods/vsm.md.
-#include "penumbra/core/error.h"
 #include "penumbra/shadow/filtered_moments/filtered_moments.h"
 #include "penumbra/shadow/filtered_moments/models.h"
 
@@ -35,16 +34,9 @@ const MethodRegistration registration({
     "exponential variance shadow maps (Lauritzen & McCool 2008), 2 or 4 components, prefiltered, light-bleeding "
     "reduction, contact hardening from a moment blocker search",
     params(),
-    [](const ParamSet& p) {
-      const int components = p.get_int("components");
-      if (components != 2 && components != 4)
-        throw Error("evsm.components: {} is not one of 2, 4", components);
-      return std::make_unique<FilteredMomentShadows>(
-          p, std::make_unique<EvsmModel>(p.get_float("positive_exponent"), p.get_float("negative_exponent"),
-                                         components == 4, p.get_float("min_variance"), p.get_float("bleeding")));
-    },
+    [](const ParamSet& p) { return std::make_unique<FilteredMomentShadows>(p, make_moment_model("evsm", p)); },
     /*samples_light=*/false,
-    [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, p.get_int("components")); },
+    [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, moment_channels("evsm", p)); },
     // Not tile-exact: the depth map is fitted to the rendered view samples (as shadow-map's).
     /*tile_exact=*/false,
     // A textured light counts as its mean colour: the light is its centre, size or outline.

@@ -23,6 +23,9 @@
 // [0.05, 0.95] (FilteredMomentMap::normalize); an empty texel holds
 // the moments of depth 1 (nothing in front of anything), as does everything outside the map.
 // Casters' opacity is ignored (a moment map holds depths, not transmittance).
+//
+// The per-texel and per-sample arithmetic is filtered_moments_shared.h's and moments_shared.h's,
+// which the GPU version (filtered_moments_gpu.cpp) runs too.
 #pragma once
 
 #include <memory>
@@ -33,6 +36,7 @@
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/filtered_map.h"
 #include "penumbra/shadow/shadow_map_common.h"
+#include "penumbra/shadow/filtered_moments/filtered_moments_shared.h"
 #include "penumbra/shadow/filtered_moments/moments.h"
 #include "penumbra/shadow/shadow_method.h"
 
@@ -54,6 +58,8 @@ class MomentModel {
   // the variance (normalised depth^2) the receiver's own tangent plane has over the region,
   // which is no blocker's: the estimate takes it out of the region's spread.
   virtual BlockerEstimate blockers(const double* mean, double t, double receiver_variance) const = 0;
+  // The model as the shared functions take it (moments_shared.h).
+  virtual shader::FmModel shared() const = 0;
 };
 
 enum class Prefilter { Sat, Mipmap };
@@ -67,29 +73,34 @@ class FilteredMomentMap {
   // region of one or two depths mixed with MSM's bias vector (the moments of depths 0 and 1)
   // still has a regular Hankel matrix (Peters & Klein 2015's bias needs distinct points).
   static constexpr double kNear = 0.05, kFar = 0.95;
+  // A map of one depth gets a range of kTinyRange / its depth in 1/z.
+  static constexpr double kTinyRange = 1e-6;
   // Normalised depth of a linear depth z, and back: affine in 1/z (a hardware depth
   // buffer's window depth, over the map's covered range), so that a planar receiver's depth
   // is affine in texel space and its mean over any region centred on a point is that
   // point's depth. (Linear depth is convex along a tilted plane: over the wide search regions
   // of a light tilted against the ground, its mean lies beyond the centre's depth and the
   // ground under an occluder reads as lit.)
-  double normalize(float z) const { return kNear + (inv_lo_ - 1.0 / static_cast<double>(z)) * scale_; }
-  double linear_depth(double d) const { return 1.0 / (inv_lo_ - (d - kNear) / scale_); }
+  double normalize(float z) const { return shader::fm_normalize(range_, z); }
+  double linear_depth(double d) const { return 1.0 / inverse_depth(d); }
   // 1/z of a normalised depth (what PCSS's penumbra scale 1/d_b - 1/z_p needs).
-  double inverse_depth(double d) const { return inv_lo_ - (d - kNear) / scale_; }
+  double inverse_depth(double d) const { return shader::fm_inverse_depth(range_, d); }
   // d(normalised depth) / d(1/z).
-  double depth_per_inverse_depth() const { return -scale_; }
+  double depth_per_inverse_depth() const { return -range_.scale; }
   // The mean vector over [x0, x1] x [y0, y1] (texel space) cut to the map: the exact box
   // (summed-area table) or the mip chain's tap grid. A region wholly outside reads empty.
   void mean(double x0, double y0, double x1, double y1, double* out) const;
+  // The map as the shared lookups read it (filtered_moments_shared.h).
+  shader::FmMapRef ref() const;
   size_t memory_bytes() const { return sat_.memory_bytes() + mip_.memory_bytes(); }
   // What build() allocates at its peak for a w x h map (the encoded texels and the tables).
   static uint64_t bytes(int width, int height, int channels, Prefilter prefilter);
 
  private:
   Prefilter prefilter_ = Prefilter::Sat;
-  int width_ = 0, height_ = 0;
-  double inv_lo_ = 1, scale_ = 1;  // 1 / the nearest covered depth; (kFar - kNear) / (1/lo - 1/hi)
+  int width_ = 0, height_ = 0, channels_ = 1;
+  shader::FmDepthRange range_{1, 1, kNear, kFar};
+  shader::FilteredChannels outside_{};
   SummedAreaTable sat_;
   MipChain mip_;
 };
@@ -115,6 +126,9 @@ std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter defaul
 CoreParams core_params(const ParamSet& p);
 // One instance's memory: the depth map (shadow_map::add_map_memory) and the moments.
 MemoryEstimate core_memory(const ParamSet& p, const MemoryQuery& q, int channels);
+
+// What every lookup of the map `map` (its view and z_min) and `light` reads (both devices).
+shader::FmShadeBlock shade_block(const CoreParams& params, const AreaLight& light, const shader::ShadowMapView& map);
 
 class FilteredMomentShadows final : public ShadowMethod {
  public:

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "penumbra/core/error.h"
+
 namespace penumbra::filtered_moments {
 
 ParamSpec bleeding_param() {
@@ -21,117 +23,75 @@ ParamSpec min_variance_param() {
 
 namespace {
 
-// Chebyshev's bound from the mean of (w, w^2) at warped receiver depth tw.
-double bound(const double* m, double tw, double min_variance) {
-  const double variance = std::max(m[1] - m[0] * m[0], min_variance);
-  return chebyshev_upper_bound(m[0], variance, tw);
-}
-
-// Yang et al. 2010's blocker estimate from the mean of (w, w^2), the receiver's own plane's
-// variance over the region taken out first (it is spread around t, not in front of it, and
-// would push the two-point fit's blocker depth toward the light: the filter grows and the
-// umbra lightens), weighted by the part of the region that is not blocker.
-BlockerEstimate blockers_without_receiver(const double* m, double tw, double receiver_variance, double min_variance) {
-  const double variance = std::max(m[1] - m[0] * m[0], min_variance);
-  const double lit = chebyshev_upper_bound(m[0], variance, tw);
-  return chebyshev_blockers(m[0], std::max(variance - lit * receiver_variance, min_variance), tw);
+shader::FilteredChannels mean_of(const double* m, int channels) {
+  shader::FilteredChannels c{};
+  for (int i = 0; i < channels; ++i) c.v[i] = m[i];
+  return c;
 }
 
 }  // namespace
 
-// ---------------------------------------------------------------------------------------
-// VSM
-
-void VsmModel::encode(double z, float* out) const {
-  out[0] = static_cast<float>(z);
-  out[1] = static_cast<float>(z * z);
+void SharedMomentModel::encode(double z, float* out) const {
+  const shader::FilteredChannels e = shader::fm_encode(m_, z);
+  for (int c = 0; c < m_.channels; ++c) out[c] = static_cast<float>(e.v[c]);
 }
 
-float VsmModel::visibility(const double* m, double t) const {
-  return reduce_bleeding(static_cast<float>(bound(m, t, min_variance_)), bleeding_);
+float SharedMomentModel::visibility(const double* m, double t) const {
+  return shader::fm_model_visibility(m_, mean_of(m, m_.channels), t);
 }
 
-BlockerEstimate VsmModel::blockers(const double* m, double t, double receiver_variance) const {
-  return blockers_without_receiver(m, t, receiver_variance, min_variance_);
+BlockerEstimate SharedMomentModel::blockers(const double* m, double t, double receiver_variance) const {
+  const shader::FmBlockers b = shader::fm_model_blockers(m_, mean_of(m, m_.channels), t, receiver_variance);
+  return {b.fraction, b.depth};
 }
 
-// ---------------------------------------------------------------------------------------
-// EVSM
-
-void EvsmModel::encode(double z, float* out) const {
-  const double p = evsm_positive_warp(z, c_pos_);
-  out[0] = static_cast<float>(p);
-  out[1] = static_cast<float>(p * p);
-  if (four_) {
-    const double n = evsm_negative_warp(z, c_neg_);
-    out[2] = static_cast<float>(n);
-    out[3] = static_cast<float>(n * n);
-  }
+VsmModel::VsmModel(float min_variance, float bleeding) {
+  m_.kind = shader::kMomentVsm;
+  m_.channels = kChannels;
+  m_.min_variance = min_variance;
+  m_.bleeding = bleeding;
 }
 
-float EvsmModel::visibility(const double* m, double t) const {
-  // The floor in warped units: d(warp)/dz = 2 c warp (x = 2z - 1).
-  const double tp = evsm_positive_warp(t, c_pos_), dp = 2 * c_pos_ * tp;
-  double v = bound(m, tp, min_variance_ * dp * dp);
-  if (four_) {
-    const double tn = evsm_negative_warp(t, c_neg_), dn = 2 * c_neg_ * tn;
-    v = std::min(v, bound(m + 2, tn, min_variance_ * dn * dn));
-  }
-  return reduce_bleeding(static_cast<float>(v), bleeding_);
+EvsmModel::EvsmModel(float positive_exponent, float negative_exponent, bool four_components, float min_variance,
+                     float bleeding) {
+  m_.kind = shader::kMomentEvsm;
+  m_.channels = four_components ? 4 : 2;
+  m_.four = four_components ? 1u : 0u;
+  m_.c_pos = positive_exponent;
+  m_.c_neg = negative_exponent;
+  m_.min_variance = min_variance;
+  m_.bleeding = bleeding;
 }
 
-BlockerEstimate EvsmModel::blockers(const double* m, double t, double receiver_variance) const {
-  // Yang et al. 2010's estimate in warped depth, unwarped. With the negative warp when there
-  // is one: -e^(-c x) is largest in magnitude for the nearest depths, so the receiver's own
-  // warped depth (which the estimate subtracts, weighted by the Chebyshev bound) is small
-  // next to the blockers'. In the positive warp it is the largest value of all, and an
-  // upper bound p on the lit fraction times it swamps the blockers' mean.
-  if (four_) {
-    const double tn = evsm_negative_warp(t, c_neg_), dn = 2 * c_neg_ * tn;
-    // (Variances scale with the warp's derivative squared.)
-    BlockerEstimate b = blockers_without_receiver(m + 2, tn, receiver_variance * dn * dn, min_variance_ * dn * dn);
-    if (b.fraction > 0) {
-      // w = -e^(-c x): x = -ln(-w) / c, z = (x + 1) / 2.
-      const double w = std::min(b.depth, tn);
-      b.depth = std::clamp(0.5 * (1 - std::log(-w) / c_neg_), 0.0, t);
-    }
-    return b;
-  }
-  const double tp = evsm_positive_warp(t, c_pos_), dp = 2 * c_pos_ * tp;
-  BlockerEstimate b = blockers_without_receiver(m, tp, receiver_variance * dp * dp, min_variance_ * dp * dp);
-  if (b.fraction > 0) {
-    // x = ln(w) / c, z = (x + 1) / 2.
-    const double w = std::max(b.depth, evsm_positive_warp(0.0, c_pos_));
-    b.depth = std::clamp(0.5 * (std::log(w) / c_pos_ + 1), 0.0, t);
-  }
-  return b;
-}
-
-// ---------------------------------------------------------------------------------------
-// MSM
-
-void MsmModel::encode(double z, float* out) const {
-  const double z2 = z * z;
-  std::array<double, 4> b = {z, z2, z2 * z, z2 * z2};
-  if (quantize_) {
-    b = msm_optimize(b);
-    for (double& v : b) v = quantize_unorm16(v);
-  }
-  for (int i = 0; i < 4; ++i) out[i] = static_cast<float>(b[i]);
+MsmModel::MsmModel(float moment_bias, bool quantize, float bleeding) {
+  m_.kind = shader::kMomentMsm;
+  m_.channels = kChannels;
+  m_.quantize = quantize ? 1u : 0u;
+  m_.alpha = moment_bias;
+  m_.bleeding = bleeding;
 }
 
 std::array<double, 4> MsmModel::power_moments(const double* m) const {
-  std::array<double, 4> b = {m[0], m[1], m[2], m[3]};
-  return quantize_ ? msm_deoptimize(b) : b;
+  const shader::FilteredChannels p = shader::fm_power_moments(m_, mean_of(m, kChannels));
+  return {p.v[0], p.v[1], p.v[2], p.v[3]};
 }
 
-float MsmModel::visibility(const double* m, double t) const {
-  const double intensity = hamburger_4msm(power_moments(m), t, alpha_).intensity;
-  return reduce_bleeding(static_cast<float>(1 - intensity), bleeding_);
+std::unique_ptr<MomentModel> make_moment_model(const std::string& method, const ParamSet& p) {
+  if (method == "vsm") return std::make_unique<VsmModel>(p.get_float("min_variance"), p.get_float("bleeding"));
+  if (method == "evsm") {
+    const int components = p.get_int("components");
+    if (components != 2 && components != 4) throw Error("evsm.components: {} is not one of 2, 4", components);
+    return std::make_unique<EvsmModel>(p.get_float("positive_exponent"), p.get_float("negative_exponent"),
+                                       components == 4, p.get_float("min_variance"), p.get_float("bleeding"));
+  }
+  if (method == "msm")
+    return std::make_unique<MsmModel>(p.get_float("moment_bias"), p.get_bool("quantize"), p.get_float("bleeding"));
+  throw Error("{} is not a filtered-moment method", method);
 }
 
-BlockerEstimate MsmModel::blockers(const double* m, double t, double /*receiver_variance*/) const {
-  return moment_blockers(power_moments(m), t, alpha_);
+int moment_channels(const std::string& method, const ParamSet& p) {
+  if (method == "evsm") return p.get_int("components");
+  return method == "vsm" ? VsmModel::kChannels : MsmModel::kChannels;
 }
 
 }  // namespace penumbra::filtered_moments

@@ -1,95 +1,11 @@
+// The moment arithmetic is moments_shared.h's (both devices run it); these are its C++ faces,
+// and the host's half of it: the double constants the shared code reads from its record.
 #include "penumbra/shadow/filtered_moments/moments.h"
 
 #include <algorithm>
 #include <cmath>
 
 namespace penumbra::filtered_moments {
-
-BlockerEstimate chebyshev_blockers(double mu, double sigma2, double t) {
-  const double p = chebyshev_upper_bound(mu, sigma2, t);
-  if (!(p < 1)) return {};
-  // mu = p t + (1 - p) z_occ; the blockers lie in front of t by definition.
-  const double z = (mu - p * t) / (1 - p);
-  return {1 - p, std::min(z, t)};
-}
-
-namespace {
-
-// The three-point quadrature of the biased moments (see the header). False when the Hankel
-// matrix is singular even after the bias (alpha = 0 on a distribution of < 3 points).
-bool quadrature(const std::array<double, 4>& moments, double zf, double alpha, MomentQuadrature& q) {
-  double b[4];
-  for (int i = 0; i < 4; ++i) b[i] = (1 - alpha) * moments[i] + alpha * 0.5;
-  // H = L D L^T with L = [[1, 0, 0], [b1, 1, 0], [b2, l32, 1]], D = diag(1, d22, d33).
-  const double d22 = b[1] - b[0] * b[0];
-  if (!(d22 > 0)) return false;
-  const double l32 = (b[2] - b[0] * b[1]) / d22;
-  const double d33 = b[3] - b[1] * b[1] - l32 * l32 * d22;
-  if (!(d33 > 0)) return false;
-  // Solve H c = (1, zf, zf^2): forward, diagonal, backward.
-  const double y1 = 1, y2 = zf - b[0] * y1, y3 = zf * zf - b[1] * y1 - l32 * y2;
-  const double c3 = y3 / d33, c2 = y2 / d22 - l32 * c3, c1 = y1 - b[0] * c2 - b[1] * c3;
-  // Roots of c3 z^2 + c2 z + c1 (c3 > 0: zf's kernel polynomial is positive away from the
-  // other nodes).
-  if (!(c3 != 0)) return false;
-  const double p = c2 / c3, r = c1 / c3;
-  const double root = std::sqrt(std::max(0.25 * p * p - r, 0.0));
-  const double z2 = -0.5 * p - root, z3 = -0.5 * p + root;
-  q.z[0] = zf;
-  q.z[1] = z2;
-  q.z[2] = z3;
-  // Weights from the Vandermonde system of moments 0..2 (Lagrange form).
-  auto weight = [&](double zi, double zj, double zk) { return (b[1] - b[0] * (zj + zk) + zj * zk) / ((zi - zj) * (zi - zk)); };
-  q.w[0] = weight(zf, z2, z3);
-  q.w[1] = weight(z2, zf, z3);
-  q.w[2] = weight(z3, zf, z2);
-  return std::isfinite(q.w[0]) && std::isfinite(q.w[1]) && std::isfinite(q.w[2]);
-}
-
-// The quadrature at alpha, or, where rounding has moved the moments outside the moment
-// space by more than alpha pulls them back (16-bit storage of a region of one or two depths:
-// 7 of 181 single depths and 13 of 57 two-depth mixes fail at 3e-5, docs/methods/msm.md), at
-// the smallest of 10 alpha, 100 alpha, ... (up to 0.3) that succeeds.
-bool robust_quadrature(const std::array<double, 4>& moments, double zf, double alpha, MomentQuadrature& q) {
-  for (double a = alpha; a <= 0.3; a = a > 0 ? a * 10 : 1e-6)
-    if (quadrature(moments, zf, a, q)) return true;
-  return false;
-}
-
-}  // namespace
-
-MomentQuadrature hamburger_4msm(const std::array<double, 4>& moments, double zf, double alpha) {
-  MomentQuadrature q;
-  if (!robust_quadrature(moments, zf, alpha, q)) {
-    // Degenerate moments (a single depth): the region is all in front of zf or not.
-    q.intensity = moments[0] < zf ? 1.0 : 0.0;
-    return q;
-  }
-  // The algorithm's three cases: zf <= z2: 0; z2 < zf <= z3: w2; else 1 - w1.
-  double intensity;
-  if (zf <= q.z[1]) intensity = 0;
-  else if (zf <= q.z[2]) intensity = q.w[1];
-  else intensity = 1 - q.w[0];
-  q.intensity = std::clamp(intensity, 0.0, 1.0);
-  return q;
-}
-
-BlockerEstimate moment_blockers(const std::array<double, 4>& moments, double zf, double alpha) {
-  MomentQuadrature q;
-  if (!robust_quadrature(moments, zf, alpha, q)) {
-    if (moments[0] < zf) return {1.0, moments[0]};
-    return {};
-  }
-  double weight = 0, depth = 0;
-  for (int i = 1; i < 3; ++i)
-    if (q.z[i] < zf && q.w[i] > 0) {
-      weight += q.w[i];
-      depth += q.w[i] * q.z[i];
-    }
-  if (!(weight > 0)) return {};
-  return {std::min(weight, 1.0), std::clamp(depth / weight, 0.0, zf)};
-}
-
 namespace {
 
 // Peters & Klein 2015, optimized quantization: q = b M + (0.035955884801, 0, 0, 0), b the
@@ -128,30 +44,59 @@ struct Inverse {
   }
 };
 
-const Inverse& inverse() {
-  static const Inverse inv;
-  return inv;
-}
+shader::FilteredChannels as_channels(const std::array<double, 4>& b) { return {{b[0], b[1], b[2], b[3]}}; }
+std::array<double, 4> as_array(const shader::FilteredChannels& c) { return {c.v[0], c.v[1], c.v[2], c.v[3]}; }
+BlockerEstimate as_estimate(const shader::FmBlockers& b) { return {b.fraction, b.depth}; }
 
 }  // namespace
 
+shader::FmModel fm_model_constants() {
+  static const Inverse inv;
+  shader::FmModel m{};
+  // robust_quadrature's biases: 10 alpha, 100 alpha, ... up to 0.3; from 1e-6 when alpha = 0.
+  m.alpha_limit = 0.3;
+  m.alpha_first = 1e-6;
+  m.basis_offset = kOptimizeOffset;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) {
+      m.basis[4 * i + j] = kOptimize[i][j];
+      m.inverse[4 * i + j] = inv.m[i][j];
+    }
+  return m;
+}
+
+namespace {
+const shader::FmModel& model_constants() {
+  static const shader::FmModel m = fm_model_constants();
+  return m;
+}
+}  // namespace
+
+BlockerEstimate chebyshev_blockers(double mu, double sigma2, double t) {
+  return as_estimate(shader::fm_chebyshev_blockers(mu, sigma2, t));
+}
+
+MomentQuadrature hamburger_4msm(const std::array<double, 4>& moments, double zf, double alpha) {
+  const shader::FmQuadrature q = shader::fm_hamburger_4msm(model_constants(), as_channels(moments), zf, alpha);
+  MomentQuadrature out;
+  std::copy(q.z, q.z + 3, out.z);
+  std::copy(q.w, q.w + 3, out.w);
+  out.intensity = q.intensity;
+  return out;
+}
+
+BlockerEstimate moment_blockers(const std::array<double, 4>& moments, double zf, double alpha) {
+  return as_estimate(shader::fm_moment_blockers(model_constants(), as_channels(moments), zf, alpha));
+}
+
 std::array<double, 4> msm_optimize(const std::array<double, 4>& b) {
-  std::array<double, 4> q{};
-  for (int j = 0; j < 4; ++j)
-    for (int i = 0; i < 4; ++i) q[j] += b[i] * kOptimize[i][j];
-  q[0] += kOptimizeOffset;
-  return q;
+  return as_array(shader::fm_msm_optimize(model_constants(), as_channels(b)));
 }
 
 std::array<double, 4> msm_deoptimize(const std::array<double, 4>& q) {
-  const Inverse& inv = inverse();
-  std::array<double, 4> in = q, b{};
-  in[0] -= kOptimizeOffset;
-  for (int j = 0; j < 4; ++j)
-    for (int i = 0; i < 4; ++i) b[j] += in[i] * inv.m[i][j];
-  return b;
+  return as_array(shader::fm_msm_deoptimize(model_constants(), as_channels(q)));
 }
 
-double quantize_unorm16(double v) { return std::round(std::clamp(v, 0.0, 1.0) * 65535.0) / 65535.0; }
+double quantize_unorm16(double v) { return shader::fm_quantize_unorm16(v); }
 
 }  // namespace penumbra::filtered_moments

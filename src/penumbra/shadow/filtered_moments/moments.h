@@ -1,4 +1,5 @@
-// The moment arithmetic of the filtered-moment shadow maps (docs/methods/vsm.md, msm.md):
+// The moment arithmetic of the filtered-moment shadow maps (docs/methods/vsm.md, msm.md), the
+// C++ faces of moments_shared.h (which the GPU kernels run too):
 // what a texel stores for a depth, and what a filtered (mean) vector of those says about a
 // receiver at depth t. Depths are normalised to [0, 1] (0: the nearest caster, 1: the
 // farthest surface of the map; an empty texel stores the moments of depth 1). Pure
@@ -8,23 +9,19 @@
 #include <array>
 #include <cmath>
 
+#include "penumbra/shadow/filtered_moments/moments_shared.h"
+
 namespace penumbra::filtered_moments {
 
 // Lauritzen, GPU Gems 3 ch. 8 (light bleeding): remap [amount, 1] to [0, 1], so that
 // upper bounds below `amount` (the bleeding) become 0. amount = 0 leaves p unchanged.
-inline float reduce_bleeding(float p, float amount) {
-  if (!(amount > 0)) return p;
-  const float v = (p - amount) / (1.0f - amount);
-  return v < 0 ? 0.0f : (v > 1 ? 1.0f : v);
-}
+inline float reduce_bleeding(float p, float amount) { return shader::fm_reduce_bleeding(p, amount); }
 
 // Donnelly & Lauritzen 2006 (the one-tailed Chebyshev inequality): the upper bound on the
 // fraction of the filter region at depth >= t, from the mean mu and variance sigma2 of its
 // depths: 1 if t <= mu, else sigma2 / (sigma2 + (t - mu)^2).
 inline double chebyshev_upper_bound(double mu, double sigma2, double t) {
-  if (t <= mu) return 1.0;
-  const double d = t - mu;
-  return sigma2 / (sigma2 + d * d);
+  return shader::fm_chebyshev_upper_bound(mu, sigma2, t);
 }
 
 // What a blocker search finds in its region: the fraction in front of the receiver and the
@@ -44,8 +41,8 @@ BlockerEstimate chebyshev_blockers(double mu, double sigma2, double t);
 // Lauritzen & McCool 2008 (exponential warp of layered VSMs, "EVSM"): depth z in [0, 1]
 // mapped to x = 2 z - 1 in [-1, 1], warped to exp(c x) (positive) and -exp(-c x)
 // (negative).
-inline double evsm_positive_warp(double z, double c) { return std::exp(c * (2 * z - 1)); }
-inline double evsm_negative_warp(double z, double c) { return -std::exp(-c * (2 * z - 1)); }
+inline double evsm_positive_warp(double z, double c) { return shader::fm_evsm_positive_warp(z, c); }
+inline double evsm_negative_warp(double z, double c) { return shader::fm_evsm_negative_warp(z, c); }
 
 // Peters & Klein 2015 ("Moment shadow mapping", the algorithm "Hamburger 4MSM"): the
 // biased moments b' = (1 - alpha) b + alpha (0.5, 0.5, 0.5, 0.5), then the three-point
@@ -73,6 +70,10 @@ BlockerEstimate moment_blockers(const std::array<double, 4>& b, double zf, doubl
 // commutes with any normalised filter).
 std::array<double, 4> msm_optimize(const std::array<double, 4>& b);
 std::array<double, 4> msm_deoptimize(const std::array<double, 4>& q);
+
+// A model record (moments_shared.h FmModel) with the double constants filled in (the robust
+// quadrature's biases, the optimized basis and its inverse) and every parameter zero.
+shader::FmModel fm_model_constants();
 // Rounded to the nearest of 65536 levels in [0, 1] (an RGBA16 UNORM texel).
 double quantize_unorm16(double v);
 

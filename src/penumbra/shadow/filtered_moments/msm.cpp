@@ -28,12 +28,9 @@ const MethodRegistration registration({
     "moment shadow maps (Peters & Klein 2015, Hamburger 4MSM, optimized 16-bit quantisation) with the moment "
     "blocker search of moment soft shadows (Peters et al. 2016), prefiltered",
     params(),
-    [](const ParamSet& p) {
-      return std::make_unique<FilteredMomentShadows>(
-          p, std::make_unique<MsmModel>(p.get_float("moment_bias"), p.get_bool("quantize"), p.get_float("bleeding")));
-    },
+    [](const ParamSet& p) { return std::make_unique<FilteredMomentShadows>(p, make_moment_model("msm", p)); },
     /*samples_light=*/false,
-    [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, MsmModel::kChannels); },
+    [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, moment_channels("msm", p)); },
     // Not tile-exact: the depth map is fitted to the rendered view samples (as shadow-map's).
     /*tile_exact=*/false,
     // A textured light counts as its mean colour: the light is its centre, size or outline.

@@ -20,12 +20,9 @@ const MethodRegistration registration({
     "variance shadow maps (Donnelly & Lauritzen 2006), summed-area prefiltered, light-bleeding reduction, "
     "contact hardening from a moment blocker search",
     params(),
-    [](const ParamSet& p) {
-      return std::make_unique<FilteredMomentShadows>(
-          p, std::make_unique<VsmModel>(p.get_float("min_variance"), p.get_float("bleeding")));
-    },
+    [](const ParamSet& p) { return std::make_unique<FilteredMomentShadows>(p, make_moment_model("vsm", p)); },
     /*samples_light=*/false,
-    [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, VsmModel::kChannels); },
+    [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, moment_channels("vsm", p)); },
     // Not tile-exact: the depth map is fitted to the rendered view samples (as shadow-map's
     // and pcss's), so a crop's lookups read another map.
     /*tile_exact=*/false,

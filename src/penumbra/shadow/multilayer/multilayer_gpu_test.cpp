@@ -14,13 +14,13 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/multilayer/multilayer_map.h"
-#include "penumbra/testing/device_comparison.h"
+#include "penumbra/testing/gpu_method_runs.h"
 
 namespace penumbra {
 namespace {
 
 using gpu::testing::GpuTest;
-using testing::mean_abs_difference;
+using testing::mean_abs_dv;
 using testing::shipped_scene;
 
 RenderSettings settings(const std::string& method, std::vector<std::string> params, bool gpu, int spp = 16) {
@@ -30,7 +30,10 @@ RenderSettings settings(const std::string& method, std::vector<std::string> para
 class MultilayerGpu : public GpuTest {
  protected:
   double difference(const Scene& scene, const std::string& method, const std::vector<std::string>& params) {
-    const double d = testing::render_on_both(scene, settings(method, params, false), device().info().name).mean_dv;
+    const testing::DevicePair both = testing::render_on_both(scene, settings(method, params, false));
+    EXPECT_EQ(both.gpu.device, device().info().name);
+    EXPECT_GT(both.cpu_shadow, 10) << "no shadow to compare";
+    const double d = both.mean_abs_dv;
     std::printf("[ measured ] %s: mean |dV| %.2e\n", method.c_str(), d);
     return d;
   }
@@ -79,7 +82,7 @@ TEST_F(MultilayerGpu, CropsAndCameraMovesRenderAsFreshRenders) {
     EXPECT_EQ(first.stats.extra.at("map").at("width"), 128) << first.stats.extra.dump();
     // The same view samples: the map is kept, the same picture.
     const RenderResult second = r.render();
-    EXPECT_EQ(mean_abs_difference(first.visibility, second.visibility), 0.0) << method;
+    EXPECT_EQ(mean_abs_dv(first.visibility, second.visibility), 0.0) << method;
     // Another camera: a new fit and map, the picture a fresh renderer gives.
     Camera cam = scene.camera;
     cam.eye = cam.eye + (cam.target - cam.eye) * 0.3f;
@@ -88,7 +91,7 @@ TEST_F(MultilayerGpu, CropsAndCameraMovesRenderAsFreshRenders) {
     Scene moved_scene = scene;
     moved_scene.camera = cam;
     const RenderResult fresh = render_scene(moved_scene, settings(method, {"resolution=128"}, true, 8));
-    EXPECT_EQ(mean_abs_difference(moved.visibility, fresh.visibility), 0.0) << method;
+    EXPECT_EQ(mean_abs_dv(moved.visibility, fresh.visibility), 0.0) << method;
     // A crop: the map fitted to the crop's receivers, as the CPU fits it.
     RenderSettings crop = settings(method, {"resolution=128"}, true, 8);
     crop.crop = PixelWindow{8, 6, 30, 26};
@@ -96,7 +99,7 @@ TEST_F(MultilayerGpu, CropsAndCameraMovesRenderAsFreshRenders) {
     crop_cpu.device = {};
     const RenderResult g = render_scene(scene, crop);
     const RenderResult c = render_scene(scene, crop_cpu);
-    EXPECT_LE(mean_abs_difference(c.visibility, g.visibility), 2e-3) << method;
+    EXPECT_LE(mean_abs_dv(c.visibility, g.visibility), 2e-3) << method;
   }
 }
 
@@ -108,7 +111,7 @@ TEST_F(MultilayerGpu, NoReceiverInFrontOfTheLightGivesTheCpuPicture) {
   for (const char* method : {"mlsm", "mtsm"}) {
     const RenderResult cpu = render_scene(scene, settings(method, {"resolution=64"}, false, 4));
     const RenderResult gpu = render_scene(scene, settings(method, {"resolution=64"}, true, 4));
-    EXPECT_EQ(mean_abs_difference(cpu.visibility, gpu.visibility), 0.0) << method;
+    EXPECT_EQ(mean_abs_dv(cpu.visibility, gpu.visibility), 0.0) << method;
   }
 }
 
@@ -124,7 +127,7 @@ TEST_F(MultilayerGpu, FragmentListsTooSmallGrowAndGiveTheSamePicture) {
   EXPECT_EQ(normal.stats.extra.at("raster_attempts"), 1) << normal.stats.extra.dump();
   EXPECT_GT(grown.stats.extra.at("raster_attempts").get<int>(), 1) << grown.stats.extra.dump();
   EXPECT_GT(grown.stats.extra.at("map").at("fragments").get<uint64_t>(), 16u);
-  EXPECT_EQ(mean_abs_difference(normal.visibility, grown.visibility), 0.0);
+  EXPECT_EQ(mean_abs_dv(normal.visibility, grown.visibility), 0.0);
 }
 
 TEST_F(MultilayerGpu, MemoryEstimateCoversWhatTheMethodHolds) {

@@ -8,24 +8,10 @@
 namespace penumbra {
 namespace {
 
-occlusion::Options options_from(const ParamSet& p) {
-  occlusion::Options o;
-  o.slices = p.get_int("slices");
-  o.resolution = p.get_int("resolution");
-  o.prefilter = occlusion::parse_prefilter(p.get_string("prefilter"));
-  o.sat_precision = occlusion::parse_sat_precision(p.get_string("sat_precision"));
-  o.combine = occlusion::parse_combine(p.get_string("combine"));
-  o.thin_fix = p.get_bool("thin_fix");
-  o.fade = p.get_float("fade");
-  o.cop_distance = p.get_float("cop_distance");
-  o.cull_planar = p.get_bool("cull_planar");
-  o.cull_back_faces = p.get_bool("cull_back_faces");
-  return o;
-}
 
 class OcclusionTexturesMethod final : public ShadowMethod {
  public:
-  explicit OcclusionTexturesMethod(const ParamSet& p) : options_(options_from(p)), textures_(options_) {}
+  explicit OcclusionTexturesMethod(const ParamSet& p) : options_(occlusion::options_from(p)), textures_(options_) {}
 
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
@@ -50,7 +36,7 @@ class OcclusionTexturesMethod final : public ShadowMethod {
 // the casters' triangles and the rasterizer's scratch. Shading holds one tile's points per
 // thread (small next to the textures).
 MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
-  const occlusion::Options o = options_from(p);
+  const occlusion::Options o = occlusion::options_from(p);
   MemoryTally tally;
   tally.add(occlusion::OcclusionTextures::texture_bytes(o), "resolution");
   tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, o.resolution, o.resolution),

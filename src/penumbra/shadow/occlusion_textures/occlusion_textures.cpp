@@ -10,6 +10,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/gpu/raster/raster_layout_shared.h"
 
 namespace penumbra::occlusion {
 
@@ -45,6 +46,21 @@ const char* to_string(Combine c) {
     case Combine::Max: return "max";
   }
   return "?";
+}
+
+Options options_from(const ParamSet& p) {
+  Options o;
+  o.slices = p.get_int("slices");
+  o.resolution = p.get_int("resolution");
+  o.prefilter = parse_prefilter(p.get_string("prefilter"));
+  o.sat_precision = parse_sat_precision(p.get_string("sat_precision"));
+  o.combine = parse_combine(p.get_string("combine"));
+  o.thin_fix = p.get_bool("thin_fix");
+  o.fade = p.get_float("fade");
+  o.cop_distance = p.get_float("cop_distance");
+  o.cull_planar = p.get_bool("cull_planar");
+  o.cull_back_faces = p.get_bool("cull_back_faces");
+  return o;
 }
 
 LightRect light_rect(const AreaLight& light) {
@@ -117,14 +133,12 @@ OcclusionTextures::OcclusionTextures(const Options& options) : options_(options)
   if (!(options.cop_distance >= 0)) throw Error("occlusion-textures: cop_distance = {} must be >= 0", options.cop_distance);
 }
 
-void OcclusionTextures::build(const Scene& scene, const AreaLight& light, MethodStats* stats) {
-  Timer timer;
+void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
   light_ = light_rect(light);
   const int S = options_.slices, R = options_.resolution;
 
   // Casters: every object but the planar ones that cannot shadow anything.
   culled_.clear();
-  triangles_.clear();
   for (size_t i = 0; i < scene.objects.size(); ++i)
     if (options_.cull_planar && is_planar_non_caster(scene, i, light_)) culled_.push_back(static_cast<uint32_t>(i));
 
@@ -151,6 +165,43 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
     }
   }
   has_casters_ = zmax > 0;
+  setup_ = {};
+  setup_.center = light_.center;
+  setup_.forward = light_.forward;
+  setup_.slices = S;
+  setup_.combine = options_.combine == Combine::Sum ? shader::kOtSum
+                   : options_.combine == Combine::Max ? shader::kOtMax
+                                                      : shader::kOtProduct;
+  if (!has_casters_) return;
+  bottom_ = zmax;
+  top_ = std::max(z_eps, std::min(zmin, bottom_ * (1 - 1e-3f)));
+  thickness_ = (bottom_ - top_) / float(S);
+  const float d_min = 0.02f * std::max(light_.width, light_.height), d_max = std::max(2 * bottom_, d_min);
+  d_ = options_.cop_distance > 0 ? options_.cop_distance : std::clamp(d_fit * (1 - 1e-3f), d_min, d_max);
+  // One perspective pass from E, the window at depth d being the light itself.
+  const Vec3f eye = light_.center - light_.forward * d_;
+  const float near = (d_ + top_) * (1 - 1e-5f), far = (d_ + bottom_) * (1 + 1e-5f);
+  const float sx = hw * near / d_, sy = hh * near / d_;
+  view_ = LightView::frustum(eye, light_.forward, light_.up, -sx, sx, -sy, sy, near, far, R, R);
+  // The per-point arithmetic's record (occlusion_shared.h).
+  setup_.has_casters = 1u;
+  setup_.top = top_;
+  setup_.thickness = thickness_;
+  setup_.right = view_.right();
+  setup_.up = view_.up();
+  setup_.R = float(R);
+  setup_.kx = setup_.R / light_.width;
+  setup_.ky = setup_.R / light_.height;
+  setup_.fade = options_.fade > 0 ? 1u : 0u;
+  setup_.inv_fade = options_.fade > 0 ? 1.0f / (options_.fade * thickness_) : kInfinity;
+  for (int k = 0; k < S; ++k) setup_.scale[k] = d_ / (plane(k) + d_);
+}
+
+void OcclusionTextures::build(const Scene& scene, const AreaLight& light, MethodStats* stats) {
+  Timer timer;
+  const int S = options_.slices, R = options_.resolution;
+  plan(scene, light);
+  triangles_.clear();
   masks_.width = masks_.height = 0;
   masks_.masks.clear();
   if (!has_casters_) {
@@ -158,21 +209,10 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
     stats->add_phase("filtering", 0.0);
     return;
   }
-  const float bottom = zmax;
-  top_ = std::max(z_eps, std::min(zmin, bottom * (1 - 1e-3f)));
-  thickness_ = (bottom - top_) / float(S);
-  const float d_min = 0.02f * std::max(light_.width, light_.height), d_max = std::max(2 * bottom, d_min);
-  d_ = options_.cop_distance > 0 ? options_.cop_distance : std::clamp(d_fit * (1 - 1e-3f), d_min, d_max);
-  scale_.resize(S);
-  for (int k = 0; k < S; ++k) scale_[k] = d_ / (plane(k) + d_);
-  R_ = float(R);
-  kx_ = R_ / light_.width;
-  ky_ = R_ / light_.height;
-  inv_fade_ = options_.fade > 0 ? 1.0f / (options_.fade * thickness_) : kInfinity;
 
   // The casters' triangles; of a closed object only those facing E (where rays from E enter
   // the solid) when cull_back_faces: the solid then occludes once in eq. 5, not twice.
-  const Vec3f eye = light_.center - light_.forward * d_;
+  const Vec3f eye = view_.eye();
   for (size_t i = 0, c = 0; i < scene.objects.size(); ++i) {
     if (c < culled_.size() && culled_[c] == i) {
       ++c;
@@ -189,10 +229,6 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
     }
   }
 
-  // One perspective pass from E, the window at depth d being the light itself.
-  const float near = (d_ + top_) * (1 - 1e-5f), far = (d_ + bottom) * (1 + 1e-5f);
-  const float sx = hw * near / d_, sy = hh * near / d_;
-  view_ = LightView::frustum(eye, light_.forward, light_.up, -sx, sx, -sy, sy, near, far, R, R);
   rasterizer_.depth_bin_masks(triangles_, view_, RasterFilter{}, DepthBins{d_ + top_, thickness_, S}, &masks_);
   if (options_.thin_fix && S > 1) {
     // Thin occluders (Fig. 6): what a slice holds is also written into the next slice
@@ -220,7 +256,7 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   stats->add_phase("filtering", timer.elapsed_ms());
   stats->memory_bytes = std::max<uint64_t>(stats->memory_bytes, texture_bytes());
   stats->extra["cop_distance"] = d_;
-  stats->extra["depth_range"] = {top_, bottom};
+  stats->extra["depth_range"] = {top_, bottom_};
   stats->extra["caster_triangles"] = triangles_.size();
   // Fragments of the slicing pass: they grow with the texels the casters cover, i.e. as the
   // light (to which the texture is fitted, §3.4) shrinks relative to the casters.
@@ -228,6 +264,15 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   nlohmann::json culled = nlohmann::json::array();
   for (uint32_t i : culled_) culled.push_back(scene.objects[i].name);
   stats->extra["culled_objects"] = culled;
+}
+
+std::vector<uint32_t> OcclusionTextures::slicing_object_flags(const Scene& scene) const {
+  std::vector<uint32_t> flags(scene.objects.size(), 0u);
+  for (uint32_t i : culled_) flags[i] |= shader::kRasterObjectSkip;
+  if (options_.cull_back_faces)
+    for (size_t i = 0; i < scene.objects.size(); ++i)
+      if (scene.objects[i].closed) flags[i] |= shader::kRasterObjectFrontOnly;
+  return flags;
 }
 
 size_t OcclusionTextures::texture_bytes() const {
@@ -273,14 +318,6 @@ float OcclusionTextures::box(int k, float x0, float y0, float x1, float y1, Look
   return dispatch([&](const auto& f) { return f.box(k, x0, y0, x1, y1, n); });
 }
 
-inline float OcclusionTextures::combine(float product, float sum, float largest) const {
-  switch (options_.combine) {
-    case Combine::Product: return product;
-    case Combine::Sum: return std::max(0.0f, 1.0f - sum);
-    case Combine::Max: return 1.0f - largest;
-  }
-  return product;
-}
 
 // A batch of points (the view samples of one image tile) in the light's frame, structure of
 // arrays, sorted by how many slices lie between the point and the light, most first: slice k
@@ -302,29 +339,33 @@ struct OcclusionTextures::Batch {
 
 namespace {
 
-// The kernels of slice k (texture plane at depth zp) for m points: centre and side in texels.
+// The kernels of slice k (texture plane at depth zp) for m points: centre and side in texels
+// (occlusion_shared.h ot_kernel).
 PENUMBRA_OT_CLONES void kernels(size_t m, const float* __restrict u, const float* __restrict v, const float* __restrict z,
-                                const float* __restrict inv_z, float zp, float scale, float R, float kx, float ky,
+                                const float* __restrict inv_z, const shader::OtSetup& setup, int k, float zp,
                                 float* __restrict cx, float* __restrict cy, float* __restrict side) {
-  const float half_r = 0.5f * R, side_scale = scale * R;
   for (size_t i = 0; i < m; ++i) {
-    const float a = scale * zp * inv_z[i];
-    cx[i] = half_r + u[i] * a * kx;
-    cy[i] = half_r - v[i] * a * ky;
-    side[i] = std::max(1.0f, (z[i] - zp) * inv_z[i] * side_scale);
+    const shader::OtKernel kern = shader::ot_kernel(setup, k, zp, u[i], v[i], z[i], inv_z[i]);
+    cx[i] = kern.cx;
+    cy[i] = kern.cy;
+    side[i] = kern.side;
   }
 }
 
-// Slice k's occlusion, faded in below its plane, into the three combinations.
-PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict occ, float zp,
-                                   float inv_fade, float* __restrict product, float* __restrict sum,
-                                   float* __restrict largest) {
-  for (size_t i = 0; i < m; ++i) {
-    const float o = std::min(1.0f, (z[i] - zp) * inv_fade) * occ[i];
-    product[i] *= 1.0f - o;  // eq. 5
-    sum[i] += o;
-    largest[i] = std::max(largest[i], o);
-  }
+// Slice k's occlusion, faded in below its plane, into the three combinations
+// (occlusion_shared.h ot_accumulate).
+inline void accumulate_one(const shader::OtSetup& setup, float z, float zp, float occ, float& product, float& sum,
+                           float& largest) {
+  shader::OtCombined c{product, sum, largest};
+  shader::ot_accumulate(setup, c, z, zp, occ);
+  product = c.product;
+  sum = c.sum;
+  largest = c.largest;
+}
+PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict occ,
+                                   const shader::OtSetup& setup, float zp, float* __restrict product,
+                                   float* __restrict sum, float* __restrict largest) {
+  for (size_t i = 0; i < m; ++i) accumulate_one(setup, z[i], zp, occ[i], product[i], sum[i], largest[i]);
 }
 
 // Whether a kernel meets the R x R texture (the same test as the filters' clipping; outside
@@ -361,14 +402,11 @@ PENUMBRA_OT_CLONES size_t kernels_meeting_texture(size_t m, const float* __restr
 
 // accumulate() for the kernels meets[0..a) (occ[j] belongs to point meets[j]).
 PENUMBRA_OT_CLONES void accumulate_at(size_t a, const uint32_t* __restrict meets, const float* __restrict z,
-                                      const float* __restrict occ, float zp, float inv_fade, float* __restrict product,
-                                      float* __restrict sum, float* __restrict largest) {
+                                      const float* __restrict occ, const shader::OtSetup& setup, float zp,
+                                      float* __restrict product, float* __restrict sum, float* __restrict largest) {
   for (size_t j = 0; j < a; ++j) {
     const uint32_t i = meets[j];
-    const float o = std::min(1.0f, (z[i] - zp) * inv_fade) * occ[j];
-    product[i] *= 1.0f - o;  // eq. 5
-    sum[i] += o;
-    largest[i] = std::max(largest[i], o);
+    accumulate_one(setup, z[i], zp, occ[j], product[i], sum[i], largest[i]);
   }
 }
 
@@ -397,13 +435,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
   uint32_t bucket[33] = {};
   const Vec3f right = view_.right(), up = view_.up();
   for (size_t i = 0; i < count; ++i) {
-    const float z = dot(b.points[i] - light_.center, light_.forward);
-    int a = 0;
-    if (has_casters_ && z > 0) {
-      a = std::clamp(static_cast<int>(std::ceil((z - top_) / thickness_)) - 1, 0, S);
-      while (a > 0 && !(plane(a - 1) < z)) --a;
-      while (a < S && plane(a) < z) ++a;
-    }
+    const int a = shader::ot_slices_above(setup_, dot(b.points[i] - light_.center, light_.forward));
     b.above[i] = static_cast<uint8_t>(a);
     ++bucket[a];
   }
@@ -428,29 +460,29 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
     m -= bucket[k];  // the points with exactly k slices above drop out
     if (m == 0) break;
     const float zp = plane(k);
-    kernels(m, b.u.data(), b.v.data(), b.z.data(), b.inv_z.data(), zp, scale_[k], R_, kx_, ky_, b.cx.data(), b.cy.data(),
+    kernels(m, b.u.data(), b.v.data(), b.z.data(), b.inv_z.data(), setup_, k, zp, b.cx.data(), b.cy.data(),
             b.side.data());
     // Kernels outside the texture are 0. When more than a quarter of them are, the others are
     // gathered and filtered alone; otherwise the filter's own clipping gives the zeros (a
     // gather and scatter would cost more than it saves).
-    const size_t inside = count_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), R_);
+    const size_t inside = count_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), setup_.R);
     if (4 * inside >= 3 * m) {
       filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
-      accumulate(m, b.z.data(), b.occlusion.data(), zp, inv_fade_, b.product.data(), b.sum.data(), b.largest.data());
+      accumulate(m, b.z.data(), b.occlusion.data(), setup_, zp, b.product.data(), b.sum.data(), b.largest.data());
     } else {
-      const size_t a = kernels_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), R_, b.meets.data(),
+      const size_t a = kernels_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), setup_.R, b.meets.data(),
                                                b.meets_cx.data(), b.meets_cy.data(), b.meets_side.data());
       n.lookups += m - a;  // lookups of 0 outside the texture, not made
       n.outside += m - a;
       if (a > 0) {
         filter.squares(k, a, b.meets_cx.data(), b.meets_cy.data(), b.meets_side.data(), b.occlusion.data(), n);
-        accumulate_at(a, b.meets.data(), b.z.data(), b.occlusion.data(), zp, inv_fade_, b.product.data(), b.sum.data(),
+        accumulate_at(a, b.meets.data(), b.z.data(), b.occlusion.data(), setup_, zp, b.product.data(), b.sum.data(),
                       b.largest.data());
       }
     }
   }
   for (size_t i = 0; i < count; ++i)
-    out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? combine(b.product[i], b.sum[i], b.largest[i]) : 1.0f);
+    out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? shader::ot_combine(setup_, {b.product[i], b.sum[i], b.largest[i]}) : 1.0f);
 }
 
 float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {

@@ -32,6 +32,8 @@
 #include "penumbra/raster/raster_triangle.h"
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/shadow/params.h"
+#include "penumbra/shadow/occlusion_textures/occlusion_shared.h"
 #include "penumbra/shadow/occlusion_textures/prefilter.h"
 #include "penumbra/shadow/stats.h"
 #include "penumbra/shadow/view_samples.h"
@@ -61,6 +63,9 @@ struct Options {
   bool cull_back_faces = true;   // closed objects: slice only the faces toward the centre of projection
 };
 
+// The method's parameters (method.cpp's table) as Options.
+Options options_from(const ParamSet& p);
+
 // The light as a rectangle: a rect light itself, a disk (or a sphere's disk facing
 // frame.n) as its bounding square.
 struct LightRect {
@@ -76,6 +81,10 @@ class OcclusionTextures {
   // Slices the scene for `light` and pre-filters the textures. Records the phases
   // "slicing" and "filtering" and the memory in *stats.
   void build(const Scene& scene, const AreaLight& light, MethodStats* stats);
+  // What build() decides before it rasterizes (the GPU version's set-up too): the casters (the
+  // planar non-casters culled), their depth range, the slices, the centre of projection and the
+  // slicing view, and setup().
+  void plan(const Scene& scene, const AreaLight& light);
   // V for every view sample; records the phase "shading" and the lookups.
   void shade(const ViewSamples& samples, std::span<float> visibility, MethodStats* stats) const;
   // V at one point, and the lookups it made.
@@ -89,10 +98,17 @@ class OcclusionTextures {
   float top() const { return top_; }
   float thickness() const { return thickness_; }
   int slices() const { return options_.slices; }
-  float plane(int k) const { return top_ + float(k + 1) * thickness_; }
+  float plane(int k) const { return shader::ot_plane(setup_, k); }
+  float bottom() const { return bottom_; }
+  // The per-point arithmetic's record (occlusion_shared.h OtSetup).
+  const shader::OtSetup& setup() const { return setup_; }
   const DepthBinMasks& coverage() const { return masks_; }
   // Objects left out as planar non-casters.
   const std::vector<uint32_t>& culled_objects() const { return culled_; }
+  // The casters as the GPU rasterizer's per-object flags (gpu/raster/raster_layout_shared.h
+  // kRasterObject*, a uint per scene object): the culled objects left out, closed objects culled
+  // to their faces toward the centre of projection when cull_back_faces (what build() gathers).
+  std::vector<uint32_t> slicing_object_flags(const Scene& scene) const;
   // The pre-filtered mean coverage of slice k over a texel-space rectangle.
   float box(int k, float x0, float y0, float x1, float y1, LookupCounters* counters = nullptr) const;
   size_t texture_bytes() const;
@@ -104,7 +120,6 @@ class OcclusionTextures {
   struct Batch;
   template <class F>
   void shade_batch(const F& filter, Batch& batch, std::span<float> out, LookupCounters& n) const;
-  float combine(float product, float sum, float largest) const;
   template <class F>
   void shade_with(const F& filter, const ViewSamples& samples, std::span<float> visibility,
                   LookupCounters& total) const;
@@ -115,8 +130,10 @@ class OcclusionTextures {
   LightRect light_;
   bool has_casters_ = false;
   float d_ = 1, top_ = 0, thickness_ = 1;
-  std::vector<float> scale_;  // per slice: d / (plane(k) + d), texel footprint per world unit
-  float R_ = 1, kx_ = 1, ky_ = 1, inv_fade_ = 1;  // texture side; texels per world unit at the light; 1 / fade length
+  float bottom_ = 0;
+  // The per-point arithmetic's record (occlusion_shared.h): the light's frame, the slices, each
+  // slice's texel footprint per world unit, the fade, the combination.
+  shader::OtSetup setup_{};
   LightView view_;
   std::vector<uint32_t> culled_;
   std::vector<RasterTriangle> triangles_;

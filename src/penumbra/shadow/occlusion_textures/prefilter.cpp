@@ -47,49 +47,8 @@ void expand_bits(const CoverageStack& c, BytePyramid& pyramid) {
   });
 }
 
-// The rectangle [x0, x1] x [y0, y1] cut to the texture; `fraction` = the share of the
-// rectangle's area inside (0 if none).
-struct ClippedRect {
-  float x0, y0, x1, y1;
-  float fraction;
-};
-ClippedRect clip_rect(float x0, float y0, float x1, float y1, int width, int height) {
-  const float area = (x1 - x0) * (y1 - y0);
-  ClippedRect r{std::max(x0, 0.0f), std::max(y0, 0.0f), std::min(x1, float(width)), std::min(y1, float(height)), 0};
-  if (r.x1 > r.x0 && r.y1 > r.y0 && area > 0) r.fraction = (r.x1 - r.x0) * (r.y1 - r.y0) / area;
-  return r;
-}
-
-// A rectangle as squares (the anisotropic filtering of a GPU): one square when it is square,
-// one of the geometric-mean side when nearly so (sides within 25%), otherwise
-// n = min(16, ceil(long / short)) squares of side max(short, long / 16) spread evenly along
-// the long side. square(cx, cy, side) returns the filtered mean of one square.
-template <class Square>
-float mean_over_squares(const ClippedRect& r, Square&& square) {
-  const float sx = r.x1 - r.x0, sy = r.y1 - r.y0;
-  const float cx = 0.5f * (r.x0 + r.x1), cy = 0.5f * (r.y0 + r.y1);
-  if (sx == sy) return square(cx, cy, sx);
-  if (sx <= 1.25f * sy && sy <= 1.25f * sx) return square(cx, cy, std::sqrt(sx * sy));
-  const bool wide = sx > sy;
-  const float lo = wide ? r.x0 : r.y0, len = wide ? sx : sy, other = wide ? sy : sx;
-  const int n = std::min(16, static_cast<int>(std::ceil(len / other)));
-  const float side = std::max(other, len / 16.0f);
-  const float step = n > 1 ? (len - side) / float(n - 1) : 0.0f;
-  float sum = 0;
-  for (int i = 0; i < n; ++i) {
-    const float c = lo + 0.5f * side + step * float(i);
-    sum += wide ? square(c, cy, side) : square(cx, c, side);
-  }
-  return sum / float(n);
-}
-
-// Whether the square of half-side h centred on (cx, cy) lies inside a w x h texture.
-inline bool inside(float cx, float cy, float half, float width, float height) {
-  return cx - half >= 0 && cy - half >= 0 && cx + half <= width && cy + half <= height;
-}
-
 // Kernel sides are clamped just below the top level's size, so that level l + 1 always exists.
-inline float max_side(int levels) { return exp2_int(levels - 1) * (1.0f - 1.0f / 4096.0f); }
+inline float max_side(int levels) { return shader::ot_max_side(levels); }
 
 // A batch of square kernels cut to the texture, as box() and mean_over_squares() see them:
 // kSquare: one square lookup (side, centre) times `fraction` (the kernel inside, or cut to a
@@ -138,16 +97,23 @@ void finish_squares(const SquareBatch& sq, size_t m, const float* X, const float
   }
 }
 
-// box() of the 8-bit pyramids: cut to the texture; an elongated cut (more than 5:4) that
-// misses every covered texel is 0 (the exact answer, without the several lookups).
-template <class Square>
-float pyramid_box(float x0, float y0, float x1, float y1, int width, int height, const SliceBounds& bounds,
-                  Square&& square) {
-  const ClippedRect r = clip_rect(x0, y0, x1, y1, width, height);
-  if (r.fraction <= 0) return 0;
-  const float sx = r.x1 - r.x0, sy = r.y1 - r.y0;
-  if (!(sx <= 1.25f * sy && sy <= 1.25f * sx) && !bounds.meets(x0, y0, x1, y1)) return 0;
-  return r.fraction * mean_over_squares(r, square);
+// A pyramid's square lookup (MipmapFilter::trilinear, NBufferFilter::square): occlusion_shared.h
+// ot_square (both devices').
+float shared_square(const shader::OtTextures& t, int k, float cx, float cy, float side, LookupCounters& n) {
+  shader::OtCounters c{};
+  const float v = shader::ot_square(t, k, cx, cy, side, c);
+  n.reads += c.reads;
+  return v;
+}
+
+// box() of any filter: occlusion_shared.h ot_box (both devices').
+float shared_box(const shader::OtTextures& t, const SliceBounds& b, int k, float x0, float y0, float x1, float y1,
+                 LookupCounters& n) {
+  shader::OtCounters c{};
+  const float v = shader::ot_box(t, shader::OtSliceBounds{b.x0, b.y0, b.x1, b.y1}, k, x0, y0, x1, y1, c);
+  n.lookups += c.lookups;
+  n.reads += c.reads;
+  return v;
 }
 
 }  // namespace
@@ -177,6 +143,17 @@ std::vector<SliceBounds> coverage_bounds(const CoverageStack& c) {
     bounds[k] = {float(x0), float(y0), float(x1), float(y1)};
   }
   return bounds;
+}
+
+shader::OtTextures pyramid_textures(uint32_t prefilter, int width, int height, const BytePyramid& pyramid) {
+  shader::OtTextures t{};
+  t.prefilter = prefilter;
+  t.width = width;
+  t.height = height;
+  t.slices = pyramid.slices();
+  t.levels = pyramid.levels();
+  t.bytes = pyramid.levels() > 0 ? pyramid.plane(0, 0).data : nullptr;
+  return t;
 }
 
 namespace {
@@ -252,32 +229,16 @@ void MipmapFilter::build(const CoverageStack& c) {
   }
 }
 
-// Level l = floor(lod), fraction f, lod = approx_log2(side): bilinear in levels l and l + 1
-// at the kernel's centre, clamped to each level's edge texels.
 float MipmapFilter::trilinear(int k, float cx, float cy, float side, LookupCounters& n) const {
-  const float s = std::min(std::max(side, 1.0f), max_side(levels()));
-  const uint32_t bits = std::bit_cast<uint32_t>(s);
-  const int l = static_cast<int>(bits >> 23) - 127;
-  const float m = std::bit_cast<float>((bits & 0x007fffffu) | 0x3f800000u) - 1.0f;
-  const float f = m * (1.3465f - 0.3465f * m);
-  float v[2];
-  for (int i = 0; i < 2; ++i) {
-    const float scale = exp2_int(-(l + i));
-    const float w = std::max(1.0f, float(width_) * scale), h = std::max(1.0f, float(height_) * scale);
-    const float x = std::min(std::max(cx * scale - 0.5f, 0.0f), w - 1.0f);
-    const float y = std::min(std::max(cy * scale - 0.5f, 0.0f), h - 1.0f);
-    const float ix = float(static_cast<int>(x)), iy = float(static_cast<int>(y));
-    const BytePyramid::Plane& p = pyramid_.plane(l + i, k);
-    v[i] = BytePyramid::bilinear(BytePyramid::quad(p.data + static_cast<int>(iy * w + ix), p.w), x - ix, y - iy);
-  }
-  n.reads += 8;
-  return v[0] + (v[1] - v[0]) * f;
+  return shared_square(shared(), k, cx, cy, side, n);
+}
+
+shader::OtTextures MipmapFilter::shared() const {
+  return pyramid_textures(shader::kOtMipmap, width_, height_, pyramid_);
 }
 
 float MipmapFilter::box(int k, float x0, float y0, float x1, float y1, LookupCounters& n) const {
-  ++n.lookups;
-  return pyramid_box(x0, y0, x1, y1, width_, height_, bounds_[k],
-                     [&](float cx, float cy, float side) { return trilinear(k, cx, cy, side, n); });
+  return shared_box(shared(), bounds_[k], k, x0, y0, x1, y1, n);
 }
 
 PENUMBRA_OT_CLONES void MipmapFilter::squares(int k, size_t count, const float* cx, const float* cy, const float* side, float* out,
@@ -375,31 +336,16 @@ void NBufferFilter::build(const CoverageStack& c) {
   }
 }
 
-// The square of side q in [2^l, 2^(l+1)): f = q / 2^l - 1 between the 2^l and 2^(l+1) boxes
-// centred on (cx, cy), each bilinear between its integer anchors (the box mean of a
-// piecewise-constant texture is bilinear in the box's position), anchors clamped inside.
 float NBufferFilter::square(int k, float cx, float cy, float side, LookupCounters& n) const {
-  const float s = std::min(std::max(side, 1.0f), max_side(levels()));
-  const int l = static_cast<int>(std::bit_cast<uint32_t>(s) >> 23) - 127;
-  const float f = s * exp2_int(-l) - 1.0f;
-  float v[2];
-  for (int i = 0; i < 2; ++i) {
-    const float size = exp2_int(l + i);
-    const float x = std::min(std::max(cx - 0.5f * size, 0.0f), float(width_) - size);
-    const float y = std::min(std::max(cy - 0.5f * size, 0.0f), float(height_) - size);
-    const float ix = float(static_cast<int>(x)), iy = float(static_cast<int>(y));
-    const BytePyramid::Plane& p = pyramid_.plane(l + i, k);
-    v[i] = BytePyramid::bilinear(BytePyramid::quad(p.data + static_cast<int>(iy * (float(width_) + 1.0f - size) + ix), p.w),
-                                 x - ix, y - iy);
-  }
-  n.reads += 8;
-  return v[0] + (v[1] - v[0]) * f;
+  return shared_square(shared(), k, cx, cy, side, n);
+}
+
+shader::OtTextures NBufferFilter::shared() const {
+  return pyramid_textures(shader::kOtNBuffer, width_, height_, pyramid_);
 }
 
 float NBufferFilter::box(int k, float x0, float y0, float x1, float y1, LookupCounters& n) const {
-  ++n.lookups;
-  return pyramid_box(x0, y0, x1, y1, width_, height_, bounds_[k],
-                     [&](float cx, float cy, float side) { return square(k, cx, cy, side, n); });
+  return shared_box(shared(), bounds_[k], k, x0, y0, x1, y1, n);
 }
 
 PENUMBRA_OT_CLONES void NBufferFilter::squares(int k, size_t count, const float* cx, const float* cy, const float* side, float* out,
@@ -503,29 +449,27 @@ float sat_area_from(const E& e, float fx0, float fy0, float fx1, float fy1) {
   return sat_box_integral<float>(e, fx0, fy0, fx1, fy1);
 }
 
-template <class T>
-float sat_area(const T* t, size_t stride, int width, int height, float x0, float y0, float x1, float y1) {
-  const int i0 = std::min(static_cast<int>(x0), width - 1), i1 = std::min(static_cast<int>(x1), width - 1);
-  const int j0 = std::min(static_cast<int>(y0), height - 1), j1 = std::min(static_cast<int>(y1), height - 1);
-  const T* corner[4] = {t + static_cast<size_t>(j0) * stride + i0, t + static_cast<size_t>(j0) * stride + i1,
-                        t + static_cast<size_t>(j1) * stride + i0, t + static_cast<size_t>(j1) * stride + i1};
-  const size_t offset[4] = {0, 1, stride, stride + 1};
-  return sat_area_from([&](int c, int k) { return corner[c][offset[k]]; }, x0 - float(i0), y0 - float(j0),
-                       x1 - float(i1), y1 - float(j1));
-}
-
 }  // namespace
 
+// occlusion_shared.h ot_box (both devices'; no slice bounds: the tables are exact).
 template <class T>
 float SatFilter<T>::box(int k, float x0, float y0, float x1, float y1, LookupCounters& n) const {
-  ++n.lookups;
-  const float area = (x1 - x0) * (y1 - y0);
-  const float cx0 = std::max(x0, 0.0f), cy0 = std::max(y0, 0.0f);
-  const float cx1 = std::min(x1, float(width_)), cy1 = std::min(y1, float(height_));
-  if (!(cx1 > cx0 && cy1 > cy0 && area > 0)) return 0;
-  n.reads += 16;
-  return sat_area(data_.data() + static_cast<size_t>(k) * slice_size_, stride_, width_, height_, cx0, cy0, cx1, cy1) *
-         (1.0f / area);
+  return shared_box(shared(), SliceBounds{}, k, x0, y0, x1, y1, n);
+}
+
+template <class T>
+shader::OtTextures SatFilter<T>::shared() const {
+  shader::OtTextures t{};
+  t.prefilter = shader::kOtSat;
+  t.sat_counts = std::is_same_v<T, uint32_t> ? 1u : 0u;
+  t.width = width_;
+  t.height = height_;
+  t.slices = static_cast<int>(slice_size_ == 0 ? 0 : data_.size() / slice_size_);
+  if constexpr (std::is_same_v<T, uint32_t>) t.sat_u = data_.data();
+  else t.sat_d = data_.data();
+  const uint32_t stride = static_cast<uint32_t>(stride_);
+  t.sat = {width_, height_, t.slices, 1u, stride, static_cast<uint32_t>(slice_size_)};
+  return t;
 }
 
 // (Not multiversioned: the AVX2 clone measured 2x slower, its helpers not inlined.)

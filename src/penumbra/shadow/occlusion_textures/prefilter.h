@@ -41,6 +41,8 @@
 #include <span>
 #include <vector>
 
+#include "penumbra/shadow/occlusion_textures/occlusion_shared.h"
+
 // The batched lookups are compiled twice, for AVX2 and for the baseline x86-64 (SSE2), and
 // the first call picks the version the processor runs (GCC function multiversioning; the
 // same IEEE operations either way: no FMA contraction under -std=c++20, so results do not
@@ -52,21 +54,6 @@
 #endif
 
 namespace penumbra::occlusion {
-
-// floor() as an int, without a libm call (x within int range).
-inline int floor_int(float x) {
-  const int i = static_cast<int>(x);
-  return i - (x < static_cast<float>(i));
-}
-// 2^e for an integer e in the normal float range, from its exponent bits.
-inline float exp2_int(int e) { return std::bit_cast<float>(static_cast<uint32_t>(e + 127) << 23); }
-// log2(x) for x >= 1: the exponent plus a quadratic in the mantissa (error < 0.006; what a
-// GPU's level-of-detail computation does too).
-inline float approx_log2(float x) {
-  const uint32_t bits = std::bit_cast<uint32_t>(x);
-  const float m = std::bit_cast<float>((bits & 0x007fffffu) | 0x3f800000u) - 1.0f;
-  return static_cast<float>(static_cast<int>(bits >> 23) - 127) + m * (1.3465f - 0.3465f * m);
-}
 
 // Texel reads of the lookups made (for statistics and the light-size-independence test).
 struct LookupCounters {
@@ -89,6 +76,10 @@ struct SliceBounds {
   bool meets(float ax0, float ay0, float ax1, float ay1) const { return ax0 < x1 && ax1 > x0 && ay0 < y1 && ay1 > y0; }
 };
 std::vector<SliceBounds> coverage_bounds(const CoverageStack& c);
+
+class BytePyramid;
+// A pyramid as the shared lookups read it (occlusion_shared.h OtTextures).
+shader::OtTextures pyramid_textures(uint32_t prefilter, int width, int height, const BytePyramid& pyramid);
 
 // Levels of 8-bit planes, one plane per (level, slice), with a padding row after the last
 // plane so that bilinear reads at the far edge (weighted 0) stay inside the allocation.
@@ -152,6 +143,9 @@ class MipmapFilter {
   }
   // One trilinear lookup for a square of side `side` centred on (cx, cy).
   float trilinear(int k, float cx, float cy, float side, LookupCounters& n) const;
+  // The textures as the shared lookups read them (occlusion_shared.h).
+  shader::OtTextures shared() const;
+  const std::vector<SliceBounds>& bounds() const { return bounds_; }
 
  private:
   int width_ = 0, height_ = 0;
@@ -183,6 +177,9 @@ class NBufferFilter {
   }
   // One lookup for a square of side `side` centred on (cx, cy) (anchors clamped inside).
   float square(int k, float cx, float cy, float side, LookupCounters& n) const;
+  // The textures as the shared lookups read them (occlusion_shared.h).
+  shader::OtTextures shared() const;
+  const std::vector<SliceBounds>& bounds() const { return bounds_; }
 
  private:
   int width_ = 0, height_ = 0;
@@ -209,6 +206,8 @@ class SatFilter {
   T entry(int k, int x, int y) const {
     return data_[static_cast<size_t>(k) * slice_size_ + static_cast<size_t>(y) * stride_ + x];
   }
+  // The tables as the shared lookups read them (occlusion_shared.h).
+  shader::OtTextures shared() const;
 
  private:
   int width_ = 0, height_ = 0;

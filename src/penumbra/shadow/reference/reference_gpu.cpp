@@ -2,9 +2,8 @@
 // thread per view sample tracing its n shadow rays through the GPU's BVH
 // (kernels/reference_fans.comp). At one seed and spp it traces the CPU's rays up to float
 // rounding (gpu_reference_test.cpp).
-#include "penumbra/core/sampling.h"
 #include "penumbra/shadow/gpu_method.h"
-#include "penumbra/shadow/shadow_rays_shared.h"
+#include "penumbra/shadow/light_fans_gpu.h"
 
 namespace penumbra {
 namespace {
@@ -22,27 +21,12 @@ class ReferenceGpu final : public GpuShadowMethod {
   bool computes_irradiance() const override { return true; }
 
   void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
-    const int n = std::max(1, ctx.light_samples);
-    const StratifiedGrid grid(n);
     gpu::CommandList& cl = *frame.commands;
     cl.fill(rays_, 0);
     cl.stage("trace");
-    shader::LightFansParams p{};
-    p.scene = frame.scene->address();
-    p.samples = frame.view_samples;
-    p.light = frame.light;
+    shader::LightFansParams p = light_fans_params(ctx, frame, ctx.light_samples, area_, rays_.address());
     p.visibility = out.visibility;
     p.irradiance = out.irradiance;
-    p.rays = rays_.address();
-    p.seed = ctx.seed;
-    p.slots = frame.slots;
-    p.light_index = ctx.light_index;
-    p.frame = ctx.frame;
-    p.n = n;
-    p.grid_cols = grid.cols();
-    p.inv_cols = grid.inv_cols();
-    p.inv_rows = grid.inv_rows();
-    p.area_sampling = area_ ? 1u : 0u;
     cl.dispatch("reference_fans", frame.slots, p);
     // The count is read once the frame has run (collect_stats).
     pending_ = true;

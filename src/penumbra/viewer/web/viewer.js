@@ -42,6 +42,7 @@
   const V = {
     state: null,        // last GET /api/state answer
     methods: [],        // GET /api/methods
+    device: null,       // GET /api/state .device: where the frames render
     layers: {},         // name -> the last layer metadata received (with the message's seq)
     frameCount: 0,      // main frames drawn
     lastMainFrame: null,
@@ -215,7 +216,8 @@
       const m = images.main.meta;
       V.frameCount++;
       V.lastMainFrame = { seq: msg.seq, kind: m.kind, method: m.method, generation: m.generation, frame: m.frame,
-                          frames: m.frames, width: m.width, height: m.height, drawnAt: performance.now() };
+                          frames: m.frames, width: m.width, height: m.height, auto: m.auto || null,
+                          drawnAt: performance.now() };
     }
     updateStatus(msg.status);
     // A view change that did not come from this page (a script, another tab): reload the view,
@@ -306,6 +308,16 @@
       // time and samples are the main layer's: what the frame being refined costs
       $('frame-info').textContent = `${main.ms != null ? main.ms.toFixed(1) : '?'} ms/frame` +
         (main.light_samples ? ` · ${main.light_samples} light samples` : '');
+    }
+    // The auto preview's choice, from frame times and errors measured on this device
+    // (preview_choice.h): shown while the preview it chose is on the canvas.
+    const auto = main && main.kind === 'preview' && main.auto ? main.auto : null;
+    $('auto-choice').hidden = !auto;
+    if (auto) {
+      const ms = auto.ms != null ? `${auto.ms.toFixed(1)} ms measured` : 'not measured yet';
+      const err = auto.error != null ? `, |ΔV| ${auto.error.toFixed(4)} vs final` : '';
+      $('auto-choice').textContent = `auto → ${auto.method} (${auto.move} move: ${ms}${err})`;
+      $('auto-choice').title = auto.reason || '';
     }
     if (status) {
       $('phase').textContent = status.phase + (status.error ? ` — ${status.error}` : '');
@@ -630,7 +642,8 @@
     }
   }
   function buildMethodControls() {
-    const names = V.methods.map((m) => m.name);
+    // Only the methods that run on this session's device (a GPU session offers the GPU's).
+    const names = V.methods.filter((m) => m.available !== false).map((m) => m.name);
     fillSelect($('preview-method'), [['auto', 'auto'], ...names.map((n) => [n, n])]);
     fillSelect($('final-method'), names.map((n, i) => [n, i < 10 ? `${n}  (${(i + 1) % 10})` : n]));
     fillSelect($('compare-method'), [['', 'none'], ...names.map((n) => [n, n])]);
@@ -762,7 +775,7 @@
     if (e.ctrlKey || e.metaKey || e.altKey) return;
     if (/^[0-9]$/.test(e.key)) {
       const idx = e.key === '0' ? 9 : Number(e.key) - 1;
-      const m = V.methods[idx];
+      const m = V.methods.filter((x) => x.available !== false)[idx];  // as the final select lists them
       if (m) { $('final-method').value = m.name; setFinal(m.name); }
     } else if (e.key === 'r') refineNow();
     else if (e.key === 'd') toggleDiff();
@@ -799,6 +812,10 @@
         V.methods = methods;
         try { const doc = await api('GET', '/api/scene'); sceneMethods = doc.methods || {}; } catch (_) { sceneMethods = {}; }
         myGeneration = st.generation;
+        // The device every frame renders on (`penumbra view --device`).
+        const dev = st.device || { choice: 'cpu', name: 'cpu' };
+        $('device').textContent = dev.choice === 'cpu' ? 'CPU' : `GPU: ${dev.name}`;
+        V.device = dev;
         buildMethodControls();
         applyState(st);
         break;

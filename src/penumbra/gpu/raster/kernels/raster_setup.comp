@@ -1,7 +1,8 @@
 #version 460
 // The GPU rasterizer's set-up (gpu/raster/raster_layout_shared.h; rasterizer.cpp
 // set_up_triangles): one thread per input triangle. Triangles with opacity <= 0 cast nothing;
-// the filter culls by facing and semi-transparency; the rest are transformed to homogeneous texel
+// the filter culls by facing and semi-transparency, a mode's per-object flags leave objects out
+// or cull them to their front faces; the rest are transformed to homogeneous texel
 // space, clipped against near, far and the guard band (Sutherland-Hodgman), fanned, and each fan
 // triangle set up (raster/raster_shared.h raster_set_up, in double) and appended with one work
 // item per 16 x 16-texel tile of its texel box. Counters run on past the capacities, so the host
@@ -42,13 +43,19 @@ void main() {
   raster_source(g, object, prim);
   if (!(raster_opacity(object, prim) > 0.0f)) return;
   if (pc.p.opaque_only != 0u && raster_semi_transparent(object, prim)) return;
+  uint culling = pc.p.culling;
+  if (pc.p.object_flags != 0UL) {  // a mode's per-object choices
+    uint flags = Uints(pc.p.object_flags).v[object];
+    if ((flags & kRasterObjectSkip) != 0u) return;
+    if ((flags & kRasterObjectFrontOnly) != 0u) culling = 1u;
+  }
   vec3 p0, p1, p2;
   raster_vertices(object, prim, p0, p1, p2);
-  if (pc.p.culling != 0u) {
+  if (culling != 0u) {
     // clipping.h faces_light: the light sees the side cross(p1 - p0, p2 - p0) points to.
     vec3 n = cross(p1 - p0, p2 - p0);
     bool front = view.perspective != 0u ? dot(n, view.eye - p0) > 0.0f : dot(n, view.forward) < 0.0f;
-    if (front != (pc.p.culling == 1u)) return;
+    if (front != (culling == 1u)) return;
   }
   vec4 poly[kRasterMaxClipVertices];
   poly[0] = raster_project(view, p0);

@@ -1,0 +1,254 @@
+// The per-sample work of `vsm`, `evsm` and `msm` once for both devices (filtered_moments.h states
+// the method): a view sample's normalised depth, the filtered mean over a rectangle of the
+// moment map (summed-area table or mip chain, cut to the map), the receiver plane's variance,
+// the light's part above a closed surface's tangent plane, and the two lookups (blocker search,
+// then the filter). Common subset of C++ and GLSL (core/shader_compat.h); FilteredMomentShadows
+// calls fm_shade for every view sample, the GPU kernel filtered_moments/kernels/
+// fm_filter.comp for every slot. Also the GPU's records, byte by byte.
+#ifndef PENUMBRA_SHADOW_FILTERED_MOMENTS_FILTERED_MOMENTS_SHARED_H
+#define PENUMBRA_SHADOW_FILTERED_MOMENTS_FILTERED_MOMENTS_SHARED_H
+
+#include "penumbra/core/shader_compat.h"
+#include "penumbra/core/shader_compat_math.h"
+#include "penumbra/raster/filtered_map_shared.h"
+#include "penumbra/shadow/filtered_moments/moments_shared.h"
+#include "penumbra/shadow/shadow_map_shared.h"
+
+PN_SHARED_BEGIN
+
+PN_CONST uint kFmPrefilterSat = 0u;
+PN_CONST uint kFmPrefilterMip = 1u;
+
+// How a depth map's linear depths map to normalised depths (FilteredMomentMap::normalize): affine
+// in 1/z over the map's covered range onto [near, far] (0.05, 0.95), 32 bytes (a GPU record the
+// encode kernel writes): bytes 0-7 inv_lo (1 / the nearest covered depth), 8-15 scale
+// ((far - near) / (1/lo - 1/hi)), 16-23 near, 24-31 far.
+struct FmDepthRange {
+  double inv_lo;
+  double scale;
+  double near;
+  double far;
+};
+
+// The range of a map whose covered linear depths span [lo, hi] (lo > hi: an empty map, whose
+// every lookup reads "nothing"); a map of one depth still needs a range (any positive one: its
+// texels are all at near): at least tiny / lo in 1/z.
+PN_INLINE FmDepthRange fm_depth_range(float lo, float hi, double near, double far, double tiny) {
+  if (!(lo <= hi)) {
+    lo = 1.0f;
+    hi = 1.0f;
+  }
+  FmDepthRange r;
+  r.inv_lo = double(1.0f) / double(lo);
+  double range = pn_dmax(double(1.0f) / double(lo) - double(1.0f) / double(hi), tiny / double(lo));
+  r.scale = (far - near) / range;
+  r.near = near;
+  r.far = far;
+  return r;
+}
+
+PN_INLINE double fm_normalize(FmDepthRange r, float z) {
+  PN_PRECISE double d = r.near + (r.inv_lo - double(1.0f) / double(z)) * r.scale;
+  return d;
+}
+PN_INLINE double fm_inverse_depth(FmDepthRange r, double d) { return r.inv_lo - (d - r.near) / r.scale; }
+
+// What a texel of linear depth z (+inf: empty) stores: the moments of its normalised depth, an
+// empty texel those of depth 1 (nothing in front of anything). The CPU stores them as floats.
+PN_INLINE FilteredChannels fm_encode_texel(FmModel model, FmDepthRange r, float z) {
+  bool covered = floatBitsToUint(z) < 0x7f800000u;  // z < +inf (depths are positive), from the bits
+  return fm_encode(model, covered ? clamp(fm_normalize(r, z), r.near, r.far) : double(1.0f));
+}
+
+// The moment map as a lookup reads it: a summed-area table (doubles, channels interleaved) or a
+// mip chain (raster/filtered_map_shared.h), with the map's size and depth range. Built where it
+// is used (a C++ pointer or a GLSL buffer reference per table), never stored.
+struct FmMapRef {
+  uint prefilter;  // kFmPrefilter*
+  int width;
+  int height;
+  PN_DOUBLE_ARRAY sat;
+  SatTableLayout sat_layout;
+  FilteredChannels outside;  // the moments of an empty texel (depth 1)
+  PN_FLOAT_ARRAY mip;
+  MipChainView mip_view;
+  FmDepthRange range;
+};
+
+// FilteredMomentMap::mean: the mean vector over [x0, x1] x [y0, y1] (texel space) cut to the map:
+// the map is fitted to the receivers, so beyond its edge lie casters it did not keep, not empty
+// space. A region wholly outside reads empty.
+PN_INLINE FilteredChannels fm_mean(FmMapRef r, double x0, double y0, double x1, double y1) {
+  double cx0 = pn_dmax(x0, double(0.0f));
+  double cy0 = pn_dmax(y0, double(0.0f));
+  double cx1 = pn_dmin(x1, double(r.width));
+  double cy1 = pn_dmin(y1, double(r.height));
+  if (cx1 > cx0 && cy1 > cy0) {
+    x0 = cx0;
+    y0 = cy0;
+    x1 = cx1;
+    y1 = cy1;
+  }
+  if (r.prefilter == kFmPrefilterSat) return sat_box_mean(r.sat, r.sat_layout, r.outside, x0, y0, x1, y1);
+  return mip_box_mean(r.mip, r.mip_view, float(x0), float(y0), float(x1), float(y1));
+}
+
+// The light as the moment methods see it, 64 bytes: its centre and normal (who is in front of it),
+// its axes s and t with the half sides of its rectangle along them (filtered_moments.cpp
+// light_half_axes: a rect's own, a disk's or an ellipse's rectangle of equal area).
+struct FmLight {
+  vec3 center;
+  float half_s;
+  vec3 n;
+  float half_t;
+  vec3 s;
+  float pad0;
+  vec3 t;
+  float pad1;
+};
+
+// light_fraction_above: the fraction of the light's rectangle above p's tangent plane (normal
+// ng). The signed height over the plane is affine over the rectangle: f(u, v) = f00 + fu u + fv v
+// on the unit square; the square clipped to f > 0 (Sutherland-Hodgman against one line), its area
+// by the shoelace formula.
+PN_INLINE float fm_light_fraction_above(FmLight l, vec3 p, vec3 ng) {
+  vec3 corner = l.center - l.s * l.half_s - l.t * l.half_t;
+  float f00 = dot(ng, corner - p);
+  float fu = dot(ng, l.s) * 2.0f * l.half_s;
+  float fv = dot(ng, l.t) * 2.0f * l.half_t;
+  vec2 square[4] = {vec2(0.0f, 0.0f), vec2(1.0f, 0.0f), vec2(1.0f, 1.0f), vec2(0.0f, 1.0f)};
+  vec2 poly[5];
+  int n = 0;
+  for (int i = 0; i < 4; ++i) {
+    vec2 a = square[i];
+    vec2 b = square[(i + 1) % 4];
+    PN_PRECISE float fa = f00 + fu * a.x + fv * a.y;
+    PN_PRECISE float fb = f00 + fu * b.x + fv * b.y;
+    if (fa > 0.0f) poly[n++] = a;
+    if ((fa > 0.0f) != (fb > 0.0f)) {
+      float s = fa / (fa - fb);
+      PN_PRECISE float qx = a.x + (b.x - a.x) * s;
+      PN_PRECISE float qy = a.y + (b.y - a.y) * s;
+      poly[n++] = vec2(qx, qy);
+    }
+  }
+  float area = 0.0f;
+  for (int i = 0; i < n; ++i) {
+    PN_PRECISE float cross_z = poly[i].x * poly[(i + 1) % n].y - poly[(i + 1) % n].x * poly[i].y;
+    area += cross_z;
+  }
+  return clamp(0.5f * area, 0.0f, 1.0f);
+}
+
+// What every lookup of one map and light reads, 288 bytes (a GPU record, uploaded per frame):
+//   bytes 0-175 the map's ShadowMapView (shadow/shadow_map_shared.h: view, focal, z_min)
+//   bytes 176-239 the FmLight
+//   bytes 240-247 half_extent: texels per unit of (1/z_b - 1/z_p) along x and y (the light's rectangle
+//                 as light_half_extent sees it, times the focal length)
+//   bytes 248-255 min_half: half the smallest filter side, texels (double)
+//   bytes 256-263 fixed_half: half the fixed filter side without the blocker search (double)
+//   bytes 264-267 bias (world units of linear depth)   268-271 blocker_search (0 or 1)
+//   bytes 272-279 min_fraction: a blocker search finding less is the receiver's own surface in
+//                 the Chebyshev bound's tail (1e-4)   280-287 (0)
+struct FmShadeBlock {
+  ShadowMapView map;
+  FmLight light;
+  vec2 half_extent;
+  double min_half;
+  double fixed_half;
+  float bias;
+  uint blocker_search;
+  double min_fraction;
+  uint pad0;
+  uint pad1;
+};
+
+// The variance (normalised depth^2) of p's tangent plane over the box of half extents (sx, sy)
+// texels around p's texel: 1/z is affine in texel space along a plane, with gradient
+// (plane_a, plane_b) / plane_num (sm_receiver), and so is the normalised depth; a linear ramp
+// of slopes g over a box has variance (g_x^2 sx^2 + g_y^2 sy^2) / 3. The blocker estimates take
+// it out of the search region's spread: it lies around t, not in front of it (bunny: vsm MAE
+// 0.050 -> 0.035).
+PN_INLINE double fm_receiver_variance(FmShadeBlock b, FmDepthRange range, vec3 p, vec3 ng, double sx, double sy) {
+  ShadowBias none;
+  none.bias = 0.0f;
+  none.slope_bias = 0.0f;
+  none.max_slope = 10.0f;
+  none.receiver_plane = 0u;
+  ShadowReceiver rc = sm_receiver(b.map, p, ng, none);
+  if (rc.plane_num == 0.0f) return double(0.0f);
+  double k = -range.scale / double(rc.plane_num);
+  double gx = k * double(rc.plane_a);
+  double gy = k * double(rc.plane_b);
+  PN_PRECISE double v = gx * gx * sx * sx + gy * gy * sy * sy;
+  return v / double(3.0f);
+}
+
+// What one view sample's shading did: the filtered lookups it made, and whether its blocker
+// search found no blocker (samples_without_blockers).
+struct FmShadeCount {
+  uint lookups;
+  uint unblocked;
+};
+
+// V of one view sample (FilteredMomentShadows::evaluate): 0 behind the light's plane; on a closed
+// object only the light above its tangent plane counts (the rest is hidden by the object itself);
+// lit where the map does not cover it; otherwise the blocker search (PCSS's step 1 over the
+// light projected through p onto the nearest caster's depth, the blockers' fraction and depth
+// from the moments), the penumbra estimate (the light's shape scaled by 1/d_b - 1/z_p) and the
+// filtered lookup, the model's visibility from its moments.
+PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, vec3 ng, bool closed,
+                         PN_INOUT(FmShadeCount) count) {
+  if (!sm_in_front_of_light(b.light.center, b.light.n, p)) return 0.0f;
+  float horizon = closed ? fm_light_fraction_above(b.light, p, ng) : 1.0f;
+  if (!(horizon > 0.0f)) return 0.0f;
+  // LightView::to_texel.
+  RasterView v = b.map.view;
+  float w = sm_row(v.row3, v.off3, p);
+  float tz = sm_row(v.row2, v.off2, p);
+  float tx = sm_row(v.row0, v.off0, p) / w;
+  float ty = sm_row(v.row1, v.off1, p) / w;
+  if (!(tz >= v.near && tx >= 0.0f && ty >= 0.0f && tx < float(v.width) && ty < float(v.height)))
+    return horizon;  // not covered by the map (beyond max_fov): lit
+  // Normalised like the texels (a receiver behind every covered depth compares as the farthest
+  // one: empty texels, at 1, never block).
+  double t = clamp(fm_normalize(map.range, tz - b.bias), double(0.0f), map.range.far);
+  double hx = b.fixed_half;
+  double hy = hx;
+  FilteredChannels m;
+  if (b.blocker_search != 0u) {
+    // 1. Blocker search: the light projected through p onto z_min.
+    float z_min = b.map.z_min;
+    double search = tz > z_min ? double(1.0f) / double(z_min) - double(1.0f) / double(tz) : double(0.0f);
+    double sx = pn_dmax(double(b.half_extent.x) * search, b.min_half);
+    double sy = pn_dmax(double(b.half_extent.y) * search, b.min_half);
+    m = fm_mean(map, double(tx) - sx, double(ty) - sy, double(tx) + sx, double(ty) + sy);
+    count.lookups += 1u;
+    FmBlockers blockers = fm_model_blockers(model, m, t, fm_receiver_variance(b, map.range, p, ng, sx, sy));
+    if (!(blockers.fraction > b.min_fraction)) {
+      count.unblocked += 1u;
+      return horizon;
+    }
+    // 2. Penumbra estimate: the light's shape scaled by (1/d_b - 1/z_p) (PCSS). No caster lies
+    // nearer than the map's nearest one (the estimates can undershoot).
+    double scale = pn_dmax(double(0.0f), fm_inverse_depth(map.range, pn_dmax(blockers.depth, map.range.near)) -
+                                             double(1.0f) / double(tz));
+    hx = double(b.half_extent.x) * scale;
+    hy = double(b.half_extent.y) * scale;
+  }
+  hx = pn_dmax(hx, b.min_half);
+  hy = pn_dmax(hy, b.min_half);
+  m = fm_mean(map, double(tx) - hx, double(ty) - hy, double(tx) + hx, double(ty) + hy);
+  count.lookups += 1u;
+  return horizon * clamp(fm_model_visibility(model, m, t), 0.0f, 1.0f);
+}
+
+PN_SHARED_END
+
+#ifdef __cplusplus
+static_assert(sizeof(penumbra::shader::FmDepthRange) == 32);
+static_assert(sizeof(penumbra::shader::FmLight) == 64);
+static_assert(sizeof(penumbra::shader::FmShadeBlock) == 288);
+#endif
+
+#endif  // PENUMBRA_SHADOW_FILTERED_MOMENTS_FILTERED_MOMENTS_SHARED_H

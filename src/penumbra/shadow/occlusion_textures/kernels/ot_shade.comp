@@ -1,0 +1,55 @@
+#version 460
+// `occlusion-textures` on the GPU (occlusion_textures.cpp shade): one thread per view-sample
+// slot, occlusion_shared.h's ot_visibility, the CPU's function: the slices above the point, its
+// kernel on each (eq. 4), one prefiltered lookup each (trilinear mipmap, N-buffer or summed-area
+// table, §3.2), combined by eq. 5. Lookups, texels read, kernels outside the texture and elongated
+// kernels are counted per subgroup, then one atomic each.
+// eisemann2006 §3.2: the paper's lookups are the texture units' trilinear (anisotropic) filtering
+// of mipmapped RGBA8 textures and fragment-shader reads of N-buffers; here a compute thread
+// reads the bytes and blends them with the CPU's arithmetic.
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#include "penumbra/gpu/kernel_common.glsl"
+#include "penumbra/shadow/occlusion_textures/occlusion_kernels_shared.h"
+#include "penumbra/shadow/occlusion_textures/occlusion_shared.h"
+#include "penumbra/shadow/view_samples_shared.h"
+
+layout(local_size_x = 64) in;
+layout(push_constant, scalar) uniform Push { OtShadeParams p; } pc;
+layout(buffer_reference, scalar) readonly buffer ViewSamplesIn { GpuViewSample v[]; };
+layout(buffer_reference, scalar) readonly buffer SetupRef { OtSetup s; };
+layout(buffer_reference, scalar) buffer CountersRef { OtShadeCounters c; };
+
+void main() {
+  uint i = pn_thread_index();
+  OtCounters n;
+  n.lookups = 0u;
+  n.reads = 0u;
+  n.outside = 0u;
+  n.strips = 0u;
+  if (i < pc.p.slots) {
+    GpuViewSample s = ViewSamplesIn(pc.p.samples).v[i];
+    if (s.object != kMissObject) {
+      OtTextures t;
+      t.prefilter = pc.p.prefilter;
+      t.sat_counts = pc.p.sat_counts;
+      t.width = pc.p.width;
+      t.height = pc.p.height;
+      t.slices = SetupRef(pc.p.setup).s.slices;
+      t.levels = pc.p.levels;
+      t.bytes = Bytes(pc.p.textures);
+      t.sat_u = Uints(pc.p.textures);
+      t.sat_d = Doubles(pc.p.textures);
+      t.sat = pc.p.sat;
+      Floats(pc.p.visibility).v[i] = ot_visibility(SetupRef(pc.p.setup).s, t, Floats(pc.p.bounds), s.p, n);
+    }
+  }
+  uint lookups = subgroupAdd(n.lookups), reads = subgroupAdd(n.reads);
+  uint outside = subgroupAdd(n.outside), strips = subgroupAdd(n.strips);
+  if (subgroupElect() && lookups > 0u) {
+    CountersRef c = CountersRef(pc.p.counters);
+    atomicAdd(c.c.lookups, uint64_t(lookups));
+    atomicAdd(c.c.reads, uint64_t(reads));
+    atomicAdd(c.c.outside, uint64_t(outside));
+    atomicAdd(c.c.strips, uint64_t(strips));
+  }
+}
