@@ -265,7 +265,8 @@ TEST_F(GpuFrame, TheUpFrontEstimateCoversWhatARenderHolds) {
   const std::vector<std::pair<std::string, std::vector<std::string>>> methods = {
       {"reference", {}}, {"hard", {}}, {"shadow-map", {}}, {"pcss", {}},
       {"vsm", {"resolution=256"}}, {"evsm", {"resolution=256", "prefilter=mipmap"}}, {"msm", {"resolution=256"}},
-      {"occlusion-textures", {"resolution=256"}}, {"rt-denoised", {}}};
+      {"occlusion-textures", {"resolution=256"}}, {"rt-denoised", {}},
+      {"mlsm", {"resolution=256"}}, {"mtsm", {"resolution=256"}}, {"coherent-rt", {"resolution=128"}}};
   for (const auto& spec : methods) {
     const std::string& method = spec.first;
     for (const char* name : {"bunny", "foliage"}) {

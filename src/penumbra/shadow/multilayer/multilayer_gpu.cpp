@@ -92,6 +92,7 @@ class MultilayerGpu final : public GpuShadowMethod {
       trace_block_ = gpu::Buffer(device, sizeof(shader::MlTraceBlock), "the multilayer map's view");
       map_counters_ = gpu::Buffer(device, sizeof(shader::MlMapCounters), "the multilayer map's statistics");
       counters_ = gpu::Buffer(device, sizeof(shader::MlGpuCounters), "the multilayer traces' counters");
+      trace_frame_ = gpu::Buffer(device, sizeof(shader::MlTraceFrame), "the multilayer traces' frame");
     }
     const std::vector<Vec3f> outline16 = ctx.light->outline(16);
     n_outline16_ = static_cast<uint32_t>(outline16.size());
@@ -129,11 +130,21 @@ class MultilayerGpu final : public GpuShadowMethod {
       // Built again only when the receivers' bounds change (the CPU's rule).
       if (!(built_ && rb.lo == receiver_bounds_.lo && rb.hi == receiver_bounds_.hi)) build(ctx, frame, r.count, rb);
     }
-    cl.stage("trace");
-    if (!counting_) cl.fill(counters_, 0);
-    counting_ = true;
     const int n = std::max(1, ctx.light_samples);
     const StratifiedGrid grid(n);
+    shader::MlTraceFrame tf{};
+    tf.seed = ctx.seed;
+    tf.light_index = ctx.light_index;
+    tf.frame = ctx.frame;
+    tf.n = n;
+    tf.grid_cols = grid.cols();
+    tf.inv_cols = grid.inv_cols();
+    tf.inv_rows = grid.inv_rows();
+    if (sums_.empty() || sums_.bytes() < uint64_t(frame.slots) * 8)
+      sums_ = gpu::Buffer(*frame.device, std::max<uint64_t>(16, uint64_t(frame.slots) * 8), "the traces' partial sums");
+    tf.sums = sums_.address();
+    frame.flush();  // nothing recorded may still read the frame's record
+    trace_frame_.upload(&tf, sizeof(tf));
     shader::MlTraceParams tp{};
     tp.scene = frame.scene->address();
     tp.samples = frame.view_samples;
@@ -141,15 +152,10 @@ class MultilayerGpu final : public GpuShadowMethod {
     tp.visibility = out.visibility;
     tp.block = trace_block_.address();
     tp.counters = counters_.address();
-    tp.seed = ctx.seed;
+    tp.trace_frame = trace_frame_.address();
     tp.slots = frame.slots;
-    tp.light_index = ctx.light_index;
-    tp.frame = ctx.frame;
-    tp.n = n;
-    tp.grid_cols = grid.cols();
-    tp.inv_cols = grid.inv_cols();
-    tp.inv_rows = grid.inv_rows();
     tp.has_map = has_map ? 1u : 0u;
+    tp.canary = 2;
     if (has_map) {
       tp.nodes = pyramid_.address();
       if (transparent_) {
@@ -161,20 +167,50 @@ class MultilayerGpu final : public GpuShadowMethod {
         tp.map_b = layered_.samples();
       }
     }
-    cl.dispatch(transparent_ ? "mtsm_trace" : "mlsm_trace", frame.slots, tp);
+    if (samples_per_dispatch_ <= 0 || samples_per_dispatch_ > n) samples_per_dispatch_ = n;
+    // Every light sample in one dispatch, unless the driver's loop limit cut a thread short
+    // (lavapipe, docs/gpu.md): then traced again in shorter dispatches, learned once.
+    for (;;) {
+      cl.stage("trace");
+      cl.fill(counters_, 0);
+      tp.sample_count = samples_per_dispatch_;
+      for (int first = 0; first < n; first += samples_per_dispatch_) {
+        tp.first_sample = first;
+        cl.dispatch(transparent_ ? "mtsm_trace" : "mlsm_trace", frame.slots, tp);
+      }
+      frame.flush();
+      shader::MlGpuCounters c{};
+      counters_.download(&c, sizeof(c));
+      if (c.limited == 0) {
+        totals_.rays += c.rays;
+        totals_.nodes += c.nodes;
+        totals_.texels += c.texels;
+        totals_.tested += c.tested;
+        totals_.hits += c.hits;
+        break;
+      }
+      if (samples_per_dispatch_ == 1)
+        throw Error("{} on {}: one light sample's ray exceeds the driver's loop limit (65535 loop iterations a thread)",
+                    transparent_ ? "mtsm" : "mlsm", frame.device->info().name);
+      samples_per_dispatch_ = std::max(1, samples_per_dispatch_ / 4);
+      ++limit_retries_;
+    }
+    counting_ = true;
     light_suffix_ = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
   }
 
   void collect_stats() override {
     if (!counting_) return;
     counting_ = false;
-    shader::MlGpuCounters c{};
-    counters_.download(&c, sizeof(c));
+    const shader::MlGpuCounters c = totals_;
+    totals_ = {};
     stats_.rays_traced += c.rays;
     stats_.texels_visited += c.texels;
     nlohmann::json e = build_extra_;
     const double rays = static_cast<double>(c.rays);
     e["trace"] = {{"rays", c.rays},
+                  {"samples_per_dispatch", samples_per_dispatch_},
+                  {"loop_limit_retries", limit_retries_},
                   {"nodes_per_ray", rays > 0 ? c.nodes / rays : 0.0},
                   {"texels_per_ray", rays > 0 ? c.texels / rays : 0.0},
                   {"layers_tested_per_ray", rays > 0 ? c.tested / rays : 0.0},
@@ -373,19 +409,23 @@ class MultilayerGpu final : public GpuShadowMethod {
   bool built_ = false;
   bool counting_ = false;
   std::string light_suffix_;
+  // Light samples per dispatch: all, unless the driver limits one invocation's loops (lavapipe).
+  int samples_per_dispatch_ = 0;
+  uint64_t limit_retries_ = 0;
+  shader::MlGpuCounters totals_{};
   nlohmann::json build_extra_ = nlohmann::json::object();
   std::unique_ptr<gpu::GpuRasterizer> rasterizer_;
   gpu::GpuLayeredDepthMap layered_;
   gpu::GpuFragmentLists lists_;
   gpu::GpuMinMaxPyramid pyramid_;
   gpu::Buffer planes_, behind_, receivers_, ranges_, fit_block_, keep_, outline16_, outline32_, boxes_;
-  gpu::Buffer trace_block_, map_counters_, counters_, layers_, layer_counts_;
+  gpu::Buffer trace_block_, map_counters_, counters_, layers_, layer_counts_, trace_frame_, sums_;
 };
 
 // One light's device memory: the map of a resolution^2 bound (mlsm: k layers a texel; mtsm: the
 // fragment lists at their first capacity, two fragments a texel, and as many layers, which grow
-// with the scene's depth complexity), its pyramid, the rasterizer's scratch, and a flag per view
-// sample for the fit.
+// with the scene's depth complexity), its pyramid, the rasterizer's scratch, and per view sample a
+// flag for the fit and the traces' partial sums.
 MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, bool transparent) {
   MemoryTally tally;
   const ViewSize v = fitted_view_bound(p.get_int("resolution"));
@@ -398,7 +438,7 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, bool transparent)
     map += gpu::GpuLayeredDepthMap::bytes(v.width, v.height, p.get_int("layers"));
   tally.add(map, "resolution");
   tally.add(gpu::GpuRasterizer::scratch_bytes(q.triangles, v.width, v.height), kTrianglesSetting);
-  tally.add(q.view_samples * sizeof(uint32_t), kViewSamplesSetting);
+  tally.add(q.view_samples * (sizeof(uint32_t) + 2 * sizeof(float)), kViewSamplesSetting);
   return tally.estimate();
 }
 

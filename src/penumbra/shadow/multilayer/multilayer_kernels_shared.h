@@ -109,18 +109,37 @@ struct MlTraceBlock {
   int level_count;
 };
 
-// What the traces count, 40 bytes (added to by one atomic per subgroup): rays, quadtree nodes
-// tested, texels reached, layers tested, layer hits (MlTraceCounters summed).
+// What the traces count, 48 bytes (added to by one atomic per subgroup): rays, quadtree nodes
+// tested, texels reached, layers tested, layer hits (MlTraceCounters summed), the loop-limit flag.
 struct MlGpuCounters {
   uint64_t rays;
   uint64_t nodes;
   uint64_t texels;
   uint64_t tested;
   uint64_t hits;
+  // Some thread ran into the driver's loop limit (lavapipe: 65535 loop iterations per invocation,
+  // after which loops stop without an error; docs/gpu.md): its V is wrong, the render an error.
+  uint64_t limited;
+};
+
+// What the traces of one evaluate read besides their push constants, 40 bytes, uploaded with
+// each: the `reference` stream's key, the light samples and their grid, and where a view sample's
+// partial sums wait between dispatches.
+struct MlTraceFrame {
+  uint64_t seed;
+  uint64_t sums;  // vec2 per slot: sum of T a and of a over the light samples traced so far
+  int light_index;
+  int frame;
+  int n;          // light samples
+  int grid_cols;  // StratifiedGrid(n)
+  float inv_cols;
+  float inv_rows;
 };
 
 // mlsm_trace.comp's and mtsm_trace.comp's push constants. The map's buffers: mlsm counts,
-// samples (map_a, map_b); mtsm offsets, layer counts, layers (map_a, map_b, map_c).
+// samples (map_a, map_b); mtsm offsets, layer counts, layers (map_a, map_b, map_c). One dispatch
+// traces light samples [first_sample, first_sample + sample_count) of every view sample (all of
+// them, unless the driver limits one invocation's loops: lavapipe).
 struct MlTraceParams {
   uint64_t scene;
   uint64_t samples;     // GpuViewSample[slots]
@@ -132,15 +151,12 @@ struct MlTraceParams {
   uint64_t map_b;
   uint64_t map_c;
   uint64_t counters;    // MlGpuCounters
-  uint64_t seed;
+  uint64_t trace_frame; // MlTraceFrame
   uint slots;
-  int light_index;
-  int frame;
-  int n;
-  int grid_cols;  // StratifiedGrid(n)
-  float inv_cols;
-  float inv_rows;
   uint has_map;   // 0: no receiver in front of the light, every V is 0
+  int first_sample;
+  int sample_count;
+  int canary;     // 2: a loop of this many iterations tells whether the driver's loop limit was hit
 };
 
 // The map's statistics, 24 bytes (the CPU's extra.map): covered texels, layers in all, the most
@@ -174,7 +190,8 @@ static_assert(sizeof(penumbra::shader::MlReceivers) == 28);
 static_assert(sizeof(penumbra::shader::MlPlane) == 24);
 static_assert(sizeof(penumbra::shader::MlFitBlock) == 208);
 static_assert(sizeof(penumbra::shader::MlTraceBlock) == 208);
-static_assert(sizeof(penumbra::shader::MlGpuCounters) == 40);
+static_assert(sizeof(penumbra::shader::MlGpuCounters) == 48);
+static_assert(sizeof(penumbra::shader::MlTraceFrame) == 40);
 static_assert(sizeof(penumbra::shader::MlMapCounters) == 24);
 static_assert(sizeof(penumbra::shader::MlFitReceiversParams) <= 128);
 static_assert(sizeof(penumbra::shader::MlFitParams) <= 128);

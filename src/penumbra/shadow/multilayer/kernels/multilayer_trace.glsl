@@ -1,5 +1,5 @@
 // What mlsm_trace and mtsm_trace share (multilayer_kernels_shared.h): one thread per view-sample
-// slot draws the CPU's light samples (the `reference` stream: seed, light, camera ray, frame, so
+// slot draws the CPU's light samples (this dispatch's part of them: first_sample, sample_count) (the `reference` stream: seed, light, camera ray, frame, so
 // at equal seed the difference to `reference` is the map's error), traces each segment to its
 // light point with the including kernel's
 //   float trace_ray(MlTraceBlock b, DepthPyramidRef pyr, vec3 p, vec3 ng, bool closed, vec3 q,
@@ -21,19 +21,25 @@ void main() {
     GpuViewSample s = ViewSamplesIn(pc.p.samples).v[i];
     if (s.object != kMissObject) {
       float v = 0.0f;
+      bool last = true;
       if (pc.p.has_map != 0u) {
+        MlTraceFrame f = TraceFrameRef(pc.p.trace_frame).f;
         scene_bind(pc.p.scene);
         GpuLight light = LightRef(pc.p.light).v;
-        RngState rng = rng_keyed(pc.p.seed, uint64_t(0x52454600u + uint(pc.p.light_index)), gpu_sample_key(s),
-                                 uint64_t(pc.p.frame));
+        RngState rng = rng_keyed(f.seed, uint64_t(0x52454600u + uint(f.light_index)), gpu_sample_key(s),
+                                 uint64_t(f.frame));
         LightSampler S = light_sampler_init(light.geometry, light.textured != 0u, s.p);
         if (S.mode != kSamplerNone) {  // else p sees no part of the emitting side: V = 0
           MlTraceBlock b = TraceBlockRef(pc.p.block).b;
           DepthPyramidRef pyr = depth_pyramid_ref(pc.p.nodes, b.levels, b.level_count);
           bool closed = (g_objects.v[s.object].flags & kObjectClosed) != 0u;
-          float sum = 0.0f, wsum = 0.0f;
-          for (int k = 0; k < pc.p.n; ++k) {
-            vec2 u = stratified_cell(k, pc.p.grid_cols, pc.p.inv_cols, pc.p.inv_rows, rng_next_2d(rng));
+          // This dispatch's samples: the stream skipped to the first, the sums carried over.
+          for (int k = 0; k < pc.p.first_sample; ++k) rng_next_2d(rng);
+          vec2 acc = pc.p.first_sample == 0 ? vec2(0.0f) : Vec2s(f.sums).v[i];
+          float sum = acc.x, wsum = acc.y;
+          int end = min(f.n, pc.p.first_sample + pc.p.sample_count);
+          for (int k = pc.p.first_sample; k < end; ++k) {
+            vec2 u = stratified_cell(k, f.grid_cols, f.inv_cols, f.inv_rows, rng_next_2d(rng));
             vec3 dir;
             float dist, pdf, a;
             if (!gpu_light_sample(light, S, u, dir, dist, pdf, a)) continue;
@@ -41,14 +47,21 @@ void main() {
             sum += t * a;
             wsum += a;
           }
+          last = end >= f.n;
+          if (!last) Vec2s(f.sums).v[i] = vec2(sum, wsum);
           v = wsum > 0.0f ? sum / wsum : 0.0f;
         }
       }
-      Floats(pc.p.visibility).v[i] = v;
+      if (last) Floats(pc.p.visibility).v[i] = v;
     }
   }
+  // lavapipe's loop limit (docs/gpu.md): after it, this loop of `canary` iterations runs once.
+  int canary = 0;
+  for (int k = 0; k < pc.p.canary; ++k) canary += 1;
+  uint limited = subgroupMax(canary != pc.p.canary ? 1u : 0u);
   uint rays = subgroupAdd(c.rays), nodes = subgroupAdd(c.nodes), texels = subgroupAdd(c.texels);
   uint tested = subgroupAdd(c.tested), hits = subgroupAdd(c.hits);
+  if (subgroupElect() && limited != 0u) atomicMax(CountersRef(pc.p.counters).c.limited, uint64_t(1));
   if (subgroupElect() && rays > 0u) {
     CountersRef counters = CountersRef(pc.p.counters);
     atomicAdd(counters.c.rays, uint64_t(rays));

@@ -16,5 +16,6 @@ layout(push_constant, scalar) uniform Push { MlTraceParams p; } pc;
 layout(buffer_reference, scalar) readonly buffer ViewSamplesIn { GpuViewSample v[]; };
 layout(buffer_reference, scalar) readonly buffer TraceBlockRef { MlTraceBlock b; };
 layout(buffer_reference, scalar) buffer CountersRef { MlGpuCounters c; };
+layout(buffer_reference, scalar) readonly buffer TraceFrameRef { MlTraceFrame f; };
 
 #endif
