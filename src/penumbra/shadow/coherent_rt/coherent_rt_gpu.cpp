@@ -38,6 +38,10 @@ struct GpuReferenceImage {
   }
 };
 
+// Dispatches recorded between two looks at whether every tile is done (where the driver's loop
+// limit splits the tiles' work).
+constexpr uint64_t kDispatchBatch = 64;
+
 // Spans per list per tile at first (they grow when a ray needs more); tests lower it.
 constexpr int kFirstSpanCapacity = 32;
 int first_span_capacity = kFirstSpanCapacity;
@@ -176,8 +180,10 @@ class CoherentRtGpu final : public GpuShadowMethod {
       scratch_ = gpu::Buffer(device, scratch, "coherent-rt's tile samplers");
     }
     cl.stage("trace");
-    const int steps = tile * tile * frame.samples_per_pixel;
-    if (steps_per_dispatch_ <= 0 || steps_per_dispatch_ > steps) steps_per_dispatch_ = steps;
+    // A tile's work: per step (Hilbert step x view sample) one unit (passed over, or its point
+    // started) and at most n cells.
+    const uint64_t work = static_cast<uint64_t>(tile) * tile * frame.samples_per_pixel * (static_cast<uint64_t>(n) + 1);
+
     // A ray whose occlusion spans outgrow their lists ends its tile early: the tiles are traced
     // again with longer lists (every tile anew: the same points, the same answers). A dispatch
     // that ran into the driver's loop limit (lavapipe) is traced again in shorter dispatches.
@@ -207,25 +213,33 @@ class CoherentRtGpu final : public GpuShadowMethod {
       tp.seed = ctx.seed;
       tp.light_index = ctx.light_index;
       tp.frame = ctx.frame;
-      tp.step_count = steps_per_dispatch_;
+      tp.cell_budget = cells_per_dispatch_;
       tp.canary = 2;
-      // agrawala2000 §5.2's order is sequential within a tile: the dispatches of one tile's steps
-      // run one after the other (the list's barriers), each tile's sampler kept in its scratch.
-      for (int first = 0; first < steps; first += steps_per_dispatch_) {
-        tp.first_step = first;
-        cl.dispatch("coherent_rt_tiles", tiles, tp);
-      }
-      frame.flush();
+      // agrawala2000 §5.2's order is sequential within a tile: the dispatches of one tile's work
+      // run one after the other (the list's barriers), each tile's place and sampler kept in its
+      // scratch, in batches until no tile has work left (at most `work` cells a tile).
       shader::CrtGpuCounters c{};
-      counters_buffer_.download(&c, sizeof(c));
+      uint64_t recorded = 0;
+      for (;;) {
+        const uint64_t batch = cells_per_dispatch_ <= 0 ? 1 : kDispatchBatch;
+        cl.fill(counters_buffer_, 0, offsetof(shader::CrtGpuCounters, unfinished), 4);
+        for (uint64_t d = 0; d < batch; ++d, ++recorded) {
+          tp.resume = recorded == 0 ? 0 : 1;
+          cl.dispatch("coherent_rt_tiles", tiles, tp);
+        }
+        frame.flush();
+        counters_buffer_.download(&c, sizeof(c));
+        if (c.limited != 0 || c.unfinished == 0 || cells_per_dispatch_ <= 0 ||
+            recorded * static_cast<uint64_t>(cells_per_dispatch_) >= work)
+          break;
+        cl.stage("trace");
+      }
       if (c.limited != 0) {
-        if (steps_per_dispatch_ == 1)
-          throw Error("coherent-rt on {}: one point's {} light samples exceed the driver's loop limit; use fewer "
-                      "light samples (--spp)",
-                      device.info().name, n);
-        // The fewest steps a limited tile completed (its last one perhaps cut short), halved.
-        steps_per_dispatch_ = std::clamp(static_cast<int>(std::min<uint32_t>(c.limited_after, 1u << 30) / 2), 1,
-                                         steps_per_dispatch_ / 2);
+        if (cells_per_dispatch_ == 1)
+          throw Error("coherent-rt on {}: one light cell's ray exceeds the driver's loop limit", device.info().name);
+        // The fewest cells a limited tile evaluated (its last one perhaps cut short), halved.
+        const int fewest = static_cast<int>(std::min<uint32_t>(c.limited_after, 1u << 30));
+        cells_per_dispatch_ = std::max(1, cells_per_dispatch_ > 0 ? std::min(fewest, cells_per_dispatch_) / 2 : fewest / 2);
         ++limit_retries_;
         continue;
       }
@@ -261,7 +275,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
     extra["own_plane_cells_per_point"] = t.own_plane_cells / points;
     extra["span_capacity"] = span_capacity_;
     extra["span_retries"] = span_retries_;
-    extra["steps_per_dispatch"] = steps_per_dispatch_;
+    extra["cells_per_dispatch"] = cells_per_dispatch_;
     extra["loop_limit_retries"] = limit_retries_;
     if (settings_.sampling.coherence)
       extra["coherence"] = {{"resets", t.resets},
@@ -295,9 +309,9 @@ class CoherentRtGpu final : public GpuShadowMethod {
   gpu::Buffer descs_, block_, counters_buffer_, scratch_, spans_;
   int span_capacity_ = first_span_capacity;
   uint64_t span_retries_ = 0;
-  // Steps (Hilbert step x view sample) of every tile per dispatch: all of them, unless the driver
-  // limits the loops of one invocation (lavapipe), then as many as fit, learned by retrying.
-  int steps_per_dispatch_ = 0;
+  // Light cells (and point starts) of every tile per dispatch: 0 for all of them, unless the
+  // driver limits the loops of one invocation (lavapipe), then as many as fit, learned by retrying.
+  int cells_per_dispatch_ = 0;
   uint64_t limit_retries_ = 0;
   shader::CrtGpuCounters totals_{};
   bool counted_ = false;

@@ -92,12 +92,12 @@ struct CrtTileBlock {
 
 // A tile's scratch, `words` uint32 words each (crt_tile_scratch_words): stamps (n sub^2),
 // packed cell flags (n), jittered samples (2 n), the queue (n), blocker points (3 n sub^2), light
-// points (3 n), and the sampler's SoftShadState (16) kept from one dispatch of the tile's steps to
-// the next.
+// points (3 n), the sampler's SoftShadState (16) and where the tile stands (2: its step, whether
+// that step's point has begun), kept from one dispatch of the tile's work to the next.
 PN_INLINE uint crt_tile_scratch_words(int n, int sub_grid) {
   uint cells = uint(n);
   uint subs = cells * uint(sub_grid) * uint(sub_grid);
-  return subs + cells + 2u * cells + cells + 3u * subs + 3u * cells + 16u;
+  return subs + cells + 2u * cells + cells + 3u * subs + 3u * cells + 16u + 2u;
 }
 
 // What the tiles count, 152 bytes (one atomic per tile and counter): SoftShadCounts, CrtTraceCounts
@@ -124,10 +124,10 @@ struct CrtGpuCounters {
   uint overflow;
   // Some tile's dispatch ran into the driver's loop limit (lavapipe: 65535 loop iterations per
   // invocation; the loops then stop early, silently): what is written is wrong and the host traces
-  // again with fewer steps per dispatch. limited_after: the fewest steps such a tile had completed.
+  // again with less work per dispatch. limited_after: the fewest cells such a tile had evaluated.
   uint limited;
   uint limited_after;
-  uint pad;
+  uint unfinished;  // tiles with work left after the last dispatch
 };
 
 // coherent_rt_tiles.comp's push constants.
@@ -145,10 +145,11 @@ struct CrtTilesParams {
   uint64_t seed;
   int light_index;
   int frame;
-  // This dispatch's part of every tile's steps (Hilbert step x view sample of its pixel):
-  // [first_step, first_step + step_count). The sampler starts afresh at step 0.
-  int first_step;
-  int step_count;
+  // 0: every tile starts afresh; 1: each goes on where its last dispatch stopped. A dispatch
+  // takes at most cell_budget units of a tile's work (<= 0: all): steps passed over, point starts,
+  // light cells evaluated.
+  int resume;
+  int cell_budget;
   int canary;  // 2: a loop of this many iterations tells whether the driver's loop limit was hit
 };
 

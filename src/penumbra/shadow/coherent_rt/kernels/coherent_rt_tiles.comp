@@ -9,8 +9,8 @@
 // traced through the reference depth images (depth_image_trace_shared.h) or, with
 // tracer=geometry, the GPU's BVH (closest hit: the blocker point), and eq. 1 (area sampling) over
 // the visible cells. The tile's sampler and span lists live in its slices of two scratch buffers.
-// A tile's steps may be split over several dispatches (first_step, step_count; lavapipe limits the
-// loop iterations of one invocation): the sampler's state waits in the tile's scratch.
+// A tile's work may be split over several dispatches (resume, cell_budget; lavapipe limits the
+// loop iterations of one invocation): where it stands and the sampler wait in its scratch.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/bvh_traverse.glsl"
 #include "penumbra/gpu/light_access.glsl"
@@ -46,15 +46,16 @@ void main() {
   r.blockers = r.queue + uint64_t(n) * 4UL;
   Vec3s points = Vec3s(r.blockers + uint64_t(subs) * 12UL);
   SoftShadStateRef saved = SoftShadStateRef(r.blockers + uint64_t(subs) * 12UL + uint64_t(n) * 12UL);
+  Uints position = Uints(uint64_t(saved) + 64UL);  // the tile's step and whether its point has begun
   CrtSpansRef spans;
   spans.spans = pc.p.spans + uint64_t(tile) * uint64_t(3 * b.span_capacity) * 8UL;
   spans.capacity = b.span_capacity;
   CrtImagesRef images;
   images.descs = pc.p.descs;
   images.count = b.images;
-  // The sampler: fresh at the tile's first step, else as the tile's last dispatch left it.
+  // The sampler: fresh at the tile's first dispatch, else as the tile's last dispatch left it.
   SoftShadState st;
-  if (pc.p.first_step == 0) {
+  if (pc.p.resume == 0) {
     st = ss_make(b.cols, b.rows, b.sub_grid, b.coherence != 0u, b.shortcut != 0u, b.reset_distance);
     ss_clear(r, st);
   } else {
@@ -83,11 +84,17 @@ void main() {
   int y0 = (b.tile_y0 + int(tile / uint(b.tiles_x))) * b.tile;
   int ww = b.window_x1 - b.window_x0;
   ViewSamplesIn samples = ViewSamplesIn(pc.p.samples);
-  // One flat loop over (Hilbert step, view sample of the pixel): this dispatch's part of them.
+  // One flat walk over (Hilbert step, view sample of the pixel), resumed where the tile's last
+  // dispatch left it: `step` and whether its point has begun (its cells queued in the sampler).
+  // A dispatch takes at most cell_budget units of work (<= 0: all): a step passed over, a point
+  // started, a cell evaluated.
   int spp = b.spp;
-  int last = min(b.tile * b.tile * spp, pc.p.first_step + pc.p.step_count);
+  int steps = b.tile * b.tile * spp;
+  int step = pc.p.resume == 0 ? 0 : int(position.v[0]);
+  uint begun = pc.p.resume == 0 ? 0u : position.v[1];
+  int budget = pc.p.cell_budget;
   int done = 0;
-  for (int step = pc.p.first_step; step < last && tc.overflow == 0u; ++step) {
+  while (step < steps && tc.overflow == 0u && (budget <= 0 || done < budget)) {
     int hx, hy;
     crt_hilbert_point(b.tile, step / spp, hx, hy);
     int x = x0 + hx, y = y0 + hy;
@@ -96,47 +103,61 @@ void main() {
     GpuViewSample s;
     if (inside) s = samples.v[slot];
     if (!inside || s.object == kMissObject) {
-      // nothing to shade
+      step += 1;  // nothing to shade
+      done += 1;
     } else if (!light_faces(L, s.p)) {
       Floats(pc.p.visibility).v[slot] = 0.0f;
       Vec3s(pc.p.irradiance).v[slot] = vec3(0.0f);
+      step += 1;
+      done += 1;
     } else {
-      // The reference's per-point samples: keyed by (seed, light, camera ray, frame).
-      RngState rng = rng_keyed(pc.p.seed, uint64_t(0x52454600u + uint(pc.p.light_index)), gpu_sample_key(s),
-                               uint64_t(pc.p.frame));
-      for (uint j = 0u; j < n; ++j) {
-        vec2 u = stratified_cell(int(j), b.grid_cols, b.inv_cols, b.inv_rows, rng_next_2d(rng));
-        Vec2s(r.samples).v[j] = u;
-        points.v[j] = gpu_light_sample_area(light, u);
+      if (begun == 0u) {
+        // The reference's per-point samples: keyed by (seed, light, camera ray, frame).
+        RngState rng = rng_keyed(pc.p.seed, uint64_t(0x52454600u + uint(pc.p.light_index)), gpu_sample_key(s),
+                                 uint64_t(pc.p.frame));
+        for (uint j = 0u; j < n; ++j) {
+          vec2 u = stratified_cell(int(j), b.grid_cols, b.inv_cols, b.inv_rows, rng_next_2d(rng));
+          Vec2s(r.samples).v[j] = u;
+          points.v[j] = gpu_light_sample_area(light, u);
+        }
+        ss_begin(r, st, L, s.p, sc);
+        begun = 1u;
+        done += 1;
       }
       // penumbra's addition: on a closed mesh, light behind the point's own plane is hidden by
       // the solid itself (ng faces the camera, i.e. out of the solid); no ray.
       bool solid = b.own_plane != 0u && b.geometry == 0u && (g_objects.v[s.object].flags & kObjectClosed) != 0u;
-      ss_begin(r, st, L, s.p, sc);
-      for (int j = ss_next(r, st); j >= 0 && tc.overflow == 0u; j = ss_next(r, st)) {
-        vec3 q = points.v[j];
-        bool blocked = false, has_point = false;
-        vec3 point = vec3(0.0f);
-        vec3 org, dir;
-        float tfar;
-        shadow_segment(s.p, s.ng, q, org, dir, tfar);  // shadow_ray_to
-        if (solid && dot(q - s.p, s.ng) <= 0.0f) {
-          blocked = true;
-          own_plane_cells += 1u;
-        } else if (b.geometry != 0u) {
-          RayHit hit;
-          geometry_rays += 1u;
-          if (trace_closest(org, dir, tfar, hit)) {
-            blocked = true;
-            has_point = true;
-            point = org + dir * hit.t;
-          }
+      bool finished = false;
+      while (!finished && tc.overflow == 0u && (budget <= 0 || done < budget)) {
+        int j = ss_next(r, st);
+        if (j < 0) {
+          finished = true;
         } else {
-          crt_trace(images, b.trace, org, q, b.coherence != 0u, spans, tc, blocked, has_point, point);
+          vec3 q = points.v[j];
+          bool blocked = false, has_point = false;
+          vec3 point = vec3(0.0f);
+          vec3 org, dir;
+          float tfar;
+          shadow_segment(s.p, s.ng, q, org, dir, tfar);  // shadow_ray_to
+          if (solid && dot(q - s.p, s.ng) <= 0.0f) {
+            blocked = true;
+            own_plane_cells += 1u;
+          } else if (b.geometry != 0u) {
+            RayHit hit;
+            geometry_rays += 1u;
+            if (trace_closest(org, dir, tfar, hit)) {
+              blocked = true;
+              has_point = true;
+              point = org + dir * hit.t;
+            }
+          } else {
+            crt_trace(images, b.trace, org, q, b.coherence != 0u, spans, tc, blocked, has_point, point);
+          }
+          if (tc.overflow == 0u) ss_answer(r, st, L, s.p, j, blocked, has_point, point, sc);
+          done += 1;
         }
-        if (tc.overflow == 0u) ss_answer(r, st, L, s.p, j, blocked, has_point, point, sc);
       }
-      if (tc.overflow == 0u) {
+      if (finished && tc.overflow == 0u) {
         // Eq. 1 with area sampling; V = the visible fraction of the light's area (eq. 2).
         double e = 0.0LF;
         uint visible = 0u;
@@ -148,10 +169,13 @@ void main() {
         }
         Floats(pc.p.visibility).v[slot] = float(visible) / float(n);
         Vec3s(pc.p.irradiance).v[slot] = light.radiance * float(e * double(L.area) / double(n));
+        step += 1;
+        begun = 0u;
       }
     }
-    done += 1;
   }
+  position.v[0] = uint(step);
+  position.v[1] = begun;
   saved.s = st;
   // lavapipe (llvmpipe) stops every loop of an invocation once its loops have run 65535
   // iterations in all (gallivm's loop limiter), without a word: then this loop of `canary` (2)
@@ -159,6 +183,7 @@ void main() {
   int canary = 0;
   for (int k = 0; k < pc.p.canary; ++k) canary += 1;
   CountersRef c = CountersRef(pc.p.counters);
+  if (step < steps) atomicAdd(c.c.unfinished, 1u);
   if (canary != pc.p.canary) {
     atomicMax(c.c.limited, 1u);
     atomicMin(c.c.limited_after, uint(done));
