@@ -180,7 +180,7 @@ void ConservativeRasterizer::Impl::bin_polygons(const ConvexPolygons& polys, con
   });
 }
 
-void ConservativeRasterizer::triangles(std::span<const RasterTriangle> tris, const LightView& view,
+void ConservativeRasterizer::triangles(RasterTriangleView tris, const LightView& view,
                                        const RasterFilter& filter, const CoverageCallback& covered) {
   TileGrid grid(view.width(), view.height(), raster_internal::tile_shift(tile_size_));
   impl_->prepare_chunks(tris.size());
@@ -191,7 +191,7 @@ void ConservativeRasterizer::triangles(std::span<const RasterTriangle> tris, con
     raster_internal::ClipVertex poly[raster_internal::kMaxClipVertices];
     for (size_t i = begin; i < end; ++i) {
       const RasterTriangle& tri = tris[i];
-      if (!(tri.opacity > 0) || (filter.opaque_only && tri.semi_transparent())) continue;
+      if (!(tri.opacity > 0) || (filter.opaque_only && tris.semi_transparent(tri))) continue;
       if (filter.culling != FaceCulling::None) {
         bool front = raster_internal::faces_light(tri, view);
         if (front != (filter.culling == FaceCulling::Back)) continue;

@@ -61,7 +61,7 @@ class ConservativeRasterizer {
   void polygon_spans(const ConvexPolygons& polygons, int width, int height, const SpanCallback& covered);
   // Every texel each triangle's projection touches, after clipping to the near and far planes
   // (only the part in front of the near plane counts); index = triangle index.
-  void triangles(std::span<const RasterTriangle> triangles, const LightView& view,
+  void triangles(RasterTriangleView triangles, const LightView& view,
                  const RasterFilter& filter, const CoverageCallback& covered);
 
   // The scratch memory kept after covering `polygons` polygons of `vertices` vertices in all

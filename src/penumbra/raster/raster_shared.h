@@ -255,26 +255,45 @@ PN_INLINE void raster_texel_ray(RasterView v, float x, float y, PN_OUT(vec3) ori
   }
 }
 
-// Where the line origin + s dir meets the plane of triangle (p0, p1, p2): its barycentrics
-// (b1, b2) and s (Moller-Trumbore's solution; inside the triangle iff b1, b2 >= 0 and
-// b1 + b2 <= 1). False when the line is parallel to the plane (RasterTriangle::line_crossing).
-PN_INLINE bool triangle_line_crossing(vec3 p0, vec3 p1, vec3 p2, vec3 origin, vec3 dir, PN_OUT(float) b1,
-                                      PN_OUT(float) b2, PN_OUT(float) s) {
-  vec3 e1 = p1 - p0;
-  vec3 e2 = p2 - p0;
-  vec3 pv = cross(dir, e2);
-  float det = dot(e1, pv);
+// The terms of triangle_line_crossing that depend on the triangle (p0, p1, p2) and the line's
+// origin only: set up once for many lines from one point (afsm: a view sample's light samples
+// through one caster).
+struct TriangleLineSetup {
+  vec3 e1;  // p1 - p0
+  vec3 e2;  // p2 - p0
+  vec3 tv;  // origin - p0
+  vec3 qv;  // cross(tv, e1)
+};
+PN_INLINE TriangleLineSetup triangle_line_setup(vec3 p0, vec3 p1, vec3 p2, vec3 origin) {
+  TriangleLineSetup t;
+  t.e1 = p1 - p0;
+  t.e2 = p2 - p0;
+  t.tv = origin - p0;
+  t.qv = cross(t.tv, t.e1);
+  return t;
+}
+// triangle_line_crossing for the line origin + s dir of a set-up triangle and origin.
+PN_INLINE bool triangle_line_setup_crossing(TriangleLineSetup t, vec3 dir, PN_OUT(float) b1, PN_OUT(float) b2,
+                                            PN_OUT(float) s) {
+  vec3 pv = cross(dir, t.e2);
+  float det = dot(t.e1, pv);
   b1 = 0.0f;
   b2 = 0.0f;
   s = 0.0f;
   if (det == 0.0f) return false;
   float inv = 1.0f / det;
-  vec3 tv = origin - p0;
-  vec3 qv = cross(tv, e1);
-  b1 = dot(tv, pv) * inv;
-  b2 = dot(dir, qv) * inv;
-  s = dot(e2, qv) * inv;
+  b1 = dot(t.tv, pv) * inv;
+  b2 = dot(dir, t.qv) * inv;
+  s = dot(t.e2, t.qv) * inv;
   return true;
+}
+
+// Where the line origin + s dir meets the plane of triangle (p0, p1, p2): its barycentrics
+// (b1, b2) and s (Moller-Trumbore's solution; inside the triangle iff b1, b2 >= 0 and
+// b1 + b2 <= 1). False when the line is parallel to the plane (RasterTriangle::line_crossing).
+PN_INLINE bool triangle_line_crossing(vec3 p0, vec3 p1, vec3 p2, vec3 origin, vec3 dir, PN_OUT(float) b1,
+                                      PN_OUT(float) b2, PN_OUT(float) s) {
+  return triangle_line_setup_crossing(triangle_line_setup(p0, p1, p2, origin), dir, b1, b2, s);
 }
 
 PN_SHARED_END

@@ -131,11 +131,11 @@ inline void scan(const SetupTriangle& t, const TexelRect& r, Fn&& fn) {
 // The opacity of each fragment of a textured triangle (issue 20): the view's ray through the
 // texel centre meets the source triangle, whose alpha texture is looked up there.
 struct FragmentAlpha {
-  std::span<const RasterTriangle> triangles;
+  RasterTriangleView triangles;
   const LightView* view = nullptr;
   float operator()(uint32_t source, int x, int y) const {
     const LightView::TexelRay r = view->texel_ray({static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f});
-    return triangles[source].opacity_on_line(r.origin, r.dir);
+    return triangles.opacity_on_line(triangles[source], r.origin, r.dir);
   }
 };
 
@@ -213,7 +213,7 @@ struct Rasterizer::Impl {
   FragmentAlpha alpha;  // the current call's triangles and view
 
   // Culls, clips, sets up and bins every triangle.
-  void set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
+  void set_up_triangles(RasterTriangleView tris, const LightView& view,
                         const RasterFilter& filter, int tile_size);
   // Collects the fragments of one tile into *out, grouped by texel (row-major within the
   // tile) and sorted by depth: s.offsets[k] .. s.offsets[k + 1] index *out for local texel k.
@@ -221,7 +221,7 @@ struct Rasterizer::Impl {
   void gather_tile(int tile, const LightView& view, TileScratch& s, std::vector<Fragment>* out);
 };
 
-void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, const LightView& view,
+void Rasterizer::Impl::set_up_triangles(RasterTriangleView tris, const LightView& view,
                                         const RasterFilter& filter, int tile_size) {
   grid = TileGrid(view.width(), view.height(), raster_internal::tile_shift(tile_size));
   alpha = FragmentAlpha{tris, &view};
@@ -233,7 +233,7 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
     double v[raster_internal::kMaxClipVertices];
     for (size_t i = begin; i < end; ++i) {
       const RasterTriangle& tri = tris[i];
-      if (!(tri.opacity > 0) || (filter.opaque_only && tri.semi_transparent())) continue;
+      if (!(tri.opacity > 0) || (filter.opaque_only && tris.semi_transparent(tri))) continue;
       if (filter.culling != FaceCulling::None) {
         bool front = raster_internal::faces_light(tri, view);
         if (front != (filter.culling == FaceCulling::Back)) continue;
@@ -252,7 +252,7 @@ void Rasterizer::Impl::set_up_triangles(std::span<const RasterTriangle> tris, co
         if (!set_up(fx, fy, fv, view.width(), view.height(), &st)) continue;
         st.opacity = tri.opacity;
         st.source = static_cast<uint32_t>(i);
-        st.textured = tri.alpha != nullptr;
+        st.textured = tris.textured(tri);
         out.push_back(st);
       }
     }
@@ -308,7 +308,7 @@ Rasterizer::Rasterizer(int tile_size) : impl_(std::make_unique<Impl>()), tile_si
 
 Rasterizer::~Rasterizer() = default;
 
-void Rasterizer::depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::depth_map(RasterTriangleView triangles, const LightView& view,
                            const RasterFilter& filter, DepthMap* out) {
   Timer timer;
   Impl& im = *impl_;
@@ -376,7 +376,7 @@ void Rasterizer::depth_map(std::span<const RasterTriangle> triangles, const Ligh
 // than epsilon. Otherwise (a chain of fragments each within epsilon of the next) the result
 // can depend on the input order. A merged layer keeps the front's depth and triangle and
 // composes the opacities, 1 - prod(1 - a_i): what a ray crossing the coincident sheets keeps.
-void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::layered_depth_map(RasterTriangleView triangles, const LightView& view,
                                    const LayerOptions& options, LayeredDepthMap* out) {
   if (options.layers < 1 || options.layers > 255) throw Error("Rasterizer: layers = {} must be in [1, 255]", options.layers);
   if (!(options.distinct_epsilon >= 0)) throw Error("Rasterizer: distinct_epsilon must be >= 0");
@@ -454,7 +454,7 @@ void Rasterizer::layered_depth_map(std::span<const RasterTriangle> triangles, co
   stats_.raster_ms = timer.elapsed_ms();
 }
 
-void Rasterizer::fragment_lists(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::fragment_lists(RasterTriangleView triangles, const LightView& view,
                                 const RasterFilter& filter, FragmentLists* out,
                                 const FragmentReducer& reduce) {
   Timer timer;
@@ -538,7 +538,7 @@ void Rasterizer::fragment_lists(std::span<const RasterTriangle> triangles, const
   stats_.raster_ms = timer.elapsed_ms();
 }
 
-void Rasterizer::visit_fragments(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::visit_fragments(RasterTriangleView triangles, const LightView& view,
                                  const RasterFilter& filter, const FragmentVisitor& visit) {
   Timer timer;
   Impl& im = *impl_;
@@ -566,7 +566,7 @@ void Rasterizer::visit_fragments(std::span<const RasterTriangle> triangles, cons
   stats_.raster_ms = timer.elapsed_ms();
 }
 
-void Rasterizer::depth_bin_masks(std::span<const RasterTriangle> triangles, const LightView& view,
+void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& view,
                                  const RasterFilter& filter, const DepthBins& bins, DepthBinMasks* out) {
   if (bins.count < 1 || bins.count > 32) throw Error("Rasterizer: {} depth bins must be in [1, 32]", bins.count);
   if (!(bins.width > 0) || !std::isfinite(bins.first)) throw Error("Rasterizer: depth bins need a finite start and a positive width");
@@ -654,21 +654,21 @@ void LayeredDepthMap::resize(int w, int h, int layers) {
   resize_exact(samples, n * layers);
 }
 
-DepthMap render_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+DepthMap render_depth_map(RasterTriangleView triangles, const LightView& view,
                           const RasterFilter& filter) {
   DepthMap out;
   Rasterizer().depth_map(triangles, view, filter, &out);
   return out;
 }
 
-LayeredDepthMap render_layered_depth_map(std::span<const RasterTriangle> triangles,
+LayeredDepthMap render_layered_depth_map(RasterTriangleView triangles,
                                          const LightView& view, const LayerOptions& options) {
   LayeredDepthMap out;
   Rasterizer().layered_depth_map(triangles, view, options, &out);
   return out;
 }
 
-FragmentLists render_fragment_lists(std::span<const RasterTriangle> triangles,
+FragmentLists render_fragment_lists(RasterTriangleView triangles,
                                     const LightView& view, const RasterFilter& filter,
                                     const FragmentReducer& reduce) {
   FragmentLists out;

@@ -15,7 +15,8 @@
 // the unsnapped vertices: 1/z is affine in texel space for a perspective view, z for an
 // orthographic one, and z = the linear depth of the LightView.
 //
-// Alpha textures (issue 20): a triangle that carries one (RasterTriangle::alpha) is looked up
+// Alpha textures (issue 20): a textured triangle (its alpha texture in the side table the
+// RasterTriangleView carries, raster_triangle.h) is looked up
 // per fragment where the view's ray through the texel centre meets it; a mask's holes drop the
 // fragment, a blend texture scales its opacity. Every mode sees the same fragments.
 //
@@ -114,30 +115,30 @@ class Rasterizer {
 
   // The nearest surface through each texel centre (ties: the first triangle in input
   // order), with its opacity and triangle index.
-  void depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+  void depth_map(RasterTriangleView triangles, const LightView& view,
                  const RasterFilter& filter, DepthMap* out);
 
   // The options.layers nearest distinct surfaces through each texel centre, nearest first
   // (xie2007 §4.2).
-  void layered_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+  void layered_depth_map(RasterTriangleView triangles, const LightView& view,
                          const LayerOptions& options, LayeredDepthMap* out);
 
   // Every fragment through each texel centre, sorted by depth, in flat storage; with a
   // reducer, each texel's list as the reducer compressed it.
-  void fragment_lists(std::span<const RasterTriangle> triangles, const LightView& view,
+  void fragment_lists(RasterTriangleView triangles, const LightView& view,
                       const RasterFilter& filter, FragmentLists* out,
                       const FragmentReducer& reduce = {});
 
   // The same fragments, streamed texel by texel without storing the whole image's lists
   // (memory bounded by one tile's fragments per thread): for building compressed per-texel
   // structures directly.
-  void visit_fragments(std::span<const RasterTriangle> triangles, const LightView& view,
+  void visit_fragments(RasterTriangleView triangles, const LightView& view,
                        const RasterFilter& filter, const FragmentVisitor& visit);
 
   // Which depth bins each texel centre's fragments fall in: one pass, one bit per bin (the
   // slicing pass of eisemann2006 §3.4, where a fragment shader writes a colour channel per
   // slice). Cheaper than fragment lists: no fragment is stored or sorted.
-  void depth_bin_masks(std::span<const RasterTriangle> triangles, const LightView& view,
+  void depth_bin_masks(RasterTriangleView triangles, const LightView& view,
                        const RasterFilter& filter, const DepthBins& bins, DepthBinMasks* out);
 
   const RasterStats& stats() const { return stats_; }
@@ -156,11 +157,11 @@ class Rasterizer {
 };
 
 // One-shot conveniences (a fresh Rasterizer per call: fine for tests and single maps).
-DepthMap render_depth_map(std::span<const RasterTriangle> triangles, const LightView& view,
+DepthMap render_depth_map(RasterTriangleView triangles, const LightView& view,
                           const RasterFilter& filter = {});
-LayeredDepthMap render_layered_depth_map(std::span<const RasterTriangle> triangles,
+LayeredDepthMap render_layered_depth_map(RasterTriangleView triangles,
                                          const LightView& view, const LayerOptions& options = {});
-FragmentLists render_fragment_lists(std::span<const RasterTriangle> triangles,
+FragmentLists render_fragment_lists(RasterTriangleView triangles,
                                     const LightView& view, const RasterFilter& filter = {},
                                     const FragmentReducer& reduce = {});
 

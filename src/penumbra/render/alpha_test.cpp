@@ -10,6 +10,7 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/every_method.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra {
@@ -101,19 +102,8 @@ TEST_P(EveryMethodRespectsAlpha, CheckerboardMaskCastsTheCheckerboardInTriangles
   RecordProperty("mean_abs_dV", std::to_string(diff));
 }
 
-std::vector<std::string> method_names() {
-  std::vector<std::string> names;
-  for (const MethodInfo* info : MethodRegistry::all()) names.push_back(info->name);
-  return names;
-}
-
-INSTANTIATE_TEST_SUITE_P(Methods, EveryMethodRespectsAlpha, ::testing::ValuesIn(method_names()),
-                         [](const ::testing::TestParamInfo<std::string>& info) {
-                           std::string n = info.param;
-                           for (char& c : n)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(Methods, EveryMethodRespectsAlpha, ::testing::ValuesIn(testing::registered_method_names()),
+                         testing::method_test_name);
 
 // Blend: a quad of alpha 0.5 everywhere stops half of the light that crosses it, as a surface
 // of opacity 0.5 does (xie2007 §5), in the ray tracer's reference.

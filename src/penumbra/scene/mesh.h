@@ -35,6 +35,13 @@ struct Material {
   bool semi_transparent() const { return opacity < 1.0f || (alpha.active() && alpha.mode == AlphaMode::Blend); }
 };
 
+// The texture coordinates at barycentric (b1, b2) of a triangle whose corners have coordinates
+// c[0..2]: (1-b1-b2) c0 + b1 c1 + b2 c2 (Embree's hit.u, hit.v; Moller-Trumbore's b1, b2).
+inline Vec2f interpolate_uv(const Vec2f* c, float b1, float b2) {
+  const float b0 = 1.0f - b1 - b2;
+  return {b0 * c[0].x + b1 * c[1].x + b2 * c[2].x, b0 * c[0].y + b1 * c[1].y + b2 * c[2].y};
+}
+
 struct TriangleMesh {
   std::vector<Vec3f> positions;
   std::vector<Vec3f> normals;     // per vertex, optional (empty: flat shading)
@@ -50,9 +57,14 @@ struct TriangleMesh {
   // (Embree's hit.u, hit.v). Only with uvs.
   Vec2f uv_at(size_t tri, float b1, float b2) const {
     const uint32_t* i = &indices[3 * tri];
-    const Vec2f a = uvs[i[0]], b = uvs[i[1]], c = uvs[i[2]];
-    const float b0 = 1.0f - b1 - b2;
-    return {b0 * a.x + b1 * b.x + b2 * c.x, b0 * a.y + b1 * b.y + b2 * c.y};
+    const Vec2f c[3] = {uvs[i[0]], uvs[i[1]], uvs[i[2]]};
+    return interpolate_uv(c, b1, b2);
+  }
+  // Each triangle's three texture coordinates, in triangle order (3 per triangle). Only with uvs.
+  std::vector<Vec2f> corner_uvs() const {
+    std::vector<Vec2f> c(indices.size());
+    for (size_t k = 0; k < indices.size(); ++k) c[k] = uvs[indices[k]];
+    return c;
   }
   Bounds3f bounds() const;
   // Applies an affine transform to positions (and the inverse transpose to normals).

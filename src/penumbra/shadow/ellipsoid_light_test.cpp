@@ -1,10 +1,13 @@
 // Ellipsoid lights across the methods: each method either handles one (through the light's
 // sampling, outline and extent, which AreaLight carries over from the unit sphere by its
-// map A) or refuses it with a one-line error naming the shape; never a silent NaN.
+// map A) within its measured error, or is one of the methods that refuse it by design, with a
+// one-line error naming the shape; never a silent NaN, never an unexpected error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <string>
 
 #include "penumbra/core/error.h"
@@ -58,31 +61,66 @@ double mean(const std::vector<float>& v) {
   return v.empty() ? 0 : s / v.size();
 }
 
-TEST(EllipsoidLight, EveryMethodHandlesItOrSaysSo) {
+// Each method's mean |V - reference| under the ellipsoid light (0.6 x 0.25 x 0.2) over an open
+// quad and a closed box, 48 x 48, 64 light samples against the reference at 256, measured on
+// 2026-11-27; a method is held to its value + 25% (render/regression_test.cpp holds every method
+// to its error on the shipped scenes the same way). The exact-per-sample methods (afsm, ssv-rt)
+// differ from the reference by more than its own noise because they sample the ellipsoid on its
+// central ellipse (docs/methods/alias-free.md); the hard-shadow methods by the penumbra.
+struct EllipsoidBound {
+  const char* method;
+  double measured;
+};
+constexpr EllipsoidBound kEllipsoidErrors[] = {
+    {"afsm", 0.0051},        {"afsm-hard", 0.0422},     {"evsm", 0.0076},          {"hard", 0.0422},
+    {"lam", 0.0057},         {"mlsm", 0.0026},          {"msm", 0.0072},           {"mtsm", 0.0026},
+    {"multi-view-sm", 0.0053}, {"occlusion-textures", 0.0052}, {"pcss", 0.0053},   {"reference", 0.0026},
+    {"rt-denoised", 0.0138}, {"shadow-map", 0.0422},    {"single-sample", 0.1494}, {"ssv-rt", 0.0051},
+    {"vsm", 0.0063},
+};
+// The methods that refuse an ellipsoid light, by design, with the message's words.
+constexpr const char* kRefusals[][2] = {{"coherent-rt", "does not support ellipsoid lights"}};
+
+TEST(EllipsoidLight, EveryMethodHandlesItWithinItsBoundOrRefusesByDesign) {
   const LitScene r = make_run(ellipsoid_light_down({0.3f, 2.2f, 0.1f}, {0.6f, 0.25f, 0.2f}), 48);
   const std::vector<float> truth = run_method(r, "reference", 256).v;
   for (const MethodInfo* info : MethodRegistry::all()) {
+    const std::string& name = info->name;
+    const auto refusal = std::find_if(std::begin(kRefusals), std::end(kRefusals), [&](auto& x) { return name == x[0]; });
+    if (refusal != std::end(kRefusals)) {
+      try {
+        run_method(r, name, 64);
+        ADD_FAILURE() << name << " renders an ellipsoid light now: give it a bound in kEllipsoidErrors";
+      } catch (const Error& e) {
+        const std::string msg = e.what();
+        EXPECT_NE(msg.find((*refusal)[1]), std::string::npos) << name << ": " << msg;
+        EXPECT_EQ(msg.find('\n'), std::string::npos) << name;
+      }
+      continue;
+    }
+    const auto row = std::find_if(std::begin(kEllipsoidErrors), std::end(kEllipsoidErrors),
+                                  [&](const EllipsoidBound& b) { return name == b.method; });
+    if (row == std::end(kEllipsoidErrors)) {
+      ADD_FAILURE() << name << " has no bound in kEllipsoidErrors: measure it and add one";
+      continue;
+    }
     Result res;
     try {
-      res = run_method(r, info->name, 64);
+      res = run_method(r, name, 64);
     } catch (const Error& e) {
-      const std::string msg = e.what();
-      std::printf("%-22s refuses: %s\n", info->name.c_str(), msg.c_str());
-      EXPECT_NE(msg.find("ellipsoid"), std::string::npos) << info->name << ": " << msg;
-      EXPECT_EQ(msg.find('\n'), std::string::npos) << info->name;
+      ADD_FAILURE() << name << " fails under an ellipsoid light: " << e.what();
       continue;
     }
     double mae = 0;
     for (size_t k = 0; k < truth.size(); ++k) {
-      ASSERT_TRUE(std::isfinite(res.v[k]) && res.v[k] >= 0 && res.v[k] <= 1) << info->name << " " << res.v[k];
+      ASSERT_TRUE(std::isfinite(res.v[k]) && res.v[k] >= 0 && res.v[k] <= 1) << name << " " << res.v[k];
       mae += std::abs(res.v[k] - truth[k]);
     }
     mae /= truth.size();
-    std::printf("%-22s mean |V - reference| %.4f\n", info->name.c_str(), mae);
-    // Loose: the approximate methods differ from the truth, but not like a wrong light
-    // (single-sample, parker1998's one-sample approximation, is off by 0.25 here with a sphere
-    // light of the ellipsoid's largest radius too; the others are within 0.05).
-    EXPECT_LT(mae, info->name == "single-sample" ? 0.3 : 0.1) << info->name;
+    std::printf("%-22s mean |V - reference| %.4f (bound %.4f)\n", name.c_str(), mae, row->measured * 1.25);
+    EXPECT_LE(mae, row->measured * 1.25) << name << " got worse under an ellipsoid light";
+    if (mae * 1.25 < row->measured)
+      std::printf("%-22s is better than its bound: tighten kEllipsoidErrors to %.4f\n", name.c_str(), mae);
   }
 }
 

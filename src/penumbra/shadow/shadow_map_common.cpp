@@ -88,7 +88,7 @@ bool same_fitted_view(const LightView& a, const LightView& b) {
          a.window_bottom() == b.window_bottom() && a.window_top() == b.window_top();
 }
 
-void ShadowDepthMap::render(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view) {
+void ShadowDepthMap::render(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view) {
   if (!view.is_perspective()) throw Error("ShadowDepthMap: the view must be perspective");
   view_ = view;
   rasterizer.depth_map(triangles, view, RasterFilter{}, &map_);

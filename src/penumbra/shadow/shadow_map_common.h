@@ -97,7 +97,7 @@ class ShadowDepthMap {
  public:
   // Renders the nearest surface of `triangles` seen from `view` (semi-transparent casters
   // included; see the header comment). The view must be perspective (fit_shadow_view's).
-  void render(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view);
+  void render(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view);
 
   const LightView& view() const { return view_; }
   const DepthMap& map() const { return map_; }
@@ -167,14 +167,14 @@ class LightCentreMap {
   // front of the light (there is nothing to look up then).
   bool update(const AreaLight& light, const ViewSamples& vs, const ViewParams& view, MethodStats& stats);
   const ShadowDepthMap& map() const { return map_; }
-  std::span<const RasterTriangle> triangles() const { return triangles_; }
+  RasterTriangleView triangles() const { return triangles_; }
   // How many times update() has rendered the map: what a method that derives structures
   // from the map (the filtered moments of shadow/filtered_moments/) compares to know when
   // to rebuild them.
   uint64_t renders() const { return renders_; }
 
  private:
-  std::vector<RasterTriangle> triangles_;
+  RasterTriangles triangles_;
   Bounds3f scene_bounds_;
   Rasterizer rasterizer_;
   ShadowDepthMap map_;

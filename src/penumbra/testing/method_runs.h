@@ -1,10 +1,11 @@
 // Running one method on a scene's view samples and comparing it with Embree shadow rays to
 // exactly the light points it uses: what the exact-visibility methods (afsm, ssv-rt) are
-// tested against. Header-only; tests only.
+// tested against, on every view sample. Header-only; tests only.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
+#include <fmt/format.h>
 #include <memory>
 #include <string>
 #include <utility>
@@ -97,6 +98,7 @@ inline std::vector<float> embree_to_points(const SceneRun& r, const std::vector<
 struct Agreement {
   double equal_fraction = 0;
   float max_diff = 0;
+  size_t worst = 0;  // the index of a value with the largest difference
 };
 
 inline Agreement agreement(const std::vector<float>& a, const std::vector<float>& b) {
@@ -105,27 +107,23 @@ inline Agreement agreement(const std::vector<float>& a, const std::vector<float>
   for (size_t k = 0; k < a.size(); ++k) {
     const float d = std::abs(a[k] - b[k]);
     if (d < 1e-6f) equal++;
-    g.max_diff = std::max(g.max_diff, d);
+    if (d > g.max_diff) g.max_diff = d, g.worst = k;
   }
   g.equal_fraction = a.empty() ? 1.0 : static_cast<double>(equal) / a.size();
   return g;
 }
 
-// The values of a and b at the view samples that do not lie on an object whose name ends in
-// ".leaves" (the plant generator's leaves). A receiver on a thin two-sided leaf is where afsm
-// (and ssv-rt on leaves in triangles), whose segments all start on the light centre's side of
-// the receiver, differ from Embree rays started on each light sample's own side, for about 1% of
-// the view samples (plant and foliage alike): left for now; the rest of the image must agree.
-inline std::pair<std::vector<float>, std::vector<float>> off_leaves(const SceneRun& r, const std::vector<float>& a,
-                                                                   const std::vector<float>& b) {
-  std::pair<std::vector<float>, std::vector<float>> out;
-  for (size_t k = 0; k < a.size(); ++k) {
-    const std::string& name = r.scene.objects[r.vs.samples[k].object].name;
-    if (name.size() >= 7 && name.compare(name.size() - 7, 7, ".leaves") == 0) continue;
-    out.first.push_back(a[k]);
-    out.second.push_back(b[k]);
-  }
-  return out;
+// One line naming view sample k of a run (for a failing comparison): its pixel, the object it
+// lies on, its position and geometric normal, and the two values compared there.
+inline std::string describe_sample(const SceneRun& r, size_t k, const std::vector<float>& a, const std::vector<float>& b) {
+  const ViewSample& s = r.vs.samples[k];
+  return fmt::format("view sample {} (pixel {}, {}) on '{}' at ({:.6g}, {:.6g}, {:.6g}), ng ({:.4g}, {:.4g}, {:.4g}): {} vs {}", k,
+                     s.pixel % r.vs.width, s.pixel / r.vs.width, r.scene.objects[s.object].name, s.p.x, s.p.y, s.p.z,
+                     s.ng.x, s.ng.y, s.ng.z, a[k], b[k]);
+}
+// The same for the worst sample of agreement(a, b).
+inline std::string worst_sample(const SceneRun& r, const std::vector<float>& a, const std::vector<float>& b) {
+  return "worst: " + describe_sample(r, agreement(a, b).worst, a, b);
 }
 
 }  // namespace penumbra::testing

@@ -12,13 +12,23 @@ PN_SHARED_BEGIN
 // the coordinates, so it scales with the largest coordinate; 2^-15 relative is ~250 ulps.
 PN_INLINE float ray_offset_epsilon(vec3 p) { return (1.0f + max(abs(p.x), max(abs(p.y), abs(p.z)))) * 3.0e-5f; }
 
+// The unit normal a ray's origin moves along (ng normalised; zero for a degenerate ng).
+PN_INLINE vec3 offset_normal(vec3 ng) {
+  float len = length(ng);
+  return len > 0.0f ? ng / len : vec3(0.0f);
+}
+
+// Whether a ray from a surface point toward `dir` starts on the front of the surface (the side
+// its unit normal n_unit = offset_normal(ng) points to): the rule every shadow ray here follows,
+// one ray at a time, so a thin two-sided surface sees each light point from the point's own
+// side. Methods that decide many light points at once (afsm, ssv-rt) split them by it.
+PN_INLINE bool leaves_front(vec3 n_unit, vec3 dir) { return n_unit.x * dir.x + n_unit.y * dir.y + n_unit.z * dir.z >= 0.0f; }
+
 // p moved off its surface (geometric normal ng) to the side `dir` leaves into.
 PN_INLINE vec3 offset_ray_origin_shared(vec3 p, vec3 ng, vec3 dir) {
   float eps = ray_offset_epsilon(p);
-  float len = length(ng);
-  if (len == 0.0f) return p;
-  vec3 n = ng / len;
-  return p + n * (dot(n, dir) >= 0.0f ? eps : -eps);
+  vec3 n = offset_normal(ng);  // (zero for a degenerate ng: p stays)
+  return p + n * (leaves_front(n, dir) ? eps : -eps);
 }
 
 // A shadow segment from surface point p (normal ng) to q: origin, unit direction, and its end
@@ -35,7 +45,7 @@ PN_INLINE void shadow_segment(vec3 p, vec3 ng, vec3 q, PN_OUT(vec3) org, PN_OUT(
 // `eps` along the unit normal n_unit to the side of the light point p + d, toward p + d, as an
 // unnormalised direction whose segment is t in (0, 1 - 1e-5].
 PN_INLINE void fan_segment(vec3 p, vec3 n_unit, float eps, vec3 d, PN_OUT(vec3) org, PN_OUT(vec3) dir) {
-  float side = n_unit.x * d.x + n_unit.y * d.y + n_unit.z * d.z >= 0.0f ? eps : -eps;
+  float side = leaves_front(n_unit, d) ? eps : -eps;
   org = vec3(p.x + n_unit.x * side, p.y + n_unit.y * side, p.z + n_unit.z * side);
   dir = vec3(p.x + d.x - org.x, p.y + d.y - org.y, p.z + d.z - org.z);
 }

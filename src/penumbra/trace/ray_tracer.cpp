@@ -50,11 +50,7 @@ struct TransparencyData {
   SurfaceAlpha alpha;
   const Vec2f* corner_uvs = nullptr;
   std::vector<Vec2f> own_corner_uvs;  // an object of its own: the copy corner_uvs points to
-  Vec2f uv(unsigned prim, float b1, float b2) const {
-    const Vec2f* c = &corner_uvs[3 * static_cast<size_t>(prim)];
-    const float b0 = 1.0f - b1 - b2;
-    return {b0 * c[0].x + b1 * c[1].x + b2 * c[2].x, b0 * c[0].y + b1 * c[1].y + b2 * c[2].y};
-  }
+  Vec2f uv(unsigned prim, float b1, float b2) const { return interpolate_uv(&corner_uvs[3 * static_cast<size_t>(prim)], b1, b2); }
   // The opacity the surface stops a shadow ray with at the hit (b1, b2) of triangle prim.
   float opacity_at(unsigned prim, float b1, float b2) const {
     float a = opacity * (triangle_opacity ? triangle_opacity[prim] : 1.0f);
@@ -92,9 +88,6 @@ struct TransmittanceContext {
   float* transmittance;  // indexed by RTCRay::id
   RecentHits* recent;    // indexed by RTCRay::id
 };
-
-// Below this transmittance a ray counts as blocked and stops early.
-constexpr float kOpaqueCutoff = 1e-4f;
 
 // The object of a filter's candidate hit: the instance's (an object placing a shared mesh) or
 // the geometry's (an object of its own in the top level). Both IDs are object indices, and
@@ -229,13 +222,6 @@ RTCGeometry new_triangle_geometry(RTCDevice device, const TriangleMesh& m) {
   return geom;
 }
 
-// Each triangle's three texture coordinates, in the mesh's triangle order.
-std::vector<Vec2f> corner_uvs_of(const TriangleMesh& m) {
-  std::vector<Vec2f> c(m.indices.size());
-  for (size_t k = 0; k < m.indices.size(); ++k) c[k] = m.uvs[m.indices[k]];
-  return c;
-}
-
 // The object's material over the triangles of `m` (its own mesh, or the shared mesh it
 // places): what the filters need, and whether it needs them.
 void set_transparency(const SceneObject& obj, const TriangleMesh& m, TransparencyData* td) {
@@ -339,7 +325,7 @@ void RayTracer::build(const Scene& scene) {
     rtcSetSceneBuildQuality(proto.scene, RTC_BUILD_QUALITY_MEDIUM);  // no spatial splits, as the top level
     RTCGeometry geom = new_triangle_geometry(device, m);
     if (prototype_textured[p]) {
-      proto.corner_uvs = corner_uvs_of(m);
+      proto.corner_uvs = m.corner_uvs();
       rtcSetGeometryIntersectFilterFunction(geom, alpha_intersect_filter);
     }
     if (prototype_transparent[p]) {
@@ -373,7 +359,7 @@ void RayTracer::build(const Scene& scene) {
       if (impl_->two_level())  // each object's own BVH: SAH without spatial splits, refit where it moves
         rtcSetGeometryBuildQuality(geom, impl_->movable[id] ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_MEDIUM);
       if (td.alpha.active()) {
-        td.own_corner_uvs = corner_uvs_of(m);
+        td.own_corner_uvs = m.corner_uvs();
         td.corner_uvs = td.own_corner_uvs.data();
         rtcSetGeometryIntersectFilterFunction(geom, alpha_intersect_filter);
       }
@@ -580,8 +566,7 @@ void RayTracer::transmittance_fan(Vec3f p, Vec3f ng, const float* x, const float
                                   float* out) const {
   // The offset of offset_ray_origin, computed once for the fan.
   const float eps = shader::ray_offset_epsilon(p);
-  const float len = length(ng);
-  const Vec3f n_unit = len > 0 ? ng / len : Vec3f(0, 0, 0);
+  const Vec3f n_unit = shader::offset_normal(ng);
   // Incoherent streams of single rays (rtcOccluded1M): measured on bunny, plant and furball,
   // Embree 3.13's 4/8/16-wide packets with a coherent context trace these fans 1.8-2.6x
   // slower than single rays (docs/methods/reference.md), although the fan is as coherent

@@ -28,6 +28,10 @@ struct Hit {
   Vec3f ng;             // unnormalised geometric normal (winding order)
 };
 
+// A shadow ray's transmittance at or below this counts as 0: the ray is blocked and stops
+// (the transparency filter multiplies (1 - opacity) in per crossing).
+inline constexpr float kOpaqueCutoff = 1e-4f;
+
 // A shadow segment from org along unit dir up to tfar.
 struct ShadowRay {
   Vec3f org;

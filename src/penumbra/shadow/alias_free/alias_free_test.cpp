@@ -28,6 +28,10 @@ namespace {
 
 using namespace penumbra::testing;
 
+// afsm's mean |dV| against the reference on the bunny under a sphere light (the test
+// SphereLightIsExactAgainstItsCentralDiskNotTheBall), measured 2026-11-27.
+constexpr double kSphereLightError = 0.00208;
+
 // ---- plane -> mask table -------------------------------------------------------------
 
 TEST(AliasFreeLut, LookupEqualsExactClassificationOnRandomPlanes) {
@@ -382,9 +386,10 @@ TEST_P(AliasFreeScenes, HardEqualsEmbreeRaysToTheCentre) {
   const SceneRun r = load_scene_at(GetParam(), 128);
   MethodStats stats;
   const std::vector<float> v = run_method(r, "afsm-hard", 1, {"resolution=256"}, &stats);
-  const Agreement g = agreement(v, embree_hard(r));
+  const std::vector<float> e = embree_hard(r);
+  const Agreement g = agreement(v, e);
   std::printf("afsm-hard vs Embree, %s: %.5f of view samples equal\n", GetParam().c_str(), g.equal_fraction);
-  EXPECT_GE(g.equal_fraction, 0.999) << GetParam();
+  EXPECT_GE(g.equal_fraction, 0.999) << GetParam() << ", " << worst_sample(r, v, e);
   for (float x : v) ASSERT_TRUE(x == 0.0f || x == 1.0f);
   EXPECT_GT(stats.extra["lists_occupied"].get<size_t>(), 0u);
   EXPECT_GT(stats.extra["sample_tests"].get<uint64_t>(), 0u);
@@ -400,12 +405,12 @@ TEST_P(AliasFreeScenes, SoftEqualsEmbreeToTheSameLightPoints) {
   const std::vector<float> v = run_method(r, "afsm", n, {"resolution=192"}, &stats);
   const afsm::LightSamples pts = afsm::make_light_samples(r.scene.lights[0], n, 0, 0, 0);
   const std::vector<float> e = embree_to_points(r, pts.points);
-  const auto [v_off, e_off] = off_leaves(r, v, e);
-  const Agreement g = agreement(v_off, e_off);
-  std::printf("afsm N=%d vs Embree to the same points, %s: %.5f equal, max |dV| %.5f (%.5f with leaf receivers)\n", n,
-              GetParam().c_str(), g.equal_fraction, g.max_diff, agreement(v, e).equal_fraction);
-  EXPECT_GE(g.equal_fraction, 0.995) << GetParam();
-  EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << GetParam();
+  // Every view sample, those on thin two-sided leaves (plant, foliage, leaf-cards) included.
+  const Agreement g = agreement(v, e);
+  std::printf("afsm N=%d vs Embree to the same points, %s: %.5f equal, max |dV| %.5f, %d samples split by their plane\n",
+              n, GetParam().c_str(), g.equal_fraction, g.max_diff, stats.extra["split_samples"].get<int>());
+  EXPECT_GE(g.equal_fraction, 0.999) << GetParam() << ", " << worst_sample(r, v, e);
+  EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << GetParam() << ", " << worst_sample(r, v, e);
   // A penumbra exists.
   EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 50);
   EXPECT_GT(stats.extra["plane_lookups"].get<uint64_t>(), 0u);
@@ -439,12 +444,58 @@ TEST(AliasFreeShapes, SoftEqualsEmbreeForRectDiskSphereAndEllipsoid) {
       const std::vector<float> v = run_method(r, "afsm", n, {"resolution=128"});
       const afsm::LightSamples pts = afsm::make_light_samples(r.scene.lights[0], n, 0, 0, 0);
       const Agreement g = agreement(v, embree_to_points(r, pts.points));
-      EXPECT_GE(g.equal_fraction, 0.995) << to_string(shape) << " n " << n;
+      EXPECT_GE(g.equal_fraction, 0.999) << to_string(shape) << " n " << n;
       EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << to_string(shape) << " n " << n;
     }
     const Agreement hard = agreement(run_method(r, "afsm-hard", 1, {"resolution=128"}), embree_hard(r));
     EXPECT_GE(hard.equal_fraction, 0.999) << to_string(shape);
   }
+}
+
+// The bunny under a sphere light of radius 0.75 in place of its 1.5 x 1.5 rect (or, for
+// comparison, a disk of that radius in the given frame), 64 x 64.
+SceneRun bunny_under(LightShape shape, const Frame* frame = nullptr) {
+  RunSetup setup = RunSetup::from_file(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/bunny.json");
+  setup.apply("resolution", "64");
+  Scene scene = setup.load();
+  scene.lights[0].shape = shape;
+  scene.lights[0].radius = 0.75f;
+  scene.orient_sphere_lights();
+  if (frame) scene.lights[0].frame = *frame;
+  return build_scene_run(std::move(scene));
+}
+
+double mean_abs_diff(const std::vector<float>& a, const std::vector<float>& b) {
+  double sum = 0;
+  for (size_t k = 0; k < a.size(); ++k) sum += std::abs(a[k] - b[k]);
+  return a.empty() ? 0 : sum / a.size();
+}
+
+TEST(AliasFreeShapes, SphereLightIsExactAgainstItsCentralDiskNotTheBall) {
+  // afsm samples a sphere light on its central disk facing the scene (frame.n): exact against
+  // rays to those points, while the reference samples the sphere's solid angle from each point.
+  // The difference is measured here and quoted in docs/methods/alias-free.md and in the
+  // method's description (`penumbra methods afsm`).
+  const SceneRun sphere = bunny_under(LightShape::Sphere);
+  const SceneRun disk = bunny_under(LightShape::Disk, &sphere.scene.lights[0].frame);
+  ASSERT_EQ(sphere.scene.lights[0].frame.n, disk.scene.lights[0].frame.n);
+  const int n = 256;
+  const std::vector<float> v = run_method(sphere, "afsm", n, {"resolution=128"});
+  const afsm::LightSamples pts = afsm::make_light_samples(sphere.scene.lights[0], n, 0, 0, 0);
+  const std::vector<float> e = embree_to_points(sphere, pts.points);
+  const Agreement g = agreement(v, e);
+  EXPECT_GE(g.equal_fraction, 0.999) << worst_sample(sphere, v, e);
+  EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << worst_sample(sphere, v, e);
+  const double to_sphere = mean_abs_diff(v, run_method(sphere, "reference", 1024));
+  const double to_disk = mean_abs_diff(v, run_method(disk, "reference", 1024));
+  const double reference_noise = mean_abs_diff(run_method(sphere, "reference", n, {}, nullptr, 1),
+                                               run_method(sphere, "reference", 1024));
+  std::printf("afsm N=%d, sphere light r = 0.75 over the bunny: mean |dV| %.5f against the sphere's reference, %.5f "
+              "against its central disk's (reference at %d samples against 1024: %.5f)\n",
+              n, to_sphere, to_disk, n, reference_noise);
+  // Measured 2026-11-27: see the docs; the bound is that + 25%.
+  EXPECT_LE(to_sphere, kSphereLightError * 1.25);
+  EXPECT_LT(to_disk, to_sphere);  // it converges to the disk, not to the ball
 }
 
 TEST(AliasFreeShapes, EllipsoidWithEqualRadiiIsTheSphere) {
@@ -480,7 +531,7 @@ TEST(AliasFreeShapes, EllipsoidTiltedAgainstEmbreeAndTheTableAgrees) {
   const Agreement g = agreement(v, embree_to_points(r, pts.points));
   std::printf("afsm N=%d vs Embree to the same points, tilted ellipsoid: %.5f equal, max |dV| %.5f\n", n,
               g.equal_fraction, g.max_diff);
-  EXPECT_GE(g.equal_fraction, 0.995);
+  EXPECT_GE(g.equal_fraction, 0.999);
   EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f);
   EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 50);
   EXPECT_EQ(v, run_method(r, "afsm", n, {"resolution=128", "max_fov=170", "lut=false", "restrict=false"}));

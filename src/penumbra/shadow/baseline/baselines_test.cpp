@@ -249,7 +249,7 @@ TEST(ShadowMap, FastLookupAgreesWithTheGeneralPath) {
   ViewSamples vs = camera_pass(scene, tracer, 0);
   const AreaLight& light = scene.lights[0];
   std::vector<Vec3f> receivers = shadow_map::receiver_points(vs, light);
-  std::vector<RasterTriangle> tris = gather_raster_triangles(scene);
+  const RasterTriangles tris = gather_raster_triangles(scene);
   Rasterizer rasterizer;
   shadow_map::ShadowDepthMap sm;
   int shadowed = 0;

@@ -84,7 +84,7 @@ class MultiViewShadowMap final : public ShadowMethod {
  private:
   shadow_map::ViewParams view_;
   BiasParams bias_;
-  std::vector<RasterTriangle> triangles_;
+  RasterTriangles triangles_;
   Bounds3f scene_bounds_;
   Rasterizer rasterizer_;
   shadow_map::ShadowDepthMap map_;

@@ -57,7 +57,7 @@ class CoherentRayTracing final : public ShadowMethod {
     if (geometry_) return;
     ScopedPhase phase(stats_, "precompute");
     Timer t_gather;
-    const std::vector<RasterTriangle> tris = gather_raster_triangles(*ctx.scene);
+    const RasterTriangles tris = gather_raster_triangles(*ctx.scene);
     const double gather_ms = t_gather.elapsed_ms();
     BuildTimes times;
     nlohmann::json views = nlohmann::json::array();

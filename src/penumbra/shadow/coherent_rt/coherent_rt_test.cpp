@@ -45,7 +45,7 @@ double mean_abs_dv(const Image& a, const Image& b, const ViewSamples& vs) {
 
 std::vector<ReferenceImage> corner_images(const Scene& scene, int resolution, ReferenceImageOptions opt = {}) {
   opt.resolution = resolution;
-  const std::vector<RasterTriangle> tris = gather_raster_triangles(scene);
+  const RasterTriangles tris = gather_raster_triangles(scene);
   std::vector<ReferenceImage> images;
   for (Vec3f eye : view_points(scene.lights[0], "corners"))
     images.push_back(build_reference_image(tris, reference_view(scene, scene.lights[0], eye, resolution), opt));

@@ -75,7 +75,7 @@ LightView reference_view(const Scene& scene, const AreaLight& light, Vec3f eye, 
   return lam::reference_view(axes, r, resolution);
 }
 
-ReferenceImage build_reference_image(std::span<const RasterTriangle> tris, const LightView& view,
+ReferenceImage build_reference_image(RasterTriangleView tris, const LightView& view,
                                      const ReferenceImageOptions& options, BuildTimes* times) {
   ReferenceImage img;
   img.view = view;

@@ -93,7 +93,7 @@ struct BuildTimes {
 
 // Rasterizes `tris` into `view` and builds floors, walls, the pyramid and the connectedness
 // quadtree.
-ReferenceImage build_reference_image(std::span<const RasterTriangle> tris, const LightView& view,
+ReferenceImage build_reference_image(RasterTriangleView tris, const LightView& view,
                                      const ReferenceImageOptions& options, BuildTimes* times = nullptr);
 
 }  // namespace coherent_rt

@@ -504,11 +504,11 @@ constexpr int kChunkRows = 8;  // source rows per warp task
 
 class Builder {
  public:
-  static AttenuationMap build(std::span<const RasterTriangle> tris, const AreaLight& light, const ShadowRegion& region,
+  static AttenuationMap build(RasterTriangleView tris, const AreaLight& light, const ShadowRegion& region,
                               std::span<const Vec2f> samples, const BuildOptions& opt, BuildStats* st);
 };
 
-AttenuationMap Builder::build(std::span<const RasterTriangle> tris, const AreaLight& light, const ShadowRegion& region,
+AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, const ShadowRegion& region,
                               std::span<const Vec2f> samples, const BuildOptions& opt, BuildStats* st) {
   if (samples.empty()) throw Error("lam: no light samples");
   if (samples.size() > 65535) throw Error("lam: at most 65535 light samples (got {})", samples.size());
@@ -795,7 +795,7 @@ uint64_t build_bytes(int resolution, int max_layers) {
   return texels * sizeof(uint8_t) + slots * sizeof(BuildLayer) + sample_view + map;
 }
 
-AttenuationMap build_attenuation_map(std::span<const RasterTriangle> triangles, const AreaLight& light,
+AttenuationMap build_attenuation_map(RasterTriangleView triangles, const AreaLight& light,
                                      const ShadowRegion& region, std::span<const Vec2f> light_samples,
                                      const BuildOptions& options, BuildStats* stats) {
   return Builder::build(triangles, light, region, light_samples, options, stats);

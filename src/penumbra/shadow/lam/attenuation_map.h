@@ -185,7 +185,7 @@ struct BuildStats {
 // into the reference view by eq. 3 and splatted into its 4 neighbouring texels; a texel's
 // layer is counted at most once per light sample; attenuation = count / N.
 // The result depends only on its inputs, not on the thread count.
-AttenuationMap build_attenuation_map(std::span<const RasterTriangle> triangles, const AreaLight& light,
+AttenuationMap build_attenuation_map(RasterTriangleView triangles, const AreaLight& light,
                                      const ShadowRegion& region, std::span<const Vec2f> light_samples,
                                      const BuildOptions& options, BuildStats* stats = nullptr);
 

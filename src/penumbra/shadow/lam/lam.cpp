@@ -81,14 +81,14 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     // banding rather than noise.
     const LightSampleSet set(n, hash_combine(ctx.seed, 0x4c414d00u + ctx.light_index), /*per_pixel=*/false);
     Timer t_gather;
-    const std::vector<RasterTriangle> all = gather_raster_triangles(*ctx.scene);
-    const std::vector<RasterTriangle> tris = cull_hidden_back_faces(*ctx.scene, *ctx.light, all);
+    const RasterTriangles all = gather_raster_triangles(*ctx.scene);
+    const std::vector<RasterTriangle> tris = cull_hidden_back_faces(*ctx.scene, *ctx.light, all.list);
     const double gather_ms = t_gather.elapsed_ms();
     lam::BuildStats bs;
     lam::BuildOptions options = options_;
     if (options.slope)
       for (const SceneObject& o : ctx.scene->objects) options.solid_objects.push_back(o.closed);
-    map_ = lam::build_attenuation_map(tris, *ctx.light, region, set.base(), options, &bs);
+    map_ = lam::build_attenuation_map(RasterTriangleView(tris, &all.textures), *ctx.light, region, set.base(), options, &bs);
     bs.fit_ms = fit_ms;
 
     nlohmann::json dc = nlohmann::json::array();

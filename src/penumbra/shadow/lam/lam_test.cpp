@@ -69,7 +69,7 @@ std::vector<float> run_lam(const Scene& scene, const ViewSamples& vs, int spp, s
 // The attenuation map of a scene's first light, built directly (the method's filter is
 // fixed at construction; one map serves both lookups here).
 lam::AttenuationMap build_map(const Scene& scene, int spp, int resolution = 512) {
-  const std::vector<RasterTriangle> tris = gather_raster_triangles(scene);
+  const RasterTriangles tris = gather_raster_triangles(scene);
   const lam::ShadowRegion region = lam::fit_shadow_region(scene, scene.lights[0]);
   const LightSampleSet set(spp, 7, /*per_pixel=*/false);
   lam::BuildOptions opt;

@@ -202,7 +202,7 @@ class MultilayerMethod final : public ShadowMethod {
   multilayer::CompressionOptions compression_;
   float z_thresh_ = 0, z_thresh_texels_ = 1.0f;
   multilayer::TraceParams trace_, resolved_trace_;
-  std::vector<RasterTriangle> triangles_;
+  RasterTriangles triangles_;
   Bounds3f scene_bounds_, receiver_bounds_;
   bool built_ = false;
   bool fit_shadowable_ = true;

@@ -205,7 +205,7 @@ size_t TransparentMap::memory_bytes() const {
   return layers.memory_bytes() + pyr;
 }
 
-void build_opaque_layer_map(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view,
+void build_opaque_layer_map(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view,
                             int k, OpaqueLayerMap* out) {
   LayerOptions options;
   options.layers = k;
@@ -217,7 +217,7 @@ void build_opaque_layer_map(Rasterizer& rasterizer, std::span<const RasterTriang
   out->z_min = root.empty() ? kInfinity : view.linear_depth_from_window(root.lo);
 }
 
-void build_transparent_map(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view,
+void build_transparent_map(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view,
                            const CompressionOptions& options, TransparentMap* out) {
   const int w = view.width(), h = view.height();
   const size_t texels = static_cast<size_t>(w) * h;

@@ -134,7 +134,7 @@ struct OpaqueLayerMap {
   // What a w x h map of k layers holds, for memory estimates.
   static uint64_t bytes(int w, int h, int k) { return LayeredDepthMap::bytes(w, h, k) + MinMaxPyramid::bytes(w, h); }
 };
-void build_opaque_layer_map(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view,
+void build_opaque_layer_map(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view,
                             int k, OpaqueLayerMap* out);
 
 // MTSM: every fragment of each light-centre ray, compressed per texel (§5.1), and its quadtree.
@@ -149,7 +149,7 @@ struct TransparentMap {
   // is built each texel's own vector (grown by doubling) and the texel ranges.
   static uint64_t build_bytes(int w, int h, int layers_per_texel);
 };
-void build_transparent_map(Rasterizer& rasterizer, std::span<const RasterTriangle> triangles, const LightView& view,
+void build_transparent_map(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view,
                            const CompressionOptions& options, TransparentMap* out);
 
 }  // namespace penumbra::multilayer

@@ -201,7 +201,7 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   Timer timer;
   const int S = options_.slices, R = options_.resolution;
   plan(scene, light);
-  triangles_.clear();
+  triangles_ = RasterTriangles{};
   masks_.width = masks_.height = 0;
   masks_.masks.clear();
   if (!has_casters_) {
@@ -225,7 +225,8 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
       auto facing_away = [&](const RasterTriangle& t) {
         return !(dot(cross(t.p[1] - t.p[0], t.p[2] - t.p[0]), eye - t.p[0]) > 0);
       };
-      triangles_.erase(std::remove_if(triangles_.begin() + first, triangles_.end(), facing_away), triangles_.end());
+      std::vector<RasterTriangle>& list = triangles_.list;
+      list.erase(std::remove_if(list.begin() + first, list.end(), facing_away), list.end());
     }
   }
 

@@ -136,7 +136,7 @@ class OcclusionTextures {
   shader::OtSetup setup_{};
   LightView view_;
   std::vector<uint32_t> culled_;
-  std::vector<RasterTriangle> triangles_;
+  RasterTriangles triangles_;
   Rasterizer rasterizer_;
   DepthBinMasks masks_;
   MipmapFilter mipmap_;

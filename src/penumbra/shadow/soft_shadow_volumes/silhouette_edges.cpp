@@ -62,9 +62,6 @@ LightRegion light_region(const AreaLight& light) {
 std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightRegion& light) {
   std::vector<SilhouetteEdge> out;
   for (const SceneObject& obj : scene.objects) {
-    // An alpha-textured object's shadow edges are its mask's, not its triangles' (ssv-rt
-    // tests those casters per light sample instead).
-    if (obj.material.alpha_textured()) continue;
     const TriangleMesh& m = obj.mesh;
     const float opacity = obj.material.opacity;
     // Welded vertex ids, then each undirected edge's third vertices.
@@ -79,7 +76,7 @@ std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const Ligh
     };
     for (size_t t = 0; t < m.triangle_count(); ++t) {
       const float alpha = opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
-      if (!(alpha > 0)) continue;
+      if (!(alpha > 0) || stops_part_of_the_light(alpha, obj.material)) continue;
       uint32_t v[3];
       for (int k = 0; k < 3; ++k) v[k] = id_of(m.vertex(t, k));
       if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // degenerate: blocks nothing

@@ -36,12 +36,21 @@ struct LightRegion {
 // an ellipsoid.
 LightRegion light_region(const AreaLight& light);
 
+// Whether a triangle of this opacity (the material's times the mesh's per-triangle one) and
+// material stops only part of the light somewhere: semi-transparent, or alpha-textured (a
+// mask's holes are not bounded by its edges). ssv-rt tests such casters per light sample; they
+// have no silhouette edges here.
+inline bool stops_part_of_the_light(float opacity, const Material& material) {
+  return material.alpha_textured() || !(opacity >= 1.0f);
+}
+
 // Edges are welded by position (bitwise equal vertices count as one, so meshes stored with
 // split vertices at seams and creases do not turn every crease into two boundary edges).
 // An edge with two triangles is kept when one of their planes cuts the region (some light
 // point sees one side, another the other) or, where neither does, when both triangles lie on
 // one side of the plane through the region's centre and the edge (the whole light sees a
-// silhouette). Triangles of zero opacity cast nothing and are left out.
+// silhouette). Triangles of zero opacity cast nothing, those that stop only part of the
+// light are tested otherwise (stops_part_of_the_light): both are left out.
 std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightRegion& light);
 
 // For memory estimates: a closed mesh has 3/2 edges per triangle (a triangle soup stored

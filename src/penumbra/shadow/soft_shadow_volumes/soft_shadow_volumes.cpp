@@ -37,6 +37,7 @@
 #include "penumbra/shadow/soft_shadow_volumes/depth_complexity.h"
 #include "penumbra/shadow/soft_shadow_volumes/silhouette_edges.h"
 #include "penumbra/trace/bvh.h"
+#include "penumbra/trace/ray_shared.h"
 #include "penumbra/trace/ray_tracer.h"
 
 namespace penumbra {
@@ -44,6 +45,8 @@ namespace {
 
 // Edges per leaf: 8 measured 13% faster than 4 on the bunny (fewer nodes to test), 16 no better.
 constexpr int kLeafSize = 8;
+// The casters tested per light sample: TriangleBvh's default.
+constexpr int kPartialLeafSize = 4;
 
 struct Plane {
   Vec3f n;
@@ -103,29 +106,32 @@ class SoftShadowVolumes final : public ShadowMethod {
     facing_.resize(edges_.size());
     for (size_t i = 0; i < edges_.size(); ++i) facing_[i] = ssv::edge_facing(edges_[i]);
     build_node_facing();
-    opacity_.clear();
-    std::vector<BvhTriangle> textured;
+    // The casters that stop only part of the light somewhere (alpha-textured, or opacity < 1)
+    // are left out of the edges and of the reference ray's count, and tested per light sample
+    // (their own hierarchy): what is left is opaque, which the depth complexity counts.
+    counted_.clear();
+    partial_.clear();
+    textures_ = TriangleTextures::of(*ctx.scene);
+    std::vector<BvhTriangle> partial;
     for (size_t o = 0; o < ctx.scene->objects.size(); ++o) {
       const SceneObject& obj = ctx.scene->objects[o];
-      const TriangleMesh& m = obj.mesh;
-      // Alpha-textured objects: zero here (the reference ray does not count them), listed
-      // for the per-sample test.
-      const bool alpha_textured = obj.material.alpha_textured();
-      std::vector<float> alpha(m.triangle_count(), alpha_textured ? 0.0f : obj.material.opacity);
-      for (size_t t = 0; t < m.triangle_opacity.size() && t < alpha.size(); ++t) alpha[t] *= m.triangle_opacity[t];
-      opacity_.push_back(std::move(alpha));
-      if (alpha_textured) {
-        std::vector<RasterTriangle> tris;
-        append_raster_triangles(m, obj.material, static_cast<uint32_t>(o), &tris);
-        for (const RasterTriangle& t : tris) {
-          if (!(t.opacity > 0)) continue;
-          textured.push_back({t.p[0], t.p[1], t.p[2], t.object, static_cast<uint32_t>(textured_.size()), t.opacity});
-          textured_.push_back(t);
+      std::vector<RasterTriangle> tris;
+      append_raster_triangles(obj.mesh, obj.material.opacity, static_cast<uint32_t>(o), &tris);
+      std::vector<uint8_t> counted(tris.size(), 0);
+      for (size_t i = 0; i < tris.size(); ++i) {
+        const RasterTriangle& t = tris[i];
+        if (!(t.opacity > 0)) continue;
+        if (!ssv::stops_part_of_the_light(t.opacity, obj.material)) {
+          counted[i] = 1;
+          continue;
         }
+        partial.push_back({t.p[0], t.p[1], t.p[2], t.object, static_cast<uint32_t>(partial_.size()), t.opacity});
+        partial_.push_back(t);
       }
+      counted_.push_back(std::move(counted));
     }
-    textured_bvh_ = textured.empty() ? TriangleBvh() : TriangleBvh(std::move(textured));
-    stats_.extra["alpha_textured_triangles"] = textured_.size();
+    partial_bvh_ = partial.empty() ? TriangleBvh() : TriangleBvh(std::move(partial), kPartialLeafSize);
+    stats_.extra["partial_casters"] = partial_.size();
     stats_.extra["silhouette_edges"] = edges_.size();
   }
 
@@ -148,7 +154,7 @@ class SoftShadowVolumes final : public ShadowMethod {
                               samples.center + samples.s * (R * x0) + samples.t * (R * y1)};
     const Vec3f rect_centre = (corners[0] + corners[2]) * 0.5f;
 
-    std::atomic<uint64_t> edge_tests{0}, edge_updates{0}, crossings{0};
+    std::atomic<uint64_t> edge_tests{0}, edge_updates{0}, crossings{0}, passes{0};
     {
       ScopedPhase phase(stats_, "evaluate");
       parallel_for(vs.size(), 16, [&](size_t begin, size_t end) {
@@ -156,9 +162,10 @@ class SoftShadowVolumes final : public ShadowMethod {
         const size_t padded = ssv::padded_samples(static_cast<size_t>(n));
         std::vector<float> x(padded, 0.0f), y(padded, 0.0f), z(padded, 0.0f);
         std::vector<int32_t> depth(padded);
-        std::vector<uint8_t> masked(padded);  // blocked by an alpha-textured caster
+        std::vector<float> transmittance(padded);  // through the casters tested per light sample
+        std::vector<uint32_t> side[2];              // the light samples in front of / behind the receiver
         std::vector<uint32_t> stack;
-        uint64_t tests = 0, updates = 0, hits = 0;
+        Counts counts;
         for (size_t k = begin; k < end; ++k) {
           const ViewSample& s = vs.samples[k];
           // Points behind the light's plane see none of it (as afsm and rays to the samples).
@@ -166,110 +173,131 @@ class SoftShadowVolumes final : public ShadowMethod {
             out.visibility[k] = 0.0f;
             continue;
           }
-          // The ray origin of afsm (alias_free.cpp): off the surface along ng, out of a
-          // closed mesh, else toward the light, so both decide the receiver's own surface alike.
-          const Vec3f o =
-              offset_ray_origin(s.p, s.ng, ctx.scene->objects[s.object].closed ? s.ng : light.center - s.p);
-          for (int i = 0; i < n; ++i) {
-            x[i] = samples.points[i].x - o.x;
-            y[i] = samples.points[i].y - o.y;
-            z[i] = samples.points[i].z - o.z;
-          }
-          // §3.3: the reference sample's absolute depth complexity, from one ray.
-          const Vec3f r = samples.points[0] - o;
-          const int32_t d_ref = surfaces_crossed(*ctx.tracer, o, samples.points[0], &hits);
-          std::fill(depth.begin(), depth.end(), d_ref);
-          // The pyramid from o over the samples' rectangle: four planes through o and the
-          // light's plane (edges beyond the light change nothing).
-          Plane planes[5];
-          for (int j = 0; j < 4; ++j) {
-            Vec3f nn = cross(corners[j] - o, corners[(j + 1) % 4] - o);
-            if (dot(nn, rect_centre - o) < 0) nn = -nn;
-            planes[j] = {nn, -dot(nn, o)};
-          }
-          planes[4] = {light.frame.n, -dot(light.frame.n, light.center)};  // o's side: in front
-          const ssv::SampleOffsets offsets{x.data(), y.data(), z.data(), n};
-          const float o_size = std::max(std::abs(o.x), std::max(std::abs(o.y), std::abs(o.z)));
-          const std::vector<BvhNode>& nodes = bvh_.nodes();
-          stack.clear();
-          if (!nodes.empty()) stack.push_back(0);
-          while (!stack.empty()) {
-            const uint32_t stack_top = stack.back();
-            const BvhNode& node = nodes[stack_top];
-            stack.pop_back();
-            bool cut = false;
-            for (const Plane& p : planes) cut = cut || outside(node.bounds, p);
-            if (cut || sees_all_alike(node_facing_[stack_top], o)) continue;
-            if (!node.leaf()) {
-              stack.push_back(node.first);
-              stack.push_back(node.first + 1);
-              continue;
-            }
-            for (uint32_t i = node.first; i < node.first + node.count; ++i) {
-              ++tests;
-              // §3.2: an edge that is no silhouette from o changes nothing.
-              if (ssv::surely_not_silhouette(facing_[i], o, o_size)) continue;
-              if (ssv::add_edge_crossings(edges_[i], o, r, offsets, depth.data())) ++updates;
-            }
-          }
-          // Alpha-textured casters: each light sample's segment, where it meets one. A receiver
-          // that is itself alpha-textured is neither in the edges nor in the reference count, so
-          // its own surface is decided as Embree decides it: the segments to the samples behind
-          // its plane start on that side (no correction below).
-          const bool textured_receiver = ctx.scene->objects[s.object].material.alpha_textured();
-          const Origins origins{o, textured_receiver ? offset_ray_origin(s.p, s.ng, s.p - light.center) : o, s.p,
-                                dot(s.ng, light.center - s.p) >= 0 ? s.ng : -s.ng};
-          if (!textured_bvh_.empty()) {
-            std::fill(masked.begin(), masked.end(), 0);
-            stack.clear();
-            stack.push_back(0);
-            const std::vector<BvhNode>& tnodes = textured_bvh_.nodes();
-            while (!stack.empty()) {
-              const BvhNode& node = tnodes[stack.back()];
-              stack.pop_back();
-              bool cut = false;
-              for (const Plane& p : planes) cut = cut || outside(node.bounds, p);
-              if (cut) continue;
-              if (!node.leaf()) {
-                stack.push_back(node.first);
-                stack.push_back(node.first + 1);
-                continue;
-              }
-              for (uint32_t i = node.first; i < node.first + node.count; ++i)
-                mask_samples(textured_[textured_bvh_.triangles()[i].prim], origins, samples, n, masked.data());
-            }
-            for (int i = 0; i < n; ++i) depth[i] += masked[i];
-          }
-          // The receiver's own surface, decided as a shadow ray from the offset origin
-          // (shadow_ray_to) decides it: Embree starts each ray on the side of the surface its
-          // light sample is on. On a closed mesh a sample behind the tangent plane starts inside
-          // the object: blocked (afsm §3.3's rule per light sample). On an open one that ray
-          // does not cross the surface which the ray from o (on the light centre's side) does:
-          // one surface less.
+          // A shadow ray leaves the receiver on the side its light point lies on (ray_shared.h
+          // leaves_front), so the light samples are decided in two groups, each from its own
+          // origin (the receiver's own surface is then never crossed): those in front of the
+          // receiver's plane, and those behind it. On a closed mesh a ray to a sample behind the
+          // tangent plane starts inside the object: blocked (afsm §3.3's rule per light sample).
+          // An open surface lit from both sides (a thin two-sided leaf) pays for two groups.
+          const Vec3f n_unit = shader::offset_normal(s.ng);
+          side[0].clear();
+          side[1].clear();
+          for (int i = 0; i < n; ++i) side[shader::leaves_front(n_unit, samples.points[i] - s.p) ? 0 : 1].push_back(i);
           const bool closed = ctx.scene->objects[s.object].closed;
-          const bool centre_side = dot(s.ng, light.center - s.p) >= 0;
-          int visible = 0;
-          for (int i = 0; i < n; ++i) {
-            const bool front = dot(s.ng, samples.points[i] - s.p) >= 0;
-            if (closed) visible += depth[i] == 0 && front;
-            else visible += depth[i] - (front != centre_side && !textured_receiver) == 0;
+          double visible = 0;
+          for (int g = 0; g < (closed ? 1 : 2); ++g) {
+            if (side[g].empty()) continue;
+            const Vec3f o = offset_ray_origin(s.p, s.ng, g == 0 ? s.ng : -s.ng);
+            visible += visible_from(*ctx.tracer, *ctx.scene, o, samples, side[g], corners, rect_centre, light,
+                                    {x.data(), y.data(), z.data(), depth.data(), transmittance.data()}, stack, counts);
           }
-          out.visibility[k] = static_cast<float>(visible) / static_cast<float>(n);
+          out.visibility[k] = static_cast<float>(visible / n);
         }
-        edge_tests += tests;
-        edge_updates += updates;
-        crossings += hits;
+        edge_tests += counts.tests;
+        edge_updates += counts.updates;
+        crossings += counts.hits;
+        passes += counts.passes;
         if (ctx.progress) ctx.progress->add(end - begin);
       });
     }
-    stats_.rays_traced += vs.size();
+    stats_.rays_traced += passes.load();
     stats_.extra["light_samples"] = n;
     stats_.extra["edge_tests"] = edge_tests.load();
     stats_.extra["edge_updates"] = edge_updates.load();
     stats_.extra["reference_crossings"] = crossings.load();
+    stats_.extra["sample_groups"] = passes.load();
   }
 
  private:
+  struct Counts {
+    uint64_t tests = 0, updates = 0, hits = 0, passes = 0;
+  };
+  // A thread's arrays of one group of light samples (each padded_samples(n) long).
+  struct Scratch {
+    float *x, *y, *z;
+    int32_t* depth;
+    float* transmittance;
+  };
+
+  // §3.2-3.3 from the origin o for the light samples `group` (indices into samples): the sum of
+  // their transmittances, 0 for each sample some opaque surface blocks (depth complexity > 0),
+  // the product of (1 - opacity) over the partial casters its segment crosses otherwise.
+  double visible_from(const RayTracer& tracer, const Scene& scene, Vec3f o, const LightSamples& samples,
+                      const std::vector<uint32_t>& group,
+                      const Vec3f corners[4], Vec3f rect_centre, const AreaLight& light, const Scratch& a,
+                      std::vector<uint32_t>& stack, Counts& counts) const {
+    const int m = static_cast<int>(group.size());
+    const size_t padded = ssv::padded_samples(static_cast<size_t>(m));
+    for (int j = 0; j < m; ++j) {
+      const Vec3f q = samples.points[group[j]];
+      a.x[j] = q.x - o.x, a.y[j] = q.y - o.y, a.z[j] = q.z - o.z;
+    }
+    for (size_t j = m; j < padded; ++j) a.x[j] = a.y[j] = a.z[j] = 0.0f;
+    ++counts.passes;
+    // §3.3: the reference sample's absolute depth complexity, from one ray.
+    const Vec3f ref = samples.points[group[0]];
+    const Vec3f r = ref - o;
+    std::fill(a.depth, a.depth + padded, surfaces_crossed(tracer, scene, o, ref, &counts.hits));
+    // The pyramid from o over the samples' rectangle: four planes through o and the light's
+    // plane (edges beyond the light change nothing).
+    Plane planes[5];
+    for (int j = 0; j < 4; ++j) {
+      Vec3f nn = cross(corners[j] - o, corners[(j + 1) % 4] - o);
+      if (dot(nn, rect_centre - o) < 0) nn = -nn;
+      planes[j] = {nn, -dot(nn, o)};
+    }
+    planes[4] = {light.frame.n, -dot(light.frame.n, light.center)};  // o's side: in front
+    const ssv::SampleOffsets offsets{a.x, a.y, a.z, m};
+    const float o_size = std::max(std::abs(o.x), std::max(std::abs(o.y), std::abs(o.z)));
+    const std::vector<BvhNode>& nodes = bvh_.nodes();
+    stack.clear();
+    if (!nodes.empty()) stack.push_back(0);
+    while (!stack.empty()) {
+      const uint32_t stack_top = stack.back();
+      const BvhNode& node = nodes[stack_top];
+      stack.pop_back();
+      bool cut = false;
+      for (const Plane& p : planes) cut = cut || outside(node.bounds, p);
+      if (cut || sees_all_alike(node_facing_[stack_top], o)) continue;
+      if (!node.leaf()) {
+        stack.push_back(node.first);
+        stack.push_back(node.first + 1);
+        continue;
+      }
+      for (uint32_t i = node.first; i < node.first + node.count; ++i) {
+        ++counts.tests;
+        // §3.2: an edge that is no silhouette from o changes nothing.
+        if (ssv::surely_not_silhouette(facing_[i], o, o_size)) continue;
+        if (ssv::add_edge_crossings(edges_[i], o, r, offsets, a.depth)) ++counts.updates;
+      }
+    }
+    // The partial casters: each light sample's segment, where it meets one.
+    std::fill(a.transmittance, a.transmittance + m, 1.0f);
+    if (!partial_bvh_.empty()) {
+      stack.clear();
+      stack.push_back(0);
+      const std::vector<BvhNode>& pnodes = partial_bvh_.nodes();
+      while (!stack.empty()) {
+        const BvhNode& node = pnodes[stack.back()];
+        stack.pop_back();
+        bool cut = false;
+        for (const Plane& p : planes) cut = cut || outside(node.bounds, p);
+        if (cut) continue;
+        if (!node.leaf()) {
+          stack.push_back(node.first);
+          stack.push_back(node.first + 1);
+          continue;
+        }
+        for (uint32_t i = node.first; i < node.first + node.count; ++i)
+          attenuate(partial_[partial_bvh_.triangles()[i].prim], o, samples, group, a.depth, a.transmittance);
+      }
+    }
+    double sum = 0;
+    for (int j = 0; j < m; ++j)
+      if (a.depth[j] == 0) sum += a.transmittance[j];
+    return sum;
+  }
+
   // Bottom-up over the hierarchy (children come after their parent in bvh_.nodes()).
   void build_node_facing() {
     const std::vector<BvhNode>& nodes = bvh_.nodes();
@@ -337,8 +365,15 @@ class SoftShadowVolumes final : public ShadowMethod {
   }
 
   // The number of surfaces the segment from o to q crosses (one closest-hit query per
-  // surface, each starting past the last hit; shadow_ray_to's end short of the light).
-  int32_t surfaces_crossed(const RayTracer& tracer, Vec3f o, Vec3f q, uint64_t* hits) const {
+  // surface, each starting just past the last hit; shadow_ray_to's end short of the light).
+  // A segment through an edge or a vertex shared by triangles of one surface may report it
+  // once per triangle, a few ulps apart: a hit that close to the last one, on the same object,
+  // on a triangle sharing a vertex with the last one and facing the ray the same way, is the
+  // same crossing. A ray through a ridge enters one face and leaves the next one at almost the
+  // same point (a thin stem's crease, plant: hits 1e-6 apart on triangles sharing an edge):
+  // they face it opposite ways, two crossings. Another surface crossed at almost the same point
+  // (interpenetrating branches, crossing leaves) is counted.
+  int32_t surfaces_crossed(const RayTracer& tracer, const Scene& scene, Vec3f o, Vec3f q, uint64_t* hits) const {
     const Vec3f d = q - o;
     const float dist = length(d);
     if (!(dist > 0)) return 0;
@@ -348,33 +383,38 @@ class SoftShadowVolumes final : public ShadowMethod {
     ray.tnear = 0.0f;
     ray.tfar = dist * (1.0f - 1e-5f);
     int32_t count = 0;
-    Hit hit;
+    Hit hit, last;
+    bool any = false;
     for (int guard = 0; guard < 4096 && tracer.intersect(ray, &hit); ++guard) {
       ++*hits;
-      if (opacity_[hit.object][hit.prim] > 0) ++count;
-      // Past this surface: the next one further along (a ray through a shared edge counts
-      // the surface once).
-      ray.tnear = std::nextafter(hit.t, kInfinity) + 1e-6f * hit.t;
+      if (counted_[hit.object][hit.prim]) {
+        const bool same_crossing = any && hit.object == last.object &&
+                                   hit.t - last.t <= 1e-6f * std::max(1.0f, hit.t) &&
+                                   (dot(hit.ng, ray.dir) < 0) == (dot(last.ng, ray.dir) < 0) &&
+                                   share_a_vertex(scene.objects[hit.object].mesh, hit.prim, last.prim);
+        if (!same_crossing) ++count;
+        last = hit;
+        any = true;
+      }
+      ray.tnear = std::nextafter(hit.t, kInfinity);
       if (!(ray.tnear < ray.tfar)) break;
     }
     return count;
   }
+  static bool share_a_vertex(const TriangleMesh& m, uint32_t a, uint32_t b) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        if (m.vertex(a, i) == m.vertex(b, j)) return true;
+    return false;
+  }
 
-  // Where the segments to the light samples start for the alpha-textured casters: `front` for
-  // the samples on the side of the receiver's plane (through p, ng pointing to the light's
-  // centre) the centre is on, `back` for the others (the same point unless the receiver is
-  // itself alpha-textured).
-  struct Origins {
-    Vec3f front, back, p, ng;
-    bool front_side(Vec3f q) const { return dot(ng, q - p) >= 0; }
-  };
-  // Sets masked[i] for the light samples whose segment from its origin meets t where t's alpha
-  // texture is solid (the segment ends at the sample). Only the samples inside
-  // the box of t's shadow on the light's plane (its corners projected from the front origin,
-  // padded) are tested.
-  static void mask_samples(const RasterTriangle& t, const Origins& from, const LightSamples& samples, int n,
-                           uint8_t* masked) {
-    const Vec3f o = from.front;
+  // Multiplies transmittance[j] by (1 - the opacity t has where the segment from o to light
+  // sample group[j] crosses it), as the ray tracer's transparency filter does per crossing
+  // (a sample left with at most kOpaqueCutoff counts as blocked). Samples some opaque surface
+  // blocks already (depth > 0) are skipped, and so are those outside the box of t's shadow on
+  // the light's plane (its corners projected from o, padded).
+  void attenuate(const RasterTriangle& t, Vec3f o, const LightSamples& samples, const std::vector<uint32_t>& group,
+                 const int32_t* depth, float* transmittance) const {
     float x0 = -kInfinity, x1 = kInfinity, y0 = -kInfinity, y1 = kInfinity;
     {
       const float h = dot(samples.n, samples.center - o);
@@ -394,32 +434,34 @@ class SoftShadowVolumes final : public ShadowMethod {
         x0 = bx0 - pad, x1 = bx1 + pad, y0 = by0 - pad, y1 = by1 + pad;
       }
     }
-    const bool two = !(from.back == from.front);
-    for (int i = 0; i < n; ++i) {
-      if (masked[i]) continue;
-      const Vec2f l = samples.local[i];
+    for (size_t j = 0; j < group.size(); ++j) {
+      if (depth[j] != 0 || transmittance[j] == 0.0f) continue;
+      const Vec2f l = samples.local[group[j]];
       if (l.x < x0 || l.x > x1 || l.y < y0 || l.y > y1) continue;
-      const Vec3f q = samples.points[i];
-      const Vec3f origin = !two || from.front_side(q) ? from.front : from.back;
-      if (t.opacity_on_segment(origin, q - origin) > 0) masked[i] = 1;
+      const float a = textures_.opacity_on_segment(t, o, samples.points[group[j]] - o);
+      if (!(a > 0)) continue;
+      transmittance[j] *= 1.0f - a;
+      if (!(transmittance[j] > kOpaqueCutoff)) transmittance[j] = 0.0f;
     }
   }
 
-  std::vector<RasterTriangle> textured_;  // the alpha-textured casters
-  TriangleBvh textured_bvh_;               // over textured_ (prim = index into it)
+  std::vector<RasterTriangle> partial_;  // the casters tested per light sample
+  TriangleTextures textures_;            // their alpha textures
+  TriangleBvh partial_bvh_;              // over partial_ (prim = index into it)
   std::vector<ssv::SilhouetteEdge> edges_;  // in bvh_'s leaf order
   std::vector<ssv::EdgeFacing> facing_;      // the same order
   std::vector<NodeFacing> node_facing_;      // per node of bvh_
   TriangleBvh bvh_;
-  std::vector<std::vector<float>> opacity_;  // per object, per triangle
+  std::vector<std::vector<uint8_t>> counted_;  // per object, per triangle: opaque, in the edges and the count
 };
 
 // One light's instance: the silhouette edges (at most every edge: 3/2 per triangle of a
 // closed mesh, silhouette_edges.h) and their hierarchy, the larger of what finding them holds
 // and what building the hierarchy holds (the edges twice while they are put in leaf order,
-// their boxes, the build's nodes and scratch, the facing planes); the opacity per triangle;
-// per evaluate, the light samples; per worker thread, the samples relative to a point and
-// their depth complexities.
+// their boxes, the build's nodes and scratch, the facing planes), or of the casters tested per
+// light sample and their hierarchy where every triangle is one (they have no edges); a flag
+// per triangle; per evaluate, the light samples; per worker thread, the samples relative to a
+// point, their depth complexities and transmittances, and the two groups of sample indices.
 MemoryEstimate memory(const ParamSet&, const MemoryQuery& q) {
   MemoryTally tally;
   const uint64_t edges = static_cast<uint64_t>(ssv::kEdgesPerTriangle * static_cast<double>(q.triangles));
@@ -427,18 +469,20 @@ MemoryEstimate memory(const ParamSet&, const MemoryQuery& q) {
   const uint64_t hierarchy = edges * (2 * sizeof(ssv::SilhouetteEdge) + sizeof(BvhTriangle) + sizeof(ssv::EdgeFacing)) +
                              TriangleBvh::build_bytes(edges, kLeafSize) +
                              TriangleBvh::node_bound(edges, kLeafSize) * sizeof(NodeFacing);
-  tally.add(std::max(finding, hierarchy) + q.triangles * sizeof(float), kTrianglesSetting);
+  const uint64_t partial = q.triangles * (2 * sizeof(RasterTriangle) + sizeof(BvhTriangle)) +
+                           TriangleBvh::build_bytes(q.triangles, kPartialLeafSize);
+  tally.add(std::max({finding, hierarchy, partial}) + q.triangles * sizeof(uint8_t), kTrianglesSetting);
   const uint64_t n = static_cast<uint64_t>(std::max(1, q.light_samples));
   tally.add(light_samples_bytes(static_cast<int>(n)) +
-                static_cast<uint64_t>(q.threads) * ssv::padded_samples(n) * 4 * sizeof(float),
+                static_cast<uint64_t>(q.threads) * ssv::padded_samples(n) * 7 * sizeof(float),
             kLightSamplesSetting);
   return tally.estimate();
 }
 
 const MethodRegistration registration({
     "ssv-rt",
-    "soft shadow volumes for ray tracing (Laine et al. 2005): exact visibility of --spp fixed light samples, one ray "
-    "per point",
+    "soft shadow volumes for ray tracing (Laine et al. 2005): exact visibility of --spp fixed light samples (sphere "
+    "and ellipsoid lights: exact against the light's central disk or ellipse, as afsm), one ray per point and side",
     {},
     [](const ParamSet& p) { return std::make_unique<SoftShadowVolumes>(p); },
     /*samples_light=*/true,
