@@ -11,7 +11,8 @@
 //   literals with an f suffix (1.0f: a bare 1.0 is a double in C++ and a float in GLSL), double
 //   constants as double(0.5f), unsigned literals with u, 64-bit with UL;
 // - conversions written out (float(i), uint(x)); no references or pointers: out and inout
-//   parameters as PN_OUT(T) and PN_INOUT(T); no overloading on the argument type alone;
+//   parameters as PN_OUT(T) and PN_INOUT(T), a large read-only one as PN_IN(T) (a const reference
+//   in C++, so a 160-byte view is not copied per call); no overloading on the argument type alone;
 // - the GLSL built-ins below only (C++ gets them here), no swizzles beyond .x .y .z;
 // - trigonometry as pn_sin, pn_cos, pn_acos and atan2_double: Vulkan lets a GPU's built-in sin and
 //   cos be off by 2^-11 (absolute) and atan by 4096 ulp, so the GPU side gets its own (Cephes'
@@ -84,6 +85,7 @@ inline double atan2_double(double y, double x) { return std::atan2(y, x); }
 
 #define PN_SHARED_BEGIN namespace penumbra::shader {
 #define PN_SHARED_END }
+#define PN_IN(T) const T&
 #define PN_OUT(T) T&
 #define PN_INOUT(T) T&
 #define PN_CONST inline constexpr
@@ -176,6 +178,7 @@ double atan2_double(double y, double x) {
 }
 #define PN_SHARED_BEGIN
 #define PN_SHARED_END
+#define PN_IN(T) in T
 #define PN_OUT(T) out T
 #define PN_INOUT(T) inout T
 #define PN_CONST const

@@ -37,19 +37,25 @@
 #include <utility>
 
 #include "penumbra/core/math.h"
+#include "penumbra/raster/depth_image_walk_shared.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/raster/minmax_pyramid.h"
 
 namespace penumbra {
 
-// A segment in a depth image's texel space with an affine depth along it.
+// A segment in a depth image's texel space with an affine depth along it (the shared
+// walk's DepthSegment, depth_image_walk_shared.h, with the CPU's conveniences).
 struct DepthImageSegment {
   Vec2f p0, p1;          // texel-space points at t = 0 and t = 1
   float d0 = 0, d1 = 0;  // the ray's depth at t = 0 and t = 1 (same kind as the pyramid's)
   float t0 = 0, t1 = 1;  // the part to walk
 
-  Vec2f at(float t) const { return p0 + (p1 - p0) * t; }
-  float depth_at(float t) const { return d0 + (d1 - d0) * t; }
+  DepthImageSegment() = default;
+  DepthImageSegment(const shader::DepthSegment& s) : p0(s.p0), p1(s.p1), d0(s.d0), d1(s.d1), t0(s.t0), t1(s.t1) {}
+  shader::DepthSegment shared() const { return {p0, p1, d0, d1, t0, t1}; }
+
+  Vec2f at(float t) const { return shader::depth_segment_at(shared(), t); }
+  float depth_at(float t) const { return shader::depth_segment_depth(shared(), t); }
   // The ray's depth interval over [ta, tb] (ta <= tb).
   DepthRange depth_over(float ta, float tb) const {
     float a = depth_at(ta), b = depth_at(tb);
@@ -57,49 +63,38 @@ struct DepthImageSegment {
   }
   // Clips [*ta, *tb] to the closed box [x0, x1] x [y0, y1]; false when nothing is left.
   bool clip_to_box(float x0, float y0, float x1, float y1, float* ta, float* tb) const {
-    return clip_axis(p0.x, p1.x - p0.x, x0, x1, ta, tb) && clip_axis(p0.y, p1.y - p0.y, y0, y1, ta, tb);
+    return shader::depth_segment_clip_box(shared(), x0, y0, x1, y1, *ta, *tb);
   }
   // Clips [*ta, *tb] to where the depth lies in [lo, hi]; false when nothing is left.
   bool clip_to_depth(float lo, float hi, float* ta, float* tb) const {
-    return clip_axis(d0, d1 - d0, lo, hi, ta, tb);
-  }
-
- private:
-  static bool clip_axis(float p, float d, float lo, float hi, float* ta, float* tb) {
-    if (d == 0) return p >= lo && p <= hi && *ta <= *tb;
-    float inv = 1.0f / d;
-    float a = (lo - p) * inv, b = (hi - p) * inv;
-    if (a > b) std::swap(a, b);
-    *ta = std::max(*ta, a);
-    *tb = std::min(*tb, b);
-    return *ta <= *tb;
+    const float d = d1 - d0;
+    return shader::dw_clip_axis(d0, d, d != 0 ? 1.0f / d : 0.0f, lo, hi, *ta, *tb);
   }
 };
 
 // A world-space segment projected into a light view (project_to_depth_image): the
-// texel-space segment with window depth, and the maps back to the world segment.
+// texel-space segment with window depth, and the maps back to the world segment (the shared
+// DepthProjection's functions).
 struct ProjectedSegment {
   DepthImageSegment segment;  // t in [0, 1]: the part in front of near and before far
   float s0 = 0, s1 = 1;       // world-segment parameters of t = 0 and t = 1
   float w0 = 1, w1 = 1;       // homogeneous w at t = 0, 1 (the linear depth; 1 for orthographic)
   float z0 = 0, z1 = 0;       // linear depth at t = 0, 1
 
+  ProjectedSegment() = default;
+  ProjectedSegment(const shader::DepthProjection& p)
+      : segment(p.segment), s0(p.s0), s1(p.s1), w0(p.w0), w1(p.w1), z0(p.z0), z1(p.z1) {}
+  shader::DepthProjection shared() const { return {segment.shared(), s0, s1, w0, w1, z0, z1}; }
+
   // How far along the world segment (0 at t = 0, 1 at t = 1) the point at t lies
   // (perspective-correct; = t for an orthographic view).
-  float world_fraction(float t) const {
-    float den = (1 - t) * w1 + t * w0;
-    return den != 0 ? t * w0 / den : t;
-  }
+  float world_fraction(float t) const { return shader::depth_projection_world_fraction(shared(), t); }
   // The world-segment parameter s (a + s (b - a)) of the point at t.
-  float world_param(float t) const { return s0 + (s1 - s0) * world_fraction(t); }
+  float world_param(float t) const { return shader::depth_projection_world_param(shared(), t); }
   // The t of world-segment parameter s (the inverse of world_param).
-  float segment_param(float s) const {
-    float u = s1 != s0 ? (s - s0) / (s1 - s0) : 0.0f;
-    float den = (1 - u) * w0 + u * w1;
-    return den != 0 ? u * w1 / den : u;
-  }
+  float segment_param(float s) const { return shader::depth_projection_segment_param(shared(), s); }
   // Linear depth of the point at t.
-  float linear_depth_at(float t) const { return z0 + (z1 - z0) * world_fraction(t); }
+  float linear_depth_at(float t) const { return shader::depth_projection_linear_depth(shared(), t); }
 };
 
 // Projects the world segment a + s (b - a), s in [0, 1], into `view`: clips it to
@@ -182,37 +177,9 @@ struct DescendEveryNode {
 namespace depth_walk_detail {
 
 // Clips [*a, *b] to where p + t d lies in [lo, hi] (inv = 1 / d, or anything when d = 0);
-// false when nothing is left.
+// false when nothing is left (the shared walk's clip, for the packet walk below).
 inline bool clip_axis(float p, float d, float inv, float lo, float hi, float* a, float* b) {
-  if (d == 0) return p >= lo && p <= hi && *a <= *b;
-  float u = (lo - p) * inv, v = (hi - p) * inv;
-  if (u > v) std::swap(u, v);
-  *a = std::max(*a, u);
-  *b = std::min(*b, v);
-  return *a <= *b;
-}
-
-// The two halves of a node's interval [a, b] on one axis, cut at the midline m between its
-// children (index 0: the lower half, 1: the upper): the one part of clip_axis against each
-// child's range that the node's own clip has not already applied (the child shares the
-// node's other edge, and max/min with an edge [a, b] already respects changes nothing), so
-// the result is the same floats as clipping to the child's whole box. in[] is cleared for
-// a half the segment misses when it runs parallel to the axis.
-inline void split_axis(float p, float d, float inv, float m, float a, float b, float lo_half[2], float hi_half[2],
-                       bool in[2]) {
-  if (d == 0) {
-    in[0] = in[0] && p <= m;
-    in[1] = in[1] && p >= m;
-    return;
-  }
-  const float t = (m - p) * inv;
-  if (d > 0) {
-    hi_half[0] = std::min(b, t);
-    lo_half[1] = std::max(a, t);
-  } else {
-    lo_half[0] = std::max(a, t);
-    hi_half[1] = std::min(b, t);
-  }
+  return shader::dw_clip_axis(p, d, inv, lo, hi, *a, *b);
 }
 
 }  // namespace depth_walk_detail
@@ -222,190 +189,64 @@ inline void split_axis(float p, float d, float inv, float m, float a, float b, f
 // (skip(const DepthWalkSkip&), in order with the texels' clipped parts): what a caller needs
 // to know where the ray passed behind or in front of the image's surfaces (agrawala2000
 // §5.1.2, occlusion intervals and clear miss). Returns true when a visitor stopped the walk.
+// The walk itself is depth_image_walk_shared.h's, which the GPU's kernels run too; this drives
+// it with the visitors.
 template <class LeafVisitor, class NodeVisitor, class SkipVisitor>
 bool walk_depth_image_with_skips(const MinMaxPyramid& pyramid, const DepthImageSegment& seg,
                                  const DepthWalkOptions& opt, LeafVisitor&& leaf, NodeVisitor&& node,
                                  SkipVisitor&& skip, DepthWalkCounters* counters = nullptr) {
   constexpr bool kSkips = !std::is_same_v<std::decay_t<SkipVisitor>, IgnoreSkips>;
-  struct Entry {
-    int level, x, y;  // level -1: a deferred skip span (reason in x)
-    float ta, tb;
-    DepthRange range;  // the node's, read when it is pushed (its siblings' loads overlap)
-  };
-  // Depth-first with at most 3 siblings and one deferred span pending per level: 4 * 32 + 2
-  // entries cover any image the rasterizer can make (16384^2: 15 levels).
-  Entry stack[160];
-  int top = 0;
-  const int W = pyramid.width(0), H = pyramid.height(0);
-  const float tol = opt.tolerance;
-  uint64_t n_nodes = 0, n_texels = 0;
+  constexpr bool kNodes = !std::is_same_v<std::decay_t<NodeVisitor>, DescendEveryNode>;
+  const shader::DepthPyramidLevels levels(pyramid);
+  shader::DepthWalkState w;
+  const uint32_t flags = (opt.minmax_clipping ? shader::kDepthWalkMinmax : 0u) |
+                         (kSkips ? shader::kDepthWalkSkips : 0u) | (kNodes ? shader::kDepthWalkNodes : 0u);
+  shader::depth_walk_begin(w, levels, seg.shared(), opt.tolerance, flags);
   bool stopped = false;
-  auto report = [&](float a, float b, SkipReason why, int level) {
-    if constexpr (kSkips) {
-      if (a <= b) skip(DepthWalkSkip{a, b, why, level});
-    }
-  };
-  // Clipping with the segment's reciprocal slopes computed once (the walk's inner loop
-  // clips up to four children per node).
-  const float dx = seg.p1.x - seg.p0.x, dy = seg.p1.y - seg.p0.y, dd = seg.d1 - seg.d0;
-  const float ix = dx != 0 ? 1.0f / dx : 0.0f, iy = dy != 0 ? 1.0f / dy : 0.0f, id = dd != 0 ? 1.0f / dd : 0.0f;
-  using depth_walk_detail::clip_axis;
-  using depth_walk_detail::split_axis;
-  auto clip_box = [&](float x0, float y0, float x1, float y1, float* a, float* b) {
-    return clip_axis(seg.p0.x, dx, ix, x0, x1, a, b) && clip_axis(seg.p0.y, dy, iy, y0, y1, a, b);
-  };
-  auto clip_depth = [&](float lo, float hi, float* a, float* b) { return clip_axis(seg.d0, dd, id, lo, hi, a, b); };
-  // The levels' nodes and sizes, read once per walk.
-  const int n_levels = pyramid.levels();
-  constexpr int kMaxLevels = 32;
-  const DepthRange* level_nodes[kMaxLevels];
-  int level_width[kMaxLevels], level_height[kMaxLevels];
-  for (int l = 0; l < n_levels && l < kMaxLevels; ++l) {
-    level_nodes[l] = pyramid.level(l).data();
-    level_width[l] = pyramid.width(l);
-    level_height[l] = pyramid.height(l);
-  }
-  // Which side of [lo, hi] the ray is on at t (outside the widened range).
-  auto side = [&](float t, const DepthRange& r) {
-    return seg.depth_at(t) < 0.5f * (r.lo + r.hi) ? SkipReason::InFront : SkipReason::Behind;
-  };
-
-  float ta = seg.t0, tb = seg.t1;
-  if (clip_box(0, 0, float(W), float(H), &ta, &tb)) {
-    if constexpr (kSkips) {
-      if (ta > seg.t0) report(seg.t0, ta, SkipReason::Outside, -1);
-      if (tb < seg.t1) stack[top++] = {-1, int(SkipReason::Outside), 0, tb, seg.t1, {}};
-    }
-    stack[top++] = {n_levels - 1, 0, 0, ta, tb, level_nodes[n_levels - 1][0]};
-  } else {
-    report(seg.t0, seg.t1, SkipReason::Outside, -1);
-  }
-
-  while (top > 0) {
-    Entry e = stack[--top];
-    if constexpr (kSkips) {
-      if (e.level < 0) {
-        report(e.ta, e.tb, SkipReason(e.x), e.y);
-        continue;
-      }
-    }
-    ++n_nodes;
-    if (e.level == 0) {
-      const DepthRange r = e.range;
-      if (r.empty()) {
-        report(e.ta, e.tb, SkipReason::Empty, 0);
-        continue;
-      }
-      // The whole crossing of the texel (ancestors' clipping only removed parts where the
-      // ray is outside their ranges, hence outside this texel's).
-      float la = seg.t0, lb = seg.t1;
-      if (!clip_box(float(e.x), float(e.y), float(e.x + 1), float(e.y + 1), &la, &lb)) {
-        la = e.ta;  // rounding: keep what the parent passed down
-        lb = e.tb;
-      }
+  for (;;) {
+    shader::DepthWalkEvent ev;
+    const int kind = shader::depth_walk_next(w, levels, ev);
+    if (kind == shader::kDepthWalkDone) break;
+    if (kind == shader::kDepthWalkTexel) {
       DepthWalkTexel t;
-      t.x = e.x;
-      t.y = e.y;
-      t.t_enter = la;
-      t.t_exit = lb;
-      t.d_enter = seg.depth_at(la);
-      t.d_exit = seg.depth_at(lb);
-      t.range = r;
-      t.t_clip_enter = e.ta;
-      t.t_clip_exit = e.tb;
-      float dlo = std::min(t.d_enter, t.d_exit), dhi = std::max(t.d_enter, t.d_exit);
-      if (!(r.lo - tol <= dhi && dlo <= r.hi + tol)) {
-        report(e.ta, e.tb, side(0.5f * (e.ta + e.tb), r), 0);
-        continue;
-      }
-      ++n_texels;
+      t.x = ev.x;
+      t.y = ev.y;
+      t.t_enter = ev.t_enter;
+      t.t_exit = ev.t_exit;
+      t.d_enter = ev.d_enter;
+      t.d_exit = ev.d_exit;
+      t.range = {ev.range.x, ev.range.y};
+      t.t_clip_enter = ev.t_clip_enter;
+      t.t_clip_exit = ev.t_clip_exit;
       if (leaf(static_cast<const DepthWalkTexel&>(t)) == WalkStep::Stop) {
         stopped = true;
         break;
       }
-      continue;
-    }
-    const DepthRange r = e.range;
-    if (r.empty()) {
-      report(e.ta, e.tb, SkipReason::Empty, e.level);
-      continue;
-    }
-    float a = e.ta, b = e.tb;
-    DepthRange box_ray = seg.depth_over(a, b), ray = box_ray;
-    if (opt.minmax_clipping) {
-      // What is left lies inside the widened range by construction; testing the depths
-      // again would reject single-point overlaps through rounding.
-      if (!clip_depth(r.lo - tol, r.hi + tol, &a, &b)) {
-        report(e.ta, e.tb, side(0.5f * (e.ta + e.tb), r), e.level);
-        continue;
-      }
-      ray = seg.depth_over(a, b);
-      ray.lo = std::max(ray.lo, r.lo - tol);
-      ray.hi = std::min(ray.hi, r.hi + tol);
-    } else if (!(r.lo - tol <= ray.hi && ray.lo <= r.hi + tol)) {
-      report(e.ta, e.tb, side(0.5f * (e.ta + e.tb), r), e.level);
-      continue;
-    }
-    DepthWalkNode n;
-    n.level = e.level;
-    n.x = e.x;
-    n.y = e.y;
-    n.t_enter = a;
-    n.t_exit = b;
-    n.ray = ray;
-    n.box_ray = box_ray;
-    n.range = r;
-    NodeStep step = node(static_cast<const DepthWalkNode&>(n));
-    if (step == NodeStep::Skip) {
-      report(e.ta, e.tb, SkipReason::Pruned, e.level);
-      continue;
-    }
-    if (step == NodeStep::Stop) {
-      stopped = true;
-      break;
-    }
-    if constexpr (kSkips) {
-      // The clipped-off ends: before the children now, after them later.
-      if (a > e.ta) report(e.ta, a, side(e.ta, r), e.level);
-      if (b < e.tb) stack[top++] = {-1, int(side(e.tb, r)), e.level, b, e.tb, {}};
-    }
-    // Children in the order the segment enters them. The node's interval [a, b] is already
-    // clipped to its own box (and every child shares two of its edges), so a child's
-    // interval only needs the cut at the node's two midlines: the same floats a clip of the
-    // child's whole box gives (max/min with an edge the node's interval already respects
-    // change nothing), for a quarter of the work.
-    const int cl = e.level - 1, cx0 = 2 * e.x, cy0 = 2 * e.y;
-    const bool has_x1 = cx0 + 1 < level_width[cl], has_y1 = cy0 + 1 < level_height[cl];
-    const DepthRange* child_nodes = level_nodes[cl];
-    const size_t child_width = static_cast<size_t>(level_width[cl]);
-    float xa[2] = {a, a}, xb[2] = {b, b}, ya[2] = {a, a}, yb[2] = {b, b};
-    bool xin[2] = {true, has_x1}, yin[2] = {true, has_y1};
-    if (has_x1) split_axis(seg.p0.x, dx, ix, float((cx0 + 1) << cl), a, b, xa, xb, xin);
-    if (has_y1) split_axis(seg.p0.y, dy, iy, float((cy0 + 1) << cl), a, b, ya, yb, yin);
-    // Sorted straight into the stack, last to enter first: the stack top is the first child
-    // entered (by (ta, tb); among equal ones, the first in y-then-x order).
-    Entry* kids = stack + top;
-    int nk = 0;
-    for (int j = 0; j < 2; ++j) {
-      if (!yin[j]) continue;
-      for (int i = 0; i < 2; ++i) {
-        if (!xin[i]) continue;
-        const float ka = std::max(xa[i], ya[j]), kb = std::min(xb[i], yb[j]);
-        if (!(ka <= kb)) continue;
-        const Entry k{cl, cx0 + i, cy0 + j, ka, kb, child_nodes[static_cast<size_t>(cy0 + j) * child_width + cx0 + i]};
-        int n = nk++;
-        while (n > 0 && (kids[n - 1].ta < ka || (kids[n - 1].ta == ka && kids[n - 1].tb <= kb))) {
-          kids[n] = kids[n - 1];
-          --n;
+    } else if (kind == shader::kDepthWalkNode) {
+      if constexpr (kNodes) {
+        DepthWalkNode n;
+        n.level = ev.level;
+        n.x = ev.x;
+        n.y = ev.y;
+        n.t_enter = ev.t_enter;
+        n.t_exit = ev.t_exit;
+        n.ray = {ev.ray.x, ev.ray.y};
+        n.box_ray = {ev.box_ray.x, ev.box_ray.y};
+        n.range = {ev.range.x, ev.range.y};
+        const NodeStep step = node(static_cast<const DepthWalkNode&>(n));
+        if (step == NodeStep::Stop) {
+          stopped = true;
+          break;
         }
-        kids[n] = k;
+        shader::depth_walk_answer(w, levels, step == NodeStep::Descend);
       }
+    } else if constexpr (kSkips) {
+      skip(DepthWalkSkip{ev.t_enter, ev.t_exit, SkipReason(ev.reason), ev.level});
     }
-    top += nk;
   }
   if (counters) {
-    counters->nodes += n_nodes;
-    counters->texels += n_texels;
+    counters->nodes += w.nodes;
+    counters->texels += w.texels;
   }
   return stopped;
 }

@@ -14,6 +14,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/clipping.h"
 #include "penumbra/raster/raster_bins_shared.h"
+#include "penumbra/raster/raster_layers_shared.h"
 #include "penumbra/raster/raster_shared.h"
 #include "penumbra/raster/tiling.h"
 
@@ -363,7 +364,8 @@ void Rasterizer::depth_map(RasterTriangleView triangles, const LightView& view,
   stats_.raster_ms = timer.elapsed_ms();
 }
 
-// Layers per texel, xie2007 §4.2: "if a z sample is closer than any of the existing k samples
+// Layers per texel, xie2007 §4.2 (the rule for distinct surfaces: raster_layers_shared.h, which the
+// GPU's peeling shares): "if a z sample is closer than any of the existing k samples
 // in a pixel, it is inserted into the list". Distinct surfaces: a fragment within
 // distinct_epsilon of a layer's front (its nearest fragment) joins that layer; a fragment
 // that lies in front of a layer but within epsilon of it becomes that layer's new front. The
@@ -410,17 +412,17 @@ void Rasterizer::layered_depth_map(RasterTriangleView triangles, const LightView
           DepthSample* s = samples + i * k;
           int n = counts[i];
           // Most fragments of a deep texel lie behind a full list: reject them first.
-          if (n == k && z > s[n - 1].z + eps) return;
+          if (n == k && shader::raster_layer_behind(z, s[n - 1].z, eps)) return;
           int p = n;
           while (p > 0 && s[p - 1].z > z) --p;  // s[p-1].z <= z < s[p].z
-          if (p > 0 && z - s[p - 1].z <= eps) {  // joins the layer in front
-            s[p - 1].opacity = 1 - (1 - s[p - 1].opacity) * (1 - a);
+          if (p > 0 && !shader::raster_layer_behind(z, s[p - 1].z, eps)) {  // joins the layer in front
+            s[p - 1].opacity = shader::raster_layer_opacity(s[p - 1].opacity, a);
             return;
           }
-          if (p < n && s[p].z - z <= eps) {  // becomes the front of the layer behind
+          if (p < n && !shader::raster_layer_behind(s[p].z, z, eps)) {  // becomes the front of the layer behind
             s[p].z = z;
             s[p].triangle = source;
-            s[p].opacity = 1 - (1 - s[p].opacity) * (1 - a);
+            s[p].opacity = shader::raster_layer_opacity(s[p].opacity, a);
             return;
           }
           if (p == k) return;

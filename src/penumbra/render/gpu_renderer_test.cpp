@@ -269,7 +269,8 @@ TEST_F(GpuFrame, TheUpFrontEstimateCoversWhatARenderHolds) {
       {"reference", {}}, {"hard", {}}, {"shadow-map", {}}, {"pcss", {}},
       {"vsm", {"resolution=256"}}, {"evsm", {"resolution=256", "prefilter=mipmap"}}, {"msm", {"resolution=256"}},
       {"occlusion-textures", {"resolution=256"}}, {"rt-denoised", {}},
-      {"lam", {"resolution=256"}}, {"single-sample", {}}, {"multi-view-sm", {"resolution=256"}}};
+      {"lam", {"resolution=256"}}, {"single-sample", {}}, {"multi-view-sm", {"resolution=256"}},
+      {"mlsm", {"resolution=256"}}, {"mtsm", {"resolution=256"}}, {"coherent-rt", {"resolution=128"}}};
   for (const auto& spec : methods) {
     const std::string& method = spec.first;
     for (const char* name : {"bunny", "foliage"}) {

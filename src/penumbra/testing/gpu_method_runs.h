@@ -28,12 +28,14 @@ inline Scene shipped_scene(const std::string& name, int resolution) {
   return setup.load();
 }
 
+// light_samples: 0 keeps the render's default.
 inline RenderSettings device_settings(const std::string& method, std::vector<std::string> params, bool gpu,
-                                      uint64_t seed = 7) {
+                                      uint64_t seed = 7, int light_samples = 0) {
   RenderSettings s;
   s.method = method;
   s.params = std::move(params);
   s.seed = seed;
+  if (light_samples > 0) s.light_samples = light_samples;
   if (gpu) s.device = gpu::DeviceChoice::parse("gpu");
   return s;
 }
@@ -52,13 +54,19 @@ struct DevicePair {
   double mean_abs_dv = 0;
   double cpu_shadow = 0;  // sum of 1 - V over the CPU's pixels: is there a shadow to compare?
 };
-inline DevicePair render_on_both(const Scene& scene, const std::string& method, const std::vector<std::string>& params) {
+// `settings` on the CPU and on the GPU (its device set for each).
+inline DevicePair render_on_both(const Scene& scene, RenderSettings settings) {
   DevicePair p;
-  p.cpu = render_scene(scene, device_settings(method, params, false));
-  p.gpu = render_scene(scene, device_settings(method, params, true));
+  settings.device = {};
+  p.cpu = render_scene(scene, settings);
+  settings.device = gpu::DeviceChoice::parse("gpu");
+  p.gpu = render_scene(scene, settings);
   p.mean_abs_dv = mean_abs_dv(p.cpu.visibility, p.gpu.visibility);
   for (float v : p.cpu.visibility.data()) p.cpu_shadow += 1 - v;
   return p;
+}
+inline DevicePair render_on_both(const Scene& scene, const std::string& method, const std::vector<std::string>& params) {
+  return render_on_both(scene, device_settings(method, params, false));
 }
 
 // A ground under a light facing up, away from it: no view sample is in front of the light.

@@ -5,8 +5,8 @@
 // the top-left rule, coverage at texel centres, depth from the unsnapped vertices, alpha looked
 // up per fragment, the nearest surface per texel with ties to the first triangle in input order
 // (object order, then mesh order: gather_raster_triangles' numbering, which the map's triangle
-// plane uses). Shared machinery: the shadow-map methods' maps today, layered maps, fragment lists
-// and conservative rasterization next (the kernels are named for their stage:
+// plane uses). Shared machinery: depth maps, depth-bin masks, layered maps and fragment lists
+// (conservative rasterization next) (the kernels are named for their stage:
 // gpu/raster/kernels/raster_*.comp; the buffers are gpu/raster/raster_layout_shared.h's).
 #pragma once
 
@@ -17,6 +17,7 @@
 #include "penumbra/gpu/buffer.h"
 #include "penumbra/gpu/commands.h"
 #include "penumbra/gpu/gpu_scene.h"
+#include "penumbra/gpu/raster/gpu_raster_modes.h"
 #include "penumbra/gpu/raster/raster_layout_shared.h"
 #include "penumbra/gpu/raster/raster_scratch.h"
 #include "penumbra/raster/depth_map.h"
@@ -88,6 +89,18 @@ class GpuRasterizer {
                        const LightView& view, const RasterFilter& filter, const DepthBins& bins,
                        uint64_t object_flags, GpuDepthBinMasks* out);
 
+  // The k = options.layers nearest distinct surfaces through each texel centre, nearest first
+  // (xie2007 §4.2): the CPU's Rasterizer::layered_depth_map, by peeling (gpu_rasterizer_layers.cpp).
+  // Submits, reads back and grows as depth_map does.
+  void layered_depth_map(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
+                         const LightView& view, const LayerOptions& options, GpuLayeredDepthMap* out);
+
+  // Every fragment through each texel centre with its opacity, each texel's sorted by depth
+  // (xie2007 §5): the CPU's Rasterizer::fragment_lists (gpu_rasterizer_layers.cpp). The fragments
+  // buffer grows to the total the counting pass found, and the lists render again.
+  void fragment_lists(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
+                      const LightView& view, const RasterFilter& filter, GpuFragmentLists* out);
+
   // The last call's counts (RasterStats; no times: those are the GPU stages') and how many
   // renders it took (1 unless a buffer grew).
   const RasterStats& stats() const { return stats_; }
@@ -102,6 +115,8 @@ class GpuRasterizer {
   // For tests: the capacities of the next render (0: sized from the scene and the map), to make
   // it outgrow its buffers and retry.
   void set_capacities_for_testing(uint32_t triangles, uint32_t items);
+  // For tests: the fragments the next fragment_lists call has room for at first.
+  void set_fragment_capacity_for_testing(uint32_t fragments) { fragment_capacity_for_testing_ = fragments; }
 
  private:
   // Records the passes of one mode's fill and resolve, given the fill's parameters (all but
@@ -114,6 +129,7 @@ class GpuRasterizer {
   shader::GpuRasterState render_passes(CommandList& commands, const Submit& submit, std::string_view stage,
                                        const GpuScene& scene, const LightView& view, uint64_t view_record,
                                        const RasterFilter& filter, uint64_t object_flags, const RecordFill& fill);
+  uint32_t fragment_capacity_for_testing_ = 0;
   Device* device_;
   Buffer state_;
   RasterScratch scratch_;

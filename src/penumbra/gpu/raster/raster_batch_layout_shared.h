@@ -9,7 +9,7 @@
 //                         its view; optionally culling the triangles of closed objects that face
 //                         away from every point of a polygon (an area light's outline);
 //   raster_fill_args      (the one mode's kernel) the indirect dispatch of the fill;
-//   raster_batch_fill     one thread per work item: raster_fill_tile into its view's keys;
+//   raster_batch_fill     one thread per work item: raster_scan_tile (raster_scan.glsl) into its view's keys;
 //   raster_batch_resolve  (optional) one thread per texel of all views: the key into the z and
 //                         opacity planes (what shadow_map_shared.h's lookups read).
 // The keys of view i are texels [first_texel, first_texel + width x height) of one uint64 buffer

@@ -4,8 +4,8 @@
 // depth and resolve texels with one code:
 //   raster_polygon       an input triangle seen from a view: filtered, culled, clipped (near, far,
 //                        guard band) into a convex polygon in texel space with its depth values;
-//   raster_fill_tile     the covered texel centres of one 16 x 16-texel tile of a set-up triangle,
-//                        each an atomicMin of its key into the texel;
+//   (the fill's scan of one 16 x 16-texel tile of a set-up triangle is raster_scan.glsl's, shared
+//   with the modes that scan fragments: layers, lists, depth bins);
 //   raster_resolve_key   a texel's nearest key into the DepthMap planes' values.
 #ifndef PENUMBRA_GPU_RASTER_RASTER_STAGES_GLSL
 #define PENUMBRA_GPU_RASTER_RASTER_STAGES_GLSL
@@ -58,38 +58,6 @@ int raster_polygon(RasterView view, uint g, uint culling, bool opaque_only, uint
     v[k] = d;
   }
   return n;
-}
-
-// The texel centres of tile (tile column in bits 0-15, row in bits 16-31) that set-up triangle s
-// (of scene triangle object/prim) covers: a fragment at the depth plane's linear depth (summed as
-// the CPU's scan sums it); an alpha-textured triangle is looked up where the ray through the centre
-// meets it, and a mask's holes drop the fragment. Each fragment's key (ordered z bits << 32 | input
-// index) goes by atomicMin into keys[first_texel + y width + x]: the nearest surface, ties to the
-// first triangle in input order, as the CPU's strict depth test in input order keeps. Returns the
-// fragments.
-uint raster_fill_tile(RasterView view, RasterSetup t, uint object, uint prim, uint tile, uint64_t keys_address,
-                      uint64_t first_texel) {
-  int tx = int(tile & 0xffffu) << kRasterTileShift, ty = int(tile >> 16) << kRasterTileShift;
-  int x0 = max(t.x0, tx), x1 = min(t.x1, tx + kRasterTile);
-  int y0 = max(t.y0, ty), y1 = min(t.y1, ty + kRasterTile);
-  bool textured = raster_textured(object);
-  bool perspective = view.perspective != 0u;
-  Uint64s keys = Uint64s(keys_address + first_texel * 8UL);
-  uint fragments = 0u;
-  RasterEdges row = raster_edges_at(t, x0, y0);
-  for (int y = y0; y < y1; ++y, row = raster_step_y(t, row)) {
-    RasterEdges e = row;
-    for (int x = x0; x < x1; ++x, e = raster_step_x(t, e)) {
-      if (!raster_inside(e)) continue;
-      // The CPU's span starts at the later of its 64-texel tile's first column and the box's.
-      int span_x0 = max(t.x0, (x / kRasterCpuTile) * kRasterCpuTile);
-      float z = raster_linear_depth(raster_plane_value(t, x, y, span_x0), view.near, view.far, perspective);
-      if (textured && !(raster_fragment_opacity(view, object, prim, x, y) > 0.0f)) continue;
-      ++fragments;
-      atomicMin(keys.v[uint(y) * uint(view.width) + uint(x)], raster_depth_key(z, t.source));
-    }
-  }
-  return fragments;
 }
 
 // Texel (x, y)'s nearest key (~0: empty) as the DepthMap planes hold it: linear depth, window

@@ -19,6 +19,8 @@
 #include "penumbra/core/sampling.h"
 #include "penumbra/raster/raster_triangle.h"
 #include "penumbra/raster/rasterizer.h"
+#include "penumbra/shadow/coherent_rt/coherent_rt_kernels_shared.h"
+#include "penumbra/shadow/coherent_rt/coherent_rt_settings.h"
 #include "penumbra/shadow/coherent_rt/depth_image_tracer.h"
 #include "penumbra/shadow/coherent_rt/reference_images.h"
 #include "penumbra/shadow/coherent_rt/soft_shad.h"
@@ -30,48 +32,17 @@ namespace {
 
 using namespace coherent_rt;
 
-// Point d of the Hilbert curve filling an n x n square (n a power of two).
-void hilbert_point(int n, int d, int* x, int* y) {
-  int px = 0, py = 0;
-  for (int s = 1; s < n; s *= 2) {
-    int rx = 1 & (d / 2), ry = 1 & (d ^ rx);
-    if (ry == 0) {
-      if (rx == 1) {
-        px = s - 1 - px;
-        py = s - 1 - py;
-      }
-      std::swap(px, py);
-    }
-    px += s * rx;
-    py += s * ry;
-    d /= 4;
-  }
-  *x = px;
-  *y = py;
-}
-
 class CoherentRayTracing final : public ShadowMethod {
  public:
   explicit CoherentRayTracing(const ParamSet& p) {
-    geometry_ = p.get_string("tracer") == "geometry";
-    views_ = p.get_string("views");
-    image_options_.resolution = p.get_int("resolution");
-    image_options_.gap_bias = p.get_float("gap_bias");
-    image_options_.shadow_bias = p.get_float("shadow_bias");
-    image_options_.slope_bias = p.get_float("slope_bias");
-    trace_options_.minmax_clipping = p.get_bool("minmax_clipping");
-    trace_options_.connectedness = p.get_bool("connectedness");
-    trace_options_.clear_miss = p.get_bool("clear_miss");
-    trace_options_.occlusion_intervals = p.get_bool("occlusion_intervals");
-    trace_options_.ranking = p.get_bool("ranking");
-    trace_options_.hidden_blocks = p.get_bool("hidden_blocks");
-    sampling_.coherence = p.get_bool("coherence");
-    sampling_.sub_grid = p.get_int("sub_grid");
-    sampling_.reset_distance = p.get_float("reset_distance");
-    sampling_.shortcut = p.get_bool("shortcut");
-    tile_ = p.get_int("tile");
-    own_plane_ = p.get_bool("own_plane");
-    if (tile_ & (tile_ - 1)) throw Error("coherent-rt: tile={} must be a power of two", tile_);
+    const CoherentRtSettings settings = coherent_rt_settings(p);
+    geometry_ = settings.geometry;
+    views_ = settings.views;
+    image_options_ = settings.images;
+    trace_options_ = settings.trace;
+    sampling_ = settings.sampling;
+    tile_ = settings.tile;
+    own_plane_ = settings.own_plane;
   }
 
   bool computes_irradiance() const override { return true; }
@@ -160,7 +131,7 @@ class CoherentRayTracing final : public ShadowMethod {
       size_t done = 0;
       for (int d = 0; d < tile_ * tile_; ++d) {
         int hx, hy;
-        hilbert_point(tile_, d, &hx, &hy);
+        shader::crt_hilbert_point(tile_, d, hx, hy);
         const int x = x0 + hx, y = y0 + hy;
         if (x < window.x0 || x >= window.x1 || y < window.y0 || y >= window.y1) continue;
         const size_t pixel = static_cast<size_t>(y - window.y0) * W + (x - window.x0);
@@ -215,11 +186,7 @@ class CoherentRayTracing final : public ShadowMethod {
           for (int j = 0; j < n; ++j) {
             if (!vis[j]) continue;
             ++visible;
-            Vec3f dv = q[j] - s.p;
-            float d2 = length_squared(dv);
-            Vec3f w = dv / std::sqrt(d2);
-            float cos_l = std::max(0.0f, -dot(w, light.frame.n));
-            e += std::max(0.0f, dot(s.ns, w)) * cos_l / d2;
+            e += shader::crt_cell_irradiance(s.p, s.ns, light.frame.n, q[j]);
           }
           out.visibility[k] = static_cast<float>(visible) / n;
           out.irradiance[k] = light.radiance * static_cast<float>(e * light.area() / n);

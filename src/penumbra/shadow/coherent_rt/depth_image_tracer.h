@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "penumbra/raster/depth_image_walk.h"
+#include "penumbra/shadow/coherent_rt/depth_image_trace_shared.h"
 #include "penumbra/shadow/coherent_rt/reference_images.h"
 
 namespace penumbra::coherent_rt {
@@ -37,6 +38,7 @@ struct TraceOptions {
   // A ray whose occlusion intervals survive every map without an intersection (hidden
   // behind surfaces in all of them): unblocked as in the paper (false), or blocked.
   bool hidden_blocks = false;
+  shader::CrtTraceOptions shared() const;
 };
 
 struct TraceCounters {
@@ -57,21 +59,18 @@ struct TraceResult {
   Vec3f point;             // the blocker point on the ray
 };
 
-// Per-thread scratch (no allocation per ray once warm).
+// Per-thread scratch (no allocation per ray once warm): the occlusion spans (a, b).
 struct TraceScratch {
-  struct Span {
-    float a, b;
-  };
-  std::vector<Span> intervals, next, walked;
+  std::vector<Vec2f> intervals, next, walked;
 };
 
 class DepthImageTracer {
  public:
   DepthImageTracer() = default;
-  DepthImageTracer(std::span<const ReferenceImage> images, const TraceOptions& options)
-      : images_(images), options_(options) {}
+  DepthImageTracer(std::span<const ReferenceImage> images, const TraceOptions& options);
 
-  // Whether the segment from p to q is blocked by the surfaces of the reference images.
+  // Whether the segment from p to q is blocked by the surfaces of the reference images
+// (depth_image_trace_shared.h's crt_trace, which the GPU runs too).
   // need_point: the caller wants the blocker point (connectedness is then not used).
   TraceResult trace(Vec3f p, Vec3f q, bool need_point, TraceScratch& scratch, TraceCounters* counters) const;
 
@@ -80,6 +79,7 @@ class DepthImageTracer {
 
  private:
   std::span<const ReferenceImage> images_;
+  std::vector<shader::DepthPyramidLevels> levels_;  // each image's pyramid as the shared walk reads it
   TraceOptions options_;
 };
 

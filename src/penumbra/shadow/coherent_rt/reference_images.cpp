@@ -7,6 +7,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/shadow/coherent_rt/reference_images_shared.h"
 #include "penumbra/shadow/lam/attenuation_map.h"
 
 namespace penumbra::coherent_rt {
@@ -90,62 +91,32 @@ ReferenceImage build_reference_image(RasterTriangleView tris, const LightView& v
   if (times) times->raster_ms += timer.elapsed_ms();
   timer.reset();
 
-  // Floors (biased, window depth) and walls (connectivity to the 8 neighbours).
+  // Floors (biased, window depth) and walls (connectivity to the 8 neighbours): each texel by
+  // reference_images_shared.h's functions, which the GPU's kernels run too.
   const size_t n = static_cast<size_t>(W) * H;
   img.floor.assign(n, kInfinity);
   img.links.assign(n, 0);
+  const shader::CrtTexels texels{map.z.data(), map.triangle.data(), img.links.data(), img.floor.data(), W, H};
+  const shader::CrtBuildOptions build{options.gap_bias, options.shadow_bias, options.slope_bias, 0};
+  const shader::RasterView& v = view.shared();
   parallel_for(H, 16, [&](size_t begin, size_t end) {
     for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
-      for (int x = 0; x < W; ++x) {
-        size_t i = map.index(x, y);
-        if (map.triangle[i] == kNoTriangle) continue;
-        float z = map.z[i];
-        uint8_t links = 0;
-        for (int k = 0; k < 8; ++k) {
-          int nx = x + kNeighbourDx[k], ny = y + kNeighbourDy[k];
-          if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
-          size_t j = map.index(nx, ny);
-          if (map.triangle[j] == kNoTriangle) continue;
-          // Symmetric: the gap is measured at the nearer of the two depths.
-          float zj = map.z[j];
-          float gap = options.gap_bias * view.texel_world_size(std::min(z, zj)) * (k >= 4 ? 1.41421356f : 1.0f);
-          if (std::abs(z - zj) <= gap) links |= uint8_t(1u << k);
-        }
-        img.links[i] = links;
-      }
+      for (int x = 0; x < W; ++x)
+        if (map.triangle[map.index(x, y)] != kNoTriangle)
+          img.links[map.index(x, y)] = static_cast<uint8_t>(shader::crt_links_of(texels, v, options.gap_bias, x, y));
   });
-  // Floors, pushed back by the shadow bias plus, slope-scaled, the largest depth step to a
-  // connected neighbour (a surface seen at a grazing angle moves that much per texel, so a
-  // point anywhere in the texel lies up to about that far behind the sampled depth).
   parallel_for(H, 16, [&](size_t begin, size_t end) {
     for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
-      for (int x = 0; x < W; ++x) {
-        size_t i = map.index(x, y);
-        if (map.triangle[i] == kNoTriangle) continue;
-        const float z = map.z[i];
-        float step = 0;
-        for (int k = 0; k < 4; ++k)
-          if (img.links[i] & (1u << k)) step = std::max(step, std::abs(map.z[map.index(x + kNeighbourDx[k], y + kNeighbourDy[k])] - z));
-        img.floor[i] = view.window_depth(z + options.shadow_bias * view.texel_world_size(z) + options.slope_bias * step);
-      }
+      for (int x = 0; x < W; ++x)
+        if (map.triangle[map.index(x, y)] != kNoTriangle) img.floor[map.index(x, y)] = shader::crt_floor_of(texels, v, build, x, y);
   });
   // Texel ranges: the floor and the walls to connected neighbours.
   std::vector<DepthRange> ranges(n);
   parallel_for(H, 16, [&](size_t begin, size_t end) {
     for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
       for (int x = 0; x < W; ++x) {
-        size_t i = static_cast<size_t>(y) * W + x;
-        float f = img.floor[i];
-        if (f == kInfinity) continue;
-        DepthRange r{f, f};
-        uint8_t links = img.links[i];
-        for (int k = 0; k < 8; ++k)
-          if (links & (1u << k)) {
-            float g = img.floor[static_cast<size_t>(y + kNeighbourDy[k]) * W + (x + kNeighbourDx[k])];
-            r.lo = std::min(r.lo, g);
-            r.hi = std::max(r.hi, g);
-          }
-        ranges[i] = r;
+        const Vec2f r = shader::crt_range_of(texels, x, y);
+        ranges[static_cast<size_t>(y) * W + x] = {r.x, r.y};
       }
   });
   if (times) times->floors_ms += timer.elapsed_ms();
@@ -155,34 +126,18 @@ ReferenceImage build_reference_image(RasterTriangleView tris, const LightView& v
   // Connectedness quadtree, bottom up: a node is connected when its children are and every
   // edge-adjacent pair across the children's shared borders is (agrawala2000 §5.1.1).
   const int levels = img.pyramid.levels();
+  const shader::DepthPyramidLevels pyramid_levels(img.pyramid);
   img.connected.resize(levels);
   img.connected[0].resize(n);
   for (size_t i = 0; i < n; ++i) img.connected[0][i] = img.floor[i] < kInfinity;
-  auto linked = [&](int x, int y, int dx, int dy) {
-    return (img.links[static_cast<size_t>(y) * W + x] >> neighbour_bit(dx, dy)) & 1u;
-  };
   for (int l = 1; l < levels; ++l) {
     const int lw = img.pyramid.width(l), lh = img.pyramid.height(l);
-    const int cw = img.pyramid.width(l - 1);
-    const std::vector<uint8_t>& child = img.connected[l - 1];
     std::vector<uint8_t>& cur = img.connected[l];
     cur.assign(static_cast<size_t>(lw) * lh, 0);
     parallel_for(lh, 4, [&](size_t begin, size_t end) {
       for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
-        for (int x = 0; x < lw; ++x) {
-          bool ok = true;
-          for (int cy = 2 * y; ok && cy < std::min(2 * y + 2, img.pyramid.height(l - 1)); ++cy)
-            for (int cx = 2 * x; ok && cx < std::min(2 * x + 2, cw); ++cx) ok = child[static_cast<size_t>(cy) * cw + cx] != 0;
-          if (!ok) continue;
-          int x0, y0, x1, y1;
-          img.pyramid.texels(l, x, y, &x0, &y0, &x1, &y1);
-          const int xm = x0 + (1 << (l - 1)), ym = y0 + (1 << (l - 1));
-          if (xm < x1)
-            for (int ty = y0; ok && ty < y1; ++ty) ok = linked(xm - 1, ty, 1, 0);
-          if (ym < y1)
-            for (int tx = x0; ok && tx < x1; ++tx) ok = linked(tx, ym - 1, 0, 1);
-          cur[static_cast<size_t>(y) * lw + x] = ok;
-        }
+        for (int x = 0; x < lw; ++x)
+          cur[static_cast<size_t>(y) * lw + x] = shader::crt_node_connected_of(texels, img.connected, pyramid_levels, l, x, y);
     });
   }
   if (times) times->pyramid_ms += timer.elapsed_ms();

@@ -25,6 +25,7 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/scene/light.h"
+#include "penumbra/shadow/coherent_rt/soft_shad_shared.h"
 
 namespace penumbra::coherent_rt {
 
@@ -58,90 +59,58 @@ class SoftShad {
   SoftShad(const AreaLight& light, int cols, int rows, const SoftShadOptions& options);
 
   // Forget the prediction (e.g. at the start of a tile).
-  void reset() { blockers_.clear(); has_prev_ = false; }
+  void reset() {
+    state_.blockers = 0;
+    state_.has_prev = 0;
+  }
 
   // Light visibility of point p: samples[j] is cell j's jittered sample on the unit square
   // (cell j = (j % cols, j / cols)); trace(j) traces the ray to it and returns a RayAnswer.
-  // On return visible()[j] is 1 where cell j is unblocked.
+  // On return visible()[j] is 1 where cell j is unblocked. The state machine is
+  // soft_shad_shared.h's, which the GPU's tiles run too.
   template <class Trace>
   void shade(Vec3f p, const Vec2f* samples, Trace&& trace, SoftShadCounters* counters);
 
   const std::vector<uint8_t>& visible() const { return visible_; }
-  size_t blocker_count() const { return blockers_.size(); }
+  size_t blocker_count() const { return state_.blockers; }
 
   // What a sampler of `cells` light cells holds at most: a stamp per sub-cell, three flags
-  // and a queue entry per cell (grown by doubling), and the blocker points (a point's own
-  // rays and those kept from the last one: up to two per cell, grown by doubling).
+  // and a queue entry per cell, and the blocker points (at most one per sub-cell).
   static uint64_t bytes(int cells, int sub_grid) {
     const uint64_t n = static_cast<uint64_t>(cells);
-    return n * static_cast<uint64_t>(sub_grid) * static_cast<uint64_t>(sub_grid) * sizeof(uint32_t) +
-           n * (3 + 2 * sizeof(int) + 4 * sizeof(Vec3f));
+    return n * static_cast<uint64_t>(sub_grid) * static_cast<uint64_t>(sub_grid) * (sizeof(uint32_t) + sizeof(Vec3f)) +
+           n * (3 + sizeof(int));
   }
 
  private:
-  enum State : uint8_t { kUsePrev, kTodo, kDone };
-  // Where the line from p through b meets the light's plane, on the unit square; false if
-  // it does not (b not between p and the light's plane) or misses the square.
-  bool project(Vec3f p, Vec3f b, Vec2f* u) const;
-  int sub_index(Vec2f u) const {
-    int sx = std::min(scols_ - 1, static_cast<int>(u.x * scols_));
-    int sy = std::min(srows_ - 1, static_cast<int>(u.y * srows_));
-    return sy * scols_ + sx;
+  shader::SoftShadArrays arrays(const Vec2f* samples) {
+    return {stamp_.data(), visible_.data(), predicted_blocked_.data(), cell_state_.data(), samples, queue_.data(),
+            &blockers_};
   }
-  void predict(Vec3f p, const Vec2f* samples, SoftShadCounters* c);
-  void add_blocker(Vec3f p, Vec3f b);
 
-  const AreaLight* light_;
-  int cols_, rows_, scols_, srows_;
-  SoftShadOptions options_;
+  shader::LightGeometry light_;
+  shader::SoftShadState state_;
   std::vector<Vec3f> blockers_;
   std::vector<uint32_t> stamp_;  // per sub-cell: the prediction generation that holds a point
-  uint32_t generation_ = 0;
-  std::vector<uint8_t> visible_, predicted_blocked_;
-  std::vector<State> state_;
+  std::vector<uint8_t> visible_, predicted_blocked_, cell_state_;
   std::vector<int> queue_;
-  Vec3f prev_;
-  bool has_prev_ = false;
 };
 
 template <class Trace>
 void SoftShad::shade(Vec3f p, const Vec2f* samples, Trace&& trace, SoftShadCounters* c) {
-  const int n = cols_ * rows_;
-  ++c->points;
-  queue_.clear();
-  if (!options_.coherence) {
-    for (int j = 0; j < n; ++j) {
-      RayAnswer a = trace(j);
-      visible_[j] = !a.blocked;
-    }
-    c->rays += n;
-    return;
+  shader::SoftShadCounts k{};
+  const shader::SoftShadArrays r = arrays(samples);
+  shader::ss_begin(r, state_, light_, p, k);
+  for (int j; (j = shader::ss_next(r, state_)) >= 0;) {
+    const RayAnswer a = trace(j);
+    shader::ss_answer(r, state_, light_, p, j, a.blocked, a.has_point, a.point, k);
   }
-  predict(p, samples, c);
-  // SoftShad lines 5-14.
-  for (size_t head = 0; head < queue_.size(); ++head) {
-    const int j = queue_[head];
-    RayAnswer a = trace(j);
-    ++c->rays;
-    if (a.blocked && a.has_point) add_blocker(p, a.point);
-    const uint8_t vis = !a.blocked;
-    if (vis != visible_[j]) {
-      ++c->predicted_wrong;
-      visible_[j] = vis;
-      const int cx = j % cols_, cy = j / cols_;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          int x = cx + dx, y = cy + dy;
-          if (x < 0 || y < 0 || x >= cols_ || y >= rows_) continue;
-          int k = y * cols_ + x;
-          if (state_[k] == kUsePrev) {
-            state_[k] = kTodo;
-            queue_.push_back(k);
-          }
-        }
-    }
-    state_[j] = kDone;
-  }
+  c->points += k.points;
+  c->rays += k.rays;
+  c->resets += k.resets;
+  c->predicted_wrong += k.predicted_wrong;
+  c->shortcut_cells += k.shortcut_cells;
+  c->blocker_points += k.blocker_points;
 }
 
 }  // namespace penumbra::coherent_rt

@@ -19,6 +19,7 @@
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/multilayer/multilayer_map.h"
 #include "penumbra/shadow/multilayer/multilayer_trace.h"
+#include "penumbra/shadow/multilayer/multilayer_view_shared.h"
 #include "penumbra/shadow/shadow_method.h"
 
 namespace penumbra {
@@ -32,20 +33,15 @@ enum class Kind { Opaque, Transparent };
 class MultilayerMethod final : public ShadowMethod {
  public:
   MultilayerMethod(const ParamSet& p, Kind kind) : kind_(kind) {
-    options_.resolution = p.get_int("resolution");
-    options_.max_fov = p.get_float("max_fov");
-    options_.push_back = p.get_bool("push_back");
-    fit_shadowable_ = p.get_bool("fit_shadowable");
-    z_thresh_ = p.get_float("z_thresh");
-    z_thresh_texels_ = p.get_float("z_thresh_texels");
-    trace_.self_bias = p.get_float("self_bias");
-    if (kind_ == Kind::Opaque) {
-      layers_ = p.get_int("layers");
-    } else {
-      compression_.resets = p.get_int("resets");
-      compression_.error = p.get_float("error");
-      trace_.stop_below = p.get_float("stop_below");
-    }
+    const multilayer::MultilayerSettings s = multilayer::multilayer_settings(p, kind == Kind::Transparent);
+    options_ = s.view;
+    fit_shadowable_ = s.fit_shadowable;
+    z_thresh_ = s.z_thresh;
+    z_thresh_texels_ = s.z_thresh_texels;
+    trace_.self_bias = s.self_bias;
+    layers_ = s.layers;
+    compression_ = s.compression;
+    trace_.stop_below = s.stop_below;
   }
 
   void prepare(const ShadowContext& ctx) override {
@@ -62,7 +58,7 @@ class MultilayerMethod final : public ShadowMethod {
     std::vector<Vec3f> receivers;
     receivers.reserve(vs.size());
     for (const ViewSample& s : vs.samples)
-      if (dot(s.p - light.center, light.frame.n) > 0) receivers.push_back(s.p);
+      if (shader::ml_is_receiver(light.center, light.frame.n, s.p)) receivers.push_back(s.p);
     if (receivers.empty()) return;
     build(*ctx.scene, light, receivers);
     const multilayer::TraceSetup setup = multilayer::make_trace_setup(
@@ -165,10 +161,7 @@ class MultilayerMethod final : public ShadowMethod {
     const double raster_ms = t_raster.elapsed_ms();
     // z_thresh in camera space (xie2007 §6.1); the automatic value is z_thresh_texels texel
     // widths at the geometric mean of the map's nearest depth and the farthest receiver.
-    resolved_trace_ = trace_;
-    const float zmid = std::isfinite(z_min) ? std::sqrt(std::max(z_min, view_.view.near()) * view_.view.far())
-                                            : view_.view.far();
-    resolved_trace_.z_thresh = z_thresh_ > 0 ? z_thresh_ : z_thresh_texels_ * view_.view.texel_world_size(zmid);
+    resolved_trace_ = multilayer::resolve_trace_params(trace_, view_.view, z_min, z_thresh_, z_thresh_texels_);
     receiver_bounds_ = rb;
     built_ = true;
 

@@ -6,62 +6,93 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/raster/shadow_view.h"
+#include "penumbra/shadow/multilayer/multilayer_view_shared.h"
 
 namespace penumbra::multilayer {
+
+MultilayerSettings multilayer_settings(const ParamSet& p, bool transparent) {
+  MultilayerSettings s;
+  s.view.resolution = p.get_int("resolution");
+  s.view.max_fov = p.get_float("max_fov");
+  s.view.push_back = p.get_bool("push_back");
+  s.fit_shadowable = p.get_bool("fit_shadowable");
+  s.z_thresh = p.get_float("z_thresh");
+  s.z_thresh_texels = p.get_float("z_thresh_texels");
+  s.self_bias = p.get_float("self_bias");
+  if (!transparent) {
+    s.layers = p.get_int("layers");
+  } else {
+    s.compression.resets = p.get_int("resets");
+    s.compression.error = p.get_float("error");
+    s.stop_below = p.get_float("stop_below");
+  }
+  return s;
+}
+
+PushBackPlan plan_push_back(const AreaLight& light, const LightView& centre, const Bounds3f& casters,
+                            const ViewOptions& options, std::span<const Bounds3f> caster_boxes) {
+  PushBackPlan plan;
+  plan.dir = light.frame.n;
+  plan.up = light.frame.t;
+  plan.fit.resolution = options.resolution;
+  plan.fit.max_fov = options.max_fov;
+  // The half angle of the fitted window: its widest edge from the axis.
+  const float edge = std::max({std::abs(centre.window_left()), std::abs(centre.window_right()),
+                               std::abs(centre.window_bottom()), std::abs(centre.window_top())}) /
+                     centre.near();
+  plan.half_fov_deg = degrees(std::atan(edge));
+  if (!options.push_back) return plan;
+  plan.push_back = light.extent_radius() / edge;  // eq. 4: light_radius / tan(fov / 2)
+  plan.eye = light.center - plan.dir * plan.push_back;
+  plan.outline = light.outline(32);
+  plan.z_c = -kInfinity;
+  if (!caster_boxes.empty()) {
+    plan.z_c = kInfinity;
+    for (const Bounds3f& b : caster_boxes)
+      for (int c = 0; c < 8; ++c) plan.z_c = std::min(plan.z_c, dot(b.corner(c) - plan.eye, plan.dir));
+  }
+  float z_light = kInfinity;
+  for (Vec3f q : plan.outline) z_light = std::min(z_light, dot(q - plan.eye, plan.dir));
+  plan.crossings = plan.z_c > z_light;
+  plan.frame = shadow_view_frame(plan.eye, plan.dir, plan.up, casters, {}, plan.fit);
+  return plan;
+}
 
 CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> receivers, const Bounds3f& casters,
                              const ViewOptions& options, std::span<const Bounds3f> caster_boxes) {
   ShadowViewFit fit;
   fit.resolution = options.resolution;
   fit.max_fov = options.max_fov;
-  const Vec3f dir = light.frame.n, up = light.frame.t;
   CentreView out;
-  out.view = fit_shadow_view(light.center, dir, up, receivers, casters, fit);
-  const LightView& v = out.view;
-  // The half angle of the fitted window: its widest edge from the axis.
-  const float edge = std::max({std::abs(v.window_left()), std::abs(v.window_right()), std::abs(v.window_bottom()),
-                               std::abs(v.window_top())}) / v.near();
-  out.half_fov_deg = degrees(std::atan(edge));
+  out.view = fit_shadow_view(light.center, light.frame.n, light.frame.t, receivers, casters, fit);
+  const PushBackPlan plan = plan_push_back(light, out.view, casters, options, caster_boxes);
+  out.half_fov_deg = plan.half_fov_deg;
   if (!options.push_back) return out;
-  out.push_back = light.extent_radius() / edge;  // eq. 4: light_radius / tan(fov / 2)
-  const Vec3f eye = light.center - dir * out.push_back;
-  const std::vector<Vec3f> outline = light.outline(32);
-  float z_c = -kInfinity;
-  if (!caster_boxes.empty()) {
-    z_c = kInfinity;
-    for (const Bounds3f& b : caster_boxes)
-      for (int c = 0; c < 8; ++c) z_c = std::min(z_c, dot(b.corner(c) - eye, dir));
-  }
-  float z_light = kInfinity;
-  for (Vec3f q : outline) z_light = std::min(z_light, dot(q - eye, dir));
+  out.push_back = plan.push_back;
   // Room for every point at once (light_centre_view_bytes): growing by doubling would hold
   // up to three times as many while copying.
-  size_t crossings = outline.size();
-  if (z_c > z_light) {
+  size_t crossings = plan.outline.size();
+  if (plan.crossings) {
     crossings = 0;
-    for (Vec3f r : receivers) crossings += dot(r - eye, dir) > z_c ? outline.size() : 0;
+    for (Vec3f r : receivers) crossings += dot(r - plan.eye, plan.dir) > plan.z_c ? plan.outline.size() : 0;
   }
   std::vector<Vec3f> points;
   points.reserve(receivers.size() + crossings);
   points.assign(receivers.begin(), receivers.end());
-  if (!(z_c > z_light)) {
-    for (Vec3f q : outline) points.push_back(q);
+  if (!plan.crossings) {
+    for (Vec3f q : plan.outline) points.push_back(q);
   } else {
     // The segments' crossings of depth z_c, for every receiver beyond it.
     for (Vec3f r : receivers) {
-      const float zr = dot(r - eye, dir);
-      if (!(zr > z_c)) continue;
-      for (Vec3f q : outline) {
-        const float zq = dot(q - eye, dir);
-        const float t = (zr - z_c) / (zr - zq);
-        points.push_back(r + (q - r) * t);
-      }
+      const float zr = dot(r - plan.eye, plan.dir);
+      if (!(zr > plan.z_c)) continue;
+      for (Vec3f q : plan.outline) points.push_back(shader::ml_segment_crossing(r, zr, q, plan.eye, plan.dir, plan.z_c));
     }
   }
   // The light itself must not be clipped by the near plane: fit keeps near in front of the
   // casters and receivers; with the light's outline among the receivers it is in front of
   // the light too (at depth ~d).
-  out.view = fit_shadow_view(eye, dir, up, points, casters, fit);
+  out.view = fit_shadow_view(plan.eye, plan.dir, plan.up, points, casters, plan.fit);
   return out;
 }
 
@@ -88,66 +119,60 @@ bool planar(const TriangleMesh& m, Vec3f* n, float* d) {
 
 }  // namespace
 
+std::vector<CasterCandidate> caster_candidates(const Scene& scene, const AreaLight& light) {
+  std::vector<CasterCandidate> out;
+  const std::vector<Vec3f> outline = light.outline(16);
+  for (const SceneObject& o : scene.objects) {
+    if (o.mesh.positions.empty()) continue;
+    CasterCandidate c;
+    c.box = o.mesh.bounds();
+    if (planar(o.mesh, &c.n, &c.d)) {
+      // A plane shadows only what lies on the side away from (part of) the light.
+      c.side = dot(c.n, light.center) - c.d;
+      c.tol = -1e-4f * std::abs(c.side);
+      bool straddles = false;
+      for (Vec3f q : outline) straddles |= shader::ml_behind_plane(c.n, c.d, c.side, c.tol, q);
+      c.needs_receiver_behind = !straddles;
+    }
+    out.push_back(c);
+  }
+  return out;
+}
+
 std::vector<Bounds3f> caster_boxes(const Scene& scene, const AreaLight& light, std::span<const Vec3f> receivers) {
   std::vector<Bounds3f> casters;
-  for (const SceneObject& o : scene.objects) {
-    Vec3f n;
-    float d = 0;
-    if (o.mesh.positions.empty()) continue;
-    if (planar(o.mesh, &n, &d)) {
-      // A plane shadows only what lies on the side away from (part of) the light.
-      const float side = dot(n, light.center) - d;
-      bool behind = false;
-      const float tol = -1e-4f * std::abs(side);
-      for (Vec3f q : light.outline(16)) behind |= (dot(n, q) - d) * side < tol;  // light straddles the plane
-      for (size_t i = 0; i < receivers.size() && !behind; ++i) behind = (dot(n, receivers[i]) - d) * side < tol;
-      if (!behind) continue;
-    }
-    casters.push_back(o.mesh.bounds());
+  for (const CasterCandidate& c : caster_candidates(scene, light)) {
+    bool behind = !c.needs_receiver_behind;
+    for (size_t i = 0; i < receivers.size() && !behind; ++i)
+      behind = shader::ml_behind_plane(c.n, c.d, c.side, c.tol, receivers[i]);
+    if (behind) casters.push_back(c.box);
   }
   return casters;
 }
 
+std::vector<float> flat_points(std::span<const Vec3f> points) {
+  std::vector<float> out;
+  out.reserve(3 * points.size());
+  for (Vec3f p : points) out.insert(out.end(), {p.x, p.y, p.z});
+  return out;
+}
+
+std::vector<float> flat_boxes(std::span<const Bounds3f> boxes) {
+  std::vector<float> out;
+  out.reserve(6 * boxes.size());
+  for (const Bounds3f& b : boxes) out.insert(out.end(), {b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z});
+  return out;
+}
+
 std::vector<Vec3f> shadowable_receivers(std::span<const Bounds3f> casters, const AreaLight& light,
                                        std::span<const Vec3f> receivers) {
-  const std::vector<Vec3f> outline = light.outline(16);
+  const std::vector<float> outline = flat_points(light.outline(16));
+  const std::vector<float> boxes = flat_boxes(casters);
+  const int n_outline = static_cast<int>(outline.size() / 3), n_boxes = static_cast<int>(casters.size());
   std::vector<uint8_t> keep(receivers.size(), 0);
   parallel_for(receivers.size(), 1024, [&](size_t b, size_t e) {
-    for (size_t i = b; i < e; ++i) {
-      const Vec3f p = receivers[i];
-      const Vec3f a = normalize(light.center - p);
-      Vec3f u, v;
-      coordinate_system(a, &u, &v);
-      auto window = [&](Vec3f x, float* wx, float* wy) {
-        const Vec3f dx = x - p;
-        const float z = dot(dx, a);
-        if (!(z > 1e-6f)) return false;
-        *wx = dot(dx, u) / z;
-        *wy = dot(dx, v) / z;
-        return true;
-      };
-      float lx0 = kInfinity, lx1 = -kInfinity, ly0 = kInfinity, ly1 = -kInfinity;
-      bool ok = true;
-      for (Vec3f q : outline) {
-        float x = 0, y = 0;
-        if (!window(q, &x, &y)) { ok = false; break; }
-        lx0 = std::min(lx0, x), lx1 = std::max(lx1, x), ly0 = std::min(ly0, y), ly1 = std::max(ly1, y);
-      }
-      if (!ok) { keep[i] = 1; continue; }
-      for (const Bounds3f& box : casters) {
-        float bx0 = kInfinity, bx1 = -kInfinity, by0 = kInfinity, by1 = -kInfinity;
-        bool front = true;
-        for (int c = 0; c < 8 && front; ++c) {
-          float x = 0, y = 0;
-          front = window(box.corner(c), &x, &y);
-          bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y), by1 = std::max(by1, y);
-        }
-        if (!front || (bx0 <= lx1 && lx0 <= bx1 && by0 <= ly1 && ly0 <= by1)) {
-          keep[i] = 1;
-          break;
-        }
-      }
-    }
+    for (size_t i = b; i < e; ++i)
+      keep[i] = shader::ml_shadowable(receivers[i], light.center, outline.data(), n_outline, boxes.data(), n_boxes);
   });
   std::vector<Vec3f> out;
   for (size_t i = 0; i < receivers.size(); ++i)

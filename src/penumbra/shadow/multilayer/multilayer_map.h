@@ -4,6 +4,7 @@
 // §5.1), each with a min/max quadtree over all of a texel's layers (§4.3).
 #pragma once
 
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -12,8 +13,10 @@
 #include "penumbra/raster/minmax_pyramid.h"
 #include "penumbra/raster/raster_triangle.h"
 #include "penumbra/raster/rasterizer.h"
+#include "penumbra/raster/shadow_view.h"
 #include "penumbra/scene/light.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/shadow/params.h"
 #include "penumbra/shadow/multilayer/transparent_layers.h"
 
 namespace penumbra::multilayer {
@@ -23,6 +26,19 @@ struct ViewOptions {
   float max_fov = 120.0f;   // degrees, as the shadow-map baselines
   bool push_back = true;    // xie2007 eq. 4
 };
+
+// What both multilayer methods, on either device, read from their parameter tables
+// (multilayer.cpp's specs).
+struct MultilayerSettings {
+  ViewOptions view;
+  bool fit_shadowable = true;
+  float z_thresh = 0, z_thresh_texels = 1.0f;
+  float self_bias = 0.5f;
+  int layers = 5;                   // mlsm
+  CompressionOptions compression;   // mtsm
+  float stop_below = 1e-3f;         // mtsm
+};
+MultilayerSettings multilayer_settings(const ParamSet& p, bool transparent);
 
 struct CentreView {
   LightView view;
@@ -48,10 +64,41 @@ struct CentreView {
 // points). The light itself may then fall outside the window; no caster does.
 CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> receivers, const Bounds3f& casters,
                              const ViewOptions& options, std::span<const Bounds3f> caster_boxes = {});
+// The part of light_centre_view between its two fits, shared with the GPU's fit (which reduces
+// the receivers on the device): from the view fitted at the light's centre, the half angle, d of
+// eq. 4, the pushed-back eye and its frame, the light's outline (32 points), z_c (the caster
+// boxes' smallest depth from the eye; -inf without boxes), and whether the second fit takes the
+// segments' crossings of z_c (`crossings`: z_c lies beyond the light) or the outline itself.
+struct PushBackPlan {
+  Vec3f dir, up;
+  ShadowViewFit fit;
+  float half_fov_deg = 0;
+  float push_back = 0;
+  Vec3f eye;
+  std::vector<Vec3f> outline;
+  float z_c = -kInfinity;
+  bool crossings = false;
+  ShadowViewFrame frame;
+};
+PushBackPlan plan_push_back(const AreaLight& light, const LightView& centre, const Bounds3f& casters,
+                            const ViewOptions& options, std::span<const Bounds3f> caster_boxes);
 // The most light_centre_view allocates for `receivers` receivers: the points it fits, each
 // receiver and its segments' crossings toward the light's outline (`outline_points`
 // vertices).
 uint64_t light_centre_view_bytes(uint64_t receivers, uint64_t outline_points);
+
+// An object as caster_boxes weighs it: its box, and for a planar object its plane (dot(n, x) =
+// d), the light centre's side of it and the tolerance (multilayer_view_shared.h ml_behind_plane).
+// A plane the light does not straddle shadows a receiver only when some receiver lies behind it
+// (needs_receiver_behind).
+struct CasterCandidate {
+  Bounds3f box;
+  Vec3f n;
+  float d = 0, side = 0, tol = 0;
+  bool needs_receiver_behind = false;
+};
+// Every object with geometry, in object order (the receiver-independent half of caster_boxes).
+std::vector<CasterCandidate> caster_candidates(const Scene& scene, const AreaLight& light);
 
 // The bounding boxes of the objects that can shadow some receiver: every object's, less
 // planar objects with no receiver behind them (a ground plane shadows nothing above it).
@@ -67,6 +114,14 @@ std::vector<Bounds3f> caster_boxes(const Scene& scene, const AreaLight& light, s
 // front of p keeps p). Returns all receivers when none is kept (a view must still exist).
 std::vector<Vec3f> shadowable_receivers(std::span<const Bounds3f> casters, const AreaLight& light,
                                        std::span<const Vec3f> receivers);
+// Points (x, y, z per point) and boxes (lo, hi: 6 floats per box) flattened for the shared
+// per-receiver test (multilayer_view_shared.h ml_shadowable) and the GPU's buffers.
+// For tests (multilayer_gpu.cpp): the fragments the GPU mtsm's next maps have room for at first
+// (0: sized from the map), to make its fragment lists outgrow their buffer and render again.
+void set_first_gpu_fragment_capacity_for_testing(uint32_t fragments);
+
+std::vector<float> flat_points(std::span<const Vec3f> points);
+std::vector<float> flat_boxes(std::span<const Bounds3f> boxes);
 
 // MLSM: k nearest distinct surfaces per texel (raster layered_depth_map) and their quadtree.
 // Pyramids are over window depth (affine along a projected segment: the walker's

@@ -21,6 +21,12 @@ struct TraceParams {
   float stop_below = 1e-3f;  // mtsm: a ray whose visibility falls below this is blocked (§5.2 threshold)
 };
 
+// The trace parameters with z_thresh resolved for a map (xie2007 §6.1: in camera space): the
+// given `z_thresh` when positive, else z_thresh_texels texel widths at the geometric mean of the
+// map's nearest depth z_min and its far plane.
+TraceParams resolve_trace_params(const TraceParams& params, const LightView& view, float z_min, float z_thresh,
+                                 float z_thresh_texels);
+
 // What one map needs precomputed for tracing.
 struct TraceSetup {
   const LightView* view = nullptr;

@@ -9,26 +9,12 @@
 
 #include "penumbra/raster/fragment_lists.h"
 #include "penumbra/raster/minmax_pyramid.h"
+#include "penumbra/shadow/multilayer/multilayer_layers_shared.h"
 
 namespace penumbra::multilayer {
 
-// One compressed layer: the `count` original samples between the previous control vertex
-// and this one (xie2007 §5.1). z_first is the depth of the first of them and z the depth of
-// the last (the control vertex): the paper infers the first from z_{i-1}; storing it places
-// the estimated samples count evenly spaced depths over [z_first, z] exactly where the
-// run of samples starts (it costs 4 bytes a layer). v is the accumulated visibility after the
-// layer (since the last reset, below), and transmit the per-sample transmittance
-// (v / v_before)^(1 / count) that one crossing of one estimated sample multiplies in (eq. 3
-// applied multiplicatively, so a ray crossing some samples of a run and not others is
-// attenuated by exactly the ones it crosses).
-struct TransparentLayer {
-  float z_first = 0;
-  float z = 0;
-  float v = 1;
-  float transmit = 1;
-  uint32_t count = 1;
-  uint32_t triangle = 0;  // the last sample's triangle (the rasterizer's list), for the receiver's own surface
-};
+// One compressed layer (xie2007 §5.1): multilayer_layers_shared.h's record, shared with the GPU.
+using TransparentLayer = shader::TransparentLayer;
 
 struct CompressionOptions {
   // Largest deviation of the piecewise-linear visibility between control vertices from
@@ -68,23 +54,22 @@ struct TransparentLayerMap {
   std::vector<DepthRange> texel_ranges() const;
 };
 
-// ---- Hit rules (xie2007 §4.3 and §6.1): all depths are linear (light-view) depths. ----
+// ---- Hit rules (xie2007 §4.3 and §6.1; multilayer_layers_shared.h): linear depths. ----
 
-// A ray whose depth over a texel is [lo, hi] (lo <= hi) hits an opaque layer at depth z when
-// [z - z_thresh, z + z_thresh] overlaps it.
-inline bool layer_overlaps(float z, float z_thresh, float lo, float hi) {
-  return z - z_thresh <= hi && lo <= z + z_thresh;
-}
+// [z - z_thresh, z + z_thresh] overlaps a ray's depth interval [lo, hi] over a texel.
+using shader::layer_overlaps;
 
 // How many of a transparent layer's `count` estimated samples (evenly spaced over
 // [z_first, z]) lie in the depth interval [a, b] (xie2007 §5.2: "report a hit if the ray
 // intersects with any bucket boundary"); the caller widens the ray's interval over a texel
 // by z_thresh. The first of them is written to *first (when any).
-uint32_t samples_in(const TransparentLayer& layer, float a, float b, float* first = nullptr);
-// The depth of estimated sample m of a layer.
-inline float sample_depth(const TransparentLayer& layer, uint32_t m) {
-  return layer.count <= 1 ? layer.z
-                          : layer.z_first + (layer.z - layer.z_first) * (static_cast<float>(m) / (layer.count - 1));
+inline uint32_t samples_in(const TransparentLayer& layer, float a, float b, float* first = nullptr) {
+  float f = 0;
+  const uint32_t n = shader::ml_samples_in(layer, a, b, f);
+  if (first && n) *first = f;
+  return n;
 }
+// The depth of estimated sample m of a layer.
+inline float sample_depth(const TransparentLayer& layer, uint32_t m) { return shader::ml_sample_depth(layer, m); }
 
 }  // namespace penumbra::multilayer

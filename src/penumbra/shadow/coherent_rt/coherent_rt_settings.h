@@ -1,0 +1,53 @@
+// What `coherent-rt` reads from its parameter table (coherent_rt.cpp's registration), on either
+// device.
+#pragma once
+
+#include <string>
+
+#include "penumbra/core/error.h"
+#include "penumbra/shadow/coherent_rt/depth_image_tracer.h"
+#include "penumbra/shadow/coherent_rt/reference_images.h"
+#include "penumbra/shadow/coherent_rt/soft_shad.h"
+#include "penumbra/shadow/params.h"
+
+namespace penumbra::coherent_rt {
+
+struct CoherentRtSettings {
+  bool geometry = false;  // tracer=geometry: rays through the real geometry, not the depth images
+  std::string views = "corners";
+  ReferenceImageOptions images;
+  TraceOptions trace;
+  SoftShadOptions sampling;
+  int tile = 32;
+  bool own_plane = true;
+};
+
+inline CoherentRtSettings coherent_rt_settings(const ParamSet& p) {
+  CoherentRtSettings s;
+  s.geometry = p.get_string("tracer") == "geometry";
+  s.views = p.get_string("views");
+  s.images.resolution = p.get_int("resolution");
+  s.images.gap_bias = p.get_float("gap_bias");
+  s.images.shadow_bias = p.get_float("shadow_bias");
+  s.images.slope_bias = p.get_float("slope_bias");
+  s.trace.minmax_clipping = p.get_bool("minmax_clipping");
+  s.trace.connectedness = p.get_bool("connectedness");
+  s.trace.clear_miss = p.get_bool("clear_miss");
+  s.trace.occlusion_intervals = p.get_bool("occlusion_intervals");
+  s.trace.ranking = p.get_bool("ranking");
+  s.trace.hidden_blocks = p.get_bool("hidden_blocks");
+  s.sampling.coherence = p.get_bool("coherence");
+  s.sampling.sub_grid = p.get_int("sub_grid");
+  s.sampling.reset_distance = p.get_float("reset_distance");
+  s.sampling.shortcut = p.get_bool("shortcut");
+  s.tile = p.get_int("tile");
+  s.own_plane = p.get_bool("own_plane");
+  if (s.tile & (s.tile - 1)) throw Error("coherent-rt: tile={} must be a power of two", s.tile);
+  return s;
+}
+
+// For tests: the occlusion-span lists' first length in the GPU version's next instances (0: the
+// default), to make them overflow and grow.
+void set_first_gpu_span_capacity_for_testing(int spans);
+
+}  // namespace penumbra::coherent_rt

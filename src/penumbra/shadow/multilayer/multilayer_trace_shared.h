@@ -1,0 +1,296 @@
+// One shadow ray through a multilayer map (xie2007 §4.3, §5.2, §6.1) in the common subset of C++
+// and GLSL (core/shader_compat.h): the ray's set-up (projected into the light-centre view,
+// clipped at z_min), the receiver's own-surface band, and the leaf tests of MLSM and MTSM at a
+// texel, over the shared walk (raster/depth_image_walk_shared.h). The CPU's trace
+// (multilayer_trace.cpp, its single rays and its SIMD packets) and the GPU's kernels
+// (kernels/mlsm_trace.comp, mtsm_trace.comp) call these functions.
+#ifndef PENUMBRA_SHADOW_MULTILAYER_MULTILAYER_TRACE_SHARED_H
+#define PENUMBRA_SHADOW_MULTILAYER_MULTILAYER_TRACE_SHARED_H
+
+#include "penumbra/core/shader_compat.h"
+#include "penumbra/raster/depth_image_walk_shared.h"
+#include "penumbra/raster/raster_shared.h"
+#include "penumbra/shadow/multilayer/multilayer_layers_shared.h"
+
+PN_SHARED_BEGIN
+
+// What one map needs for tracing (make_trace_setup), 24 bytes.
+struct MlTraceSetup {
+  float z_thresh;          // world units of linear depth (§6.1)
+  float window_tolerance;  // z_thresh as a (conservative) window-depth tolerance for node tests
+  float inv_focal;         // texel world width per unit of linear depth
+  float self_bias;         // texel widths at the receiver: the band around its own tangent plane ignored
+  float stop_below;        // mtsm: a ray whose visibility falls below this is blocked (§5.2)
+  float z_min;             // the map's smallest linear depth (+inf: empty)
+};
+
+// A ray ready to walk: the segment projected into the view, the receiver's normal turned toward
+// the light point, and the own-surface band in world units.
+struct MlRay {
+  DepthProjection ps;
+  vec3 n;
+  float bias;
+};
+
+// Counters of traced rays (TraceCounters).
+struct MlTraceCounters {
+  uint rays;
+  uint nodes;
+  uint texels;
+  uint tested;  // layers compared with a ray
+  uint hits;    // layers (mtsm: estimated samples) that attenuated a ray
+};
+
+PN_SHARED_END
+
+// Where the leaf tests read a texel's layers: the k-layer map's depths (mlsm) and the
+// transparent map's layer lists (mtsm). C++: the CPU's maps; GLSL: the GPU's buffers (layouts in
+// kernels/multilayer_kernels_shared.h).
+#ifdef __cplusplus
+#include "penumbra/raster/depth_map.h"
+#include "penumbra/shadow/multilayer/transparent_layers.h"
+namespace penumbra::shader {
+struct MlOpaqueMapRef {
+  const LayeredDepthMap* map;
+};
+inline int ml_opaque_count(MlOpaqueMapRef r, int x, int y) { return r.map->count(x, y); }
+inline float ml_opaque_z(MlOpaqueMapRef r, int x, int y, int i) {
+  return r.map->samples[r.map->index(x, y) * static_cast<size_t>(r.map->max_layers) + static_cast<size_t>(i)].z;
+}
+struct MlTransparentMapRef {
+  const multilayer::TransparentLayerMap* map;
+};
+inline uint ml_transparent_first(MlTransparentMapRef r, int x, int y) { return r.map->offsets[r.map->index(x, y)]; }
+inline uint ml_transparent_count(MlTransparentMapRef r, int x, int y) {
+  const size_t i = r.map->index(x, y);
+  return r.map->offsets[i + 1] - r.map->offsets[i];
+}
+inline TransparentLayer ml_transparent_layer(MlTransparentMapRef r, uint i) { return r.map->layers[i]; }
+}  // namespace penumbra::shader
+#else
+// The GPU's k-layer map: a count per texel (uint) and k samples per texel, texel-major, 16 bytes
+// each (z, window depth, opacity, triangle: gpu/raster/raster_layers_shared.h).
+struct MlOpaqueMapRef {
+  uint64_t counts;
+  uint64_t samples;
+  int width;
+  int k;
+};
+int ml_opaque_count(MlOpaqueMapRef r, int x, int y) { return int(Uints(r.counts).v[uint(y) * uint(r.width) + uint(x)]); }
+float ml_opaque_z(MlOpaqueMapRef r, int x, int y, int i) {
+  uint texel = uint(y) * uint(r.width) + uint(x);
+  return Floats(r.samples).v[(texel * uint(r.k) + uint(i)) * 4u];
+}
+// The GPU's transparent map: texel i's layers start at offsets[i] (its fragment list's start)
+// and number counts[i].
+layout(buffer_reference, scalar) readonly buffer MlLayersIn { TransparentLayer v[]; };
+struct MlTransparentMapRef {
+  uint64_t offsets;
+  uint64_t counts;
+  uint64_t layers;
+  int width;
+};
+uint ml_transparent_first(MlTransparentMapRef r, int x, int y) { return Uints(r.offsets).v[uint(y) * uint(r.width) + uint(x)]; }
+uint ml_transparent_count(MlTransparentMapRef r, int x, int y) { return Uints(r.counts).v[uint(y) * uint(r.width) + uint(x)]; }
+TransparentLayer ml_transparent_layer(MlTransparentMapRef r, uint i) { return MlLayersIn(r.layers).v[i]; }
+#endif
+
+PN_SHARED_BEGIN
+
+// The largest float below x in magnitude (nextafter toward 0) for a finite non-zero x.
+PN_INLINE float ml_next_toward_zero(float x) {
+  if (x == 0.0f || x != x) return x;
+  return uintBitsToFloat(floatBitsToUint(x) - 1u);
+}
+
+// Sets up the ray from receiver p (geometric normal ng, on a closed object or not) to light point
+// q. False when nothing in the map can block it (it lies entirely in front of the map's nearest
+// surface, or outside the view's depth range); `blocked` is set when the receiver's own closed
+// object blocks it (the light point is behind its surface). The receiver's own surface is in the
+// map right where the ray starts: a layer sample X (the surface through a texel centre at depth
+// z) can block the ray only if it lies on q's side of p's tangent plane by more than self_bias
+// texels, dot(n, X - p) > bias, n the normal turned toward q (penumbra's rule; the paper leaves
+// self-shadowing to z_thresh).
+PN_INLINE bool ml_setup_ray(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 ng, bool closed, vec3 q,
+                            PN_OUT(MlRay) ray, PN_OUT(bool) blocked) {
+  blocked = false;
+  vec3 d = q - p;
+  float side = dot(ng, d);
+  ray.n = side >= 0.0f ? ng : ng * -1.0f;
+  ray.bias = 0.0f;
+  ray.ps.segment.p0 = vec2(0.0f, 0.0f);
+  ray.ps.segment.p1 = vec2(0.0f, 0.0f);
+  ray.ps.segment.d0 = 0.0f;
+  ray.ps.segment.d1 = 0.0f;
+  ray.ps.segment.t0 = 0.0f;
+  ray.ps.segment.t1 = 1.0f;
+  ray.ps.s0 = 0.0f;
+  ray.ps.s1 = 1.0f;
+  ray.ps.w0 = 1.0f;
+  ray.ps.w1 = 1.0f;
+  ray.ps.z0 = 0.0f;
+  ray.ps.z1 = 0.0f;
+  if (closed && !(side > 0.0f)) {
+    blocked = true;  // the light point is behind the closed object's surface
+    return false;
+  }
+  float zp = view_linear_depth(v, p);
+  if (!(zp > s.z_min)) return false;  // nothing in front of the receiver (xie2007 §4.3: clip at z_min)
+  if (!depth_image_project(v, p, q, ray.ps)) return false;
+  ray.bias = s.self_bias * zp * s.inv_focal;
+  return true;
+}
+
+// The depths z at texel (x, y) beyond the receiver's own-surface band (B z > c along the ray
+// through the texel centre X(z) = o + d z, with dot(n, X - p) = A + B z), as a clip of [a, b].
+PN_INLINE bool ml_clip_to_light_side(PN_IN(RasterView) v, PN_IN(MlRay) ray, vec3 p, int x, int y, PN_INOUT(float) a,
+                                     PN_INOUT(float) b) {
+  vec3 origin;
+  vec3 dir;
+  raster_texel_ray(v, float(x) + 0.5f, float(y) + 0.5f, origin, dir);
+  float A = dot(ray.n, origin - p);
+  float B = dot(ray.n, dir);
+  float c = ray.bias - A;  // need B z > c
+  if (B > 0.0f) {
+    a = dw_max(a, c / B);
+  } else if (B < 0.0f) {
+    b = dw_min(b, c / B);
+  } else if (!(0.0f > c)) {
+    return false;
+  }
+  return a <= b;
+}
+
+// MLSM's leaf test (xie2007 §4.3, §6.1) at texel (x, y), the ray's window depths d_enter and
+// d_exit over its crossing: whether a layer within z_thresh of the ray's linear depth interval
+// (the perspective divide only here, at the leaves) blocks it.
+PN_INLINE bool ml_opaque_texel_blocks(PN_IN(RasterView) v, MlTraceSetup s, MlOpaqueMapRef m, PN_IN(MlRay) ray, vec3 p,
+                                      int x, int y, float d_enter, float d_exit, PN_INOUT(uint) tested) {
+  float zt = s.z_thresh;
+  float zlo = view_linear_depth_from_window(v, dw_min(d_enter, d_exit));
+  float zhi = view_linear_depth_from_window(v, dw_max(d_enter, d_exit));
+  float a = zlo - zt;
+  float b = zhi + zt;
+  bool clipped = false;
+  int n = ml_opaque_count(m, x, y);
+  for (int i = 0; i < n; ++i) {
+    tested += 1u;
+    float z = ml_opaque_z(m, x, y, i);
+    if (z < a || z > b) continue;
+    if (!clipped) {  // the own-surface bound, once per texel and only when needed
+      clipped = true;
+      if (!ml_clip_to_light_side(v, ray, p, x, y, a, b)) return false;
+      if (z < a || z > b) continue;
+    }
+    return true;
+  }
+  return false;
+}
+
+// MTSM's leaf test (xie2007 §5.2) at texel (x, y), the ray's crossing [t_enter, t_exit] with
+// window depths d_enter, d_exit: multiplies vis by what the ray crosses there; true once it falls
+// below stop_below (the walk stops). Opaque layers: the MLSM rule, widened by z_thresh (so mtsm
+// is mlsm on opaque scenes). Semi-transparent samples: counted where the ray's own depth interval
+// over the texel holds them, half-open, unwidened: consecutive texels' intervals partition the
+// ray's depths, so each surface the ray passes counts once (widened windows overlap by 2 z_thresh
+// per texel and would attenuate an oblique ray crossing many texels several times over:
+// penumbra's reading of §5.2's "reduce ray.vis by dv_i").
+PN_INLINE bool ml_transparent_texel(PN_IN(RasterView) v, MlTraceSetup s, MlTransparentMapRef m, PN_IN(MlRay) ray,
+                                    vec3 p, int x, int y, float t_enter, float t_exit, float d_enter, float d_exit,
+                                    PN_INOUT(float) vis, PN_INOUT(uint) tested, PN_INOUT(uint) hits) {
+  float zt = s.z_thresh;
+  float zlo = view_linear_depth_from_window(v, dw_min(d_enter, d_exit));
+  float zhi = view_linear_depth_from_window(v, dw_max(d_enter, d_exit));
+  float a = zlo - zt;  // opaque window
+  float b = zhi + zt;
+  float ta = zlo;  // transparent window
+  float tb = ml_next_toward_zero(zhi);
+  if (!(tb >= ta)) tb = ta;
+  // The walk's texels are closed boxes: a segment running along a texel edge reaches the texels
+  // on both sides with the same interval. Texel (x, y) owns [x, x+1) x [y, y+1): the crossing
+  // counts transparent samples only where its midpoint is owned.
+  vec2 mid = depth_segment_at(ray.ps.segment, 0.5f * (t_enter + t_exit));
+  if (int(floor(mid.x)) != x || int(floor(mid.y)) != y) {
+    ta = ml_inf();
+    tb = -ml_inf();
+  }
+  bool clipped = false;
+  uint first = ml_transparent_first(m, x, y);
+  uint count = ml_transparent_count(m, x, y);
+  for (uint i = 0u; i < count; ++i) {
+    tested += 1u;
+    TransparentLayer l = ml_transparent_layer(m, first + i);
+    bool opaque = l.transmit <= 0.0f;
+    if (opaque ? (l.z < a || l.z_first > b) : (l.z < ta || l.z_first > tb)) continue;
+    if (!clipped) {  // the own-surface bound, once per texel and only when needed
+      clipped = true;
+      float ca = -ml_inf();
+      float cb = ml_inf();
+      if (!ml_clip_to_light_side(v, ray, p, x, y, ca, cb)) return false;
+      a = dw_max(a, ca);
+      b = dw_min(b, cb);
+      ta = dw_max(ta, ca);
+      tb = dw_min(tb, cb);
+    }
+    float unused;
+    uint n = opaque ? ml_samples_in(l, a, b, unused) : ml_samples_in(l, ta, tb, unused);
+    if (n == 0u) continue;
+    hits += opaque ? 1u : n;
+    vis = opaque ? 0.0f : vis * (n == 1u ? l.transmit : ml_pow(l.transmit, float(n)));
+    if (vis < s.stop_below) return true;
+  }
+  return false;
+}
+
+// One ray's transmittance through a k-layer map (MLSM, xie2007 §4.3): 0 or 1.
+PN_INLINE float ml_trace_opaque(PN_IN(RasterView) v, MlTraceSetup s, DepthPyramidRef pyr, MlOpaqueMapRef m, vec3 p,
+                                vec3 ng, bool closed, vec3 q, PN_INOUT(MlTraceCounters) c) {
+  c.rays += 1u;
+  MlRay ray;
+  bool blocked;
+  if (!ml_setup_ray(v, s, p, ng, closed, q, ray, blocked)) return blocked ? 0.0f : 1.0f;
+  DepthWalkState w;
+  depth_walk_begin(w, pyr, ray.ps.segment, s.window_tolerance, kDepthWalkMinmax);
+  bool hit = false;
+  DepthWalkEvent ev;
+  while (depth_walk_next(w, pyr, ev) == kDepthWalkTexel) {
+    if (ml_opaque_texel_blocks(v, s, m, ray, p, ev.x, ev.y, ev.d_enter, ev.d_exit, c.tested)) {
+      hit = true;
+      break;
+    }
+  }
+  c.nodes += w.nodes;
+  c.texels += w.texels;
+  if (hit) c.hits += 1u;
+  return hit ? 0.0f : 1.0f;
+}
+
+// One ray's transmittance through a transparent map (MTSM, xie2007 §5.2): the product of the
+// per-sample transmittances of the estimated samples it crosses; 0 once below stop_below.
+PN_INLINE float ml_trace_transparent(PN_IN(RasterView) v, MlTraceSetup s, DepthPyramidRef pyr, MlTransparentMapRef m,
+                                     vec3 p, vec3 ng, bool closed, vec3 q, PN_INOUT(MlTraceCounters) c) {
+  c.rays += 1u;
+  MlRay ray;
+  bool blocked;
+  if (!ml_setup_ray(v, s, p, ng, closed, q, ray, blocked)) return blocked ? 0.0f : 1.0f;
+  DepthWalkState w;
+  depth_walk_begin(w, pyr, ray.ps.segment, s.window_tolerance, kDepthWalkMinmax);
+  float vis = 1.0f;
+  DepthWalkEvent ev;
+  while (depth_walk_next(w, pyr, ev) == kDepthWalkTexel) {
+    if (ml_transparent_texel(v, s, m, ray, p, ev.x, ev.y, ev.t_enter, ev.t_exit, ev.d_enter, ev.d_exit, vis, c.tested,
+                             c.hits))
+      break;
+  }
+  c.nodes += w.nodes;
+  c.texels += w.texels;
+  return vis < s.stop_below ? 0.0f : vis;
+}
+
+PN_SHARED_END
+
+#ifdef __cplusplus
+static_assert(sizeof(penumbra::shader::MlTraceSetup) == 24);
+#endif
+
+#endif  // PENUMBRA_SHADOW_MULTILAYER_MULTILAYER_TRACE_SHARED_H
