@@ -20,6 +20,16 @@ uint pn_thread_index() {
 
 float pn_inf() { return uintBitsToFloat(0x7f800000u); }
 
+// True when the driver's loop limit cut this invocation's loops short (lavapipe: 65535 loop
+// iterations per invocation, all loops counted together, past which every loop stops without an
+// error; docs/gpu.md). Call it last, with `canary` a push constant of 2 (a constant the compiler
+// would unroll): once the limit was hit its loop runs once. gpu/loop_limit.h splits the work.
+bool pn_loop_limit_hit(int canary) {
+  int ran = 0;
+  for (int k = 0; k < canary; ++k) ran += 1;
+  return ran != canary;
+}
+
 // Buffer references every kernel may use: a buffer is its device address (gpu/buffer.h).
 layout(buffer_reference, scalar) buffer Floats { float v[]; };
 layout(buffer_reference, scalar) buffer Uints { uint v[]; };

@@ -27,6 +27,17 @@ struct LightFansParams {
   uint area_sampling;  // 1: uniform area samples (reference's sampling=area)
 };
 
+// reference_fans: the light fans' samples [first, first + count) of n per dispatch, so that no
+// thread's loops meet a driver's loop limit (gpu/loop_limit.h). The sums run on in `partial`
+// between dispatches, in the CPU's order: the same float additions as one loop over all n.
+struct ReferenceFansParams {
+  LightFansParams fans;  // fans.rays: uint64[2], the rays traced and (1) whether a thread was cut short
+  uint64_t partial;      // vec3 per slot: e, sum T a and sum a over the samples before `first`
+  int first;
+  int count;
+  int canary;  // gpu::kLoopLimitCanary
+};
+
 // transmittance_to_point: one segment per view sample to `target` (hard shadows).
 struct PointRaysParams {
   uint64_t scene;

@@ -11,6 +11,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/sampling.h"
+#include "penumbra/gpu/loop_limit.h"
 #include "penumbra/gpu/minmax_pyramid_gpu.h"
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
 #include "penumbra/shadow/coherent_rt/coherent_rt_kernels_shared.h"
@@ -214,7 +215,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
       tp.light_index = ctx.light_index;
       tp.frame = ctx.frame;
       tp.cell_budget = cells_per_dispatch_;
-      tp.canary = 2;
+      tp.canary = gpu::kLoopLimitCanary;
       // agrawala2000 §5.2's order is sequential within a tile: the dispatches of one tile's work
       // run one after the other (the list's barriers), each tile's place and sampler kept in its
       // scratch, in batches until no tile has work left (at most `work` cells a tile).

@@ -11,6 +11,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/sampling.h"
+#include "penumbra/gpu/loop_limit.h"
 #include "penumbra/gpu/minmax_pyramid_gpu.h"
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
 #include "penumbra/raster/shadow_view.h"
@@ -155,7 +156,7 @@ class MultilayerGpu final : public GpuShadowMethod {
     tp.trace_frame = trace_frame_.address();
     tp.slots = frame.slots;
     tp.has_map = has_map ? 1u : 0u;
-    tp.canary = 2;
+    tp.canary = gpu::kLoopLimitCanary;
     if (has_map) {
       tp.nodes = pyramid_.address();
       if (transparent_) {
@@ -167,34 +168,33 @@ class MultilayerGpu final : public GpuShadowMethod {
         tp.map_b = layered_.samples();
       }
     }
-    if (samples_per_dispatch_ <= 0 || samples_per_dispatch_ > n) samples_per_dispatch_ = n;
     // Every light sample in one dispatch, unless the driver's loop limit cut a thread short
-    // (lavapipe, docs/gpu.md): then traced again in shorter dispatches, learned once.
-    for (;;) {
-      cl.stage("trace");
-      cl.fill(counters_, 0);
-      tp.sample_count = samples_per_dispatch_;
-      for (int first = 0; first < n; first += samples_per_dispatch_) {
-        tp.first_sample = first;
-        cl.dispatch(transparent_ ? "mtsm_trace" : "mlsm_trace", frame.slots, tp);
-      }
-      frame.flush();
-      shader::MlGpuCounters c{};
-      counters_.download(&c, sizeof(c));
-      if (c.limited == 0) {
-        totals_.rays += c.rays;
-        totals_.nodes += c.nodes;
-        totals_.texels += c.texels;
-        totals_.tested += c.tested;
-        totals_.hits += c.hits;
-        break;
-      }
-      if (samples_per_dispatch_ == 1)
-        throw Error("{} on {}: one light sample's ray exceeds the driver's loop limit (65535 loop iterations a thread)",
-                    transparent_ ? "mtsm" : "mlsm", frame.device->info().name);
-      samples_per_dispatch_ = std::max(1, samples_per_dispatch_ / 4);
-      ++limit_retries_;
-    }
+    // (lavapipe, gpu/loop_limit.h): then traced again in shorter dispatches, learned once.
+    cl.stage("trace");
+    cl.fill(counters_, 0);
+    split_.execute(
+        n, transparent_ ? "mtsm" : "mlsm", frame.device->info().name,
+        [&](int first, int count) {
+          tp.first_sample = first;
+          tp.sample_count = count;
+          cl.dispatch(transparent_ ? "mtsm_trace" : "mlsm_trace", frame.slots, tp);
+        },
+        [&] {
+          frame.flush();
+          shader::MlGpuCounters c{};
+          counters_.download(&c, sizeof(c));
+          if (c.limited != 0) {
+            cl.stage("trace");
+            cl.fill(counters_, 0);
+            return true;
+          }
+          totals_.rays += c.rays;
+          totals_.nodes += c.nodes;
+          totals_.texels += c.texels;
+          totals_.tested += c.tested;
+          totals_.hits += c.hits;
+          return false;
+        });
     counting_ = true;
     light_suffix_ = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
   }
@@ -209,8 +209,8 @@ class MultilayerGpu final : public GpuShadowMethod {
     nlohmann::json e = build_extra_;
     const double rays = static_cast<double>(c.rays);
     e["trace"] = {{"rays", c.rays},
-                  {"samples_per_dispatch", samples_per_dispatch_},
-                  {"loop_limit_retries", limit_retries_},
+                  {"samples_per_dispatch", split_.items_per_dispatch()},
+                  {"loop_limit_retries", split_.retries()},
                   {"nodes_per_ray", rays > 0 ? c.nodes / rays : 0.0},
                   {"texels_per_ray", rays > 0 ? c.texels / rays : 0.0},
                   {"layers_tested_per_ray", rays > 0 ? c.tested / rays : 0.0},
@@ -410,8 +410,7 @@ class MultilayerGpu final : public GpuShadowMethod {
   bool counting_ = false;
   std::string light_suffix_;
   // Light samples per dispatch: all, unless the driver limits one invocation's loops (lavapipe).
-  int samples_per_dispatch_ = 0;
-  uint64_t limit_retries_ = 0;
+  gpu::LoopLimitSplit split_;
   shader::MlGpuCounters totals_{};
   nlohmann::json build_extra_ = nlohmann::json::object();
   std::unique_ptr<gpu::GpuRasterizer> rasterizer_;

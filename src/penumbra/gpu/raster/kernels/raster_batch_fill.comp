@@ -17,7 +17,7 @@ layout(buffer_reference, scalar) readonly buffer BatchTriangles { GpuRasterBatch
 uint64_t g_first_texel = 0UL;
 
 void raster_visit(uint texel, float z, uint source, float opacity) {
-  atomicMin(Uint64s(pc.p.keys).v[g_first_texel + uint64_t(texel)], raster_depth_key(z, source));
+  atomicMin(Uint64s(pc.p.keys + g_first_texel * 8UL).v[texel], raster_depth_key(z, source));
 }
 
 #include "penumbra/gpu/raster/raster_scan.glsl"

@@ -177,14 +177,11 @@ void main() {
   position.v[0] = uint(step);
   position.v[1] = begun;
   saved.s = st;
-  // lavapipe (llvmpipe) stops every loop of an invocation once its loops have run 65535
-  // iterations in all (gallivm's loop limiter), without a word: then this loop of `canary` (2)
-  // iterations runs once, and the host traces again with fewer steps per dispatch.
-  int canary = 0;
-  for (int k = 0; k < pc.p.canary; ++k) canary += 1;
+  // The driver's loop limit (gpu/loop_limit.h): the host traces again with fewer steps per
+  // dispatch.
   CountersRef c = CountersRef(pc.p.counters);
   if (step < steps) atomicAdd(c.c.unfinished, 1u);
-  if (canary != pc.p.canary) {
+  if (pn_loop_limit_hit(pc.p.canary)) {
     atomicMax(c.c.limited, 1u);
     atomicMin(c.c.limited_after, uint(done));
   }

@@ -55,10 +55,7 @@ void main() {
       if (last) Floats(pc.p.visibility).v[i] = v;
     }
   }
-  // lavapipe's loop limit (docs/gpu.md): after it, this loop of `canary` iterations runs once.
-  int canary = 0;
-  for (int k = 0; k < pc.p.canary; ++k) canary += 1;
-  uint limited = subgroupMax(canary != pc.p.canary ? 1u : 0u);
+  uint limited = subgroupMax(pn_loop_limit_hit(pc.p.canary) ? 1u : 0u);  // gpu/loop_limit.h
   uint rays = subgroupAdd(c.rays), nodes = subgroupAdd(c.nodes), texels = subgroupAdd(c.texels);
   uint tested = subgroupAdd(c.tested), hits = subgroupAdd(c.hits);
   if (subgroupElect() && limited != 0u) atomicMax(CountersRef(pc.p.counters).c.limited, uint64_t(1));
