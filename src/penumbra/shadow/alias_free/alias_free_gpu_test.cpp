@@ -1,0 +1,94 @@
+// `afsm-hard` on the GPU (issue 29): sample-exact against GPU rays traced to its light point (the
+// light's centre) from every view sample, the CPU version's picture, a list buffer too small for
+// the scene (grown, never dropped) and the memory estimate. Small renders: lavapipe is slow.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "penumbra/gpu/gpu_scene.h"
+#include "penumbra/gpu/gpu_test_util.h"
+#include "penumbra/gpu/ray_queries.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/shadow/alias_free/alias_free_gpu_testing.h"
+#include "penumbra/testing/gpu_method_runs.h"
+#include "penumbra/testing/method_runs.h"
+
+namespace penumbra {
+namespace {
+
+using gpu::testing::GpuTest;
+
+class AliasFreeGpu : public GpuTest {
+ protected:
+  // V per view sample of the CPU's camera pass `r` (spp 1: one view sample per pixel) from a GPU
+  // render of the same scene.
+  static std::vector<float> per_sample(const testing::SceneRun& r, const RenderResult& render) {
+    std::vector<float> v(r.vs.size());
+    for (size_t k = 0; k < v.size(); ++k) v[k] = render.visibility.data()[r.vs.samples[k].pixel];
+    return v;
+  }
+  // The GPU ray tracer's hard shadows to the light's centre from every view sample of `r`
+  // (testing::embree_hard's rays, traced by gpu::trace_transmittance).
+  std::vector<float> gpu_rays_to_centre(const testing::SceneRun& r) {
+    const AreaLight& light = r.scene.lights[0];
+    std::vector<ShadowRay> rays(r.vs.size());
+    for (size_t k = 0; k < rays.size(); ++k) rays[k] = shadow_ray_to(r.vs.samples[k].p, r.vs.samples[k].ng, light.center);
+    const gpu::GpuScene scene(device(), r.scene);
+    std::vector<float> v = gpu::trace_transmittance(scene, rays);
+    for (size_t k = 0; k < v.size(); ++k)
+      if (!testing::in_front(light, r.vs.samples[k].p)) v[k] = 0;
+    return v;
+  }
+  void expect_exact(const std::string& name, int resolution) {
+    const testing::SceneRun r = testing::load_scene_at(name, resolution);
+    const RenderResult gpu = render_scene(r.scene, testing::device_settings("afsm-hard", {"resolution=256"}, true));
+    EXPECT_EQ(gpu.device, device().info().name);
+    const std::vector<float> v = per_sample(r, gpu);
+    const std::vector<float> rays = gpu_rays_to_centre(r);
+    const testing::Agreement g = testing::agreement(v, rays);
+    std::printf("GPU afsm-hard vs GPU rays to the centre, %s: %.5f of %zu view samples equal\n", name.c_str(),
+                g.equal_fraction, v.size());
+    EXPECT_GE(g.equal_fraction, 0.999) << name << ", " << testing::worst_sample(r, v, rays);
+    for (float x : v) ASSERT_TRUE(x == 0.0f || x == 1.0f);
+    EXPECT_GT(std::count(v.begin(), v.end(), 0.0f), 50) << name << ": no shadow";
+    EXPECT_GT(std::count(v.begin(), v.end(), 1.0f), 50) << name << ": no light";
+    EXPECT_GT(gpu.stats.extra["listed_samples"].get<uint64_t>(), 0u);
+    // The CPU version's picture.
+    const RenderResult cpu = render_scene(r.scene, testing::device_settings("afsm-hard", {"resolution=256"}, false));
+    const double dv = testing::mean_abs_dv(cpu.visibility, gpu.visibility);
+    std::printf("GPU afsm-hard vs CPU, %s: mean |dV| %.2e\n", name.c_str(), dv);
+    EXPECT_LE(dv, 2e-3) << name;
+  }
+};
+
+TEST_F(AliasFreeGpu, HardBunnyEqualsGpuRaysToTheCentre) { expect_exact("bunny", 64); }
+
+TEST_F(AliasFreeGpu, HardAlphaMaskedFoliageEqualsGpuRaysToTheCentre) { expect_exact("foliage", 64); }
+
+// A list buffer far too small for the scene's listed samples: the render grows it (after the
+// counting pass) and gives the same picture, never a partial list.
+TEST_F(AliasFreeGpu, HardListBufferTooSmallIsGrownNotDropped) {
+  const Scene scene = testing::shipped_scene("bunny.json", 48);
+  const RenderResult normal = render_scene(scene, testing::device_settings("afsm-hard", {"resolution=128"}, true));
+  afsm::AfsmListCapacityForTesting small(16);
+  const RenderResult grown = render_scene(scene, testing::device_settings("afsm-hard", {"resolution=128"}, true));
+  EXPECT_GE(small.grows(), 1);
+  EXPECT_GT(grown.stats.extra["listed_samples"].get<uint64_t>(), 16u);
+  EXPECT_EQ(normal.visibility.data(), grown.visibility.data());
+}
+
+// The up-front estimate covers what a render holds on the device.
+TEST_F(AliasFreeGpu, HardMemoryEstimateCoversTheRender) {
+  const Scene scene = testing::shipped_scene("foliage.json", 48);
+  const RenderResult gpu = render_scene(scene, testing::device_settings("afsm-hard", {"resolution=128"}, true));
+  const MemoryEstimate e =
+      testing::gpu_memory_estimate("afsm-hard", scene, {"resolution=128"}, gpu.view_sample_count);
+  EXPECT_GT(gpu.stats.memory_bytes, 0u);
+  EXPECT_GE(e.bytes, gpu.stats.memory_bytes);
+}
+
+}  // namespace
+}  // namespace penumbra
