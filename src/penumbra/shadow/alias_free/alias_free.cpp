@@ -48,9 +48,7 @@ namespace {
 
 using afsm::TexelLists;
 
-// Sine of the angle under which a view sample must see a caster's plane for the caster to
-// be tested against it (afsm): below, the cone from the sample over the triangle is flat.
-constexpr float kFlat = 1e-5f;
+constexpr float kFlat = shader::kAfsmFlat;  // alias_free_shared.h
 
 // The plane through an apex and a triangle edge (alias_free_shared.h afsm_edge_plane: shared with
 // the GPU version).

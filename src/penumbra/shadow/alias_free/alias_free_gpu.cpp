@@ -1,19 +1,26 @@
-// `afsm-hard` on the GPU (sintorn2008 §3, as its authors ran it in CUDA): the view samples listed
-// at the texels of a view from the light's centre (counts, a prefix sum, a scatter:
-// kernels/afsm_hard_list_*.comp, gpu/scan.h), every caster's conservative coverage of that view
-// in compute (afsm_hard_casters.comp sets up and counts rows, afsm_hard_cover.comp walks them),
-// and per (listed sample, caster) the test of alias_free_shared.h that the CPU version runs
-// (afsm_hard_blocks). The view is fitted on the device (shadow_map::fit_light_centre_view), the
-// list buffer sized from the counting pass (grown when a frame lists more samples than it holds:
-// nothing is ever dropped). docs/methods/alias-free.md, "On the GPU".
+// `afsm-hard` and `afsm` on the GPU (sintorn2008 §3 and §4, as its authors ran them in CUDA): the
+// view samples listed at the texels of a view from the light's centre (counts, a prefix sum, a
+// scatter: kernels/afsm_*_list_*.comp, gpu/scan.h), every caster's conservative coverage of that
+// view in compute (afsm_*_casters.comp sets up and counts texel rows: the triangle for afsm-hard,
+// its influence region for afsm; afsm_*_cover.comp walks them), and per (listed sample, caster)
+// the tests of alias_free_shared.h that the CPU version runs (afsm_hard_blocks; afsm_pair_lines
+// and afsm_above per light sample). The view is fitted on the device
+// (shadow_map::fit_light_centre_view), the list buffer sized from the counting pass (grown when a
+// frame lists more entries than it holds: nothing is ever dropped). docs/methods/alias-free.md,
+// "On the GPU".
 #include <algorithm>
+#include <cstring>
 #include <optional>
+#include <vector>
+
+#include "penumbra/core/error.h"
 
 #include "penumbra/gpu/scan.h"
 #include "penumbra/raster/raster_shared.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/alias_free/alias_free_gpu_testing.h"
 #include "penumbra/shadow/alias_free/alias_free_shared.h"
+#include "penumbra/shadow/alias_free/sample_masks.h"
 #include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/shadow_map_common_gpu.h"
 
@@ -44,9 +51,11 @@ void ensure(gpu::Device& device, gpu::Buffer& buffer, uint64_t bytes, const char
   if (buffer.empty() || buffer.bytes() < bytes) buffer = gpu::Buffer(device, std::max<uint64_t>(bytes, 16), what);
 }
 
-class AliasFreeHardGpu final : public GpuShadowMethod {
+// What both methods share: the view fitted on the device and uploaded for the kernels, and the
+// growth rule of the list buffer.
+class AliasFreeGpuBase : public GpuShadowMethod {
  public:
-  explicit AliasFreeHardGpu(const ParamSet& p) : view_{p.get_int("resolution"), p.get_float("max_fov")} {}
+  explicit AliasFreeGpuBase(const ParamSet& p) : view_{p.get_int("resolution"), p.get_float("max_fov")} {}
 
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
@@ -58,15 +67,47 @@ class AliasFreeHardGpu final : public GpuShadowMethod {
     }
   }
 
+ protected:
+  // §4.3 "Parametrization": the view fitted to the receivers (the CPU fits it to the listed
+  // points, which lie within 3e-5 of them: the texels differ at most at the window's border),
+  // uploaded to view_buffer_ (zeros without one: then no view sample is in front of the light).
+  std::optional<LightView> fit(const ShadowContext& ctx, GpuFrame& frame) {
+    std::optional<LightView> view = shadow_map::fit_light_centre_view(ctx, frame, view_, casters_bounds_, range_);
+    const shader::RasterView rv = view ? view->shared() : shader::RasterView{};
+    view_buffer_.upload(&rv, sizeof(rv));
+    return view;
+  }
+  // Room for `listed` list positions of `bytes_each` bytes in listed_ (at most `most` are ever
+  // needed): half as much again when it grows (fewer reallocations as the view moves).
+  void grow_lists(gpu::Device& device, uint32_t listed, uint32_t most, uint64_t bytes_each) {
+    if (listed > capacity_) {
+      capacity_ = std::max(listed, std::min(capacity_ + capacity_ / 2, most));
+      ++afsm::g_test_grows;
+    }
+    ensure(device, listed_, uint64_t{capacity_} * bytes_each, "afsm's lists");
+  }
+  void report_view(const std::optional<LightView>& view, uint32_t listed, uint32_t rows) {
+    stats_.extra["map_width"] = view ? view->width() : 0;
+    stats_.extra["map_height"] = view ? view->height() : 0;
+    stats_.extra["listed_samples"] = listed;
+    stats_.extra["cover_rows"] = rows;
+  }
+
+  shadow_map::ViewParams view_;
+  Bounds3f casters_bounds_;
+  uint32_t capacity_ = 0;  // list positions listed_ holds
+  gpu::Buffer range_, view_buffer_, listed_;
+};
+
+class AliasFreeHardGpu final : public AliasFreeGpuBase {
+ public:
+  using AliasFreeGpuBase::AliasFreeGpuBase;
+
   void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
     const AreaLight& light = *ctx.light;
     gpu::Device& device = *frame.device;
     gpu::CommandList& cl = *frame.commands;
-    // §4.3 "Parametrization": the view fitted to the receivers (the CPU fits it to the listed
-    // points, which lie within 3e-5 of them: the texels differ at most at the window's border).
-    const std::optional<LightView> view = shadow_map::fit_light_centre_view(ctx, frame, view_, casters_bounds_, range_);
-    const shader::RasterView rv = view ? view->shared() : shader::RasterView{};
-    view_buffer_.upload(&rv, sizeof(rv));
+    const std::optional<LightView> view = fit(ctx, frame);
     const uint32_t texels = view ? static_cast<uint32_t>(view->width() * view->height()) : 0;
     const uint32_t triangles = view ? static_cast<uint32_t>(frame.scene->triangle_count()) : 0;
     ensure(device, state_, uint64_t{frame.slots} * 4, "afsm's view-sample states");
@@ -76,7 +117,7 @@ class AliasFreeHardGpu final : public GpuShadowMethod {
     ensure(device, casters_, uint64_t{triangles} * sizeof(AfsmHardCaster), "afsm's casters");
     ensure(device, rows_, (uint64_t{triangles} + 1) * 4, "afsm's caster rows");
     ensure(device, polygons_, uint64_t{triangles} * kPolygonVertices * sizeof(Vec2f), "afsm's caster polygons");
-    ensure(device, listed_, uint64_t{capacity_} * sizeof(AfsmListed), "afsm's lists");
+    grow_lists(device, 0, frame.slots, sizeof(AfsmListed));
 
     shader::AfsmHardParams p{};
     p.scene = frame.scene->address();
@@ -114,13 +155,7 @@ class AliasFreeHardGpu final : public GpuShadowMethod {
       first_.download(&listed, 4, uint64_t{texels} * 4);
       if (triangles > 0) rows_.download(&rows, 4, uint64_t{triangles} * 4);
     }
-    if (listed > capacity_) {
-      // Half as much again (fewer reallocations as the view moves), never more than a slot per
-      // view sample (each is listed at most once).
-      capacity_ = std::max(listed, std::min(capacity_ + capacity_ / 2, frame.slots));
-      ensure(device, listed_, uint64_t{capacity_} * sizeof(AfsmListed), "afsm's lists");
-      ++afsm::g_test_grows;
-    }
+    grow_lists(device, listed, frame.slots, sizeof(AfsmListed));  // a view sample is listed once
     p.listed = listed_.address();
     if (listed > 0) {
       cl.stage("lists");
@@ -137,10 +172,7 @@ class AliasFreeHardGpu final : public GpuShadowMethod {
     p.count = frame.slots;
     cl.dispatch("afsm_hard_resolve", frame.slots, p);
 
-    stats_.extra["map_width"] = view ? view->width() : 0;
-    stats_.extra["map_height"] = view ? view->height() : 0;
-    stats_.extra["listed_samples"] = listed;
-    stats_.extra["cover_rows"] = rows;
+    report_view(view, listed, rows);
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, device_bytes());
   }
 
@@ -153,10 +185,7 @@ class AliasFreeHardGpu final : public GpuShadowMethod {
     return sum;
   }
 
-  shadow_map::ViewParams view_;
-  Bounds3f casters_bounds_;
-  uint32_t capacity_ = 0;  // list positions listed_ holds
-  gpu::Buffer range_, view_buffer_, state_, points_, first_, cursor_, casters_, rows_, polygons_, listed_;
+  gpu::Buffer state_, points_, first_, cursor_, casters_, rows_, polygons_;
 };
 
 // One light's instance on the device: per view-sample slot its state and listed point, and a
@@ -178,6 +207,158 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
 
 const GpuMethodRegistration registration(
     {"afsm-hard", [](const ParamSet& p) { return std::make_unique<AliasFreeHardGpu>(p); }, memory});
+
+// ---------------------------------------------------------------------------------------
+// afsm
+
+using shader::AfsmSoftCaster;
+using shader::AfsmSoftListed;
+
+class AliasFreeSoftGpu final : public AliasFreeGpuBase {
+ public:
+  explicit AliasFreeSoftGpu(const ParamSet& p) : AliasFreeGpuBase(p), jitter_(p.get_bool("jitter")) {}
+
+  void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
+    const AreaLight& light = *ctx.light;
+    if (jitter_ && (light.shape == LightShape::Disk || light.shape == LightShape::Sphere))
+      throw Error("afsm on the GPU: jitter=true is not supported (render it with --device cpu)");
+    gpu::Device& device = *frame.device;
+    gpu::CommandList& cl = *frame.commands;
+    // §4.2: the N light samples (the CPU's set: the same seed, light and frame), as bits.
+    const afsm::LightSamples samples =
+        afsm::make_light_samples(light, ctx.light_samples, ctx.seed, ctx.light_index, ctx.frame);
+    const uint32_t n = static_cast<uint32_t>(samples.size());
+    const uint32_t words = (n + 31) / 32;
+    upload_light(device, samples, light);
+
+    const std::optional<LightView> view = fit(ctx, frame);
+    const uint32_t texels = view ? static_cast<uint32_t>(view->width() * view->height()) : 0;
+    const uint32_t triangles = view ? static_cast<uint32_t>(frame.scene->triangle_count()) : 0;
+    const uint32_t entries = 2 * frame.slots;  // a split sample is listed once per side
+    ensure(device, state_, uint64_t{entries} * 4, "afsm's entry states");
+    ensure(device, points_, uint64_t{entries} * sizeof(Vec3f), "afsm's listed points");
+    ensure(device, first_, (uint64_t{texels} + 1) * 4, "afsm's list starts");
+    ensure(device, cursor_, uint64_t{texels} * 4, "afsm's list cursors");
+    ensure(device, casters_, uint64_t{triangles} * sizeof(AfsmSoftCaster), "afsm's casters");
+    ensure(device, rows_, (uint64_t{triangles} + 1) * 4, "afsm's caster rows");
+    ensure(device, polygons_, uint64_t{triangles} * shader::kAfsmRegionVertices * sizeof(Vec2f), "afsm's regions");
+    grow_lists(device, 0, entries, sizeof(AfsmSoftListed));
+    ensure(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
+
+    shader::AfsmSoftParams p{};
+    p.scene = frame.scene->address();
+    p.view = view_buffer_.address();
+    p.samples = frame.view_samples;
+    p.visibility = out.visibility;
+    p.light = light_.address();
+    p.state = state_.address();
+    p.points = points_.address();
+    p.first = first_.address();
+    p.cursor = cursor_.address();
+    p.casters = casters_.address();
+    p.rows = rows_.address();
+    p.polygons = polygons_.address();
+    p.triangles = triangles;
+
+    cl.stage("lists");
+    cl.fill(first_, 0);
+    cl.fill(cursor_, 0);
+    p.count = frame.slots;
+    cl.dispatch("afsm_soft_list_count", frame.slots, p);
+    if (view) gpu::exclusive_scan(cl, first_.address(), texels);
+    if (triangles > 0) {
+      cl.stage("casters");
+      p.count = triangles;
+      cl.dispatch("afsm_soft_casters", triangles, p);
+      gpu::exclusive_scan(cl, rows_.address(), triangles);
+    }
+    uint32_t listed = 0, rows = 0;
+    if (view) {
+      frame.flush();
+      first_.download(&listed, 4, uint64_t{texels} * 4);
+      if (triangles > 0) rows_.download(&rows, 4, uint64_t{triangles} * 4);
+    }
+    grow_lists(device, listed, entries, sizeof(AfsmSoftListed));
+    ensure(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
+    p.listed = listed_.address();
+    p.masks = masks_.address();
+    if (listed > 0) {
+      cl.stage("lists");
+      p.count = frame.slots;
+      cl.dispatch("afsm_soft_list_scatter", frame.slots, p);
+      if (rows > 0) {
+        cl.stage("raster");
+        p.count = rows;
+        cl.dispatch("afsm_soft_cover", rows, p);
+      }
+    }
+    cl.stage("resolve");
+    p.count = frame.slots;
+    cl.dispatch("afsm_soft_resolve", frame.slots, p);
+
+    report_view(view, listed, rows);
+    stats_.extra["light_samples"] = n;
+    uint64_t bytes = 0;
+    for (const gpu::Buffer* b : {&range_, &view_buffer_, &listed_, &light_, &state_, &points_, &first_, &cursor_,
+                                 &casters_, &rows_, &polygons_, &masks_})
+      bytes += b->bytes();
+    stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, bytes);
+  }
+
+  // The bytes of the light block and its samples for n light samples.
+  static uint64_t light_bytes(uint64_t n) { return sizeof(shader::AfsmSoftLight) + n * (sizeof(Vec2f) + sizeof(Vec3f)); }
+
+ private:
+  // The light block (AfsmSoftLight, far_bits 0: the list pass raises it) and the samples.
+  void upload_light(gpu::Device& device, const afsm::LightSamples& samples, const AreaLight& light) {
+    const uint32_t n = static_cast<uint32_t>(samples.size());
+    ensure(device, light_, light_bytes(n), "afsm's light samples");
+    shader::AfsmSoftLight l{};
+    l.c = samples.center;
+    l.n = n;
+    l.ls = samples.s * samples.radius;
+    l.words = (n + 31) / 32;
+    l.lt = samples.t * samples.radius;
+    l.max_distance2 = afsm::PlaneMaskLut(samples.local, 0, 0).max_distance2();
+    l.axis = light.frame.n;
+    l.lo_x = l.lo_y = kInfinity;
+    l.hi_x = l.hi_y = -kInfinity;
+    for (Vec2f u : samples.local) {
+      l.lo_x = std::min(l.lo_x, u.x), l.hi_x = std::max(l.hi_x, u.x);
+      l.lo_y = std::min(l.lo_y, u.y), l.hi_y = std::max(l.hi_y, u.y);
+    }
+    std::vector<uint8_t> bytes(light_bytes(n));
+    std::memcpy(bytes.data(), &l, sizeof(l));
+    std::memcpy(bytes.data() + sizeof(l), samples.local.data(), n * sizeof(Vec2f));
+    std::memcpy(bytes.data() + sizeof(l) + n * sizeof(Vec2f), samples.points.data(), n * sizeof(Vec3f));
+    light_.upload(bytes.data(), bytes.size());
+  }
+
+  bool jitter_;
+  gpu::Buffer light_, state_, points_, first_, cursor_, casters_, rows_, polygons_, masks_;
+};
+
+// One light's instance on the device: per view-sample slot two entries (a split sample is listed
+// once per side), each a state, a listed point, a list position and an N-bit mask; per texel of
+// the fitted view a list start and a cursor; per triangle its caster record, row count and region
+// hull; the light samples, the fitted range and the view.
+MemoryEstimate soft_memory(const ParamSet& p, const MemoryQuery& q) {
+  MemoryTally tally;
+  const ViewSize v = fitted_view_bound(p.get_int("resolution"));
+  const uint64_t texels = static_cast<uint64_t>(v.width) * static_cast<uint64_t>(v.height);
+  const uint64_t n = static_cast<uint64_t>(q.light_samples), words = (n + 31) / 32;
+  tally.add((2 * texels + 1) * sizeof(uint32_t) + sizeof(shader::GpuReceiverRange) + sizeof(shader::RasterView),
+            "resolution");
+  tally.add(2 * q.view_samples * (sizeof(uint32_t) + sizeof(Vec3f) + sizeof(AfsmSoftListed)), kViewSamplesSetting);
+  tally.add(2 * q.view_samples * words * sizeof(uint32_t) + AliasFreeSoftGpu::light_bytes(n), kLightSamplesSetting);
+  tally.add(q.triangles * (sizeof(AfsmSoftCaster) + sizeof(uint32_t) + shader::kAfsmRegionVertices * sizeof(Vec2f)) +
+                sizeof(uint32_t),
+            kTrianglesSetting);
+  return tally.estimate();
+}
+
+const GpuMethodRegistration soft_registration(
+    {"afsm", [](const ParamSet& p) { return std::make_unique<AliasFreeSoftGpu>(p); }, soft_memory});
 
 }  // namespace
 }  // namespace penumbra

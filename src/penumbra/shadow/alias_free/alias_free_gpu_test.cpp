@@ -1,6 +1,7 @@
-// `afsm-hard` on the GPU (issue 29): sample-exact against GPU rays traced to its light point (the
-// light's centre) from every view sample, the CPU version's picture, a list buffer too small for
-// the scene (grown, never dropped) and the memory estimate. Small renders: lavapipe is slow.
+// `afsm-hard` and `afsm` on the GPU (issue 29): sample-exact against GPU rays traced to their own
+// light points (the light's centre; afsm's N fixed samples) from every view sample, the CPU
+// version's picture, a list buffer too small for the scene (grown, never dropped) and the memory
+// estimate. Small renders: lavapipe is slow.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include "penumbra/gpu/ray_queries.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/alias_free/alias_free_gpu_testing.h"
+#include "penumbra/shadow/alias_free/sample_masks.h"
 #include "penumbra/testing/gpu_method_runs.h"
 #include "penumbra/testing/method_runs.h"
 
@@ -42,6 +44,48 @@ class AliasFreeGpu : public GpuTest {
       if (!testing::in_front(light, r.vs.samples[k].p)) v[k] = 0;
     return v;
   }
+  // The GPU ray tracer's fraction of `points` each view sample of `r` sees (testing::
+  // embree_to_points' rays, traced by gpu::trace_transmittance).
+  std::vector<float> gpu_rays_to_points(const testing::SceneRun& r, const std::vector<Vec3f>& points) {
+    const AreaLight& light = r.scene.lights[0];
+    std::vector<ShadowRay> rays;
+    rays.reserve(r.vs.size() * points.size());
+    for (const ViewSample& s : r.vs.samples)
+      for (const Vec3f& q : points) rays.push_back(shadow_ray_to(s.p, s.ng, q));
+    const gpu::GpuScene scene(device(), r.scene);
+    const std::vector<float> t = gpu::trace_transmittance(scene, rays);
+    std::vector<float> v(r.vs.size(), 0.0f);
+    for (size_t k = 0; k < v.size(); ++k) {
+      if (!testing::in_front(light, r.vs.samples[k].p)) continue;
+      double sum = 0;
+      for (size_t i = 0; i < points.size(); ++i) sum += t[k * points.size() + i];
+      v[k] = static_cast<float>(sum / points.size());
+    }
+    return v;
+  }
+  // afsm at N light samples: every view sample's V against the GPU rays to afsm's own N points
+  // (the renderer's seed, light 0, frame 0), and the CPU version's picture.
+  void expect_soft_exact(const std::string& name, int resolution, int n) {
+    const testing::SceneRun r = testing::load_scene_at(name, resolution);
+    RenderSettings gpu_settings = testing::device_settings("afsm", {"resolution=64"}, true);
+    gpu_settings.light_samples = n;
+    const RenderResult gpu = render_scene(r.scene, gpu_settings);
+    const std::vector<float> v = per_sample(r, gpu);
+    const afsm::LightSamples pts = afsm::make_light_samples(r.scene.lights[0], n, gpu_settings.seed, 0, 0);
+    const std::vector<float> rays = gpu_rays_to_points(r, pts.points);
+    const testing::Agreement g = testing::agreement(v, rays);
+    std::printf("GPU afsm N=%d vs GPU rays to the same points, %s: %.5f of %zu equal, max |dV| %.5f\n", n, name.c_str(),
+                g.equal_fraction, v.size(), g.max_diff);
+    EXPECT_GE(g.equal_fraction, 0.999) << name << ", " << testing::worst_sample(r, v, rays);
+    EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << name << ", " << testing::worst_sample(r, v, rays);
+    EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 10) << "no penumbra";
+    RenderSettings cpu_settings = testing::device_settings("afsm", {"resolution=64"}, false);
+    cpu_settings.light_samples = n;
+    const RenderResult cpu = render_scene(r.scene, cpu_settings);
+    const double dv = testing::mean_abs_dv(cpu.visibility, gpu.visibility);
+    std::printf("GPU afsm N=%d vs CPU, %s: mean |dV| %.2e\n", n, name.c_str(), dv);
+    EXPECT_LE(dv, 2e-3) << name;
+  }
   void expect_exact(const std::string& name, int resolution) {
     const testing::SceneRun r = testing::load_scene_at(name, resolution);
     const RenderResult gpu = render_scene(r.scene, testing::device_settings("afsm-hard", {"resolution=256"}, true));
@@ -68,6 +112,13 @@ TEST_F(AliasFreeGpu, HardBunnyEqualsGpuRaysToTheCentre) { expect_exact("bunny", 
 
 TEST_F(AliasFreeGpu, HardAlphaMaskedFoliageEqualsGpuRaysToTheCentre) { expect_exact("foliage", 64); }
 
+// 32² view samples, 16 light samples, 64² lists: a few seconds on lavapipe.
+TEST_F(AliasFreeGpu, SoftBunnyEqualsGpuRaysToTheSameLightPoints) { expect_soft_exact("bunny", 32, 16); }
+
+// The leaves are thin two-sided alpha-masked quads: samples lit partly from behind are listed
+// once per side (the split of issue 33).
+TEST_F(AliasFreeGpu, SoftAlphaMaskedFoliageEqualsGpuRaysToTheSameLightPoints) { expect_soft_exact("foliage", 32, 16); }
+
 // A list buffer far too small for the scene's listed samples: the render grows it (after the
 // counting pass) and gives the same picture, never a partial list.
 TEST_F(AliasFreeGpu, HardListBufferTooSmallIsGrownNotDropped) {
@@ -80,14 +131,29 @@ TEST_F(AliasFreeGpu, HardListBufferTooSmallIsGrownNotDropped) {
   EXPECT_EQ(normal.visibility.data(), grown.visibility.data());
 }
 
+// afsm lists a split sample twice (foliage): its buffer too small is grown the same way.
+TEST_F(AliasFreeGpu, SoftListBufferTooSmallIsGrownNotDropped) {
+  const Scene scene = testing::shipped_scene("foliage.json", 24);
+  RenderSettings settings = testing::device_settings("afsm", {"resolution=64"}, true);
+  settings.light_samples = 8;
+  const RenderResult normal = render_scene(scene, settings);
+  afsm::AfsmListCapacityForTesting small(16);
+  const RenderResult grown = render_scene(scene, settings);
+  EXPECT_GE(small.grows(), 1);
+  EXPECT_EQ(normal.visibility.data(), grown.visibility.data());
+}
+
 // The up-front estimate covers what a render holds on the device.
-TEST_F(AliasFreeGpu, HardMemoryEstimateCoversTheRender) {
-  const Scene scene = testing::shipped_scene("foliage.json", 48);
-  const RenderResult gpu = render_scene(scene, testing::device_settings("afsm-hard", {"resolution=128"}, true));
-  const MemoryEstimate e =
-      testing::gpu_memory_estimate("afsm-hard", scene, {"resolution=128"}, gpu.view_sample_count);
-  EXPECT_GT(gpu.stats.memory_bytes, 0u);
-  EXPECT_GE(e.bytes, gpu.stats.memory_bytes);
+TEST_F(AliasFreeGpu, MemoryEstimatesCoverTheRender) {
+  const Scene scene = testing::shipped_scene("foliage.json", 24);
+  for (const char* method : {"afsm-hard", "afsm"}) {
+    RenderSettings settings = testing::device_settings(method, {"resolution=64"}, true);
+    settings.light_samples = 8;
+    const RenderResult gpu = render_scene(scene, settings);
+    const MemoryEstimate e = testing::gpu_memory_estimate(method, scene, {"resolution=64"}, gpu.view_sample_count);
+    EXPECT_GT(gpu.stats.memory_bytes, 0u) << method;
+    EXPECT_GE(e.bytes, gpu.stats.memory_bytes) << method;
+  }
 }
 
 }  // namespace

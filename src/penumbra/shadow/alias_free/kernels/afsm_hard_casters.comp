@@ -7,6 +7,7 @@
 // grew each triangle by half a texel in a geometry shader for the fixed-function rasterizer; here
 // the exact texel-square test of raster/conservative.cpp runs in afsm_hard_cover.comp instead.
 #include "penumbra/gpu/kernel_common.glsl"
+#include "penumbra/gpu/raster/conservative_cover.glsl"
 #include "penumbra/gpu/raster/raster_access.glsl"
 #include "penumbra/shadow/alias_free/alias_free_shared.h"
 
@@ -51,12 +52,8 @@ void main() {
     y0 = min(y0, t.y);
     y1 = max(y1, t.y);
   }
-  // conservative.cpp set_up: square [i, i+1] meets [x0, x1] iff i <= x1 and i + 1 >= x0.
-  int ix0 = int(clamp(ceil(x0 - kAfsmCoverSlack - 1.0f), 0.0f, float(view.width)));
-  int ix1 = int(clamp(floor(x1 + kAfsmCoverSlack) + 1.0f, 0.0f, float(view.width)));
-  int iy0 = int(clamp(ceil(y0 - kAfsmCoverSlack - 1.0f), 0.0f, float(view.height)));
-  int iy1 = int(clamp(floor(y1 + kAfsmCoverSlack) + 1.0f, 0.0f, float(view.height)));
-  if (ix0 >= ix1 || iy0 >= iy1) return;
+  int ix0, ix1, iy0, iy1;
+  if (!conservative_box(x0, x1, y0, y1, view.width, view.height, kAfsmCoverSlack, ix0, ix1, iy0, iy1)) return;
   AfsmHardCaster k;
   bool front = side > 0.0f;
   k.support = front ? -n : n;
