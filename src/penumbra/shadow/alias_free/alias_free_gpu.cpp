@@ -70,7 +70,8 @@ class AliasFreeGpuBase : public GpuShadowMethod {
  protected:
   // §4.3 "Parametrization": the view fitted to the receivers (the CPU fits it to the listed
   // points, which lie within 3e-5 of them: the texels differ at most at the window's border),
-  // uploaded to view_buffer_ (zeros without one: then no view sample is in front of the light).
+  // uploaded to view_buffer_ (zeros without one: then no view sample is in front of the light)
+  // after the fit's flush, when no recorded kernel still reads the previous view.
   std::optional<LightView> fit(const ShadowContext& ctx, GpuFrame& frame) {
     std::optional<LightView> view = shadow_map::fit_light_centre_view(ctx, frame, view_, casters_bounds_, range_);
     const shader::RasterView rv = view ? view->shared() : shader::RasterView{};
@@ -229,9 +230,10 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
         afsm::make_light_samples(light, ctx.light_samples, ctx.seed, ctx.light_index, ctx.frame);
     const uint32_t n = static_cast<uint32_t>(samples.size());
     const uint32_t words = (n + 31) / 32;
-    upload_light(device, samples, light);
-
+    // Uploads are immediate, the kernels recorded: the light block is written after fit()'s flush
+    // has run everything recorded before (a previous progressive frame's kernels still read it).
     const std::optional<LightView> view = fit(ctx, frame);
+    upload_light(device, samples, light);
     const uint32_t texels = view ? static_cast<uint32_t>(view->width() * view->height()) : 0;
     const uint32_t triangles = view ? static_cast<uint32_t>(frame.scene->triangle_count()) : 0;
     const uint32_t entries = 2 * frame.slots;  // a split sample is listed once per side

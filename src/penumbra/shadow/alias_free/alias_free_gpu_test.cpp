@@ -119,6 +119,25 @@ TEST_F(AliasFreeGpu, SoftBunnyEqualsGpuRaysToTheSameLightPoints) { expect_soft_e
 // once per side (the split of issue 33).
 TEST_F(AliasFreeGpu, SoftAlphaMaskedFoliageEqualsGpuRaysToTheSameLightPoints) { expect_soft_exact("foliage", 32, 16); }
 
+// A crop window (fewer view-sample slots than pixels) and two progressive frames (afsm: new light
+// samples per frame; the instance's buffers reused by the second): the CPU's pictures.
+TEST_F(AliasFreeGpu, CropAndProgressiveFramesGiveTheCpuPictures) {
+  const Scene scene = testing::shipped_scene("foliage.json", 32);
+  for (const char* method : {"afsm-hard", "afsm"}) {
+    RenderSettings settings[2] = {testing::device_settings(method, {"resolution=64"}, false),
+                                  testing::device_settings(method, {"resolution=64"}, true)};
+    for (RenderSettings& s : settings) {
+      s.light_samples = 8;
+      s.frames = 2;
+      s.crop = PixelWindow{3, 4, 29, 27};
+    }
+    const RenderResult cpu = render_scene(scene, settings[0]);
+    const RenderResult gpu = render_scene(scene, settings[1]);
+    EXPECT_EQ(gpu.visibility.width(), 26) << method;
+    EXPECT_LE(testing::mean_abs_dv(cpu.visibility, gpu.visibility), 2e-3) << method;
+  }
+}
+
 // A list buffer far too small for the scene's listed samples: the render grows it (after the
 // counting pass) and gives the same picture, never a partial list.
 TEST_F(AliasFreeGpu, HardListBufferTooSmallIsGrownNotDropped) {
