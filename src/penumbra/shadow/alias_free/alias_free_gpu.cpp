@@ -45,6 +45,8 @@ using shader::AfsmHardCaster;
 using shader::AfsmListed;
 
 constexpr uint32_t kPolygonVertices = shader::kRasterMaxClipVertices;
+// afsm_counters.glsl finds the counters right after the view.
+static_assert(sizeof(shader::RasterView) == 160);
 
 // `buffer` with room for at least `bytes` (reallocated, contents lost, when smaller).
 void ensure(gpu::Device& device, gpu::Buffer& buffer, uint64_t bytes, const char* what) {
@@ -62,7 +64,8 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     casters_bounds_ = ctx.scene->bounds();
     if (range_.empty()) {
       range_ = gpu::Buffer(*frame.device, sizeof(shader::GpuReceiverRange), "afsm's receiver range");
-      view_buffer_ = gpu::Buffer(*frame.device, sizeof(shader::RasterView), "afsm's light view");
+      view_buffer_ = gpu::Buffer(*frame.device, sizeof(shader::RasterView) + sizeof(shader::AfsmCounters),
+                                 "afsm's light view");
       capacity_ = afsm::g_test_capacity;
     }
   }
@@ -73,6 +76,9 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   // uploaded to view_buffer_ (zeros without one: then no view sample is in front of the light)
   // after the fit's flush, when no recorded kernel still reads the previous view.
   std::optional<LightView> fit(const ShadowContext& ctx, GpuFrame& frame) {
+    // The counters add up over the frames until collect_stats().
+    if (!counting_) frame.commands->fill(view_buffer_, 0, sizeof(shader::RasterView), sizeof(shader::AfsmCounters));
+    counting_ = true;
     std::optional<LightView> view = shadow_map::fit_light_centre_view(ctx, frame, view_, casters_bounds_, range_);
     const shader::RasterView rv = view ? view->shared() : shader::RasterView{};
     view_buffer_.upload(&rv, sizeof(rv));
@@ -87,6 +93,17 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     }
     ensure(device, listed_, uint64_t{capacity_} * bytes_each, "afsm's lists");
   }
+  // The cover kernels' counters (the CPU version's texel_visits and sample_tests).
+  void collect_stats() override {
+    if (!counting_) return;
+    shader::AfsmCounters c{};
+    view_buffer_.download(&c, sizeof(c), sizeof(shader::RasterView));
+    counting_ = false;
+    stats_.texels_visited += c.texel_visits;
+    stats_.extra["texel_visits"] = c.texel_visits;
+    stats_.extra["sample_tests"] = c.sample_tests;
+  }
+
   void report_view(const std::optional<LightView>& view, uint32_t listed, uint32_t rows) {
     stats_.extra["map_width"] = view ? view->width() : 0;
     stats_.extra["map_height"] = view ? view->height() : 0;
@@ -97,6 +114,7 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   shadow_map::ViewParams view_;
   Bounds3f casters_bounds_;
   uint32_t capacity_ = 0;  // list positions listed_ holds
+  bool counting_ = false;  // a frame ran since the last collect_stats()
   gpu::Buffer range_, view_buffer_, listed_;
 };
 
@@ -202,7 +220,7 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   tally.add(q.triangles * (sizeof(AfsmHardCaster) + sizeof(uint32_t) + kPolygonVertices * sizeof(Vec2f)) +
                 sizeof(uint32_t),
             kTrianglesSetting);
-  tally.add(sizeof(shader::GpuReceiverRange) + sizeof(shader::RasterView), "resolution");
+  tally.add(sizeof(shader::GpuReceiverRange) + sizeof(shader::RasterView) + sizeof(shader::AfsmCounters), "resolution");
   return tally.estimate();
 }
 
@@ -349,7 +367,8 @@ MemoryEstimate soft_memory(const ParamSet& p, const MemoryQuery& q) {
   const ViewSize v = fitted_view_bound(p.get_int("resolution"));
   const uint64_t texels = static_cast<uint64_t>(v.width) * static_cast<uint64_t>(v.height);
   const uint64_t n = static_cast<uint64_t>(q.light_samples), words = (n + 31) / 32;
-  tally.add((2 * texels + 1) * sizeof(uint32_t) + sizeof(shader::GpuReceiverRange) + sizeof(shader::RasterView),
+  tally.add((2 * texels + 1) * sizeof(uint32_t) + sizeof(shader::GpuReceiverRange) + sizeof(shader::RasterView) +
+                sizeof(shader::AfsmCounters),
             "resolution");
   tally.add(2 * q.view_samples * (sizeof(uint32_t) + sizeof(Vec3f) + sizeof(AfsmSoftListed)), kViewSamplesSetting);
   tally.add(2 * q.view_samples * words * sizeof(uint32_t) + AliasFreeSoftGpu::light_bytes(n), kLightSamplesSetting);

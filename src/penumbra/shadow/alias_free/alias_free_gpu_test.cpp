@@ -79,6 +79,7 @@ class AliasFreeGpu : public GpuTest {
     EXPECT_GE(g.equal_fraction, 0.999) << name << ", " << testing::worst_sample(r, v, rays);
     EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << name << ", " << testing::worst_sample(r, v, rays);
     EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 10) << "no penumbra";
+    EXPECT_GT(gpu.stats.extra["sample_tests"].get<uint64_t>(), 0u);
     RenderSettings cpu_settings = testing::device_settings("afsm", {"resolution=64"}, false);
     cpu_settings.light_samples = n;
     const RenderResult cpu = render_scene(r.scene, cpu_settings);
@@ -100,6 +101,8 @@ class AliasFreeGpu : public GpuTest {
     EXPECT_GT(std::count(v.begin(), v.end(), 0.0f), 50) << name << ": no shadow";
     EXPECT_GT(std::count(v.begin(), v.end(), 1.0f), 50) << name << ": no light";
     EXPECT_GT(gpu.stats.extra["listed_samples"].get<uint64_t>(), 0u);
+    EXPECT_GT(gpu.stats.texels_visited, 0u);
+    EXPECT_GT(gpu.stats.extra["sample_tests"].get<uint64_t>(), 0u);
     // The CPU version's picture.
     const RenderResult cpu = render_scene(r.scene, testing::device_settings("afsm-hard", {"resolution=256"}, false));
     const double dv = testing::mean_abs_dv(cpu.visibility, gpu.visibility);

@@ -161,8 +161,16 @@ struct AfsmListed {
   uint shadow;
 };
 
+// What the cover kernels count (kept on the device, read once the frame has run), 16 bytes, after
+// the view's RasterView in its buffer (bytes 160-175): (covered texel, caster) visits and (list
+// entry, caster) tests.
+struct AfsmCounters {
+  uint64_t texel_visits;
+  uint64_t sample_tests;
+};
+
 // What the kernels read and write, 128 bytes (the push constants of every afsm-hard kernel).
-//   scene     SceneDesc               view      RasterView of the fitted light view
+//   scene     SceneDesc               view      RasterView of the fitted light view, then AfsmCounters
 //   samples   GpuViewSample[slots]    visibility float[slots]
 //   state     uint[slots]: texel, then list position, or a kAfsm* code
 //   points    vec3[slots]: the point each slot is listed at (its shadow ray's origin)

@@ -12,6 +12,7 @@
 #include "penumbra/gpu/raster/raster_access.glsl"
 #include "penumbra/gpu/segments.glsl"
 #include "penumbra/shadow/alias_free/alias_free_shared.h"
+#include "penumbra/shadow/alias_free/kernels/afsm_counters.glsl"
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { AfsmHardParams p; } pc;
@@ -42,9 +43,11 @@ void main() {
   // one range of positions.
   uint row = uint(y) * uint(view.width);
   uint end = first.v[row + uint(x_hi + 1)];
+  uint tests = 0u;
   for (uint pos = first.v[row + uint(x_lo)]; pos < end; ++pos) {
     AfsmListed l = listed.v[pos];
     if (l.shadow != 0u) continue;
+    ++tests;
     if (!afsm_hard_blocks(k.support, k.v0, k.e0, k.e1, k.e2, c, l.p)) continue;
     if (textured) {
       // RasterTriangle::opacity_on_line: the mask where the line p + s (p - c) meets the caster.
@@ -60,4 +63,5 @@ void main() {
     }
     listed.v[pos].shadow = 1u;
   }
+  afsm_count(pc.p.view, uint(x_hi - x_lo + 1), tests);
 }

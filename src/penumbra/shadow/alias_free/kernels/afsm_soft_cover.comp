@@ -12,6 +12,7 @@
 #include "penumbra/gpu/raster/conservative_cover.glsl"
 #include "penumbra/gpu/raster/raster_access.glsl"
 #include "penumbra/gpu/segments.glsl"
+#include "penumbra/shadow/alias_free/kernels/afsm_counters.glsl"
 #include "penumbra/shadow/alias_free/kernels/afsm_soft_access.glsl"
 
 layout(local_size_x = 64) in;
@@ -46,8 +47,10 @@ void main() {
     return;
   uint row = uint(y) * uint(view.width);
   uint end = first.v[row + uint(x_hi + 1)];
+  uint tests = 0u;
   for (uint pos = first.v[row + uint(x_lo)]; pos < end; ++pos) {
     vec3 p = listed.v[pos].p;
+    ++tests;
     AfsmPairLines l;
     if (!afsm_pair_lines(p, k.v0, k.v1, k.v2, k.normal, flat_scale, closed, light.c, light.ls, light.lt, l))
       continue;
@@ -81,4 +84,5 @@ void main() {
       if (bits != 0u) atomicOr(masks.v[pos * light.words + w], bits);
     }
   }
+  afsm_count(pc.p.view, uint(x_hi - x_lo + 1), tests);
 }
