@@ -93,6 +93,87 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     }
     ensure(device, listed_, uint64_t{capacity_} * bytes_each, "afsm's lists");
   }
+  // Each method's kernels, by pass.
+  struct Kernels {
+    const char* list_count;    // per view-sample slot: its entries' texels counted
+    const char* casters;       // per triangle: its coverage set up, its rows counted
+    const char* list_scatter;  // per view-sample slot: its entries listed
+    const char* cover;         // per (caster, covered row): the tests
+    const char* cover_stage;   // the CPU version's name of that phase
+    const char* resolve;       // per view-sample slot: V
+  };
+  // What the counting passes found: list entries and covered rows.
+  struct Totals {
+    uint32_t listed = 0, rows = 0;
+  };
+
+  // The buffers both methods size the same way: per entry (`entries`) a state and a point, per
+  // texel a start and a cursor, per triangle a caster record of `caster_bytes`, a row count and a
+  // polygon of `polygon_vertices`; the parameters' addresses of them.
+  template <class Params>
+  void ensure_common(gpu::Device& device, uint32_t entries, uint32_t texels, uint32_t triangles, uint64_t caster_bytes,
+                     uint64_t polygon_vertices, Params& p) {
+    ensure(device, state_, uint64_t{entries} * 4, "afsm's entry states");
+    ensure(device, points_, uint64_t{entries} * sizeof(Vec3f), "afsm's listed points");
+    ensure(device, first_, (uint64_t{texels} + 1) * 4, "afsm's list starts");
+    ensure(device, cursor_, uint64_t{texels} * 4, "afsm's list cursors");
+    ensure(device, casters_, uint64_t{triangles} * caster_bytes, "afsm's casters");
+    ensure(device, rows_, (uint64_t{triangles} + 1) * 4, "afsm's caster rows");
+    ensure(device, polygons_, uint64_t{triangles} * polygon_vertices * sizeof(Vec2f), "afsm's caster polygons");
+    p.view = view_buffer_.address();
+    p.state = state_.address();
+    p.points = points_.address();
+    p.first = first_.address();
+    p.cursor = cursor_.address();
+    p.casters = casters_.address();
+    p.rows = rows_.address();
+    p.polygons = polygons_.address();
+    p.triangles = triangles;
+  }
+  // §3.1 and §3.2 / §4.1: the entries counted per texel and the casters' covered rows, both
+  // scanned; one flush, and the two totals read back (they size the lists and the cover pass).
+  template <class Params>
+  Totals count(GpuFrame& frame, bool has_view, uint32_t texels, Params& p, const Kernels& k) {
+    gpu::CommandList& cl = *frame.commands;
+    cl.stage("lists");
+    cl.fill(first_, 0);
+    cl.fill(cursor_, 0);
+    p.count = frame.slots;
+    cl.dispatch(k.list_count, frame.slots, p);
+    Totals t;
+    if (!has_view) return t;  // every entry is a miss or lies behind the light
+    gpu::exclusive_scan(cl, first_.address(), texels);
+    if (p.triangles > 0) {
+      cl.stage("casters");
+      p.count = p.triangles;
+      cl.dispatch(k.casters, p.triangles, p);
+      gpu::exclusive_scan(cl, rows_.address(), p.triangles);
+    }
+    frame.flush();
+    first_.download(&t.listed, 4, uint64_t{texels} * 4);
+    if (p.triangles > 0) rows_.download(&t.rows, 4, uint64_t{p.triangles} * 4);
+    return t;
+  }
+  // The entries scattered into their lists (p.listed sized for t.listed), each caster over the
+  // lists of its covered rows, V per slot.
+  template <class Params>
+  void cover(GpuFrame& frame, Totals t, Params& p, const Kernels& k) {
+    gpu::CommandList& cl = *frame.commands;
+    if (t.listed > 0) {
+      cl.stage("lists");
+      p.count = frame.slots;
+      cl.dispatch(k.list_scatter, frame.slots, p);
+      if (t.rows > 0) {
+        cl.stage(k.cover_stage);
+        p.count = t.rows;
+        cl.dispatch(k.cover, t.rows, p);
+      }
+    }
+    cl.stage("resolve");
+    p.count = frame.slots;
+    cl.dispatch(k.resolve, frame.slots, p);
+  }
+
   // The cover kernels' counters (the CPU version's texel_visits and sample_tests).
   void collect_stats() override {
     if (!counting_) return;
@@ -104,11 +185,11 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     stats_.extra["sample_tests"] = c.sample_tests;
   }
 
-  void report_view(const std::optional<LightView>& view, uint32_t listed, uint32_t rows) {
+  void report_view(const std::optional<LightView>& view, Totals t) {
     stats_.extra["map_width"] = view ? view->width() : 0;
     stats_.extra["map_height"] = view ? view->height() : 0;
-    stats_.extra["listed_samples"] = listed;
-    stats_.extra["cover_rows"] = rows;
+    stats_.extra["listed_samples"] = t.listed;
+    stats_.extra["cover_rows"] = t.rows;
   }
 
   shadow_map::ViewParams view_;
@@ -116,6 +197,7 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   uint32_t capacity_ = 0;  // list positions listed_ holds
   bool counting_ = false;  // a frame ran since the last collect_stats()
   gpu::Buffer range_, view_buffer_, listed_;
+  gpu::Buffer state_, points_, first_, cursor_, casters_, rows_, polygons_;
 };
 
 class AliasFreeHardGpu final : public AliasFreeGpuBase {
@@ -125,73 +207,25 @@ class AliasFreeHardGpu final : public AliasFreeGpuBase {
   void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
     const AreaLight& light = *ctx.light;
     gpu::Device& device = *frame.device;
-    gpu::CommandList& cl = *frame.commands;
     const std::optional<LightView> view = fit(ctx, frame);
     const uint32_t texels = view ? static_cast<uint32_t>(view->width() * view->height()) : 0;
     const uint32_t triangles = view ? static_cast<uint32_t>(frame.scene->triangle_count()) : 0;
-    ensure(device, state_, uint64_t{frame.slots} * 4, "afsm's view-sample states");
-    ensure(device, points_, uint64_t{frame.slots} * sizeof(Vec3f), "afsm's listed points");
-    ensure(device, first_, (uint64_t{texels} + 1) * 4, "afsm's list starts");
-    ensure(device, cursor_, uint64_t{texels} * 4, "afsm's list cursors");
-    ensure(device, casters_, uint64_t{triangles} * sizeof(AfsmHardCaster), "afsm's casters");
-    ensure(device, rows_, (uint64_t{triangles} + 1) * 4, "afsm's caster rows");
-    ensure(device, polygons_, uint64_t{triangles} * kPolygonVertices * sizeof(Vec2f), "afsm's caster polygons");
-    grow_lists(device, 0, frame.slots, sizeof(AfsmListed));
-
+    static constexpr Kernels kKernels{"afsm_hard_list_count", "afsm_hard_casters",   "afsm_hard_list_scatter",
+                                      "afsm_hard_cover",      "raster_center",       "afsm_hard_resolve"};
     shader::AfsmHardParams p{};
+    ensure_common(device, frame.slots, texels, triangles, sizeof(AfsmHardCaster), kPolygonVertices, p);
     p.scene = frame.scene->address();
-    p.view = view_buffer_.address();
     p.samples = frame.view_samples;
     p.visibility = out.visibility;
-    p.state = state_.address();
-    p.points = points_.address();
-    p.first = first_.address();
-    p.cursor = cursor_.address();
-    p.casters = casters_.address();
-    p.rows = rows_.address();
-    p.polygons = polygons_.address();
     p.light_center = light.center;
     p.light_n = light.frame.n;
-    p.triangles = triangles;
-
-    // §3.1: count the samples per texel, scan; the casters' coverage rows, scan.
-    cl.stage("lists");
-    cl.fill(first_, 0);
-    cl.fill(cursor_, 0);
-    p.count = frame.slots;
-    cl.dispatch("afsm_hard_list_count", frame.slots, p);
-    if (view) gpu::exclusive_scan(cl, first_.address(), texels);
-    if (triangles > 0) {
-      cl.stage("casters");
-      p.count = triangles;
-      cl.dispatch("afsm_hard_casters", triangles, p);
-      gpu::exclusive_scan(cl, rows_.address(), triangles);
-    }
-    // The totals size what follows: the lists' buffer and the cover pass's threads.
-    uint32_t listed = 0, rows = 0;
-    if (view) {
-      frame.flush();
-      first_.download(&listed, 4, uint64_t{texels} * 4);
-      if (triangles > 0) rows_.download(&rows, 4, uint64_t{triangles} * 4);
-    }
-    grow_lists(device, listed, frame.slots, sizeof(AfsmListed));  // a view sample is listed once
+    // §3.1: the samples per texel; §3.2: the casters' covered rows.
+    const Totals t = count(frame, view.has_value(), texels, p, kKernels);
+    grow_lists(device, t.listed, frame.slots, sizeof(AfsmListed));  // a view sample is listed once
     p.listed = listed_.address();
-    if (listed > 0) {
-      cl.stage("lists");
-      p.count = frame.slots;
-      cl.dispatch("afsm_hard_list_scatter", frame.slots, p);
-      if (rows > 0) {
-        // §3.2-3.3: each caster over the lists of the texels it touches.
-        cl.stage("raster_center");
-        p.count = rows;
-        cl.dispatch("afsm_hard_cover", rows, p);
-      }
-    }
-    cl.stage("resolve");
-    p.count = frame.slots;
-    cl.dispatch("afsm_hard_resolve", frame.slots, p);
-
-    report_view(view, listed, rows);
+    // §3.3: each caster over the lists of the texels it touches.
+    cover(frame, t, p, kKernels);
+    report_view(view, t);
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, device_bytes());
   }
 
@@ -203,8 +237,6 @@ class AliasFreeHardGpu final : public AliasFreeGpuBase {
       sum += b->bytes();
     return sum;
   }
-
-  gpu::Buffer state_, points_, first_, cursor_, casters_, rows_, polygons_;
 };
 
 // One light's instance on the device: per view-sample slot its state and listed point, and a
@@ -242,7 +274,6 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     if (jitter_ && (light.shape == LightShape::Disk || light.shape == LightShape::Sphere))
       throw Error("afsm on the GPU: jitter=true is not supported (render it with --device cpu)");
     gpu::Device& device = *frame.device;
-    gpu::CommandList& cl = *frame.commands;
     // §4.2: the N light samples (the CPU's set: the same seed, light and frame), as bits.
     const afsm::LightSamples samples =
         afsm::make_light_samples(light, ctx.light_samples, ctx.seed, ctx.light_index, ctx.frame);
@@ -255,68 +286,23 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     const uint32_t texels = view ? static_cast<uint32_t>(view->width() * view->height()) : 0;
     const uint32_t triangles = view ? static_cast<uint32_t>(frame.scene->triangle_count()) : 0;
     const uint32_t entries = 2 * frame.slots;  // a split sample is listed once per side
-    ensure(device, state_, uint64_t{entries} * 4, "afsm's entry states");
-    ensure(device, points_, uint64_t{entries} * sizeof(Vec3f), "afsm's listed points");
-    ensure(device, first_, (uint64_t{texels} + 1) * 4, "afsm's list starts");
-    ensure(device, cursor_, uint64_t{texels} * 4, "afsm's list cursors");
-    ensure(device, casters_, uint64_t{triangles} * sizeof(AfsmSoftCaster), "afsm's casters");
-    ensure(device, rows_, (uint64_t{triangles} + 1) * 4, "afsm's caster rows");
-    ensure(device, polygons_, uint64_t{triangles} * shader::kAfsmRegionVertices * sizeof(Vec2f), "afsm's regions");
-    grow_lists(device, 0, entries, sizeof(AfsmSoftListed));
-    ensure(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
-
+    static constexpr Kernels kKernels{"afsm_soft_list_count", "afsm_soft_casters", "afsm_soft_list_scatter",
+                                      "afsm_soft_cover",      "raster",            "afsm_soft_resolve"};
     shader::AfsmSoftParams p{};
+    ensure_common(device, entries, texels, triangles, sizeof(AfsmSoftCaster), shader::kAfsmRegionVertices, p);
     p.scene = frame.scene->address();
-    p.view = view_buffer_.address();
     p.samples = frame.view_samples;
     p.visibility = out.visibility;
     p.light = light_.address();
-    p.state = state_.address();
-    p.points = points_.address();
-    p.first = first_.address();
-    p.cursor = cursor_.address();
-    p.casters = casters_.address();
-    p.rows = rows_.address();
-    p.polygons = polygons_.address();
-    p.triangles = triangles;
-
-    cl.stage("lists");
-    cl.fill(first_, 0);
-    cl.fill(cursor_, 0);
-    p.count = frame.slots;
-    cl.dispatch("afsm_soft_list_count", frame.slots, p);
-    if (view) gpu::exclusive_scan(cl, first_.address(), texels);
-    if (triangles > 0) {
-      cl.stage("casters");
-      p.count = triangles;
-      cl.dispatch("afsm_soft_casters", triangles, p);
-      gpu::exclusive_scan(cl, rows_.address(), triangles);
-    }
-    uint32_t listed = 0, rows = 0;
-    if (view) {
-      frame.flush();
-      first_.download(&listed, 4, uint64_t{texels} * 4);
-      if (triangles > 0) rows_.download(&rows, 4, uint64_t{triangles} * 4);
-    }
-    grow_lists(device, listed, entries, sizeof(AfsmSoftListed));
+    // §3.1: the entries per texel; §4.1: the casters' influence regions and their covered rows.
+    const Totals t = count(frame, view.has_value(), texels, p, kKernels);
+    grow_lists(device, t.listed, entries, sizeof(AfsmSoftListed));
     ensure(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
     p.listed = listed_.address();
     p.masks = masks_.address();
-    if (listed > 0) {
-      cl.stage("lists");
-      p.count = frame.slots;
-      cl.dispatch("afsm_soft_list_scatter", frame.slots, p);
-      if (rows > 0) {
-        cl.stage("raster");
-        p.count = rows;
-        cl.dispatch("afsm_soft_cover", rows, p);
-      }
-    }
-    cl.stage("resolve");
-    p.count = frame.slots;
-    cl.dispatch("afsm_soft_resolve", frame.slots, p);
-
-    report_view(view, listed, rows);
+    // §4.2: each caster's masks over the lists of its region.
+    cover(frame, t, p, kKernels);
+    report_view(view, t);
     stats_.extra["light_samples"] = n;
     uint64_t bytes = 0;
     for (const gpu::Buffer* b : {&range_, &view_buffer_, &listed_, &light_, &state_, &points_, &first_, &cursor_,
@@ -355,7 +341,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
   }
 
   bool jitter_;
-  gpu::Buffer light_, state_, points_, first_, cursor_, casters_, rows_, polygons_, masks_;
+  gpu::Buffer light_, masks_;
 };
 
 // One light's instance on the device: per view-sample slot two entries (a split sample is listed
