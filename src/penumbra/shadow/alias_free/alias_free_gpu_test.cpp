@@ -9,14 +9,19 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/core/rng.h"
+#include "penumbra/gpu/buffer.h"
+#include "penumbra/gpu/commands.h"
 #include "penumbra/gpu/gpu_scene.h"
 #include "penumbra/gpu/gpu_test_util.h"
 #include "penumbra/gpu/ray_queries.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/alias_free/alias_free_gpu_testing.h"
+#include "penumbra/shadow/alias_free/alias_free_shared.h"
 #include "penumbra/shadow/alias_free/sample_masks.h"
 #include "penumbra/testing/gpu_method_runs.h"
 #include "penumbra/testing/method_runs.h"
+#include "penumbra/testing/test_scenes.h"
 
 namespace penumbra {
 namespace {
@@ -110,6 +115,71 @@ class AliasFreeGpu : public GpuTest {
     EXPECT_LE(dv, 2e-3) << name;
   }
 };
+
+// The per-pair set-up of the GPU (test_afsm_pair_lines.comp) against the CPU's call of the same
+// alias_free_shared.h function: the same pairs kept; the lines equal up to a few ulps (the GPU may
+// fuse the cross products' multiply-adds), bit for bit on most.
+TEST_F(AliasFreeGpu, PairLinesOnTheDeviceAreTheCpus) {
+  const AreaLight light = testing::rect_light_down({0, 2, 0}, 1.5f, 1.5f);
+  const afsm::LightSamples samples = afsm::make_light_samples(light, 64, 3, 0, 0);
+  const Vec3f c = samples.center, ls = samples.s * samples.radius, lt = samples.t * samples.radius;
+  struct PairIn {
+    Vec3f p, v0, v1, v2;
+    uint32_t closed;
+  };
+  struct PairOut {
+    shader::AfsmPairLines lines;
+    float kept;
+  };
+  static_assert(sizeof(PairIn) == 52 && sizeof(PairOut) == 52);
+  Rng rng(5);
+  std::vector<PairIn> in(4000);
+  for (size_t i = 0; i < in.size(); ++i) {
+    const Vec3f centre{rng.next_float() * 3 - 1.5f, 0.4f + rng.next_float() * 1.2f, rng.next_float() * 3 - 1.5f};
+    auto jitter = [&] { return Vec3f(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f) * 0.3f; };
+    in[i] = {{rng.next_float() * 4 - 2, rng.next_float() * 0.6f, rng.next_float() * 4 - 2}, centre + jitter(),
+             centre + jitter(), centre + jitter(), static_cast<uint32_t>(i % 3 == 0)};
+  }
+  gpu::Buffer in_buf = gpu::make_buffer<PairIn>(device(), in, "pairs");
+  gpu::Buffer out_buf(device(), in.size() * sizeof(PairOut), "pair lines");
+  struct Push {
+    uint64_t in_pairs, out_pairs;
+    Vec3f c;
+    uint32_t count;
+    Vec3f ls;
+    uint32_t pad0;
+    Vec3f lt;
+    uint32_t pad1;
+  } push{in_buf.address(), out_buf.address(), c, static_cast<uint32_t>(in.size()), ls, 0, lt, 0};
+  gpu::CommandList cl(device());
+  cl.dispatch("test_afsm_pair_lines", in.size(), push);
+  cl.submit();
+  const std::vector<PairOut> got = out_buf.download_vector<PairOut>(in.size());
+  size_t kept = 0, same = 0;
+  for (size_t i = 0; i < in.size(); ++i) {
+    const PairIn& r = in[i];
+    const Vec3f normal = cross(r.v1 - r.v0, r.v2 - r.v0);
+    const float len = length(normal);
+    shader::AfsmPairLines want{};
+    const bool keep = shader::afsm_pair_lines(r.p, r.v0, r.v1, r.v2, normal, shader::kAfsmFlat * shader::kAfsmFlat * len * len,
+                                              r.closed != 0, c, ls, lt, want);
+    ASSERT_EQ(got[i].kept, keep ? 1.0f : 0.0f) << "pair " << i;
+    if (!keep) continue;
+    ++kept;
+    const float a[12] = {want.g0.x, want.g0.y, want.h0, want.g1.x, want.g1.y, want.h1,
+                         want.g2.x, want.g2.y, want.h2, want.gb.x, want.gb.y, want.hb};
+    const shader::AfsmPairLines& g = got[i].lines;
+    const float b[12] = {g.g0.x, g.g0.y, g.h0, g.g1.x, g.g1.y, g.h1, g.g2.x, g.g2.y, g.h2, g.gb.x, g.gb.y, g.hb};
+    bool equal = true;
+    for (int k = 0; k < 12; ++k) {
+      EXPECT_NEAR(b[k], a[k], 1e-5f * (1 + std::abs(a[k]))) << "pair " << i << " value " << k;
+      equal = equal && a[k] == b[k];
+    }
+    same += equal;
+  }
+  std::printf("afsm_pair_lines: %zu of %zu kept pairs bit-equal on the GPU\n", same, kept);
+  EXPECT_GT(kept, 1000u);
+}
 
 TEST_F(AliasFreeGpu, HardBunnyEqualsGpuRaysToTheCentre) { expect_exact("bunny", 64); }
 
