@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstring>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "penumbra/core/error.h"
@@ -267,7 +268,10 @@ using shader::AfsmSoftListed;
 
 class AliasFreeSoftGpu final : public AliasFreeGpuBase {
  public:
-  explicit AliasFreeSoftGpu(const ParamSet& p) : AliasFreeGpuBase(p), jitter_(p.get_bool("jitter")) {}
+  explicit AliasFreeSoftGpu(const ParamSet& p)
+      : AliasFreeGpuBase(p),
+        jitter_(p.get_bool("jitter")),
+        lut_bins_(p.get_bool("lut") ? p.get_int("lut_resolution") : 0) {}
 
   void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
     const AreaLight& light = *ctx.light;
@@ -312,20 +316,26 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
   }
 
   // The bytes of the light block and its samples for n light samples.
-  static uint64_t light_bytes(uint64_t n) { return sizeof(shader::AfsmSoftLight) + n * (sizeof(Vec2f) + sizeof(Vec3f)); }
+  // The bytes of the light block, its samples and the table for n light samples and bins^2 cells.
+  static uint64_t light_bytes(uint64_t n, int bins) {
+    const uint64_t cells = static_cast<uint64_t>(bins) * static_cast<uint64_t>(bins);
+    return sizeof(shader::AfsmSoftLight) + n * (sizeof(Vec2f) + sizeof(Vec3f)) +
+           cells * 2 * static_cast<uint64_t>(afsm::mask_words(static_cast<int>(n))) * sizeof(uint64_t);
+  }
 
  private:
-  // The light block (AfsmSoftLight, far_bits 0: the list pass raises it) and the samples.
+  // The light block (AfsmSoftLight, far_bits 0: the list pass raises it), the samples and the
+  // plane-mask table (§4.2; built by the CPU's PlaneMaskLut, none with lut=false).
   void upload_light(gpu::Device& device, const afsm::LightSamples& samples, const AreaLight& light) {
     const uint32_t n = static_cast<uint32_t>(samples.size());
-    ensure(device, light_, light_bytes(n), "afsm's light samples");
+    const afsm::PlaneMaskLut lut(samples.local, lut_bins_, lut_bins_);
     shader::AfsmSoftLight l{};
     l.c = samples.center;
     l.n = n;
     l.ls = samples.s * samples.radius;
     l.words = (n + 31) / 32;
     l.lt = samples.t * samples.radius;
-    l.max_distance2 = afsm::PlaneMaskLut(samples.local, 0, 0).max_distance2();
+    l.max_distance2 = lut.max_distance2();
     l.axis = light.frame.n;
     l.lo_x = l.lo_y = kInfinity;
     l.hi_x = l.hi_y = -kInfinity;
@@ -333,21 +343,30 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
       l.lo_x = std::min(l.lo_x, u.x), l.hi_x = std::max(l.hi_x, u.x);
       l.lo_y = std::min(l.lo_y, u.y), l.hi_y = std::max(l.hi_y, u.y);
     }
-    std::vector<uint8_t> bytes(light_bytes(n));
-    std::memcpy(bytes.data(), &l, sizeof(l));
-    std::memcpy(bytes.data() + sizeof(l), samples.local.data(), n * sizeof(Vec2f));
-    std::memcpy(bytes.data() + sizeof(l) + n * sizeof(Vec2f), samples.points.data(), n * sizeof(Vec3f));
+    l.max_distance = lut.max_distance();
+    l.angle_bins = static_cast<uint32_t>(lut.angle_bins());
+    l.distance_bins = static_cast<uint32_t>(lut.distance_bins());
+    const std::span<const uint64_t> table = lut.cells();
+    std::vector<uint8_t> bytes(light_bytes(n, lut.has_table() ? lut_bins_ : 0));
+    uint8_t* at = bytes.data();
+    std::memcpy(at, &l, sizeof(l));
+    std::memcpy(at += sizeof(l), samples.local.data(), n * sizeof(Vec2f));
+    std::memcpy(at += n * sizeof(Vec2f), samples.points.data(), n * sizeof(Vec3f));
+    if (!table.empty()) std::memcpy(at + n * sizeof(Vec3f), table.data(), table.size_bytes());
+    ensure(device, light_, bytes.size(), "afsm's light samples");
     light_.upload(bytes.data(), bytes.size());
+    stats_.extra["lut_bytes"] = table.size_bytes();
   }
 
   bool jitter_;
+  int lut_bins_;  // lut_resolution, 0 with lut=false
   gpu::Buffer light_, masks_;
 };
 
 // One light's instance on the device: per view-sample slot two entries (a split sample is listed
 // once per side), each a state, a listed point, a list position and an N-bit mask; per texel of
 // the fitted view a list start and a cursor; per triangle its caster record, row count and region
-// hull; the light samples, the fitted range and the view.
+// hull; the light samples and the plane-mask table, the fitted range and the view.
 MemoryEstimate soft_memory(const ParamSet& p, const MemoryQuery& q) {
   MemoryTally tally;
   const ViewSize v = fitted_view_bound(p.get_int("resolution"));
@@ -357,7 +376,8 @@ MemoryEstimate soft_memory(const ParamSet& p, const MemoryQuery& q) {
                 sizeof(shader::AfsmCounters),
             "resolution");
   tally.add(2 * q.view_samples * (sizeof(uint32_t) + sizeof(Vec3f) + sizeof(AfsmSoftListed)), kViewSamplesSetting);
-  tally.add(2 * q.view_samples * words * sizeof(uint32_t) + AliasFreeSoftGpu::light_bytes(n), kLightSamplesSetting);
+  tally.add(2 * q.view_samples * words * sizeof(uint32_t), kLightSamplesSetting);
+  tally.add(AliasFreeSoftGpu::light_bytes(n, p.get_bool("lut") ? p.get_int("lut_resolution") : 0), "lut_resolution");
   tally.add(q.triangles * (sizeof(AfsmSoftCaster) + sizeof(uint32_t) + shader::kAfsmRegionVertices * sizeof(Vec2f)) +
                 sizeof(uint32_t),
             kTrianglesSetting);

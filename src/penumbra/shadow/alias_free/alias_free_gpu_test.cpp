@@ -192,6 +192,20 @@ TEST_F(AliasFreeGpu, SoftBunnyEqualsGpuRaysToTheSameLightPoints) { expect_soft_e
 // once per side (the split of issue 33).
 TEST_F(AliasFreeGpu, SoftAlphaMaskedFoliageEqualsGpuRaysToTheSameLightPoints) { expect_soft_exact("foliage", 32, 16); }
 
+// §4.2's plane-mask table changes the work, not the bits: lut=false (every sample tested) and a
+// coarse and the default table give the same picture.
+TEST_F(AliasFreeGpu, SoftTableAndExactTestsGiveTheSamePicture) {
+  const Scene scene = testing::shipped_scene("foliage.json", 24);
+  std::vector<float> first;
+  for (const char* lut : {"lut=false", "lut_resolution=8", "lut_resolution=128"}) {
+    RenderSettings settings = testing::device_settings("afsm", {"resolution=64", lut}, true);
+    settings.light_samples = 40;  // two mask words, the second partly used
+    const RenderResult gpu = render_scene(scene, settings);
+    if (first.empty()) first = gpu.visibility.data();
+    EXPECT_EQ(gpu.visibility.data(), first) << lut;
+  }
+}
+
 // A crop window (fewer view-sample slots than pixels) and two progressive frames (afsm: new light
 // samples per frame; the instance's buffers reused by the second): the CPU's pictures.
 TEST_F(AliasFreeGpu, CropAndProgressiveFramesGiveTheCpuPictures) {

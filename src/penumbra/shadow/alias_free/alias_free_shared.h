@@ -71,7 +71,8 @@ PN_INLINE float afsm_line_h(vec3 e, vec3 cx) {
 
 // The four lines of a (listed point p, caster) pair (§4.2, Fig. 6): the light samples behind the
 // caster's supporting plane as seen from p (gb, hb), and inside the three planes through p and an
-// edge (g0..g2, h0..h2). A light sample is hidden by the whole triangle when it is above all four.
+// edge (g0..g2, h0..h2). A light sample is hidden by the whole triangle when it is above all four
+// (afsm_above).
 struct AfsmPairLines {
   vec2 g0;
   float h0;
@@ -115,10 +116,32 @@ PN_INLINE bool afsm_pair_lines(vec3 p, vec3 v0, vec3 v1, vec3 v2, vec3 normal, f
   return true;
 }
 
-// Whether the caster of `lines` hides light sample u from its listed point.
-PN_INLINE bool afsm_pair_hides(AfsmPairLines l, vec2 u) {
-  return afsm_above(u.x, u.y, l.gb, l.hb) && afsm_above(u.x, u.y, l.g0, l.h0) && afsm_above(u.x, u.y, l.g1, l.h1) &&
-         afsm_above(u.x, u.y, l.g2, l.h2);
+// ---- the plane-mask table (§4.2, PlaneMaskLut in sample_masks.h) -------------------------------
+
+// A monotone stand-in for atan2 on [0, 4) (the "diamond angle"): cheaper than atan2, and the
+// table's angle bins are uniform in it.
+PN_INLINE float afsm_diamond_angle(float x, float y) {
+  if (y >= 0.0f) return x >= 0.0f ? y / (x + y) : 1.0f - x / (-x + y);
+  return x < 0.0f ? 2.0f - y / (-x - y) : 3.0f + x / (x - y);
+}
+
+PN_CONST int kAfsmLutNone = -1;  // the line misses the samples' disk: no sample above it
+PN_CONST int kAfsmLutAll = -2;   // every sample above it
+
+// The table cell of the line g . u + h = 0 (PlaneMaskLut::lookup): a * distance_bins + b over
+// angle_bins x distance_bins cells of (diamond angle of g, signed distance -h / |g| in
+// [-max_distance, max_distance)), or kAfsmLutNone / kAfsmLutAll. The cell's sure bits are above
+// every line of the cell, its unsure ones are tested exactly (afsm_above): its bits are the exact
+// test's, whatever cell a rounding picks next to the right one (the table's margin).
+PN_INLINE int afsm_lut_cell(vec2 g, float h, float max_distance, int angle_bins, int distance_bins) {
+  float len = sqrt(g.x * g.x + g.y * g.y);
+  float d = len > 0.0f ? -h / len : (h > 0.0f ? -max_distance * 4.0f : max_distance * 4.0f);
+  if (!(d < max_distance)) return kAfsmLutNone;
+  if (d <= -max_distance) return kAfsmLutAll;
+  int a = min(int(afsm_diamond_angle(g.x, g.y) * (float(angle_bins) * 0.25f)), angle_bins - 1);
+  int b = int(clamp(float(int((d + max_distance) * (float(distance_bins) / (2.0f * max_distance)))), 0.0f,
+                    float(distance_bins - 1)));
+  return a * distance_bins + b;
 }
 
 // ---- the GPU version (alias_free_gpu.cpp) ------------------------------------------------------
@@ -199,14 +222,17 @@ struct AfsmHardParams {
 
 // ---- the GPU `afsm` (alias_free_gpu.cpp) -------------------------------------------------------
 
-// The light as afsm's kernels read it, 80 bytes, then its samples (uploaded per frame):
+// The light as afsm's kernels read it, 96 bytes, then its samples and table (uploaded per frame):
 //   bytes  0-11 c (centre), 12-15 n (light samples, <= 1024)
 //   bytes 16-27 ls,         28-31 words (uint words of a mask: (n + 31) / 32)
 //   bytes 32-43 lt,         44-47 max_distance2 (PlaneMaskLut::max_distance2)
 //   bytes 48-59 axis (the view's forward), 60-63 far (raster_order_bits of the farthest listed
 //               depth; written by afsm_soft_list_count)
 //   bytes 64-79 lo.x lo.y hi.x hi.y: the bounding box of the samples' local coordinates
-//   then vec2 local[n] (u_i), then vec3 points[n] (the world points, LightSamples::points)
+//   bytes 80-83 max_distance (PlaneMaskLut::max_distance), 84-87 angle_bins, 88-91 distance_bins
+//               (0: no table, every light sample tested exactly: lut=false), 92-95 pad
+//   then vec2 local[n] (u_i), then vec3 points[n] (the world points, LightSamples::points), then
+//   the table: PlaneMaskLut::cells() (per cell (n + 63) / 64 uint64 sure bits, as many unsure)
 struct AfsmSoftLight {
   vec3 c;
   uint n;
@@ -220,6 +246,10 @@ struct AfsmSoftLight {
   float lo_y;
   float hi_x;
   float hi_y;
+  float max_distance;
+  uint angle_bins;
+  uint distance_bins;
+  uint pad;
 };
 
 // One caster of afsm_soft_casters.comp, 80 bytes, per input triangle:

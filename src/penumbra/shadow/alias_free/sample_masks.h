@@ -75,6 +75,11 @@ class PlaneMaskLut {
     return size();
   }
   float max_distance2() const { return max_distance2_; }
+  float max_distance() const { return max_distance_; }
+  int angle_bins() const { return angle_bins_; }
+  int distance_bins() const { return distance_bins_; }
+  // The table (has_table()): per cell (angle-major) words() sure bits, then words() unsure bits.
+  std::span<const uint64_t> cells() const { return cells_; }
   // The mask with every sample set.
   const uint64_t* all() const { return all_.data(); }
 
@@ -149,9 +154,6 @@ class SampleGrid {
 
 // A monotone stand-in for atan2 on [0, 4) (the "diamond angle"): cheaper than atan2, and
 // the table's angle bins are uniform in it.
-inline float diamond_angle(float x, float y) {
-  if (y >= 0) return x >= 0 ? y / (x + y) : 1 - x / (-x + y);
-  return x < 0 ? 2 - y / (-x - y) : 3 + x / (x - y);
-}
+inline float diamond_angle(float x, float y) { return shader::afsm_diamond_angle(x, y); }
 
 }  // namespace penumbra::afsm

@@ -2,12 +2,12 @@
 // afsm on the GPU, sintorn2008 §4.2, Fig. 6 (alias_free.cpp AliasFreeSoft::evaluate, "raster"):
 // one thread per (caster, texel row of its influence region's hull, conservatively covered), found by a binary search in the
 // scanned row counts. For every entry listed in the row's texels, the pair's four lines on the
-// light (alias_free_shared.h afsm_pair_lines: the CPU's filter_pairs) and, per light sample, the
-// exact test of the CPU's masks (afsm_above: the same bits as its table and sample grid give);
-// an alpha-textured caster keeps the samples whose segment crosses it inside its mask. The bits
-// OR into the entry's mask (atomicOr: several casters cover one texel at once). sintorn2008 ran
-// this per fragment of the hardware rasterizer and looked the plane masks up in a table; a word
-// of 32 exact tests per thread is the compute form here.
+// light (alias_free_shared.h afsm_pair_lines: the CPU's filter_pairs) and their masks, 32 light
+// samples a word: from the plane-mask table (§4.2: sure bits, the cell's unsure samples tested by
+// afsm_above; lut=false: every sample tested; the same bits), ANDed; an alpha-textured caster
+// keeps the samples whose segment crosses it inside its mask. The bits OR into the entry's mask
+// (atomicOr: several casters cover one texel at once). sintorn2008 ran this per fragment of the
+// hardware rasterizer; a thread per covered row is its compute form.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/raster/conservative_cover.glsl"
 #include "penumbra/gpu/raster/raster_access.glsl"
@@ -59,17 +59,25 @@ void main() {
     if (afsm_side_of_disk(l.gb, l.hb, light.max_distance2) < 0 || afsm_side_of_disk(l.g0, l.h0, light.max_distance2) < 0 ||
         afsm_side_of_disk(l.g1, l.h1, light.max_distance2) < 0 || afsm_side_of_disk(l.g2, l.h2, light.max_distance2) < 0)
       continue;
+    // §4.2, Fig. 6: the light samples behind the caster AND inside the three edge planes, each
+    // line's mask from its table cell (found once per pair); an edge line with the whole light
+    // inside it masks nothing out.
+    int cb = afsm_cell(light, l.gb, l.hb);
+    int c0 = afsm_side_of_disk(l.g0, l.h0, light.max_distance2) > 0 ? kAfsmLutAll : afsm_cell(light, l.g0, l.h0);
+    int c1 = afsm_side_of_disk(l.g1, l.h1, light.max_distance2) > 0 ? kAfsmLutAll : afsm_cell(light, l.g1, l.h1);
+    int c2 = afsm_side_of_disk(l.g2, l.h2, light.max_distance2) > 0 ? kAfsmLutAll : afsm_cell(light, l.g2, l.h2);
     for (uint w = 0u; w < light.words; ++w) {
       uint have = masks.v[pos * light.words + w];
-      uint bits = 0u;
-      for (uint b = 0u; b < 32u; ++b) {
-        uint s = 32u * w + b;
-        if (s >= light.n) break;
-        if ((have & (1u << b)) != 0u) continue;
-        vec2 u = afsm_local(pc.p.light, s);
-        if (!afsm_pair_hides(l, u)) continue;
-        if (textured) {
-          // RasterTriangle::opacity_on_line toward the light point (AliasFreeSoft::light_point).
+      uint bits = afsm_mask_word(pc.p.light, light, cb, l.gb, l.hb, w) & ~have;
+      if (bits != 0u) bits &= afsm_mask_word(pc.p.light, light, c0, l.g0, l.h0, w);
+      if (bits != 0u) bits &= afsm_mask_word(pc.p.light, light, c1, l.g1, l.h1, w);
+      if (bits != 0u) bits &= afsm_mask_word(pc.p.light, light, c2, l.g2, l.h2, w);
+      if (bits != 0u && textured) {
+        // The samples the whole triangle hides whose segment from p meets it in a hole of its
+        // mask are not hidden (RasterTriangle::opacity_on_line toward AliasFreeSoft::light_point).
+        for (uint rest = bits; rest != 0u; rest &= rest - 1u) {
+          uint b = uint(findLSB(rest));
+          vec2 u = afsm_local(pc.p.light, 32u * w + b);
           vec3 q = light.c + light.ls * u.x + light.lt * u.y;
           float b1, b2, t;
           if (!triangle_line_crossing(k.v0, k.v1, k.v2, p, q - p, b1, b2, t)) {
@@ -77,9 +85,8 @@ void main() {
             b2 = 0.0f;
           }
           float a = mirrored ? surface_opacity(object, prim, b2, b1) : surface_opacity(object, prim, b1, b2);
-          if (!(a > 0.0f)) continue;
+          if (!(a > 0.0f)) bits &= ~(1u << b);
         }
-        bits |= 1u << b;
       }
       if (bits != 0u) atomicOr(masks.v[pos * light.words + w], bits);
     }
