@@ -35,6 +35,35 @@ GpuReceiverRange empty_receiver_range() {
   return r;
 }
 
+std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
+                                               const Bounds3f& casters, gpu::Buffer& range_buffer) {
+  const AreaLight& light = *ctx.light;
+  gpu::CommandList& cl = *frame.commands;
+  // The fit: the receivers reduced on the device, 32 bytes read back, the view built here by
+  // the CPU's code (light_view_from's frame: from the light's centre along its normal).
+  ShadowViewFit fit;
+  fit.resolution = params.resolution;
+  fit.max_fov = params.max_fov;
+  const ShadowViewFrame frame_axes = shadow_view_frame(light.center, light.frame.n, light.frame.t, casters, {}, fit);
+  cl.stage("fit");
+  cl.fill(range_buffer, 0);
+  for (uint64_t offset : {offsetof(GpuReceiverRange, x0), offsetof(GpuReceiverRange, y0), offsetof(GpuReceiverRange, z0)})
+    cl.fill(range_buffer, kSmallest, offset, 4);
+  shader::FitReceiversParams fp{};
+  fp.samples = frame.view_samples;
+  fp.range = range_buffer.address();
+  fp.axes = frame_axes.axes;
+  fp.light_center = light.center;
+  fp.slots = frame.slots;
+  fp.light_n = light.frame.n;
+  cl.dispatch("shadow_fit_receivers", frame.slots, fp);
+  frame.flush();
+  GpuReceiverRange r{};
+  range_buffer.download(&r, sizeof(r));
+  if (r.receivers == 0) return std::nullopt;
+  return view_from_range(frame_axes, r, casters, fit);
+}
+
 void GpuLightCentreMap::prepare(const ShadowContext& ctx, GpuFrame& frame) {
   casters_ = ctx.scene->bounds();
   valid_ = false;
@@ -48,31 +77,10 @@ void GpuLightCentreMap::prepare(const ShadowContext& ctx, GpuFrame& frame) {
 
 bool GpuLightCentreMap::update(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
                                const BiasParams& bias, MethodStats& stats) {
-  const AreaLight& light = *ctx.light;
   gpu::CommandList& cl = *frame.commands;
-  // The fit: the receivers reduced on the device, 32 bytes read back, the view built here by
-  // the CPU's code (light_view_from's frame: from the light's centre along its normal).
-  ShadowViewFit fit;
-  fit.resolution = params.resolution;
-  fit.max_fov = params.max_fov;
-  const ShadowViewFrame frame_axes = shadow_view_frame(light.center, light.frame.n, light.frame.t, casters_, {}, fit);
-  cl.stage("fit");
-  cl.fill(range_, 0);
-  for (uint64_t offset : {offsetof(GpuReceiverRange, x0), offsetof(GpuReceiverRange, y0), offsetof(GpuReceiverRange, z0)})
-    cl.fill(range_, kSmallest, offset, 4);
-  shader::FitReceiversParams fp{};
-  fp.samples = frame.view_samples;
-  fp.range = range_.address();
-  fp.axes = frame_axes.axes;
-  fp.light_center = light.center;
-  fp.slots = frame.slots;
-  fp.light_n = light.frame.n;
-  cl.dispatch("shadow_fit_receivers", frame.slots, fp);
-  frame.flush();
-  GpuReceiverRange r{};
-  range_.download(&r, sizeof(r));
-  if (r.receivers == 0) return false;
-  const LightView view = view_from_range(frame_axes, r, casters_, fit);
+  const std::optional<LightView> fitted = fit_light_centre_view(ctx, frame, params, casters_, range_);
+  if (!fitted) return false;
+  const LightView& view = *fitted;
   // Rendered again only when the fitted view changed (LightCentreMap::update's rule).
   if (!(valid_ && same_fitted_view(map_.view(), view))) {
     rasterizer_->depth_map(cl, frame.flush, "raster", *frame.scene, view, RasterFilter{}, &map_);

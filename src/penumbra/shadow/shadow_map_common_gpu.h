@@ -6,6 +6,8 @@
 // equals the CPU's up to float rounding; the map is the GPU rasterizer's (gpu/raster/).
 #pragma once
 
+#include <optional>
+
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/gpu_method.h"
@@ -21,6 +23,12 @@ LightView view_from_range(const ShadowViewFrame& frame, const shader::GpuReceive
                           const ShadowViewFit& fit);
 // What a fit kernel's range starts from: no receiver, the identities of min and max.
 shader::GpuReceiverRange empty_receiver_range();
+// The fitted view from the light's centre along its normal (stage "fit"): the receivers of
+// frame.view_samples reduced on the device into `range` (a GpuReceiverRange buffer), read back
+// after frame.flush(), the view built by the CPU's code (build_shadow_view; `casters`: the
+// casters' bounds). Empty when no view sample is in front of the light.
+std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
+                                               const Bounds3f& casters, gpu::Buffer& range);
 
 class GpuLightCentreMap {
  public:

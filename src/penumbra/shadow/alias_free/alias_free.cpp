@@ -34,6 +34,7 @@
 #include "penumbra/raster/conservative.h"
 #include "penumbra/raster/raster_triangle.h"
 #include "penumbra/raster/shadow_view.h"
+#include "penumbra/shadow/alias_free/alias_free_shared.h"
 #include "penumbra/shadow/alias_free/influence_region.h"
 #include "penumbra/shadow/alias_free/pair_filter.h"
 #include "penumbra/shadow/alias_free/sample_masks.h"
@@ -47,19 +48,11 @@ namespace {
 
 using afsm::TexelLists;
 
-// Sine of the angle under which a view sample must see a caster's plane for the caster to
-// be tested against it (afsm): below, the cone from the sample over the triangle is flat.
-constexpr float kFlat = 1e-5f;
+constexpr float kFlat = shader::kAfsmFlat;  // alias_free_shared.h
 
-// The plane through an apex x (the light's centre, a view sample) and the triangle edge
-// from v_i to v_i + d (d = v_{i+1} - v_i, the triangle wound v_0 v_1 v_2), as its normal,
-// pointing into the cone from x over the triangle. a = v_i - x. The orientation needs no
-// test against the third vertex: det[a, d, v_{i+2} - v_i] = -dot(n, x - v_i) for every
-// edge (n = the winding normal), so it follows from the apex's side of the triangle alone,
-// the same for all three edges even where x sees the triangle almost edge-on (where a
-// per-edge test of the third vertex is rounding noise). Using the exact edge vector d
-// rather than (v_{i+1} - x) keeps the plane accurate for small, distant triangles.
-inline Vec3f edge_plane(Vec3f a, Vec3f d, bool apex_in_front) { return apex_in_front ? cross(d, a) : cross(a, d); }
+// The plane through an apex and a triangle edge (alias_free_shared.h afsm_edge_plane: shared with
+// the GPU version).
+inline Vec3f edge_plane(Vec3f a, Vec3f d, bool apex_in_front) { return shader::afsm_edge_plane(a, d, apex_in_front); }
 
 struct Counters {
   uint64_t texel_visits = 0;   // (covered texel, caster) pairs
@@ -172,9 +165,9 @@ class AliasFreeBase : public ShadowMethod {
           if (shadowed[slot]) continue;
           cnt.sample_tests++;
           const Vec3f p = lists_.positions[slot];
-          if (!(dot(pl.support, p - pl.v0) > 0)) continue;
+          // §3.3's four planes (alias_free_shared.h: the GPU version runs the same test).
+          if (!shader::afsm_hard_blocks(pl.support, pl.v0, pl.edge[0], pl.edge[1], pl.edge[2], c, p)) continue;
           const Vec3f d = p - c;
-          if (!(dot(pl.edge[0], d) >= 0 && dot(pl.edge[1], d) >= 0 && dot(pl.edge[2], d) >= 0)) continue;
           // An alpha-textured caster (issue 20) blocks where the segment meets it inside its mask.
           if (textures.textured(casters[index]) && !(textures.opacity_on_line(casters[index], p, d) > 0)) continue;
           shadowed[slot] = 1;

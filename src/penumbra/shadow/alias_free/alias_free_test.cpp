@@ -12,6 +12,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/shadow/alias_free/alias_free_shared.h"
 #include "penumbra/shadow/alias_free/influence_region.h"
 #include "penumbra/shadow/alias_free/pair_filter.h"
 #include "penumbra/shadow/alias_free/sample_masks.h"
@@ -127,7 +128,7 @@ TEST(AliasFreeGrid, CellsHoldEverySampleInsideTheThreeLines) {
 
 TEST(AliasFreePairs, SimdFilterEqualsTheScalarTest) {
   // Random casters and samples around a rect light: filter_pairs keeps exactly the pairs the
-  // scalar test keeps, with bit-equal lines, and its cell ranges hold every sample inside.
+  // scalar test (the GPU's, alias_free_shared.h) keeps, with bit-equal lines, and its cell ranges hold every sample inside.
   AreaLight light = rect_light_down({0, 2, 0}, 1.5f, 1.5f);
   const afsm::LightSamples samples = afsm::make_light_samples(light, 256, 3, 0, 0);
   const afsm::PlaneMaskLut lut(samples.local, 0, 0);
@@ -169,19 +170,13 @@ TEST(AliasFreePairs, SimdFilterEqualsTheScalarTest) {
     for (uint32_t slot = 0; slot < n; ++slot) {
       if (settled[slot]) continue;
       ++expect_tested;
-      // The scalar test (alias_free.cpp before the SIMD form).
+      // The scalar test: alias_free_shared.h afsm_pair_lines, which the GPU version runs.
       const Vec3f p{x[slot], y[slot], z[slot]};
-      const Vec3f to_p = p - v[0];
-      const float side = dot(normal, to_p);
-      const float flat2 = 1e-5f * 1e-5f * normal_len * normal_len * dot(to_p, to_p);
-      bool keep = (pc.closed ? side > 0 : side != 0) && side * side > flat2;
-      afsm::Line lines[3];
-      for (int k = 0; k < 3 && keep; ++k) {
-        const Vec3f a = v[k] - p, d = v[(k + 1) % 3] - v[k];
-        const Vec3f e = side > 0 ? cross(d, a) : cross(a, d);
-        lines[k] = {{dot(e, ls), dot(e, lt)}, dot(e, c - p)};
-        keep = lut.side_of_disk(lines[k].g, lines[k].h) >= 0;
-      }
+      const float side = dot(normal, p - v[0]);
+      shader::AfsmPairLines shared{};
+      bool keep = shader::afsm_pair_lines(p, v[0], v[1], v[2], normal, pc.flat_scale, pc.closed, c, ls, lt, shared);
+      const afsm::Line lines[3] = {{shared.g0, shared.h0}, {shared.g1, shared.h1}, {shared.g2, shared.h2}};
+      for (int k = 0; k < 3 && keep; ++k) keep = lut.side_of_disk(lines[k].g, lines[k].h) >= 0;
       std::vector<int> inside;
       for (int s = 0; s < samples.size() && keep; ++s) {
         const Vec2f u = samples.local[s];

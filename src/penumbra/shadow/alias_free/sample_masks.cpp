@@ -116,21 +116,18 @@ void PlaneMaskLut::exact(Vec2f g, float h, uint64_t* out) const {
 }
 
 int PlaneMaskLut::lookup(Vec2f g, float h, uint64_t* out) const {
-  const float len = std::sqrt(g.x * g.x + g.y * g.y);
-  const float d = len > 0 ? -h / len : (h > 0 ? -kInfinity : kInfinity);
+  // The cell (alias_free_shared.h: the GPU's lookup too).
+  const int cell = shader::afsm_lut_cell(g, h, max_distance_, angle_bins_, distance_bins_);
   // Every sample lies within max_distance_ of the centre: the line misses the disk.
-  if (!(d < max_distance_)) {
+  if (cell == shader::kAfsmLutNone) {
     std::fill(out, out + words_, 0ull);
     return 0;
   }
-  if (d <= -max_distance_) {
+  if (cell == shader::kAfsmLutAll) {
     std::copy(all_.begin(), all_.end(), out);
     return 0;
   }
-  const int a = std::min(static_cast<int>(diamond_angle(g.x, g.y) * (angle_bins_ * 0.25f)), angle_bins_ - 1);
-  const int b = std::clamp(static_cast<int>((d + max_distance_) * (distance_bins_ / (2 * max_distance_))), 0,
-                           distance_bins_ - 1);
-  const uint64_t* sure = cells_.data() + (static_cast<size_t>(a) * distance_bins_ + b) * 2 * words_;
+  const uint64_t* sure = cells_.data() + static_cast<size_t>(cell) * 2 * words_;
   const uint64_t* unsure = sure + words_;
   int tested = 0;
   for (int w = 0; w < words_; ++w) {

@@ -24,6 +24,7 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/scene/light.h"
+#include "penumbra/shadow/alias_free/alias_free_shared.h"
 #include "penumbra/shadow/light_samples.h"
 
 namespace penumbra::afsm {
@@ -41,7 +42,7 @@ inline int mask_words(int n) { return (n + 63) / 64; }
 
 // The exact test of one light sample u against the line g . u + h > 0, in float, written once
 // so that the table, the exact masks and the sample grid classify every sample the same way.
-inline bool above(float ux, float uy, Vec2f g, float h) { return ux * g.x + uy * g.y + h > 0; }
+inline bool above(float ux, float uy, Vec2f g, float h) { return shader::afsm_above(ux, uy, g, h); }
 
 // A line on the light's sample plane; a sample u is on its positive side when above(u, g, h).
 struct Line {
@@ -74,18 +75,19 @@ class PlaneMaskLut {
     return size();
   }
   float max_distance2() const { return max_distance2_; }
+  float max_distance() const { return max_distance_; }
+  int angle_bins() const { return angle_bins_; }
+  int distance_bins() const { return distance_bins_; }
+  // The table (has_table()): per cell (angle-major) words() sure bits, then words() unsure bits.
+  std::span<const uint64_t> cells() const { return cells_; }
   // The mask with every sample set.
   const uint64_t* all() const { return all_.data(); }
 
   // Where the line g . u + h = 0 misses the samples' disk: -1 when no sample is on the
   // positive side, +1 when all are, 0 when it may cut them (then use mask()). No square root,
   // no table access: the common cases of the per-(sample, caster) test end here.
-  int side_of_disk(Vec2f g, float h) const {
-    const float g2 = g.x * g.x + g.y * g.y, reach2 = g2 * max_distance2_;
-    if (h * h > reach2 || (g2 == 0 && h != 0)) return h > 0 ? 1 : -1;
-    if (g2 == 0) return -1;  // g = 0, h = 0: nothing strictly positive
-    return 0;
-  }
+  // (alias_free_shared.h: the GPU's test too.)
+  int side_of_disk(Vec2f g, float h) const { return shader::afsm_side_of_disk(g, h, max_distance2_); }
 
  private:
   std::vector<float> ux_, uy_;
@@ -152,9 +154,6 @@ class SampleGrid {
 
 // A monotone stand-in for atan2 on [0, 4) (the "diamond angle"): cheaper than atan2, and
 // the table's angle bins are uniform in it.
-inline float diamond_angle(float x, float y) {
-  if (y >= 0) return x >= 0 ? y / (x + y) : 1 - x / (-x + y);
-  return x < 0 ? 2 - y / (-x - y) : 3 + x / (x - y);
-}
+inline float diamond_angle(float x, float y) { return shader::afsm_diamond_angle(x, y); }
 
 }  // namespace penumbra::afsm
