@@ -26,7 +26,10 @@ void GpuScan::exclusive(CommandList& commands, uint64_t in, uint64_t out, uint32
   // The tree's levels: level l holds the block totals of level l - 1 (level 0: the values).
   std::vector<uint32_t> sizes;
   for (uint64_t b = blocks(n); b > 1; b = blocks(b)) sizes.push_back(static_cast<uint32_t>(b));
-  if (sizes != sizes_) {
+  // Grown only (a smaller scan reuses the levels): commands recorded earlier may still use them.
+  bool fits = sums_.size() >= sizes.size();
+  for (size_t l = 0; fits && l < sizes.size(); ++l) fits = sizes_[l] >= sizes[l];
+  if (!fits) {
     sums_.clear();
     for (uint32_t s : sizes) sums_.emplace_back(commands.device(), (uint64_t(s) + 1) * sizeof(uint32_t), "a prefix sum's block totals");
     sizes_ = sizes;

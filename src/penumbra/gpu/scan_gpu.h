@@ -16,7 +16,9 @@ class GpuScan {
  public:
   // Records out[i] = in[0] + ... + in[i - 1] for i in [0, n]: out holds n + 1 uints (out[n] is
   // the total; in and out may be one buffer, then in needs room for n + 1). Scratch for the
-  // block totals is allocated on the first call for each size and kept.
+  // block totals is allocated on the first call and kept, grown where a later n needs more:
+  // growing frees what commands recorded before may still use, so scans of different arrays in
+  // one command list take one GpuScan each (or the largest first).
   void exclusive(CommandList& commands, uint64_t in, uint64_t out, uint32_t n);
   // The scratch exclusive() holds for n values (memory estimates).
   static uint64_t scratch_bytes(uint64_t n);

@@ -143,12 +143,12 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     cl.dispatch(k.list_count, frame.slots, p);
     Totals t;
     if (!has_view) return t;  // every entry is a miss or lies behind the light
-    scan_.exclusive(cl, first_.address(), first_.address(), texels);
+    list_scan_.exclusive(cl, first_.address(), first_.address(), texels);
     if (p.triangles > 0) {
       cl.stage("casters");
       p.count = p.triangles;
       cl.dispatch(k.casters, p.triangles, p);
-      scan_.exclusive(cl, rows_.address(), rows_.address(), p.triangles);
+      row_scan_.exclusive(cl, rows_.address(), rows_.address(), p.triangles);
     }
     frame.flush();
     first_.download(&t.listed, 4, uint64_t{texels} * 4);
@@ -199,7 +199,8 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   bool counting_ = false;  // a frame ran since the last collect_stats()
   gpu::Buffer range_, view_buffer_, listed_;
   gpu::Buffer state_, points_, first_, cursor_, casters_, rows_, polygons_;
-  gpu::GpuScan scan_;  // the lists' and the rows' offsets
+  // The lists' and the casters' rows' offsets (one scan each: they are recorded in one list).
+  gpu::GpuScan list_scan_, row_scan_;
 };
 
 class AliasFreeHardGpu final : public AliasFreeGpuBase {
@@ -237,7 +238,7 @@ class AliasFreeHardGpu final : public AliasFreeGpuBase {
     for (const gpu::Buffer* b : {&range_, &view_buffer_, &state_, &points_, &first_, &cursor_, &casters_, &rows_,
                                  &polygons_, &listed_})
       sum += b->bytes();
-    return sum + scan_.device_bytes();
+    return sum + list_scan_.device_bytes() + row_scan_.device_bytes();
   }
 };
 
@@ -313,7 +314,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     for (const gpu::Buffer* b : {&range_, &view_buffer_, &listed_, &light_, &state_, &points_, &first_, &cursor_,
                                  &casters_, &rows_, &polygons_, &masks_})
       bytes += b->bytes();
-    bytes += scan_.device_bytes();
+    bytes += list_scan_.device_bytes() + row_scan_.device_bytes();
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, bytes);
   }
 
