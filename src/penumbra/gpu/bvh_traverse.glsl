@@ -3,6 +3,8 @@
 // both children's boxes in the parent, the nearer child first for closest hits), with the
 // CPU ray tracer's rules (trace/ray_tracer.cpp):
 //   trace_closest        the nearest hit a camera ray stops at (alpha masks let it through);
+//   trace_closest_after  the same beyond a distance tmin (the next surface along a ray, as the
+//                        CPU's closest-hit queries with tnear: ssv-rt counts surfaces so);
 //   trace_transmittance  the fraction of light along a shadow segment: 0 at an opaque hit,
 //                        (1 - opacity) per semi-transparent surface crossed, once per surface
 //                        where a ray crosses the edge two triangles share.
@@ -36,11 +38,12 @@ vec3 safe_inverse(vec3 d) {
               1.0f / (abs(d.z) > eps ? d.z : (d.z >= 0.0f ? eps : -eps)));
 }
 
-// The entry distance of the ray into the box, or +inf if it misses it within (0, tmax].
-float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tmax) {
+// The entry distance of the ray into the box, or +inf if it misses it within (tmin, tmax]
+// (tmin 0: every query but trace_closest_after's, which skips the boxes it has passed).
+float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tmin, float tmax) {
   vec3 t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
   vec3 tn = min(t0, t1), tf = max(t0, t1);
-  float enter = max(max(tn.x, tn.y), max(tn.z, 0.0f));
+  float enter = max(max(tn.x, tn.y), max(tn.z, tmin));
   float leave = min(min(tf.x, tf.y), min(tf.z, tmax));
   return enter <= leave ? enter : pn_inf();
 }
@@ -91,7 +94,7 @@ const float kOpaqueCutoff = 1e-4f;
 // The traversal both queries share (closest: keep the nearest hit a camera ray stops at;
 // otherwise: multiply the transmittance and stop when nothing is left). Both callers pass a
 // constant `closest`, so each gets its own specialised copy once inlined.
-void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, inout float transmit) {
+void traverse(vec3 org, vec3 dir, float tmin, float tmax, bool closest, inout RayHit hit, inout float transmit) {
   uint stack[PN_TRAVERSAL_STACK];
   int sp = 0;
   vec3 o = org, d = dir, inv_d = safe_inverse(dir);
@@ -132,8 +135,8 @@ void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, in
       continue;
     }
     GpuBvhNode n = g_nodes.v[e];
-    float h0 = n.child0 == kEmptyChild ? pn_inf() : box_entry(n.lo0, n.hi0, o, inv_d, tmax);
-    float h1 = n.child1 == kEmptyChild ? pn_inf() : box_entry(n.lo1, n.hi1, o, inv_d, tmax);
+    float h0 = n.child0 == kEmptyChild ? pn_inf() : box_entry(n.lo0, n.hi0, o, inv_d, tmin, tmax);
+    float h1 = n.child1 == kEmptyChild ? pn_inf() : box_entry(n.lo1, n.hi1, o, inv_d, tmin, tmax);
     for (int k = 0; k < 2 && !done; ++k) {
       // The farther child goes onto the stack first, so the nearer is popped first.
       bool second = (h1 < h0) == (k == 0);
@@ -155,6 +158,7 @@ void traverse(vec3 org, vec3 dir, float tmax, bool closest, inout RayHit hit, in
         if (!intersect_triangle(tri, o, d, tmax, t, u, v)) continue;
         uint object = tri.object != kInstanceObject ? tri.object : inst_object;
         if (closest) {
+          if (!(t > tmin)) continue;  // before the query's start (trace_closest_after)
           if (!surface_seen(object, tri.prim, u, v)) continue;  // an alpha mask's hole
           tmax = t;
           hit.t = t;
@@ -206,7 +210,15 @@ RayHit no_hit(float tmax) {
 bool trace_closest(vec3 org, vec3 dir, float tmax, out RayHit hit) {
   hit = no_hit(tmax);
   float unused = 1.0f;
-  traverse(org, dir, tmax, true, hit, unused);
+  traverse(org, dir, 0.0f, tmax, true, hit, unused);
+  return hit.object != kMissObject;
+}
+
+// The nearest such hit with t in (tmin, tmax].
+bool trace_closest_after(vec3 org, vec3 dir, float tmin, float tmax, out RayHit hit) {
+  hit = no_hit(tmax);
+  float unused = 1.0f;
+  traverse(org, dir, tmin, tmax, true, hit, unused);
   return hit.object != kMissObject;
 }
 
@@ -214,7 +226,7 @@ bool trace_closest(vec3 org, vec3 dir, float tmax, out RayHit hit) {
 float trace_transmittance(vec3 org, vec3 dir, float tmax) {
   RayHit unused = no_hit(tmax);
   float transmit = 1.0f;
-  traverse(org, dir, tmax, false, unused, transmit);
+  traverse(org, dir, 0.0f, tmax, false, unused, transmit);
   return transmit;
 }
 

@@ -15,8 +15,10 @@
 #include "penumbra/gpu/device.h"
 #include "penumbra/gpu/gpu_test_util.h"
 #include "penumbra/gpu/raster/gpu_batch_rasterizer.h"
+#include "penumbra/gpu/ray_queries.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/testing/method_runs.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra::testing {
@@ -67,6 +69,35 @@ inline DevicePair render_on_both(const Scene& scene, RenderSettings settings) {
 }
 inline DevicePair render_on_both(const Scene& scene, const std::string& method, const std::vector<std::string>& params) {
   return render_on_both(scene, device_settings(method, params, false));
+}
+
+// V per view sample of the CPU's camera pass `r` (spp 1: one view sample per pixel) from a
+// render of the same scene.
+inline std::vector<float> per_sample(const SceneRun& r, const RenderResult& render) {
+  std::vector<float> v(r.vs.size());
+  for (size_t k = 0; k < v.size(); ++k) v[k] = render.visibility.data()[r.vs.samples[k].pixel];
+  return v;
+}
+
+// The GPU ray tracer's fraction of `points` each view sample of `r` sees (embree_to_points'
+// rays, traced by gpu::trace_transmittance): the exactness check of the methods that decide
+// visibility per fixed light point (afsm, ssv-rt).
+inline std::vector<float> gpu_rays_to_points(gpu::Device& device, const SceneRun& r, const std::vector<Vec3f>& points) {
+  const AreaLight& light = r.scene.lights[0];
+  std::vector<ShadowRay> rays;
+  rays.reserve(r.vs.size() * points.size());
+  for (const ViewSample& s : r.vs.samples)
+    for (const Vec3f& q : points) rays.push_back(shadow_ray_to(s.p, s.ng, q));
+  const gpu::GpuScene scene(device, r.scene);
+  const std::vector<float> t = gpu::trace_transmittance(scene, rays);
+  std::vector<float> v(r.vs.size(), 0.0f);
+  for (size_t k = 0; k < v.size(); ++k) {
+    if (!in_front(light, r.vs.samples[k].p)) continue;
+    double sum = 0;
+    for (size_t i = 0; i < points.size(); ++i) sum += t[k * points.size() + i];
+    v[k] = static_cast<float>(sum / points.size());
+  }
+  return v;
 }
 
 // A ground under a light facing up, away from it: no view sample is in front of the light.

@@ -30,13 +30,6 @@ using gpu::testing::GpuTest;
 
 class AliasFreeGpu : public GpuTest {
  protected:
-  // V per view sample of the CPU's camera pass `r` (spp 1: one view sample per pixel) from a GPU
-  // render of the same scene.
-  static std::vector<float> per_sample(const testing::SceneRun& r, const RenderResult& render) {
-    std::vector<float> v(r.vs.size());
-    for (size_t k = 0; k < v.size(); ++k) v[k] = render.visibility.data()[r.vs.samples[k].pixel];
-    return v;
-  }
   // The GPU ray tracer's hard shadows to the light's centre from every view sample of `r`
   // (testing::embree_hard's rays, traced by gpu::trace_transmittance).
   std::vector<float> gpu_rays_to_centre(const testing::SceneRun& r) {
@@ -49,25 +42,6 @@ class AliasFreeGpu : public GpuTest {
       if (!testing::in_front(light, r.vs.samples[k].p)) v[k] = 0;
     return v;
   }
-  // The GPU ray tracer's fraction of `points` each view sample of `r` sees (testing::
-  // embree_to_points' rays, traced by gpu::trace_transmittance).
-  std::vector<float> gpu_rays_to_points(const testing::SceneRun& r, const std::vector<Vec3f>& points) {
-    const AreaLight& light = r.scene.lights[0];
-    std::vector<ShadowRay> rays;
-    rays.reserve(r.vs.size() * points.size());
-    for (const ViewSample& s : r.vs.samples)
-      for (const Vec3f& q : points) rays.push_back(shadow_ray_to(s.p, s.ng, q));
-    const gpu::GpuScene scene(device(), r.scene);
-    const std::vector<float> t = gpu::trace_transmittance(scene, rays);
-    std::vector<float> v(r.vs.size(), 0.0f);
-    for (size_t k = 0; k < v.size(); ++k) {
-      if (!testing::in_front(light, r.vs.samples[k].p)) continue;
-      double sum = 0;
-      for (size_t i = 0; i < points.size(); ++i) sum += t[k * points.size() + i];
-      v[k] = static_cast<float>(sum / points.size());
-    }
-    return v;
-  }
   // afsm at N light samples: every view sample's V against the GPU rays to afsm's own N points
   // (the renderer's seed, light 0, frame 0), and the CPU version's picture.
   void expect_soft_exact(const std::string& name, int resolution, int n) {
@@ -75,9 +49,9 @@ class AliasFreeGpu : public GpuTest {
     RenderSettings gpu_settings = testing::device_settings("afsm", {"resolution=64"}, true);
     gpu_settings.light_samples = n;
     const RenderResult gpu = render_scene(r.scene, gpu_settings);
-    const std::vector<float> v = per_sample(r, gpu);
+    const std::vector<float> v = testing::per_sample(r, gpu);
     const afsm::LightSamples pts = afsm::make_light_samples(r.scene.lights[0], n, gpu_settings.seed, 0, 0);
-    const std::vector<float> rays = gpu_rays_to_points(r, pts.points);
+    const std::vector<float> rays = testing::gpu_rays_to_points(device(), r, pts.points);
     const testing::Agreement g = testing::agreement(v, rays);
     std::printf("GPU afsm N=%d vs GPU rays to the same points, %s: %.5f of %zu equal, max |dV| %.5f\n", n, name.c_str(),
                 g.equal_fraction, v.size(), g.max_diff);
@@ -96,7 +70,7 @@ class AliasFreeGpu : public GpuTest {
     const testing::SceneRun r = testing::load_scene_at(name, resolution);
     const RenderResult gpu = render_scene(r.scene, testing::device_settings("afsm-hard", {"resolution=256"}, true));
     EXPECT_EQ(gpu.device, device().info().name);
-    const std::vector<float> v = per_sample(r, gpu);
+    const std::vector<float> v = testing::per_sample(r, gpu);
     const std::vector<float> rays = gpu_rays_to_centre(r);
     const testing::Agreement g = testing::agreement(v, rays);
     std::printf("GPU afsm-hard vs GPU rays to the centre, %s: %.5f of %zu view samples equal\n", name.c_str(),

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "penumbra/shadow/soft_shadow_volumes/crossing_kernel.h"
+#include "penumbra/shadow/soft_shadow_volumes/ssv_shared.h"
 
 namespace penumbra::ssv {
 namespace {
@@ -43,32 +44,13 @@ EdgeFacing edge_facing(const SilhouetteEdge& e) {
 int edge_weight(const SilhouetteEdge& e, Vec3f o) { return weight(e, o, cross(sub(e.a, o), sub(e.b, o))); }
 
 bool add_edge_crossings(const SilhouetteEdge& e, Vec3f o, Vec3f r, const SampleOffsets& samples, int32_t* depth) {
-  const D3 a = sub(e.a, o), b = sub(e.b, o), rr{r.x, r.y, r.z};
-  D3 m = cross(a, b);
-  const int k = weight(e, o, m);
-  const double side_r = dot(m, rr);
-  if (k == 0 || side_r == 0) return false;
-  // Oriented so that r is on the positive side of every test (depth_complexity.h): a crossing
-  // sample has m . l < 0, u . l > u . a (the line a-b on o's side of r-l: det[b - a, r - a,
-  // l - a] has the sign of det[b - a, o - a, r - a] = m . r) and (a x r) . l, (b x r) . l of
-  // opposite signs (a and b on either side of the plane (o, r, l)).
-  const double sign = side_r > 0 ? 1.0 : -1.0;
-  m = {m.x * sign, m.y * sign, m.z * sign};
-  D3 u = cross(b - a, rr - a);
-  u = {u.x * sign, u.y * sign, u.z * sign};
-  const double ua = dot(u, a);
-  const D3 alpha = cross(a, rr), beta = cross(b, rr);
-  // Sweeping from r over the edge onto m's negative side enters the triangles there and
-  // leaves those on the positive side: D changes by -k (k counted with the unflipped m).
-  const int32_t delta = side_r > 0 ? -k : k;
-  // The per-sample tests in float (SIMD, crossing_kernel.h), the per-edge set-up above in
-  // double: the small triangles of a fine mesh seen from afar make the cross products cancel.
-  const CrossingTests tests{{float(m.x), float(m.y), float(m.z)},
-                            {float(u.x), float(u.y), float(u.z)},
-                            {float(alpha.x), float(alpha.y), float(alpha.z)},
-                            {float(beta.x), float(beta.y), float(beta.z)},
-                            float(ua)};
-  add_crossings(tests, samples.x, samples.y, samples.z, padded_samples(static_cast<size_t>(samples.count)), delta,
+  // The per-edge set-up in double (ssv_shared.h, shared with the GPU kernel), the per-sample
+  // tests in float (SIMD, crossing_kernel.h: ssv_sample_crosses' rounding).
+  shader::SsvCrossing c;
+  if (!shader::ssv_edge_crossing(e.a, e.b, e.w[0], e.w[1], e.triangles, o, r, c)) return false;
+  const CrossingTests tests{{c.m.x, c.m.y, c.m.z}, {c.u.x, c.u.y, c.u.z}, {c.alpha.x, c.alpha.y, c.alpha.z},
+                            {c.beta.x, c.beta.y, c.beta.z}, c.ua};
+  add_crossings(tests, samples.x, samples.y, samples.z, padded_samples(static_cast<size_t>(samples.count)), c.delta,
                 depth);
   return true;
 }

@@ -22,6 +22,7 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/shadow/soft_shadow_volumes/silhouette_edges.h"
+#include "penumbra/shadow/soft_shadow_volumes/ssv_shared.h"
 
 namespace penumbra::ssv {
 
@@ -51,12 +52,8 @@ EdgeFacing edge_facing(const SilhouetteEdge& e);
 // True only where k_e(o) = 0 for certain; false where the edge may be a silhouette from o.
 // o_size: max |coordinate| of o.
 inline bool surely_not_silhouette(const EdgeFacing& f, Vec3f o, float o_size) {
-  if (!f.two_sided) return false;
-  const float s0 = dot(f.n[0], o) + f.d[0], s1 = dot(f.n[1], o) + f.d[1];
-  constexpr float kRelative = 1e-5f;
-  const float t0 = kRelative * (f.scale[0] * (3 * o_size) + std::abs(f.d[0]));
-  const float t1 = kRelative * (f.scale[1] * (3 * o_size) + std::abs(f.d[1]));
-  return ((s0 > t0 && s1 < -t1) || (s0 < -t0 && s1 > t1));
+  return f.two_sided && shader::ssv_surely_not_silhouette(f.n[0], f.d[0], f.scale[0], f.n[1], f.d[1], f.scale[1], o,
+                                                          o_size);
 }
 
 // Adds the edge's change to depth[i] for every light sample i whose segment from o, swept

@@ -35,6 +35,7 @@
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/shadow/soft_shadow_volumes/crossing_kernel.h"
 #include "penumbra/shadow/soft_shadow_volumes/depth_complexity.h"
+#include "penumbra/shadow/soft_shadow_volumes/edge_hierarchy.h"
 #include "penumbra/shadow/soft_shadow_volumes/silhouette_edges.h"
 #include "penumbra/trace/bvh.h"
 #include "penumbra/trace/ray_shared.h"
@@ -43,8 +44,6 @@
 namespace penumbra {
 namespace {
 
-// Edges per leaf: 8 measured 13% faster than 4 on the bunny (fewer nodes to test), 16 no better.
-constexpr int kLeafSize = 8;
 // The casters tested per light sample: TriangleBvh's default.
 constexpr int kPartialLeafSize = 4;
 
@@ -59,26 +58,6 @@ inline bool outside(const Bounds3f& b, const Plane& p) {
   return dot(p.n, c) + p.d < 0;
 }
 
-// A hierarchy node's bound on the facing of its edges' triangles (§3.2: only edges that are
-// silhouettes from the point matter), so that a whole subtree is skipped where the point sees
-// all of its triangles from the front, or all from behind: then no edge in it is a silhouette
-// from the point. The triangles' unit normals N (oriented so that an edge's two triangles
-// agree: k_e = 0 iff N_A . (o - x) and N_B . (o - x) have one sign) lie within `spread` of the
-// unit `axis`; their points lie in `box`. For every such plane through x in the box,
-//   N . (o - x) >= axis . o - max_box(axis . x) - spread |o - x|,
-// and symmetrically from above: one bound decides the whole node.
-struct NodeFacing {
-  Vec3f axis{0.0f};
-  float spread = 0;
-  Bounds3f box;
-  bool cullable = false;  // false with a boundary or degenerate edge, or normals all around
-  // From the above, for the test: the range of axis . x over the box, its centre and
-  // half-diagonal.
-  float h_lo = 0, h_hi = 0;
-  Vec3f centre{0.0f};
-  float half_diagonal = 0;
-};
-
 class SoftShadowVolumes final : public ShadowMethod {
  public:
   explicit SoftShadowVolumes(const ParamSet&) {}
@@ -87,25 +66,7 @@ class SoftShadowVolumes final : public ShadowMethod {
     ScopedPhase phase(stats_, "silhouettes");
     stats_.prepare_count++;
     const AreaLight& light = *ctx.light;
-    edges_ = ssv::potential_silhouettes(*ctx.scene, ssv::light_region(light));
-    std::vector<BvhTriangle> boxes(edges_.size());
-    for (size_t i = 0; i < edges_.size(); ++i) {
-      boxes[i].v0 = edges_[i].a;
-      boxes[i].v1 = boxes[i].v2 = edges_[i].b;
-      boxes[i].prim = static_cast<uint32_t>(i);
-    }
-    bvh_ = TriangleBvh(std::move(boxes), kLeafSize);
-    // The edges in the hierarchy's leaf order (a leaf's edges side by side), with their
-    // quick facing test.
-    {
-      std::vector<ssv::SilhouetteEdge> ordered;
-      ordered.reserve(edges_.size());
-      for (const BvhTriangle& t : bvh_.triangles()) ordered.push_back(edges_[t.prim]);
-      edges_ = std::move(ordered);
-    }
-    facing_.resize(edges_.size());
-    for (size_t i = 0; i < edges_.size(); ++i) facing_[i] = ssv::edge_facing(edges_[i]);
-    build_node_facing();
+    hierarchy_.build(*ctx.scene, light);
     // The casters that stop only part of the light somewhere (alpha-textured, or opacity < 1)
     // are left out of the edges and of the reference ray's count, and tested per light sample
     // (their own hierarchy): what is left is opaque, which the depth complexity counts.
@@ -132,27 +93,16 @@ class SoftShadowVolumes final : public ShadowMethod {
     }
     partial_bvh_ = partial.empty() ? TriangleBvh() : TriangleBvh(std::move(partial), kPartialLeafSize);
     stats_.extra["partial_casters"] = partial_.size();
-    stats_.extra["silhouette_edges"] = edges_.size();
+    stats_.extra["silhouette_edges"] = hierarchy_.edges.size();
   }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
     const AreaLight& light = *ctx.light;
     const int n = std::max(1, ctx.light_samples);
     const LightSamples samples = make_light_samples(light, n, ctx.seed, ctx.light_index, ctx.frame);
-    // The samples' bounding rectangle on the light's plane, a little larger (rounding): the
-    // base of every point's pyramid.
-    float x0 = kInfinity, x1 = -kInfinity, y0 = kInfinity, y1 = -kInfinity;
-    for (Vec2f u : samples.local) {
-      x0 = std::min(x0, u.x), x1 = std::max(x1, u.x), y0 = std::min(y0, u.y), y1 = std::max(y1, u.y);
-    }
-    const float pad = 1e-3f * std::max(1.0f, std::max(x1 - x0, y1 - y0));
-    x0 -= pad, x1 += pad, y0 -= pad, y1 += pad;
-    const float R = samples.radius;
-    const Vec3f corners[4] = {samples.center + samples.s * (R * x0) + samples.t * (R * y0),
-                              samples.center + samples.s * (R * x1) + samples.t * (R * y0),
-                              samples.center + samples.s * (R * x1) + samples.t * (R * y1),
-                              samples.center + samples.s * (R * x0) + samples.t * (R * y1)};
-    const Vec3f rect_centre = (corners[0] + corners[2]) * 0.5f;
+    const ssv::PyramidBase base = ssv::pyramid_base(samples);
+    const Vec3f* corners = base.corners;
+    const Vec3f rect_centre = base.centre;
 
     std::atomic<uint64_t> edge_tests{0}, edge_updates{0}, crossings{0}, passes{0};
     {
@@ -249,7 +199,7 @@ class SoftShadowVolumes final : public ShadowMethod {
     planes[4] = {light.frame.n, -dot(light.frame.n, light.center)};  // o's side: in front
     const ssv::SampleOffsets offsets{a.x, a.y, a.z, m};
     const float o_size = std::max(std::abs(o.x), std::max(std::abs(o.y), std::abs(o.z)));
-    const std::vector<BvhNode>& nodes = bvh_.nodes();
+    const std::vector<BvhNode>& nodes = hierarchy_.bvh.nodes();
     stack.clear();
     if (!nodes.empty()) stack.push_back(0);
     while (!stack.empty()) {
@@ -258,7 +208,7 @@ class SoftShadowVolumes final : public ShadowMethod {
       stack.pop_back();
       bool cut = false;
       for (const Plane& p : planes) cut = cut || outside(node.bounds, p);
-      if (cut || sees_all_alike(node_facing_[stack_top], o)) continue;
+      if (cut || ssv::sees_all_alike(hierarchy_.node_facing[stack_top], o)) continue;
       if (!node.leaf()) {
         stack.push_back(node.first);
         stack.push_back(node.first + 1);
@@ -267,8 +217,8 @@ class SoftShadowVolumes final : public ShadowMethod {
       for (uint32_t i = node.first; i < node.first + node.count; ++i) {
         ++counts.tests;
         // §3.2: an edge that is no silhouette from o changes nothing.
-        if (ssv::surely_not_silhouette(facing_[i], o, o_size)) continue;
-        if (ssv::add_edge_crossings(edges_[i], o, r, offsets, a.depth)) ++counts.updates;
+        if (ssv::surely_not_silhouette(hierarchy_.facing[i], o, o_size)) continue;
+        if (ssv::add_edge_crossings(hierarchy_.edges[i], o, r, offsets, a.depth)) ++counts.updates;
       }
     }
     // The partial casters: each light sample's segment, where it meets one.
@@ -296,72 +246,6 @@ class SoftShadowVolumes final : public ShadowMethod {
     for (int j = 0; j < m; ++j)
       if (a.depth[j] == 0) sum += a.transmittance[j];
     return sum;
-  }
-
-  // Bottom-up over the hierarchy (children come after their parent in bvh_.nodes()).
-  void build_node_facing() {
-    const std::vector<BvhNode>& nodes = bvh_.nodes();
-    node_facing_.assign(nodes.size(), NodeFacing{});
-    for (size_t k = nodes.size(); k-- > 0;) {
-      const BvhNode& node = nodes[k];
-      NodeFacing& f = node_facing_[k];
-      std::vector<Vec3f> normals;
-      f.cullable = true;
-      if (node.leaf()) {
-        for (uint32_t i = node.first; i < node.first + node.count; ++i) {
-          const ssv::SilhouetteEdge& e = edges_[i];
-          const ssv::EdgeFacing& ef = facing_[i];
-          for (Vec3f p : {e.a, e.b, e.w[0]}) f.box.extend(p);
-          if (e.triangles == 2) f.box.extend(e.w[1]);
-          if (!ef.two_sided || !(ef.scale[0] > 0) || !(ef.scale[1] > 0)) {
-            f.cullable = false;
-            continue;
-          }
-          // n_0 and -n_1 (EdgeFacing orients both by (a, b, w): opposite for a consistent pair).
-          normals.push_back(ef.n[0] / ef.scale[0]);
-          normals.push_back(-ef.n[1] / ef.scale[1]);
-        }
-        Vec3f sum(0.0f);
-        for (Vec3f n : normals) sum = sum + n;
-        const float len = length(sum);
-        if (!(len > 1e-3f * static_cast<float>(normals.size()))) f.cullable = false;
-        if (!f.cullable) continue;
-        f.axis = sum / len;
-        for (Vec3f n : normals) f.spread = std::max(f.spread, length(n - f.axis));
-      } else {
-        const NodeFacing& l = node_facing_[node.first];
-        const NodeFacing& r = node_facing_[node.first + 1];
-        f.box = l.box;
-        f.box.extend(r.box);
-        const Vec3f sum = l.axis + r.axis;
-        const float len = length(sum);
-        f.cullable = l.cullable && r.cullable && len > 1e-3f;
-        if (!f.cullable) continue;
-        f.axis = sum / len;
-        f.spread = std::max(l.spread + length(l.axis - f.axis), r.spread + length(r.axis - f.axis));
-      }
-      // Normals more than 90 degrees apart: no side is common to all.
-      if (f.spread >= 1.0f) f.cullable = false;
-      if (!f.cullable) continue;
-      f.h_lo = kInfinity, f.h_hi = -kInfinity;
-      for (int i = 0; i < 8; ++i) {
-        const float h = dot(f.axis, f.box.corner(i));
-        f.h_lo = std::min(f.h_lo, h);
-        f.h_hi = std::max(f.h_hi, h);
-      }
-      f.centre = f.box.center();
-      f.half_diagonal = 0.5f * length(f.box.diagonal());
-    }
-  }
-
-  // Whether o sees every triangle of the node from the same side (NodeFacing), with a margin
-  // far above the rounding, so that add_edge_crossings would find k_e = 0 for each edge.
-  static bool sees_all_alike(const NodeFacing& f, Vec3f o) {
-    if (!f.cullable) return false;
-    const float reach = length(o - f.centre) + f.half_diagonal;
-    const float ao = dot(f.axis, o);
-    const float margin = 1e-4f * (reach + std::abs(ao) + 1.0f);
-    return ao - f.h_hi - f.spread * reach > margin || ao - f.h_lo + f.spread * reach < -margin;
   }
 
   // The number of surfaces the segment from o to q crosses (one closest-hit query per
@@ -448,10 +332,7 @@ class SoftShadowVolumes final : public ShadowMethod {
   std::vector<RasterTriangle> partial_;  // the casters tested per light sample
   TriangleTextures textures_;            // their alpha textures
   TriangleBvh partial_bvh_;              // over partial_ (prim = index into it)
-  std::vector<ssv::SilhouetteEdge> edges_;  // in bvh_'s leaf order
-  std::vector<ssv::EdgeFacing> facing_;      // the same order
-  std::vector<NodeFacing> node_facing_;      // per node of bvh_
-  TriangleBvh bvh_;
+  ssv::EdgeHierarchy hierarchy_;  // the potential silhouettes (§3.1)
   std::vector<std::vector<uint8_t>> counted_;  // per object, per triangle: opaque, in the edges and the count
 };
 
@@ -467,8 +348,8 @@ MemoryEstimate memory(const ParamSet&, const MemoryQuery& q) {
   const uint64_t edges = static_cast<uint64_t>(ssv::kEdgesPerTriangle * static_cast<double>(q.triangles));
   const uint64_t finding = edges * (ssv::kSilhouetteBuildBytesPerEdge + ssv::kSilhouetteResultBytesPerEdge);
   const uint64_t hierarchy = edges * (2 * sizeof(ssv::SilhouetteEdge) + sizeof(BvhTriangle) + sizeof(ssv::EdgeFacing)) +
-                             TriangleBvh::build_bytes(edges, kLeafSize) +
-                             TriangleBvh::node_bound(edges, kLeafSize) * sizeof(NodeFacing);
+                             TriangleBvh::build_bytes(edges, ssv::EdgeHierarchy::kLeafSize) +
+                             TriangleBvh::node_bound(edges, ssv::EdgeHierarchy::kLeafSize) * sizeof(ssv::NodeFacing);
   const uint64_t partial = q.triangles * (2 * sizeof(RasterTriangle) + sizeof(BvhTriangle)) +
                            TriangleBvh::build_bytes(q.triangles, kPartialLeafSize);
   tally.add(std::max({finding, hierarchy, partial}) + q.triangles * sizeof(uint8_t), kTrianglesSetting);
