@@ -23,6 +23,8 @@ class LoopLimitSplit {
   // Items per dispatch (0: not learned yet, all in one) and how often a cut forced a retry.
   int items_per_dispatch() const { return per_dispatch_; }
   int retries() const { return retries_; }
+  // Starts with `items` per dispatch (tests of a method's split path on any device).
+  void start_with(int items) { per_dispatch_ = items; }
 
   // Runs items [0, n): record(first, count) records one dispatch's range; run() submits what was
   // recorded, waits, and returns true when some thread was cut short (its results are then

@@ -14,9 +14,18 @@
 #include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/light_samples.h"
 #include "penumbra/shadow/soft_shadow_volumes/edge_hierarchy.h"
+#include "penumbra/shadow/soft_shadow_volumes/soft_shadow_volumes_gpu_testing.h"
 #include "penumbra/shadow/soft_shadow_volumes/ssv_shared.h"
 
 namespace penumbra {
+namespace ssv {
+namespace {
+int g_test_samples_per_dispatch = 0;  // SsvSamplesPerDispatchForTesting; 0: none
+}  // namespace
+SsvSamplesPerDispatchForTesting::SsvSamplesPerDispatchForTesting(int samples) { g_test_samples_per_dispatch = samples; }
+SsvSamplesPerDispatchForTesting::~SsvSamplesPerDispatchForTesting() { g_test_samples_per_dispatch = 0; }
+}  // namespace ssv
+
 namespace {
 
 using shader::SsvEdge;
@@ -36,6 +45,10 @@ uint32_t hierarchy_depth(const std::vector<BvhNode>& nodes) {
 
 class SoftShadowVolumesGpu final : public GpuShadowMethod {
  public:
+  SoftShadowVolumesGpu() {
+    if (ssv::g_test_samples_per_dispatch > 0) split_.start_with(ssv::g_test_samples_per_dispatch);
+  }
+
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
     gpu::Device& device = *frame.device;
@@ -108,7 +121,6 @@ class SoftShadowVolumesGpu final : public GpuShadowMethod {
     if (light_.empty() || light_.bytes() < block.size() * sizeof(Vec3f))
       light_ = gpu::Buffer(device, block.size() * sizeof(Vec3f), "ssv-rt's light samples");
     light_.upload(std::span<const Vec3f>(block));
-    counters_.upload(std::vector<uint32_t>(shader::kSsvCounters, 0).data(), shader::kSsvCounters * 4);
 
     shader::SsvParams p{};
     p.scene = frame.scene->address();
@@ -125,17 +137,28 @@ class SoftShadowVolumesGpu final : public GpuShadowMethod {
     p.slots = frame.slots;
     p.node_count = node_count_;
     p.canary = gpu::kLoopLimitCanary;
-    frame.commands->stage("evaluate");
-    frame.commands->dispatch("ssv_evaluate", uint64_t{frame.slots} * 64, p);
-    // The counters, and the two ways a thread could have stopped short: said, never dropped.
-    frame.flush();
-    uint32_t c[shader::kSsvCounters];
-    counters_.download(c, sizeof(c));
-    if (c[shader::kSsvLoopCut] != 0)
-      throw Error("ssv-rt on {}: a view sample's loops exceed the driver's loop limit (65535 iterations a thread)",
-                  device.info().name);
+    // The light samples over as many dispatches as the driver's loop limit needs (each redoes the
+    // walk for its share of the samples; the first writes V, the others add to it); the counters
+    // and the two flags read back after each try: a thread cut short is retried with fewer
+    // samples, a stack overflow is said, never a short result.
+    uint32_t c[shader::kSsvCounters] = {};
+    split_.execute(
+        n, "ssv-rt", device.info().name,
+        [&](int first, int count) {
+          if (first == 0) frame.commands->fill(counters_, 0);
+          frame.commands->stage("evaluate");
+          p.first_sample = static_cast<uint32_t>(first);
+          p.sample_count = static_cast<uint32_t>(count);
+          frame.commands->dispatch("ssv_evaluate", uint64_t{frame.slots} * 64, p);
+        },
+        [&] {
+          frame.flush();
+          counters_.download(c, sizeof(c));
+          return c[shader::kSsvLoopCut] != 0;
+        });
     if (c[shader::kSsvStackFull] != 0)
       throw Error("ssv-rt on the GPU: the hierarchy walk's stack overflowed");
+    stats_.extra["dispatches_per_frame"] = (n + split_.items_per_dispatch() - 1) / split_.items_per_dispatch();
     stats_.rays_traced += c[shader::kSsvGroups];
     stats_.extra["light_samples"] = n;
     add(stats_.extra["edge_tests"], c[shader::kSsvEdgeTests]);
@@ -154,6 +177,7 @@ class SoftShadowVolumesGpu final : public GpuShadowMethod {
   }
 
   gpu::Buffer nodes_, edges_, closed_, counters_, light_;
+  gpu::LoopLimitSplit split_;  // light samples per dispatch (lavapipe's loop limit)
   uint32_t node_count_ = 0;
 };
 

@@ -11,6 +11,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/shadow/light_samples.h"
+#include "penumbra/shadow/soft_shadow_volumes/soft_shadow_volumes_gpu_testing.h"
 #include "penumbra/testing/gpu_method_runs.h"
 #include "penumbra/testing/method_runs.h"
 #include "penumbra/testing/test_scenes.h"
@@ -64,6 +65,30 @@ TEST_F(SoftShadowVolumesGpu, BunnyEqualsGpuRaysToTheSameLightPointsAndTheCpu) {
 // Alpha-masked leaves: no silhouette edges; their samples' transmittance through the masks.
 TEST_F(SoftShadowVolumesGpu, AlphaMaskedFoliageEqualsGpuRaysToTheSameLightPointsAndTheCpu) {
   expect_exact(testing::load_scene_at("foliage", 32), "foliage", 32);
+}
+
+// The CPU version's own standard (soft_shadow_volumes_test.cpp: 96 pixels, 64 light samples, six
+// scenes), too slow for lavapipe in CI: run by hand with --gtest_also_run_disabled_tests
+// (docs/methods/ssv-rt.md quotes its numbers).
+TEST_F(SoftShadowVolumesGpu, DISABLED_EveryTestSceneAt96PixelsAnd64Samples) {
+  for (const char* name : {"bunny", "knot", "contact", "plant", "foliage", "leaf-cards"})
+    expect_exact(testing::load_scene_at(name, 96), name, 64);
+}
+
+// The light samples split over dispatches (lavapipe's loop limit splits them so where a thread's
+// loops run too long, gpu::LoopLimitSplit), here forced to 24 a dispatch: each dispatch adds its
+// share, the picture is exact as before and the CPU's.
+TEST_F(SoftShadowVolumesGpu, LightSamplesSplitOverDispatchesGiveTheSamePicture) {
+  const testing::SceneRun r = testing::load_scene_at("foliage", 24);
+  RenderSettings settings = testing::device_settings("ssv-rt", {}, true);
+  settings.light_samples = 100;
+  const RenderResult whole = render_scene(r.scene, settings);
+  ssv::SsvSamplesPerDispatchForTesting split(24);
+  const RenderResult gpu = expect_exact(r, "foliage-split", 100);
+  EXPECT_EQ(gpu.stats.extra["dispatches_per_frame"].get<int>(), 5);
+  EXPECT_LE(testing::mean_abs_dv(whole.visibility, gpu.visibility), 1e-6);
+  // The walk's counts once per frame, not per dispatch.
+  EXPECT_EQ(whole.stats.extra["edge_tests"], gpu.stats.extra["edge_tests"]);
 }
 
 // An open quad (boundary edges), a closed box, and two overlapping semi-transparent quads

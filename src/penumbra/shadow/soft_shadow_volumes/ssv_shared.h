@@ -173,8 +173,8 @@ struct SsvParams {
   uint slots;
   uint node_count;       // 0: no silhouette edges
   int canary;            // gpu::kLoopLimitCanary
-  uint pad1;
-  uint pad;
+  uint first_sample;     // this dispatch's light samples: [first_sample, first_sample + sample_count)
+  uint sample_count;
 };
 
 PN_SHARED_END

@@ -27,15 +27,15 @@ layout(buffer_reference, scalar) readonly buffer SsvEdges { SsvEdge v[]; };
 shared int s_depth[kSsvMaxSamples];  // per light sample: D relative to the reference
 shared uint s_group[kSsvMaxSamples];  // per light sample: 0 in front of the receiver, 1 behind
 shared vec3 s_offset[kSsvMaxSamples];  // per light sample of the group: l - o
-shared SsvCrossing s_tests[64];        // the batch's edges, set up
+shared SsvCrossing s_tests[64];        // the batch's edges that change something, set up
 shared uint s_batch[64];               // the batch's edge indices
 shared uint s_batch_count;
+shared uint s_kept;  // of them, those in s_tests
 shared bool s_walk_done;
 shared uint s_first[2];  // each group's first light sample (its reference), n if empty
 shared int s_reference;  // the reference sample's absolute depth complexity
 shared uint s_stack[kSsvStack];
 shared uint s_sp;
-shared uint s_updates;
 
 // The reference ray's count (soft_shadow_volumes.cpp surfaces_crossed): the surfaces the segment
 // from o to q crosses, one closest-hit query per surface, each starting past the last hit; a hit
@@ -121,6 +121,9 @@ void main() {
   SsvNodes nodes = SsvNodes(pc.p.nodes);
   SsvEdges edges = SsvEdges(pc.p.edges);
   uint n = pc.p.n;
+  // This dispatch's light samples (gpu::LoopLimitSplit splits them where the driver cuts long
+  // loops); the groups and their reference samples are of all n.
+  uint first = pc.p.first_sample, end = min(n, pc.p.first_sample + pc.p.sample_count);
   // The light samples' groups (ray_shared.h leaves_front: each shadow ray leaves the receiver on
   // its sample's side).
   vec3 n_unit = offset_normal(s.ng);
@@ -136,13 +139,13 @@ void main() {
   }
   barrier();
   bool closed = Uints(pc.p.closed).v[s.object] != 0u;
-  uint hits = 0u, tests = 0u;
+  uint hits = 0u, tests = 0u, updates = 0u;
   float visible = 0.0f;
   for (uint g = 0u; g < (closed ? 1u : 2u); ++g) {
     if (s_first[g] >= n) continue;  // uniform: shared, read after a barrier
     vec3 o = offset_ray_origin_shared(s.p, s.ng, g == 0u ? s.ng : -s.ng);
     vec3 r = light.v[kSsvLightCorners + s_first[g]] - o;
-    for (uint j = lane; j < n; j += 64u) {
+    for (uint j = first + lane; j < end; j += 64u) {
       s_depth[j] = 0;
       s_offset[j] = light.v[kSsvLightCorners + j] - o;
     }
@@ -152,7 +155,6 @@ void main() {
       s_sp = 0u;
       if (pc.p.node_count > 0u) s_stack[s_sp++] = 0u;
       s_walk_done = false;
-      s_updates = 0u;
     }
     // The pyramid from o over the samples' rectangle: four planes through o and the light's
     // plane (edges beyond the light change nothing). Thread 0 walks with it.
@@ -192,27 +194,29 @@ void main() {
           for (uint i = 0u; i < node.count; ++i) s_batch[count++] = node.first + i;
         }
         s_batch_count = count;
+        s_kept = 0u;
         s_walk_done = count == 0u;
         tests += count;
       }
       barrier();
       if (s_walk_done) break;
       uint batch = s_batch_count;
-      // §3.2: each thread sets up one edge (an edge surely no silhouette from o changes nothing).
+      // §3.2: each thread sets up one edge (an edge surely no silhouette from o changes nothing);
+      // those that change something are kept side by side (in any order: the updates add up).
       if (lane < batch) {
         SsvEdge e = edges.v[s_batch[lane]];
         SsvCrossing c;
         bool quick_no = e.triangles == 2u && ssv_surely_not_silhouette(e.n0, e.d0, e.scale0, e.n1, e.d1, e.scale1,
                                                                        o, o_size);
-        if (quick_no || !ssv_edge_crossing(e.a, e.b, e.w0, e.w1, e.triangles, o, r, c)) c.delta = 0;
-        else atomicAdd(s_updates, 1u);
-        s_tests[lane] = c;
+        if (!quick_no && ssv_edge_crossing(e.a, e.b, e.w0, e.w1, e.triangles, o, r, c))
+          s_tests[atomicAdd(s_kept, 1u)] = c;
       }
       barrier();
-      for (uint t = 0u; t < batch; ++t) {
+      uint kept = s_kept;
+      updates += kept;
+      for (uint t = 0u; t < kept; ++t) {
         SsvCrossing c = s_tests[t];
-        if (c.delta == 0) continue;
-        for (uint j = lane; j < n; j += 64u)
+        for (uint j = first + lane; j < end; j += 64u)
           if (s_group[j] == g && ssv_sample_crosses(c, s_offset[j])) s_depth[j] += c.delta;
       }
       barrier();
@@ -220,7 +224,7 @@ void main() {
     // A sample is visible iff its depth complexity is 0 (§3.3); its transmittance through the
     // casters that stop part of the light.
     int reference = s_reference;
-    for (uint j = lane; j < n; j += 64u) {
+    for (uint j = first + lane; j < end; j += 64u) {
       if (s_group[j] != g || s_depth[j] + reference != 0) continue;
       float v = 1.0f;
       if (g_scene.has_transparency != 0u) {
@@ -231,10 +235,7 @@ void main() {
       }
       visible += v;
     }
-    if (lane == 0u) {
-      atomicAdd(counters.v[kSsvEdgeUpdates], s_updates);
-      atomicAdd(counters.v[kSsvGroups], 1u);
-    }
+    if (lane == 0u && first == 0u) atomicAdd(counters.v[kSsvGroups], 1u);
     barrier();
   }
   // V: the threads' sums over the group (subgroup sizes vary: shared memory, reusing s_offset's
@@ -244,9 +245,14 @@ void main() {
   if (lane == 0u) {
     float sum = 0.0f;
     for (uint k = 0u; k < 64u; ++k) sum += s_offset[k].x;
-    Floats(pc.p.visibility).v[slot] = sum / float(n);
-    atomicAdd(counters.v[kSsvEdgeTests], tests);
-    atomicAdd(counters.v[kSsvCrossings], hits);
+    // The first dispatch of the light samples writes V, the others add their share.
+    Floats out_v = Floats(pc.p.visibility);
+    out_v.v[slot] = (first == 0u ? 0.0f : out_v.v[slot]) + sum / float(n);
+    if (first == 0u) {  // the walk's counts, once
+      atomicAdd(counters.v[kSsvEdgeTests], tests);
+      atomicAdd(counters.v[kSsvEdgeUpdates], updates);
+      atomicAdd(counters.v[kSsvCrossings], hits);
+    }
   }
   if (pn_loop_limit_hit(pc.p.canary)) atomicOr(counters.v[kSsvLoopCut], 1u);
 }
