@@ -177,8 +177,10 @@ void main() {
           SsvNode node = nodes.v[k];
           if (node.count > 0u && count + node.count > 64u) break;  // the next batch takes it
           --s_sp;
-          bool cut = false;
-          for (int i = 0; i < 5; ++i) cut = cut || outside(node.lo, node.hi, planes[i]);
+          // Written out: a loop here would count 5 iterations a node against lavapipe's loop limit.
+          bool cut = outside(node.lo, node.hi, planes[0]) || outside(node.lo, node.hi, planes[1]) ||
+                     outside(node.lo, node.hi, planes[2]) || outside(node.lo, node.hi, planes[3]) ||
+                     outside(node.lo, node.hi, planes[4]);
           if (cut || (node.cullable != 0u && ssv_sees_all_alike(node.axis, node.spread, node.h_lo, node.h_hi,
                                                                   node.centre, node.half_diagonal, o)))
             continue;
