@@ -13,6 +13,7 @@
 #include "penumbra/gpu/gpu_test_util.h"
 #include "penumbra/gpu/ray_queries.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/shadow_rays.h"
 #include "penumbra/testing/gpu_method_runs.h"
 #include "penumbra/testing/method_runs.h"
@@ -281,13 +282,19 @@ TEST_F(GpuFrame, ARenderOverTheGpusMemoryIsRefusedUpFront) {
 
 TEST_F(GpuFrame, TheUpFrontEstimateCoversWhatARenderHolds) {
   gpu::unit_circle_buffer(device());  // held once per device for the whole process
-  // Each method with its parameters (maps smaller than the defaults: lavapipe is slow).
-  const std::vector<std::pair<std::string, std::vector<std::string>>> methods = {
-      {"reference", {}}, {"hard", {}}, {"shadow-map", {}}, {"pcss", {}},
+  // Every method with a GPU version, with maps smaller than the defaults (lavapipe is slow).
+  const std::map<std::string, std::vector<std::string>> smaller = {
       {"vsm", {"resolution=256"}}, {"evsm", {"resolution=256", "prefilter=mipmap"}}, {"msm", {"resolution=256"}},
-      {"occlusion-textures", {"resolution=256"}}, {"rt-denoised", {}},
-      {"lam", {"resolution=256"}}, {"single-sample", {}}, {"multi-view-sm", {"resolution=256"}},
-      {"mlsm", {"resolution=256"}}, {"mtsm", {"resolution=256"}}, {"coherent-rt", {"resolution=128"}}};
+      {"occlusion-textures", {"resolution=256"}}, {"lam", {"resolution=256"}}, {"multi-view-sm", {"resolution=256"}},
+      {"mlsm", {"resolution=256"}}, {"mtsm", {"resolution=256"}}, {"coherent-rt", {"resolution=128"}},
+      {"afsm", {"resolution=128"}}, {"afsm-hard", {"resolution=128"}}};
+  std::vector<std::pair<std::string, std::vector<std::string>>> methods;
+  for (const MethodInfo* m : MethodRegistry::all()) {
+    if (!find_gpu_method(m->name)) continue;
+    const auto it = smaller.find(m->name);
+    methods.emplace_back(m->name, it == smaller.end() ? std::vector<std::string>{} : it->second);
+  }
+  EXPECT_GE(methods.size(), 17u);
   for (const auto& spec : methods) {
     const std::string& method = spec.first;
     for (const char* name : {"bunny", "foliage"}) {
