@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "penumbra/gpu/gpu_test_util.h"
+#include "penumbra/shadow/shadow_method.h"
 #include "penumbra/testing/cli_run.h"
 #include "penumbra/testing/gpu_method_runs.h"
 
@@ -136,6 +137,22 @@ TEST_F(CliGpu, CompareRunsACpuAndAGpuVersionSideBySide) {
   bad = run(fmt::format("compare {} --methods {}@gpu -o {} -q", scene("bunny"), cpu_only, (dir_ / "bad").string()));
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.err.find(cpu_only + " has no GPU version"), std::string::npos) << bad.err;
+}
+
+// Issue 30's end check: every registered method runs on the GPU from one compare command, each
+// row measured against the (GPU) ground truth.
+TEST_F(CliGpu, CompareOnTheGpuRunsEveryMethod) {
+  const fs::path out = dir_ / "all";
+  const Run r = run(fmt::format("compare {} --device gpu --methods all --spp 16 --resolution 32 --cache-dir {} -o {} -q",
+                                scene("bunny"), (dir_ / "cache").string(), out.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json results = nlohmann::json::parse(slurp(out / "results.json"));
+  size_t ok = 0;
+  for (const auto& m : results["methods"]) {
+    EXPECT_TRUE(m.value("ok", false)) << m.dump();
+    ok += m.value("ok", false);
+  }
+  EXPECT_EQ(ok, MethodRegistry::all().size());
 }
 
 TEST_F(CliGpu, TheGpuBenchSuiteRunsAtASmallSize) {

@@ -67,14 +67,6 @@ TEST_F(SoftShadowVolumesGpu, AlphaMaskedFoliageEqualsGpuRaysToTheSameLightPoints
   expect_exact(testing::load_scene_at("foliage", 32), "foliage", 32);
 }
 
-// The CPU version's own standard (soft_shadow_volumes_test.cpp: 96 pixels, 64 light samples, six
-// scenes), too slow for lavapipe in CI: run by hand with --gtest_also_run_disabled_tests
-// (docs/methods/ssv-rt.md quotes its numbers).
-TEST_F(SoftShadowVolumesGpu, DISABLED_EveryTestSceneAt96PixelsAnd64Samples) {
-  for (const char* name : {"bunny", "knot", "contact", "plant", "foliage", "leaf-cards"})
-    expect_exact(testing::load_scene_at(name, 96), name, 64);
-}
-
 // The light samples split over dispatches (lavapipe's loop limit splits them so where a thread's
 // loops run too long, gpu::LoopLimitSplit), here forced to 24 a dispatch: each dispatch adds its
 // share, the picture is exact as before and the CPU's.
