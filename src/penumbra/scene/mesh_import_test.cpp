@@ -198,6 +198,13 @@ TEST(MeshImport, DeclaredCountsMustFitTheFile) {
   binary.append(12, '\0');
   EXPECT_NE(refused("vertices.ply", binary).find("vertices.ply: PLY header declares 100000000 \"vertex\" entries"),
             std::string::npos);
+  // An ASCII list count far beyond the file (fuzz_mesh: Assimp reserved 13 GB for it).
+  EXPECT_EQ(refused("list.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                    "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+                    "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n4444444444 0 1 2\n"),
+            (dir / "list.ply").string() + ": PLY element \"face\" entry 1: list count \"4444444444\" is not a count the "
+                                          "file can hold");
   EXPECT_EQ(refused("huge.ply", "ply\nformat ascii 1.0\nelement vertex 99999999999\nproperty float x\nend_header\n"),
             (dir / "huge.ply").string() + ": PLY element \"vertex\" declares 99999999999 entries (at most 4294967295)");
   EXPECT_EQ(refused("empty_element.ply", "ply\nformat binary_little_endian 1.0\nelement nothing 4000000000\nend_header\n"),
