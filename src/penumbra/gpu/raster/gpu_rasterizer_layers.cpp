@@ -141,7 +141,7 @@ void GpuRasterizer::layered_depth_map(CommandList& cl, const Submit& submit, std
         pp.keys = out->keys_.address();
         pp.front = out->front_.address();
         pp.samples = out->samples_.address();
-        pp.item_capacity = scratch_.item_capacity();
+        pp.item_capacity = fp.item_capacity;
         pp.k = static_cast<uint32_t>(k);
         pp.epsilon = options.distinct_epsilon;
         shader::RasterLayerResolveParams rp{};
@@ -196,7 +196,7 @@ void GpuRasterizer::fragment_lists(CommandList& cl, const Submit& submit, std::s
           p.counts = out->counts_.address();
           p.offsets = out->offsets_.address();
           p.fragments = out->fragments_.address();
-          p.item_capacity = scratch_.item_capacity();
+          p.item_capacity = fp.item_capacity;
           p.fragment_capacity = out->capacity_;
           cl.dispatch_indirect("raster_fragment_count", state_, offsetof(GpuRasterState, fill_groups_x), p);
           out->scan_.exclusive(cl, out->counts_.address(), out->offsets_.address(), static_cast<uint32_t>(texels));
