@@ -93,7 +93,8 @@ const CommandRegistration bench_command("bench", 70, [](CLI::App& app) {
                   "against its CPU version, 1920x1080, 256 spp) or perf (issue 14's targets: "
                   "ratios at 256^2 interleaved with reference, times at 512^2; PASS/MISS per target) or walk (the animated "
                   "scenes' frames 0-7 at 256^2, 256 spp: cost per frame with reuse; lam >= 50x reference per frame) or wide "
-                  "(the 100-tree forest, 5.9 M triangles, at 256^2, 64 spp, one run; with load time and memory)")
+                  "(the bunny, the 25-tree forest, a street and the 100-tree forest at 256^2, 256 spp, one run: each method's error "
+                  "against the 1024-spp ground truth beside its time, and the wide scenes as multiples of the bunny)")
       ->check(CLI::IsMember({"quick", "full", "perf", "walk", "wide", "gpu"}))->capture_default_str();
   cmd->add_option("--methods", o->methods, "methods, comma-separated, or 'all' (reference is always added; perf: their targets only)")
       ->delimiter(',')->capture_default_str();

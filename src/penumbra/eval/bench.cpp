@@ -13,6 +13,7 @@
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/eval/comparison.h"
+#include "penumbra/eval/reference_cache.h"
 #include "penumbra/eval/report_util.h"
 #include "penumbra/render/sequence_renderer.h"
 #include "penumbra/scene/animation.h"
@@ -109,10 +110,15 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     return s;
   }
   if (name == "wide") {
-    // Issue 32: a wide scene of millions of triangles, most of them instances of a few meshes.
-    s.scenes = {scenes_dir / "forest-100.json"};
+    // Issues 32 and 34: wide scenes beside the single object they are measured against (the
+    // bunny): the 25-tree forest (1.48 M triangles), a street of boxes with lamps, cars and trees,
+    // and the 100-tree forest (5.9 M, mostly instances), at issue 34's settings, each method's
+    // error against the ground truth (1024 light samples, cached) beside its time.
+    s.scenes = {scenes_dir / "bunny.json", scenes_dir / "forest.json", scenes_dir / "street.json",
+                scenes_dir / "forest-100.json"};
     s.resolution = 256;
-    s.light_samples = 64;
+    s.light_samples = 256;
+    s.reference_spp = 1024;
     s.runs = 1;
     s.warmup_runs = 0;
     return s;
@@ -164,6 +170,7 @@ json scene_entry(const Comparison& c, const std::string& name) {
       m["run_shadow_ms"] = r.run_shadow_ms;
       m["run_total_ms"] = r.run_total_ms;
       m["speedup"] = json_number(r.speedup);
+      if (std::isfinite(r.v.mae)) m["v_mae"] = r.v.mae;
       m["light_samples"] = r.light_samples;
       m["rays_traced"] = r.stats.rays_traced;
       m["memory_bytes"] = r.stats.memory_bytes;
@@ -381,6 +388,7 @@ std::vector<RunSetup> suite_setups(const BenchOptions& o, const std::vector<std:
     RunSetup setup = RunSetup::from_file(f);
     setup.apply("resolution", std::to_string(o.suite.resolution));
     setup.apply("spp", std::to_string(o.suite.light_samples));
+    if (o.suite.reference_spp > 0) setup.reference_samples = o.suite.reference_spp;
     setup.device = o.device;
     for (const std::string& kv : o.params) setup.apply(kv);
     setup.check_plain_params(methods);
@@ -527,7 +535,9 @@ json run_bench(const BenchOptions& o) {
   const std::vector<RunSetup> setups = suite_setups(o, methods);
   CompareOptions co;
   co.methods = methods;
-  co.ground_truth = false;
+  co.ground_truth = suite.reference_spp > 0;
+  if (co.ground_truth) co.cache_dir = default_cache_dir();
+  co.equal_quality = false;
   co.runs = suite.runs;
   co.warmup_runs = suite.warmup_runs;
   co.keep_images = false;
@@ -560,9 +570,11 @@ json run_bench(const BenchOptions& o) {
                         {{"resolution", suite.resolution},
                          {"spp", suite.light_samples},
                          {"runs", suite.runs},
-                         {"warmup_runs", suite.warmup_runs}},
+                         {"warmup_runs", suite.warmup_runs},
+                         {"reference_spp", suite.reference_spp}},
                         "shadow_ms = total - camera pass - compose (the method's prepare + evaluate), median of the "
-                        "runs; speedup = reference's shadow_ms / the method's, both measured in this run",
+                        "runs; speedup = reference's shadow_ms / the method's, both measured in this run; v_mae "
+                        "(with reference_spp > 0) = mean |dV| against the ground truth at reference_spp",
                         methods, started, wall.elapsed_ms(), scenes);
 }
 
@@ -620,6 +632,9 @@ std::string bench_markdown(const json& r) {
                      "scene; bench-results.json also has each method's first frame and every frame's time.\n\n"
                    : "Each cell: the method's shadow time (total − camera pass − compose) in ms, and in brackets its "
                      "speed-up over `reference` (Embree ray tracing at the same light samples) on that scene.\n\n");
+  if (st.value("reference_spp", 0) > 0)
+    md << "Error: the method's mean |dV| against the ground truth (`reference` at " << st.value("reference_spp", 0)
+       << " light samples).\n\n";
   md << "| method |";
   for (const json& s : r.at("scenes")) md << " " << s.value("name", "?") << " |";
   md << "\n|---|";
@@ -638,11 +653,50 @@ std::string bench_markdown(const json& r) {
           cell = format_significant(m.value("shadow_ms", 0.0), 3) + " ms";
           if (m.contains("speedup") && m["speedup"].is_number())
             cell += " (" + format_significant(m["speedup"].get<double>(), 3) + "×)";
+          if (m.contains("v_mae")) cell += ", error " + format_significant(m["v_mae"].get<double>(), 2);
         }
       }
       md << " " << cell << " |";
     }
     md << "\n";
+  }
+  // The wide-scene line (issue 34): each later scene against the first (the wide suite's
+  // bunny), per method: its mean |dV| and its time as multiples of its own on the first scene,
+  // and whether its error exceeds `hard`'s on that scene.
+  const json& scene_list = r.at("scenes");
+  auto find_method = [](const json& scene, const std::string& name) -> const json* {
+    if (!scene.contains("methods")) return nullptr;
+    for (const json& m : scene.at("methods"))
+      if (m.value("method", "") == name && m.value("ok", false)) return &m;
+    return nullptr;
+  };
+  const bool wide_line = scene_list.size() > 1 && st.value("reference_spp", 0) > 0;
+  if (wide_line) {
+    const std::string base = scene_list[0].value("name", "?");
+    md << "\nAgainst `" << base << "`: each method's error (mean |dV|) and shadow time on each scene as multiples of its own "
+       << "on `" << base << "`; **worse than hard** where its mean |dV| exceeds `hard`'s on that scene.\n\n| method |";
+    for (size_t i = 1; i < scene_list.size(); ++i) md << " " << scene_list[i].value("name", "?") << " |";
+    md << "\n|---|";
+    for (size_t i = 1; i < scene_list.size(); ++i) md << "---|";
+    md << "\n";
+    for (const json& mname : r.at("methods")) {
+      const std::string name = mname.get<std::string>();
+      const json* b = find_method(scene_list[0], name);
+      md << "| `" << name << "` |";
+      for (size_t i = 1; i < scene_list.size(); ++i) {
+        const json* m = find_method(scene_list[i], name);
+        const json* hard = find_method(scene_list[i], "hard");
+        std::string cell = "—";
+        if (b && m && b->contains("v_mae") && m->contains("v_mae")) {
+          const double e = m->at("v_mae").get<double>(), eb = b->at("v_mae").get<double>();
+          cell = "error " + (eb > 0 ? format_significant(e / eb, 3) + "×" : std::string("—")) + ", time " +
+                 format_significant(m->value("shadow_ms", 0.0) / std::max(1e-9, b->value("shadow_ms", 0.0)), 3) + "×";
+          if (hard && hard->contains("v_mae") && e > hard->at("v_mae").get<double>()) cell += ", **worse than hard**";
+        }
+        md << " " << cell << " |";
+      }
+      md << "\n";
+    }
   }
   // Each scene's size and what loading it cost (not in the methods' times).
   for (const json& s : r.at("scenes")) {

@@ -56,6 +56,9 @@ struct BenchSuite {
   // The gpu suite (issue 28 part 7): every method with a GPU version on the GPU and on the
   // CPU side by side (eval/bench_gpu.cpp), not against reference.
   bool devices = false;
+  // > 0 (the wide suite, issue 34 part 4): every method's mean |dV| against the ground truth at
+  // this many light samples (the compare cache's, default_cache_dir()) beside its time.
+  int reference_spp = 0;
 };
 
 // quick: 128^2, 16 light samples, 3 runs; full: 512^2, 256 light samples, 5 runs; both on

@@ -35,15 +35,43 @@ TEST(Bench, SuitesAreDefined) {
   EXPECT_GE(f.runs, 3);
   EXPECT_THROW(bench_suite("huge", "scenes"), Error);
   EXPECT_TRUE(q.targets.empty());
-  // Issue 32: the 100-tree forest (its file is the generator's scene at trees = 100).
+  // Issues 32 and 34: the bunny, the 25-tree forest, the street and the 100-tree forest (its file
+  // is the generator's scene at trees = 100), at issue 34's settings, with errors.
   BenchSuite w = bench_suite("wide", std::string(PENUMBRA_SOURCE_DIR) + "/scenes");
-  ASSERT_EQ(w.scenes.size(), 1u);
-  EXPECT_EQ(w.scenes[0].stem(), "forest-100");
+  ASSERT_EQ(w.scenes.size(), 4u);
+  EXPECT_EQ(w.scenes[0].stem(), "bunny");
+  EXPECT_EQ(w.scenes[1].stem(), "forest");
+  EXPECT_EQ(w.scenes[2].stem(), "street");
+  EXPECT_EQ(w.scenes[3].stem(), "forest-100");
   EXPECT_EQ(w.resolution, 256);
-  EXPECT_EQ(w.light_samples, 64);
-  const json doc = read_json_file(w.scenes[0]);
+  EXPECT_EQ(w.light_samples, 256);
+  EXPECT_EQ(w.reference_spp, 1024);
+  const json doc = read_json_file(w.scenes[3]);
   EXPECT_EQ(doc["objects"][1]["generator"], "forest");
   EXPECT_EQ(doc["objects"][1]["params"]["trees"], 100);
+  for (const auto& f : w.scenes) EXPECT_TRUE(std::filesystem::exists(f)) << f;
+  EXPECT_EQ(q.reference_spp, 0);
+}
+
+// The wide-scene line (issue 34 part 4): each later scene's error and time as multiples of the
+// first scene's, and "worse than hard" where a method's error exceeds hard's there.
+TEST(Bench, TheWideSceneLineComparesEachSceneWithTheFirst) {
+  auto method = [](const char* name, double ms, double mae) {
+    return json{{"method", name}, {"ok", true}, {"shadow_ms", ms}, {"v_mae", mae}};
+  };
+  json doc = {{"suite", "wide"},
+              {"settings", {{"resolution", 256}, {"spp", 256}, {"runs", 1}, {"warmup_runs", 0}, {"reference_spp", 1024}}},
+              {"machine", {{"cpu", "test"}, {"threads", 2}}},
+              {"methods", {"hard", "lam"}},
+              {"scenes",
+               {{{"name", "bunny"}, {"methods", {method("hard", 10, 0.03), method("lam", 100, 0.007)}}},
+                {{"name", "forest"}, {"methods", {method("hard", 40, 0.045), method("lam", 1500, 0.1)}}}}}};
+  const std::string md = bench_markdown(doc);
+  EXPECT_NE(md.find("| `hard` | error 1.50×, time 4.00× |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| `lam` | error 14.3×, time 15.0×, **worse than hard** |"), std::string::npos) << md;
+  // Without errors (the other suites) there is no such line.
+  doc["settings"]["reference_spp"] = 0;
+  EXPECT_EQ(bench_markdown(doc).find("Against `bunny`"), std::string::npos);
 }
 
 // The perf suite lists the targets of issue 14 part 2, no more and no fewer (not a timing test).

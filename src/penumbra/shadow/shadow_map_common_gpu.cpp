@@ -15,8 +15,7 @@ float range_float(uint32_t bits) { return shader::raster_order_float(bits); }
 
 }  // namespace
 
-LightView view_from_range(const ShadowViewFrame& frame, const GpuReceiverRange& r, const Bounds3f& casters,
-                          const ShadowViewFit& fit) {
+ShadowViewRange range_floats(const GpuReceiverRange& r) {
   ShadowViewRange range;
   if (r.fitted > 0) {
     range.x0 = range_float(r.x0);
@@ -26,7 +25,12 @@ LightView view_from_range(const ShadowViewFrame& frame, const GpuReceiverRange& 
     range.z0 = range_float(r.z0);
     range.z1 = range_float(r.z1);
   }
-  return build_shadow_view(frame, range, casters, fit);
+  return range;
+}
+
+LightView view_from_range(const ShadowViewFrame& frame, const GpuReceiverRange& r, const Bounds3f& casters,
+                          const ShadowViewFit& fit) {
+  return build_shadow_view(frame, range_floats(r), casters, fit);
 }
 
 GpuReceiverRange empty_receiver_range() {
@@ -35,17 +39,9 @@ GpuReceiverRange empty_receiver_range() {
   return r;
 }
 
-std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
-                                               const Bounds3f& casters, gpu::Buffer& range_buffer) {
-  const AreaLight& light = *ctx.light;
+GpuReceiverRange reduce_receivers(const AreaLight& light, GpuFrame& frame, const ShadowViewFrame& frame_axes,
+                                  gpu::Buffer& range_buffer) {
   gpu::CommandList& cl = *frame.commands;
-  // The fit: the receivers reduced on the device, 32 bytes read back, the view built here by
-  // the CPU's code (light_view_from's frame: from the light's centre along its normal).
-  ShadowViewFit fit;
-  fit.resolution = params.resolution;
-  fit.max_fov = params.max_fov;
-  const ShadowViewFrame frame_axes = shadow_view_frame(light.center, light.frame.n, light.frame.t, casters, {}, fit);
-  cl.stage("fit");
   cl.fill(range_buffer, 0);
   for (uint64_t offset : {offsetof(GpuReceiverRange, x0), offsetof(GpuReceiverRange, y0), offsetof(GpuReceiverRange, z0)})
     cl.fill(range_buffer, kSmallest, offset, 4);
@@ -60,6 +56,20 @@ std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFram
   frame.flush();
   GpuReceiverRange r{};
   range_buffer.download(&r, sizeof(r));
+  return r;
+}
+
+std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
+                                               const Bounds3f& casters, gpu::Buffer& range_buffer) {
+  const AreaLight& light = *ctx.light;
+  // The fit: the receivers reduced on the device, 32 bytes read back, the view built here by
+  // the CPU's code (light_view_from's frame: from the light's centre along its normal).
+  ShadowViewFit fit;
+  fit.resolution = params.resolution;
+  fit.max_fov = params.max_fov;
+  const ShadowViewFrame frame_axes = shadow_view_frame(light.center, light.frame.n, light.frame.t, casters, {}, fit);
+  frame.commands->stage("fit");
+  const GpuReceiverRange r = reduce_receivers(light, frame, frame_axes, range_buffer);
   if (r.receivers == 0) return std::nullopt;
   return view_from_range(frame_axes, r, casters, fit);
 }

@@ -21,8 +21,14 @@ namespace penumbra::shadow_map {
 // rounding. Throws as fit_shadow_view does when no receiver lies beyond min_near.
 LightView view_from_range(const ShadowViewFrame& frame, const shader::GpuReceiverRange& r, const Bounds3f& casters,
                           const ShadowViewFit& fit);
+// The range's floats (empty where no receiver was fitted).
+ShadowViewRange range_floats(const shader::GpuReceiverRange& r);
 // What a fit kernel's range starts from: no receiver, the identities of min and max.
 shader::GpuReceiverRange empty_receiver_range();
+// The receivers of frame.view_samples (hits in front of the light) reduced on the device into
+// `range` (a GpuReceiverRange buffer) in the frame `axes`, read back after frame.flush().
+shader::GpuReceiverRange reduce_receivers(const AreaLight& light, GpuFrame& frame, const ShadowViewFrame& axes,
+                                          gpu::Buffer& range);
 // The fitted view from the light's centre along its normal (stage "fit"): the receivers of
 // frame.view_samples reduced on the device into `range` (a GpuReceiverRange buffer), read back
 // after frame.flush(), the view built by the CPU's code (build_shadow_view; `casters`: the

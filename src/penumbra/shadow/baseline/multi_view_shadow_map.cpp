@@ -16,6 +16,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/sampling.h"
+#include "penumbra/shadow/partitions/light_partitions.h"
 #include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/shadow/shadow_method.h"
 
@@ -90,6 +91,13 @@ class MultiViewShadowMap final : public ShadowMethod {
   shadow_map::ShadowDepthMap map_;
 };
 
+std::vector<ParamSpec> params() {
+  std::vector<ParamSpec> p = shadow_map::common_param_specs(512, /*receiver_plane_default=*/false);
+  // One map per light sample already: partitions multiply that, so they are asked for.
+  for (ParamSpec& s : partitions::param_specs(/*default_partitions=*/1)) p.push_back(std::move(s));
+  return p;
+}
+
 // One light's instance: one map at a time, whatever --spp (shadow_map::add_map_memory), and
 // the light points of a frame.
 MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
@@ -102,8 +110,10 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
 const MethodRegistration registration({
     "multi-view-sm",
     "one depth map per light sample (--spp stratified points on the light), averaged",
-    shadow_map::common_param_specs(512, /*receiver_plane_default=*/false),
-    [](const ParamSet& p) { return std::make_unique<MultiViewShadowMap>(p); },
+    params(),
+    [](const ParamSet& p) {
+      return partitions::wrap(std::make_unique<MultiViewShadowMap>(p), p, p.get_int("resolution"));
+    },
     /*samples_light=*/true,
     memory,
     // Not tile-exact: each light point's depth map is fitted to the rendered view samples

@@ -16,6 +16,7 @@
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadow/baseline/multi_view_shared.h"
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/partitions/light_partitions_gpu.h"
 #include "penumbra/shadow/shadow_map_common_gpu.h"
 
 namespace penumbra {
@@ -170,11 +171,15 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   tally.add(static_cast<uint64_t>(maps) * (sizeof(GpuReceiverRange) + sizeof(Vec3f)) + batch * sizeof(MultiViewMap) +
                 sizeof(uint64_t),
             kLightSamplesSetting);
+  partitions::add_gpu_memory(tally, p, q);
   return tally.estimate();
 }
 
 const GpuMethodRegistration registration({"multi-view-sm",
-                                          [](const ParamSet& p) { return std::make_unique<MultiViewShadowMapGpu>(p); },
+                                          [](const ParamSet& p) {
+                                            return partitions::wrap_gpu(std::make_unique<MultiViewShadowMapGpu>(p), p,
+                                                                        p.get_int("resolution"));
+                                          },
                                           memory});
 
 }  // namespace

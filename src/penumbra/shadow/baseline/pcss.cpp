@@ -30,6 +30,7 @@
 #include "penumbra/core/sampling.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/baseline/pcss_common.h"
+#include "penumbra/shadow/partitions/light_partitions.h"
 #include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/shadow/shadow_method.h"
 
@@ -105,6 +106,7 @@ std::vector<ParamSpec> params() {
   p.push_back({"jitter", ParamType::Bool, true,
                "rotate the kernels per pixel (Cranley-Patterson): noise instead of banding; false: one fixed kernel",
                {}});
+  for (ParamSpec& s : partitions::param_specs()) p.push_back(std::move(s));
   return p;
 }
 
@@ -122,7 +124,7 @@ const MethodRegistration registration({
     "pcss",
     "percentage-closer soft shadows from one depth map (Fernando 2005), or xie2007 §3's PCF based soft shadows",
     params(),
-    [](const ParamSet& p) { return std::make_unique<Pcss>(p); },
+    [](const ParamSet& p) { return partitions::wrap(std::make_unique<Pcss>(p), p, p.get_int("resolution")); },
     /*samples_light=*/false,
     memory,
     // Not tile-exact: the depth map is fitted to the rendered view samples (light_view_from),

@@ -5,6 +5,7 @@
 // parameters as pcss.cpp's table.
 #include "penumbra/shadow/baseline/pcss_common.h"
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/partitions/light_partitions_gpu.h"
 #include "penumbra/shadow/shadow_map_common_gpu.h"
 
 namespace penumbra {
@@ -70,10 +71,14 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   shadow_map::GpuLightCentreMap::add_memory(tally, p.get_int("resolution"), q);
   tally.add(static_cast<uint64_t>(p.get_int("blocker_samples") + p.get_int("pcf_samples")) * sizeof(Vec2f),
             "pcf_samples");
+  partitions::add_gpu_memory(tally, p, q);
   return tally.estimate();
 }
 
-const GpuMethodRegistration registration({"pcss", [](const ParamSet& p) { return std::make_unique<PcssGpu>(p); },
+const GpuMethodRegistration registration({"pcss", [](const ParamSet& p) {
+                                            return partitions::wrap_gpu(std::make_unique<PcssGpu>(p), p,
+                                                                        p.get_int("resolution"));
+                                          },
                                           memory});
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
+#include "penumbra/shadow/partitions/light_partitions.h"
 #include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/shadow/shadow_method.h"
 
@@ -66,6 +67,7 @@ std::vector<ParamSpec> params() {
                "percentage-closer filtering: radius in texels of the (2 pcf + 1)^2 box of texels averaged (0 = one "
                "texel, a hard shadow)",
                {}, 0, 64});
+  for (ParamSpec& s : partitions::param_specs()) p.push_back(std::move(s));
   return p;
 }
 
@@ -81,7 +83,9 @@ const MethodRegistration registration({
     "shadow-map",
     "hard shadows from one depth map at the light centre: constant and slope-scaled bias, optional PCF",
     params(),
-    [](const ParamSet& p) { return std::make_unique<ShadowMapMethod>(p); },
+    [](const ParamSet& p) {
+      return partitions::wrap(std::make_unique<ShadowMapMethod>(p), p, p.get_int("resolution"));
+    },
     /*samples_light=*/false,
     memory,
     // Not tile-exact: the depth map is fitted to the rendered view samples (light_view_from),

@@ -3,6 +3,7 @@
 // (shadow_map_shared.h shadow_map_visibility) in kernels/shadow_map_lookup.comp, one thread per
 // view sample. Same parameters as shadow_map.cpp's table.
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/partitions/light_partitions_gpu.h"
 #include "penumbra/shadow/shadow_map_common_gpu.h"
 
 namespace penumbra {
@@ -46,10 +47,14 @@ class ShadowMapGpu final : public GpuShadowMethod {
 MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   MemoryTally tally;
   shadow_map::GpuLightCentreMap::add_memory(tally, p.get_int("resolution"), q);
+  partitions::add_gpu_memory(tally, p, q);
   return tally.estimate();
 }
 
-const GpuMethodRegistration registration({"shadow-map", [](const ParamSet& p) { return std::make_unique<ShadowMapGpu>(p); },
+const GpuMethodRegistration registration({"shadow-map", [](const ParamSet& p) {
+                                            return partitions::wrap_gpu(std::make_unique<ShadowMapGpu>(p), p,
+                                                                        p.get_int("resolution"));
+                                          },
                                           memory});
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include "penumbra/shadow/multilayer/multilayer_map.h"
 #include "penumbra/shadow/multilayer/multilayer_trace.h"
 #include "penumbra/shadow/multilayer/multilayer_view_shared.h"
+#include "penumbra/shadow/partitions/light_partitions.h"
 #include "penumbra/shadow/shadow_method.h"
 
 namespace penumbra {
@@ -242,12 +243,14 @@ std::vector<ParamSpec> common_specs() {
 
 std::vector<ParamSpec> mlsm_specs() {
   std::vector<ParamSpec> s = common_specs();
+  for (ParamSpec& p : partitions::param_specs()) s.push_back(std::move(p));
   s.push_back({"layers", ParamType::Int, 5, "k: nearest distinct surfaces kept per texel (xie2007 §4.2)", {}, 1, 255});
   return s;
 }
 
 std::vector<ParamSpec> mtsm_specs() {
   std::vector<ParamSpec> s = common_specs();
+  for (ParamSpec& p : partitions::param_specs()) s.push_back(std::move(p));
   s.push_back({"resets", ParamType::Int, 4,
                "times a texel's accumulated visibility may reach 0 and restart at 1 (xie2007 §5.1): layers behind an "
                "opaque run; on opaque scenes resets + 1 plays the role of mlsm's layers",
@@ -292,7 +295,9 @@ const MethodRegistration mlsm_registration({
     "ray tracing a k-layer shadow map from the (pushed-back) light centre (xie2007 §4): --spp stochastic rays per "
     "point through a min/max quadtree",
     mlsm_specs(),
-    [](const ParamSet& p) { return std::make_unique<MultilayerMethod>(p, Kind::Opaque); },
+    [](const ParamSet& p) {
+      return partitions::wrap(std::make_unique<MultilayerMethod>(p, Kind::Opaque), p, p.get_int("resolution"));
+    },
     /*samples_light=*/true,
     [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, Kind::Opaque); },
     // Not tile-exact: the layered map is fitted to the rendered view samples (build() ->
@@ -305,7 +310,9 @@ const MethodRegistration mtsm_registration({
     "ray tracing a multilayer transparent shadow map (xie2007 §5): deep-shadow layers (z, v, count) per texel, "
     "visibility accumulated along --spp stochastic rays per point",
     mtsm_specs(),
-    [](const ParamSet& p) { return std::make_unique<MultilayerMethod>(p, Kind::Transparent); },
+    [](const ParamSet& p) {
+      return partitions::wrap(std::make_unique<MultilayerMethod>(p, Kind::Transparent), p, p.get_int("resolution"));
+    },
     /*samples_light=*/true,
     [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, Kind::Transparent); },
     // Not tile-exact: fitted to the rendered view samples, as mlsm.

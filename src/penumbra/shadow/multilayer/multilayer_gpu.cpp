@@ -17,6 +17,7 @@
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/partitions/light_partitions_gpu.h"
 #include "penumbra/shadow/multilayer/multilayer_kernels_shared.h"
 #include "penumbra/shadow/multilayer/multilayer_map.h"
 #include "penumbra/shadow/multilayer/multilayer_trace.h"
@@ -438,15 +439,16 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, bool transparent)
   tally.add(map, "resolution");
   tally.add(gpu::GpuRasterizer::scratch_bytes(q.triangles, v.width, v.height), kTrianglesSetting);
   tally.add(q.view_samples * (sizeof(uint32_t) + 2 * sizeof(float)), kViewSamplesSetting);
+  partitions::add_gpu_memory(tally, p, q);
   return tally.estimate();
 }
 
 const GpuMethodRegistration mlsm_registration(
-    {"mlsm", [](const ParamSet& p) { return std::make_unique<MultilayerGpu>(p, false); },
+    {"mlsm", [](const ParamSet& p) { return partitions::wrap_gpu(std::make_unique<MultilayerGpu>(p, false), p, p.get_int("resolution")); },
      [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, false); }});
 
 const GpuMethodRegistration mtsm_registration(
-    {"mtsm", [](const ParamSet& p) { return std::make_unique<MultilayerGpu>(p, true); },
+    {"mtsm", [](const ParamSet& p) { return partitions::wrap_gpu(std::make_unique<MultilayerGpu>(p, true), p, p.get_int("resolution")); },
      [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, true); }});
 
 }  // namespace

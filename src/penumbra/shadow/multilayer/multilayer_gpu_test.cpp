@@ -81,7 +81,7 @@ TEST_F(MultilayerGpu, SemiTransparentFurballGivesTheCpuPicture) {
 TEST_F(MultilayerGpu, CropsAndCameraMovesRenderAsFreshRenders) {
   Scene scene = shipped_scene("bunny.json", 40);
   for (const char* method : {"mlsm", "mtsm"}) {
-    Renderer r(scene, settings(method, {"resolution=128"}, true, 8));
+    Renderer r(scene, settings(method, {"resolution=128", "partitions=1"}, true, 8));
     const RenderResult first = r.render();
     for (const std::string& stage : {std::string("build"), std::string("trace")})
       EXPECT_TRUE(first.gpu_ms.contains(stage)) << method << " " << first.gpu_ms.dump();
@@ -99,10 +99,10 @@ TEST_F(MultilayerGpu, CropsAndCameraMovesRenderAsFreshRenders) {
     const RenderResult moved = r.render();
     Scene moved_scene = scene;
     moved_scene.camera = cam;
-    const RenderResult fresh = render_scene(moved_scene, settings(method, {"resolution=128"}, true, 8));
+    const RenderResult fresh = render_scene(moved_scene, settings(method, {"resolution=128", "partitions=1"}, true, 8));
     EXPECT_EQ(mean_abs_dv(moved.visibility, fresh.visibility), 0.0) << method;
     // A crop: the map fitted to the crop's receivers, as the CPU fits it.
-    RenderSettings crop = settings(method, {"resolution=128"}, true, 8);
+    RenderSettings crop = settings(method, {"resolution=128", "partitions=1"}, true, 8);
     crop.crop = PixelWindow{8, 6, 30, 26};
     RenderSettings crop_cpu = crop;
     crop_cpu.device = {};
@@ -129,9 +129,9 @@ TEST_F(MultilayerGpu, NoReceiverInFrontOfTheLightGivesTheCpuPicture) {
 // counted total and render again, and the picture is the one with room enough.
 TEST_F(MultilayerGpu, FragmentListsTooSmallGrowAndGiveTheSamePicture) {
   const Scene scene = shipped_scene("foliage.json", 32);
-  const RenderResult normal = render_scene(scene, settings("mtsm", {"resolution=128"}, true, 8));
+  const RenderResult normal = render_scene(scene, settings("mtsm", {"resolution=128", "partitions=1"}, true, 8));
   multilayer::set_first_gpu_fragment_capacity_for_testing(16);
-  const RenderResult grown = render_scene(scene, settings("mtsm", {"resolution=128"}, true, 8));
+  const RenderResult grown = render_scene(scene, settings("mtsm", {"resolution=128", "partitions=1"}, true, 8));
   multilayer::set_first_gpu_fragment_capacity_for_testing(0);
   EXPECT_EQ(normal.stats.extra.at("raster_attempts"), 1) << normal.stats.extra.dump();
   EXPECT_GT(grown.stats.extra.at("raster_attempts").get<int>(), 1) << grown.stats.extra.dump();

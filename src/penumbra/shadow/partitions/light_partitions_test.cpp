@@ -1,0 +1,175 @@
+// Light-space partitions (light_partitions.h): the plan follows the casters, the guard samples
+// sit xie2007 eq. 1's margin beyond a partition, a partitioned map is closer to the exact hard
+// shadow where one map cannot hold the casters, nothing is split where it can, and the GPU's
+// partitions give the CPU's pictures.
+#include "penumbra/shadow/partitions/light_partitions.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "penumbra/eval/run_setup.h"
+#include "penumbra/testing/gpu_method_runs.h"
+
+namespace penumbra::partitions {
+namespace {
+
+AreaLight test_light() {
+  AreaLight l;
+  l.shape = LightShape::Rect;
+  l.center = {0, 10, 0};
+  l.frame = Frame::from_z({0, -1, 0});
+  l.size = {2, 2};
+  return l;
+}
+
+Bounds3f scene_box() {
+  Bounds3f b;
+  b.extend(Vec3f(-10, 0, -10));
+  b.extend(Vec3f(10, 10, 10));
+  return b;
+}
+
+// Receivers on a plane 10 below the light filling x/z, y/z in [-1, 1]: every cell occupied.
+ReceiverGrid full_grid(int grid) {
+  ReceiverGrid r;
+  r.grid = grid;
+  r.range.add(-1, -1, 10);
+  r.range.add(1, 1, 10);
+  r.occupied.assign(static_cast<size_t>(grid) * grid, 1);
+  return r;
+}
+
+TEST(LightPartitions, SplitsOnlyWhereCastersOutnumberTheTexels) {
+  const AreaLight light = test_light();
+  const ShadowViewFrame frame = light_frame(light, scene_box());
+  Settings s;
+  s.max_side = 8;
+  s.density = 1;
+  s.map_texels = 100;
+  const ReceiverGrid receivers = full_grid(grid_cells(s));
+  // 1000 casters in the quadrant x/z, y/z in (0.5, 1) x (0.5, 1), 10 elsewhere.
+  CasterCentroids casters;
+  casters.z_min = 5;
+  for (int i = 0; i < 1000; ++i) casters.xyz.push_back({0.51f + 0.48f * (i % 31) / 31.0f, 0.51f + 0.48f * (i / 31) / 33.0f, 5});
+  for (int i = 0; i < 10; ++i) casters.xyz.push_back({-0.9f + 0.1f * i, -0.5f, 5});
+  const Plan plan = make_plan(frame, receivers, casters, light, s);
+  // Root (1010 > 100) splits; the dense quadrant (1000) splits again, and its quarters (~250)
+  // once more (~62 each); the sparse quadrants stay whole: 3 + 4 x ... leaves, every cell in one.
+  EXPECT_GT(plan.leaves, 4);
+  std::set<int32_t> used(plan.leaf_of_cell.begin(), plan.leaf_of_cell.end());
+  EXPECT_EQ(static_cast<int>(used.size()), plan.leaves);
+  EXPECT_EQ(used.count(-1), 0u);
+  // A leaf in the sparse corner (x/z, y/z near -1) covers a quarter of the grid.
+  const int G = plan.grid;
+  const int corner = plan.leaf_of_cell[0];
+  int corner_cells = 0;
+  for (int32_t l : plan.leaf_of_cell) corner_cells += l == corner;
+  EXPECT_EQ(corner_cells, G * G / 4);
+
+  Settings one = s;
+  one.density = 1e6;
+  EXPECT_EQ(make_plan(frame, receivers, casters, light, one).leaves, 1);
+  one = s;
+  one.max_side = 1;
+  EXPECT_EQ(make_plan(frame, receivers, casters, light, one).leaves, 1);
+  // Empty cells (no receiver) belong to no partition.
+  ReceiverGrid half = receivers;
+  for (int y = 0; y < G; ++y)
+    for (int x = 0; x < G / 2; ++x) half.occupied[y * G + x] = 0;
+  const Plan p = make_plan(frame, half, casters, light, s);
+  EXPECT_EQ(p.leaf_of_cell[0], -1);
+  EXPECT_GE(p.leaf_of_cell[G - 1], 0);
+}
+
+TEST(LightPartitions, GuardSamplesSitTheBlockerSearchMarginBeyondThePartition) {
+  const AreaLight light = test_light();
+  const ShadowViewFrame frame = light_frame(light, scene_box());
+  Settings s;
+  s.max_side = 2;
+  s.density = 0;
+  const ReceiverGrid receivers = full_grid(grid_cells(s));
+  CasterCentroids casters;
+  casters.z_min = 4;
+  casters.xyz.push_back({0, 0, 4});
+  const Plan plan = make_plan(frame, receivers, casters, light, s);
+  ASSERT_EQ(plan.leaves, 4);
+  // xie2007 eq. 1 in x/z units: r (1/z_min - 1/z_r), r = the rect's extent radius sqrt(2).
+  const float margin = std::sqrt(2.0f) * (1.0f / 4 - 1.0f / 10);
+  for (int l = 0; l < plan.leaves; ++l) {
+    float lo = kInfinity, hi = -kInfinity;
+    for (Vec3f g : plan.guards[l]) {
+      float x, y, z;
+      ASSERT_TRUE(shader::shadow_view_project(frame.axes, g, x, y, z));
+      EXPECT_NEAR(z, 10.0f, 1e-4f);
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    // Each partition is half the root ([-1, 0] or [0, 1]) widened by the margin on both sides.
+    EXPECT_NEAR(hi - lo, 1.0f + 2 * margin, 1e-3f) << l;
+  }
+}
+
+RenderSettings cpu_settings(const std::string& method, std::vector<std::string> params) {
+  return testing::device_settings(method, std::move(params), false);
+}
+
+// A dense wide scene: four generated trees (about 240 k triangles) under a far light.
+Scene small_forest(int resolution) {
+  RunSetup setup = RunSetup::from_file(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/forest.json");
+  setup.apply("resolution", std::to_string(resolution));
+  setup.apply("generator.trees", "4");
+  return setup.load();
+}
+
+TEST(LightPartitions, APartitionedShadowMapIsCloserToTheExactHardShadowWhereOneMapCannotHoldTheCasters) {
+  const Scene forest = small_forest(64);
+  const RenderResult hard = render_scene(forest, cpu_settings("hard", {}));
+  const RenderResult one = render_scene(forest, cpu_settings("shadow-map", {"resolution=256", "partitions=1"}));
+  const RenderResult split = render_scene(forest, cpu_settings("shadow-map", {"resolution=256"}));
+  EXPECT_EQ(one.stats.extra.value("partitions", 1), 1);
+  EXPECT_GT(split.stats.extra.value("partitions", 1), 4);
+  const double e_one = testing::mean_abs_dv(one.visibility, hard.visibility);
+  const double e_split = testing::mean_abs_dv(split.visibility, hard.visibility);
+  EXPECT_LT(e_split, 0.8 * e_one) << e_one << " " << e_split;
+}
+
+TEST(LightPartitions, NothingIsSplitWhereOneMapHoldsTheCasters) {
+  // The bunny: 70 k triangles against 1-4 M texels.
+  const Scene bunny = testing::shipped_scene("bunny.json", 32);
+  for (const char* method : {"shadow-map", "pcss", "mlsm", "mtsm"}) {
+    const RenderResult r = render_scene(bunny, cpu_settings(method, {}));
+    EXPECT_EQ(r.stats.extra.value("partitions", 0), 1) << method;
+  }
+}
+
+TEST(LightPartitions, ForcedPartitionsCoverEveryViewSampleOnce) {
+  // Seven partitions of the bunny's receivers: each sample's V comes from its own partition's
+  // map, so the picture stays the one-map picture up to the finer maps' differences.
+  const Scene bunny = testing::shipped_scene("bunny.json", 48);
+  for (const char* method : {"shadow-map", "mlsm"}) {
+    const RenderResult one = render_scene(bunny, cpu_settings(method, {"partitions=1"}));
+    const RenderResult split = render_scene(bunny, cpu_settings(method, {"partitions=4", "partition_density=0"}));
+    EXPECT_GT(split.stats.extra.value("partitions", 1), 4) << method;
+    EXPECT_LT(testing::mean_abs_dv(one.visibility, split.visibility), 0.02) << method;
+  }
+}
+
+class LightPartitionsGpu : public gpu::testing::GpuTest {};
+
+TEST_F(LightPartitionsGpu, PartitionsGiveTheCpuPictures) {
+  const Scene bunny = testing::shipped_scene("bunny.json", 40);
+  for (const char* method : {"shadow-map", "pcss", "mlsm", "mtsm", "multi-view-sm"}) {
+    RenderSettings s = testing::device_settings(method, {"partitions=4", "partition_density=0", "resolution=256"},
+                                                false, 7, 16);
+    const testing::DevicePair pair = testing::render_on_both(bunny, s);
+    EXPECT_GT(pair.cpu_shadow, 10) << method;
+    EXPECT_LE(pair.mean_abs_dv, 1e-3) << method;
+    EXPECT_EQ(pair.gpu.stats.extra.value("partitions", 0), pair.cpu.stats.extra.value("partitions", -1)) << method;
+    EXPECT_GT(pair.gpu.stats.extra.value("partitions", 0), 4) << method;
+  }
+}
+
+}  // namespace
+}  // namespace penumbra::partitions
