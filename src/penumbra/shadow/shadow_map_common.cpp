@@ -106,6 +106,7 @@ size_t ShadowDepthMap::memory_bytes() const {
 void LightCentreMap::prepare(const Scene& scene, MethodStats& stats) {
   ScopedPhase phase(stats, "gather");
   triangles_ = gather_raster_triangles(scene);
+  culling_.build(triangles_);
   scene_bounds_ = scene.bounds();
   valid_ = false;
 }
@@ -127,7 +128,9 @@ bool LightCentreMap::update(const AreaLight& light, const ViewSamples& vs, const
   }
   if (!(valid_ && same_fitted_view(map_.view(), view))) {
     ScopedPhase phase(stats, "raster");
-    map_.render(rasterizer_, triangles_, view);
+    uint64_t culled = 0;
+    map_.render(rasterizer_, culling_.visible(triangles_, view, visible_, &culled), view);
+    stats.extra["culled_triangles"] = stats.extra.value("culled_triangles", uint64_t{0}) + culled;
     valid_ = true;
     ++renders_;
   }

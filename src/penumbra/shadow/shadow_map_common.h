@@ -35,6 +35,7 @@
 #include <span>
 #include <vector>
 
+#include "penumbra/raster/caster_culling.h"
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/raster/rasterizer.h"
@@ -175,6 +176,8 @@ class LightCentreMap {
 
  private:
   RasterTriangles triangles_;
+  CasterCulling culling_;              // the casters outside a fitted view are not rasterized
+  std::vector<RasterTriangle> visible_;  // those inside, when some are culled
   Bounds3f scene_bounds_;
   Rasterizer rasterizer_;
   ShadowDepthMap map_;

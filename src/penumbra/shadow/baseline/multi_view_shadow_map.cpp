@@ -34,6 +34,7 @@ class MultiViewShadowMap final : public ShadowMethod {
     ScopedPhase phase(stats_, "gather");
     stats_.prepare_count++;
     triangles_ = gather_raster_triangles(*ctx.scene);
+    culling_.build(triangles_);
     scene_bounds_ = ctx.scene->bounds();
   }
 
@@ -41,6 +42,7 @@ class MultiViewShadowMap final : public ShadowMethod {
     const AreaLight& light = *ctx.light;
     const size_t n = vs.size();
     std::fill(out.visibility.begin(), out.visibility.end(), 0.0f);
+    culled_ = 0;
     const std::vector<Vec3f> receivers = shadow_map::receiver_points(vs, light);
     if (receivers.empty()) return;
     const int maps = std::max(1, ctx.light_samples);
@@ -58,7 +60,9 @@ class MultiViewShadowMap final : public ShadowMethod {
       }
       {
         ScopedPhase phase(stats_, "raster");
-        map_.render(rasterizer_, triangles_, view);
+        uint64_t culled = 0;
+        map_.render(rasterizer_, culling_.visible(triangles_, view, visible_, &culled), view);
+        culled_ += culled;
       }
       ScopedPhase phase(stats_, "lookup");
       parallel_for(n, 4096, [&](size_t begin, size_t end) {
@@ -78,6 +82,7 @@ class MultiViewShadowMap final : public ShadowMethod {
     stats_.texels_visited += texels.load();
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, map_.memory_bytes());
     stats_.extra["maps"] = maps;
+    stats_.extra["culled_triangles"] = culled_;
     stats_.extra["map_width"] = map_.map().width;
     stats_.extra["map_height"] = map_.map().height;
   }
@@ -86,6 +91,9 @@ class MultiViewShadowMap final : public ShadowMethod {
   shadow_map::ViewParams view_;
   BiasParams bias_;
   RasterTriangles triangles_;
+  CasterCulling culling_;  // the casters outside a sample's fitted view are not rasterized
+  std::vector<RasterTriangle> visible_;
+  uint64_t culled_ = 0;
   Bounds3f scene_bounds_;
   Rasterizer rasterizer_;
   shadow_map::ShadowDepthMap map_;

@@ -16,6 +16,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/raster/caster_culling.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/multilayer/multilayer_map.h"
 #include "penumbra/shadow/multilayer/multilayer_trace.h"
@@ -49,6 +50,7 @@ class MultilayerMethod final : public ShadowMethod {
     stats_.prepare_count++;
     ScopedPhase phase(stats_, "gather");
     triangles_ = gather_raster_triangles(*ctx.scene);
+    culling_.build(triangles_);
     scene_bounds_ = ctx.scene->bounds();
     built_ = false;
   }
@@ -152,11 +154,14 @@ class MultilayerMethod final : public ShadowMethod {
     const double view_ms = t_view.elapsed_ms();
     Timer t_raster;
     float z_min;
+    uint64_t culled = 0;
+    const RasterTriangleView casters = culling_.visible(triangles_, view_.view, visible_, &culled);
+    stats_.extra["culled_triangles"] = stats_.extra.value("culled_triangles", uint64_t{0}) + culled;
     if (kind_ == Kind::Opaque) {
-      multilayer::build_opaque_layer_map(rasterizer_, triangles_, view_.view, layers_, &opaque_);
+      multilayer::build_opaque_layer_map(rasterizer_, casters, view_.view, layers_, &opaque_);
       z_min = opaque_.z_min;
     } else {
-      multilayer::build_transparent_map(rasterizer_, triangles_, view_.view, compression_, &transparent_);
+      multilayer::build_transparent_map(rasterizer_, casters, view_.view, compression_, &transparent_);
       z_min = transparent_.z_min;
     }
     const double raster_ms = t_raster.elapsed_ms();
@@ -204,6 +209,8 @@ class MultilayerMethod final : public ShadowMethod {
   float z_thresh_ = 0, z_thresh_texels_ = 1.0f;
   multilayer::TraceParams trace_, resolved_trace_;
   RasterTriangles triangles_;
+  CasterCulling culling_;  // the casters outside the fitted view are not rasterized
+  std::vector<RasterTriangle> visible_;
   Bounds3f scene_bounds_, receiver_bounds_;
   bool built_ = false;
   bool fit_shadowable_ = true;
