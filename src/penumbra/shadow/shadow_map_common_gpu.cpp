@@ -76,6 +76,7 @@ std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFram
 
 void GpuLightCentreMap::prepare(const ShadowContext& ctx, GpuFrame& frame) {
   casters_ = ctx.scene->bounds();
+  culling_.prepare(*frame.device, *ctx.scene);
   valid_ = false;
   if (!rasterizer_) {
     rasterizer_ = std::make_unique<gpu::GpuRasterizer>(*frame.device);
@@ -93,7 +94,12 @@ bool GpuLightCentreMap::update(const ShadowContext& ctx, GpuFrame& frame, const 
   const LightView& view = *fitted;
   // Rendered again only when the fitted view changed (LightCentreMap::update's rule).
   if (!(valid_ && same_fitted_view(map_.view(), view))) {
-    rasterizer_->depth_map(cl, frame.flush, "raster", *frame.scene, view, RasterFilter{}, &map_);
+    // The objects wholly outside the view are left out (after the fit's flush: no recorded
+    // kernel still reads the flags).
+    uint64_t culled = 0;
+    const uint64_t flags = culling_.flags_for(view, &culled);
+    rasterizer_->depth_map(cl, frame.flush, "raster", *frame.scene, view, RasterFilter{}, &map_, flags);
+    stats.extra["culled_triangles"] = stats.extra.value("culled_triangles", uint64_t{0}) + culled;
     shader::ShadowMapBlock block{};
     block.map = shadow_map_view(view, map_.z_min());
     block.bias = bias.shared();

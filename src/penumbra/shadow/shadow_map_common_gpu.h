@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
+#include "penumbra/gpu/raster/object_culling.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/shadow_map_common.h"
@@ -65,6 +66,7 @@ class GpuLightCentreMap {
 
  private:
   Bounds3f casters_;
+  gpu::ObjectCulling culling_;  // the objects wholly outside the fitted view are not rasterized
   std::unique_ptr<gpu::GpuRasterizer> rasterizer_;
   gpu::GpuDepthMap map_;
   gpu::Buffer range_, block_, counters_;

@@ -106,7 +106,8 @@ void GpuRasterizer::set_capacities_for_testing(uint32_t triangles, uint32_t item
 }
 
 void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string_view stage, const GpuScene& scene,
-                              const LightView& view, const RasterFilter& filter, GpuDepthMap* out) {
+                              const LightView& view, const RasterFilter& filter, GpuDepthMap* out,
+                              uint64_t object_flags) {
   // The host writes the view record and may reallocate buffers below: nothing recorded before
   // may still be waiting to read them.
   submit();
@@ -116,7 +117,8 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
   out->view_record_.upload(&record, sizeof(record));
   const uint64_t texels = static_cast<uint64_t>(view.width()) * view.height();
   const GpuRasterState s = render_passes(
-      cl, submit, stage, scene, view, out->view_record_.address(), filter, 0, [&](const shader::RasterFillParams& setup) {
+      cl, submit, stage, scene, view, out->view_record_.address(), filter, object_flags,
+      [&](const shader::RasterFillParams& setup) {
         shader::RasterFillParams fp = setup;
         fp.keys = out->keys_.address();
         cl.fill(out->keys_, kEmptyWord);

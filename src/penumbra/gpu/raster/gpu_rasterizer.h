@@ -76,9 +76,9 @@ class GpuRasterizer {
   // `commands` holds first (the map's buffers are rewritten from the host), records the four
   // kernels in the GPU stage `stage`, submits them, and reads the counters back (a few bytes):
   // where the set-up triangles or work items outgrew their buffers, it grows them and renders
-  // again.
+  // again. `object_flags`: as depth_bin_masks' (0: every object).
   void depth_map(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
-                 const LightView& view, const RasterFilter& filter, GpuDepthMap* out);
+                 const LightView& view, const RasterFilter& filter, GpuDepthMap* out, uint64_t object_flags = 0);
 
   // Which depth bins each texel centre's fragments fall in: the CPU's Rasterizer::depth_bin_masks
   // (eisemann2006 §3.4's slicing pass), the same way as depth_map (gpu_depth_bins.cpp).
@@ -93,13 +93,15 @@ class GpuRasterizer {
   // (xie2007 §4.2): the CPU's Rasterizer::layered_depth_map, by peeling (gpu_rasterizer_layers.cpp).
   // Submits, reads back and grows as depth_map does.
   void layered_depth_map(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
-                         const LightView& view, const LayerOptions& options, GpuLayeredDepthMap* out);
+                         const LightView& view, const LayerOptions& options, GpuLayeredDepthMap* out,
+                         uint64_t object_flags = 0);
 
   // Every fragment through each texel centre with its opacity, each texel's sorted by depth
   // (xie2007 §5): the CPU's Rasterizer::fragment_lists (gpu_rasterizer_layers.cpp). The fragments
   // buffer grows to the total the counting pass found, and the lists render again.
   void fragment_lists(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
-                      const LightView& view, const RasterFilter& filter, GpuFragmentLists* out);
+                      const LightView& view, const RasterFilter& filter, GpuFragmentLists* out,
+                      uint64_t object_flags = 0);
 
   // The last call's counts (RasterStats; no times: those are the GPU stages') and how many
   // renders it took (1 unless a buffer grew).

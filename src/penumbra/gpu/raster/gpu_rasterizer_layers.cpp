@@ -115,7 +115,7 @@ float z_min_of(const GpuRasterState& s) {
 
 void GpuRasterizer::layered_depth_map(CommandList& cl, const Submit& submit, std::string_view stage,
                                       const GpuScene& scene, const LightView& view, const LayerOptions& options,
-                                      GpuLayeredDepthMap* out) {
+                                      GpuLayeredDepthMap* out, uint64_t object_flags) {
   if (options.layers < 1 || options.layers > 255)
     throw Error("GPU rasterizer: layers = {} must be in [1, 255]", options.layers);
   if (!(options.distinct_epsilon >= 0)) throw Error("GPU rasterizer: distinct_epsilon must be >= 0");
@@ -128,7 +128,7 @@ void GpuRasterizer::layered_depth_map(CommandList& cl, const Submit& submit, std
   upload_view(*device_, out->view_record_, view);
   const uint64_t texels = texel_count(view.width(), view.height());
   const GpuRasterState s = render_passes(
-      cl, submit, stage, scene, view, out->view_record_.address(), options.filter, 0,
+      cl, submit, stage, scene, view, out->view_record_.address(), options.filter, object_flags,
       [&](const shader::RasterFillParams& fp) {
         cl.fill(out->counts_, 0);
         cl.fill(out->front_, kMinusInfinityBits);  // every fragment lies behind "no layer yet"
@@ -168,7 +168,7 @@ void GpuRasterizer::layered_depth_map(CommandList& cl, const Submit& submit, std
 
 void GpuRasterizer::fragment_lists(CommandList& cl, const Submit& submit, std::string_view stage,
                                    const GpuScene& scene, const LightView& view, const RasterFilter& filter,
-                                   GpuFragmentLists* out) {
+                                   GpuFragmentLists* out, uint64_t object_flags) {
   submit();
   out->resize(*device_, view.width(), view.height());
   out->view_ = view;
@@ -184,7 +184,7 @@ void GpuRasterizer::fragment_lists(CommandList& cl, const Submit& submit, std::s
   int attempts = 0;
   for (;;) {
     const GpuRasterState s = render_passes(
-        cl, submit, stage, scene, view, out->view_record_.address(), filter, 0,
+        cl, submit, stage, scene, view, out->view_record_.address(), filter, object_flags,
         [&](const shader::RasterFillParams& fp) {
           cl.fill(out->counts_, 0);
           shader::RasterFragmentParams p{};

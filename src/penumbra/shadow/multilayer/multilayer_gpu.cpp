@@ -14,6 +14,7 @@
 #include "penumbra/gpu/loop_limit.h"
 #include "penumbra/gpu/minmax_pyramid_gpu.h"
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
+#include "penumbra/gpu/raster/object_culling.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadow/gpu_method.h"
@@ -74,6 +75,7 @@ class MultilayerGpu final : public GpuShadowMethod {
     stats_.prepare_count++;
     gpu::Device& device = *frame.device;
     casters_ = ctx.scene->bounds();
+    culling_.prepare(device, *ctx.scene);
     candidates_ = multilayer::caster_candidates(*ctx.scene, *ctx.light);
     std::vector<shader::MlPlane> planes;
     plane_of_.assign(candidates_.size(), -1);
@@ -320,10 +322,14 @@ class MultilayerGpu final : public GpuShadowMethod {
     cl.fill(map_counters_, 0);
     cl.fill(map_counters_, kSmallest, offsetof(shader::MlMapCounters, z_min_bits), 4);
     float z_min = kInfinity;
+    // The objects wholly outside the fitted view are not rasterized (gpu/raster/object_culling.h).
+    uint64_t culled = 0;
+    const uint64_t flags = culling_.flags_for(v, &culled);
+    stats_.extra["culled_triangles"] = stats_.extra.value("culled_triangles", uint64_t{0}) + culled;
     if (!transparent_) {
       LayerOptions options;
       options.layers = settings_.layers;
-      rasterizer_->layered_depth_map(cl, frame.flush, "build", *frame.scene, v, options, &layered_);
+      rasterizer_->layered_depth_map(cl, frame.flush, "build", *frame.scene, v, options, &layered_, flags);
       z_min = layered_.z_min();
       mp.map_a = layered_.counts();
       mp.map_b = layered_.samples();
@@ -333,7 +339,7 @@ class MultilayerGpu final : public GpuShadowMethod {
       cl.dispatch("mlsm_layer_ranges", texels, mp);
     } else {
       if (first_fragment_capacity) rasterizer_->set_fragment_capacity_for_testing(first_fragment_capacity);
-      rasterizer_->fragment_lists(cl, frame.flush, "build", *frame.scene, v, RasterFilter{}, &lists_);
+      rasterizer_->fragment_lists(cl, frame.flush, "build", *frame.scene, v, RasterFilter{}, &lists_, flags);
       // A texel never has more layers than fragments: its layers go where its list starts.
       const uint64_t room = std::max<uint64_t>(1, lists_.capacity()) * sizeof(shader::TransparentLayer);
       if (layers_.empty() || layers_.bytes() < room) {
@@ -415,6 +421,7 @@ class MultilayerGpu final : public GpuShadowMethod {
   shader::MlGpuCounters totals_{};
   nlohmann::json build_extra_ = nlohmann::json::object();
   std::unique_ptr<gpu::GpuRasterizer> rasterizer_;
+  gpu::ObjectCulling culling_;  // the objects wholly outside the fitted view are not rasterized
   gpu::GpuLayeredDepthMap layered_;
   gpu::GpuFragmentLists lists_;
   gpu::GpuMinMaxPyramid pyramid_;

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <set>
+#include <string>
 
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/testing/gpu_method_runs.h"
@@ -168,6 +169,12 @@ TEST_F(LightPartitionsGpu, PartitionsGiveTheCpuPictures) {
     EXPECT_LE(pair.mean_abs_dv, 1e-3) << method;
     EXPECT_EQ(pair.gpu.stats.extra.value("partitions", 0), pair.cpu.stats.extra.value("partitions", -1)) << method;
     EXPECT_GT(pair.gpu.stats.extra.value("partitions", 0), 4) << method;
+    // Some partitions' views leave the bunny out: the culled casters (raster/caster_culling.h,
+    // gpu/raster/object_culling.h) give the same pictures on both devices.
+    if (std::string(method) == "shadow-map" || std::string(method) == "pcss") {
+      EXPECT_GT(pair.cpu.stats.extra.value("culled_triangles", uint64_t{0}), 0u) << method;
+      EXPECT_GT(pair.gpu.stats.extra.value("culled_triangles", uint64_t{0}), 0u) << method;
+    }
   }
 }
 
