@@ -84,9 +84,13 @@ LightRect light_rect(const AreaLight& light) {
 namespace {
 
 // Whether object `i` is planar and cannot shadow anything: the whole light lies strictly on
-// one side of its plane and no vertex of any other object lies strictly on the other side.
-// A segment from a point to the light then crosses the plane only at that point if it lies
-// on the plane, and never otherwise (a ground plane under the light, a wall behind it).
+// one side of its plane and no vertex of any other object lies on the other side by more than
+// a thousandth of the scene's size. A segment from a point to the light then crosses the plane
+// only at that point if it lies on the plane, and never otherwise (a ground plane under the
+// light, a wall behind it). The thousandth: objects sunk a hair into the ground are how scenes
+// are written (a trunk or a wall set into the terrain, a box whose size and position were
+// rounded: scenes/street.json's buildings reach 5 mm below its ground), and what the ground would
+// shadow there is inside them.
 bool is_planar_non_caster(const Scene& scene, size_t i, const LightRect& light) {
   const TriangleMesh& m = scene.objects[i].mesh;
   if (m.triangle_count() == 0) return true;
@@ -114,10 +118,11 @@ bool is_planar_non_caster(const Scene& scene, size_t i, const LightRect& light) 
     if (cs == 0 || (side != 0 && cs != side)) return false;
     side = cs;
   }
+  const float sink = std::max(tol, 1e-3f * length(scene.bounds().diagonal()));
   for (size_t j = 0; j < scene.objects.size(); ++j) {
     if (j == i) continue;
     for (Vec3f p : scene.objects[j].mesh.positions)
-      if (side * (dot(normal, p) - offset) < -tol) return false;
+      if (side * (dot(normal, p) - offset) < -sink) return false;
   }
   return true;
 }

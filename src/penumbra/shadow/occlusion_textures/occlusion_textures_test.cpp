@@ -311,6 +311,13 @@ TEST(OcclusionTextures, GroundPlanesAreLeftOutUnlessSomethingLiesBeneath) {
   ASSERT_EQ(ot.culled_objects().size(), 1u);
   EXPECT_EQ(ot.culled_objects()[0], 0u);
   EXPECT_NEAR(ot.plane(o.slices - 1), 2.0f, 1e-5f);  // the box reaches the ground: depth 2
+  // A box sunk 5 mm into the ground (less than a thousandth of the scene's size): the ground is
+  // still left out (issue 34: scenes/street.json's rounded boxes).
+  scene.objects.push_back(testing::object(testing::box({0.5f, -0.005f, 0.5f}, {0.7f, 0.3f, 0.7f})));
+  ot.build(scene, scene.lights[0], &stats);
+  ASSERT_EQ(ot.culled_objects().size(), 1u);
+  EXPECT_EQ(ot.culled_objects()[0], 0u);
+  scene.objects.pop_back();
   // Something below the ground: the ground may shadow it, so it is kept.
   scene.objects.push_back(testing::object(testing::box({-0.1f, -0.5f, -0.1f}, {0.1f, -0.3f, 0.1f})));
   ot.build(scene, scene.lights[0], &stats);
