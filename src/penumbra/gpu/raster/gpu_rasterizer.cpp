@@ -15,7 +15,6 @@ using shader::GpuRasterItem;
 using shader::GpuRasterState;
 using shader::GpuRasterTriangle;
 
-constexpr uint32_t kEmptyWord = 0xffffffffu;  // an empty key (both words), an empty z_min
 constexpr uint64_t kMaxCapacity = 0xffffffffu;  // items and triangles are indexed by uint32
 
 uint64_t tiles(int width, int height) {
@@ -121,7 +120,7 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
       [&](const shader::RasterFillParams& setup) {
         shader::RasterFillParams fp = setup;
         fp.keys = out->keys_.address();
-        cl.fill(out->keys_, kEmptyWord);
+        cl.fill(out->keys_, kRasterEmptyWord);
         cl.dispatch_indirect("raster_fill", state_, offsetof(GpuRasterState, fill_groups_x), fp);
         shader::RasterResolveParams rp{};
         rp.scene = scene.address();
@@ -134,7 +133,7 @@ void GpuRasterizer::depth_map(CommandList& cl, const Submit& submit, std::string
         rp.triangle = out->triangle_.address();
         cl.dispatch("raster_resolve", texels, rp);
       });
-  out->z_min_ = s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
+  out->z_min_ = s.z_min_bits == kRasterEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
 }
 
 GpuRasterState GpuRasterizer::render_passes(CommandList& cl, const Submit& submit, std::string_view stage,
@@ -151,7 +150,7 @@ GpuRasterState GpuRasterizer::render_passes(CommandList& cl, const Submit& submi
     ++attempts_;
     cl.stage(stage);
     cl.fill(state_, 0);
-    cl.fill(state_, kEmptyWord, offsetof(GpuRasterState, z_min_bits), 4);
+    cl.fill(state_, kRasterEmptyWord, offsetof(GpuRasterState, z_min_bits), 4);
     shader::RasterSetupParams sp{};
     sp.scene = scene.address();
     sp.view = view_record;

@@ -26,6 +26,9 @@
 
 namespace penumbra::gpu {
 
+// The word the passes clear to: an empty fragment key (both words), an empty z_min.
+inline constexpr uint32_t kRasterEmptyWord = 0xffffffffu;
+
 // A depth map on the device: DepthMap's planes (z, window depth, opacity, triangle), one buffer
 // each, and the view it was rendered from (its RasterView record, for kernels that look it up).
 class GpuDepthMap {

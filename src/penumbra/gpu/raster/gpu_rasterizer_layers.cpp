@@ -13,7 +13,6 @@ namespace {
 
 using shader::GpuRasterState;
 
-constexpr uint32_t kEmptyWord = 0xffffffffu;
 constexpr uint32_t kMinusInfinityBits = 0xff800000u;
 constexpr uint64_t kLayerSampleBytes = 16;  // z, window depth, opacity, triangle
 constexpr uint64_t kFragmentBytes = sizeof(shader::GpuFragment);
@@ -108,7 +107,7 @@ void upload_view(Device& device, Buffer& view_record, const LightView& view) {
 }
 
 float z_min_of(const GpuRasterState& s) {
-  return s.z_min_bits == kEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
+  return s.z_min_bits == kRasterEmptyWord ? kInfinity : shader::raster_order_float(s.z_min_bits);
 }
 
 }  // namespace
@@ -156,7 +155,7 @@ void GpuRasterizer::layered_depth_map(CommandList& cl, const Submit& submit, std
         // k peels, then one pass that only joins coincident fragments into the last layer.
         for (int layer = 0; layer <= k; ++layer) {
           pp.layer = static_cast<uint32_t>(layer);
-          if (layer < k) cl.fill(out->keys_, kEmptyWord);
+          if (layer < k) cl.fill(out->keys_, kRasterEmptyWord);
           cl.dispatch_indirect("raster_layer_peel", state_, offsetof(GpuRasterState, fill_groups_x), pp);
           if (layer == k) break;
           rp.layer = static_cast<uint32_t>(layer);
