@@ -73,6 +73,21 @@ shader::PartitionGrid grid_over(const ShadowViewFrame& frame, const ShadowViewRa
   return g;
 }
 
+bool may_split(const ShadowViewFrame& frame, const ShadowViewRange& receivers, const CasterCentroids& casters,
+               const Settings& s) {
+  if (s.max_side <= 1 || !(receivers.x1 >= receivers.x0)) return false;
+  const shader::PartitionGrid g = grid_over(frame, receivers, 1);
+  const double limit = double(s.density) * double(s.map_texels);
+  uint64_t count = 0;
+  for (Vec3f c : casters.xyz) {
+    if (!(c.z <= receivers.z1)) continue;
+    const float fx = (c.x - g.x0) * g.cells_per_x, fy = (c.y - g.y0) * g.cells_per_y;
+    count += fx >= 0 && fx < 1 && fy >= 0 && fy < 1;
+    if (double(count) > limit) return true;
+  }
+  return false;
+}
+
 Plan make_plan(const ShadowViewFrame& frame, const ReceiverGrid& receivers, const CasterCentroids& casters,
                const AreaLight& light, const Settings& s) {
   Plan plan;
@@ -144,14 +159,22 @@ namespace {
 
 bool is_receiver(const AreaLight& light, Vec3f p) { return dot(p - light.center, light.frame.n) > 0; }
 
-// The receivers of `vs` on the plan's grid.
-ReceiverGrid receiver_grid(const ShadowViewFrame& frame, const AreaLight& light, const ViewSamples& vs, int grid) {
-  ReceiverGrid r;
-  r.grid = grid;
+// The receivers' range in the light-centre frame.
+ShadowViewRange receiver_range(const ShadowViewFrame& frame, const AreaLight& light, const ViewSamples& vs) {
+  ShadowViewRange range;
   for (const ViewSample& s : vs.samples) {
     float x, y, z;
-    if (is_receiver(light, s.p) && shader::shadow_view_project(frame.axes, s.p, x, y, z)) r.range.add(x, y, z);
+    if (is_receiver(light, s.p) && shader::shadow_view_project(frame.axes, s.p, x, y, z)) range.add(x, y, z);
   }
+  return range;
+}
+
+// The receivers of `vs` (their range `range`) on the plan's grid.
+ReceiverGrid receiver_grid(const ShadowViewFrame& frame, const AreaLight& light, const ViewSamples& vs,
+                           const ShadowViewRange& range, int grid) {
+  ReceiverGrid r;
+  r.grid = grid;
+  r.range = range;
   r.occupied.assign(static_cast<size_t>(grid) * grid, 0);
   if (!(r.range.x1 >= r.range.x0)) return r;
   const shader::PartitionGrid g = grid_over(frame, r.range, grid);
@@ -180,9 +203,10 @@ class PartitionedMethod final : public ShadowMethod {
     Plan plan;
     {
       ScopedPhase phase(stats_, "partition plan");
-      const ReceiverGrid receivers = receiver_grid(frame_, *ctx.light, vs, grid_cells(settings_));
-      if (receivers.range.x1 >= receivers.range.x0)
-        plan = make_plan(frame_, receivers, casters_, *ctx.light, settings_);
+      const ShadowViewRange range = receiver_range(frame_, *ctx.light, vs);
+      if (may_split(frame_, range, casters_, settings_))
+        plan = make_plan(frame_, receiver_grid(frame_, *ctx.light, vs, range, grid_cells(settings_)), casters_,
+                         *ctx.light, settings_);
     }
     stats_.extra["partitions"] = std::max(1, plan.leaves);
     inner_->stats() = stats_;

@@ -84,6 +84,11 @@ struct Plan {
 // The grid the plan cuts, before the receivers are known in cells: the root rectangle from
 // their range (widened by a hair so the extremes fall inside).
 shader::PartitionGrid grid_over(const ShadowViewFrame& frame, const ShadowViewRange& range, int grid);
+// Whether the root can split at all: more casters project into the receivers' range than the
+// density allows (and partitions > 1). When not, the plan is one partition and the receivers'
+// grid is not needed (a single object's frame costs one pass over the casters' centroids).
+bool may_split(const ShadowViewFrame& frame, const ShadowViewRange& receivers, const CasterCentroids& casters,
+               const Settings& settings);
 // The plan from the receivers and the casters (the same on both devices).
 Plan make_plan(const ShadowViewFrame& frame, const ReceiverGrid& receivers, const CasterCentroids& casters,
                const AreaLight& light, const Settings& settings);

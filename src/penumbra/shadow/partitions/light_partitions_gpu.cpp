@@ -36,8 +36,8 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     receivers.grid = G;
     receivers.range = shadow_map::range_floats(shadow_map::reduce_receivers(light, frame, frame_, range_));
     Plan plan;
-    if (receivers.range.x1 >= receivers.range.x0) {
-      const shader::PartitionGrid g = shadow_map_grid(receivers, G);
+    if (may_split(frame_, receivers.range, casters_, settings_)) {
+      const shader::PartitionGrid g = grid_over(frame_, receivers.range, G);
       grow(device, grid_, sizeof(g), "the partitions' grid");
       grid_.upload(&g, sizeof(g));
       grow(device, cells_, cells * sizeof(uint32_t), "the partitions' grid cells");
@@ -142,8 +142,6 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
   }
 
  private:
-  shader::PartitionGrid shadow_map_grid(const ReceiverGrid& r, int G) const { return grid_over(frame_, r.range, G); }
-
   shader::PartitionClassifyParams classify_params(const AreaLight& light, const GpuFrame& frame, int G) const {
     shader::PartitionClassifyParams p{};
     p.grid = grid_.address();
