@@ -52,7 +52,9 @@ BiasParams bias_params(const ParamSet& p) {
 void add_map_memory(MemoryTally& tally, int resolution, const MemoryQuery& q) {
   const ViewSize v = fitted_view_bound(resolution);
   tally.add(DepthMap::bytes(v.width, v.height), "resolution");
-  tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, v.width, v.height),
+  // The gathered triangles, the culled copy a view keeps (at most as many: raster/caster_culling.h)
+  // and the rasterizer's scratch.
+  tally.add(2 * raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, v.width, v.height),
             kTrianglesSetting);
   tally.add(q.view_samples * sizeof(Vec3f), kViewSamplesSetting);
 }

@@ -112,6 +112,7 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   MemoryTally tally;
   shadow_map::add_map_memory(tally, p.get_int("resolution"), q);
   tally.add(static_cast<uint64_t>(std::max(1, q.light_samples)) * sizeof(Vec2f), kLightSamplesSetting);
+  partitions::add_memory(tally, p, q);
   return tally.estimate();
 }
 

@@ -117,6 +117,7 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   shadow_map::add_map_memory(tally, p.get_int("resolution"), q);
   tally.add(static_cast<uint64_t>(p.get_int("blocker_samples") + p.get_int("pcf_samples")) * sizeof(Vec2f),
             "pcf_samples");
+  partitions::add_memory(tally, p, q);
   return tally.estimate();
 }
 

@@ -76,6 +76,7 @@ std::vector<ParamSpec> params() {
 MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   MemoryTally tally;
   shadow_map::add_map_memory(tally, p.get_int("resolution"), q);
+  partitions::add_memory(tally, p, q);
   return tally.estimate();
 }
 

@@ -284,7 +284,8 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, Kind kind) {
   tally.add(kind == Kind::Opaque ? OpaqueLayerMap::bytes(v.width, v.height, p.get_int("layers"))
                                  : TransparentMap::build_bytes(v.width, v.height, p.get_int("resets") + 1),
             "resolution");
-  tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, v.width, v.height),
+  // The gathered triangles, the culled copy the view keeps (raster/caster_culling.h), the scratch.
+  tally.add(2 * raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, v.width, v.height),
             kTrianglesSetting);
   const uint64_t outline = q.light ? q.light->outline(32).size() : 32;
   tally.add(q.view_samples * (3 * sizeof(Vec3f) + sizeof(uint8_t)) +
@@ -294,6 +295,7 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, Kind kind) {
   const uint64_t per_thread = LightSampleBatch::bytes(n) + 2 * LightSampleBatch::padded(n) * sizeof(float) +
                               static_cast<uint64_t>(n) * (sizeof(Vec3f) + sizeof(float));
   tally.add(static_cast<uint64_t>(q.threads) * per_thread, kLightSamplesSetting);
+  partitions::add_memory(tally, p, q);
   return tally.estimate();
 }
 

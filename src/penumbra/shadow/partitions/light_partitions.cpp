@@ -272,6 +272,13 @@ class PartitionedMethod final : public ShadowMethod {
 
 }  // namespace
 
+void add_memory(MemoryTally& tally, const ParamSet& p, const MemoryQuery& q) {
+  if (p.get_int("partitions") <= 1) return;
+  tally.add(q.triangles * sizeof(Vec3f), kTrianglesSetting);
+  tally.add(q.view_samples * (sizeof(ViewSample) + 2 * sizeof(uint32_t) + sizeof(float) + sizeof(Vec3f)),
+            kViewSamplesSetting);
+}
+
 std::unique_ptr<ShadowMethod> wrap(std::unique_ptr<ShadowMethod> inner, const ParamSet& p, int map_resolution) {
   const Settings s = settings_from(p, map_resolution);
   if (s.max_side == 1) return inner;

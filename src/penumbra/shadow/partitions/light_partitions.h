@@ -95,6 +95,10 @@ Plan make_plan(const ShadowViewFrame& frame, const ReceiverGrid& receivers, cons
 // Cells a side for these settings.
 int grid_cells(const Settings& settings);
 
+// What the wrapper holds, added to a method's `tally` (nothing with `partitions` = 1): the
+// casters' centroids, and a partition's copy of its view samples with their V and E.
+void add_memory(MemoryTally& tally, const ParamSet& p, const MemoryQuery& q);
+
 // A method that fits to its view samples, rendered partition by partition. With one partition
 // it is the wrapped method itself.
 std::unique_ptr<ShadowMethod> wrap(std::unique_ptr<ShadowMethod> inner, const ParamSet& p, int map_resolution);
