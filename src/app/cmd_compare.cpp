@@ -84,6 +84,15 @@ void print_summary(const Comparison& c) {
     }
     std::printf("\n");
   }
+  // The wide-scene line (issue 34): which methods lose to the exact hard shadow here.
+  for (const MethodRun& r : c.runs)
+    if (r.ok && r.method == "hard" && c.has_ground_truth) {
+      const std::vector<std::string> worse = worse_than_hard(c);
+      std::string names;
+      for (const std::string& m : worse) names += (names.empty() ? "" : ", ") + m;
+      std::printf("worse than hard (mean |dV| %s): %s\n", format_significant(r.v.mae, 3).c_str(),
+                  worse.empty() ? "none" : names.c_str());
+    }
   // What the speed-ups divide, and whether its time was measured now (issue 32).
   if (const std::string basis = speedup_basis_text(c); !basis.empty()) std::printf("speed-up over %s\n", basis.c_str());
   if (c.has_ladder && !c.ladder.rungs.empty())

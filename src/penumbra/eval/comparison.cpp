@@ -309,6 +309,18 @@ void apply_speedups(Comparison& c) {
     if (r.ok && !c.speedup_basis.empty() && r.times.shadow_ms > 0) r.speedup = c.speedup_basis_ms / r.times.shadow_ms;
 }
 
+std::vector<std::string> worse_than_hard(const Comparison& c) {
+  std::vector<std::string> out;
+  if (!c.has_ground_truth) return out;
+  double hard = std::numeric_limits<double>::quiet_NaN();
+  for (const MethodRun& r : c.runs)
+    if (r.ok && r.method == "hard") hard = r.v.mae;
+  if (!std::isfinite(hard)) return out;
+  for (const MethodRun& r : c.runs)
+    if (r.ok && std::isfinite(r.v.mae) && r.v.mae > hard) out.push_back(r.method);
+  return out;
+}
+
 std::string speedup_basis_text(const Comparison& c) {
   if (c.speedup_basis.empty()) return "";
   const std::string what = c.speedup_basis == "reference"
@@ -674,6 +686,9 @@ json comparison_json(const Comparison& c) {
             {"command", c.command},
             {"methods", methods}};
   j["ground_truth"] = c.has_ground_truth ? ground_truth_json(c.truth) : json(nullptr);
+  // Derived (not read back): the methods above `hard`'s error, when hard ran (issue 34).
+  for (const MethodRun& r : c.runs)
+    if (r.ok && r.method == "hard" && c.has_ground_truth) j["worse_than_hard"] = worse_than_hard(c);
   j["reference_ladder"] = c.has_ladder ? reference_ladder_json(c.ladder) : json(nullptr);
   if (c.has_frames) j["frames"] = frame_sequence_json(c.frames);  // absent for one frame, as before
   return j;

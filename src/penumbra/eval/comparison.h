@@ -166,6 +166,10 @@ bool speedups_over_ground_truth(const Comparison& c);
 // 256 light samples in this run (time measured now)", "the ground truth's render at 1024 light
 // samples (time from the cache, same machine and threads)"; empty without speed-ups.
 std::string speedup_basis_text(const Comparison& c);
+// The methods whose mean |dV| exceeds `hard`'s in this comparison, in run order (issue 34's
+// wide-scene line: a map method should not lose to the exact hard shadow); empty without a
+// ground truth or without a successful `hard` run.
+std::vector<std::string> worse_than_hard(const Comparison& c);
 // Where the ladder's times come from: "measured now", "from the cache, same machine and
 // threads", or per group of rungs ("1, 2, 4 spp from the cache, same machine and threads; 8 spp
 // measured now").

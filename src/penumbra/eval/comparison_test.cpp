@@ -71,6 +71,17 @@ TEST(Comparison, RunsEveryMethodAgainstTheGroundTruth) {
   EXPECT_NEAR(hard.speedup, ref.times.shadow_ms / hard.times.shadow_ms, 1e-9);
   // The ground truth's own seed: the reference row is not the ground truth at equal spp.
   EXPECT_GT(ref.v.mae, 0);
+  // The wide-scene line (issue 34): the methods above hard's error, here exactly those whose
+  // mean |dV| is larger, in run order; in results.json too.
+  std::vector<std::string> expect_worse;
+  for (const MethodRun& r : c.runs)
+    if (r.v.mae > hard.v.mae) expect_worse.push_back(r.method);
+  EXPECT_EQ(worse_than_hard(c), expect_worse);
+  EXPECT_EQ(comparison_json(c).at("worse_than_hard").get<std::vector<std::string>>(), expect_worse);
+  Comparison no_hard = c;
+  no_hard.runs.erase(no_hard.runs.begin() + (&hard - c.runs.data()));
+  EXPECT_TRUE(worse_than_hard(no_hard).empty());
+  EXPECT_FALSE(comparison_json(no_hard).contains("worse_than_hard"));
 }
 
 // What penumbra.distributed does with jobs: the ground truth, each method against it, the
