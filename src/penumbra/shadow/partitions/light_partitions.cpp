@@ -73,6 +73,10 @@ shader::PartitionGrid grid_over(const ShadowViewFrame& frame, const ShadowViewRa
   return g;
 }
 
+bool could_split(const CasterCentroids& casters, const Settings& s) {
+  return s.max_side > 1 && double(casters.xyz.size()) > double(s.density) * double(s.map_texels);
+}
+
 bool may_split(const ShadowViewFrame& frame, const ShadowViewRange& receivers, const CasterCentroids& casters,
                const Settings& s) {
   if (s.max_side <= 1 || !(receivers.x1 >= receivers.x0)) return false;
@@ -201,7 +205,7 @@ class PartitionedMethod final : public ShadowMethod {
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
     Plan plan;
-    {
+    if (could_split(casters_, settings_)) {
       ScopedPhase phase(stats_, "partition plan");
       const ShadowViewRange range = receiver_range(frame_, *ctx.light, vs);
       if (may_split(frame_, range, casters_, settings_))

@@ -84,6 +84,10 @@ struct Plan {
 // The grid the plan cuts, before the receivers are known in cells: the root rectangle from
 // their range (widened by a hair so the extremes fall inside).
 shader::PartitionGrid grid_over(const ShadowViewFrame& frame, const ShadowViewRange& range, int grid);
+// Whether any view could split: more casters than the density allows in all (and partitions >
+// 1). When not (a single object), the wrappers hand every frame to the method untouched, without
+// even reducing the receivers.
+bool could_split(const CasterCentroids& casters, const Settings& settings);
 // Whether the root can split at all: more casters project into the receivers' range than the
 // density allows (and partitions > 1). When not, the plan is one partition and the receivers'
 // grid is not needed (a single object's frame costs one pass over the casters' centroids).

@@ -28,6 +28,13 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     const AreaLight& light = *ctx.light;
     gpu::Device& device = *frame.device;
     gpu::CommandList& cl = *frame.commands;
+    if (!could_split(casters_, settings_)) {  // a single object: the method alone
+      inner_->stats() = stats_;
+      inner_->evaluate(ctx, frame, out);
+      stats_ = inner_->stats();
+      stats_.extra["partitions"] = 1;
+      return;
+    }
     const int G = grid_cells(settings_);
     const size_t cells = static_cast<size_t>(G) * G;
     // The receivers' range and which cells hold one (the CPU's receiver_grid, on the device).

@@ -69,9 +69,11 @@ TEST(LightPartitions, SplitsOnlyWhereCastersOutnumberTheTexels) {
   for (int32_t l : plan.leaf_of_cell) corner_cells += l == corner;
   EXPECT_EQ(corner_cells, G * G / 4);
 
+  EXPECT_TRUE(could_split(casters, s));
   EXPECT_TRUE(may_split(frame, receivers.range, casters, s));
   Settings sparse = s;
   sparse.density = 1010.0f / 100;  // exactly the casters: not more, no split
+  EXPECT_FALSE(could_split(casters, sparse));
   EXPECT_FALSE(may_split(frame, receivers.range, casters, sparse));
   EXPECT_EQ(make_plan(frame, receivers, casters, light, sparse).leaves, 1);
 
