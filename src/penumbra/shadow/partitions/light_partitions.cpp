@@ -7,6 +7,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
+#include "penumbra/shadow/shadow_map_common.h"
 
 namespace penumbra::partitions {
 
@@ -161,30 +162,19 @@ Plan make_plan(const ShadowViewFrame& frame, const ReceiverGrid& receivers, cons
 
 namespace {
 
-bool is_receiver(const AreaLight& light, Vec3f p) { return dot(p - light.center, light.frame.n) > 0; }
+using shadow_map::in_front_of_light;  // a receiver: a hit in front of the light, as every fit counts it
 
-// The receivers' range in the light-centre frame.
-ShadowViewRange receiver_range(const ShadowViewFrame& frame, const AreaLight& light, const ViewSamples& vs) {
-  ShadowViewRange range;
-  for (const ViewSample& s : vs.samples) {
-    float x, y, z;
-    if (is_receiver(light, s.p) && shader::shadow_view_project(frame.axes, s.p, x, y, z)) range.add(x, y, z);
-  }
-  return range;
-}
-
-// The receivers of `vs` (their range `range`) on the plan's grid.
-ReceiverGrid receiver_grid(const ShadowViewFrame& frame, const AreaLight& light, const ViewSamples& vs,
-                           const ShadowViewRange& range, int grid) {
+// The receivers (their points, their light-centre range `range`) on the plan's grid.
+ReceiverGrid receiver_grid(const ShadowViewFrame& frame, std::span<const Vec3f> points, const ShadowViewRange& range,
+                           int grid) {
   ReceiverGrid r;
   r.grid = grid;
   r.range = range;
   r.occupied.assign(static_cast<size_t>(grid) * grid, 0);
   if (!(r.range.x1 >= r.range.x0)) return r;
   const shader::PartitionGrid g = grid_over(frame, r.range, grid);
-  for (const ViewSample& s : vs.samples) {
-    if (!is_receiver(light, s.p)) continue;
-    const int cell = shader::partition_cell(g, grid, s.p);
+  for (Vec3f p : points) {
+    const int cell = shader::partition_cell(g, grid, p);
     if (cell >= 0) r.occupied[cell] = 1;
   }
   return r;
@@ -207,10 +197,12 @@ class PartitionedMethod final : public ShadowMethod {
     Plan plan;
     if (could_split(casters_, settings_)) {
       ScopedPhase phase(stats_, "partition plan");
-      const ShadowViewRange range = receiver_range(frame_, *ctx.light, vs);
+      // The fits' own receivers and reduction (shadow_map_common.h, raster/shadow_view.h).
+      const std::vector<Vec3f> points = shadow_map::receiver_points(vs, *ctx.light);
+      const ShadowViewRange range = reduce_receivers(frame_, points);
       if (may_split(frame_, range, casters_, settings_))
-        plan = make_plan(frame_, receiver_grid(frame_, *ctx.light, vs, range, grid_cells(settings_)), casters_,
-                         *ctx.light, settings_);
+        plan = make_plan(frame_, receiver_grid(frame_, points, range, grid_cells(settings_)), casters_, *ctx.light,
+                         settings_);
     }
     stats_.extra["partitions"] = std::max(1, plan.leaves);
     inner_->stats() = stats_;
@@ -225,7 +217,7 @@ class PartitionedMethod final : public ShadowMethod {
     std::vector<std::vector<uint32_t>> members(plan.leaves);
     for (size_t i = 0; i < vs.size(); ++i) {
       const ViewSample& s = vs.samples[i];
-      const int cell = is_receiver(*ctx.light, s.p) ? shader::partition_cell(plan.g, plan.grid, s.p) : -1;
+      const int cell = in_front_of_light(*ctx.light, s.p) ? shader::partition_cell(plan.g, plan.grid, s.p) : -1;
       const int leaf = cell >= 0 ? plan.leaf_of_cell[cell] : -1;
       members[leaf >= 0 ? leaf : 0].push_back(static_cast<uint32_t>(i));
     }

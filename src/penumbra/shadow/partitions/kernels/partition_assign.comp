@@ -4,6 +4,7 @@
 // receiver joins partition 0, as on the CPU; a miss none: ~0u) and the partitions' sizes.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/shadow/partitions/light_partitions_shared.h"
+#include "penumbra/shadow/shadow_map_shared.h"
 #include "penumbra/shadow/view_samples_shared.h"
 
 layout(local_size_x = 64) in;
@@ -19,7 +20,7 @@ void main() {
   uint leaf = 0xffffffffu;
   if (s.object != kMissObject) {
     leaf = 0u;
-    if (dot(s.p - pc.p.light_center, pc.p.light_n) > 0.0f) {
+    if (sm_in_front_of_light(pc.p.light_center, pc.p.light_n, s.p)) {
       int cell = partition_cell(GridRef(pc.p.grid).g, pc.p.cells, s.p);
       int l = cell >= 0 ? IntsIn(pc.p.leaf_of_cell).v[cell] : -1;
       leaf = l >= 0 ? uint(l) : 0u;

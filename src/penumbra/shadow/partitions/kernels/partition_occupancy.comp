@@ -3,6 +3,7 @@
 // per view-sample slot; a receiver (a hit in front of the light) marks its grid cell occupied.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/shadow/partitions/light_partitions_shared.h"
+#include "penumbra/shadow/shadow_map_shared.h"
 #include "penumbra/shadow/view_samples_shared.h"
 
 layout(local_size_x = 64) in;
@@ -14,7 +15,7 @@ void main() {
   uint i = pn_thread_index();
   if (i >= pc.p.slots) return;
   GpuViewSample s = ViewSamplesIn(pc.p.samples).v[i];
-  if (s.object == kMissObject || !(dot(s.p - pc.p.light_center, pc.p.light_n) > 0.0f)) return;
+  if (s.object == kMissObject || !(sm_in_front_of_light(pc.p.light_center, pc.p.light_n, s.p))) return;
   int cell = partition_cell(GridRef(pc.p.grid).g, pc.p.cells, s.p);
   if (cell >= 0) Uints(pc.p.occupancy).v[cell] = 1u;
 }
