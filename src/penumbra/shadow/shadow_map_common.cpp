@@ -9,7 +9,7 @@
 
 namespace penumbra::shadow_map {
 
-std::vector<ParamSpec> common_param_specs(int default_resolution, bool receiver_plane_default) {
+std::vector<ParamSpec> common_param_specs(int default_resolution) {
   return {
       {"resolution", ParamType::Int, default_resolution,
        "texels along the longer side of each depth map (the view is fitted to the receivers; texels are square)",
@@ -26,7 +26,7 @@ std::vector<ParamSpec> common_param_specs(int default_resolution, bool receiver_
        {}, 0, 1e30},
       {"max_slope", ParamType::Float, 10.0, "cap on the depth slope in the slope-scaled bias and on the receiver plane's slope",
        {}, 0, 1e30},
-      {"receiver_plane", ParamType::Bool, receiver_plane_default,
+      {"receiver_plane", ParamType::Bool, true,
        "compare each texel with the receiver's tangent plane at that texel (receiver plane depth bias) instead of the "
        "point's depth minus the slope-scaled bias",
        {}},

@@ -52,7 +52,7 @@ struct BiasParams {
   float bias = 1e-3f;         // constant, world units of linear depth
   float slope_bias = 1.0f;    // texels, scaled by the receiver's depth slope k
   float max_slope = 10.0f;    // cap on k (and on the receiver plane's slope)
-  bool receiver_plane = false;
+  bool receiver_plane = false;  // the parameter tables' default is true (common_param_specs)
   // As the shared functions take them (shadow_map_shared.h).
   shader::ShadowBias shared() const { return {bias, slope_bias, max_slope, receiver_plane ? 1u : 0u}; }
 };
@@ -64,8 +64,11 @@ struct ViewParams {
 };
 
 // The parameter table entries every shadow-map baseline has: resolution, max_fov, bias,
-// slope_bias, max_slope, receiver_plane (with the given defaults).
-std::vector<ParamSpec> common_param_specs(int default_resolution, bool receiver_plane_default);
+// slope_bias, max_slope, receiver_plane. receiver_plane is on by default for all of them (issue
+// 34: the slope-scaled bias grows with the texel, so on leaves in a wide map it let every leaf
+// within about a metre of a receiver through: multi-view-sm on the forest 0.054 -> 0.032, and
+// no scene shipped got worse; docs/methods/shadow-map.md).
+std::vector<ParamSpec> common_param_specs(int default_resolution);
 BiasParams bias_params(const ParamSet& p);
 ViewParams view_params(const ParamSet& p);
 

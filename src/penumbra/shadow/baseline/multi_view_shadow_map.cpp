@@ -100,7 +100,7 @@ class MultiViewShadowMap final : public ShadowMethod {
 };
 
 std::vector<ParamSpec> params() {
-  std::vector<ParamSpec> p = shadow_map::common_param_specs(512, /*receiver_plane_default=*/false);
+  std::vector<ParamSpec> p = shadow_map::common_param_specs(512);
   // One map per light sample already: partitions multiply that, so they are asked for.
   for (ParamSpec& s : partitions::param_specs(/*default_partitions=*/1)) p.push_back(std::move(s));
   return p;

@@ -94,7 +94,7 @@ class Pcss final : public ShadowMethod {
 };
 
 std::vector<ParamSpec> params() {
-  std::vector<ParamSpec> p = shadow_map::common_param_specs(1024, /*receiver_plane_default=*/true);
+  std::vector<ParamSpec> p = shadow_map::common_param_specs(1024);
   p.push_back({"variant", ParamType::String, "fernando",
                "'fernando': blocker search, penumbra estimate, PCF (Fernando 2005); 'xie2007': the PCF based soft "
                "shadows of xie2007 §3, filter size from eq. 1 and the map's smallest depth",

@@ -62,7 +62,7 @@ class ShadowMapMethod final : public ShadowMethod {
 };
 
 std::vector<ParamSpec> params() {
-  std::vector<ParamSpec> p = shadow_map::common_param_specs(2048, /*receiver_plane_default=*/false);
+  std::vector<ParamSpec> p = shadow_map::common_param_specs(2048);
   p.push_back({"pcf", ParamType::Int, 0,
                "percentage-closer filtering: radius in texels of the (2 pcf + 1)^2 box of texels averaged (0 = one "
                "texel, a hard shadow)",

@@ -241,7 +241,7 @@ std::vector<ParamSpec> common_specs() {
       {"z_thresh_texels", ParamType::Float, 1.0,
        "the automatic z_thresh in texel widths, at the geometric mean of the map's nearest depth and its far plane",
        {}, 0, 1e6},
-      {"self_bias", ParamType::Float, 0.5,
+      {"self_bias", ParamType::Float, 0.25,
        "texel widths (at the receiver) around the receiver's own tangent plane where layer samples are ignored "
        "(its own surface is in the map)",
        {}, 0, 1e6},

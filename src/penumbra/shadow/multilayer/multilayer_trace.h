@@ -17,7 +17,7 @@ namespace penumbra::multilayer {
 
 struct TraceParams {
   float z_thresh = 0;        // world units of linear depth (xie2007 §6.1)
-  float self_bias = 0.5f;    // texel widths at the receiver: the band around its own tangent plane ignored
+  float self_bias = 0.25f;    // texel widths at the receiver: the band around its own tangent plane ignored
   float stop_below = 1e-3f;  // mtsm: a ray whose visibility falls below this is blocked (§5.2 threshold)
 };
 
@@ -33,7 +33,7 @@ struct TraceSetup {
   float z_thresh = 0;
   float window_tolerance = 0;  // z_thresh as a (conservative) window-depth tolerance for node tests
   float inv_focal = 0;         // texel world width per unit of linear depth
-  float self_bias = 0.5f;
+  float self_bias = 0.25f;
   float stop_below = 1e-3f;
 };
 // z_min: the map's smallest depth (the widest window-depth span of +-z_thresh is there).
