@@ -34,7 +34,9 @@ void append_raster_triangles(const TriangleMesh& mesh, float material_opacity, u
                              std::vector<RasterTriangle>* out) {
   const size_t n = mesh.triangle_count();
   const bool per_triangle = mesh.triangle_opacity.size() == n && n > 0;
-  out->reserve(out->size() + n);
+  // Callers append object after object: an exact reserve per call would copy the whole list
+  // each time (quadratic in the objects; occlusion-textures' slicing of the 51-object forest
+  // spent most of its time in page faults). Let push_back grow it geometrically instead.
   for (size_t i = 0; i < n; ++i) {
     RasterTriangle t;
     for (int k = 0; k < 3; ++k) t.p[k] = mesh.vertex(i, k);

@@ -110,7 +110,6 @@ void TriangleMesh::append(const TriangleMesh& other) {
     uvs.insert(uvs.end(), other.uvs.begin(), other.uvs.end());
   else
     uvs.clear();
-  indices.reserve(indices.size() + other.indices.size());
   for (uint32_t i : other.indices) indices.push_back(static_cast<uint32_t>(base + i));
   // Per-triangle opacity: a side without it is opaque (1).
   if (!triangle_opacity.empty() || !other.triangle_opacity.empty()) {
