@@ -133,6 +133,10 @@ class AliasFreeBase : public ShadowMethod {
     std::vector<Planes> planes;
     {
       ScopedPhase phase(stats_, "casters");
+      // At most every triangle: one allocation each instead of a doubling's copies and fresh
+      // pages (the forest's 1.4 M casters: 183 -> 60 ms).
+      casters.reserve(triangles_.list.size());
+      planes.reserve(triangles_.list.size());
       for (const RasterTriangle& t : triangles_.list) {
         if (!(t.opacity > 0)) continue;
         const Vec3f n = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]);
@@ -583,6 +587,8 @@ class AliasFreeSoft final : public AliasFreeBase {
                             {0, float(view_.height())}};
     {
       ScopedPhase phase(stats_, "casters");
+      casters.reserve(triangles_.list.size());  // at most every triangle: one allocation
+      caster_near.reserve(triangles_.list.size());
       std::vector<uint64_t> behind(words);
       for (const RasterTriangle& t : triangles_.list) {
         if (!(t.opacity > 0)) continue;
