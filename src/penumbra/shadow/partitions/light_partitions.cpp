@@ -11,7 +11,7 @@
 
 namespace penumbra::partitions {
 
-std::vector<ParamSpec> param_specs(int default_partitions) {
+std::vector<ParamSpec> param_specs(int default_partitions, double default_receivers) {
   return {
       {"partitions", ParamType::Int, default_partitions,
        "most light-space partitions a side (1, 2, 4, 8, 16): where more caster triangles project into a part of the "
@@ -22,6 +22,11 @@ std::vector<ParamSpec> param_specs(int default_partitions) {
        "caster triangles per map texel above which a light-space partition splits in four (0 = always split to "
        "`partitions`)",
        {}, 0.0, 1e6},
+      {"partition_receivers", ParamType::Float, default_receivers,
+       "view samples per map texel, in the densest part of a light-space partition, above which it splits in four "
+       "(where the camera sees that part from near: sample distribution shadow maps' rule; 0 = off: only the "
+       "casters split)",
+       {}, 0.0, 1e9},
   };
 }
 
@@ -31,6 +36,7 @@ Settings settings_from(const ParamSet& p, int map_resolution) {
   if (!std::has_single_bit(static_cast<unsigned>(s.max_side)))
     throw Error("partitions = {} must be a power of two (1, 2, 4, 8 or 16)", s.max_side);
   s.density = p.get_float("partition_density");
+  s.receiver_density = p.get_float("partition_receivers");
   s.map_texels = map_resolution * map_resolution;
   s.max_fov = p.get_float("max_fov");
   return s;
@@ -74,13 +80,30 @@ shader::PartitionGrid grid_over(const ShadowViewFrame& frame, const ShadowViewRa
   return g;
 }
 
-bool could_split(const CasterCentroids& casters, const Settings& s) {
-  return s.max_side > 1 && double(casters.xyz.size()) > double(s.density) * double(s.map_texels);
+namespace {
+
+// The most receivers one grid cell of a node `size` cells a side may hold before the node splits:
+// receiver_density x the texels a map of the node gives one cell.
+double receiver_limit(const Settings& s, int size) {
+  if (!(s.receiver_density > 0)) return kInfinity;  // off
+  return double(s.receiver_density) * double(s.map_texels) / (double(size) * double(size));
+}
+
+}  // namespace
+
+bool receivers_could_split(uint64_t view_samples, const Settings& s) {
+  return s.max_side > 1 && double(view_samples) > receiver_limit(s, grid_cells(s));
+}
+
+bool could_split(const CasterCentroids& casters, const Settings& s, uint64_t view_samples) {
+  return s.max_side > 1 && (double(casters.xyz.size()) > double(s.density) * double(s.map_texels) ||
+                            receivers_could_split(view_samples, s));
 }
 
 bool may_split(const ShadowViewFrame& frame, const ShadowViewRange& receivers, const CasterCentroids& casters,
-               const Settings& s) {
+               const Settings& s, uint64_t view_samples) {
   if (s.max_side <= 1 || !(receivers.x1 >= receivers.x0)) return false;
+  if (receivers_could_split(view_samples, s)) return true;
   const shader::PartitionGrid g = grid_over(frame, receivers, 1);
   const double limit = double(s.density) * double(s.map_texels);
   uint64_t count = 0;
@@ -119,13 +142,16 @@ Plan make_plan(const ShadowViewFrame& frame, const ReceiverGrid& receivers, cons
     const Node n = stack.back();
     stack.pop_back();
     uint64_t occupied = 0, count = 0;
+    uint32_t densest = 0;  // the most receivers in one cell
     for (int y = n.y; y < n.y + n.size; ++y)
       for (int x = n.x; x < n.x + n.size; ++x) {
-        occupied += receivers.occupied[static_cast<size_t>(y) * G + x];
+        const uint32_t r = receivers.counts[static_cast<size_t>(y) * G + x];
+        occupied += r > 0;
+        densest = std::max(densest, r);
         count += casters_in[static_cast<size_t>(y) * G + x];
       }
     if (occupied == 0) continue;
-    if (n.size > min_size && double(count) > limit) {
+    if (n.size > min_size && (double(count) > limit || double(densest) > receiver_limit(s, n.size))) {
       const int h = n.size / 2;
       // Pushed in reverse so leaves come out in row order of the quadrants.
       for (int q = 3; q >= 0; --q) stack.push_back({n.x + (q & 1) * h, n.y + (q >> 1) * h, h});
@@ -170,12 +196,12 @@ ReceiverGrid receiver_grid(const ShadowViewFrame& frame, std::span<const Vec3f> 
   ReceiverGrid r;
   r.grid = grid;
   r.range = range;
-  r.occupied.assign(static_cast<size_t>(grid) * grid, 0);
+  r.counts.assign(static_cast<size_t>(grid) * grid, 0);
   if (!(r.range.x1 >= r.range.x0)) return r;
   const shader::PartitionGrid g = grid_over(frame, r.range, grid);
   for (Vec3f p : points) {
     const int cell = shader::partition_cell(g, grid, p);
-    if (cell >= 0) r.occupied[cell] = 1;
+    if (cell >= 0) ++r.counts[cell];
   }
   return r;
 }
@@ -195,12 +221,12 @@ class PartitionedMethod final : public ShadowMethod {
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
     Plan plan;
-    if (could_split(casters_, settings_)) {
+    if (could_split(casters_, settings_, vs.size())) {
       ScopedPhase phase(stats_, "partition plan");
       // The fits' own receivers and reduction (shadow_map_common.h, raster/shadow_view.h).
       const std::vector<Vec3f> points = shadow_map::receiver_points(vs, *ctx.light);
       const ShadowViewRange range = reduce_receivers(frame_, points);
-      if (may_split(frame_, range, casters_, settings_))
+      if (may_split(frame_, range, casters_, settings_, points.size()))
         plan = make_plan(frame_, receiver_grid(frame_, points, range, grid_cells(settings_)), casters_, *ctx.light,
                          settings_);
     }

@@ -8,10 +8,14 @@
 // centre along its normal (raster/shadow_view_shared.h shadow_view_project); their x/z, y/z
 // bounds are the root rectangle. A quadtree over it splits a node while (1) some receiver falls
 // in it, (2) more caster triangles project into it (their centroids) than `density` times the
-// map's texels, and (3) it is above the deepest level `partitions` allows. Its leaves that hold
-// receivers are the partitions. The split follows the casters, not the camera: a dense forest
-// under a far light gets many small partitions, a single object (the bunny: 70 k triangles in a
-// 1024^2 map) none.
+// map's texels, or more receivers fall into one of its grid cells than `receiver_density` times
+// the texels a map of the node would give that cell, and (3) it is above the deepest level
+// `partitions` allows. Its leaves that hold receivers are the partitions. The first rule follows
+// the casters: a dense forest under a far light gets many small partitions, a single object (the
+// bunny: 70 k triangles in a 1024^2 map) none. The second follows the view samples, as sample
+// distribution shadow maps do: where the camera sees a part of light space from near, its
+// samples are denser there than one map's texels (the near end of a street 128 m long), and that
+// part gets maps of its own.
 //
 // Each partition is rendered as a frame of its own: its view samples, plus four guard samples
 // at the corners of its rectangle widened by the blocker search margin of xie2007 eq. 1 (a point
@@ -41,12 +45,15 @@
 namespace penumbra::partitions {
 
 // The parameters `partitions` (most partitions a side, a power of two: 1 = one map, the
-// method's own) and `partition_density`, appended to a method's table.
-std::vector<ParamSpec> param_specs(int default_partitions = 8);
+// method's own), `partition_density` and `partition_receivers`, appended to a method's table.
+std::vector<ParamSpec> param_specs(int default_partitions = 8, double default_receivers = 1.0);
 
 struct Settings {
   int max_side = 8;       // partitions: the quadtree's deepest level has max_side^2 cells
   float density = 0.25f;  // a node splits while its casters exceed density x the map's texels
+  // ... or while one of its grid cells holds more receivers than receiver_density x the texels a
+  // map fitted to the node would give that cell (map_texels / the node's cells); 0: never
+  float receiver_density = 1.0f;
   int map_texels = 1 << 20;  // the method's map: resolution^2
   float max_fov = 120.0f;    // the method's: guard samples stay inside it
 };
@@ -63,11 +70,12 @@ struct CasterCentroids {
   void gather(const Scene& scene, const ShadowViewFrame& frame);
 };
 
-// The receivers as the plan needs them: their bounds, depth range and which grid cells hold one.
+// The receivers as the plan needs them: their bounds, depth range and how many fall in each
+// grid cell.
 struct ReceiverGrid {
   ShadowViewRange range;
   int grid = 0;
-  std::vector<uint32_t> occupied;  // grid^2, 1 where a receiver falls
+  std::vector<uint32_t> counts;  // grid^2: the receivers in each cell
 };
 
 struct Plan {
@@ -84,15 +92,19 @@ struct Plan {
 // The grid the plan cuts, before the receivers are known in cells: the root rectangle from
 // their range (widened by a hair so the extremes fall inside).
 shader::PartitionGrid grid_over(const ShadowViewFrame& frame, const ShadowViewRange& range, int grid);
-// Whether any view could split: more casters than the density allows in all (and partitions >
-// 1). When not (a single object), the wrappers hand every frame to the method untouched, without
-// even reducing the receivers.
-bool could_split(const CasterCentroids& casters, const Settings& settings);
-// Whether the root can split at all: more casters project into the receivers' range than the
-// density allows (and partitions > 1). When not, the plan is one partition and the receivers'
-// grid is not needed (a single object's frame costs one pass over the casters' centroids).
+// Whether the receivers alone could split the root: `view_samples` (at most that many
+// receivers) more than receiver_density x the texels of one of the root's cells.
+bool receivers_could_split(uint64_t view_samples, const Settings& settings);
+// Whether a frame of `view_samples` could split: partitions > 1, and more casters than the
+// density allows in all or receivers_could_split. When not (a single object seen by a small
+// image), the wrappers hand the frame to the method untouched, without even reducing the
+// receivers.
+bool could_split(const CasterCentroids& casters, const Settings& settings, uint64_t view_samples);
+// Whether the root can split at all: receivers_could_split, or more casters project into the
+// receivers' range than the density allows (and partitions > 1). When not, the plan is one
+// partition and the receivers' grid is not needed.
 bool may_split(const ShadowViewFrame& frame, const ShadowViewRange& receivers, const CasterCentroids& casters,
-               const Settings& settings);
+               const Settings& settings, uint64_t view_samples);
 // The plan from the receivers and the casters (the same on both devices).
 Plan make_plan(const ShadowViewFrame& frame, const ReceiverGrid& receivers, const CasterCentroids& casters,
                const AreaLight& light, const Settings& settings);

@@ -28,7 +28,7 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     const AreaLight& light = *ctx.light;
     gpu::Device& device = *frame.device;
     gpu::CommandList& cl = *frame.commands;
-    if (!could_split(casters_, settings_)) {  // a single object: the method alone
+    if (!could_split(casters_, settings_, frame.slots)) {  // a single object, few samples: the method alone
       inner_->stats() = stats_;
       inner_->evaluate(ctx, frame, out);
       stats_ = inner_->stats();
@@ -43,7 +43,7 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     receivers.grid = G;
     receivers.range = shadow_map::range_floats(shadow_map::reduce_receivers(light, frame, frame_, range_));
     Plan plan;
-    if (may_split(frame_, receivers.range, casters_, settings_)) {
+    if (may_split(frame_, receivers.range, casters_, settings_, frame.slots)) {
       const shader::PartitionGrid g = grid_over(frame_, receivers.range, G);
       grow(device, grid_, sizeof(g), "the partitions' grid");
       grid_.upload(&g, sizeof(g));
@@ -53,7 +53,7 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
       cp.occupancy = cells_.address();
       cl.dispatch("partition_occupancy", frame.slots, cp);
       frame.flush();
-      receivers.occupied = cells_.download_vector<uint32_t>(cells);
+      receivers.counts = cells_.download_vector<uint32_t>(cells);
       plan = make_plan(frame_, receivers, casters_, light, settings_);
     }
     stats_.extra["partitions"] = std::max(1, plan.leaves);

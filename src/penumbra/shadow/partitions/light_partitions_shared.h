@@ -37,7 +37,7 @@ PN_INLINE int partition_cell(PartitionGrid g, int grid, vec3 p) {
 }
 
 // partition_occupancy.comp and partition_assign.comp: one thread per view-sample slot.
-//   occupancy: uint[grid^2], 1 where some receiver falls (partition_occupancy)
+//   occupancy: uint[grid^2], the receivers in each cell (partition_occupancy)
 //   leaf_of_cell: int[grid^2] (the plan), leaf: uint[slots] out (~0u: none), counts: uint[leaves]
 //   (partition_assign)
 struct PartitionClassifyParams {

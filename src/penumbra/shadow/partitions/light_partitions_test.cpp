@@ -32,13 +32,13 @@ Bounds3f scene_box() {
   return b;
 }
 
-// Receivers on a plane 10 below the light filling x/z, y/z in [-1, 1]: every cell occupied.
+// Receivers on a plane 10 below the light filling x/z, y/z in [-1, 1]: one in every cell.
 ReceiverGrid full_grid(int grid) {
   ReceiverGrid r;
   r.grid = grid;
   r.range.add(-1, -1, 10);
   r.range.add(1, 1, 10);
-  r.occupied.assign(static_cast<size_t>(grid) * grid, 1);
+  r.counts.assign(static_cast<size_t>(grid) * grid, 1);
   return r;
 }
 
@@ -49,6 +49,7 @@ TEST(LightPartitions, SplitsOnlyWhereCastersOutnumberTheTexels) {
   s.max_side = 8;
   s.density = 1;
   s.map_texels = 100;
+  s.receiver_density = 1e9f;  // the casters' rule alone
   const ReceiverGrid receivers = full_grid(grid_cells(s));
   // 1000 casters in the quadrant x/z, y/z in (0.5, 1) x (0.5, 1), 10 elsewhere.
   CasterCentroids casters;
@@ -69,12 +70,12 @@ TEST(LightPartitions, SplitsOnlyWhereCastersOutnumberTheTexels) {
   for (int32_t l : plan.leaf_of_cell) corner_cells += l == corner;
   EXPECT_EQ(corner_cells, G * G / 4);
 
-  EXPECT_TRUE(could_split(casters, s));
-  EXPECT_TRUE(may_split(frame, receivers.range, casters, s));
+  EXPECT_TRUE(could_split(casters, s, 0));
+  EXPECT_TRUE(may_split(frame, receivers.range, casters, s, 0));
   Settings sparse = s;
   sparse.density = 1010.0f / 100;  // exactly the casters: not more, no split
-  EXPECT_FALSE(could_split(casters, sparse));
-  EXPECT_FALSE(may_split(frame, receivers.range, casters, sparse));
+  EXPECT_FALSE(could_split(casters, sparse, 0));
+  EXPECT_FALSE(may_split(frame, receivers.range, casters, sparse, 0));
   EXPECT_EQ(make_plan(frame, receivers, casters, light, sparse).leaves, 1);
 
   Settings one = s;
@@ -86,10 +87,42 @@ TEST(LightPartitions, SplitsOnlyWhereCastersOutnumberTheTexels) {
   // Empty cells (no receiver) belong to no partition.
   ReceiverGrid half = receivers;
   for (int y = 0; y < G; ++y)
-    for (int x = 0; x < G / 2; ++x) half.occupied[y * G + x] = 0;
+    for (int x = 0; x < G / 2; ++x) half.counts[y * G + x] = 0;
   const Plan p = make_plan(frame, half, casters, light, s);
   EXPECT_EQ(p.leaf_of_cell[0], -1);
   EXPECT_GE(p.leaf_of_cell[G - 1], 0);
+}
+
+TEST(LightPartitions, SplitsWhereTheViewSamplesOutnumberTheTexels) {
+  // A camera near one corner of light space: 500 view samples in each of that corner's four
+  // cells, one in every other cell, and too few casters to split anything.
+  const AreaLight light = test_light();
+  const ShadowViewFrame frame = light_frame(light, scene_box());
+  Settings s;
+  s.max_side = 8;
+  s.density = 1e9f;
+  const int G = grid_cells(s);  // 64
+  s.map_texels = G * G * 100;   // a cell gets 100 texels of the root's map, 400 of a quadrant's
+  s.receiver_density = 1;
+  ReceiverGrid receivers = full_grid(G);
+  for (int c : {0, 1, G, G + 1}) receivers.counts[c] = 500;
+  CasterCentroids casters;
+  casters.z_min = 5;
+  casters.xyz.push_back({0.0f, 0.0f, 5});
+  // The root splits (500 > 100), the corner's quadrant again (500 > 400), its children not
+  // (500 < 1600); the other quadrants hold one sample a cell: 3 + 4 partitions.
+  const Plan plan = make_plan(frame, receivers, casters, light, s);
+  EXPECT_EQ(plan.leaves, 7);
+  int corner_cells = 0;
+  for (int32_t l : plan.leaf_of_cell) corner_cells += l == plan.leaf_of_cell[0];
+  EXPECT_EQ(corner_cells, G * G / 16);
+  // Fewer samples in all than one root cell's texels: no frame of them could split.
+  EXPECT_FALSE(could_split(casters, s, 100));
+  EXPECT_TRUE(could_split(casters, s, 101));
+  EXPECT_TRUE(may_split(frame, receivers.range, casters, s, 101));
+  Settings sparse = s;
+  sparse.receiver_density = 5;  // 500 texels a root cell: nothing splits
+  EXPECT_EQ(make_plan(frame, receivers, casters, light, sparse).leaves, 1);
 }
 
 TEST(LightPartitions, GuardSamplesSitTheBlockerSearchMarginBeyondThePartition) {
@@ -144,6 +177,33 @@ TEST(LightPartitions, APartitionedShadowMapIsCloserToTheExactHardShadowWhereOneM
   EXPECT_LT(e_split, 0.8 * e_one) << e_one << " " << e_split;
 }
 
+// A long street seen from one end: a 6 x 160 ground with 40 thin posts along it, the camera 2
+// above its near end, a far light to the side. Few casters (480 triangles): only the view
+// samples' rule can split it.
+Scene long_street(int resolution) {
+  nlohmann::json objects = nlohmann::json::array();
+  objects.push_back({{"shape", "plane"}, {"size", {6, 160}}});
+  for (int i = 0; i < 40; ++i)
+    objects.push_back({{"shape", "box"}, {"size", {0.05, 1.5, 0.05}}, {"translate", {-1.5 + (i % 3), 0.75, -78 + 4 * i}}});
+  const nlohmann::json doc = {
+      {"camera", {{"eye", {0, 2, -80}}, {"target", {0, 0.5, -60}}, {"fov_y", 50}, {"resolution", {resolution, resolution}}}},
+      {"lights", {{{"type", "rect"}, {"center", {-40, 60, 0}}, {"normal", {0.55, -0.83, 0}}, {"size", {1, 1}}}}},
+      {"objects", objects}};
+  return parse_scene(doc, PENUMBRA_SOURCE_DIR);
+}
+
+TEST(LightPartitions, APartitionedShadowMapIsCloserToTheExactHardShadowWhereTheViewSamplesAreDenserThanTheTexels) {
+  const Scene street = long_street(96);
+  const RenderResult hard = render_scene(street, cpu_settings("hard", {}));
+  const RenderResult one = render_scene(street, cpu_settings("shadow-map", {"resolution=256", "partition_receivers=0"}));
+  const RenderResult split = render_scene(street, cpu_settings("shadow-map", {"resolution=256"}));
+  EXPECT_EQ(one.stats.extra.value("partitions", 1), 1);
+  EXPECT_GT(split.stats.extra.value("partitions", 1), 1);
+  const double e_one = testing::mean_abs_dv(one.visibility, hard.visibility);
+  const double e_split = testing::mean_abs_dv(split.visibility, hard.visibility);
+  EXPECT_LT(e_split, 0.8 * e_one) << e_one << " " << e_split;
+}
+
 TEST(LightPartitions, NothingIsSplitWhereOneMapHoldsTheCasters) {
   // The bunny: 70 k triangles against 1-4 M texels.
   const Scene bunny = testing::shipped_scene("bunny.json", 32);
@@ -183,6 +243,17 @@ TEST_F(LightPartitionsGpu, PartitionsGiveTheCpuPictures) {
       EXPECT_GT(pair.cpu.stats.extra.value("culled_triangles", uint64_t{0}), 0u) << method;
       EXPECT_GT(pair.gpu.stats.extra.value("culled_triangles", uint64_t{0}), 0u) << method;
     }
+  }
+  // The view samples' rule alone (no caster splits): the device counts the receivers per cell
+  // (partition_occupancy) and makes the CPU's plan from them. At 0.2 samples per texel the root
+  // splits (a cell holds more than 12.8) and one quadrant again (more than 51): 7 partitions.
+  for (const char* method : {"shadow-map", "pcss"}) {
+    RenderSettings s = testing::device_settings(
+        method, {"partitions=4", "partition_density=1e6", "partition_receivers=0.2", "resolution=256"}, false, 7, 16);
+    const testing::DevicePair pair = testing::render_on_both(bunny, s);
+    EXPECT_LE(pair.mean_abs_dv, 1e-3) << method;
+    EXPECT_EQ(pair.cpu.stats.extra.value("partitions", 0), 7) << method;
+    EXPECT_EQ(pair.gpu.stats.extra.value("partitions", 0), 7) << method;
   }
 }
 
