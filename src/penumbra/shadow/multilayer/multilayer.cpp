@@ -250,18 +250,14 @@ std::vector<ParamSpec> common_specs() {
 
 std::vector<ParamSpec> mlsm_specs() {
   std::vector<ParamSpec> s = common_specs();
-  // The view samples' rule is off: partitioned multilayer maps are biased dark on the bunny
-  // (docs/methods/multilayer.md, "Wide scenes"), and the bunny is where it would split them.
-  for (ParamSpec& p : partitions::param_specs(8, /*default_receivers=*/0.0)) s.push_back(std::move(p));
+  for (ParamSpec& p : partitions::param_specs()) s.push_back(std::move(p));
   s.push_back({"layers", ParamType::Int, 5, "k: nearest distinct surfaces kept per texel (xie2007 §4.2)", {}, 1, 255});
   return s;
 }
 
 std::vector<ParamSpec> mtsm_specs() {
   std::vector<ParamSpec> s = common_specs();
-  // The view samples' rule is off: partitioned multilayer maps are biased dark on the bunny
-  // (docs/methods/multilayer.md, "Wide scenes"), and the bunny is where it would split them.
-  for (ParamSpec& p : partitions::param_specs(8, /*default_receivers=*/0.0)) s.push_back(std::move(p));
+  for (ParamSpec& p : partitions::param_specs()) s.push_back(std::move(p));
   s.push_back({"resets", ParamType::Int, 4,
                "times a texel's accumulated visibility may reach 0 and restart at 1 (xie2007 §5.1): layers behind an "
                "opaque run; on opaque scenes resets + 1 plays the role of mlsm's layers",
@@ -309,7 +305,8 @@ const MethodRegistration mlsm_registration({
     "point through a min/max quadtree",
     mlsm_specs(),
     [](const ParamSet& p) {
-      return partitions::wrap(std::make_unique<MultilayerMethod>(p, Kind::Opaque), p, p.get_int("resolution"));
+      return partitions::wrap(std::make_unique<MultilayerMethod>(p, Kind::Opaque), p, p.get_int("resolution"),
+                              multilayer::partition_guards(p));
     },
     /*samples_light=*/true,
     [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, Kind::Opaque); },
@@ -324,7 +321,8 @@ const MethodRegistration mtsm_registration({
     "visibility accumulated along --spp stochastic rays per point",
     mtsm_specs(),
     [](const ParamSet& p) {
-      return partitions::wrap(std::make_unique<MultilayerMethod>(p, Kind::Transparent), p, p.get_int("resolution"));
+      return partitions::wrap(std::make_unique<MultilayerMethod>(p, Kind::Transparent), p, p.get_int("resolution"),
+                              multilayer::partition_guards(p));
     },
     /*samples_light=*/true,
     [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, Kind::Transparent); },

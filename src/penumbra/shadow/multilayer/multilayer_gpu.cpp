@@ -451,11 +451,11 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, bool transparent)
 }
 
 const GpuMethodRegistration mlsm_registration(
-    {"mlsm", [](const ParamSet& p) { return partitions::wrap_gpu(std::make_unique<MultilayerGpu>(p, false), p, p.get_int("resolution")); },
+    {"mlsm", [](const ParamSet& p) { return partitions::wrap_gpu(std::make_unique<MultilayerGpu>(p, false), p, p.get_int("resolution"), multilayer::partition_guards(p)); },
      [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, false); }});
 
 const GpuMethodRegistration mtsm_registration(
-    {"mtsm", [](const ParamSet& p) { return partitions::wrap_gpu(std::make_unique<MultilayerGpu>(p, true), p, p.get_int("resolution")); },
+    {"mtsm", [](const ParamSet& p) { return partitions::wrap_gpu(std::make_unique<MultilayerGpu>(p, true), p, p.get_int("resolution"), multilayer::partition_guards(p)); },
      [](const ParamSet& p, const MemoryQuery& q) { return memory(p, q, true); }});
 
 }  // namespace

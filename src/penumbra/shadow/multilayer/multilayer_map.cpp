@@ -10,6 +10,10 @@
 
 namespace penumbra::multilayer {
 
+partitions::GuardSamples partition_guards(const ParamSet& p) {
+  return p.get_bool("push_back") ? partitions::GuardSamples::OnlyToFit : partitions::GuardSamples::AtTheMargin;
+}
+
 MultilayerSettings multilayer_settings(const ParamSet& p, bool transparent) {
   MultilayerSettings s;
   s.view.resolution = p.get_int("resolution");

@@ -17,6 +17,7 @@
 #include "penumbra/scene/light.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadow/params.h"
+#include "penumbra/shadow/partitions/light_partitions.h"
 #include "penumbra/shadow/multilayer/transparent_layers.h"
 
 namespace penumbra::multilayer {
@@ -39,6 +40,11 @@ struct MultilayerSettings {
   float stop_below = 1e-3f;         // mtsm
 };
 MultilayerSettings multilayer_settings(const ParamSet& p, bool transparent);
+// Where the light-space partitions (partitions/light_partitions.h) put guard samples for these
+// maps: with push-back the fit already holds every receiver-to-light segment beyond the nearest
+// caster (light_centre_view), so guards are only needed for a partition that has nothing else to
+// fit to; without it, at the blocker-search margin as for the shadow maps.
+partitions::GuardSamples partition_guards(const ParamSet& p);
 
 struct CentreView {
   LightView view;

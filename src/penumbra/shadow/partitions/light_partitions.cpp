@@ -167,10 +167,21 @@ Plan make_plan(const ShadowViewFrame& frame, const ReceiverGrid& receivers, cons
   const float margin = light.extent_radius() * std::max(0.0f, 1.0f / z_min - 1.0f / z_r);
   const Vec3f eye = frame.axes.eye, right = frame.axes.right, up = frame.axes.up, fwd = frame.axes.forward;
   const float inside = std::tan(radians(0.45f * s.max_fov));
+  // Whether cell (x, y) lies wholly within `inside` of the axis (its receivers are in any fit).
+  auto cell_inside = [&](int x, int y) {
+    const float cx0 = plan.g.x0 + float(x) / plan.g.cells_per_x, cx1 = plan.g.x0 + float(x + 1) / plan.g.cells_per_x;
+    const float cy0 = plan.g.y0 + float(y) / plan.g.cells_per_y, cy1 = plan.g.y0 + float(y + 1) / plan.g.cells_per_y;
+    return cx0 >= -inside && cx1 <= inside && cy0 >= -inside && cy1 <= inside;
+  };
   for (int i = 0; i < plan.leaves; ++i) {
     const Node& n = leaves[i];
+    bool fits = false;  // some occupied cell wholly inside
     for (int y = n.y; y < n.y + n.size; ++y)
-      for (int x = n.x; x < n.x + n.size; ++x) plan.leaf_of_cell[static_cast<size_t>(y) * G + x] = i;
+      for (int x = n.x; x < n.x + n.size; ++x) {
+        plan.leaf_of_cell[static_cast<size_t>(y) * G + x] = i;
+        fits = fits || (receivers.counts[static_cast<size_t>(y) * G + x] > 0 && cell_inside(x, y));
+      }
+    plan.guarded.push_back(s.guards == GuardSamples::AtTheMargin || !fits);
     const float x0 = plan.g.x0 + float(n.x) / plan.g.cells_per_x - margin;
     const float x1 = plan.g.x0 + float(n.x + n.size) / plan.g.cells_per_x + margin;
     const float y0 = plan.g.y0 + float(n.y) / plan.g.cells_per_y - margin;
@@ -262,7 +273,8 @@ class PartitionedMethod final : public ShadowMethod {
       if (m.empty()) continue;
       part.samples.clear();
       for (uint32_t i : m) part.samples.push_back(vs.samples[i]);
-      for (Vec3f g : plan.guards[leaf]) {
+      for (int c = 0; c < plan.guard_count(leaf); ++c) {
+        const Vec3f g = plan.guards[leaf][c];
         ViewSample guard = vs.samples[m.front()];
         guard.p = g;
         guard.ng = guard.ns = -ctx.light->frame.n;  // facing the light
@@ -301,8 +313,10 @@ void add_memory(MemoryTally& tally, const ParamSet& p, const MemoryQuery& q) {
             kViewSamplesSetting);
 }
 
-std::unique_ptr<ShadowMethod> wrap(std::unique_ptr<ShadowMethod> inner, const ParamSet& p, int map_resolution) {
-  const Settings s = settings_from(p, map_resolution);
+std::unique_ptr<ShadowMethod> wrap(std::unique_ptr<ShadowMethod> inner, const ParamSet& p, int map_resolution,
+                                   GuardSamples guards) {
+  Settings s = settings_from(p, map_resolution);
+  s.guards = guards;
   if (s.max_side == 1) return inner;
   return std::make_unique<PartitionedMethod>(std::move(inner), s);
 }

@@ -48,6 +48,15 @@ namespace penumbra::partitions {
 // method's own), `partition_density` and `partition_receivers`, appended to a method's table.
 std::vector<ParamSpec> param_specs(int default_partitions = 8, double default_receivers = 1.0);
 
+// Where a partition gets guard samples. AtTheMargin: always, at the corners of its rectangle
+// widened by the blocker-search margin (its map must hold the casters its points' penumbrae reach
+// into from beyond its edge). OnlyToFit: for a method whose own fit already holds every
+// receiver-to-light segment (the multilayer maps' push-back, multilayer_map.h
+// light_centre_view): only in a partition none of whose occupied cells lies wholly within 90% of
+// max_fov, so that it has something to fit to; elsewhere guards would only widen its map
+// (the bunny's partitions at 256^2 went from a 30 to a 60 degree half field of view).
+enum class GuardSamples { AtTheMargin, OnlyToFit };
+
 struct Settings {
   int max_side = 8;       // partitions: the quadtree's deepest level has max_side^2 cells
   float density = 0.25f;  // a node splits while its casters exceed density x the map's texels
@@ -56,6 +65,7 @@ struct Settings {
   float receiver_density = 1.0f;
   int map_texels = 1 << 20;  // the method's map: resolution^2
   float max_fov = 120.0f;    // the method's: guard samples stay inside it
+  GuardSamples guards = GuardSamples::AtTheMargin;
 };
 Settings settings_from(const ParamSet& p, int map_resolution);
 
@@ -84,8 +94,11 @@ struct Plan {
   std::vector<int32_t> leaf_of_cell;  // grid^2, -1: no partition
   int leaves = 0;
   // Each leaf's four guard points (world space): the corners of its rectangle widened by the
-  // blocker search margin, at the deepest receiver's depth.
+  // blocker search margin, at the deepest receiver's depth; and whether the leaf gets them
+  // (Settings::guards).
   std::vector<std::array<Vec3f, 4>> guards;
+  std::vector<uint8_t> guarded;
+  int guard_count(int leaf) const { return guarded[leaf] ? 4 : 0; }
   bool split() const { return leaves > 1; }
 };
 
@@ -117,6 +130,7 @@ void add_memory(MemoryTally& tally, const ParamSet& p, const MemoryQuery& q);
 
 // A method that fits to its view samples, rendered partition by partition. With one partition
 // it is the wrapped method itself.
-std::unique_ptr<ShadowMethod> wrap(std::unique_ptr<ShadowMethod> inner, const ParamSet& p, int map_resolution);
+std::unique_ptr<ShadowMethod> wrap(std::unique_ptr<ShadowMethod> inner, const ParamSet& p, int map_resolution,
+                                   GuardSamples guards = GuardSamples::AtTheMargin);
 
 }  // namespace penumbra::partitions

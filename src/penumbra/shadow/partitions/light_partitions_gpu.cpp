@@ -77,12 +77,12 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     cl.dispatch("partition_assign", frame.slots, cp);
     frame.flush();
     const std::vector<uint32_t> counts = counts_.download_vector<uint32_t>(L);
-    // Runs of the compact list: each partition's samples, then its four guard samples.
+    // Runs of the compact list: each partition's samples, then its guard samples (none or four).
     std::vector<uint32_t> first(L);
     uint32_t total = 0;
     for (uint32_t l = 0; l < L; ++l) {
       first[l] = total;
-      total += counts[l] > 0 ? counts[l] + 4 : 0;
+      total += counts[l] > 0 ? counts[l] + plan.guard_count(int(l)) : 0;
     }
     grow(device, compact_, uint64_t(total) * sizeof(shader::GpuViewSample), "the partitions' view samples");
     grow(device, slot_of_, uint64_t(total) * 4, "the partitions' slots");
@@ -104,7 +104,7 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     frame.flush();
     // The guard samples, written after their runs (the host writes them; nothing reads them yet).
     for (uint32_t l = 0; l < L; ++l) {
-      if (counts[l] == 0) continue;
+      if (counts[l] == 0 || plan.guard_count(int(l)) == 0) continue;
       shader::GpuViewSample guards[4]{};
       for (int c = 0; c < 4; ++c) {
         guards[c].p = plan.guards[l][c];
@@ -118,7 +118,7 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
       if (counts[l] == 0) continue;
       GpuFrame part = frame;
       part.view_samples = compact_.address() + uint64_t(first[l]) * sizeof(shader::GpuViewSample);
-      part.slots = counts[l] + 4;
+      part.slots = counts[l] + plan.guard_count(int(l));
       GpuShadowOutput part_out;
       part_out.visibility = part_v_.address() + uint64_t(first[l]) * 4;
       part_out.irradiance = irradiance ? part_e_.address() + uint64_t(first[l]) * 12 : 0;
@@ -183,8 +183,9 @@ void add_gpu_memory(MemoryTally& tally, const ParamSet& p, const MemoryQuery& q)
 }
 
 std::unique_ptr<GpuShadowMethod> wrap_gpu(std::unique_ptr<GpuShadowMethod> inner, const ParamSet& p,
-                                          int map_resolution) {
-  const Settings s = settings_from(p, map_resolution);
+                                          int map_resolution, GuardSamples guards) {
+  Settings s = settings_from(p, map_resolution);
+  s.guards = guards;
   if (s.max_side == 1) return inner;
   return std::make_unique<PartitionedGpuMethod>(std::move(inner), s);
 }

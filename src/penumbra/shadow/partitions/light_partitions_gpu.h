@@ -1,7 +1,7 @@
 // Light-space partitions on the GPU (light_partitions.h, the same plan): the receivers' range
 // and grid occupancy reduced on the device and read back (a few KiB), the plan made on the host
 // by the CPU's code, then each view sample's partition, one compact list of samples per
-// partition (plus its four guard samples), the wrapped method run on each list as a frame of its
+// partition (plus its guard samples), the wrapped method run on each list as a frame of its
 // own, and every V (and E) put back into its slot (partitions/kernels/partition_*.comp).
 #pragma once
 
@@ -9,6 +9,7 @@
 
 #include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/params.h"
+#include "penumbra/shadow/partitions/light_partitions.h"
 
 namespace penumbra::partitions {
 
@@ -19,6 +20,6 @@ namespace penumbra::partitions {
 void add_gpu_memory(MemoryTally& tally, const ParamSet& p, const MemoryQuery& q);
 
 std::unique_ptr<GpuShadowMethod> wrap_gpu(std::unique_ptr<GpuShadowMethod> inner, const ParamSet& p,
-                                          int map_resolution);
+                                          int map_resolution, GuardSamples guards = GuardSamples::AtTheMargin);
 
 }  // namespace penumbra::partitions

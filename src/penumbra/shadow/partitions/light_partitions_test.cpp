@@ -150,7 +150,19 @@ TEST(LightPartitions, GuardSamplesSitTheBlockerSearchMarginBeyondThePartition) {
     }
     // Each partition is half the root ([-1, 0] or [0, 1]) widened by the margin on both sides.
     EXPECT_NEAR(hi - lo, 1.0f + 2 * margin, 1e-3f) << l;
+    EXPECT_EQ(plan.guard_count(l), 4);
   }
+  // A method whose fit holds the segments toward the light itself (the multilayer maps) gets
+  // guards only where a partition has nothing to fit to: no occupied cell wholly within 90% of
+  // max_fov (here every cell is within 54 degrees of the axis; at a 10 degree max_fov none is).
+  Settings own = s;
+  own.guards = GuardSamples::OnlyToFit;
+  const Plan fitted = make_plan(frame, receivers, casters, light, own);
+  ASSERT_EQ(fitted.leaves, 4);
+  for (int l = 0; l < fitted.leaves; ++l) EXPECT_EQ(fitted.guard_count(l), 0) << l;
+  own.max_fov = 10;
+  const Plan narrow = make_plan(frame, receivers, casters, light, own);
+  for (int l = 0; l < narrow.leaves; ++l) EXPECT_EQ(narrow.guard_count(l), 4) << l;
 }
 
 RenderSettings cpu_settings(const std::string& method, std::vector<std::string> params) {
@@ -211,6 +223,20 @@ TEST(LightPartitions, NothingIsSplitWhereOneMapHoldsTheCasters) {
     const RenderResult r = render_scene(bunny, cpu_settings(method, {}));
     EXPECT_EQ(r.stats.extra.value("partitions", 0), 1) << method;
   }
+}
+
+TEST(LightPartitions, APartitionedMultilayerMapIsAsGoodAsOneOnTheBunny) {
+  // Its partitions fit their own receivers' segments toward the light (no guard samples
+  // stretching each map to the partition's corners): forced into 4 partitions, the multilayer
+  // map stays as close to `reference` at the same light samples as one map is.
+  const Scene bunny = testing::shipped_scene("bunny.json", 64);
+  const RenderResult ref = render_scene(bunny, cpu_settings("reference", {}));
+  const RenderResult one = render_scene(bunny, cpu_settings("mlsm", {"partitions=1"}));
+  const RenderResult split = render_scene(bunny, cpu_settings("mlsm", {"partitions=2", "partition_density=0"}));
+  EXPECT_EQ(split.stats.extra.value("partitions", 1), 4);
+  const double e_one = testing::mean_abs_dv(one.visibility, ref.visibility);
+  const double e_split = testing::mean_abs_dv(split.visibility, ref.visibility);
+  EXPECT_LT(e_split, 1.15 * e_one) << e_one << " " << e_split;
 }
 
 TEST(LightPartitions, ForcedPartitionsCoverEveryViewSampleOnce) {
