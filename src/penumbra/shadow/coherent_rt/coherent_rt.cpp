@@ -60,10 +60,11 @@ class CoherentRayTracing final : public ShadowMethod {
     const RasterTriangles tris = gather_raster_triangles(*ctx.scene);
     const double gather_ms = t_gather.elapsed_ms();
     BuildTimes times;
+    const std::vector<uint8_t> closed = objects_closed(*ctx.scene);
     nlohmann::json views = nlohmann::json::array();
     for (Vec3f eye : view_points(*ctx.light, views_)) {
       const LightView view = reference_view(*ctx.scene, *ctx.light, eye, image_options_.resolution);
-      images_.push_back(build_reference_image(tris, view, image_options_, &times));
+      images_.push_back(build_reference_image(tris, view, image_options_, closed, &times));
       views.push_back({{"width", view.width()}, {"height", view.height()}, {"near", view.near()}, {"far", view.far()}});
     }
     size_t bytes = 0;
@@ -283,7 +284,12 @@ const MethodRegistration registration({
          "widths (§5.1)",
          {}, 0, 1e6},
         {"shadow_bias", ParamType::Float, 1.5,
-         "floors are pushed back by shadow_bias texel widths (against self-shadowing)", {}, 0, 1e6},
+         "floors of closed objects are pushed back by shadow_bias texel widths (against self-shadowing)", {}, 0,
+         1e6},
+        {"open_shadow_bias", ParamType::Float, 0.5,
+         "floors of open surfaces (leaves, cards, planes: objects that are not closed) are pushed back by this many "
+         "texel widths: flat per triangle, they need less, and a leaf then still shadows the leaves just below it",
+         {}, 0, 1e6},
         {"slope_bias", ParamType::Float, 0.25,
          "plus slope_bias times the texel's largest depth step to a connected neighbour (grazing surfaces)", {}, 0,
          1e6},

@@ -99,7 +99,9 @@ class CoherentRtGpu final : public GpuShadowMethod {
       bp.view = img.view_record.address();
       bp.levels = img.pyramid.levels_address();
       bp.level_count = img.pyramid.levels();
-      bp.options = {settings_.images.gap_bias, settings_.images.shadow_bias, settings_.images.slope_bias, 0};
+      bp.options = {settings_.images.gap_bias, settings_.images.shadow_bias, settings_.images.slope_bias,
+                    settings_.images.open_shadow_bias};
+      bp.scene = frame.scene->address();
       bp.width = w;
       bp.height = h;
       cl.stage("precompute");

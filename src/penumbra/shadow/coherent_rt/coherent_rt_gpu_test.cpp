@@ -65,7 +65,7 @@ TEST_F(CoherentRtGpu, EveryParameterWorksAsOnTheCpu) {
   const Scene scene = shipped_scene("bunny.json", 32);
   EXPECT_LE(difference(scene, {"resolution=128", "coherence=false", "connectedness=true", "views=corners+center"}), 2e-3);
   EXPECT_LE(difference(scene, {"resolution=160", "minmax_clipping=false", "clear_miss=false", "occlusion_intervals=false",
-                               "ranking=false", "gap_bias=2", "shadow_bias=1", "slope_bias=0.5"}),
+                               "ranking=false", "gap_bias=2", "shadow_bias=1", "slope_bias=0.5", "open_shadow_bias=1"}),
             2e-3);
   EXPECT_LE(difference(scene, {"resolution=128", "shortcut=true", "sub_grid=2", "tile=8", "own_plane=false",
                                "hidden_blocks=true", "views=center", "reset_distance=0.05"}),

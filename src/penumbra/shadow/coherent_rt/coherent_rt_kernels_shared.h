@@ -155,6 +155,7 @@ struct CrtTilesParams {
 
 // crt_links, crt_floors, crt_ranges and crt_connected's push constants.
 struct CrtBuildParams {
+  uint64_t scene;      // SceneDesc (crt_floors: which object each texel's triangle is of)
   uint64_t z;          // the depth map's planes
   uint64_t triangle;
   uint64_t links;      // uint per texel

@@ -29,6 +29,7 @@ inline CoherentRtSettings coherent_rt_settings(const ParamSet& p) {
   s.images.resolution = p.get_int("resolution");
   s.images.gap_bias = p.get_float("gap_bias");
   s.images.shadow_bias = p.get_float("shadow_bias");
+  s.images.open_shadow_bias = p.get_float("open_shadow_bias");
   s.images.slope_bias = p.get_float("slope_bias");
   s.trace.minmax_clipping = p.get_bool("minmax_clipping");
   s.trace.connectedness = p.get_bool("connectedness");

@@ -6,6 +6,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/raster/raster_triangle.h"
+#include "penumbra/raster/rasterizer.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/coherent_rt/depth_image_tracer.h"
 #include "penumbra/shadow/coherent_rt/reference_images.h"
@@ -48,7 +49,8 @@ std::vector<ReferenceImage> corner_images(const Scene& scene, int resolution, Re
   const RasterTriangles tris = gather_raster_triangles(scene);
   std::vector<ReferenceImage> images;
   for (Vec3f eye : view_points(scene.lights[0], "corners"))
-    images.push_back(build_reference_image(tris, reference_view(scene, scene.lights[0], eye, resolution), opt));
+    images.push_back(
+        build_reference_image(tris, reference_view(scene, scene.lights[0], eye, resolution), opt, objects_closed(scene)));
   return images;
 }
 
@@ -89,6 +91,42 @@ TEST(CoherentRt, RayThroughTheHoleBetweenDisconnectedSurfacesIsNotBlocked) {
     DepthImageTracer wall_tracer(joined, topt);
     EXPECT_TRUE(wall_tracer.trace(p, q, false, scratch, nullptr).blocked) << accelerate;
   }
+}
+
+TEST(CoherentRt, FloorsOfOpenSurfacesArePushedBackByTheOpenBias) {
+  // contact.json: a closed box on an open ground plane. With the slope term off, a texel's floor
+  // lies shadow_bias texel widths behind its depth on the box and open_shadow_bias on the ground.
+  const Scene scene = shipped("contact.json", 32);
+  const AreaLight& light = scene.lights[0];
+  const LightView view = reference_view(scene, light, light.center, 128);
+  const RasterTriangles tris = gather_raster_triangles(scene);
+  ReferenceImageOptions opt;
+  opt.resolution = 128;
+  opt.slope_bias = 0;
+  opt.shadow_bias = 1.5f;
+  opt.open_shadow_bias = 0.5f;
+  const ReferenceImage img = build_reference_image(tris, view, opt, objects_closed(scene));
+  DepthMap map;
+  Rasterizer().depth_map(tris, view, RasterFilter{}, &map);
+  int closed = 0, open = 0;
+  for (int y = 0; y < map.height; ++y)
+    for (int x = 0; x < map.width; ++x) {
+      if (!map.covered(x, y)) continue;
+      const float z = map.z[map.index(x, y)];
+      const bool is_closed = scene.objects[tris[map.triangle[map.index(x, y)]].object].closed;
+      const float bias = is_closed ? 1.5f : 0.5f;
+      EXPECT_NEAR(view.linear_depth_from_window(img.floor_at(x, y)) - z, bias * view.texel_world_size(z),
+                  2e-3f * z) << x << " " << y;
+      (is_closed ? closed : open)++;
+    }
+  EXPECT_GT(closed, 100);
+  EXPECT_GT(open, 1000);
+  // Without the closedness every surface counts as open.
+  const ReferenceImage all_open = build_reference_image(tris, view, opt, {});
+  for (int y = 0; y < map.height; ++y)
+    for (int x = 0; x < map.width; ++x)
+      if (map.covered(x, y) && !scene.objects[tris[map.triangle[map.index(x, y)]].object].closed)
+        ASSERT_EQ(all_open.floor_at(x, y), img.floor_at(x, y));
 }
 
 TEST(CoherentRt, RaysAcrossAConnectedSteepSlopeAreBlocked) {

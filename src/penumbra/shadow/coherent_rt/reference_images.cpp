@@ -75,8 +75,15 @@ LightView reference_view(const Scene& scene, const AreaLight& light, Vec3f eye, 
   return lam::reference_view(axes, r, resolution);
 }
 
+std::vector<uint8_t> objects_closed(const Scene& scene) {
+  std::vector<uint8_t> closed(scene.objects.size());
+  for (size_t i = 0; i < closed.size(); ++i) closed[i] = scene.objects[i].closed ? 1 : 0;
+  return closed;
+}
+
 ReferenceImage build_reference_image(RasterTriangleView tris, const LightView& view,
-                                     const ReferenceImageOptions& options, BuildTimes* times) {
+                                     const ReferenceImageOptions& options, std::span<const uint8_t> object_closed,
+                                     BuildTimes* times) {
   ReferenceImage img;
   img.view = view;
   const int W = view.width(), H = view.height();
@@ -97,7 +104,12 @@ ReferenceImage build_reference_image(RasterTriangleView tris, const LightView& v
   img.floor.assign(n, kInfinity);
   img.links.assign(n, 0);
   const shader::CrtTexels texels{map.z.data(), map.triangle.data(), img.links.data(), img.floor.data(), W, H};
-  const shader::CrtBuildOptions build{options.gap_bias, options.shadow_bias, options.slope_bias, 0};
+  const shader::CrtBuildOptions build{options.gap_bias, options.shadow_bias, options.slope_bias,
+                                      options.open_shadow_bias};
+  auto closed_at = [&](size_t i) {
+    const uint32_t object = tris[map.triangle[i]].object;
+    return object < object_closed.size() && object_closed[object] != 0;
+  };
   const shader::RasterView& v = view.shared();
   parallel_for(H, 16, [&](size_t begin, size_t end) {
     for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
@@ -108,7 +120,8 @@ ReferenceImage build_reference_image(RasterTriangleView tris, const LightView& v
   parallel_for(H, 16, [&](size_t begin, size_t end) {
     for (int y = static_cast<int>(begin); y < static_cast<int>(end); ++y)
       for (int x = 0; x < W; ++x)
-        if (map.triangle[map.index(x, y)] != kNoTriangle) img.floor[map.index(x, y)] = shader::crt_floor_of(texels, v, build, x, y);
+        if (map.triangle[map.index(x, y)] != kNoTriangle)
+          img.floor[map.index(x, y)] = shader::crt_floor_of(texels, v, build, x, y, closed_at(map.index(x, y)));
   });
   // Texel ranges: the floor and the walls to connected neighbours.
   std::vector<DepthRange> ranges(n);

@@ -46,7 +46,8 @@ inline int neighbour_bit(int dx, int dy) {
 struct ReferenceImageOptions {
   int resolution = 1024;     // texels along the longer side of each view
   float gap_bias = 4.0f;     // texels: adjacent depths within gap_bias * texel size are connected
-  float shadow_bias = 1.5f;  // texels: floors pushed back by shadow_bias * texel size
+  float shadow_bias = 1.5f;  // texels: floors of closed objects pushed back by shadow_bias * texel size
+  float open_shadow_bias = 0.5f;  // texels: floors of open surfaces (SceneObject::closed false)
   // plus slope_bias times the largest depth step to a connected edge neighbour
   float slope_bias = 0.25f;
 };
@@ -92,9 +93,13 @@ struct BuildTimes {
 };
 
 // Rasterizes `tris` into `view` and builds floors, walls, the pyramid and the connectedness
-// quadtree.
+// quadtree. object_closed: per scene object (RasterTriangle::object), 1 when it is closed
+// (SceneObject::closed; objects_closed below); shorter or empty: open.
 ReferenceImage build_reference_image(RasterTriangleView tris, const LightView& view,
-                                     const ReferenceImageOptions& options, BuildTimes* times = nullptr);
+                                     const ReferenceImageOptions& options, std::span<const uint8_t> object_closed,
+                                     BuildTimes* times = nullptr);
+// SceneObject::closed of every object of `scene`, as build_reference_image takes it.
+std::vector<uint8_t> objects_closed(const Scene& scene);
 
 }  // namespace coherent_rt
 }  // namespace penumbra

@@ -23,12 +23,12 @@ PN_INLINE float view_texel_world_size(PN_IN(RasterView) v, float z) {
   return v.perspective != 0u ? size * z / v.near : size;
 }
 
-// The build's settings (ReferenceImageOptions' biases, in texels).
+// The build's settings (ReferenceImageOptions' biases, in texels), 16 bytes.
 struct CrtBuildOptions {
   float gap_bias;
-  float shadow_bias;
+  float shadow_bias;       // floors of closed objects' surfaces
   float slope_bias;
-  uint pad;
+  float open_shadow_bias;  // floors of open surfaces (SceneObject::closed false: leaves, cards, planes)
 };
 
 PN_SHARED_END
@@ -103,8 +103,12 @@ PN_INLINE uint crt_links_of(CrtTexelsRef t, PN_IN(RasterView) v, float gap_bias,
 // The floor of texel (x, y) (covered), window depth: pushed back by shadow_bias texel widths plus,
 // slope-scaled, the largest depth step to a connected edge neighbour (a surface seen at a grazing
 // angle moves that much per texel, so a point anywhere in the texel lies up to about that far
-// behind the sampled depth).
-PN_INLINE float crt_floor_of(CrtTexelsRef t, PN_IN(RasterView) v, CrtBuildOptions o, int x, int y) {
+// behind the sampled depth). `closed`: the texel's surface belongs to a closed object, whose
+// curved faces need the full shadow_bias against self-shadowing; an open surface (a leaf, a card,
+// a ground plane) is flat per triangle, its slope term covers it, and open_shadow_bias (less)
+// keeps a leaf's shadow on the leaves just below it (issue 34: the forest's crowns read too
+// bright, mean signed +0.033, with 1.5 texels everywhere).
+PN_INLINE float crt_floor_of(CrtTexelsRef t, PN_IN(RasterView) v, CrtBuildOptions o, int x, int y, bool closed) {
   int i = y * t.width + x;
   float z = crt_z(t, i);
   uint links = crt_texel_links(t, i);
@@ -112,7 +116,8 @@ PN_INLINE float crt_floor_of(CrtTexelsRef t, PN_IN(RasterView) v, CrtBuildOption
   for (int k = 0; k < 4; ++k)
     if ((links & (1u << uint(k))) != 0u)
       step = dw_max(step, abs(crt_z(t, (y + crt_neighbour_dy(k)) * t.width + x + crt_neighbour_dx(k)) - z));
-  return view_window_depth(v, z + o.shadow_bias * view_texel_world_size(v, z) + o.slope_bias * step);
+  float bias = closed ? o.shadow_bias : o.open_shadow_bias;
+  return view_window_depth(v, z + bias * view_texel_world_size(v, z) + o.slope_bias * step);
 }
 
 // Texel (x, y)'s range in the pyramid: its floor and the walls to its connected neighbours (a ray

@@ -4,11 +4,11 @@
 #define PENUMBRA_SHADOW_COHERENT_RT_KERNELS_CRT_BUILD_GLSL
 
 #include "penumbra/gpu/kernel_common.glsl"
+#include "penumbra/gpu/raster/raster_access.glsl"  // RasterViewRef; raster_source for crt_floors
 #include "penumbra/shadow/coherent_rt/coherent_rt_kernels_shared.h"
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { CrtBuildParams p; } pc;
-layout(buffer_reference, scalar) readonly buffer RasterViewRef { RasterView v; };
 
 CrtTexelsRef build_texels() {
   CrtTexelsRef t;
