@@ -278,7 +278,7 @@ const MethodRegistration registration({
         {"views", ParamType::String, "corners",
          "reference depth images: from the light's 4 'corners', its 'center', or 'corners+center'",
          {"corners", "center", "corners+center"}},
-        {"resolution", ParamType::Int, 1024, "texels along the longer side of each reference image", {}, 4, 8192},
+        {"resolution", ParamType::Int, 2048, "texels along the longer side of each reference image (the paper used 1024)", {}, 4, 8192},
         {"gap_bias", ParamType::Float, 4.0,
          "adjacent texels are one surface (joined by a wall) when their depths differ by at most gap_bias texel "
          "widths (§5.1)",

@@ -44,7 +44,7 @@ inline int neighbour_bit(int dx, int dy) {
 }
 
 struct ReferenceImageOptions {
-  int resolution = 1024;     // texels along the longer side of each view
+  int resolution = 2048;     // texels along the longer side of each view
   float gap_bias = 4.0f;     // texels: adjacent depths within gap_bias * texel size are connected
   float shadow_bias = 1.5f;  // texels: floors of closed objects pushed back by shadow_bias * texel size
   float open_shadow_bias = 0.5f;  // texels: floors of open surfaces (SceneObject::closed false)
