@@ -17,7 +17,7 @@ namespace penumbra::multilayer {
 
 struct TraceParams {
   float z_thresh = 0;        // world units of linear depth (xie2007 §6.1)
-  float self_bias = 0.25f;    // texel widths at the receiver: the band around its own tangent plane ignored
+  float self_bias = 0.25f;   // texel widths at the receiver: the band around its own tangent plane ignored
   float stop_below = 1e-3f;  // mtsm: a ray whose visibility falls below this is blocked (§5.2 threshold)
 };
 

@@ -46,7 +46,7 @@ namespace penumbra::partitions {
 
 // The parameters `partitions` (most partitions a side, a power of two: 1 = one map, the
 // method's own), `partition_density` and `partition_receivers`, appended to a method's table.
-std::vector<ParamSpec> param_specs(int default_partitions = 8, double default_receivers = 1.0);
+std::vector<ParamSpec> param_specs(int default_partitions = 8);
 
 // Where a partition gets guard samples. AtTheMargin: always, at the corners of its rectangle
 // widened by the blocker-search margin (its map must hold the casters its points' penumbrae reach
