@@ -237,6 +237,7 @@ void AttenuationMap::update_shared() {
   m.delta = delta_;
   m.forward = forward_;
   m.epsilon = epsilon_;
+  m.open_epsilon = open_epsilon_;
   m.light_center = light_center_;
   m.light_area = light_area_;
   m.light_normal = light_normal_;
@@ -248,16 +249,16 @@ void AttenuationMap::update_shared() {
 }
 
 template <bool kBilinear, bool kSlope>
-inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, uint64_t& texels) const {
+inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, bool closed, uint64_t& texels) const {
   uint32_t t = 0;
   const float v = shader::lam_visibility(reinterpret_cast<const float*>(layers_.data()), offsets_.data(), 1, shared_, p,
-                                         n, kBilinear, kSlope, t);
+                                         n, shader::lam_epsilon(shared_, closed), kBilinear, kSlope, t);
   texels += t;
   return v;
 }
 
 namespace {
-constexpr uint64_t kMapRecordMagic = 0x314d4454414d414cull;  // "LAMATDM1"
+constexpr uint64_t kMapRecordMagic = 0x324d4454414d414cull;  // "LAMATDM2" (2: open_epsilon)
 }  // namespace
 
 void AttenuationMap::write(std::ostream& out) const {
@@ -273,6 +274,7 @@ void AttenuationMap::write(std::ostream& out) const {
   binary::write(out, height_);
   binary::write(out, samples_);
   binary::write(out, epsilon_);
+  binary::write(out, open_epsilon_);
   binary::write(out, view_);
   binary::write(out, proj_);
   binary::write(out, near_);
@@ -300,7 +302,8 @@ bool AttenuationMap::read(std::istream& in) {
       binary::read(in, m.light_center_) && binary::read(in, m.light_normal_) && binary::read(in, m.light_area_) &&
       binary::read(in, m.light_radius_) && binary::read_array(in, solid, kMaxElements) &&
       binary::read(in, m.width_) && binary::read(in, m.height_) && binary::read(in, m.samples_) &&
-      binary::read(in, m.epsilon_) && binary::read(in, m.view_) && binary::read(in, m.proj_) &&
+      binary::read(in, m.epsilon_) && binary::read(in, m.open_epsilon_) && binary::read(in, m.view_) &&
+      binary::read(in, m.proj_) &&
       binary::read(in, m.near_) && binary::read(in, m.far_) && binary::read(in, m.slope_) &&
       binary::read(in, m.eye_) && binary::read(in, m.right_) && binary::read(in, m.up_) &&
       binary::read(in, m.forward_) && binary::read(in, m.u0_) && binary::read(in, m.v1_) &&
@@ -328,8 +331,9 @@ float AttenuationMap::front_fraction(Vec3f p, Vec3f n) const {
 float AttenuationMap::visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels) const {
   if (empty()) return 1.0f;
   uint64_t t = 0;
-  float v = filter == Filter::Bilinear ? (slope_ ? visibility_impl<true, true>(p, n, t) : visibility_impl<true, false>(p, n, t))
-                                       : (slope_ ? visibility_impl<false, true>(p, n, t) : visibility_impl<false, false>(p, n, t));
+  float v = filter == Filter::Bilinear
+                ? (slope_ ? visibility_impl<true, true>(p, n, true, t) : visibility_impl<true, false>(p, n, true, t))
+                : (slope_ ? visibility_impl<false, true>(p, n, true, t) : visibility_impl<false, false>(p, n, true, t));
   if (texels) *texels += t;
   return v;
 }
@@ -340,8 +344,9 @@ void AttenuationMap::visibility_batch(std::span<const ViewSample> samples, std::
   uint64_t t = 0;
   for (size_t i = 0; i < samples.size(); ++i) {
     const ViewSample& s = samples[i];
-    const float v = visibility_impl<kBilinear, kSlope>(s.p, s.ng, t);
-    out[i] = v > 0 && s.object < solid_.size() && solid_[s.object] ? std::min(v, front_fraction(s.p, s.ng)) : v;
+    const bool closed = s.object < solid_.size() && solid_[s.object];
+    const float v = visibility_impl<kBilinear, kSlope>(s.p, s.ng, closed, t);
+    out[i] = v > 0 && closed ? std::min(v, front_fraction(s.p, s.ng)) : v;
   }
   if (texels) *texels += t;
 }
@@ -379,6 +384,7 @@ struct BuildLayer {
 struct Splat {
   int16_t ix, iy;
   float z00, gx, gy;
+  bool open;  // from an open surface (lam_epsilon)
 };
 
 constexpr int kBandRows = 8;   // rows of the reference view one insertion task owns
@@ -400,9 +406,11 @@ AttenuationMap Builder::frame(const AreaLight& light, const ShadowRegion& region
   if (samples > 65535) throw Error("lam: at most 65535 light samples (got {})", samples);
   if (opt.max_layers < 1 || opt.max_layers > 255) throw Error("lam: max_layers {} must be in [1, 255]", opt.max_layers);
   if (!(opt.epsilon >= 0)) throw Error("lam: epsilon {} must be >= 0", opt.epsilon);
+  if (!(opt.open_epsilon >= 0)) throw Error("lam: open_epsilon {} must be >= 0", opt.open_epsilon);
   AttenuationMap map;
   map.samples_ = samples;
   map.epsilon_ = opt.epsilon;
+  map.open_epsilon_ = opt.slope ? opt.open_epsilon : opt.epsilon;
   map.solid_ = opt.solid_objects;
   {
     // The light as the LDI's samples see it: the polygon its samples lie in.
@@ -457,6 +465,7 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
   const int K = opt.max_layers;
   const float delta = map.delta_;
   const float eps = opt.epsilon;
+  const float eps_open = map.open_epsilon_;
   const bool slope = opt.slope;
 
   std::vector<uint8_t> counts(texels, 0);
@@ -518,7 +527,9 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
             const shader::LamSplat sp = shader::lam_splat(
                 z, x > 0 ? zr[x - 1] : kInfinity, x + 1 < sw ? zr[x + 1] : kInfinity, y > 0 ? zr[x - sw] : kInfinity,
                 y + 1 < sh ? zr[x + sw] : kInfinity, bx, by, fx, fy, ix, iy, slope);
-            out[m++] = {static_cast<int16_t>(ix), static_cast<int16_t>(iy), sp.z00, sp.gx, sp.gy};
+            const uint32_t object = tris[dm.triangle[static_cast<size_t>(y) * sw + x]].object;
+            const bool open = !(object < map.solid_.size() && map.solid_[object]);
+            out[m++] = {static_cast<int16_t>(ix), static_cast<int16_t>(iy), sp.z00, sp.gx, sp.gy, open};
             int b0 = std::max(iy, 0) / kBandRows, b1 = std::min(iy + 1, H - 1) / kBandRows;
             cnt[b0]++;
             if (b1 != b0) cnt[b1]++;
@@ -564,13 +575,13 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
       for (size_t b = b0; b < b1; ++b) {
         const int row0 = static_cast<int>(b) * kBandRows, row1 = std::min(H, row0 + kBandRows);
         size_t new_layers = 0, new_nonempty = 0, dropped = 0, n_splats = 0;
-        auto insert = [&](int tx, int ty, float z) {
+        auto insert = [&](int tx, int ty, float z, bool open) {
           size_t t = static_cast<size_t>(ty) * W + tx;
           // Layer-major storage: slot i of texel t at i * texels + t, so the first layers
           // (almost every texel has one or two) are dense.
           BuildLayer* L = layers.get() + t;
           int n = counts[t];
-          const float tol = depth_tolerance(eps, z);
+          const float tol = depth_tolerance(open ? eps_open : eps, z);
           int best = -1;
           float bestd = tol;
           for (int i = 0; i < n; ++i) {
@@ -603,8 +614,8 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
             int ty = sp.iy + j;
             if (ty < row0 || ty >= row1) continue;
             const shader::LamSplat plane{sp.ix, sp.iy, sp.z00, sp.gx, sp.gy};
-            if (sp.ix >= 0) insert(sp.ix, ty, shader::lam_splat_depth(plane, 0, j));
-            if (sp.ix + 1 < W) insert(sp.ix + 1, ty, shader::lam_splat_depth(plane, 1, j));
+            if (sp.ix >= 0) insert(sp.ix, ty, shader::lam_splat_depth(plane, 0, j), sp.open);
+            if (sp.ix + 1 < W) insert(sp.ix + 1, ty, shader::lam_splat_depth(plane, 1, j), sp.open);
           }
         }
         band_layers[b] = new_layers;
@@ -711,6 +722,7 @@ BuildOptions build_options(const ParamSet& p) {
   BuildOptions options;
   options.resolution = p.get_int("resolution");
   options.epsilon = p.get_float("epsilon");
+  options.open_epsilon = p.get_float("open_epsilon");
   options.max_layers = p.get_int("max_layers");
   options.slope = p.get_bool("local_planes");
   return options;

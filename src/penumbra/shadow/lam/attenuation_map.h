@@ -89,6 +89,7 @@ class AttenuationMap {
   int height() const { return height_; }
   const LightView& view() const { return view_; }
   float epsilon() const { return epsilon_; }
+  float open_epsilon() const { return open_epsilon_; }
   int samples() const { return samples_; }
   std::span<const Layer> layers(int x, int y) const {
     size_t i = static_cast<size_t>(y) * width_ + x;
@@ -110,7 +111,8 @@ class AttenuationMap {
   // by any sample, nor anything in front of it: thin or grazing geometry): lit (1).
   // Bilinear weighs the 4 texels around p, skipping those without a layer at or in front
   // of p (p's surface does not reach them). Outside the shadow region: 1. *texels (if
-  // given) is increased by the number of texels read.
+  // given) is increased by the number of texels read. The tolerance is epsilon's (a closed
+  // object's); the run of view samples below picks open_epsilon for open ones (lam_epsilon).
   float visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels = nullptr) const;
   // The same for a run of view samples (p and ng): out[i] for samples[i]; on a solid object
   // (BuildOptions::solid_objects) V is also at most front_fraction(p, ng).
@@ -141,12 +143,13 @@ class AttenuationMap {
   float light_area_ = 1, light_radius_ = 0;
   std::vector<bool> solid_;  // per scene object: closed mesh
   template <bool kBilinear, bool kSlope>
-  float visibility_impl(Vec3f p, Vec3f n, uint64_t& texels) const;
+  float visibility_impl(Vec3f p, Vec3f n, bool closed, uint64_t& texels) const;
   template <bool kBilinear, bool kSlope>
   void visibility_batch(std::span<const ViewSample> samples, std::span<float> out, uint64_t* texels) const;
   int width_ = 0, height_ = 0;
   int samples_ = 0;
   float epsilon_ = 0.01f;
+  float open_epsilon_ = 0.01f;
   LightView view_;
   // Texel projection rows (world -> (X z, Y z, z)), copied out of the view for speed.
   float proj_[3][4] = {};
@@ -166,6 +169,9 @@ static_assert(sizeof(Layer) == 2 * sizeof(float), "lam_shared.h reads the layers
 struct BuildOptions {
   int resolution = 512;   // texels along the longer side of the reference view (square texels)
   float epsilon = 0.005f;  // depth tolerance, relative to linear depth
+  // ... for open surfaces (objects that are not closed: leaves, cards, planes) with local planes
+  // (lam_shared.h lam_epsilon); without them every surface gets epsilon
+  float open_epsilon = 0.002f;
   int max_layers = 32;    // layers one texel can hold while building (more are dropped)
   // Compare depths at texel centres: each splat carries its depth to the centres it lands
   // on along the surface's local plane (gradient from the depth map), and a lookup carries

@@ -162,7 +162,12 @@ const MethodRegistration registration({
          {}, 4, 8192},
         {"epsilon", ParamType::Float, 0.005,
          "depth tolerance, relative to the light-view linear depth: depths within epsilon * z are one surface "
-         "(insertion and display)",
+         "(insertion and display); with local_planes, for closed objects' surfaces",
+         {}, 0, 1},
+        {"open_epsilon", ParamType::Float, 0.002,
+         "with local_planes, the depth tolerance for open surfaces (leaves, cards, planes: objects that are not "
+         "closed): flat per triangle, their depths are carried exactly along their planes, and a smaller tolerance "
+         "keeps the leaves of a crown apart",
          {}, 0, 1},
         {"filter", ParamType::String, "bilinear",
          "display lookup: 'nearest' texel or 'bilinear' over the 4 neighbouring texels", {"nearest", "bilinear"}},

@@ -212,6 +212,8 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
         ip.near = ref.near();
         ip.far = ref.far();
         ip.epsilon = options_.epsilon;
+        ip.open_epsilon = map_.open_epsilon();
+        ip.scene = frame.scene->address();
         ip.max_layers = K;
         ip.index = static_cast<uint32_t>(b0 + i);
         ip.list_capacity = slots;

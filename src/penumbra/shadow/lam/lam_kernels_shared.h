@@ -79,6 +79,7 @@ struct LamInsertParams {
   uint64_t list_counts;    // uint[texels]: splats sent (may exceed list_capacity; 0 after the insert)
   uint64_t sample_counts;  // LamSampleCounts[light samples]
   uint64_t counters;       // LamCounters
+  uint64_t scene;          // SceneDesc (lam_insert: whether a splat's triangle is of a closed object)
   int width;               // the reference view
   int height;
   float near;  // its depth range (every sample view's)
@@ -89,6 +90,7 @@ struct LamInsertParams {
   uint list_capacity;
   uint slope;  // 1: local planes
   uint pixels;  // of the sample's map
+  float open_epsilon;  // the tolerance of open surfaces' splats (epsilon without local planes)
 };
 // lam_finalize.comp: one thread per reference texel.
 struct LamFinalizeParams {

@@ -43,7 +43,8 @@ PN_CONST float kLamUndefined = -2.0f;
 //   bytes 160-175 outline_count (points, <= kLamMaxOutline; 0: no solid clamp), slope (1: local
 //                 planes), solid (1: the map clamps closed objects by front_fraction), empty (1: no
 //                 layers at all: the shadow region was empty)
-//   bytes 176-191 (unused, 0)
+//   bytes 176-179 open_epsilon (the tolerance for open surfaces with local planes: lam_epsilon)
+//   bytes 180-191 (unused, 0)
 struct LamMapView {
   vec3 row0;
   float off0;
@@ -71,7 +72,7 @@ struct LamMapView {
   uint slope;
   uint solid;
   uint empty;
-  uint pad0;
+  float open_epsilon;
   uint pad1;
   uint pad2;
   uint pad3;
@@ -215,6 +216,13 @@ PN_INLINE float lam_plane_depth(bool plane, float nd, float nr, float nu, float 
   return clamp(nd / den, z - cap, z + cap);
 }
 
+// The depth tolerance of a point on a closed object's surface or not: with local planes (penumbra's
+// addition) an open surface (a leaf, a card, a ground plane: flat per triangle, its depth carried
+// exactly along its plane) gets open_epsilon, which keeps the leaves of a crown apart; a closed
+// object's curved faces keep epsilon. Without local planes every surface gets epsilon (the paper's
+// rule). Insertion uses the same choice for the surface a splat came from.
+PN_INLINE float lam_epsilon(LamMapView m, bool closed) { return m.slope != 0u && !closed ? m.open_epsilon : m.epsilon; }
+
 // Visibility of world point p with geometric normal n (agrawala2000 §4, Display;
 // AttenuationMap::visibility): project into the reference view; per texel, the layer within
 // epsilon of p's depth gives its attenuation (with local planes, p's depth is first carried along
@@ -223,7 +231,7 @@ PN_INLINE float lam_plane_depth(bool plane, float nd, float nr, float nu, float 
 // Bilinear weighs the 4 texels around p, skipping those without a layer at or in front of p.
 // Outside the shadow region: 1. `texels` counts the texels read.
 PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uint stride, LamMapView m, vec3 p,
-                               vec3 n, bool bilinear, bool slope, PN_INOUT(uint) texels) {
+                               vec3 n, float epsilon, bool bilinear, bool slope, PN_INOUT(uint) texels) {
   float z = lam_row(m.row2, m.off2, p);
   if (!(z >= m.near && z <= m.far)) return 1.0f;
   float inv = 1.0f / z;
@@ -255,7 +263,7 @@ PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uin
     int iy = min(int(y), m.height - 1);
     texels += 1u;
     float zt = lam_plane_depth(plane, nd, nr, nu, nf, den_p, z, cap, float(ix) + 0.5f, float(iy) + 0.5f);
-    float r = lam_lookup_texel(layers, ranges, stride, uint(iy) * uint(m.width) + uint(ix), zt, m.epsilon);
+    float r = lam_lookup_texel(layers, ranges, stride, uint(iy) * uint(m.width) + uint(ix), zt, epsilon);
     return r >= 0.0f ? r : (r == kLamOccluded ? 0.0f : 1.0f);
   }
   // Bilinear over the 4 texel centres around p (percentage-closer style, agrawala2000 §6.1);
@@ -275,7 +283,7 @@ PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uin
     if (tx < 0 || ty < 0 || tx >= m.width || ty >= m.height) continue;
     texels += 1u;
     float zt = lam_plane_depth(plane, nd, nr, nu, nf, den_p, z, cap, float(tx) + 0.5f, float(ty) + 0.5f);
-    float r = lam_lookup_texel(layers, ranges, stride, uint(ty) * uint(m.width) + uint(tx), zt, m.epsilon);
+    float r = lam_lookup_texel(layers, ranges, stride, uint(ty) * uint(m.width) + uint(tx), zt, epsilon);
     if (r >= 0.0f) {
       sum += w * r;
       wsum += w;
@@ -347,7 +355,7 @@ PN_INLINE float lam_sample_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY rang
                                       bool bilinear, PN_INOUT(uint) texels) {
   bool solid = m.solid != 0u && closed;
   if (m.empty != 0u) return solid ? lam_front_fraction(outline, m, p, ng) : 1.0f;
-  float v = lam_visibility(layers, ranges, stride, m, p, ng, bilinear, m.slope != 0u, texels);
+  float v = lam_visibility(layers, ranges, stride, m, p, ng, lam_epsilon(m, closed), bilinear, m.slope != 0u, texels);
   return v > 0.0f && solid ? min(v, lam_front_fraction(outline, m, p, ng)) : v;
 }
 

@@ -161,6 +161,27 @@ TEST(Lam, FlatOccluderGivesTheAnalyticPenumbraWithinTheBanding) {
   }
 }
 
+TEST(Lam, OpenSurfacesCloserThanEpsilonStayApartWithTheOpenTolerance) {
+  // A leaf-like open quad 7 mm above the open ground, under a light 2 m up: the ground beneath
+  // its middle is in umbra. Within epsilon (0.005 z: 1 cm) the two are one surface and the
+  // ground reads as lit as the leaf; open_epsilon (0.002 z: 4 mm) keeps them two layers.
+  const Scene scene =
+      ground_scene({object(quad_y(0.007f, -0.5f, 0.5f, -0.5f, 0.5f))}, rect_light_down({0, kH, 0}, 0.5f, 0.5f));
+  ASSERT_FALSE(scene.objects[0].closed);
+  ASSERT_FALSE(scene.objects[1].closed);
+  const ViewSamples vs = ground_line(-0.2f, 0.2f, 40, 0.0f);  // object 0: the ground
+  for (const char* open : {"open_epsilon=0.002", "open_epsilon=0.005"}) {
+    const std::vector<float> v = run_lam(scene, vs, 64, {"resolution=256", "epsilon=0.005", open});
+    double mean = 0;
+    for (float x : v) mean += x;
+    mean /= v.size();
+    if (std::string(open) == "open_epsilon=0.002")
+      EXPECT_LT(mean, 0.05) << open;  // in umbra
+    else
+      EXPECT_GT(mean, 0.5) << open;  // merged with the leaf above: lit
+  }
+}
+
 TEST(Lam, AttenuationIsMonotoneAndInTheUnitInterval) {
   const Scene scene = edge_scene();
   const ViewSamples vs = ground_line(-1.2f, 1.2f, 600);

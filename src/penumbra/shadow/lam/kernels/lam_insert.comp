@@ -9,6 +9,7 @@
 // that can reach it lie along a segment of the sample's map (the disparity bx/z, by/z over the
 // depth range), walked row by row in scan order.
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#include "penumbra/gpu/raster/raster_access.glsl"
 #include "penumbra/shadow/lam/lam_access.glsl"
 
 layout(local_size_x = 64) in;
@@ -23,9 +24,19 @@ layout(buffer_reference, scalar) buffer CountersRef { LamCounters c; };
 uint g_texel, g_texels, g_count, g_splats, g_dropped, g_new_layers, g_new_nonempty;
 BuildLayers g_layers;
 
-// attenuation_map.cpp Builder::build's insert: depth z of light sample `stamp` - 1.
-void insert(float z, uint stamp) {
-  float tol = lam_depth_tolerance(pc.p.epsilon, z);
+// Whether pixel `pixel` of the sample's map shows an open surface (its triangle's object is not
+// closed; lam_shared.h lam_epsilon), as the CPU's splats record it.
+bool pixel_open(uint pixel) {
+  if (pc.p.open_epsilon == pc.p.epsilon) return false;  // one tolerance for all: no need to know
+  uint object, prim;
+  raster_source(uint(Uint64s(pc.p.keys).v[pixel] & 0xffffffffUL), object, prim);
+  return (g_objects.v[object].flags & kObjectClosed) == 0u;
+}
+
+// attenuation_map.cpp Builder::build's insert: depth z of light sample `stamp` - 1, from an open
+// surface or not.
+void insert(float z, uint stamp, bool open) {
+  float tol = lam_depth_tolerance(open ? pc.p.open_epsilon : pc.p.epsilon, z);
   int best = -1;
   float bestd = tol;
   for (uint i = 0u; i < g_count; ++i) {
@@ -83,7 +94,7 @@ void gather(Uint64s keys, LamSampleView sv, int tx, int ty, uint stamp) {
       if (!lam_pixel_splat(keys, sv, x, y, z, W, H, pc.p.slope != 0u, s)) continue;
       int i = tx - s.ix, j = ty - s.iy;
       if (i < 0 || i > 1 || j < 0 || j > 1) continue;
-      insert(lam_splat_depth(s, i, j), stamp);
+      insert(lam_splat_depth(s, i, j), stamp, pixel_open(uint(y) * uint(sv.width) + uint(x)));
     }
   }
 }
@@ -98,6 +109,7 @@ void main() {
   g_new_layers = 0u;
   g_new_nonempty = 0u;
   uint stamp = pc.p.index + 1u;
+  scene_bind(pc.p.scene);
   if (t < g_texels) {
     g_count = Uints(pc.p.counts).v[t];
     Uints list_counts = Uints(pc.p.list_counts);
@@ -114,7 +126,7 @@ void main() {
         for (; j > 0u && lists.v[base + j - 1u].pixel > e.pixel; --j) lists.v[base + j] = lists.v[base + j - 1u];
         lists.v[base + j] = e;
       }
-      for (uint i = 0u; i < n; ++i) insert(lists.v[base + i].z, stamp);
+      for (uint i = 0u; i < n; ++i) insert(lists.v[base + i].z, stamp, pixel_open(lists.v[base + i].pixel));
     } else {
       gather(Uint64s(pc.p.keys), SampleViewRef(pc.p.view).v, int(t % uint(pc.p.width)), int(t / uint(pc.p.width)),
              stamp);
