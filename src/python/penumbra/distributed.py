@@ -78,6 +78,15 @@ def _mesh_companions(path):
     return [c for c in out if not os.path.isabs(c)]
 
 
+def _scatter(client, files):
+    """Sends a scene's mesh files to the cluster once, under a key of their own.
+
+    ``hash=False``: with dask's default content-hashed key, scattering the same files again right
+    after an earlier job let go of them races with the scheduler forgetting that key, and the new
+    job's tiles fail with "computation on lost data" (dask/distributed#8576)."""
+    return client.scatter(files, broadcast=False, hash=False)
+
+
 def _with_meshes(setup_text, meshes):
     """The setup for the workers and the files to send them: ("ship") each object's mesh and
     its companion files, keyed by a digest of their bytes, the document's paths rewritten to a
@@ -329,7 +338,7 @@ def _compare_setup(client, setup, methods, ground_truth=True, runs=1, warmup_run
         raise Error("compare: no methods to run")
     _penumbra._check_methods(setup, methods)
     job_setup, files = _with_meshes(setup, meshes)
-    payload = client.scatter(files, broadcast=False) if files else None
+    payload = _scatter(client, files) if files else None
     keep = output is not None
     c = _Comparison(client, job_setup, payload, methods, ground_truth, runs, warmup_runs, keep, cache_dir)
     _wait(client, c.futures(), "compare", progress)
@@ -373,7 +382,7 @@ def _sweep_setup(client, setup, key, values, methods, ground_truth=True, runs=1,
     for s in setups:
         job_setup, files = _with_meshes(s, meshes)
         if files and files["digest"] not in payloads:
-            payloads[files["digest"]] = client.scatter(files, broadcast=False)
+            payloads[files["digest"]] = _scatter(client, files)
         payload = payloads[files["digest"]] if files else None
         jobs.append(_Comparison(client, job_setup, payload, methods, ground_truth, runs, warmup_runs, False,
                                 cache_dir))
@@ -447,7 +456,7 @@ def _render_setup(client, setup, method="reference", spp=256, seed=0, params=Non
     scene = _penumbra._scene_of_setup(setup)  # the camera (and a bad scene fails here, not on a worker)
     width, height = scene.resolution
     job_setup, files = _with_meshes(setup, meshes)
-    payload = client.scatter(files, broadcast=False) if files else None
+    payload = _scatter(client, files) if files else None
     # A method whose light views are fitted to the rendered pixels (MethodInfo::tile_exact) would
     # give tiles that differ from the whole frame's: it renders as one job.
     if not _penumbra._tile_exact(method):
