@@ -74,9 +74,9 @@ struct ShadowMapInputs {
 struct ShadowMapLookupParams {
   ShadowMapInputs io;
   vec3 light_center;  // V = 0 where dot(p - light_center, light_n) <= 0
-  int pcf;            // the (2 pcf + 1)^2 box of texels; 0: the hard lookup
+  int pcf;            // the (2 pcf + 1)^2 box of texels
   vec3 light_n;
-  uint pad;
+  uint bilinear;      // 1: the box slides between texel centres (shadow_map_visibility)
 };
 
 // pcss_filter.comp: one thread per view-sample slot.

@@ -175,31 +175,53 @@ PN_INLINE bool sm_outside(ShadowMapView m, vec3 p) {
 }
 
 // `shadow-map`'s visibility of one view sample (shadow/baseline/shadow_map.cpp): 0 behind the
-// light's plane; the hard lookup (pcf = 0), or the mean transmittance of the (2 pcf + 1)^2 texels
-// around its own, each compared with its own reference depth (Reeves et al. 1987). `texels`
-// counts the texels read.
+// light's plane; otherwise percentage-closer filtering (Reeves et al. 1987) of the (2 pcf + 1)^2
+// box of texels around the receiver's own, each texel compared with its own reference depth.
+// `bilinear`: the box slides with the receiver between texel centres, i.e. it is convolved with
+// a one-texel tent, as a depth-compare sampler with linear filtering does (pcf = 0: the 2 x 2
+// texels around p weighted by its position, a one-texel ramp across every shadow edge instead
+// of a step); where p sits on a texel centre that is the plain box. Not bilinear, pcf = 0: the
+// one texel p falls in (the hard lookup). `texels` counts the texels read.
 PN_INLINE float shadow_map_visibility(PN_FLOAT_ARRAY z, PN_FLOAT_ARRAY opacity, ShadowMapView m, ShadowBias b,
-                                      int pcf, vec3 light_center, vec3 light_n, vec3 p, vec3 ng, bool closed,
-                                      PN_INOUT(uint) texels) {
+                                      int pcf, bool bilinear, vec3 light_center, vec3 light_n, vec3 p, vec3 ng,
+                                      bool closed, PN_INOUT(uint) texels) {
   if (!sm_in_front_of_light(light_center, light_n, p)) return 0.0f;
-  if (pcf == 0) {
+  if (pcf == 0 && !bilinear) {
     texels += 1u;
     return sm_lookup(z, opacity, m, p, ng, closed, b);
   }
   ShadowReceiver rc = sm_receiver(m, p, ng, b);
   if (!rc.faces && closed) return 0.0f;
-  int x0 = int(floor(rc.texel.x));
-  int y0 = int(floor(rc.texel.y));
+  // The texels [x0, x1] x [y0, y1]; with `bilinear` one more each way, the first weighted by
+  // 1 - w and the last by w along each axis (w: p's offset past the texel centre before it).
+  int x0, y0;
+  float wx = 0.0f, wy = 0.0f;
+  if (bilinear) {
+    float fx = rc.texel.x - 0.5f;
+    float fy = rc.texel.y - 0.5f;
+    x0 = int(floor(fx));
+    y0 = int(floor(fy));
+    wx = fx - float(x0);
+    wy = fy - float(y0);
+  } else {
+    x0 = int(floor(rc.texel.x));
+    y0 = int(floor(rc.texel.y));
+  }
+  int last = bilinear ? pcf + 1 : pcf;
   float v = 0.0f;
-  for (int dy = -pcf; dy <= pcf; ++dy)
-    for (int dx = -pcf; dx <= pcf; ++dx) {
+  for (int dy = -pcf; dy <= last; ++dy) {
+    float row_weight = !bilinear ? 1.0f : dy == -pcf ? 1.0f - wy : dy == last ? wy : 1.0f;
+    float row = 0.0f;
+    for (int dx = -pcf; dx <= last; ++dx) {
+      float weight = !bilinear ? 1.0f : dx == -pcf ? 1.0f - wx : dx == last ? wx : 1.0f;
       int x = x0 + dx;
       int y = y0 + dy;
-      v += sm_transmit(z, opacity, m.view.width, m.view.height, x, y, sm_reference_depth(rc, x, y, b));
+      row += weight * sm_transmit(z, opacity, m.view.width, m.view.height, x, y, sm_reference_depth(rc, x, y, b));
     }
-  uint taps = uint((2 * pcf + 1) * (2 * pcf + 1));
-  texels += taps;
-  return v * (1.0f / float(taps));
+    v += row_weight * row;
+  }
+  texels += uint((last + pcf + 1) * (last + pcf + 1));
+  return v * (1.0f / float((2 * pcf + 1) * (2 * pcf + 1)));
 }
 
 // What PCSS needs of the light: its geometry, its sampling table where it is textured

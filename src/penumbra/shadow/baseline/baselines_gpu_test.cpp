@@ -44,8 +44,11 @@ class BaselinesGpu : public GpuTest {
     const std::vector<std::vector<std::string>> cases = {
         {"resolution=256", "pcf=0"},
         {"resolution=256", "pcf=2"},
+        {"resolution=256", "pcf=0", "bilinear=false"},
+        {"resolution=256", "pcf=1", "bilinear=false"},
     };
-    for (const auto& p : cases) EXPECT_LE(difference(scene, "shadow-map", p), 1e-3) << scene_file << " " << p[1];
+    for (const auto& p : cases)
+      EXPECT_LE(difference(scene, "shadow-map", p), 1e-3) << scene_file << " " << p[1] << " " << p.back();
     for (const char* variant : {"variant=fernando", "variant=xie2007"})
       EXPECT_LE(difference(scene, "pcss", {"resolution=256", variant, "blocker_samples=16", "pcf_samples=32"}), 1e-3)
           << scene_file << " " << variant;

@@ -58,7 +58,7 @@ Scene small_scene(int res) {
 TEST(ShadowMap, EqualsHardOnContact) {
   Scene scene = shipped("contact.json", 96);
   Image hard = render_v(scene, "hard");
-  Image sm = render_v(scene, "shadow-map");
+  Image sm = render_v(scene, "shadow-map", {"bilinear=false"});
   // Both are binary; they may differ only where the map's texels alias the shadow edge.
   EXPECT_EQ(count_pixels(sm, [](float v) { return v != 0.0f && v != 1.0f; }), 0);
   EXPECT_LE(fraction_above(sm, hard, 0.5), 0.01);
@@ -66,15 +66,88 @@ TEST(ShadowMap, EqualsHardOnContact) {
   EXPECT_GT(shadowed, 96 * 96 / 10);  // the comparison is not vacuous
   // Without any bias the lit surfaces shadow themselves (acne): the bias is what makes
   // the map agree with the ray-traced shadow.
-  Image acne = render_v(scene, "shadow-map", {"bias=0", "slope_bias=0"});
+  Image acne = render_v(scene, "shadow-map", {"bias=0", "slope_bias=0", "bilinear=false"});
   EXPECT_GT(fraction_above(acne, hard, 0.5), 0.05);
+}
+
+TEST(ShadowMap, BilinearRampsTheEdgesTowardTheRayTracedShadow) {
+  // The default lookup weighs the 2 x 2 texels around the receiver: a one-texel ramp where the
+  // nearest texel steps. Against the point-sampled shadow it is right wherever all four texels
+  // agree and at most about half wrong across an edge, so fewer pixels disagree with `hard` by
+  // more than half; and an area light's shadow is soft at every edge, so the ramp is nearer the
+  // ground truth than the step.
+  for (const char* file : {"contact.json", "bunny.json"}) {
+    Scene scene = shipped(file, 96);
+    Image hard = render_v(scene, "hard");
+    Image truth = render_v(scene, "reference", {}, 256);
+    Image nearest = render_v(scene, "shadow-map", {"resolution=256", "bilinear=false"});
+    Image bilinear = render_v(scene, "shadow-map", {"resolution=256"});
+    EXPECT_GT(count_pixels(bilinear, [](float v) { return v > 0.0f && v < 1.0f; }), 0) << file;
+    EXPECT_LT(mean_absolute_error(bilinear, truth), mean_absolute_error(nearest, truth)) << file;
+    EXPECT_LT(fraction_above(bilinear, hard, 0.5), fraction_above(nearest, hard, 0.5)) << file;
+    // Pixels far from any edge see four equal texels: the two lookups agree there.
+    EXPECT_LE(fraction_above(bilinear, nearest, 0.0), 0.25) << file;
+  }
+}
+
+TEST(ShadowMap, BilinearIsTheBoxAtTexelCentres) {
+  // shadow_map_visibility with `bilinear`: at a receiver on a texel centre the sliding box is
+  // the plain (2 pcf + 1)^2 box of whole texels; half-way between two centres along x it is the
+  // mean of the boxes at both (same receiver, so the same reference depths).
+  Scene scene = shipped("contact.json", 64);
+  RayTracer tracer(scene);
+  ViewSamples vs = camera_pass(scene, tracer, 0);
+  const AreaLight& light = scene.lights[0];
+  const RasterTriangles tris = gather_raster_triangles(scene);
+  Rasterizer rasterizer;
+  shadow_map::ShadowDepthMap sm;
+  sm.render(rasterizer, tris,
+            shadow_map::light_view_from(light, light.center, shadow_map::receiver_points(vs, light), scene.bounds(),
+                                        128, 120));
+  const shader::ShadowBias b = shadow_map::BiasParams{}.shared();
+  const DepthMap& map = sm.map();
+  auto visibility = [&](Vec3f p, Vec3f ng, int pcf, bool bilinear) {
+    uint32_t texels = 0;
+    return shader::shadow_map_visibility(map.z.data(), map.opacity.data(), sm.shared(), b, pcf, bilinear,
+                                         light.center, light.frame.n, p, ng, false, texels);
+  };
+  int partial = 0, checked = 0;
+  for (int pcf : {0, 1, 2}) {
+    for (int y = 10; y < 118; y += 3) {
+      for (int x = 10; x < 118; x += 3) {
+        // A receiver on the texel's ray, 0.9 of the way to the map's surface there, facing the light.
+        LightView::TexelRay ray = sm.view().texel_ray({x + 0.5f, y + 0.5f});
+        const float zt = map.z[static_cast<size_t>(y) * map.width + x];
+        if (!std::isfinite(zt)) continue;
+        const Vec3f ng = -normalize(ray.dir);
+        const Vec3f p = ray.at(0.9f * zt);
+        EXPECT_NEAR(visibility(p, ng, pcf, true), visibility(p, ng, pcf, false), 1e-3f) << x << " " << y;
+        // Half-way to the next centre: the receiver's texel-space x moves by half a texel.
+        LightView::TexelRay half = sm.view().texel_ray({x + 1.0f, y + 0.5f});
+        const Vec3f q = half.at(0.9f * zt);
+        const shadow_map::Receiver r = sm.receiver(q, ng, shadow_map::BiasParams{});
+        float box[2] = {0, 0};
+        for (int side = 0; side < 2; ++side)
+          for (int dy = -pcf; dy <= pcf; ++dy)
+            for (int dx = -pcf; dx <= pcf; ++dx)
+              box[side] += sm.transmit_at(r, {x + side + dx + 0.5f, y + dy + 0.5f}, shadow_map::BiasParams{});
+        const float expected = 0.5f * (box[0] + box[1]) / float((2 * pcf + 1) * (2 * pcf + 1));
+        const float got = visibility(q, ng, pcf, true);
+        EXPECT_NEAR(got, expected, 2e-3f) << x << " " << y << " pcf " << pcf;
+        partial += got > 0.0f && got < 1.0f;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 1000);
+  EXPECT_GT(partial, 10);  // some of them straddle a shadow edge
 }
 
 TEST(ShadowMap, PcfWidensTheShadowMonotonically) {
   Scene scene = shipped("contact.json", 96);
   int last_touched = -1, last_umbra = 1 << 30;
   for (int pcf : {0, 1, 2, 4, 8}) {
-    Image v = render_v(scene, "shadow-map", {"resolution=256", "pcf=" + std::to_string(pcf)});
+    Image v = render_v(scene, "shadow-map", {"resolution=256", "bilinear=false", "pcf=" + std::to_string(pcf)});
     for (float x : v.data()) {
       ASSERT_GE(x, 0.0f);
       ASSERT_LE(x, 1.0f);

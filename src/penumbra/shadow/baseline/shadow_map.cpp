@@ -1,7 +1,8 @@
 // Method `shadow-map`: the classic hard shadow map (Williams 1978) from the light's centre,
-// with constant and slope-scaled depth bias, and optional percentage-closer filtering
-// (Reeves et al. 1987) over a (2 pcf + 1)^2 box of texels. The point-light shadow the
-// `hard` method ray-traces, computed from one depth image; docs/methods/shadow-map.md.
+// with constant and slope-scaled depth bias (or the receiver's plane), and percentage-closer
+// filtering (Reeves et al. 1987) over a (2 pcf + 1)^2 box of texels, bilinear by default (the
+// 2 x 2 texels around the receiver at pcf = 0). The point-light shadow the `hard` method
+// ray-traces, computed from one depth image; docs/methods/shadow-map.md.
 #include <algorithm>
 #include <atomic>
 
@@ -19,7 +20,7 @@ using shadow_map::BiasParams;
 class ShadowMapMethod final : public ShadowMethod {
  public:
   explicit ShadowMapMethod(const ParamSet& p)
-      : view_(shadow_map::view_params(p)), pcf_(p.get_int("pcf")), bias_(shadow_map::bias_params(p)) {}
+      : view_(shadow_map::view_params(p)), pcf_(p.get_int("pcf")), bilinear_(p.get_bool("bilinear")), bias_(shadow_map::bias_params(p)) {}
 
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
@@ -42,9 +43,9 @@ class ShadowMapMethod final : public ShadowMethod {
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
         uint32_t read = 0;
-        // shadow_map_shared.h: the hard lookup, or PCF over (2 pcf + 1)^2 texels.
+        // shadow_map_shared.h: PCF over (2 pcf + 1)^2 texels, bilinear or not.
         out.visibility[k] = shader::shadow_map_visibility(map.z.data(), map.opacity.data(), sm.shared(), bias, pcf_,
-                                                          light.center, light.frame.n, s.p, s.ng,
+                                                          bilinear_, light.center, light.frame.n, s.p, s.ng,
                                                           ctx.scene->objects[s.object].closed, read);
         local += read;
       }
@@ -57,6 +58,7 @@ class ShadowMapMethod final : public ShadowMethod {
  private:
   shadow_map::ViewParams view_;
   int pcf_;
+  bool bilinear_;
   BiasParams bias_;
   shadow_map::LightCentreMap map_;
 };
@@ -67,6 +69,10 @@ std::vector<ParamSpec> params() {
                "percentage-closer filtering: radius in texels of the (2 pcf + 1)^2 box of texels averaged (0 = one "
                "texel, a hard shadow)",
                {}, 0, 64});
+  p.push_back({"bilinear", ParamType::Bool, true,
+               "weigh the PCF box's texels by where the receiver falls between texel centres (a depth-compare "
+               "sampler's linear filtering: at pcf = 0 the 2 x 2 texels around it); false: whole texels (pcf = 0: "
+               "the one texel it falls in, a binary hard shadow)"});
   for (ParamSpec& s : partitions::param_specs()) p.push_back(std::move(s));
   return p;
 }

@@ -12,7 +12,7 @@ namespace {
 class ShadowMapGpu final : public GpuShadowMethod {
  public:
   explicit ShadowMapGpu(const ParamSet& p)
-      : view_(shadow_map::view_params(p)), pcf_(p.get_int("pcf")), bias_(shadow_map::bias_params(p)) {}
+      : view_(shadow_map::view_params(p)), pcf_(p.get_int("pcf")), bilinear_(p.get_bool("bilinear")), bias_(shadow_map::bias_params(p)) {}
 
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
@@ -28,6 +28,7 @@ class ShadowMapGpu final : public GpuShadowMethod {
     p.io = map_.lookup_inputs(cl, frame, out, has_map);
     p.light_center = light.center;
     p.pcf = pcf_;
+    p.bilinear = bilinear_ ? 1u : 0u;
     p.light_n = light.frame.n;
     cl.dispatch("shadow_map_lookup", frame.slots, p);
   }
@@ -38,6 +39,7 @@ class ShadowMapGpu final : public GpuShadowMethod {
  private:
   shadow_map::ViewParams view_;
   int pcf_;
+  bool bilinear_;
   shadow_map::BiasParams bias_;
   shadow_map::GpuLightCentreMap map_;
 };

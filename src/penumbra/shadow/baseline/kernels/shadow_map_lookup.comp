@@ -26,6 +26,7 @@ void main() {
         ShadowMapBlock block = BlockRef(pc.p.io.block).b;
         bool closed = (g_objects.v[s.object].flags & kObjectClosed) != 0u;
         v = shadow_map_visibility(Floats(pc.p.io.z), Floats(pc.p.io.opacity), block.map, block.bias, pc.p.pcf,
+                                  pc.p.bilinear != 0u,
                                   pc.p.light_center, pc.p.light_n, s.p, s.ng, closed, texels);
         if (sm_in_front_of_light(pc.p.light_center, pc.p.light_n, s.p) && sm_outside(block.map, s.p)) outside = 1u;
       }
