@@ -575,7 +575,17 @@ class AliasFreeSoft final : public AliasFreeBase {
     std::vector<float> caster_near;  // per caster: its nearest vertex's depth from the light
     std::vector<uint8_t> stencil;    // silhouette edges' regions (empty: no restriction)
     std::vector<uint64_t> support_masks;
-    uint64_t front_facing = 0;
+    // Groups of consecutive casters of one object (a mesh's triangles in file order lie close
+    // together) with their bounds and nearest depth: a group whose bounding box's region
+    // covers no list of a slab is skipped whole there (issue 34 part 3: cost that follows the
+    // casters that matter), before any of its casters' own regions is made.
+    struct CasterRun {
+      size_t begin, end;
+      Bounds3f bounds;
+      float near;
+    };
+    std::vector<CasterRun> runs;
+    uint64_t front_facing = 0, runs_culled = 0;
     // Per slab: the casters' regions on its far plane, and which caster each region is.
     std::vector<ConvexPolygons> regions(slabs.count);
     std::vector<std::vector<uint32_t>> region_caster(slabs.count);
@@ -590,6 +600,7 @@ class AliasFreeSoft final : public AliasFreeBase {
       casters.reserve(triangles_.list.size());  // at most every triangle: one allocation
       caster_near.reserve(triangles_.list.size());
       std::vector<uint64_t> behind(words);
+      uint32_t run_object = ~0u;
       for (const RasterTriangle& t : triangles_.list) {
         if (!(t.opacity > 0)) continue;
         // A triangle entirely behind the light's sample plane blocks nothing in front of it.
@@ -628,8 +639,16 @@ class AliasFreeSoft final : public AliasFreeBase {
             support_masks.insert(support_masks.end(), behind.begin(), behind.end());
           }
         }
+        if (runs.empty() || t.object != run_object || runs.back().end - runs.back().begin == kCasterRun) {
+          runs.push_back({casters.size(), casters.size(), Bounds3f{}, kInfinity});
+          run_object = t.object;
+        }
         casters.push_back(cs);
         caster_near.push_back(std::min({z0, z1, z2}));
+        CasterRun& run = runs.back();
+        run.end = casters.size();
+        for (int i = 0; i < 3; ++i) run.bounds.extend(t.p[i]);
+        run.near = std::min(run.near, caster_near.back());
       }
     }
     // Slab k's regions on its own far plane (§4.1); a caster wholly deeper than every sample of
@@ -637,45 +656,79 @@ class AliasFreeSoft final : public AliasFreeBase {
     // group of slabs just before their raster pass and dropped after it (below).
     auto slab_regions = [&](int k) {
       const afsm::InfluenceRegions influence(light, view_, slabs.far[k]);
-      constexpr int kMaxVertices = 3 * 8;  // the hull of 3 x (rect 4, disk 8, sphere 6) points
-      std::vector<Vec2f> hulls(casters.size() * kMaxVertices);
-      std::vector<uint8_t> sizes(casters.size(), 0);  // 0: none, 255: unbounded (whole image)
-      parallel_for(casters.size(), 256, [&](size_t begin, size_t end) {
+      // Per run, the regions of its casters that are kept, in caster order (kUnbounded: the
+      // whole image): only what is kept is stored, so a wide scene's millions of casters whose
+      // regions cover no list cost no memory here.
+      constexpr uint8_t kUnbounded = 255;
+      struct RunRegions {
+        std::vector<Vec2f> vertices;
+        std::vector<uint8_t> sizes;
+        std::vector<uint32_t> casters;
+      };
+      std::vector<RunRegions> kept(runs.size());
+      auto to_int = [](float f) { return static_cast<int>(std::clamp(f, -1e9f, 1e9f)); };
+      // Whether no list of slab k lies within the texel rectangle around `polygon` (grown by
+      // `margin` texels each way).
+      auto covers_no_list = [&](const std::vector<Vec2f>& polygon, int margin) {
+        float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+        for (Vec2f q : polygon) {
+          x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+        }
+        return slabs.count_in(k, to_int(std::floor(x0)) - margin, to_int(std::floor(y0)) - margin,
+                              to_int(std::floor(x1)) + 1 + margin, to_int(std::floor(y1)) + 1 + margin) == 0;
+      };
+      std::atomic<uint64_t> culled{0};
+      parallel_for(runs.size(), 4, [&](size_t run_begin, size_t run_end) {
         std::vector<Vec2f> polygon;
-        for (size_t i = begin; i < end; ++i) {
-          if (!(caster_near[i] < slabs.far[k])) continue;
-          if (!influence.region(casters[i].v, &polygon)) {
-            sizes[i] = 255;
-            continue;
-          }
-          if (restrict_) {
-            // §4.3: a caster whose region covers no list (of this slab) does nothing.
-            float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
-            for (Vec2f q : polygon) {
-              x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
-            }
-            auto to_int = [](float f) { return static_cast<int>(std::clamp(f, -1e9f, 1e9f)); };
-            if (slabs.count_in(k, to_int(std::floor(x0)) - 1, to_int(std::floor(y0)) - 1,
-                               to_int(std::floor(x1)) + 2, to_int(std::floor(y1)) + 2) == 0)
+        for (size_t r = run_begin; r < run_end; ++r) {
+          const CasterRun& run = runs[r];
+          if (!(run.near < slabs.far[k])) continue;  // every caster of the run is deeper than the slab
+          if (restrict_ && run.end - run.begin > 1) {
+            // The region of the run's box holds each of its casters' regions; a margin of a
+            // texel more than theirs below keeps the rounding of the two projections apart.
+            Vec3f corners[8];
+            for (int c = 0; c < 8; ++c) corners[c] = run.bounds.corner(c);
+            if (influence.project(std::span<const Vec3f>(corners, 8), &polygon) && covers_no_list(polygon, 2)) {
+              culled++;
               continue;
+            }
           }
-          sizes[i] = static_cast<uint8_t>(polygon.size());
-          std::copy(polygon.begin(), polygon.end(), hulls.begin() + i * kMaxVertices);
+          RunRegions& out = kept[r];
+          for (size_t i = run.begin; i < run.end; ++i) {
+            if (!(caster_near[i] < slabs.far[k])) continue;
+            if (!influence.project(std::span<const Vec3f>(casters[i].v, 3), &polygon)) {
+              out.sizes.push_back(kUnbounded);
+              out.casters.push_back(static_cast<uint32_t>(i));
+              continue;
+            }
+            // §4.3: a caster whose region covers no list (of this slab) does nothing. (The
+            // projected points' bounding box is the region's: the hull only for those kept.)
+            if (restrict_ && covers_no_list(polygon, 1)) continue;
+            afsm::convex_hull(&polygon);
+            out.sizes.push_back(static_cast<uint8_t>(polygon.size()));
+            out.casters.push_back(static_cast<uint32_t>(i));
+            out.vertices.insert(out.vertices.end(), polygon.begin(), polygon.end());
+          }
         }
       });
-      for (size_t i = 0; i < casters.size(); ++i) {
-        if (sizes[i] == 0) {
-          skipped++;
-          continue;
+      runs_culled += culled.load();
+      size_t regions_kept = 0;
+      for (RunRegions& out : kept) {
+        const Vec2f* vertices = out.vertices.data();
+        for (size_t j = 0; j < out.sizes.size(); ++j) {
+          if (out.sizes[j] == kUnbounded) {
+            regions[k].add(whole);
+            unbounded++;
+          } else {
+            regions[k].add(std::span<const Vec2f>(vertices, out.sizes[j]));
+            vertices += out.sizes[j];
+          }
+          region_caster[k].push_back(out.casters[j]);
         }
-        if (sizes[i] == 255) {
-          regions[k].add(whole);
-          unbounded++;
-        } else {
-          regions[k].add(std::span<const Vec2f>(hulls.data() + i * kMaxVertices, sizes[i]));
-        }
-        region_caster[k].push_back(static_cast<uint32_t>(i));
+        regions_kept += out.sizes.size();
+        out = RunRegions{};
       }
+      skipped += casters.size() - regions_kept;
     };
     {
       ScopedPhase phase(stats_, "regions");
@@ -962,6 +1015,8 @@ class AliasFreeSoft final : public AliasFreeBase {
                ignored.size() * sizeof(uint16_t) + blocked_count.size() * sizeof(uint16_t));
     stats_.extra["light_samples"] = n;
     stats_.extra["casters_skipped"] = skipped;
+    stats_.extra["caster_runs"] = runs.size() * static_cast<size_t>(slabs.count);
+    stats_.extra["caster_runs_culled"] = runs_culled;
     stats_.extra["casters_facing_the_whole_light"] = front_facing;
     stats_.extra["unbounded_regions"] = unbounded;
     stats_.extra["depth_slabs"] = slabs.count;
@@ -980,6 +1035,9 @@ class AliasFreeSoft final : public AliasFreeBase {
   // every machine (a comparison split over a cluster's workers checks it is).
   static constexpr int kSlabsAtOnce = 2;
   static int slab_group(int slabs) { return std::clamp(kSlabsAtOnce, 1, std::max(1, slabs)); }
+  // Casters per run of the regions' culling: the run's box must be small against the lists'
+  // gaps to cull anything, and each kept run costs one more region (8 corners).
+  static constexpr size_t kCasterRun = 128;
 
   // g rotated by -alpha, (cos alpha, sin alpha) = r.
   static Vec2f rotate(Vec2f g, Vec2f r) { return {r.x * g.x + r.y * g.y, -r.y * g.x + r.x * g.y}; }

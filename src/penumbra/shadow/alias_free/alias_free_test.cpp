@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdio>
@@ -367,6 +368,70 @@ TEST(AliasFreeRegion, HoldsEveryPointTheTriangleShadows) {
   }
 }
 
+TEST(AliasFreeRegion, ABoxsCornersHoldTheRegionOfEveryTriangleInside) {
+  // What the casters' runs are culled with (alias_free.cpp): the region of a group's bounding
+  // box, the hull of the light projected through its 8 corners, holds every point a triangle
+  // inside the box shadows (and, for the polygon lights, each triangle's region itself: a
+  // sphere's hexagon is built per point, so an inner point's hexagon may stick out of the
+  // corners' while the ball it bounds does not); and project()'s points have the region's own
+  // bounding box.
+  for (LightShape shape : {LightShape::Rect, LightShape::Disk, LightShape::Sphere, LightShape::Ellipsoid}) {
+    AreaLight light = rect_light_down({0.2f, 3, -0.1f}, 1.2f, 0.8f);
+    light.shape = shape;
+    light.radius = 0.5f;
+    light.radii = {0.7f, 0.3f, 0.4f};
+    if (shape == LightShape::Ellipsoid) light.frame = Frame::from_zx(normalize(Vec3f(0.2f, -1, 0.1f)), {1, 0.3f, 0.5f});
+    const LightView view =
+        LightView::perspective(light.center, light.frame.n, light.frame.t, 100, 256, 256, 0.05f, 10);
+    const afsm::InfluenceRegions regions(light, view, 3.5f);
+    Rng rng(29, static_cast<int>(shape));
+    std::vector<Vec2f> box_region, triangle_region, points;
+    for (int b = 0; b < 20; ++b) {
+      const Vec3f lo{rng.next_float() * 2 - 1, 0.6f + rng.next_float(), rng.next_float() * 2 - 1};
+      const Vec3f size{0.05f + rng.next_float() * 0.6f, 0.05f + rng.next_float() * 0.5f, 0.05f + rng.next_float() * 0.6f};
+      Bounds3f box;
+      box.extend(lo);
+      box.extend(lo + size);
+      Vec3f corners[8];
+      for (int c = 0; c < 8; ++c) corners[c] = box.corner(c);
+      ASSERT_TRUE(regions.region(std::span<const Vec3f>(corners, 8), &box_region));
+      for (int t = 0; t < 30; ++t) {
+        Vec3f v[3];
+        for (Vec3f& p : v) p = lo + size * Vec3f(rng.next_float(), rng.next_float(), rng.next_float());
+        ASSERT_TRUE(regions.region(v, &triangle_region));
+        if (shape == LightShape::Rect || shape == LightShape::Disk)
+          for (Vec2f q : triangle_region)
+            EXPECT_TRUE(inside_convex(box_region, q, 1e-3f)) << to_string(shape) << " box " << b << " triangle " << t;
+        for (int k = 0; k < 20; ++k) {
+          // A point x of the triangle shadows p from light point q (as HoldsEveryPointTheTriangleShadows).
+          Vec3f q;
+          if (shape == LightShape::Sphere || shape == LightShape::Ellipsoid) {
+            do q = Vec3f(rng.next_float() * 2 - 1, rng.next_float() * 2 - 1, rng.next_float() * 2 - 1);
+            while (length(q) > 1);
+            q = shape == LightShape::Sphere ? light.center + q * light.radius : light.from_unit_sphere(q);
+          } else {
+            q = light.sample_area(rng.next_2d());
+          }
+          float b1 = rng.next_float(), b2 = rng.next_float();
+          if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+          const Vec3f x = v[0] + (v[1] - v[0]) * b1 + (v[2] - v[0]) * b2;
+          const float zx = view.linear_depth(x), zq = view.linear_depth(q);
+          const float z = zx + rng.next_float() * (3.5f - zx);
+          const Vec3f tp = view.to_texel(q + (x - q) * ((z - zq) / (zx - zq)));
+          EXPECT_TRUE(inside_convex(box_region, {tp.x, tp.y}, 1e-3f)) << to_string(shape) << " box " << b;
+        }
+        ASSERT_TRUE(regions.project(std::span<const Vec3f>(v, 3), &points));
+        auto bounds = [](const std::vector<Vec2f>& ps) {
+          std::array<float, 4> b{kInfinity, kInfinity, -kInfinity, -kInfinity};
+          for (Vec2f q : ps) b = {std::min(b[0], q.x), std::min(b[1], q.y), std::max(b[2], q.x), std::max(b[3], q.y)};
+          return b;
+        };
+        EXPECT_EQ(bounds(triangle_region), bounds(points));
+      }
+    }
+  }
+}
+
 TEST(AliasFreeRegion, ConvexHullDropsInnerPoints) {
   std::vector<Vec2f> p = {{0, 0}, {2, 0}, {2, 2}, {0, 2}, {1, 1}, {1, 0}, {0.5f, 1.5f}};
   afsm::convex_hull(&p);
@@ -552,6 +617,35 @@ TEST(AliasFreeShapes, TableAndExactTestsAgreeAndRestrictionsChangeNothing) {
             run_method(r, "afsm", 128, {"resolution=96", "jitter=true", "silhouettes=true"}));
   // The map resolution changes the work, not the result.
   EXPECT_EQ(lut, run_method(r, "afsm", 128, {"resolution=37"}));
+}
+
+TEST(AliasFreeShapes, CastersFarFromTheViewAreCulledInRunsAndChangeNothing) {
+  // A wide scene: one mesh of 3,200 small leaves over 40 m of ground, the camera above 4 m of
+  // it. The runs of leaves whose box's region covers no list are skipped whole (issue 34
+  // part 3); the picture is the one without any restriction, bit for bit.
+  TriangleMesh leaves;
+  Rng rng(5, 1);
+  for (int i = 0; i < 400; ++i)
+    for (int j = 0; j < 8; ++j) {
+      const float x = -20 + i * 0.1f + rng.next_float() * 0.05f, z = -2 + j * 0.5f + rng.next_float() * 0.3f;
+      leaves.append(quad_y(0.7f + rng.next_float() * 0.5f, x, x + 0.06f, z, z + 0.15f));
+    }
+  Scene s;
+  s.camera = top_camera(64, 3.0f, 60.0f);
+  s.lights.push_back(rect_light_down({0.3f, 2.6f, 0.1f}, 0.8f, 0.6f));
+  s.objects.push_back(object(quad_y(0, -20, 20, -3, 3)));
+  s.objects.push_back(object(std::move(leaves)));
+  s.finalize();
+  const SceneRun r = build_scene_run(std::move(s));
+  MethodStats stats;
+  const std::vector<float> v = run_method(r, "afsm", 64, {"resolution=128"}, &stats);
+  EXPECT_GT(stats.extra["caster_runs_culled"].get<uint64_t>(), 0u);
+  EXPECT_LT(stats.extra["caster_runs_culled"].get<uint64_t>(), stats.extra["caster_runs"].get<uint64_t>());
+  EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 50);
+  EXPECT_EQ(v, run_method(r, "afsm", 64, {"resolution=128", "restrict=false"}));
+  const afsm::LightSamples pts = afsm::make_light_samples(r.scene.lights[0], 64, 0, 0, 0);
+  const Agreement g = agreement(v, embree_to_points(r, pts.points));
+  EXPECT_GE(g.equal_fraction, 0.999);
 }
 
 TEST(AliasFreeShapes, ResultsDoNotDependOnTheThreadCount) {

@@ -25,11 +25,11 @@ InfluenceRegions::InfluenceRegions(const AreaLight& light, const LightView& view
   if (light.shape == LightShape::Rect || light.shape == LightShape::Disk) outline_ = light.outline(8);
 }
 
-bool InfluenceRegions::region(const Vec3f v[3], std::vector<Vec2f>* out) const {
+bool InfluenceRegions::project(std::span<const Vec3f> v, std::vector<Vec2f>* out) const {
   out->clear();
   const Vec3f c = light_.center, axis = view_.forward();
   Vec3f hexagon[6];
-  for (int k = 0; k < 3; ++k) {
+  for (size_t k = 0; k < v.size(); ++k) {
     std::span<const Vec3f> polygon = outline_;
     if (light_.shape == LightShape::Sphere || light_.shape == LightShape::Ellipsoid) {
       // The silhouette of the ball seen from v: a circle of radius r' around c + u R^2 / d
@@ -68,7 +68,6 @@ bool InfluenceRegions::region(const Vec3f v[3], std::vector<Vec2f>* out) const {
       out->push_back({t.x, t.y});
     }
   }
-  convex_hull(out);
   return true;
 }
 
@@ -76,7 +75,13 @@ void convex_hull(std::vector<Vec2f>* points) {
   std::vector<Vec2f>& p = *points;
   if (p.size() < 3) return;
   std::sort(p.begin(), p.end(), [](Vec2f a, Vec2f b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
-  std::vector<Vec2f> hull(2 * p.size());
+  // The chain in a buffer on the stack for the usual regions (3 x 8 points at most), so that
+  // the millions of regions of a wide scene allocate nothing; copied back into p's storage.
+  constexpr size_t kOnStack = 64;
+  Vec2f on_stack[kOnStack];
+  std::vector<Vec2f> on_heap;
+  if (2 * p.size() > kOnStack) on_heap.resize(2 * p.size());
+  Vec2f* hull = on_heap.empty() ? on_stack : on_heap.data();
   size_t k = 0;
   for (size_t i = 0; i < p.size(); ++i) {
     while (k >= 2 && cross2(hull[k - 2], hull[k - 1], p[i]) <= 0) --k;
@@ -86,8 +91,7 @@ void convex_hull(std::vector<Vec2f>* points) {
     while (k >= lower && cross2(hull[k - 2], hull[k - 1], p[i]) <= 0) --k;
     hull[k++] = p[i];
   }
-  hull.resize(k > 1 ? k - 1 : k);
-  p = std::move(hull);
+  p.assign(hull, hull + (k > 1 ? k - 1 : k));
 }
 
 }  // namespace penumbra::afsm

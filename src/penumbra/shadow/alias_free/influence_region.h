@@ -24,6 +24,10 @@
 
 namespace penumbra::afsm {
 
+// Andrew's monotone chain: the convex hull of `points`, counter-clockwise (y up) without
+// collinear points; in place.
+void convex_hull(std::vector<Vec2f>* points);
+
 class InfluenceRegions {
  public:
   // view: the light's image (eye at the light's centre, looking along frame.n);
@@ -32,7 +36,19 @@ class InfluenceRegions {
   // The region of triangle v[3] as a convex polygon in texel space (appended to *out after
   // clearing it). False when the region is unbounded (a vertex too close to, or behind, the
   // light's points): the caller must treat the whole image as covered.
-  bool region(const Vec3f v[3], std::vector<Vec2f>* out) const;
+  bool region(const Vec3f v[3], std::vector<Vec2f>* out) const { return region(std::span<const Vec3f>(v, 3), out); }
+  // The same for any set of points (pass a span: an array would decay to the triangle's three): the hull of the light's polygon projected through each.
+  // It holds the region of every triangle inside the points' convex hull (for a fixed light
+  // point the projection through x is a central projection, which keeps convex hulls), so
+  // the 8 corners of a group of casters' bounding box bound the whole group's regions.
+  bool region(std::span<const Vec3f> points, std::vector<Vec2f>* out) const {
+    if (!project(points, out)) return false;
+    convex_hull(out);
+    return true;
+  }
+  // The points region() takes the hull of, unordered: enough for the region's bounding box,
+  // which is all a caller that only tests for overlap needs (the hull is most of the cost).
+  bool project(std::span<const Vec3f> points, std::vector<Vec2f>* out) const;
 
  private:
   const AreaLight& light_;
@@ -48,8 +64,5 @@ class InfluenceRegions {
 // times the polygon's.
 int typical_region_vertices(const AreaLight* light);
 
-// Andrew's monotone chain: the convex hull of `points`, counter-clockwise (y up) without
-// collinear points; in place.
-void convex_hull(std::vector<Vec2f>* points);
 
 }  // namespace penumbra::afsm
