@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "penumbra/core/error.h"
 #include "penumbra/raster/clipping.h"
@@ -71,21 +72,38 @@ void cover(const CoverItem& it, const Point2* p, int rx0, int ry0, int rx1, int 
     area += a.x * b.y - a.y * b.x;
   }
   const double sign = area < 0 ? -1.0 : 1.0;
+  // Each edge, E(P) = sign * cross(b - a, P - a) >= 0 inside, bounds the columns i whose
+  // square's best corner (i + [nx > 0], y + [ny > 0]) is inside. Its terms that do not depend
+  // on the row are set up once per polygon and tile (the rows sum them in the same order).
+  struct Edge {
+    double nx, ny, c, right, slack;
+    int below;  // [ny > 0]
+  };
+  constexpr uint32_t kEdgesOnStack = 32;
+  Edge on_stack[kEdgesOnStack];
+  std::vector<Edge> on_heap;
+  if (n > kEdgesOnStack) on_heap.resize(n);
+  Edge* edges = n > kEdgesOnStack ? on_heap.data() : on_stack;
+  for (uint32_t k = 0; k < n; ++k) {
+    const Point2& a = p[k];
+    const Point2& b = p[k + 1 == n ? 0 : k + 1];
+    Edge& e = edges[k];
+    e.nx = -sign * (b.y - a.y);
+    e.ny = sign * (b.x - a.x);
+    e.c = -(e.nx * a.x + e.ny * a.y);
+    e.right = e.nx > 0 ? e.nx : 0;
+    e.slack = kTolerance * (std::abs(e.nx) + std::abs(e.ny));
+    e.below = e.ny > 0 ? 1 : 0;
+  }
   for (int y = y0; y < y1; ++y) {
-    // Each edge, E(P) = sign * cross(b - a, P - a) >= 0 inside, bounds the columns i whose
-    // square's best corner (i + [nx > 0], y + [ny > 0]) is inside.
     double lo = x0, hi = x1 - 1;
     for (uint32_t k = 0; k < n && lo <= hi; ++k) {
-      const Point2& a = p[k];
-      const Point2& b = p[(k + 1) % n];
-      double nx = -sign * (b.y - a.y), ny = sign * (b.x - a.x);
-      double c = -(nx * a.x + ny * a.y);
-      double K = ny * (y + (ny > 0 ? 1 : 0)) + c + (nx > 0 ? nx : 0) +
-                 kTolerance * (std::abs(nx) + std::abs(ny));
-      if (nx > 0)
-        lo = std::max(lo, std::ceil(-K / nx));
-      else if (nx < 0)
-        hi = std::min(hi, std::floor(K / -nx));
+      const Edge& e = edges[k];
+      double K = e.ny * (y + e.below) + e.c + e.right + e.slack;
+      if (e.nx > 0)
+        lo = std::max(lo, std::ceil(-K / e.nx));
+      else if (e.nx < 0)
+        hi = std::min(hi, std::floor(K / -e.nx));
       else if (K < 0)
         hi = lo - 1;
     }
