@@ -22,13 +22,38 @@ int typical_region_vertices(const AreaLight* light) {
 
 InfluenceRegions::InfluenceRegions(const AreaLight& light, const LightView& view, float far_depth)
     : light_(light), view_(view), far_(far_depth) {
-  if (light.shape == LightShape::Rect || light.shape == LightShape::Disk) outline_ = light.outline(8);
+  if (light.shape == LightShape::Rect || light.shape == LightShape::Disk) {
+    outline_ = light.outline(8);
+    for (const Vec3f& q : outline_) {
+      float h[4];
+      view.texel_projection().transform_homogeneous(q, h);
+      outline_texel_.push_back({h[0], h[1], h[3], dot(q - light.center, view.forward())});
+    }
+  }
 }
 
 bool InfluenceRegions::project(std::span<const Vec3f> v, std::vector<Vec2f>* out) const {
   out->clear();
   const Vec3f c = light_.center, axis = view_.forward();
   Vec3f hexagon[6];
+  if (!outline_texel_.empty()) {
+    // A rect or disk: the same polygon for every vertex (the loop below, one transform a vertex).
+    for (const Vec3f& x : v) {
+      float hv[4];
+      view_.texel_projection().transform_homogeneous(x, hv);
+      const float zv = dot(x - c, axis);
+      for (const std::array<float, 4>& q : outline_texel_) {
+        const float ahead = zv - q[3], reach = far_ - q[3];
+        if (!(ahead > 0) || !(reach < kMaxStretch * ahead)) return false;
+        const float t = reach / ahead;
+        const float w = q[2] + (hv[3] - q[2]) * t;
+        const Vec2f texel{(q[0] + (hv[0] - q[0]) * t) / w, (q[1] + (hv[1] - q[1]) * t) / w};
+        if (!std::isfinite(texel.x) || !std::isfinite(texel.y)) return false;
+        out->push_back(texel);
+      }
+    }
+    return true;
+  }
   for (size_t k = 0; k < v.size(); ++k) {
     std::span<const Vec3f> polygon = outline_;
     if (light_.shape == LightShape::Sphere || light_.shape == LightShape::Ellipsoid) {

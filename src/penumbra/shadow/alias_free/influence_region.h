@@ -15,6 +15,7 @@
 // hexagon in the space scaled to the unit sphere, mapped back (§4.1, AreaLight's map A).
 #pragma once
 
+#include <array>
 #include <span>
 #include <vector>
 
@@ -55,6 +56,11 @@ class InfluenceRegions {
   const LightView& view_;
   float far_;
   std::vector<Vec3f> outline_;  // rect / disk: the bounding polygon (world)
+  // Per outline point q: the view's texel projection of q, homogeneous (x, y, w), and q's
+  // depth along the view axis. A point f = q + (v - q) t of the segment through v projects to
+  // (H(q) + (H(v) - H(q)) t) over its w alike (H is affine): one transform per vertex, not
+  // one per vertex and outline point.
+  std::vector<std::array<float, 4>> outline_texel_;
 };
 
 // The vertices region() usually gives for this light (null: any light), for memory
