@@ -75,7 +75,7 @@ uint64_t GpuBatchRasterizer::scratch_bytes(uint64_t triangles, uint64_t views, u
 
 uint64_t GpuBatchRasterizer::scratch_device_bytes() const {
   uint64_t total = 0;
-  for (const Buffer* b : {&state_, &orientation_, &outline_}) total += b->bytes();
+  for (const Buffer* b : {&state_, &orientation_, &outline_, &view_flags_}) total += b->bytes();
   return total + scratch_.device_bytes();
 }
 
@@ -110,7 +110,7 @@ void GpuBatchRasterizer::set_capacities_for_testing(uint32_t triangles, uint32_t
 void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::string_view stage,
                                     const GpuScene& scene, std::span<const LightView> views,
                                     const RasterFilter& filter, bool resolve, GpuDepthMapBatch* out,
-                                    const RasterOutlineCull* cull) {
+                                    const RasterOutlineCull* cull, const RasterViewCulling* view_culling) {
   if (views.empty()) throw Error("GPU rasterizer: a batch of no views");
   // The host writes the views and may reallocate buffers below: nothing recorded before may still
   // be waiting to read them.
@@ -156,6 +156,15 @@ void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::
     outline_ = make_buffer<Vec3f>(*device_, cull->outline, "the batch's culling outline");
     outline_count = static_cast<uint32_t>(cull->outline.size());
   }
+  const bool view_flags = view_culling && !view_culling->flags.empty();
+  if (view_flags) {
+    if (view_culling->flags.size() != n_views * view_culling->objects)
+      throw Error("GPU rasterizer: {} per-view culling flags for {} views of {} objects", view_culling->flags.size(),
+                  n_views, view_culling->objects);
+    const uint64_t bytes = view_culling->flags.size() * sizeof(uint32_t);
+    if (view_flags_.bytes() < bytes) view_flags_ = Buffer(*device_, bytes, "the batch's per-view culling flags");
+    view_flags_.upload(view_culling->flags.data(), bytes);
+  }
   const uint64_t want_triangles = std::min(kBatchMaxCapacity, batch_first_triangles(triangles, n_views));
   const uint64_t want_items = std::min(kBatchMaxCapacity, batch_first_items(triangles, n_views, texels));
   if (scratch_.empty()) scratch_.ensure(*device_, want_triangles, want_items);
@@ -176,6 +185,8 @@ void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::
     sp.items = scratch_.items_address();
     sp.orientation = outline_count > 0 ? orientation_.address() : 0;
     sp.outline = outline_count > 0 ? outline_.address() : 0;
+    sp.view_object_flags = view_flags ? view_flags_.address() : 0;
+    sp.object_count = view_flags ? view_culling->objects : 0;
     sp.triangle_count = static_cast<uint32_t>(triangles);
     sp.view_count = static_cast<uint32_t>(n_views);
     sp.triangle_capacity = scratch_.triangle_capacity();

@@ -64,6 +64,15 @@ struct RasterOutlineCull {
   std::vector<Vec3f> outline;
 };
 
+// Per-view caster culling (issue 34 part 3): a uint per (view, object), view-major, `objects`
+// a view, with kRasterObjectSkip for the objects a view leaves out (ObjectCulling::
+// flags_for_views: those wholly outside its frustum). Kept objects are rasterized whole, so every
+// map is the one all objects give.
+struct RasterViewCulling {
+  std::vector<uint32_t> flags;
+  uint32_t objects = 0;
+};
+
 class GpuBatchRasterizer {
  public:
   using Submit = GpuRasterizer::Submit;
@@ -74,11 +83,12 @@ class GpuBatchRasterizer {
   // submits what `commands` holds first, records the stages in GPU stage `stage`, submits, reads
   // the counters back and, where the set-up triangles or work items outgrew their buffers, grows
   // them and renders the batch again (never drops work). `resolve`: also the z and opacity
-  // planes. `cull` (optional): RasterOutlineCull. The batch's buffers are reused when the next
-  // batch fits in them.
+  // planes. `cull` (optional): RasterOutlineCull; `view_culling` (optional): the views' own
+  // RasterViewCulling, `views.size()` rows. The batch's buffers are reused when the next batch
+  // fits in them.
   void depth_maps(CommandList& commands, const Submit& submit, std::string_view stage, const GpuScene& scene,
                   std::span<const LightView> views, const RasterFilter& filter, bool resolve, GpuDepthMapBatch* out,
-                  const RasterOutlineCull* cull = nullptr);
+                  const RasterOutlineCull* cull = nullptr, const RasterViewCulling* view_culling = nullptr);
 
   // The last call's counts (summed over its views) and how many renders it took.
   const RasterStats& stats() const { return stats_; }
@@ -107,7 +117,7 @@ class GpuBatchRasterizer {
 
  private:
   Device* device_;
-  Buffer state_, orientation_, outline_;
+  Buffer state_, orientation_, outline_, view_flags_;
   RasterScratch scratch_;
   RasterStats stats_;
   int attempts_ = 0;

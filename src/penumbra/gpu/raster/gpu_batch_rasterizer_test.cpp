@@ -2,11 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/gpu/gpu_test_util.h"
+#include "penumbra/gpu/raster/object_culling.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/testing/test_scenes.h"
 
@@ -129,6 +131,51 @@ TEST_F(GpuBatchRasterizerTest, CullingBackFacesOfClosedMeshesAgainstTheLightKeep
     for (size_t t = 0; t < a.z.size(); ++t) differ += a.z[t] != b.z[t];
     EXPECT_LE(differ, a.z.size() / 1000) << "view " << i;
   }
+}
+
+TEST_F(GpuBatchRasterizerTest, PerViewCullingOfObjectsOutsideAViewKeepsTheMaps) {
+  // Plates along 20 m of ground under a light; one view sees all of them, two narrow views a
+  // plate each. ObjectCulling's per-view flags leave the other plates out of the narrow views'
+  // set-up, and every map stays the one all objects give, texel for texel.
+  Scene scene;
+  scene.camera = penumbra::testing::top_camera(32);
+  scene.lights.push_back(penumbra::testing::rect_light_down({0, 6, 0}, 1, 1));
+  scene.objects.push_back(penumbra::testing::object(penumbra::testing::quad_y(0, -10, 10, -2, 2)));
+  for (int i = 0; i < 20; ++i)
+    scene.objects.push_back(penumbra::testing::object(penumbra::testing::quad_y(1.0f, -10 + i * 1.0f, -9.6f + i * 1.0f, -0.3f, 0.3f)));
+  scene.finalize();
+  GpuScene gs(device(), scene);
+  GpuBatchRasterizer r(device());
+  const Vec3f eye = scene.lights[0].center;
+  std::vector<LightView> views = {
+      LightView::perspective(eye, normalize(Vec3f(0, -1, 0)), {1, 0, 0}, 150, 96, 96, 0.5f, 20),
+      LightView::perspective(eye, normalize(Vec3f(0.2f, -6, 0)), {1, 0, 0}, 8, 64, 64, 0.5f, 20),
+      LightView::perspective(eye, normalize(Vec3f(-4.2f, -6, 0)), {1, 0, 0}, 8, 64, 64, 0.5f, 20)};
+  ObjectCulling culling;
+  culling.prepare(device(), scene);
+  RasterViewCulling flags;
+  uint64_t culled = 0;
+  ASSERT_TRUE(culling.flags_for_views(views, &flags, &culled));
+  EXPECT_EQ(flags.flags.size(), views.size() * scene.objects.size());
+  for (size_t i = 0; i < scene.objects.size(); ++i) EXPECT_EQ(flags.flags[i], 0u) << "the wide view keeps object " << i;
+  EXPECT_GT(culled, 30u);  // most plates outside each narrow view (2 triangles a plate)
+  const GpuDepthMapBatch all = render(scene, gs, r, views, true);
+  const size_t setup_all = r.stats().setup;
+  CommandList cl(device());
+  GpuDepthMapBatch batch;
+  r.depth_maps(cl, [&] { cl.submit(); }, "raster", gs, views, RasterFilter{}, true, &batch, nullptr, &flags);
+  EXPECT_LT(r.stats().setup, setup_all);
+  for (int i = 0; i < all.count(); ++i) {
+    const DepthMap a = all.download(i), b = batch.download(i);
+    EXPECT_EQ(a.z, b.z) << "view " << i;
+    size_t covered = 0;
+    for (float z : a.z) covered += std::isfinite(z);
+    EXPECT_GT(covered, 0u) << "view " << i;
+  }
+  // A table of the wrong size is an error, not a read past its end.
+  flags.flags.pop_back();
+  EXPECT_THROW(r.depth_maps(cl, [&] { cl.submit(); }, "raster", gs, views, RasterFilter{}, true, &batch, nullptr, &flags),
+               Error);
 }
 
 TEST_F(GpuBatchRasterizerTest, BatchSizeFollowsTheBudget) {

@@ -31,4 +31,20 @@ uint64_t ObjectCulling::flags_for(const LightView& view, uint64_t* culled) {
   return buffer_.address();
 }
 
+bool ObjectCulling::flags_for_views(std::span<const LightView> views, RasterViewCulling* out, uint64_t* culled) const {
+  const size_t objects = bounds_.size();
+  out->objects = static_cast<uint32_t>(objects);
+  out->flags.assign(views.size() * objects, 0u);
+  uint64_t left_out = 0;
+  for (size_t v = 0; v < views.size(); ++v)
+    for (size_t i = 0; i < objects; ++i)
+      if (box_outside_view(bounds_[i], views[v])) {
+        out->flags[v * objects + i] = shader::kRasterObjectSkip;
+        left_out += triangles_[i];
+      }
+  if (culled) *culled = left_out;
+  if (left_out == 0) out->flags.clear();
+  return left_out > 0;
+}
+
 }  // namespace penumbra::gpu

@@ -6,10 +6,12 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "penumbra/gpu/buffer.h"
 #include "penumbra/gpu/device.h"
+#include "penumbra/gpu/raster/gpu_batch_rasterizer.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/scene/scene.h"
 
@@ -23,6 +25,10 @@ class ObjectCulling {
   // culled. Call only when no recorded kernel still reads the previous flags (after a flush).
   // *culled = the triangles of the objects left out.
   uint64_t flags_for(const LightView& view, uint64_t* culled);
+  // The same for a batch of views, as the batch rasterizer takes them (*out: a row of flags per
+  // view); false, and *out left empty, when no view leaves any object out. *culled = the
+  // triangles left out, summed over the views.
+  bool flags_for_views(std::span<const LightView> views, RasterViewCulling* out, uint64_t* culled) const;
 
  private:
   std::vector<Bounds3f> bounds_;

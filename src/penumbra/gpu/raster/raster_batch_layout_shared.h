@@ -7,7 +7,8 @@
 //                         side (thread = triangle x views + view): raster_polygon, the fan, one
 //                         GpuRasterBatchTriangle each and one work item per 16 x 16-texel tile of
 //                         its view; optionally culling the triangles of closed objects that face
-//                         away from every point of a polygon (an area light's outline);
+//                         away from every point of a polygon (an area light's outline), and the
+//                         objects a view's flags skip (per-view caster culling);
 //   raster_fill_args      (the one mode's kernel) the indirect dispatch of the fill;
 //   raster_batch_fill     one thread per work item: raster_scan_tile (raster_scan.glsl) into its view's keys;
 //   raster_batch_resolve  (optional) one thread per texel of all views: the key into the z and
@@ -53,6 +54,10 @@ struct RasterBatchSetupParams {
   // its outward plane: from no point of the polygon can it be the nearest surface.
   uint64_t orientation;
   uint64_t outline;
+  // Per-view caster culling (0: none): a uint per (view, object), view-major (object_count a
+  // view), the kRasterObject* flags raster_polygon takes for that view (ObjectCulling::
+  // flags_for_views: kRasterObjectSkip for the objects wholly outside the view's frustum).
+  uint64_t view_object_flags;
   uint triangle_count;  // input triangles (SceneDesc::triangle_count)
   uint view_count;
   uint triangle_capacity;
@@ -60,7 +65,7 @@ struct RasterBatchSetupParams {
   uint culling;      // as RasterSetupParams
   uint opaque_only;  // as RasterSetupParams
   uint outline_count;
-  uint pad;
+  uint object_count;  // the stride of view_object_flags
 };
 
 // raster_batch_fill.comp's push constants (raster_fill_args reads the one mode's RasterFillParams).

@@ -12,6 +12,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/gpu/raster/gpu_batch_rasterizer.h"
+#include "penumbra/gpu/raster/object_culling.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadow/baseline/multi_view_shared.h"
@@ -39,6 +40,7 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
     casters_ = ctx.scene->bounds();
+    culling_.prepare(*frame.device, *ctx.scene);
     if (!rasterizer_) {
       rasterizer_ = std::make_unique<gpu::GpuBatchRasterizer>(*frame.device);
       counters_ = gpu::Buffer(*frame.device, sizeof(uint64_t), "multi-view-sm's counters");
@@ -109,10 +111,17 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
     // The maps in batches, each looked up by every view sample before the next is rendered.
     const int batch = gpu::GpuBatchRasterizer::batch_size(frame.scene->triangle_count(), map_texels(view_.resolution),
                                                           /*resolve=*/true, maps, gpu::GpuBatchRasterizer::batch_budget());
+    uint64_t culled = 0;
     for (int b0 = 0; b0 < maps; b0 += batch) {
       const int n = std::min(batch, maps - b0);
-      rasterizer_->depth_maps(cl, frame.flush, "raster", *frame.scene, std::span<const LightView>(views).subspan(b0, n),
-                              RasterFilter{}, /*resolve=*/true, &batch_);
+      const std::span<const LightView> batch_views = std::span<const LightView>(views).subspan(b0, n);
+      // The objects wholly outside a map's fitted view are not set up for it (issue 34 part 3;
+      // the CPU culls runs of triangles alike): the maps are the same, the cost follows the view.
+      uint64_t batch_culled = 0;
+      const bool cull = culling_.flags_for_views(batch_views, &view_culling_, &batch_culled);
+      culled += batch_culled;
+      rasterizer_->depth_maps(cl, frame.flush, "raster", *frame.scene, batch_views, RasterFilter{}, /*resolve=*/true,
+                              &batch_, nullptr, cull ? &view_culling_ : nullptr);
       std::vector<MultiViewMap> records(n);
       for (int i = 0; i < n; ++i) {
         records[i].map = shadow_map::shadow_map_view(views[b0 + i], kInfinity);  // z_min: unused by sm_lookup
@@ -133,6 +142,7 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, batch_.device_bytes() + rasterizer_->scratch_device_bytes() +
                                                                      ranges_.bytes() + eyes_.bytes() + maps_.bytes());
     stats_.extra["maps"] = maps;
+    stats_.extra["culled_triangles"] = culled;
     stats_.extra["maps_per_batch"] = batch;
     stats_.extra["map_width"] = views.back().width();
     stats_.extra["map_height"] = views.back().height();
@@ -152,6 +162,8 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
   shadow_map::BiasParams bias_;
   Bounds3f casters_;
   std::unique_ptr<gpu::GpuBatchRasterizer> rasterizer_;
+  gpu::ObjectCulling culling_;
+  gpu::RasterViewCulling view_culling_;
   gpu::GpuDepthMapBatch batch_;
   gpu::Buffer ranges_, eyes_, maps_, counters_;
   bool counting_ = false;

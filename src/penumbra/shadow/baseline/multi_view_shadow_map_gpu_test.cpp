@@ -46,6 +46,31 @@ TEST_F(MultiViewGpu, BatchesOfEverySizeGiveOnePicture) {
   EXPECT_EQ(whole.stats.texels_visited, single.stats.texels_visited);
 }
 
+TEST_F(MultiViewGpu, ObjectsOutsideAMapsViewAreCulledAndChangeNothing) {
+  // A wide scene: 40 plates along 40 m of ground, the camera above 4 m of it. Each map is fitted
+  // to the receivers it shadows, so the plates far away lie outside every map's view: the GPU
+  // leaves them out of the set-up (issue 34 part 3), and the picture is the CPU's.
+  Scene s;
+  s.camera = testing::top_camera(32, 3.0f, 60.0f);
+  s.lights.push_back(testing::rect_light_down({0.2f, 2.5f, 0.1f}, 0.8f, 0.6f));
+  s.objects.push_back(testing::object(testing::quad_y(0, -20, 20, -3, 3)));
+  for (int i = 0; i < 40; ++i) {
+    const float x = -20 + i * 1.0f;
+    s.objects.push_back(testing::object(testing::quad_y(0.8f + 0.01f * i, x, x + 0.4f, -0.3f, 0.3f)));
+  }
+  s.finalize();
+  EXPECT_LE(difference(s, settings(true), "plates"), 2e-3);
+  const RenderResult gpu = render_scene(s, settings(true));
+  const RenderResult cpu = render_scene(s, settings(false));
+  EXPECT_GT(gpu.stats.extra.at("culled_triangles").get<uint64_t>(), 0u);
+  EXPECT_GT(cpu.stats.extra.at("culled_triangles").get<uint64_t>(), 0u);
+  // Culled or not, the GPU's maps are the same: every map gives the same lookups.
+  EXPECT_EQ(gpu.stats.texels_visited, cpu.stats.texels_visited);
+  double shadow = 0;
+  for (float v : gpu.visibility.data()) shadow += 1 - v;
+  EXPECT_GT(shadow, 10);  // the plates above the camera's patch do cast
+}
+
 TEST_F(MultiViewGpu, RasterizerBuffersFarTooSmallGiveTheSamePicture) {
   const Scene scene = shipped_scene("foliage.json", 32);
   const RenderResult fitting = render_scene(scene, settings(true));

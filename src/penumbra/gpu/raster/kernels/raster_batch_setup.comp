@@ -4,8 +4,9 @@
 // set-up (raster_setup.comp: raster_polygon, the fan, raster_set_up) with the view carried in the
 // set-up triangle; optionally, the triangles of closed objects that face away from every point of
 // an outline are skipped first (lam.cpp cull_hidden_back_faces: they are never the nearest surface
-// seen from the light). Counters run on past the capacities, so the host knows how much room a
-// second try needs.
+// seen from the light), and so are the objects the view's own flags skip (per-view caster culling:
+// the objects wholly outside its frustum). Counters run on past the capacities, so the host knows
+// how much room a second try needs.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/raster/raster_batch_layout_shared.h"
 #include "penumbra/gpu/raster/raster_stages.glsl"
@@ -63,7 +64,11 @@ void main() {
   uint object, prim;
   vec2 t[kRasterMaxClipVertices];
   double v[kRasterMaxClipVertices];
-  int n = raster_polygon(view, g, pc.p.culling, pc.p.opaque_only != 0u, 0UL, object, prim, t, v);
+  // This view's row of per-object flags: an address into the (view, object) array.
+  uint64_t flags = pc.p.view_object_flags == 0UL
+                       ? 0UL
+                       : pc.p.view_object_flags + uint64_t(4u) * uint64_t(view_index) * uint64_t(pc.p.object_count);
+  int n = raster_polygon(view, g, pc.p.culling, pc.p.opaque_only != 0u, flags, object, prim, t, v);
   // A clipped polygon becomes a fan; shared fan edges follow the fill rule like any other.
   for (int k = 1; k + 1 < n; ++k) {
     GpuRasterBatchTriangle r;
