@@ -79,12 +79,15 @@ def _mesh_companions(path):
 
 
 def _scatter(client, files):
-    """Sends a scene's mesh files to the cluster once, under a key of their own.
+    """Sends a scene's mesh files (the payload dict of _with_meshes) to the cluster once, as one
+    future under a key of its own.
 
-    ``hash=False``: with dask's default content-hashed key, scattering the same files again right
-    after an earlier job let go of them races with the scheduler forgetting that key, and the new
-    job's tiles fail with "computation on lost data" (dask/distributed#8576)."""
-    return client.scatter(files, broadcast=False, hash=False)
+    Scattered as a one-element list: dask scatters a dict value by value under the dict's own
+    keys, so every job's payload was "digest" and "files", and a job that scattered them while an
+    earlier job's futures of the same keys were being released lost them: its tiles failed with
+    "computation on lost data" (1 run in 3 of test_distributed here). ``hash=False`` for the same
+    reason with content-hashed keys (dask/distributed#8576)."""
+    return client.scatter([files], broadcast=False, hash=False)[0]
 
 
 def _with_meshes(setup_text, meshes):

@@ -132,7 +132,7 @@ def test_a_worker_killed_mid_job_changes_nothing(cluster, scene_file):
     # process dies (the nanny starts a new one) and the scheduler gives the tile to a worker.
     setup = pd._setup_of(scene, args["spp"], args["spp"], args["seed"], ["resolution=64x64"])
     job_setup, files = pd._with_meshes(setup, "ship")
-    payload = client.scatter(files, broadcast=False)
+    payload = pd._scatter(client, files)
     tiles = list(pd._tiles(64, 64, 16))  # 16 jobs of about 0.1 s each
     futures = [client.submit(pd._job_tile, job_setup, payload, "reference", args["spp"], args["seed"], None, 1, t,
                              pure=False) for t in tiles]
