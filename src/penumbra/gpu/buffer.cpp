@@ -148,4 +148,11 @@ void Buffer::download(void* data, uint64_t bytes, uint64_t offset) const {
   staged_copy(*device_, *this, data, bytes, offset, false);
 }
 
+void ensure_buffer(Device& device, Buffer& buffer, uint64_t bytes, std::string what) {
+  bytes = std::max<uint64_t>(bytes, 16);
+  if (!buffer.empty() && buffer.bytes() >= bytes) return;
+  buffer = Buffer();
+  buffer = Buffer(device, bytes, std::move(what));
+}
+
 }  // namespace penumbra::gpu

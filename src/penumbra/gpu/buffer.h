@@ -60,6 +60,11 @@ class Buffer {
 };
 
 // A buffer of `count` values of T, filled from `values` (empty: left undefined).
+// Makes `buffer` hold at least `bytes` (at least 16): an empty or smaller one is released first
+// (so the old and the new never hold memory together) and replaced, its contents lost; one large
+// enough is kept as it is. Call it only where no recorded kernel still reads the old buffer.
+void ensure_buffer(Device& device, Buffer& buffer, uint64_t bytes, std::string what);
+
 template <class T>
 Buffer make_buffer(Device& device, std::span<const T> values, std::string what) {
   Buffer b(device, std::max<uint64_t>(16, values.size_bytes()), std::move(what));

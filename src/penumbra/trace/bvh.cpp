@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <array>
+#include <climits>
+#include <cstdint>
+
+#include "penumbra/core/parallel.h"
 
 namespace penumbra {
 
@@ -27,8 +31,8 @@ struct Builder {
   std::vector<BvhTriangle>& tris;
   std::vector<Vec3f> centroids;
   std::vector<Bounds3f> boxes;  // per triangle, reordered with tris
-  std::vector<BvhNode>& nodes;
   int max_leaf;
+  uint32_t parallel_min;  // nodes of at least this many triangles build their halves at once
 
   void finish_node(BvhNode& n, uint32_t begin, uint32_t end) {
     Bounds3f b;
@@ -36,14 +40,10 @@ struct Builder {
     n.bounds = b;
   }
 
-  void build(uint32_t node_index, uint32_t begin, uint32_t end) {
-    finish_node(nodes[node_index], begin, end);
+  // Chooses where [begin, end) splits (binned SAH along the widest centroid axis, or the median
+  // where every centroid is equal) and partitions the triangles there; returns the split.
+  uint32_t partition(uint32_t begin, uint32_t end) {
     uint32_t count = end - begin;
-    if (count <= static_cast<uint32_t>(max_leaf)) {
-      nodes[node_index].first = begin;
-      nodes[node_index].count = count;
-      return;
-    }
     Bounds3f cb;
     for (uint32_t i = begin; i < end; ++i) cb.extend(centroids[i]);
     Vec3f extent = cb.diagonal();
@@ -112,13 +112,60 @@ struct Builder {
       std::copy(c2.begin(), c2.end(), centroids.begin() + begin);
       std::copy(b2.begin(), b2.end(), boxes.begin() + begin);
     }
+    return mid;
+  }
+
+  // The subtree over [begin, end) into `nodes` from `node_index` on, depth first: a node's two
+  // children are appended side by side, then the left child's subtree, then the right one's.
+  void build(std::vector<BvhNode>& nodes, uint32_t node_index, uint32_t begin, uint32_t end) {
+    finish_node(nodes[node_index], begin, end);
+    if (end - begin <= static_cast<uint32_t>(max_leaf)) {
+      nodes[node_index].first = begin;
+      nodes[node_index].count = end - begin;
+      return;
+    }
+    const uint32_t mid = partition(begin, end);
     uint32_t left = static_cast<uint32_t>(nodes.size());
     nodes.emplace_back();
     nodes.emplace_back();
     nodes[node_index].first = left;
     nodes[node_index].count = 0;
-    build(left, begin, mid);
-    build(left + 1, mid, end);
+    build(nodes, left, begin, mid);
+    build(nodes, left + 1, mid, end);
+  }
+
+  // The same subtree as build() gives, root first, with the two halves of a large node built at
+  // once (their triangle ranges are disjoint) and spliced in build()'s order: the root, its two
+  // children, the left child's descendants, the right child's. Node for node the serial tree.
+  std::vector<BvhNode> build_parallel(uint32_t begin, uint32_t end) {
+    std::vector<BvhNode> out(1);
+    if (end - begin < parallel_min || end - begin <= static_cast<uint32_t>(max_leaf)) {
+      build(out, 0, begin, end);
+      return out;
+    }
+    finish_node(out[0], begin, end);
+    const uint32_t mid = partition(begin, end);
+    std::vector<BvhNode> left, right;
+    parallel_for(2, 1, [&](size_t first, size_t last) {
+      for (size_t half = first; half < last; ++half) {
+        if (half == 0) left = build_parallel(begin, mid);
+        else right = build_parallel(mid, end);
+      }
+    });
+    // Local index j >= 1 of the left subtree lands at j + 2, of the right one at j + |left| + 1.
+    const uint32_t left_shift = 2, right_shift = static_cast<uint32_t>(left.size()) + 1;
+    auto moved = [](BvhNode n, uint32_t shift) {
+      if (!n.leaf()) n.first += shift;
+      return n;
+    };
+    out[0].first = 1;
+    out[0].count = 0;
+    out.reserve(1 + left.size() + right.size());
+    out.push_back(moved(left[0], left_shift));
+    out.push_back(moved(right[0], right_shift));
+    for (size_t j = 1; j < left.size(); ++j) out.push_back(moved(left[j], left_shift));
+    for (size_t j = 1; j < right.size(); ++j) out.push_back(moved(right[j], right_shift));
+    return out;
   }
 };
 
@@ -132,18 +179,21 @@ uint64_t TriangleBvh::build_bytes(uint64_t triangles, int max_leaf_size) {
   return node_bound(triangles, max_leaf_size) * sizeof(BvhNode) + triangles * (sizeof(Vec3f) + sizeof(Bounds3f));
 }
 
-TriangleBvh::TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size) : triangles_(std::move(triangles)) {
+TriangleBvh::TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size, size_t parallel_min_triangles)
+    : triangles_(std::move(triangles)) {
   if (triangles_.empty()) return;
-  nodes_.reserve(2 * triangles_.size() / std::max(1, max_leaf_size) + 2);
-  nodes_.emplace_back();
-  Builder b{triangles_, {}, {}, nodes_, std::max(1, max_leaf_size)};
-  b.centroids.reserve(triangles_.size());
-  b.boxes.reserve(triangles_.size());
-  for (const auto& t : triangles_) {
-    b.centroids.push_back((t.v0 + t.v1 + t.v2) / 3.0f);
-    b.boxes.push_back(triangle_bounds(t));
-  }
-  b.build(0, 0, static_cast<uint32_t>(triangles_.size()));
+  const uint32_t parallel_min =
+      static_cast<uint32_t>(std::min<size_t>(std::max<size_t>(parallel_min_triangles, 2), UINT32_MAX));
+  Builder b{triangles_, std::vector<Vec3f>(triangles_.size()), std::vector<Bounds3f>(triangles_.size()),
+            std::max(1, max_leaf_size), parallel_min};
+  parallel_for(triangles_.size(), 4096, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      const BvhTriangle& t = triangles_[i];
+      b.centroids[i] = (t.v0 + t.v1 + t.v2) / 3.0f;
+      b.boxes[i] = triangle_bounds(t);
+    }
+  });
+  nodes_ = b.build_parallel(0, static_cast<uint32_t>(triangles_.size()));
 }
 
 std::vector<BvhTriangle> TriangleBvh::gather(const Scene& scene, bool skip_analytic_spheres) {

@@ -28,8 +28,12 @@ struct BvhNode {
 class TriangleBvh {
  public:
   TriangleBvh() = default;
-  // Builds over the given triangles (reordered into leaf order).
-  explicit TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size = 4);
+  // Builds over the given triangles (reordered into leaf order). Nodes of at least
+  // `parallel_min_triangles` triangles build their two halves at once; the tree is the same,
+  // node for node, whatever the threads.
+  static constexpr size_t kParallelMinTriangles = 16384;
+  explicit TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size = 4,
+                       size_t parallel_min_triangles = kParallelMinTriangles);
   // Every triangle of every object of the scene, with its opacity (material x per-triangle x,
   // for an alpha texture, its mean over the triangle: SurfaceAlpha::mean_opacity).
   static std::vector<BvhTriangle> gather(const Scene& scene, bool skip_analytic_spheres);

@@ -134,18 +134,12 @@ void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::
   if (texels > kBatchMaxCapacity)
     throw Error("GPU rasterizer: a batch of {} views holds {} texels, more than one batch can index (at most {})",
                 n_views, texels, kBatchMaxCapacity);
-  if (out->views_buffer_.bytes() < n_views * sizeof(GpuRasterBatchView))
-    out->views_buffer_ = Buffer(*device_, n_views * sizeof(GpuRasterBatchView), "a batch's views");
+  ensure_buffer(*device_, out->views_buffer_, n_views * sizeof(GpuRasterBatchView), "a batch's views");
   out->views_buffer_.upload(records.data(), n_views * sizeof(GpuRasterBatchView));
-  if (out->keys_.bytes() < texels * 8) {
-    out->keys_ = Buffer();
-    out->keys_ = Buffer(*device_, texels * 8, "a batch of depth maps' keys");
-  }
-  if (resolve && out->z_.bytes() < texels * 4) {
-    out->z_ = Buffer();
-    out->opacity_ = Buffer();
-    out->z_ = Buffer(*device_, texels * 4, "a batch of depth maps' depths");
-    out->opacity_ = Buffer(*device_, texels * 4, "a batch of depth maps' opacities");
+  ensure_buffer(*device_, out->keys_, texels * 8, "a batch of depth maps' keys");
+  if (resolve) {
+    ensure_buffer(*device_, out->z_, texels * 4, "a batch of depth maps' depths");
+    ensure_buffer(*device_, out->opacity_, texels * 4, "a batch of depth maps' opacities");
   }
   out->texels_ = texels;
   out->resolved_ = resolve;
@@ -162,7 +156,7 @@ void GpuBatchRasterizer::depth_maps(CommandList& cl, const Submit& submit, std::
       throw Error("GPU rasterizer: {} per-view culling flags for {} views of {} objects", view_culling->flags.size(),
                   n_views, view_culling->objects);
     const uint64_t bytes = view_culling->flags.size() * sizeof(uint32_t);
-    if (view_flags_.bytes() < bytes) view_flags_ = Buffer(*device_, bytes, "the batch's per-view culling flags");
+    ensure_buffer(*device_, view_flags_, bytes, "the batch's per-view culling flags");
     view_flags_.upload(view_culling->flags.data(), bytes);
   }
   const uint64_t want_triangles = std::min(kBatchMaxCapacity, batch_first_triangles(triangles, n_views));

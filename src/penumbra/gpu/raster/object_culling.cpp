@@ -15,8 +15,7 @@ void ObjectCulling::prepare(Device& device, const Scene& scene) {
     triangles_.push_back(o.mesh.triangle_count());
   }
   flags_.assign(bounds_.size(), 0u);
-  if (buffer_.empty() || buffer_.bytes() < flags_.size() * sizeof(uint32_t))
-    buffer_ = Buffer(device, std::max<uint64_t>(16, flags_.size() * sizeof(uint32_t)), "the casters' culling flags");
+  ensure_buffer(device, buffer_, flags_.size() * sizeof(uint32_t), "the casters' culling flags");
 }
 
 uint64_t ObjectCulling::flags_for(const LightView& view, uint64_t* culled) {

@@ -49,11 +49,6 @@ constexpr uint32_t kPolygonVertices = shader::kRasterMaxClipVertices;
 // afsm_counters.glsl finds the counters right after the view.
 static_assert(sizeof(shader::RasterView) == 160);
 
-// `buffer` with room for at least `bytes` (reallocated, contents lost, when smaller).
-void ensure(gpu::Device& device, gpu::Buffer& buffer, uint64_t bytes, const char* what) {
-  if (buffer.empty() || buffer.bytes() < bytes) buffer = gpu::Buffer(device, std::max<uint64_t>(bytes, 16), what);
-}
-
 // What both methods share: the view fitted on the device and uploaded for the kernels, and the
 // growth rule of the list buffer.
 class AliasFreeGpuBase : public GpuShadowMethod {
@@ -92,7 +87,7 @@ class AliasFreeGpuBase : public GpuShadowMethod {
       capacity_ = std::max(listed, std::min(capacity_ + capacity_ / 2, most));
       ++afsm::g_test_grows;
     }
-    ensure(device, listed_, uint64_t{capacity_} * bytes_each, "afsm's lists");
+    gpu::ensure_buffer(device, listed_, uint64_t{capacity_} * bytes_each, "afsm's lists");
   }
   // Each method's kernels, by pass.
   struct Kernels {
@@ -114,13 +109,13 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   template <class Params>
   void ensure_common(gpu::Device& device, uint32_t entries, uint32_t texels, uint32_t triangles, uint64_t caster_bytes,
                      uint64_t polygon_vertices, Params& p) {
-    ensure(device, state_, uint64_t{entries} * 4, "afsm's entry states");
-    ensure(device, points_, uint64_t{entries} * sizeof(Vec3f), "afsm's listed points");
-    ensure(device, first_, (uint64_t{texels} + 1) * 4, "afsm's list starts");
-    ensure(device, cursor_, uint64_t{texels} * 4, "afsm's list cursors");
-    ensure(device, casters_, uint64_t{triangles} * caster_bytes, "afsm's casters");
-    ensure(device, rows_, (uint64_t{triangles} + 1) * 4, "afsm's caster rows");
-    ensure(device, polygons_, uint64_t{triangles} * polygon_vertices * sizeof(Vec2f), "afsm's caster polygons");
+    gpu::ensure_buffer(device, state_, uint64_t{entries} * 4, "afsm's entry states");
+    gpu::ensure_buffer(device, points_, uint64_t{entries} * sizeof(Vec3f), "afsm's listed points");
+    gpu::ensure_buffer(device, first_, (uint64_t{texels} + 1) * 4, "afsm's list starts");
+    gpu::ensure_buffer(device, cursor_, uint64_t{texels} * 4, "afsm's list cursors");
+    gpu::ensure_buffer(device, casters_, uint64_t{triangles} * caster_bytes, "afsm's casters");
+    gpu::ensure_buffer(device, rows_, (uint64_t{triangles} + 1) * 4, "afsm's caster rows");
+    gpu::ensure_buffer(device, polygons_, uint64_t{triangles} * polygon_vertices * sizeof(Vec2f), "afsm's caster polygons");
     p.view = view_buffer_.address();
     p.state = state_.address();
     p.points = points_.address();
@@ -303,7 +298,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     // §3.1: the entries per texel; §4.1: the casters' influence regions and their covered rows.
     const Totals t = count(frame, view.has_value(), texels, p, kKernels);
     grow_lists(device, t.listed, entries, sizeof(AfsmSoftListed));
-    ensure(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
+    gpu::ensure_buffer(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
     p.listed = listed_.address();
     p.masks = masks_.address();
     // §4.2: each caster's masks over the lists of its region.
@@ -356,7 +351,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     std::memcpy(at += sizeof(l), samples.local.data(), n * sizeof(Vec2f));
     std::memcpy(at += n * sizeof(Vec2f), samples.points.data(), n * sizeof(Vec3f));
     if (!table.empty()) std::memcpy(at + n * sizeof(Vec3f), table.data(), table.size_bytes());
-    ensure(device, light_, bytes.size(), "afsm's light samples");
+    gpu::ensure_buffer(device, light_, bytes.size(), "afsm's light samples");
     light_.upload(bytes.data(), bytes.size());
     stats_.extra["lut_bytes"] = table.size_bytes();
   }

@@ -66,10 +66,8 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
 
     // The fit: every view's receiver range in one pass, read back (32 bytes a view).
     cl.stage("fit");
-    if (ranges_.bytes() < maps * sizeof(GpuReceiverRange)) {
-      ranges_ = gpu::Buffer(*frame.device, maps * sizeof(GpuReceiverRange), "multi-view-sm's receiver ranges");
-      eyes_ = gpu::Buffer(*frame.device, maps * sizeof(Vec3f), "multi-view-sm's light points");
-    }
+    gpu::ensure_buffer(*frame.device, ranges_, maps * sizeof(GpuReceiverRange), "multi-view-sm's receiver ranges");
+    gpu::ensure_buffer(*frame.device, eyes_, maps * sizeof(Vec3f), "multi-view-sm's light points");
     const std::vector<GpuReceiverRange> empty(maps, shadow_map::empty_receiver_range());
     ranges_.upload(empty.data(), maps * sizeof(GpuReceiverRange));
     eyes_.upload(eyes.data(), maps * sizeof(Vec3f));
@@ -127,8 +125,7 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
         records[i].map = shadow_map::shadow_map_view(views[b0 + i], kInfinity);  // z_min: unused by sm_lookup
         records[i].first_texel = batch_.first_texel(i);
       }
-      if (maps_.bytes() < n * sizeof(MultiViewMap))
-        maps_ = gpu::Buffer(*frame.device, n * sizeof(MultiViewMap), "multi-view-sm's batch of views");
+      gpu::ensure_buffer(*frame.device, maps_, n * sizeof(MultiViewMap), "multi-view-sm's batch of views");
       maps_.upload(records.data(), n * sizeof(MultiViewMap));  // the rasterizer submitted the last lookups
       cl.stage("lookup");
       lp.maps = maps_.address();

@@ -178,10 +178,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
     b.geometry = settings_.geometry ? 1u : 0u;
     const uint64_t tiles = static_cast<uint64_t>(b.tiles_x) * static_cast<uint64_t>(b.tiles_y);
     const uint64_t scratch = tiles * shader::crt_tile_scratch_words(n, b.sub_grid) * 4;
-    if (scratch_.empty() || scratch_.bytes() < scratch) {
-      scratch_ = gpu::Buffer();
-      scratch_ = gpu::Buffer(device, scratch, "coherent-rt's tile samplers");
-    }
+    gpu::ensure_buffer(device, scratch_, scratch, "coherent-rt's tile samplers");
     cl.stage("trace");
     // A tile's work: per step (Hilbert step x view sample) one unit (passed over, or its point
     // started) and at most n cells.
@@ -193,10 +190,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
     for (;;) {
       b.span_capacity = span_capacity_;
       const uint64_t spans = tiles * 3 * static_cast<uint64_t>(span_capacity_) * 8;
-      if (spans_.empty() || spans_.bytes() < spans) {
-        spans_ = gpu::Buffer();
-        spans_ = gpu::Buffer(device, spans, "coherent-rt's occlusion spans");
-      }
+      gpu::ensure_buffer(device, spans_, spans, "coherent-rt's occlusion spans");
       frame.flush();  // nothing recorded may still read the block
       block_.upload(&b, sizeof(b));
       cl.stage("trace");

@@ -102,8 +102,7 @@ class FilteredMomentsGpu final : public GpuShadowMethod {
     const uint64_t texels = static_cast<uint64_t>(dm.width()) * dm.height();
     if (texels_.bytes() < texels * C * sizeof(float)) {
       frame.flush();  // nothing recorded may still read the old buffer
-      texels_ = gpu::Buffer();
-      texels_ = gpu::Buffer(d, texels * C * sizeof(float), "the moment map's texels");
+      gpu::ensure_buffer(d, texels_, texels * C * sizeof(float), "the moment map's texels");
     }
     cl.stage("prefilter");
     // A table that grows submits what was recorded first; the rest is timed as prefilter too.

@@ -192,8 +192,7 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
                             std::span<const LightView>(views).subspan(b0, count), RasterFilter{}, /*resolve=*/false,
                             &batch, &cull);
       for (int i = 0; i < count; ++i) records[b0 + i].first_texel = batch.first_texel(i);
-      if (samples.bytes() < count * sizeof(LamSampleView))
-        samples = gpu::Buffer(device, count * sizeof(LamSampleView), "lam's batch of sample views");
+      gpu::ensure_buffer(device, samples, count * sizeof(LamSampleView), "lam's batch of sample views");
       samples.upload(records.data() + b0, count * sizeof(LamSampleView));  // the rasterizer submitted
       cl.stage("precompute");
       for (int i = 0; i < count; ++i) {

@@ -59,7 +59,7 @@ void reset_ranges(gpu::CommandList& cl, gpu::Buffer& ranges, int first, int coun
 // Uploads floats into `buffer`, grown to hold them (at least 16 bytes).
 void upload_floats(gpu::Device& device, gpu::Buffer& buffer, const std::vector<float>& values, const char* what) {
   const uint64_t bytes = std::max<uint64_t>(16, values.size() * sizeof(float));
-  if (buffer.empty() || buffer.bytes() < bytes) buffer = gpu::Buffer(device, bytes, what);
+  gpu::ensure_buffer(device, buffer, bytes, what);
   if (!values.empty()) buffer.upload(values.data(), values.size() * sizeof(float));
 }
 
@@ -144,8 +144,7 @@ class MultilayerGpu final : public GpuShadowMethod {
     tf.grid_cols = grid.cols();
     tf.inv_cols = grid.inv_cols();
     tf.inv_rows = grid.inv_rows();
-    if (sums_.empty() || sums_.bytes() < uint64_t(frame.slots) * 8)
-      sums_ = gpu::Buffer(*frame.device, std::max<uint64_t>(16, uint64_t(frame.slots) * 8), "the traces' partial sums");
+    gpu::ensure_buffer(*frame.device, sums_, uint64_t(frame.slots) * 8, "the traces' partial sums");
     tf.sums = sums_.address();
     frame.flush();  // nothing recorded may still read the frame's record
     trace_frame_.upload(&tf, sizeof(tf));
@@ -251,8 +250,7 @@ class MultilayerGpu final : public GpuShadowMethod {
     // Without fit_shadowable no box is tested: range 1 (every receiver) is the one fitted.
     block.n_boxes = settings_.fit_shadowable ? static_cast<uint32_t>(boxes.size()) : 0u;
     fit_block_.upload(&block, sizeof(block));
-    if (keep_.empty() || keep_.bytes() < uint64_t(frame.slots) * 4)
-      keep_ = gpu::Buffer(device, std::max<uint64_t>(16, uint64_t(frame.slots) * 4), "the multilayer map's kept receivers");
+    gpu::ensure_buffer(device, keep_, uint64_t(frame.slots) * 4, "the multilayer map's kept receivers");
     reset_ranges(cl, ranges_, 0, 3);
     shader::MlFitParams fp{};
     fp.samples = frame.view_samples;
@@ -342,12 +340,8 @@ class MultilayerGpu final : public GpuShadowMethod {
       rasterizer_->fragment_lists(cl, frame.flush, "build", *frame.scene, v, RasterFilter{}, &lists_, flags);
       // A texel never has more layers than fragments: its layers go where its list starts.
       const uint64_t room = std::max<uint64_t>(1, lists_.capacity()) * sizeof(shader::TransparentLayer);
-      if (layers_.empty() || layers_.bytes() < room) {
-        layers_ = gpu::Buffer();
-        layers_ = gpu::Buffer(device, room, "the transparent map's layers");
-      }
-      if (layer_counts_.empty() || layer_counts_.bytes() < texels * 4)
-        layer_counts_ = gpu::Buffer(device, std::max<uint64_t>(16, texels * 4), "the transparent map's layer counts");
+      gpu::ensure_buffer(device, layers_, room, "the transparent map's layers");
+      gpu::ensure_buffer(device, layer_counts_, texels * 4, "the transparent map's layer counts");
       mp.map_a = lists_.offsets();
       mp.map_b = lists_.fragments();
       mp.map_c = layer_counts_.address();

@@ -143,10 +143,7 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     gpu::CommandList& cl = *frame.commands;
     std::vector<uint32_t> flags = plan_.slicing_object_flags(scene);
     if (flags.empty()) flags.push_back(0u);
-    if (flags_.bytes() < flags.size() * sizeof(uint32_t)) {
-      flags_ = gpu::Buffer();
-      flags_ = gpu::Buffer(*frame.device, flags.size() * sizeof(uint32_t), "the slicing pass's object flags");
-    }
+    gpu::ensure_buffer(*frame.device, flags_, flags.size() * sizeof(uint32_t), "the slicing pass's object flags");
     flags_.upload(std::span<const uint32_t>(flags));
     const int S = options_.slices;
     rasterizer_->depth_bin_masks(cl, frame.flush, "slicing", *frame.scene, plan_.view(), RasterFilter{},
@@ -172,8 +169,7 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     const PyramidLayout layout(options_.prefilter, R, S);
     if (options_.prefilter != Prefilter::Sat && pyramid_.bytes() < layout.bytes) {
       frame.flush();  // nothing recorded may still read the old pyramid
-      pyramid_ = gpu::Buffer();
-      pyramid_ = gpu::Buffer(d, layout.bytes, "the occlusion textures' pyramid");
+      gpu::ensure_buffer(d, pyramid_, layout.bytes, "the occlusion textures' pyramid");
     }
     cl.stage("filtering");
     if (options_.prefilter == Prefilter::Sat) {

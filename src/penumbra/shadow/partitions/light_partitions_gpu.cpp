@@ -45,9 +45,9 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     Plan plan;
     if (may_split(frame_, receivers.range, casters_, settings_, frame.slots)) {
       const shader::PartitionGrid g = grid_over(frame_, receivers.range, G);
-      grow(device, grid_, sizeof(g), "the partitions' grid");
+      gpu::ensure_buffer(device, grid_, sizeof(g), "the partitions' grid");
       grid_.upload(&g, sizeof(g));
-      grow(device, cells_, cells * sizeof(uint32_t), "the partitions' grid cells");
+      gpu::ensure_buffer(device, cells_, cells * sizeof(uint32_t), "the partitions' grid cells");
       cl.fill(cells_, 0);
       shader::PartitionClassifyParams cp = classify_params(light, frame, G);
       cp.occupancy = cells_.address();
@@ -67,8 +67,8 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     const uint32_t L = static_cast<uint32_t>(plan.leaves);
     // Each slot's partition and the partitions' sizes.
     cells_.upload(std::span<const int32_t>(plan.leaf_of_cell));
-    grow(device, leaf_, uint64_t(frame.slots) * 4, "the view samples' partitions");
-    grow(device, counts_, uint64_t(L) * 4 * 3, "the partitions' sizes");
+    gpu::ensure_buffer(device, leaf_, uint64_t(frame.slots) * 4, "the view samples' partitions");
+    gpu::ensure_buffer(device, counts_, uint64_t(L) * 4 * 3, "the partitions' sizes");
     cl.fill(counts_, 0);
     shader::PartitionClassifyParams cp = classify_params(light, frame, G);
     cp.leaf_of_cell = cells_.address();
@@ -84,11 +84,11 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
       first[l] = total;
       total += counts[l] > 0 ? counts[l] + plan.guard_count(int(l)) : 0;
     }
-    grow(device, compact_, uint64_t(total) * sizeof(shader::GpuViewSample), "the partitions' view samples");
-    grow(device, slot_of_, uint64_t(total) * 4, "the partitions' slots");
-    grow(device, part_v_, uint64_t(total) * 4, "the partitions' visibility");
+    gpu::ensure_buffer(device, compact_, uint64_t(total) * sizeof(shader::GpuViewSample), "the partitions' view samples");
+    gpu::ensure_buffer(device, slot_of_, uint64_t(total) * 4, "the partitions' slots");
+    gpu::ensure_buffer(device, part_v_, uint64_t(total) * 4, "the partitions' visibility");
     const bool irradiance = inner_->computes_irradiance() && out.irradiance != 0;
-    if (irradiance) grow(device, part_e_, uint64_t(total) * 12, "the partitions' irradiance");
+    if (irradiance) gpu::ensure_buffer(device, part_e_, uint64_t(total) * 12, "the partitions' irradiance");
     counts_.upload(std::span<const uint32_t>(first), uint64_t(L) * 4);
     cl.fill(counts_, 0, uint64_t(L) * 8, uint64_t(L) * 4);
     cl.fill(slot_of_, 0xffffffffu);  // guard samples keep ~0u
@@ -158,13 +158,6 @@ class PartitionedGpuMethod final : public GpuShadowMethod {
     p.light_n = light.frame.n;
     p.cells = G;
     return p;
-  }
-
-  // Replaces `b` by a buffer of `bytes` unless it holds them (contents not kept). Called only
-  // after a flush: no recorded kernel still reads the old one.
-  static void grow(gpu::Device& device, gpu::Buffer& b, uint64_t bytes, const char* what) {
-    bytes = std::max<uint64_t>(bytes, 16);
-    if (b.empty() || b.bytes() < bytes) b = gpu::Buffer(device, bytes, what);
   }
 
   std::unique_ptr<GpuShadowMethod> inner_;

@@ -36,8 +36,7 @@ class ReferenceGpu final : public GpuShadowMethod {
     split_.execute(
         n, "reference", frame.device->info().name,
         [&](int first, int count) {
-          if (count < n && partial_.bytes() < uint64_t(frame.slots) * 12)
-            partial_ = gpu::Buffer(*frame.device, std::max<uint64_t>(frame.slots, 1) * 12, "reference's partial sums");
+          if (count < n) gpu::ensure_buffer(*frame.device, partial_, uint64_t(frame.slots) * 12, "reference's partial sums");
           p.partial = partial_.address();
           p.first = first;
           p.count = count;

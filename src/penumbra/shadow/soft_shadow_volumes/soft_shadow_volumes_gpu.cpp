@@ -118,8 +118,7 @@ class SoftShadowVolumesGpu final : public GpuShadowMethod {
     // A previous frame's kernels may still read the light block: run them first (uploads are
     // immediate, kernels recorded).
     frame.flush();
-    if (light_.empty() || light_.bytes() < block.size() * sizeof(Vec3f))
-      light_ = gpu::Buffer(device, block.size() * sizeof(Vec3f), "ssv-rt's light samples");
+    gpu::ensure_buffer(device, light_, block.size() * sizeof(Vec3f), "ssv-rt's light samples");
     light_.upload(std::span<const Vec3f>(block));
 
     shader::SsvParams p{};
