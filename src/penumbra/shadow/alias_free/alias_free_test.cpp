@@ -322,16 +322,47 @@ bool inside_convex(const std::vector<Vec2f>& poly, Vec2f p, float tol) {
   return pos == 0 || neg == 0;
 }
 
+// The region tests' light of each shape above the origin (a tilted ellipsoid: its axes are not
+// the view's) and its view.
+AreaLight region_test_light(LightShape shape) {
+  AreaLight light = rect_light_down({0.2f, 3, -0.1f}, 1.2f, 0.8f);
+  light.shape = shape;
+  light.radius = 0.5f;
+  light.radii = {0.7f, 0.3f, 0.4f};
+  if (shape == LightShape::Ellipsoid) light.frame = Frame::from_zx(normalize(Vec3f(0.2f, -1, 0.1f)), {1, 0.3f, 0.5f});
+  return light;
+}
+
+LightView region_test_view(const AreaLight& light) {
+  return LightView::perspective(light.center, light.frame.n, light.frame.t, 100, 256, 256, 0.05f, 10);
+}
+
+// A random point that triangle v shadows from a random light point (on the light for a rect or
+// disk, anywhere in the ball for a sphere or ellipsoid), between the triangle and the far plane,
+// in texel space.
+Vec2f shadowed_texel(const AreaLight& light, const LightView& view, float far_depth, const Vec3f v[3], Rng& rng) {
+  Vec3f q;
+  if (light.shape == LightShape::Sphere || light.shape == LightShape::Ellipsoid) {
+    do q = Vec3f(rng.next_float() * 2 - 1, rng.next_float() * 2 - 1, rng.next_float() * 2 - 1);
+    while (length(q) > 1);
+    q = light.shape == LightShape::Sphere ? light.center + q * light.radius : light.from_unit_sphere(q);
+  } else {
+    q = light.sample_area(rng.next_2d());
+  }
+  float b1 = rng.next_float(), b2 = rng.next_float();
+  if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+  const Vec3f x = v[0] + (v[1] - v[0]) * b1 + (v[2] - v[0]) * b2;
+  // A point behind x on the ray from q, between x and the far plane.
+  const float zx = view.linear_depth(x), zq = view.linear_depth(q);
+  const float z = zx + rng.next_float() * (far_depth - zx);
+  const Vec3f tp = view.to_texel(q + (x - q) * ((z - zq) / (zx - zq)));
+  return {tp.x, tp.y};
+}
+
 TEST(AliasFreeRegion, HoldsEveryPointTheTriangleShadows) {
   for (LightShape shape : {LightShape::Rect, LightShape::Disk, LightShape::Sphere, LightShape::Ellipsoid}) {
-    AreaLight light = rect_light_down({0.2f, 3, -0.1f}, 1.2f, 0.8f);
-    light.shape = shape;
-    light.radius = 0.5f;
-    light.radii = {0.7f, 0.3f, 0.4f};
-    // A tilted ellipsoid: its axes are not the view's.
-    if (shape == LightShape::Ellipsoid) light.frame = Frame::from_zx(normalize(Vec3f(0.2f, -1, 0.1f)), {1, 0.3f, 0.5f});
-    const LightView view =
-        LightView::perspective(light.center, light.frame.n, light.frame.t, 100, 256, 256, 0.05f, 10);
+    const AreaLight light = region_test_light(shape);
+    const LightView view = region_test_view(light);
     const float far_depth = 3.5f;
     const afsm::InfluenceRegions regions(light, view, far_depth);
     Rng rng(17, static_cast<int>(shape));
@@ -343,24 +374,8 @@ TEST(AliasFreeRegion, HoldsEveryPointTheTriangleShadows) {
       for (Vec3f& p : v) p = base + Vec3f(rng.next_float() - 0.5f, rng.next_float() * 0.4f - 0.2f, rng.next_float() - 0.5f);
       ASSERT_TRUE(regions.region(v, &poly));
       for (int k = 0; k < 200; ++k) {
-        // A light point: on the light (rect, disk) or anywhere in the ball (sphere, ellipsoid).
-        Vec3f q;
-        if (shape == LightShape::Sphere || shape == LightShape::Ellipsoid) {
-          do q = Vec3f(rng.next_float() * 2 - 1, rng.next_float() * 2 - 1, rng.next_float() * 2 - 1);
-          while (length(q) > 1);
-          q = shape == LightShape::Sphere ? light.center + q * light.radius : light.from_unit_sphere(q);
-        } else {
-          q = light.sample_area(rng.next_2d());
-        }
-        float b1 = rng.next_float(), b2 = rng.next_float();
-        if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
-        const Vec3f x = v[0] + (v[1] - v[0]) * b1 + (v[2] - v[0]) * b2;
-        // A point behind x on the ray from q, between x and the far plane.
-        const float zx = view.linear_depth(x), zq = view.linear_depth(q);
-        const float z = zx + rng.next_float() * (far_depth - zx);
-        const Vec3f p = q + (x - q) * ((z - zq) / (zx - zq));
-        const Vec3f tp = view.to_texel(p);
-        EXPECT_TRUE(inside_convex(poly, {tp.x, tp.y}, 1e-3f)) << to_string(shape) << " triangle " << t;
+        EXPECT_TRUE(inside_convex(poly, shadowed_texel(light, view, far_depth, v, rng), 1e-3f))
+            << to_string(shape) << " triangle " << t;
         ++checked;
       }
     }
@@ -376,14 +391,10 @@ TEST(AliasFreeRegion, ABoxsCornersHoldTheRegionOfEveryTriangleInside) {
   // corners' while the ball it bounds does not); and project()'s points have the region's own
   // bounding box.
   for (LightShape shape : {LightShape::Rect, LightShape::Disk, LightShape::Sphere, LightShape::Ellipsoid}) {
-    AreaLight light = rect_light_down({0.2f, 3, -0.1f}, 1.2f, 0.8f);
-    light.shape = shape;
-    light.radius = 0.5f;
-    light.radii = {0.7f, 0.3f, 0.4f};
-    if (shape == LightShape::Ellipsoid) light.frame = Frame::from_zx(normalize(Vec3f(0.2f, -1, 0.1f)), {1, 0.3f, 0.5f});
-    const LightView view =
-        LightView::perspective(light.center, light.frame.n, light.frame.t, 100, 256, 256, 0.05f, 10);
-    const afsm::InfluenceRegions regions(light, view, 3.5f);
+    const AreaLight light = region_test_light(shape);
+    const LightView view = region_test_view(light);
+    const float far_depth = 3.5f;
+    const afsm::InfluenceRegions regions(light, view, far_depth);
     Rng rng(29, static_cast<int>(shape));
     std::vector<Vec2f> box_region, triangle_region, points;
     for (int b = 0; b < 20; ++b) {
@@ -402,29 +413,14 @@ TEST(AliasFreeRegion, ABoxsCornersHoldTheRegionOfEveryTriangleInside) {
         if (shape == LightShape::Rect || shape == LightShape::Disk)
           for (Vec2f q : triangle_region)
             EXPECT_TRUE(inside_convex(box_region, q, 1e-3f)) << to_string(shape) << " box " << b << " triangle " << t;
-        for (int k = 0; k < 20; ++k) {
-          // A point x of the triangle shadows p from light point q (as HoldsEveryPointTheTriangleShadows).
-          Vec3f q;
-          if (shape == LightShape::Sphere || shape == LightShape::Ellipsoid) {
-            do q = Vec3f(rng.next_float() * 2 - 1, rng.next_float() * 2 - 1, rng.next_float() * 2 - 1);
-            while (length(q) > 1);
-            q = shape == LightShape::Sphere ? light.center + q * light.radius : light.from_unit_sphere(q);
-          } else {
-            q = light.sample_area(rng.next_2d());
-          }
-          float b1 = rng.next_float(), b2 = rng.next_float();
-          if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
-          const Vec3f x = v[0] + (v[1] - v[0]) * b1 + (v[2] - v[0]) * b2;
-          const float zx = view.linear_depth(x), zq = view.linear_depth(q);
-          const float z = zx + rng.next_float() * (3.5f - zx);
-          const Vec3f tp = view.to_texel(q + (x - q) * ((z - zq) / (zx - zq)));
-          EXPECT_TRUE(inside_convex(box_region, {tp.x, tp.y}, 1e-3f)) << to_string(shape) << " box " << b;
-        }
+        for (int k = 0; k < 20; ++k)
+          EXPECT_TRUE(inside_convex(box_region, shadowed_texel(light, view, far_depth, v, rng), 1e-3f))
+              << to_string(shape) << " box " << b;
         ASSERT_TRUE(regions.project(std::span<const Vec3f>(v, 3), &points));
         auto bounds = [](const std::vector<Vec2f>& ps) {
-          std::array<float, 4> b{kInfinity, kInfinity, -kInfinity, -kInfinity};
-          for (Vec2f q : ps) b = {std::min(b[0], q.x), std::min(b[1], q.y), std::max(b[2], q.x), std::max(b[3], q.y)};
-          return b;
+          std::array<float, 4> r{kInfinity, kInfinity, -kInfinity, -kInfinity};
+          for (Vec2f q : ps) r = {std::min(r[0], q.x), std::min(r[1], q.y), std::max(r[2], q.x), std::max(r[3], q.y)};
+          return r;
         };
         EXPECT_EQ(bounds(triangle_region), bounds(points));
       }
