@@ -88,7 +88,7 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
 
 const MethodRegistration registration({
     "shadow-map",
-    "hard shadows from one depth map at the light centre: constant and slope-scaled bias, optional PCF",
+    "hard shadows from one depth map at the light centre: receiver-plane or slope-scaled depth bias, bilinear PCF",
     params(),
     [](const ParamSet& p) {
       return partitions::wrap(std::make_unique<ShadowMapMethod>(p), p, p.get_int("resolution"));
