@@ -164,6 +164,13 @@ void check_ply(const fs::path& path, std::ifstream& f, uint64_t file_size) {
       if (count > std::numeric_limits<uint32_t>::max())
         throw Error("{}: PLY element \"{}\" declares {} entries (at most {})", name, abbreviate_line(w[1]), count,
                     std::numeric_limits<uint32_t>::max());
+      // Assimp 5.2 reads the count of an element whose name it does not know (vertex, face,
+      // tristrips, edge, material, TextureFile) from where the name starts, so a name that
+      // starts with digits is a count of its own (fuzz_mesh: a name
+      // "6666...vertex" made it reserve 64 GB).
+      if (std::isdigit(static_cast<unsigned char>(w[1][0])))
+        throw Error("{}: PLY element name \"{}\" starts with a digit (Assimp would read it as the count)", name,
+                    abbreviate_line(w[1]));
       elements.push_back({std::string(w[1]), count, 0, 0});
     } else if (w[0] == "property") {
       if (elements.empty()) throw Error("{}: PLY property line \"{}\" before any element", name, abbreviate_line(line));

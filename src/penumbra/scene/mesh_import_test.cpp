@@ -205,6 +205,14 @@ TEST(MeshImport, DeclaredCountsMustFitTheFile) {
                     "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n4444444444 0 1 2\n"),
             (dir / "list.ply").string() + ": PLY element \"face\" entry 1: list count \"4444444444\" is not a count the "
                                           "file can hold");
+  // An element name that starts with digits: Assimp reads its count from there (fuzz_mesh: it
+  // reserved 64 GB for "6666...vertex").
+  EXPECT_EQ(refused("digits.ply",
+                    "ply\nformat ascii 1.0\nelement 666666666666666666666666666666666vertex 4\nproperty float x\n"
+                    "end_header\n0\n0\n0\n0\n"),
+            (dir / "digits.ply").string() +
+                ": PLY element name \"666666666666666666666666666666666vertex\" starts with a digit (Assimp would "
+                "read it as the count)");
   EXPECT_EQ(refused("huge.ply", "ply\nformat ascii 1.0\nelement vertex 99999999999\nproperty float x\nend_header\n"),
             (dir / "huge.ply").string() + ": PLY element \"vertex\" declares 99999999999 entries (at most 4294967295)");
   EXPECT_EQ(refused("empty_element.ply", "ply\nformat binary_little_endian 1.0\nelement nothing 4000000000\nend_header\n"),
