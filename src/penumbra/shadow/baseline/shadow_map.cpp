@@ -20,7 +20,10 @@ using shadow_map::BiasParams;
 class ShadowMapMethod final : public ShadowMethod {
  public:
   explicit ShadowMapMethod(const ParamSet& p)
-      : view_(shadow_map::view_params(p)), pcf_(p.get_int("pcf")), bilinear_(p.get_bool("bilinear")), bias_(shadow_map::bias_params(p)) {}
+      : view_(shadow_map::view_params(p)),
+        pcf_(p.get_int("pcf")),
+        bilinear_(p.get_bool("bilinear")),
+        bias_(shadow_map::bias_params(p)) {}
 
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
@@ -66,8 +69,8 @@ class ShadowMapMethod final : public ShadowMethod {
 std::vector<ParamSpec> params() {
   std::vector<ParamSpec> p = shadow_map::common_param_specs(2048);
   p.push_back({"pcf", ParamType::Int, 0,
-               "percentage-closer filtering: radius in texels of the (2 pcf + 1)^2 box of texels averaged (0 = one "
-               "texel, a hard shadow)",
+               "percentage-closer filtering: radius in texels of the (2 pcf + 1)^2 box of texels averaged (0: the "
+               "receiver's own texel, or with bilinear the 2 x 2 around it)",
                {}, 0, 64});
   p.push_back({"bilinear", ParamType::Bool, true,
                "weigh the PCF box's texels by where the receiver falls between texel centres (a depth-compare "
