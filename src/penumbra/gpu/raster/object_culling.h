@@ -31,6 +31,9 @@ class ObjectCulling {
   bool flags_for_views(std::span<const LightView> views, RasterViewCulling* out, uint64_t* culled) const;
 
  private:
+  // kRasterObjectSkip or 0 per object for `view` into flags[0, objects); the triangles left out.
+  uint64_t flags_into(const LightView& view, uint32_t* flags) const;
+
   std::vector<Bounds3f> bounds_;
   std::vector<uint64_t> triangles_;
   std::vector<uint32_t> flags_;
