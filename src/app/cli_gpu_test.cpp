@@ -178,5 +178,35 @@ TEST_F(CliGpu, TheGpuBenchSuiteRunsAtASmallSize) {
   EXPECT_NE(slurp(out / "bench-results.md").find("| `reference` |"), std::string::npos);
 }
 
+// --no-cpu (issue 31's runs that vary a setting on the GPU): the GPU side alone, with the first
+// frame's stages (what later frames reuse) and the method's counters.
+TEST_F(CliGpu, TheGpuBenchSuiteWithoutItsCpuSide) {
+  const fs::path out = dir_ / "bench-gpu-only";
+  const Run r = run(fmt::format("bench --suite gpu --no-cpu --scenes-dir {}/scenes --scenes bunny --resolution 32 "
+                                "--spp 4 --runs 2 --warmup 1 --methods vsm -o {} -q",
+                                PENUMBRA_SOURCE_DIR, out.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json b = nlohmann::json::parse(slurp(out / "bench-results.json"));
+  EXPECT_FALSE(b["settings"]["cpu_side"].get<bool>());
+  ASSERT_EQ(b["scenes"][0]["methods"].size(), 1u);  // reference is not added
+  const nlohmann::json& m = b["scenes"][0]["methods"][0];
+  ASSERT_TRUE(m.value("ok", false)) << m.dump();
+  EXPECT_FALSE(m.contains("cpu"));
+  EXPECT_FALSE(m.contains("cpu_over_gpu"));
+  EXPECT_EQ(m["gpu"]["runs"], 2);
+  EXPECT_EQ(m["gpu"]["run_shadow_ms"].size(), 2u);
+  // vsm rasterizes and prefilters its map in the first frame and reuses it after.
+  EXPECT_GT(m["gpu"]["first_frame_ms"].value("raster", 0.0), 0.0);
+  EXPECT_FALSE(m["gpu"]["stages_ms"].contains("raster")) << m["gpu"]["stages_ms"].dump();
+  EXPECT_TRUE(m["gpu"]["stats"].contains("memory_bytes"));
+  const std::string md = slurp(out / "bench-results.md");
+  EXPECT_NE(md.find("not run (--no-cpu)"), std::string::npos);
+  EXPECT_NE(md.find("| `vsm` |"), std::string::npos);
+
+  const Run other = run("bench --suite quick --no-cpu -q");
+  EXPECT_NE(other.exit_code, 0);
+  EXPECT_NE(other.err.find("--no-cpu"), std::string::npos) << other.err;
+}
+
 }  // namespace
 }  // namespace penumbra

@@ -30,6 +30,7 @@ struct BenchCliOptions {
   int threads = 0;
   std::string device = "cpu";
   bool quiet = false;
+  bool no_cpu = false;
 };
 
 int run_bench_cli(const BenchCliOptions& o) {
@@ -64,6 +65,8 @@ int run_bench_cli(const BenchCliOptions& o) {
   bo.methods = expand_method_list(o.methods);
   bo.device = gpu::DeviceChoice::parse(o.device).to_string();  // a bad value fails before anything runs
   bo.params = o.params;
+  if (o.no_cpu && o.suite != "gpu") throw Error("--no-cpu: only the gpu suite has a CPU side to leave out (--suite {})", o.suite);
+  bo.cpu_side = !o.no_cpu;
   bo.progress = !o.quiet;
   bo.command = command_line();
   fs::create_directories(o.output);
@@ -110,6 +113,7 @@ const CommandRegistration bench_command("bench", 70, [](CLI::App& app) {
   cmd->add_option("--device", o->device,
                   "where the methods render: cpu, gpu or gpu:N (the gpu suite: which GPU; docs/gpu.md)")
       ->capture_default_str();
+  cmd->add_flag("--no-cpu", o->no_cpu, "the gpu suite: time the GPU side alone (no CPU runs, no CPU/GPU ratio)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress bar or table");
   return [o] { return run_bench_cli(*o); };
 });

@@ -80,6 +80,9 @@ struct BenchOptions {
   std::string command;               // recorded in the results
   // --device: where every method renders (cpu, gpu, gpu:N); the gpu suite's GPU side.
   std::string device = "cpu";
+  // The gpu suite: also time each method's CPU version (false: the GPU side alone, for runs
+  // that vary a setting on the GPU, issue 31).
+  bool cpu_side = true;
 };
 
 // Runs the suite; returns the bench-results.json document.

@@ -1,6 +1,7 @@
 #include "penumbra/gpu/commands.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 
 #include "penumbra/core/error.h"
@@ -9,7 +10,9 @@
 namespace penumbra::gpu {
 namespace {
 
-constexpr uint32_t kMaxQueries = 512;
+// Timestamps per submit: with kernel profiling one a command (the largest frames record a few
+// hundred commands between submits).
+constexpr uint32_t kMaxQueries = 4096;
 // Dispatch grids: at most this many groups along x (the least every device allows), the rest
 // along y (gpu/kernel_common.glsl pn_thread_index folds them back).
 constexpr uint64_t kMaxGroupsX = 65535;
@@ -18,6 +21,11 @@ VkCommandBuffer as_cb(uint64_t h) { return reinterpret_cast<VkCommandBuffer>(h);
 VkQueryPool as_pool(uint64_t h) { return reinterpret_cast<VkQueryPool>(h); }
 
 }  // namespace
+
+bool kernel_profiling_enabled() {
+  const char* v = std::getenv("PENUMBRA_GPU_PROFILE");
+  return v != nullptr && std::string_view(v) == "1";
+}
 
 double StageTimes::total() const {
   double t = 0;
@@ -34,9 +42,18 @@ void StageTimes::add(const StageTimes& o) {
     else
       it->second += stage.second;
   }
+  for (const KernelTime& k : o.kernels) {
+    auto it = std::find_if(kernels.begin(), kernels.end(), [&](const KernelTime& x) { return x.name == k.name; });
+    if (it == kernels.end()) {
+      kernels.push_back(k);
+    } else {
+      it->ms += k.ms;
+      it->dispatches += k.dispatches;
+    }
+  }
 }
 
-CommandList::CommandList(Device& device) : device_(&device) {
+CommandList::CommandList(Device& device) : device_(&device), profile_(kernel_profiling_enabled()) {
   DeviceState& s = device.state();
   VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
   qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
@@ -66,6 +83,8 @@ void CommandList::begin_if_needed() {
   vkCmdResetQueryPool(as_cb(command_buffer_), as_pool(query_pool_), 0, kMaxQueries);
   queries_ = 0;
   stage_names_.clear();
+  command_names_.clear();
+  open_command_.clear();
   if (!open_stage_.empty()) {  // a stage opened before anything was recorded
     const std::string name = open_stage_;
     open_stage_.clear();
@@ -80,11 +99,27 @@ void CommandList::stage(std::string_view name) {
     begin_if_needed();
     return;
   }
-  if (queries_ >= kMaxQueries) return;  // out of timestamps: the open stage takes the rest
+  // Out of timestamps (one kept for submit): the open stage takes the rest.
+  if (queries_ + 1 >= kMaxQueries) return;
   vkCmdWriteTimestamp2(as_cb(command_buffer_), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, as_pool(query_pool_), queries_);
-  if (queries_ > 0) stage_names_.push_back(open_stage_);
+  if (queries_ > 0) {
+    stage_names_.push_back(open_stage_);
+    command_names_.push_back(open_command_);
+  }
   ++queries_;
   open_stage_ = std::string(name);
+  open_command_.clear();
+}
+
+void CommandList::mark(std::string_view command) {
+  // Before the first stage nothing is timed (as without profiling); out of timestamps, the
+  // open interval takes the rest.
+  if (!profile_ || queries_ == 0 || queries_ + 1 >= kMaxQueries) return;
+  vkCmdWriteTimestamp2(as_cb(command_buffer_), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, as_pool(query_pool_), queries_);
+  stage_names_.push_back(open_stage_);
+  command_names_.push_back(open_command_);
+  ++queries_;
+  open_command_ = std::string(command);
 }
 
 void CommandList::barrier() {
@@ -122,6 +157,7 @@ void CommandList::dispatch(const Kernel& kernel, uint64_t threads_x, uint32_t th
   begin_if_needed();
   DeviceState& s = device_->state();
   VkCommandBuffer cb = as_cb(command_buffer_);
+  mark(kernel.name);
   bind(s, cb, kernel, push, bytes);
   const uint64_t gx = (threads_x + kernel.local_size[0] - 1) / kernel.local_size[0];
   const uint64_t gy = (uint64_t{threads_y} + kernel.local_size[1] - 1) / kernel.local_size[1];
@@ -143,6 +179,7 @@ void CommandList::dispatch_indirect(const Kernel& kernel, const Buffer& args, ui
   begin_if_needed();
   DeviceState& s = device_->state();
   VkCommandBuffer cb = as_cb(command_buffer_);
+  mark(kernel.name);
   bind(s, cb, kernel, push, bytes);
   vkCmdDispatchIndirect(cb, reinterpret_cast<VkBuffer>(args.handle()), offset);
   barrier();
@@ -152,6 +189,7 @@ void CommandList::fill(Buffer& buffer, uint32_t value, uint64_t offset, uint64_t
   begin_if_needed();
   if (bytes == UINT64_MAX) bytes = buffer.bytes() - offset;
   if (bytes == 0) return;
+  mark("fill");
   vkCmdFillBuffer(as_cb(command_buffer_), reinterpret_cast<VkBuffer>(buffer.handle()), offset, bytes, value);
   barrier();
 }
@@ -159,6 +197,7 @@ void CommandList::fill(Buffer& buffer, uint32_t value, uint64_t offset, uint64_t
 void CommandList::copy(const Buffer& from, Buffer& to, uint64_t bytes, uint64_t from_offset, uint64_t to_offset) {
   if (bytes == 0) return;
   begin_if_needed();
+  mark("copy");
   VkBufferCopy region{from_offset, to_offset, bytes};
   vkCmdCopyBuffer(as_cb(command_buffer_), reinterpret_cast<VkBuffer>(from.handle()),
                   reinterpret_cast<VkBuffer>(to.handle()), 1, &region);
@@ -173,10 +212,12 @@ StageTimes CommandList::submit() {
   if (queries_ > 0 && queries_ < kMaxQueries) {
     vkCmdWriteTimestamp2(cb, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, as_pool(query_pool_), queries_);
     stage_names_.push_back(open_stage_);
+    command_names_.push_back(open_command_);
     ++queries_;
   }
   recording_ = false;
   open_stage_.clear();
+  open_command_.clear();
   s.submit_and_wait(cb);
   if (queries_ >= 2) {
     std::vector<uint64_t> ticks(queries_);
@@ -184,8 +225,12 @@ StageTimes CommandList::submit() {
                                 ticks.data(), sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
           "vkGetQueryPoolResults", s.info.name);
     StageTimes t;
-    for (uint32_t q = 1; q < queries_; ++q)
-      t.ms.emplace_back(stage_names_[q - 1], static_cast<double>(ticks[q] - ticks[q - 1]) * s.timestamp_period_ns * 1e-6);
+    for (uint32_t q = 1; q < queries_; ++q) {
+      const double ms = static_cast<double>(ticks[q] - ticks[q - 1]) * s.timestamp_period_ns * 1e-6;
+      t.ms.emplace_back(stage_names_[q - 1], ms);
+      // An interval a command opened is that command's (a stage's opening gap is no kernel's).
+      if (!command_names_[q - 1].empty()) t.kernels.push_back({command_names_[q - 1], ms, 1});
+    }
     times.add(t);  // merges repeated names
   }
   return times;

@@ -26,12 +26,28 @@ class Kernel {
   uint64_t pipeline = 0;               // VkPipeline
 };
 
-// GPU time per stage, in the order the stages were first opened.
+// GPU time of one kernel over a frame: its dispatches (fills and copies under "fill", "copy"),
+// each timed from its start to the next command's (its barrier included).
+struct KernelTime {
+  std::string name;
+  double ms = 0;
+  uint64_t dispatches = 0;
+};
+
+// GPU time per stage, in the order the stages were first opened; with kernel profiling
+// (kernel_profiling_enabled), also per kernel.
 struct StageTimes {
   std::vector<std::pair<std::string, double>> ms;
+  std::vector<KernelTime> kernels;  // empty without kernel profiling
   double total() const;
-  void add(const StageTimes& o);  // sums stages of the same name
+  void add(const StageTimes& o);  // sums stages (and kernels) of the same name
 };
+
+// Kernel profiling: a timestamp before every command, so StageTimes also says where each stage's
+// time goes, kernel by kernel (issue 31: Nsight Compute does not read Vulkan compute dispatches).
+// On where the environment sets PENUMBRA_GPU_PROFILE=1, read when a CommandList is made. The
+// stages' times stay what they are without it, but for the timestamps' own small cost.
+bool kernel_profiling_enabled();
 
 class CommandList {
  public:
@@ -80,12 +96,17 @@ class CommandList {
  private:
   void begin_if_needed();
   void barrier();
+  // Kernel profiling: a timestamp that closes the open interval and opens one for `command`.
+  void mark(std::string_view command);
   Device* device_;
   uint64_t command_buffer_ = 0;  // VkCommandBuffer
   uint64_t query_pool_ = 0;      // VkQueryPool
   uint32_t queries_ = 0;         // timestamps written so far
   std::vector<std::string> stage_names_;  // per timestamp after the first: the stage it closes
+  std::vector<std::string> command_names_;  // the same, the command it closes ("" none; profiling)
   std::string open_stage_;
+  std::string open_command_;
+  bool profile_ = false;
   bool recording_ = false;
 };
 

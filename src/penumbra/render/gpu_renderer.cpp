@@ -287,6 +287,11 @@ RenderResult GpuRenderer::render(const Scene& scene, const RenderSettings& setti
   gpu_ms["total"] = times_.total();
   gpu_ms["readback"] = readback_ms;
   result.gpu_ms = gpu_ms;
+  if (!times_.kernels.empty()) {
+    result.gpu_kernels = nlohmann::json::object();
+    for (const gpu::KernelTime& k : times_.kernels)
+      result.gpu_kernels[k.name] = {{"ms", k.ms}, {"dispatches", k.dispatches}};
+  }
   result.device = device_->info().name;
   result.view_sample_count = slots;  // camera rays: the GPU keeps a slot for every one
   result.total_ms = total.elapsed_ms();

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <map>
 
 #include "penumbra/core/error.h"
@@ -216,6 +217,38 @@ TEST_F(GpuFrame, HardShadowsMatch) {
     EXPECT_LE(d.v, 1e-3) << name;
     EXPECT_LE(d.color, 1e-3) << name;
   }
+}
+
+// Kernel profiling (PENUMBRA_GPU_PROFILE=1; issue 31): the frame's time kernel by kernel, the
+// same picture, the same stages, and kernels that account for the stages' time.
+TEST_F(GpuFrame, KernelProfilingSplitsTheStagesByKernel) {
+  const Scene scene = suite_scene("bunny", 48);
+  RenderSettings settings;
+  settings.method = "shadow-map";
+  const RenderResult plain = render_on(scene, settings, true);
+  EXPECT_TRUE(plain.gpu_kernels.is_null());
+  ASSERT_EQ(setenv("PENUMBRA_GPU_PROFILE", "1", 1), 0);
+  const RenderResult profiled = render_on(scene, settings, true);
+  unsetenv("PENUMBRA_GPU_PROFILE");
+  ASSERT_TRUE(profiled.gpu_kernels.is_object());
+  EXPECT_EQ(mean_abs_diff(plain.visibility, profiled.visibility), 0.0);
+  // The same stages (their times differ by the timestamps' cost and the run).
+  for (auto it = plain.gpu_ms.begin(); it != plain.gpu_ms.end(); ++it)
+    EXPECT_TRUE(profiled.gpu_ms.contains(it.key())) << it.key();
+  EXPECT_EQ(plain.gpu_ms.size(), profiled.gpu_ms.size());
+  // The shadow map's rasterizer and lookup, the frame's camera pass, each dispatched.
+  for (const char* k : {"camera_pass", "raster_setup", "raster_fill", "raster_resolve", "shadow_map_lookup", "fill"}) {
+    ASSERT_TRUE(profiled.gpu_kernels.contains(k)) << k << " in " << profiled.gpu_kernels.dump();
+    EXPECT_GE(profiled.gpu_kernels[k]["dispatches"].get<uint64_t>(), 1u) << k;
+    EXPECT_GE(profiled.gpu_kernels[k]["ms"].get<double>(), 0.0) << k;
+  }
+  // Every interval a command opens lies inside a stage: the kernels' sum is at most the frame's.
+  double sum = 0;
+  for (auto it = profiled.gpu_kernels.begin(); it != profiled.gpu_kernels.end(); ++it)
+    sum += it.value()["ms"].get<double>();
+  EXPECT_GT(sum, 0.0);
+  EXPECT_LE(sum, profiled.gpu_ms["total"].get<double>() * (1 + 1e-9));
+  EXPECT_GE(sum, 0.5 * profiled.gpu_ms["total"].get<double>());
 }
 
 TEST_F(GpuFrame, MovingObjectsOnTheGpuEqualFreshRenders) {

@@ -598,6 +598,7 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
   if (!r.map_cache.is_null()) doc["map_cache"] = r.map_cache;
   doc["device"] = r.device;
   if (!r.gpu_ms.is_null()) doc["gpu_ms"] = r.gpu_ms;
+  if (!r.gpu_kernels.is_null()) doc["gpu_kernels"] = r.gpu_kernels;
   if (!r.tracer.is_null()) doc["embree"] = r.tracer;
   return doc;
 }

@@ -105,6 +105,9 @@ struct RenderResult {
   // "readback", the host's time to copy the image back.
   std::string device = "cpu";
   nlohmann::json gpu_ms;
+  // With kernel profiling (PENUMBRA_GPU_PROFILE=1, gpu/commands.h): the GPU time of each kernel,
+  // {name: {"ms", "dispatches"}} (by name); null otherwise.
+  nlohmann::json gpu_kernels;
   // The renderer's Embree scene: RayTracer::stats_json() (its build time, bytes, BVHs and
   // instances).
   nlohmann::json tracer;
