@@ -77,14 +77,32 @@ done
 
 cat > "$tmp/gpu-bench.sh" <<'RUN'
 #!/usr/bin/env bash
-# The GPU timing run (issue 31; docs/gpu.md, "Timing on a GPU"): the devices, then every GPU
-# method against its CPU version on this machine. Results in the folder given (default: .).
-#   ./gpu-bench.sh [out-dir] [bench options...]
-set -euo pipefail
+# The GPU timing run of issue 31 (docs/gpu.md, "Timing on a GPU"), written to finish inside one
+# lease of a lent GPU machine: every step has a time limit taken from one deadline, and a step
+# that fails or hangs costs only itself. Results in the folder given (default: .):
+#   devices.txt, devices.json   `penumbra devices`
+#   smoke-M.log/.json/.png      each GPU method once on the bunny at 480x270 and 64 light samples
+#                               (its stages in the JSON): one that fails is left out of the suite
+#   suite-bunny/, suite-plant/  `bench --suite gpu`: every GPU method against its CPU version
+#   profile/                    the same GPU side once more with kernel profiling
+#                               (PENUMBRA_GPU_PROFILE=1): each frame's GPU time kernel by kernel
+#   afsm-128/, afsm-1024/       afsm and reference on the bunny at 128 and 1024 light samples, the
+#                               GPU side alone (sintorn2008's cost from 128 to 1024 samples)
+#   crt-tile-8/                 coherent-rt with 8-pixel tiles (16 times the threads), GPU side alone
+#   ot-light-S/                 occlusion-textures at light size S x (0.25 to 4), GPU side alone
+#   probe-M.log/.json           a method that failed the smoke test, once more at 128x72 and 16
+#                               light samples: slow (its time) or stuck (stopped again)
+#   steps.txt                   each step's exit status and seconds
+#   ./gpu-bench.sh [out-dir] [bench options for every bench run, e.g. --resolution 320 --runs 1]
+# PENUMBRA_BENCH_BUDGET_S (default 500) is the whole run's deadline in seconds;
+# PENUMBRA_SMOKE_RESOLUTION (default 480x270) the smoke renders' size.
+set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 out=${1:-.}
 shift || true
 mkdir -p "$out"
+out=$(cd "$out" && pwd)
+deadline=$(( $(date +%s) + ${PENUMBRA_BENCH_BUDGET_S:-500} ))
 # NVIDIA's driver installed outside the loader's search path (some containers): point at it.
 if [ -z "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" ]; then
   for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /etc/vulkan/icd.d/nvidia_icd.json \
@@ -92,10 +110,63 @@ if [ -z "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" ]; then
     if [ -f "$icd" ]; then export VK_DRIVER_FILES=$icd; break; fi
   done
 fi
-"$here/penumbra" devices | tee "$out/devices.txt"
-"$here/penumbra" devices --json > "$out/devices.json"
 cd "$here"
-./penumbra bench --suite gpu --scenes-dir scenes -o "$out" "$@"
+pen=./penumbra
+# step NAME LIMIT_S COMMAND...: runs it with its output in NAME.log, stopped at LIMIT_S or at the
+# deadline, whichever is first; skipped when under 15 s are left.
+step() {
+  local name=$1 limit=$2 left
+  shift 2
+  left=$(( deadline - $(date +%s) ))
+  if [ "$left" -lt 15 ]; then
+    echo "$name skipped (deadline)" | tee -a "$out/steps.txt"
+    return 1
+  fi
+  [ "$limit" -gt "$left" ] && limit=$left
+  local t0 rc
+  t0=$(date +%s)
+  timeout -k 5 "$limit" "$@" > "$out/$name.log" 2>&1
+  rc=$?
+  echo "$name exit $rc $(( $(date +%s) - t0 )) s (limit $limit s)" | tee -a "$out/steps.txt"
+  return $rc
+}
+"$pen" devices | tee "$out/devices.txt"
+"$pen" devices --json > "$out/devices.json"
+command -v nvidia-smi > /dev/null && nvidia-smi > "$out/nvidia-smi.txt" 2>&1
+
+# Smoke: each GPU method once, small; the suite runs those that passed.
+methods=()
+for m in $("$pen" methods | awk 'NR > 1 && $2 == "cpu," && $3 == "gpu" {print $1}'); do
+  if step "smoke-$m" 60 "$pen" render scenes/bunny.json -m "$m" --device gpu \
+       --resolution "${PENUMBRA_SMOKE_RESOLUTION:-480x270}" --spp 64 -q -o "$out/smoke-$m.png" --stats-json "$out/smoke-$m.json"; then
+    methods+=("$m")
+  fi
+done
+for m in $("$pen" methods | awk 'NR > 1 && $2 == "cpu," && $3 == "gpu" {print $1}'); do
+  case ",$(IFS=,; echo "${methods[*]}")," in *",$m,"*) continue ;; esac
+  step "probe-$m" 30 "$pen" render scenes/bunny.json -m "$m" --device gpu --resolution 128x72 --spp 16 -q \
+    -o "$out/probe-$m.png" --stats-json "$out/probe-$m.json"
+done
+list=$(IFS=,; echo "${methods[*]}")
+echo "suite methods: $list" | tee -a "$out/steps.txt"
+[ -n "$list" ] || exit 1
+
+step suite-bunny 240 "$pen" bench --suite gpu --scenes-dir scenes --scenes bunny --methods "$list" -o "$out/suite-bunny" -q "$@"
+step suite-plant 240 "$pen" bench --suite gpu --scenes-dir scenes --scenes plant --methods "$list" -o "$out/suite-plant" -q "$@"
+step profile 150 env PENUMBRA_GPU_PROFILE=1 "$pen" bench --suite gpu --no-cpu --runs 1 --warmup 1 --scenes-dir scenes \
+  --scenes bunny,plant --methods "$list" -o "$out/profile" -q "$@"
+for spp in 128 1024; do
+  step "afsm-$spp" 90 "$pen" bench --suite gpu --no-cpu --scenes-dir scenes --scenes bunny --methods reference,afsm \
+    --spp "$spp" -o "$out/afsm-$spp" -q "$@"
+done
+step crt-tile-8 90 "$pen" bench --suite gpu --no-cpu --scenes-dir scenes --scenes bunny,plant --methods coherent-rt \
+  -p coherent-rt.tile=8 -o "$out/crt-tile-8" -q "$@"
+for s in 0.25 0.5 1 2 4; do
+  step "ot-light-$s" 60 "$pen" bench --suite gpu --no-cpu --scenes-dir scenes --scenes bunny,plant \
+    --methods occlusion-textures -p "light.size_scale=$s" -o "$out/ot-light-$s" -q "$@"
+done
+
+exit 0
 RUN
 chmod +x "$tmp/gpu-bench.sh"
 rm -rf "$out"
