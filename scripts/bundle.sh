@@ -137,14 +137,14 @@ command -v nvidia-smi > /dev/null && nvidia-smi > "$out/nvidia-smi.txt" 2>&1
 # Smoke: each GPU method once, small; the suite runs those that passed.
 methods=()
 for m in $("$pen" methods | awk 'NR > 1 && $2 == "cpu," && $3 == "gpu" {print $1}'); do
-  if step "smoke-$m" 60 "$pen" render scenes/bunny.json -m "$m" --device gpu \
+  if step "smoke-$m" 30 "$pen" render scenes/bunny.json -m "$m" --device gpu \
        --resolution "${PENUMBRA_SMOKE_RESOLUTION:-480x270}" --spp 64 -q -o "$out/smoke-$m.png" --stats-json "$out/smoke-$m.json"; then
     methods+=("$m")
   fi
 done
 for m in $("$pen" methods | awk 'NR > 1 && $2 == "cpu," && $3 == "gpu" {print $1}'); do
   case ",$(IFS=,; echo "${methods[*]}")," in *",$m,"*) continue ;; esac
-  step "probe-$m" 30 "$pen" render scenes/bunny.json -m "$m" --device gpu --resolution 128x72 --spp 16 -q \
+  step "probe-$m" 20 "$pen" render scenes/bunny.json -m "$m" --device gpu --resolution 128x72 --spp 16 -q \
     -o "$out/probe-$m.png" --stats-json "$out/probe-$m.json"
 done
 list=$(IFS=,; echo "${methods[*]}")
