@@ -203,6 +203,23 @@ TEST_F(CliGpu, TheGpuBenchSuiteWithoutItsCpuSide) {
   EXPECT_NE(md.find("not run (--no-cpu)"), std::string::npos);
   EXPECT_NE(md.find("| `vsm` |"), std::string::npos);
 
+  // With kernel profiling: each frame's kernels, and the table of the costliest.
+  const fs::path profiled = dir_ / "bench-profiled";
+  const Run p = penumbra::testing::run_cli(
+      dir_,
+      fmt::format("bench --suite gpu --no-cpu --scenes-dir {}/scenes --scenes bunny --resolution 32 --spp 4 "
+                  "--runs 1 --warmup 1 --methods vsm -o {} -q",
+                  PENUMBRA_SOURCE_DIR, profiled.string()),
+      "PENUMBRA_GPU_PROFILE=1");
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  const nlohmann::json pb = nlohmann::json::parse(slurp(profiled / "bench-results.json"));
+  const nlohmann::json& pg = pb["scenes"][0]["methods"][0]["gpu"];
+  EXPECT_TRUE(pg["first_frame_kernels"].contains("raster_fill")) << pg.dump();  // the map, first frame only
+  EXPECT_FALSE(pg["kernels"].contains("raster_fill")) << pg.dump();
+  EXPECT_TRUE(pg["kernels"].contains("fm_filter")) << pg.dump();
+  EXPECT_NE(slurp(profiled / "bench-results.md").find("Kernels (PENUMBRA_GPU_PROFILE=1)"), std::string::npos);
+  EXPECT_EQ(md.find("Kernels (PENUMBRA_GPU_PROFILE=1)"), std::string::npos);  // none without it
+
   const Run other = run("bench --suite quick --no-cpu -q");
   EXPECT_NE(other.exit_code, 0);
   EXPECT_NE(other.err.find("--no-cpu"), std::string::npos) << other.err;
