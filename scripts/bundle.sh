@@ -90,6 +90,8 @@ cat > "$tmp/gpu-bench.sh" <<'RUN'
 #                               GPU side alone (sintorn2008's cost from 128 to 1024 samples)
 #   crt-tile-8/                 coherent-rt with 8-pixel tiles (16 times the threads), GPU side alone
 #   ot-light-S/                 occlusion-textures at light size S x (0.25 to 4), GPU side alone
+#   wide/                       the bunny, the 25-tree forest and the street, GPU side alone
+#                               (issue 34: what the wide scenes cost on a GPU)
 #   probe-M.log/.json           a method that failed the smoke test, once more at 128x72 and 16
 #                               light samples: slow (its time) or stuck (stopped again)
 #   steps.txt                   each step's exit status and seconds
@@ -165,6 +167,10 @@ for s in 0.25 0.5 1 2 4; do
   step "ot-light-$s" 60 "$pen" bench --suite gpu --no-cpu --scenes-dir scenes --scenes bunny,plant \
     --methods occlusion-textures -p "light.size_scale=$s" -o "$out/ot-light-$s" -q "$@"
 done
+# Issue 34's wide scenes on the GPU (last: it only informs): the forest and the street beside
+# the bunny, GPU side alone.
+step wide 120 "$pen" bench --suite gpu --no-cpu --runs 3 --scenes-dir scenes --scenes bunny,forest,street \
+  --methods "$list" -o "$out/wide" -q "$@"
 
 exit 0
 RUN
