@@ -65,7 +65,8 @@ int run_bench_cli(const BenchCliOptions& o) {
   bo.methods = expand_method_list(o.methods);
   bo.device = gpu::DeviceChoice::parse(o.device).to_string();  // a bad value fails before anything runs
   bo.params = o.params;
-  if (o.no_cpu && o.suite != "gpu") throw Error("--no-cpu: only the gpu suite has a CPU side to leave out (--suite {})", o.suite);
+  if (o.no_cpu && o.suite != "gpu")
+    throw Error("--no-cpu: only the gpu suite has a CPU side to leave out (--suite {})", o.suite);
   bo.cpu_side = !o.no_cpu;
   bo.progress = !o.quiet;
   bo.command = command_line();

@@ -182,7 +182,8 @@ json run_gpu_suite(const BenchOptions& o) {
     setups.push_back(std::move(setup));
   }
   Progress bar("bench gpu",
-               setups.size() * methods.size() * static_cast<uint64_t>(suite.warmup_runs + suite.runs + (o.cpu_side ? 2 : 0)),
+               setups.size() * methods.size() *
+                   static_cast<uint64_t>(suite.warmup_runs + suite.runs + (o.cpu_side ? 2 : 0)),
                o.progress);
   json scenes = json::array();
   for (const RunSetup& setup : setups) {
@@ -224,9 +225,9 @@ json run_gpu_suite(const BenchOptions& o) {
        {"cpu_side", o.cpu_side}},
       "gpu: GPU time of the method's stages (timestamps; shadow_ms) and of the whole frame (frame_ms, read-back "
       "apart), median of the runs (one run where the first frame took over 2 s: gpu.runs), first_frame_ms: the "
-      "stages of the first frame, which pays what later ones reuse, stats: the method's counters; cpu: the same method on this machine's cores once, shadow_ms = total - camera "
-      "pass - compose, at half the width and height where the whole frame would take over 10 s; cpu_over_gpu: "
-      "the ratio of the shadow times per pixel",
+      "stages of the first frame, which pays what later ones reuse, stats: the method's counters; cpu: the same "
+      "method on this machine's cores once, shadow_ms = total - camera pass - compose, at half the width and "
+      "height where the whole frame would take over 10 s; cpu_over_gpu: the ratio of the shadow times per pixel",
       methods, started, wall.elapsed_ms(), scenes);
   out["device"] = {{"name", info.name}, {"type", info.type}, {"driver", info.driver}, {"vulkan", info.api_version},
                    {"memory_bytes", info.memory_bytes}, {"subgroup_size", info.subgroup_size}};
@@ -276,8 +277,11 @@ std::string gpu_bench_markdown(const json& r) {
                        (g.value("runs", 0) == 1 && st.value("runs", 0) > 1 ? "†" : "")
                  : "—")
          << " | "
-         << (c.empty() ? "—" : format_significant(c.value("shadow_ms", 0.0), 3) + " ms" + (c.value("reduced", false) ? "*" : ""))
-         << " | " << (m.contains("cpu_over_gpu") ? format_significant(m["cpu_over_gpu"].get<double>(), 3) + "×" : "—")
+         << (c.empty() ? "—"
+                       : format_significant(c.value("shadow_ms", 0.0), 3) + " ms" +
+                             (c.value("reduced", false) ? "*" : ""))
+         << " | "
+         << (m.contains("cpu_over_gpu") ? format_significant(m["cpu_over_gpu"].get<double>(), 3) + "×" : "—")
          << " | "
          << (g.contains("rays_per_s") ? format_significant(g["rays_per_s"].get<double>() / 1e6, 3) + " M" : "—")
          << " |\n";

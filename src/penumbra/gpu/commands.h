@@ -45,8 +45,8 @@ struct StageTimes {
 
 // Kernel profiling: a timestamp before every command, so StageTimes also says where each stage's
 // time goes, kernel by kernel (issue 31: Nsight Compute does not read Vulkan compute dispatches).
-// On where the environment sets PENUMBRA_GPU_PROFILE=1, read when a CommandList is made. The
-// stages' times stay what they are without it, but for the timestamps' own small cost.
+// On when the environment holds PENUMBRA_GPU_PROFILE=1 as a CommandList is made. The stages'
+// times stay what they are without it, but for the timestamps' own small cost.
 bool kernel_profiling_enabled();
 
 class CommandList {
