@@ -193,6 +193,16 @@ def test_render_on_the_gpu_gives_the_cpus_picture(tmp_path):
                     "-o", str(out), "-q"], check=True)
     r = penumbra.render(scene, "reference", spp=8, seed=2, device="gpu")
     assert np.array_equal(r.visibility, penumbra.read_exr(str(out), "V"))
+    # Kernel profiling (PENUMBRA_GPU_PROFILE=1, read as the render starts): each kernel's GPU time.
+    assert "gpu_kernels" not in r.stats
+    os.environ["PENUMBRA_GPU_PROFILE"] = "1"
+    try:
+        profiled = penumbra.render(scene, "reference", spp=8, seed=2, device="gpu")
+    finally:
+        del os.environ["PENUMBRA_GPU_PROFILE"]
+    kernels = profiled.stats["gpu_kernels"]
+    assert kernels["reference_fans"]["dispatches"] >= 1 and kernels["camera_pass"]["ms"] >= 0
+    assert np.array_equal(profiled.visibility, r.visibility)
     # Bad devices and CPU-only methods: penumbra.Error with the command line's line.
     with pytest.raises(penumbra.Error, match="expected cpu, gpu or gpu:N"):
         penumbra.render(scene, "hard", device="tpu")
