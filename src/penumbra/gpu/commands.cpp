@@ -101,12 +101,7 @@ void CommandList::stage(std::string_view name) {
   }
   // Out of timestamps (one kept for submit): the open stage takes the rest.
   if (queries_ + 1 >= kMaxQueries) return;
-  vkCmdWriteTimestamp2(as_cb(command_buffer_), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, as_pool(query_pool_), queries_);
-  if (queries_ > 0) {
-    stage_names_.push_back(open_stage_);
-    command_names_.push_back(open_command_);
-  }
-  ++queries_;
+  close_interval();
   open_stage_ = std::string(name);
   open_command_.clear();
 }
@@ -115,11 +110,17 @@ void CommandList::mark(std::string_view command) {
   // Before the first stage nothing is timed (as without profiling); out of timestamps, the
   // open interval takes the rest.
   if (!profile_ || queries_ == 0 || queries_ + 1 >= kMaxQueries) return;
-  vkCmdWriteTimestamp2(as_cb(command_buffer_), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, as_pool(query_pool_), queries_);
-  stage_names_.push_back(open_stage_);
-  command_names_.push_back(open_command_);
-  ++queries_;
+  close_interval();
   open_command_ = std::string(command);
+}
+
+void CommandList::close_interval() {
+  vkCmdWriteTimestamp2(as_cb(command_buffer_), VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, as_pool(query_pool_), queries_);
+  if (queries_ > 0) {
+    stage_names_.push_back(open_stage_);
+    command_names_.push_back(open_command_);
+  }
+  ++queries_;
 }
 
 void CommandList::barrier() {
@@ -209,12 +210,7 @@ StageTimes CommandList::submit() {
   if (!recording_) return times;
   DeviceState& s = device_->state();
   VkCommandBuffer cb = as_cb(command_buffer_);
-  if (queries_ > 0 && queries_ < kMaxQueries) {
-    vkCmdWriteTimestamp2(cb, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, as_pool(query_pool_), queries_);
-    stage_names_.push_back(open_stage_);
-    command_names_.push_back(open_command_);
-    ++queries_;
-  }
+  if (queries_ > 0 && queries_ < kMaxQueries) close_interval();
   recording_ = false;
   open_stage_.clear();
   open_command_.clear();

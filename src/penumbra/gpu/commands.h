@@ -98,6 +98,8 @@ class CommandList {
   void barrier();
   // Kernel profiling: a timestamp that closes the open interval and opens one for `command`.
   void mark(std::string_view command);
+  // A timestamp that ends the open interval (after the first), named by the open stage and command.
+  void close_interval();
   Device* device_;
   uint64_t command_buffer_ = 0;  // VkCommandBuffer
   uint64_t query_pool_ = 0;      // VkQueryPool
