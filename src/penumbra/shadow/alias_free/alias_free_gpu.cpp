@@ -4,11 +4,13 @@
 // view in compute (afsm_*_casters.comp sets up and counts texel rows: the triangle for afsm-hard,
 // its influence region for afsm; afsm_*_cover.comp walks them), and per (listed sample, caster)
 // the tests of alias_free_shared.h that the CPU version runs (afsm_hard_blocks; afsm_pair_lines
-// and afsm_above per light sample). The view is fitted on the device
+// and afsm_above per light sample; afsm per depth slab of the lists, as the CPU version: the
+// casters and cover passes once per slab, each with its own far plane). The view is fitted on the device
 // (shadow_map::fit_light_centre_view), the list buffer sized from the counting pass (grown when a
 // frame lists more entries than it holds: nothing is ever dropped). docs/methods/alias-free.md,
 // "On the GPU".
 #include <algorithm>
+#include <cstddef>
 #include <cstring>
 #include <optional>
 #include <span>
@@ -60,8 +62,7 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     casters_bounds_ = ctx.scene->bounds();
     if (range_.empty()) {
       range_ = gpu::Buffer(*frame.device, sizeof(shader::GpuReceiverRange), "afsm's receiver range");
-      view_buffer_ = gpu::Buffer(*frame.device, sizeof(shader::RasterView) + sizeof(shader::AfsmCounters),
-                                 "afsm's light view");
+      view_buffer_ = gpu::Buffer(*frame.device, kViewBufferBytes, "afsm's light view");
       capacity_ = afsm::g_test_capacity;
     }
   }
@@ -73,7 +74,8 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   // after the fit's flush, when no recorded kernel still reads the previous view.
   std::optional<LightView> fit(const ShadowContext& ctx, GpuFrame& frame) {
     // The counters add up over the frames until collect_stats().
-    if (!counting_) frame.commands->fill(view_buffer_, 0, sizeof(shader::RasterView), sizeof(shader::AfsmCounters));
+    // (The counters, and the slabs' record with its cover_rows counter.)
+    if (!counting_) frame.commands->fill(view_buffer_, 0, kCountersOffset, kViewBufferBytes - kCountersOffset);
     counting_ = true;
     std::optional<LightView> view = shadow_map::fit_light_centre_view(ctx, frame, view_, casters_bounds_, range_);
     const shader::RasterView rv = view ? view->shared() : shader::RasterView{};
@@ -102,6 +104,10 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   struct Totals {
     uint32_t listed = 0, rows = 0;
   };
+  // The view's buffer: the RasterView, the cover kernels' counters and (afsm) the depth slabs.
+  static constexpr uint64_t kCountersOffset = sizeof(shader::RasterView);
+  static constexpr uint64_t kSlabsOffset = kCountersOffset + sizeof(shader::AfsmCounters);
+  static constexpr uint64_t kViewBufferBytes = kSlabsOffset + sizeof(shader::AfsmSlabs);
 
   // The buffers both methods size the same way: per entry (`entries`) a state and a point, per
   // texel a start and a cursor, per triangle a caster record of `caster_bytes`, a row count and a
@@ -126,28 +132,35 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     p.polygons = polygons_.address();
     p.triangles = triangles;
   }
-  // §3.1 and §3.2 / §4.1: the entries counted per texel and the casters' covered rows, both
-  // scanned; one flush, and the two totals read back (they size the lists and the cover pass).
-  template <class Params>
-  Totals count(GpuFrame& frame, bool has_view, uint32_t texels, Params& p, const Kernels& k) {
+  // §3.1: the entries counted per list key (`keys` of them: afsm-hard's texels, afsm's slabs ×
+  // texels) by `count_keys`, which `list_count` and the kernels between them leave in first_ and
+  // the entries' states; then scanned. Recorded, not run.
+  template <class Params, class CountKeys>
+  void record_lists(GpuFrame& frame, uint32_t keys, Params& p, const Kernels& k, CountKeys&& count_keys) {
     gpu::CommandList& cl = *frame.commands;
     cl.stage("lists");
     cl.fill(first_, 0);
     cl.fill(cursor_, 0);
     p.count = frame.slots;
     cl.dispatch(k.list_count, frame.slots, p);
-    Totals t;
-    if (!has_view) return t;  // every entry is a miss or lies behind the light
-    list_scan_.exclusive(cl, first_.address(), first_.address(), texels);
-    if (p.triangles > 0) {
-      cl.stage("casters");
-      p.count = p.triangles;
-      cl.dispatch(k.casters, p.triangles, p);
-      row_scan_.exclusive(cl, rows_.address(), rows_.address(), p.triangles);
-    }
+    count_keys();
+    if (keys > 0) list_scan_.exclusive(cl, first_.address(), first_.address(), keys);
+  }
+  // §3.2 / §4.1: each caster's coverage set up and its covered rows counted, then scanned.
+  template <class Params>
+  void record_casters(gpu::CommandList& cl, Params& p, const Kernels& k) {
+    cl.stage("casters");
+    p.count = p.triangles;
+    cl.dispatch(k.casters, p.triangles, p);
+    row_scan_.exclusive(cl, rows_.address(), rows_.address(), p.triangles);
+  }
+  // Runs what was recorded and reads back the lists' total (t.listed) and, with `rows`, the
+  // casters' (t.rows): they size the lists and the cover pass.
+  Totals read_totals(GpuFrame& frame, uint32_t keys, uint32_t triangles, bool rows) {
     frame.flush();
-    first_.download(&t.listed, 4, uint64_t{texels} * 4);
-    if (p.triangles > 0) rows_.download(&t.rows, 4, uint64_t{p.triangles} * 4);
+    Totals t;
+    first_.download(&t.listed, 4, uint64_t{keys} * 4);
+    if (rows && triangles > 0) rows_.download(&t.rows, 4, uint64_t{triangles} * 4);
     return t;
   }
   // The entries scattered into their lists (p.listed sized for t.listed), each caster over the
@@ -174,7 +187,7 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   void collect_stats() override {
     if (!counting_) return;
     shader::AfsmCounters c{};
-    view_buffer_.download(&c, sizeof(c), sizeof(shader::RasterView));
+    view_buffer_.download(&c, sizeof(c), kCountersOffset);
     counting_ = false;
     stats_.texels_visited += c.texel_visits;
     stats_.extra["texel_visits"] = c.texel_visits;
@@ -218,7 +231,12 @@ class AliasFreeHardGpu final : public AliasFreeGpuBase {
     p.light_center = light.center;
     p.light_n = light.frame.n;
     // §3.1: the samples per texel; §3.2: the casters' covered rows.
-    const Totals t = count(frame, view.has_value(), texels, p, kKernels);
+    Totals t;
+    record_lists(frame, texels, p, kKernels, [] {});
+    if (view) {
+      if (triangles > 0) record_casters(*frame.commands, p, kKernels);
+      t = read_totals(frame, texels, triangles, true);
+    }
     grow_lists(device, t.listed, frame.slots, sizeof(AfsmListed));  // a view sample is listed once
     p.listed = listed_.address();
     // §3.3: each caster over the lists of the texels it touches.
@@ -250,7 +268,9 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   tally.add(q.triangles * (sizeof(AfsmHardCaster) + sizeof(uint32_t) + kPolygonVertices * sizeof(Vec2f)) +
                 sizeof(uint32_t) + gpu::GpuScan::scratch_bytes(q.triangles),
             kTrianglesSetting);
-  tally.add(sizeof(shader::GpuReceiverRange) + sizeof(shader::RasterView) + sizeof(shader::AfsmCounters), "resolution");
+  tally.add(sizeof(shader::GpuReceiverRange) + sizeof(shader::RasterView) + sizeof(shader::AfsmCounters) +
+                sizeof(shader::AfsmSlabs),
+            "resolution");
   return tally.estimate();
 }
 
@@ -268,7 +288,13 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
   explicit AliasFreeSoftGpu(const ParamSet& p)
       : AliasFreeGpuBase(p),
         jitter_(p.get_bool("jitter")),
-        lut_bins_(p.get_bool("lut") ? p.get_int("lut_resolution") : 0) {}
+        lut_bins_(p.get_bool("lut") ? p.get_int("lut_resolution") : 0),
+        slabs_(slab_count(p)) {}
+
+  // The depth slabs a frame cuts its lists into (`slabs`, at most kAfsmMaxSlabs).
+  static uint32_t slab_count(const ParamSet& p) {
+    return static_cast<uint32_t>(std::clamp<int64_t>(p.get_int("slabs"), 1, shader::kAfsmMaxSlabs));
+  }
 
   void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
     const AreaLight& light = *ctx.light;
@@ -287,24 +313,55 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     const uint32_t texels = view ? static_cast<uint32_t>(view->width() * view->height()) : 0;
     const uint32_t triangles = view ? static_cast<uint32_t>(frame.scene->triangle_count()) : 0;
     const uint32_t entries = 2 * frame.slots;  // a split sample is listed once per side
+    const uint32_t keys = slabs_ * texels;     // a list per (depth slab, texel)
     static constexpr Kernels kKernels{"afsm_soft_list_count", "afsm_soft_casters", "afsm_soft_list_scatter",
                                       "afsm_soft_cover",      "raster",            "afsm_soft_resolve"};
     shader::AfsmSoftParams p{};
-    ensure_common(device, entries, texels, triangles, sizeof(AfsmSoftCaster), shader::kAfsmRegionVertices, p);
+    ensure_common(device, entries, keys, triangles, sizeof(AfsmSoftCaster), shader::kAfsmRegionVertices, p);
     p.scene = frame.scene->address();
     p.samples = frame.view_samples;
     p.visibility = out.visibility;
     p.light = light_.address();
-    // §3.1: the entries per texel; §4.1: the casters' influence regions and their covered rows.
-    const Totals t = count(frame, view.has_value(), texels, p, kKernels);
+    p.slabs = slabs_;
+    gpu::CommandList& cl = *frame.commands;
+    // §3.1: the entries per texel, their depths' histogram, the slabs cut from it (equal counts, as
+    // the CPU's split_by_depth), then the entries per (slab, texel) and each slab's far plane.
+    cl.fill(view_buffer_, 0, kSlabsOffset + offsetof(shader::AfsmSlabs, far_bits),
+            sizeof(shader::AfsmSlabs) - offsetof(shader::AfsmSlabs, far_bits));
+    record_lists(frame, keys, p, kKernels, [&] {
+      if (!view) return;
+      cl.dispatch("afsm_soft_slabs", 256, p);
+      cl.dispatch("afsm_soft_list_key", frame.slots, p);
+    });
+    if (view) cl.dispatch("afsm_soft_slab_bounds", uint64_t{slabs_} * view->height(), p);
+    Totals t;
+    if (view) t = read_totals(frame, keys, triangles, false);
     grow_lists(device, t.listed, entries, sizeof(AfsmSoftListed));
     gpu::ensure_buffer(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
     p.listed = listed_.address();
     p.masks = masks_.address();
-    // §4.2: each caster's masks over the lists of its region.
-    cover(frame, t, p, kKernels);
+    if (t.listed > 0) {
+      cl.stage("lists");
+      p.count = frame.slots;
+      cl.dispatch(kKernels.list_scatter, frame.slots, p);
+      // Per slab, §4.1: the casters' influence regions on its far plane and their covered rows;
+      // §4.2: each caster's masks over the slab's lists in its region. The masks are per list
+      // position, so they gather over the slabs' passes; the cover pass is as long as the rows
+      // the GPU counted (an indirect dispatch: no read-back per slab).
+      for (uint32_t slab = 0; slab < slabs_ && triangles > 0; ++slab) {
+        p.slab = slab;
+        record_casters(cl, p, kKernels);
+        cl.dispatch("afsm_soft_cover_args", 1, p);
+        cl.stage(kKernels.cover_stage);
+        cl.dispatch_indirect(kKernels.cover, view_buffer_, kSlabsOffset + offsetof(shader::AfsmSlabs, cover_groups_x), p);
+      }
+    }
+    cl.stage("resolve");
+    p.count = frame.slots;
+    cl.dispatch(kKernels.resolve, frame.slots, p);
     report_view(view, t);
     stats_.extra["light_samples"] = n;
+    stats_.extra["depth_slabs"] = slabs_;
     uint64_t bytes = 0;
     for (const gpu::Buffer* b : {&range_, &view_buffer_, &listed_, &light_, &state_, &points_, &first_, &cursor_,
                                  &casters_, &rows_, &polygons_, &masks_})
@@ -356,8 +413,19 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     stats_.extra["lut_bytes"] = table.size_bytes();
   }
 
+  // The slabs' covered rows (counted on the device) join the other counters.
+  void collect_stats() override {
+    if (counting_) {
+      uint64_t rows = 0;
+      view_buffer_.download(&rows, sizeof(rows), kSlabsOffset + offsetof(shader::AfsmSlabs, cover_rows));
+      stats_.extra["cover_rows"] = rows;
+    }
+    AliasFreeGpuBase::collect_stats();
+  }
+
   bool jitter_;
   int lut_bins_;  // lut_resolution, 0 with lut=false
+  uint32_t slabs_;
   gpu::Buffer light_, masks_;
 };
 
@@ -370,8 +438,9 @@ MemoryEstimate soft_memory(const ParamSet& p, const MemoryQuery& q) {
   const ViewSize v = fitted_view_bound(p.get_int("resolution"));
   const uint64_t texels = static_cast<uint64_t>(v.width) * static_cast<uint64_t>(v.height);
   const uint64_t n = static_cast<uint64_t>(q.light_samples), words = (n + 31) / 32;
-  tally.add((2 * texels + 1) * sizeof(uint32_t) + gpu::GpuScan::scratch_bytes(texels) +
-                sizeof(shader::GpuReceiverRange) + sizeof(shader::RasterView) + sizeof(shader::AfsmCounters),
+  const uint64_t keys = texels * AliasFreeSoftGpu::slab_count(p);  // a list per (slab, texel)
+  tally.add((2 * keys + 1) * sizeof(uint32_t) + gpu::GpuScan::scratch_bytes(keys) + sizeof(shader::GpuReceiverRange) +
+                sizeof(shader::RasterView) + sizeof(shader::AfsmCounters) + sizeof(shader::AfsmSlabs),
             "resolution");
   tally.add(2 * q.view_samples * (sizeof(uint32_t) + sizeof(Vec3f) + sizeof(AfsmSoftListed)), kViewSamplesSetting);
   tally.add(2 * q.view_samples * words * sizeof(uint32_t), kLightSamplesSetting);

@@ -180,6 +180,29 @@ TEST_F(AliasFreeGpu, SoftTableAndExactTestsGiveTheSamePicture) {
   }
 }
 
+// The depth slabs (the CPU's split_by_depth: each slab's influence regions on its own far plane,
+// clipped to the rows that hold its lists) change the work, not the bits: one slab, the default 8
+// and 64 (most of them empty or one depth bin at 32² view samples) give the same picture, and 8
+// test fewer (listed sample, caster) pairs than one.
+TEST_F(AliasFreeGpu, SoftDepthSlabsChangeTheWorkNotThePicture) {
+  const Scene scene = testing::shipped_scene("bunny.json", 32);
+  std::vector<float> first;
+  uint64_t tests[3] = {};
+  int i = 0;
+  for (const char* slabs : {"slabs=1", "slabs=8", "slabs=64"}) {
+    RenderSettings settings = testing::device_settings("afsm", {"resolution=64", slabs}, true);
+    settings.light_samples = 16;
+    const RenderResult gpu = render_scene(scene, settings);
+    if (first.empty()) first = gpu.visibility.data();
+    EXPECT_EQ(gpu.visibility.data(), first) << slabs;
+    tests[i++] = gpu.stats.extra["sample_tests"].get<uint64_t>();
+    EXPECT_GT(gpu.stats.extra["cover_rows"].get<uint64_t>(), 0u) << slabs;
+  }
+  std::printf("afsm pair tests with 1, 8, 64 slabs: %llu, %llu, %llu\n", static_cast<unsigned long long>(tests[0]),
+              static_cast<unsigned long long>(tests[1]), static_cast<unsigned long long>(tests[2]));
+  EXPECT_LT(tests[1], tests[0]);
+}
+
 // A crop window (fewer view-sample slots than pixels) and two progressive frames (afsm: new light
 // samples per frame; the instance's buffers reused by the second): the CPU's pictures.
 TEST_F(AliasFreeGpu, CropAndProgressiveFramesGiveTheCpuPictures) {

@@ -226,8 +226,7 @@ struct AfsmHardParams {
 //   bytes  0-11 c (centre), 12-15 n (light samples, <= 1024)
 //   bytes 16-27 ls,         28-31 words (uint words of a mask: (n + 31) / 32)
 //   bytes 32-43 lt,         44-47 max_distance2 (PlaneMaskLut::max_distance2)
-//   bytes 48-59 axis (the view's forward), 60-63 far (raster_order_bits of the farthest listed
-//               depth; written by afsm_soft_list_count)
+//   bytes 48-59 axis (the view's forward), 60-63 pad0 (the far planes are AfsmSlabs')
 //   bytes 64-79 lo.x lo.y hi.x hi.y: the bounding box of the samples' local coordinates
 //   bytes 80-83 max_distance (PlaneMaskLut::max_distance), 84-87 angle_bins, 88-91 distance_bins
 //               (0: no table, every light sample tested exactly: lut=false), 92-95 pad
@@ -241,7 +240,7 @@ struct AfsmSoftLight {
   vec3 lt;
   float max_distance2;
   vec3 axis;
-  uint far_bits;
+  uint pad0;
   float lo_x;
   float lo_y;
   float hi_x;
@@ -284,10 +283,40 @@ struct AfsmSoftListed {
   uint ignored;
 };
 
+// afsm's depth slabs (the CPU's split_by_depth, texel_lists.h): the list entries cut into up to
+// kAfsmMaxSlabs slabs of about equal count by depth from the light, each slab's influence regions
+// ending at its own farthest entry (sintorn2008 §4.3's far plane, per slab: smaller regions, the
+// same masks). The slabs are cut at the bins of a histogram of the entries' depths, kAfsmDepthBins
+// bins uniform in log depth over the fitted view's [near, far] (afsm_depth_bin).
+PN_CONST uint kAfsmMaxSlabs = 64u;
+PN_CONST uint kAfsmDepthBins = 1024u;
+
+// The slabs' record, 5400 bytes, after the AfsmCounters in the view's buffer (bytes 176-5575):
+//   bytes  0-11 the cover pass's indirect dispatch (x, y, z groups; afsm_soft_cover_args),
+//          12-15 pad, 16-23 cover_rows (covered rows over the slabs: a counter, as AfsmCounters)
+//   bytes 24-279 far_bits: per slab the bits of its farthest listed depth (afsm_soft_list_key)
+//   bytes 280-1303 box: per slab the texels holding its lists (afsm_soft_slab_bounds), 4 uints:
+//          ~x_min, ~y_min, x_max + 1, y_max + 1 (raised by atomicMax from 0: 0 0 0 0 is empty)
+//   then uint slab_of_bin[kAfsmDepthBins]: the bin's entries (afsm_soft_list_count), then the
+//   bin's slab (afsm_soft_slabs). From far_bits on it is cleared each frame.
+struct AfsmSlabs {
+  uint cover_groups_x;
+  uint cover_groups_y;
+  uint cover_groups_z;
+  uint pad;
+  uint64_t cover_rows;
+  uint far_bits[kAfsmMaxSlabs];
+  uint box[4u * kAfsmMaxSlabs];
+  uint slab_of_bin[kAfsmDepthBins];
+};
+
 // What afsm's kernels read and write, 128 bytes.
-//   light     AfsmSoftLight + samples  state  uint[2 slots]: per entry (front, back) of a slot
+//   light     AfsmSoftLight + samples  state  uint[2 slots]: per entry (front, back) of a slot: its
+//             texel, its key (slab × texels + texel), then its list position, or a kAfsm* code
 //   points    vec3[2 slots]            masks  uint[capacity * words]
-//   casters   AfsmSoftCaster[triangles], rows uint[triangles + 1], polygons vec2[12 triangles];
+//   first     uint[slabs × texels + 1]: counts per key, then (scan) each key's first position
+//   casters   AfsmSoftCaster[triangles], rows uint[triangles + 1], polygons vec2[12 triangles]:
+//             one slab's at a time (slab: the one the casters and cover kernels run for)
 //   others as AfsmHardParams
 struct AfsmSoftParams {
   uint64_t scene;
@@ -306,6 +335,8 @@ struct AfsmSoftParams {
   uint64_t polygons;
   uint count;
   uint triangles;
+  uint slab;
+  uint slabs;
 };
 
 PN_SHARED_END

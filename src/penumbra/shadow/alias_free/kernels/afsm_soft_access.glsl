@@ -7,6 +7,19 @@
 
 layout(buffer_reference, scalar) buffer AfsmLightRef { AfsmSoftLight l; };
 layout(buffer_reference, scalar) buffer AfsmListedRef { AfsmSoftListed v[]; };
+layout(buffer_reference, scalar) buffer AfsmSlabsRef { AfsmSlabs s; };
+
+// The slabs' record in the view's buffer: after its RasterView (160 bytes) and AfsmCounters (16).
+AfsmSlabsRef afsm_slabs(uint64_t view) { return AfsmSlabsRef(view + 176ul); }
+
+// The histogram bin of a listed depth z (a linear depth in the fitted view, >= near): uniform in
+// log depth over [near, far], clamped (listed points lie off the receivers by their ray offset).
+uint afsm_depth_bin(float near, float far, float z) {
+  float span = log(far / near);
+  if (!(span > 1e-6f)) return 0u;
+  float t = log(max(z, near) / near) / span;
+  return min(uint(max(t, 0.0f) * float(kAfsmDepthBins)), kAfsmDepthBins - 1u);
+}
 
 // Light sample k's local coordinates u_k and world point (LightSamples::local, ::points).
 vec2 afsm_local(uint64_t light, uint k) { return Vec2s(light + 96ul).v[k]; }

@@ -1,8 +1,9 @@
 #version 460
 // afsm on the GPU, sintorn2008 §4.1 (alias_free.cpp AliasFreeSoft::evaluate, "casters" and
-// "regions"; influence_region.cpp): one thread per input triangle. A triangle that can block
-// light (opacity > 0, some vertex in front of the light's sample plane, nearer than the farthest
-// listed sample) gets its influence region on the far plane at the farthest listed sample: the
+// "regions"; influence_region.cpp): one thread per input triangle, for one depth slab (pc.p.slab).
+// A triangle that can block light (opacity > 0, some vertex in front of the light's sample plane,
+// nearer than the slab's farthest listed sample) gets its influence region on the slab's far plane
+// (§4.3, per slab as the CPU's split_by_depth): the
 // light samples' bounding rectangle projected through each vertex onto that plane, into the
 // light's image. Every view sample the triangle can shadow from a light sample projects into its
 // convex hull (gpu/raster/conservative_cover.glsl), stored for the cover pass. A region that does not close (a vertex at or behind the light's plane, or stretched
@@ -30,10 +31,11 @@ void main() {
   vec3 v[3];
   raster_vertices(object, prim, v[0], v[1], v[2]);
   AfsmSoftLight light = AfsmLightRef(pc.p.light).l;
-  float far_depth = uintBitsToFloat(light.far_bits) * (1.0f + 1e-4f) + 1e-6f;
+  // (An empty slab's far bits are 0: every caster is deeper, none is kept.)
+  float far_depth = uintBitsToFloat(afsm_slabs(pc.p.view).s.far_bits[pc.p.slab]) * (1.0f + 1e-4f) + 1e-6f;
   float z[3];
   for (int k = 0; k < 3; ++k) z[k] = dot(v[k] - light.c, light.axis);
-  // Entirely behind the light's sample plane, or deeper than every listed sample: blocks none.
+  // Entirely behind the light's sample plane, or deeper than every listed sample of the slab: blocks none.
   if (z[0] <= 0.0f && z[1] <= 0.0f && z[2] <= 0.0f) return;
   if (!(min(z[0], min(z[1], z[2])) < far_depth)) return;
   RasterView view = RasterViewRef(pc.p.view).v;
@@ -79,6 +81,29 @@ void main() {
     }
     if (!conservative_box(x0, x1, y0, y1, view.width, view.height, kAfsmCoverSlack, ix0, ix1, iy0, iy1)) return;
   }
+  // Only the texels that hold the slab's lists (the CPU's `restrict`, by the slab's bounding box).
+  AfsmSlabsRef slabs = afsm_slabs(pc.p.view);
+  uint b = 4u * pc.p.slab;
+  ix0 = max(ix0, int(~slabs.s.box[b]));
+  iy0 = max(iy0, int(~slabs.s.box[b + 1u]));
+  ix1 = min(ix1, int(slabs.s.box[b + 2u]));
+  iy1 = min(iy1, int(slabs.s.box[b + 3u]));
+  if (ix0 >= ix1 || iy0 >= iy1) return;
+  // and not the rows at either end whose texels [ix0, ix1) hold none of them (a slab of a tilted
+  // receiver is a band across the view: a region meets it in a few of its rows).
+  Uints first = Uints(pc.p.first);
+  uint slab_base = pc.p.slab * uint(view.width) * uint(view.height);
+  while (iy0 < iy1) {
+    uint row = slab_base + uint(iy0) * uint(view.width);
+    if (first.v[row + uint(ix0)] != first.v[row + uint(ix1)]) break;
+    ++iy0;
+  }
+  while (iy0 < iy1) {
+    uint row = slab_base + uint(iy1 - 1) * uint(view.width);
+    if (first.v[row + uint(ix0)] != first.v[row + uint(ix1)]) break;
+    --iy1;
+  }
+  if (iy0 >= iy1) return;
   for (int k = 0; k < n; ++k) polygon.v[base + uint(k)] = pts[k];
   AfsmSoftCaster c;
   c.v0 = v[0];

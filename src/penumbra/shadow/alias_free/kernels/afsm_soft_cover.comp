@@ -1,7 +1,8 @@
 #version 460
 // afsm on the GPU, sintorn2008 §4.2, Fig. 6 (alias_free.cpp AliasFreeSoft::evaluate, "raster"):
 // one thread per (caster, texel row of its influence region's hull, conservatively covered), found by a binary search in the
-// scanned row counts. For every entry listed in the row's texels, the pair's four lines on the
+// scanned row counts, for one depth slab (pc.p.slab; dispatched indirectly for the slab's rows,
+// afsm_soft_cover_args). For every entry of the slab listed in the row's texels, the pair's four lines on the
 // light (alias_free_shared.h afsm_pair_lines: the CPU's filter_pairs) and their masks, 32 light
 // samples a word: from the plane-mask table (§4.2: sure bits, the cell's unsure samples tested by
 // afsm_above; lut=false: every sample tested; the same bits), ANDed; an alpha-textured caster
@@ -21,8 +22,8 @@ layout(buffer_reference, scalar) readonly buffer CastersIn { AfsmSoftCaster v[];
 
 void main() {
   uint i = pn_thread_index();
-  if (i >= pc.p.count) return;
   Uints rows = Uints(pc.p.rows);
+  if (i >= rows.v[pc.p.triangles]) return;
   uint g = segment_of(rows, pc.p.triangles, i);
   AfsmSoftCaster k = CastersIn(pc.p.casters).v[g];
   int y = k.y0 + int(i - rows.v[g]);
@@ -39,16 +40,25 @@ void main() {
   Uints first = Uints(pc.p.first);
   Uints masks = Uints(pc.p.masks);
   AfsmListedRef listed = AfsmListedRef(pc.p.listed);
-  // The lists are stored texel by texel in row-major order: the entries of texels [x0, x1) of row
-  // y are one range of positions (and an empty range costs nothing: §4.3's empty lists).
+  // The lists are stored slab by slab, texel by texel in row-major order: the slab's entries of
+  // texels [x0, x1) of row y are one range of positions (and an empty range costs nothing: §4.3's
+  // empty lists).
   int x_lo, x_hi;
   if (!conservative_row_span(Vec2s(pc.p.polygons), g * uint(kConservativeHullPoints), int(k.count), y, k.x0, k.x1,
                              kAfsmCoverSlack, x_lo, x_hi))
     return;
-  uint row = uint(y) * uint(view.width);
+  uint row = pc.p.slab * uint(view.width) * uint(view.height) + uint(y) * uint(view.width);
   uint end = first.v[row + uint(x_hi + 1)];
   uint tests = 0u;
   for (uint pos = first.v[row + uint(x_lo)]; pos < end; ++pos) {
+    // An entry whose every light sample is already blocked is settled: no caster adds a bit (the
+    // CPU's `settled` slots). Not counted as a test, as on the CPU.
+    bool settled = true;
+    for (uint w = 0u; w < light.words && settled; ++w) {
+      uint valid = 32u * (w + 1u) <= light.n ? 0xffffffffu : (1u << (light.n - 32u * w)) - 1u;
+      settled = masks.v[pos * light.words + w] == valid;
+    }
+    if (settled) continue;
     vec3 p = listed.v[pos].p;
     ++tests;
     AfsmPairLines l;

@@ -3,8 +3,8 @@
 // "sides" and the lists' counts): one thread per view-sample slot, up to two list entries each.
 // A sample on a closed mesh is listed outward; on an open surface whose plane leaves every light
 // sample on one side, on that side; where its plane cuts the light samples (a two-sided leaf lit
-// partly from behind), once per side (the split of the CPU version). Each entry's texel is
-// counted, and the farthest listed depth kept (the influence regions' far plane, §4.3).
+// partly from behind), once per side (the split of the CPU version). Each entry's texel is kept
+// and its depth counted in the slabs' histogram (afsm_soft_slabs cuts the slabs from it).
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/raster/raster_access.glsl"
 #include "penumbra/shadow/alias_free/kernels/afsm_soft_access.glsl"
@@ -25,8 +25,7 @@ void main() {
     state.v[2u * i] = kAfsmMiss;
     return;
   }
-  AfsmLightRef lref = AfsmLightRef(pc.p.light);
-  AfsmSoftLight light = lref.l;
+  AfsmSoftLight light = AfsmLightRef(pc.p.light).l;
   if (!(dot(s.p - light.c, light.axis) > 0.0f)) {
     state.v[2u * i] = kAfsmNotListed;  // sees no light sample: V = 0
     return;
@@ -63,8 +62,7 @@ void main() {
     if (h.z >= view.near && x >= 0.0f && y >= 0.0f && x < float(view.width) && y < float(view.height)) {
       uint texel = uint(int(y)) * uint(view.width) + uint(int(x));
       state.v[entry] = texel;
-      atomicAdd(Uints(pc.p.first).v[texel], 1u);
-      atomicMax(lref.l.far_bits, floatBitsToUint(h.z));  // h.z >= near > 0: bits order as floats
+      atomicAdd(afsm_slabs(pc.p.view).s.slab_of_bin[afsm_depth_bin(view.near, view.far, h.z)], 1u);
     } else {
       state.v[entry] = kAfsmUncovered;  // not listed: lit, as outside a shadow map
     }

@@ -1,7 +1,7 @@
 #version 460
 // afsm on the GPU (alias_free.cpp AliasFreeSoft::evaluate, the scatter and "init"): one thread per
-// view-sample slot; each listed entry takes the next position of its texel's list and its mask
-// starts: one side of a split sample with the other side's light samples set (ignored: not
+// view-sample slot; each listed entry takes the next position of its key's list (its slab and
+// texel: afsm_soft_list_key) and its mask starts: one side of a split sample with the other side's light samples set (ignored: not
 // counted), a sample on a closed mesh with the light samples behind its own tangent plane set
 // (its shadow rays toward them would start inside the object), others empty.
 #include "penumbra/gpu/kernel_common.glsl"
@@ -30,9 +30,9 @@ void main() {
   vec2 g = afsm_line_g(s.ng, light.ls, light.lt);
   float h = afsm_line_h(s.ng, light.c - s.p);
   for (uint e = 0u; e < 2u; ++e) {
-    uint texel = state.v[2u * i + e];
-    if (texel >= kAfsmUncovered) continue;
-    uint pos = Uints(pc.p.first).v[texel] + atomicAdd(Uints(pc.p.cursor).v[texel], 1u);
+    uint key = state.v[2u * i + e];
+    if (key >= kAfsmUncovered) continue;
+    uint pos = Uints(pc.p.first).v[key] + atomicAdd(Uints(pc.p.cursor).v[key], 1u);
     bool front = e == 0u;  // a split sample's entries: front, then back
     uint ignored = 0u;
     for (uint w = 0u; w < light.words; ++w) {
