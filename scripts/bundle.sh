@@ -81,6 +81,9 @@ cat > "$tmp/gpu-bench.sh" <<'RUN'
 # lease of a lent GPU machine: every step has a time limit taken from one deadline, and a step
 # that fails or hangs costs only itself. Results in the folder given (default: .):
 #   devices.txt, devices.json   `penumbra devices`
+#   compile.log                 `penumbra devices --compile`: every kernel's pipeline built and
+#                               timed (a kernel the driver is slow to compile is named here; the
+#                               driver's shader cache then spares the renders that cost)
 #   smoke-M.log/.json/.png      each GPU method once on the bunny at 480x270 and 64 light samples
 #                               (its stages in the JSON): one that fails is left out of the suite
 #   suite-bunny/, suite-plant/  `bench --suite gpu`: every GPU method against its CPU version
@@ -135,6 +138,7 @@ step() {
 "$pen" devices | tee "$out/devices.txt"
 "$pen" devices --json > "$out/devices.json"
 command -v nvidia-smi > /dev/null && nvidia-smi > "$out/nvidia-smi.txt" 2>&1
+step compile 90 "$pen" devices --compile
 
 # Smoke: each GPU method once, small; the suite runs those that passed.
 methods=()

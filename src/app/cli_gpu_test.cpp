@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "penumbra/gpu/gpu_test_util.h"
+#include "penumbra/gpu/shaders.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/testing/cli_run.h"
 #include "penumbra/testing/gpu_method_runs.h"
@@ -89,6 +90,31 @@ TEST_F(CliGpu, AFailingVulkanCallIsOneLineAndWritesNothing) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(fs::exists(out));
   }
+}
+
+// `devices --compile`: every embedded kernel's pipeline built and timed, slowest first (the
+// diagnosis for a driver that takes long over one kernel); --device cpu is a one-line error.
+TEST_F(CliGpu, DevicesCompileTimesEveryKernel) {
+  Run r = run("devices --compile --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json d = nlohmann::json::parse(r.out);
+  EXPECT_EQ(d["device"], device().info().name);
+  ASSERT_EQ(d["kernels"].size(), gpu::spirv_modules().size());
+  double sum = 0, previous = d["kernels"][0]["ms"].get<double>();
+  for (const nlohmann::json& k : d["kernels"]) {
+    EXPECT_NE(gpu::find_spirv(k["kernel"].get<std::string>()), nullptr) << k;
+    EXPECT_LE(k["ms"].get<double>(), previous) << k;
+    previous = k["ms"].get<double>();
+    sum += previous;
+  }
+  EXPECT_NEAR(d["total_ms"].get<double>(), sum, 1e-6 * sum + 1e-9);
+  r = run("devices --compile");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("ssv_evaluate"), std::string::npos) << r.out;
+  r = run("devices --compile --device cpu");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--device cpu"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 }
 
 TEST_F(CliGpu, DevicesAndMethodsSayWhatRunsWhere) {
