@@ -76,7 +76,7 @@ std::vector<ParamSpec> params() {
                "weigh the PCF box's texels by where the receiver falls between texel centres (a depth-compare "
                "sampler's linear filtering: at pcf = 0 the 2 x 2 texels around it); false: whole texels (pcf = 0: "
                "the one texel it falls in, a binary hard shadow)"});
-  for (ParamSpec& s : partitions::param_specs()) p.push_back(std::move(s));
+  for (ParamSpec& s : partitions::param_specs(8, partitions::kResolvingDensity)) p.push_back(std::move(s));
   return p;
 }
 

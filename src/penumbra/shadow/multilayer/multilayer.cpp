@@ -250,14 +250,14 @@ std::vector<ParamSpec> common_specs() {
 
 std::vector<ParamSpec> mlsm_specs() {
   std::vector<ParamSpec> s = common_specs();
-  for (ParamSpec& p : partitions::param_specs()) s.push_back(std::move(p));
+  for (ParamSpec& p : partitions::param_specs(8, partitions::kResolvingDensity)) s.push_back(std::move(p));
   s.push_back({"layers", ParamType::Int, 5, "k: nearest distinct surfaces kept per texel (xie2007 §4.2)", {}, 1, 255});
   return s;
 }
 
 std::vector<ParamSpec> mtsm_specs() {
   std::vector<ParamSpec> s = common_specs();
-  for (ParamSpec& p : partitions::param_specs()) s.push_back(std::move(p));
+  for (ParamSpec& p : partitions::param_specs(8, partitions::kResolvingDensity)) s.push_back(std::move(p));
   s.push_back({"resets", ParamType::Int, 4,
                "times a texel's accumulated visibility may reach 0 and restart at 1 (xie2007 §5.1): layers behind an "
                "opaque run; on opaque scenes resets + 1 plays the role of mlsm's layers",

@@ -11,14 +11,14 @@
 
 namespace penumbra::partitions {
 
-std::vector<ParamSpec> param_specs(int default_partitions) {
+std::vector<ParamSpec> param_specs(int default_partitions, double default_density) {
   return {
       {"partitions", ParamType::Int, default_partitions,
        "most light-space partitions a side (1, 2, 4, 8, 16): where more caster triangles project into a part of the "
        "fitted view than partition_density x the map's texels, the view samples are split there and each part gets a "
        "map fitted to it alone (penumbra's addition, after sample distribution shadow maps; 1 = one map)",
        {}, 1, 16},
-      {"partition_density", ParamType::Float, 0.25,
+      {"partition_density", ParamType::Float, default_density,
        "caster triangles per map texel above which a light-space partition splits in four (0 = always split to "
        "`partitions`)",
        {}, 0.0, 1e6},

@@ -215,11 +215,18 @@ TEST(LightPartitions, APartitionedShadowMapIsCloserToTheExactHardShadowWhereTheV
 }
 
 TEST(LightPartitions, NothingIsSplitWhereOneMapHoldsTheCasters) {
-  // The bunny: 70 k triangles against 1-4 M texels.
+  // The bunny: 70 k triangles against 1-4 M texels at each method's partition density (1/16 for
+  // shadow-map, mlsm and mtsm, 0.25 for pcss): one 2048² map holds them at 1/16, one 1024² map at
+  // 0.25; at 1/16 a 1024² map (65,536 triangles) does not, and the multilayer maps split.
   const Scene bunny = testing::shipped_scene("bunny.json", 32);
   for (const char* method : {"shadow-map", "pcss", "mlsm", "mtsm"}) {
-    const RenderResult r = render_scene(bunny, cpu_settings(method, {}));
+    const bool multilayer = std::string_view(method) == "mlsm" || std::string_view(method) == "mtsm";
+    std::vector<std::string> params;
+    if (multilayer) params.push_back("resolution=2048");
+    const RenderResult r = render_scene(bunny, cpu_settings(method, params));
     EXPECT_EQ(r.stats.extra.value("partitions", 0), 1) << method;
+    if (multilayer)
+      EXPECT_GT(render_scene(bunny, cpu_settings(method, {})).stats.extra.value("partitions", 0), 1) << method;
   }
 }
 
