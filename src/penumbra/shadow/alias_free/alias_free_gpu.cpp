@@ -313,7 +313,11 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     const uint32_t texels = view ? static_cast<uint32_t>(view->width() * view->height()) : 0;
     const uint32_t triangles = view ? static_cast<uint32_t>(frame.scene->triangle_count()) : 0;
     const uint32_t entries = 2 * frame.slots;  // a split sample is listed once per side
-    const uint32_t keys = slabs_ * texels;     // a list per (depth slab, texel)
+    // A list per (depth slab, texel); keys stay below the entry states' codes (64 slabs of an
+    // 8192² view would not: fewer slabs change the work, never the result).
+    const uint32_t slabs = static_cast<uint32_t>(
+        std::min<uint64_t>(slabs_, (uint64_t{shader::kAfsmUncovered} - 1) / std::max<uint32_t>(texels, 1)));
+    const uint32_t keys = slabs * texels;
     static constexpr Kernels kKernels{"afsm_soft_list_count", "afsm_soft_casters", "afsm_soft_list_scatter",
                                       "afsm_soft_cover",      "raster",            "afsm_soft_resolve"};
     shader::AfsmSoftParams p{};
@@ -322,7 +326,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     p.samples = frame.view_samples;
     p.visibility = out.visibility;
     p.light = light_.address();
-    p.slabs = slabs_;
+    p.slabs = slabs;
     gpu::CommandList& cl = *frame.commands;
     // §3.1: the entries per texel, their depths' histogram, the slabs cut from it (equal counts, as
     // the CPU's split_by_depth), then the entries per (slab, texel) and each slab's far plane.
@@ -333,7 +337,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
       cl.dispatch("afsm_soft_slabs", 256, p);
       cl.dispatch("afsm_soft_list_key", frame.slots, p);
     });
-    if (view) cl.dispatch("afsm_soft_slab_bounds", uint64_t{slabs_} * view->height(), p);
+    if (view) cl.dispatch("afsm_soft_slab_bounds", uint64_t{slabs} * view->height(), p);
     Totals t;
     if (view) t = read_totals(frame, keys, triangles, false);
     grow_lists(device, t.listed, entries, sizeof(AfsmSoftListed));
@@ -348,7 +352,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
       // §4.2: each caster's masks over the slab's lists in its region. The masks are per list
       // position, so they gather over the slabs' passes; the cover pass is as long as the rows
       // the GPU counted (an indirect dispatch: no read-back per slab).
-      for (uint32_t slab = 0; slab < slabs_ && triangles > 0; ++slab) {
+      for (uint32_t slab = 0; slab < slabs && triangles > 0; ++slab) {
         p.slab = slab;
         record_casters(cl, p, kKernels);
         cl.dispatch("afsm_soft_cover_args", 1, p);
@@ -361,7 +365,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     cl.dispatch(kKernels.resolve, frame.slots, p);
     report_view(view, t);
     stats_.extra["light_samples"] = n;
-    stats_.extra["depth_slabs"] = slabs_;
+    stats_.extra["depth_slabs"] = slabs;
     uint64_t bytes = 0;
     for (const gpu::Buffer* b : {&range_, &view_buffer_, &listed_, &light_, &state_, &points_, &first_, &cursor_,
                                  &casters_, &rows_, &polygons_, &masks_})
