@@ -34,7 +34,7 @@ const MethodRegistration registration({
     "exponential variance shadow maps (Lauritzen & McCool 2008), 2 or 4 components, prefiltered, light-bleeding "
     "reduction, contact hardening from a moment blocker search",
     params(),
-    [](const ParamSet& p) { return std::make_unique<FilteredMomentShadows>(p, make_moment_model("evsm", p)); },
+    [](const ParamSet& p) { return make_filtered_moment_method("evsm", p); },
     /*samples_light=*/false,
     [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, moment_channels("evsm", p)); },
     // Not tile-exact: the depth map is fitted to the rendered view samples (as shadow-map's).

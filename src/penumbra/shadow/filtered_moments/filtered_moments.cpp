@@ -9,8 +9,15 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/raster/shadow_view.h"
+#include "penumbra/shadow/filtered_moments/models.h"
+#include "penumbra/shadow/partitions/light_partitions.h"
 
 namespace penumbra::filtered_moments {
+
+// The view samples' rule of the light-space partitions (partition_receivers) by default: off. A
+// filtered map's point is one map and its prefilter for a frame; where only the camera's samples
+// are dense (a single object seen from near) more maps would each pay the prefilter.
+constexpr double kFilteredReceivers = 0.0;
 
 void FilteredMomentMap::build(const DepthMap& map, const MomentModel& model, Prefilter prefilter) {
   prefilter_ = prefilter;
@@ -135,7 +142,7 @@ shader::FmShadeBlock shade_block(const CoreParams& params, const AreaLight& ligh
 }
 
 std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter default_prefilter) {
-  return {
+  std::vector<ParamSpec> specs = {
       {"resolution", ParamType::Int, default_resolution,
        "texels along the longer side of the depth map (fitted to the receivers, as shadow-map's)", {}, 16, 8192},
       {"max_fov", ParamType::Float, 120.0,
@@ -153,6 +160,11 @@ std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter defaul
       {"bias", ParamType::Float, 2e-3, "depth bias, world units of linear depth, subtracted from the receiver's depth",
        {}, 0, 1e30},
   };
+  // A filtered map samples its casters (four texels a caster triangle, as pcss's) and splits only
+  // where they are dense: the view samples' rule is off by default (kFilteredReceivers).
+  for (ParamSpec& s : partitions::param_specs(8, partitions::kSamplingDensity, kFilteredReceivers))
+    specs.push_back(std::move(s));
+  return specs;
 }
 
 CoreParams core_params(const ParamSet& p) {
@@ -173,7 +185,13 @@ MemoryEstimate core_memory(const ParamSet& p, const MemoryQuery& q, int channels
   shadow_map::add_map_memory(tally, c.view.resolution, q);
   const ViewSize v = fitted_view_bound(c.view.resolution);
   tally.add(FilteredMomentMap::bytes(v.width, v.height, channels, c.prefilter), "resolution");
+  partitions::add_memory(tally, p, q);
   return tally.estimate();
+}
+
+std::unique_ptr<ShadowMethod> make_filtered_moment_method(const std::string& name, const ParamSet& p) {
+  return partitions::wrap(std::make_unique<FilteredMomentShadows>(p, make_moment_model(name, p)), p,
+                          p.get_int("resolution"));
 }
 
 FilteredMomentShadows::FilteredMomentShadows(const ParamSet& p, std::unique_ptr<MomentModel> model)

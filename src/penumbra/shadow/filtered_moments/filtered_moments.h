@@ -121,11 +121,15 @@ struct CoreParams {
   float bias = 1e-3f;     // world units of linear depth
 };
 
-// The parameter table entries of the core, and their values.
+// The parameter table entries of the core (the light-space partitions' among them), and their values.
 std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter default_prefilter);
 CoreParams core_params(const ParamSet& p);
-// One instance's memory: the depth map (shadow_map::add_map_memory) and the moments.
+// One instance's memory: the depth map (shadow_map::add_map_memory), the moments and the
+// partitions' wrapper.
 MemoryEstimate core_memory(const ParamSet& p, const MemoryQuery& q, int channels);
+// The method `name` (vsm, evsm, msm) with its parameters: the core with its moment model, split
+// into light-space partitions where the casters are dense (partitions::wrap; issue 34).
+std::unique_ptr<ShadowMethod> make_filtered_moment_method(const std::string& name, const ParamSet& p);
 
 // What every lookup of the map `map` (its view and z_min) and `light` reads (both devices).
 shader::FmShadeBlock shade_block(const CoreParams& params, const AreaLight& light, const shader::ShadowMapView& map);

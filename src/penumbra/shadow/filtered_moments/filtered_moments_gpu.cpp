@@ -12,6 +12,7 @@
 #include "penumbra/shadow/filtered_moments/filtered_moments_kernels_shared.h"
 #include "penumbra/shadow/filtered_moments/models.h"
 #include "penumbra/shadow/gpu_method.h"
+#include "penumbra/shadow/partitions/light_partitions_gpu.h"
 #include "penumbra/shadow/shadow_map_common_gpu.h"
 
 namespace penumbra::filtered_moments {
@@ -89,6 +90,7 @@ class FilteredMomentsGpu final : public GpuShadowMethod {
     tally.add(sizeof(shader::FmModel) + sizeof(shader::FmShadeBlock) + sizeof(shader::FmDepthRange) +
                   sizeof(shader::FmDepthBits) + sizeof(shader::FmMapRecord),
               "resolution");
+    partitions::add_gpu_memory(tally, p, q);
     return tally.estimate();
   }
 
@@ -155,7 +157,10 @@ class FilteredMomentsGpu final : public GpuShadowMethod {
 
 GpuMethodInfo gpu_method(const std::string& name) {
   return {name,
-          [name](const ParamSet& p) { return std::make_unique<FilteredMomentsGpu>(p, make_moment_model(name, p)); },
+          [name](const ParamSet& p) {
+            return partitions::wrap_gpu(std::make_unique<FilteredMomentsGpu>(p, make_moment_model(name, p)), p,
+                                        p.get_int("resolution"));
+          },
           [name](const ParamSet& p, const MemoryQuery& q) {
             return FilteredMomentsGpu::memory(p, q, moment_channels(name, p));
           }};

@@ -28,7 +28,7 @@ const MethodRegistration registration({
     "moment shadow maps (Peters & Klein 2015, Hamburger 4MSM, optimized 16-bit quantisation) with the moment "
     "blocker search of moment soft shadows (Peters et al. 2016), prefiltered",
     params(),
-    [](const ParamSet& p) { return std::make_unique<FilteredMomentShadows>(p, make_moment_model("msm", p)); },
+    [](const ParamSet& p) { return make_filtered_moment_method("msm", p); },
     /*samples_light=*/false,
     [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, moment_channels("msm", p)); },
     // Not tile-exact: the depth map is fitted to the rendered view samples (as shadow-map's).

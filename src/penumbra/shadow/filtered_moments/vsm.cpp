@@ -20,7 +20,7 @@ const MethodRegistration registration({
     "variance shadow maps (Donnelly & Lauritzen 2006), summed-area prefiltered, light-bleeding reduction, "
     "contact hardening from a moment blocker search",
     params(),
-    [](const ParamSet& p) { return std::make_unique<FilteredMomentShadows>(p, make_moment_model("vsm", p)); },
+    [](const ParamSet& p) { return make_filtered_moment_method("vsm", p); },
     /*samples_light=*/false,
     [](const ParamSet& p, const MemoryQuery& q) { return core_memory(p, q, moment_channels("vsm", p)); },
     // Not tile-exact: the depth map is fitted to the rendered view samples (as shadow-map's

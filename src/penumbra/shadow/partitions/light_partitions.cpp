@@ -11,7 +11,7 @@
 
 namespace penumbra::partitions {
 
-std::vector<ParamSpec> param_specs(int default_partitions, double default_density) {
+std::vector<ParamSpec> param_specs(int default_partitions, double default_density, double default_receivers) {
   return {
       {"partitions", ParamType::Int, default_partitions,
        "most light-space partitions a side (1, 2, 4, 8, 16): where more caster triangles project into a part of the "
@@ -22,7 +22,7 @@ std::vector<ParamSpec> param_specs(int default_partitions, double default_densit
        "caster triangles per map texel above which a light-space partition splits in four (0 = always split to "
        "`partitions`)",
        {}, 0.0, 1e6},
-      {"partition_receivers", ParamType::Float, 1.0,
+      {"partition_receivers", ParamType::Float, default_receivers,
        "view samples per map texel, in the densest part of a light-space partition, above which it splits in four "
        "(where the camera sees that part from near: sample distribution shadow maps' rule; 0 = off: only the "
        "casters split)",

@@ -26,7 +26,7 @@
 // (where every method counts them lit) still has something to fit to.
 //
 // The wrapper serves any method that fits its light-space structures to the view samples it is
-// given (shadow-map, pcss, mlsm, mtsm, multi-view-sm); the GPU version
+// given (shadow-map, pcss, mlsm, mtsm, multi-view-sm, vsm, evsm, msm); the GPU version
 // (light_partitions_gpu.h) makes the same plan from the same numbers.
 #pragma once
 
@@ -56,7 +56,8 @@ inline constexpr double kResolvingDensity = 1.0 / 16;
 
 // The parameters `partitions` (most partitions a side, a power of two: 1 = one map, the
 // method's own), `partition_density` and `partition_receivers`, appended to a method's table.
-std::vector<ParamSpec> param_specs(int default_partitions = 8, double default_density = kSamplingDensity);
+std::vector<ParamSpec> param_specs(int default_partitions = 8, double default_density = kSamplingDensity,
+                                   double default_receivers = 1.0);
 
 // Where a partition gets guard samples. AtTheMargin: always, at the corners of its rectangle
 // widened by the blocker-search margin (its map must hold the casters its points' penumbrae reach
