@@ -18,6 +18,15 @@ uint pn_thread_index() {
   return gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
 }
 
+// The group counts (x, y, z) of an indirect dispatch of `threads` threads in groups of `local`,
+// folded into two dimensions as CommandList::dispatch folds long grids (kMaxGroupsX in
+// gpu/commands.cpp; pn_thread_index unfolds them). No threads: no groups.
+uvec3 pn_indirect_groups(uint threads, uint local) {
+  const uint kMaxGroupsX = 65535u;
+  uint groups = (threads + local - 1u) / local;
+  return uvec3(min(groups, kMaxGroupsX), (groups + kMaxGroupsX - 1u) / kMaxGroupsX, 1u);
+}
+
 float pn_inf() { return uintBitsToFloat(0x7f800000u); }
 
 // True when the driver's loop limit cut this invocation's loops short (lavapipe: 65535 loop

@@ -164,19 +164,15 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     return t;
   }
   // The entries scattered into their lists (p.listed sized for t.listed), each caster over the
-  // lists of its covered rows, V per slot.
-  template <class Params>
-  void cover(GpuFrame& frame, Totals t, Params& p, const Kernels& k) {
+  // lists of its covered rows (`cover_passes` records those passes), V per slot.
+  template <class Params, class CoverPasses>
+  void cover(GpuFrame& frame, Totals t, Params& p, const Kernels& k, CoverPasses&& cover_passes) {
     gpu::CommandList& cl = *frame.commands;
     if (t.listed > 0) {
       cl.stage("lists");
       p.count = frame.slots;
       cl.dispatch(k.list_scatter, frame.slots, p);
-      if (t.rows > 0) {
-        cl.stage(k.cover_stage);
-        p.count = t.rows;
-        cl.dispatch(k.cover, t.rows, p);
-      }
+      cover_passes();
     }
     cl.stage("resolve");
     p.count = frame.slots;
@@ -240,7 +236,12 @@ class AliasFreeHardGpu final : public AliasFreeGpuBase {
     grow_lists(device, t.listed, frame.slots, sizeof(AfsmListed));  // a view sample is listed once
     p.listed = listed_.address();
     // §3.3: each caster over the lists of the texels it touches.
-    cover(frame, t, p, kKernels);
+    cover(frame, t, p, kKernels, [&] {
+      if (t.rows == 0) return;
+      frame.commands->stage(kKernels.cover_stage);
+      p.count = t.rows;
+      frame.commands->dispatch(kKernels.cover, t.rows, p);
+    });
     report_view(view, t);
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, device_bytes());
   }
@@ -344,14 +345,11 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     gpu::ensure_buffer(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
     p.listed = listed_.address();
     p.masks = masks_.address();
-    if (t.listed > 0) {
-      cl.stage("lists");
-      p.count = frame.slots;
-      cl.dispatch(kKernels.list_scatter, frame.slots, p);
-      // Per slab, §4.1: the casters' influence regions on its far plane and their covered rows;
-      // §4.2: each caster's masks over the slab's lists in its region. The masks are per list
-      // position, so they gather over the slabs' passes; the cover pass is as long as the rows
-      // the GPU counted (an indirect dispatch: no read-back per slab).
+    // Per slab, §4.1: the casters' influence regions on its far plane and their covered rows;
+    // §4.2: each caster's masks over the slab's lists in its region. The masks are per list
+    // position, so they gather over the slabs' passes; the cover pass is as long as the rows the
+    // GPU counted (an indirect dispatch: no read-back per slab).
+    cover(frame, t, p, kKernels, [&] {
       for (uint32_t slab = 0; slab < slabs && triangles > 0; ++slab) {
         p.slab = slab;
         record_casters(cl, p, kKernels);
@@ -359,10 +357,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
         cl.stage(kKernels.cover_stage);
         cl.dispatch_indirect(kKernels.cover, view_buffer_, kSlabsOffset + offsetof(shader::AfsmSlabs, cover_groups_x), p);
       }
-    }
-    cl.stage("resolve");
-    p.count = frame.slots;
-    cl.dispatch(kKernels.resolve, frame.slots, p);
+    });
     report_view(view, t);
     stats_.extra["light_samples"] = n;
     stats_.extra["depth_slabs"] = slabs;

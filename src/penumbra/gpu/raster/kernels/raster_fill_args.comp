@@ -12,14 +12,13 @@ layout(push_constant, scalar) uniform Push { RasterFillParams p; } pc;
 
 // raster_fill's local size.
 const uint kFillGroup = 64u;
-const uint kMaxGroupsX = 65535u;
 
 void main() {
   RasterStateRef state = RasterStateRef(pc.p.state);
   bool overflowed = state.s.setup_count > pc.p.triangle_capacity || state.s.item_count > uint64_t(pc.p.item_capacity);
   uint items = overflowed ? 0u : uint(state.s.item_count);
-  uint groups = (items + kFillGroup - 1u) / kFillGroup;
-  state.s.fill_groups_x = min(groups, kMaxGroupsX);
-  state.s.fill_groups_y = (groups + kMaxGroupsX - 1u) / kMaxGroupsX;
-  state.s.fill_groups_z = 1u;
+  uvec3 groups = pn_indirect_groups(items, kFillGroup);
+  state.s.fill_groups_x = groups.x;
+  state.s.fill_groups_y = groups.y;
+  state.s.fill_groups_z = groups.z;
 }

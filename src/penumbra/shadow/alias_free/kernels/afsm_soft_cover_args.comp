@@ -9,14 +9,13 @@ layout(local_size_x = 1) in;
 layout(push_constant, scalar) uniform Push { AfsmSoftParams p; } pc;
 
 const uint kCoverGroup = 64u;  // afsm_soft_cover's local size
-const uint kMaxGroupsX = 65535u;
 
 void main() {
   uint rows = Uints(pc.p.rows).v[pc.p.triangles];
-  uint groups = (rows + kCoverGroup - 1u) / kCoverGroup;
+  uvec3 groups = pn_indirect_groups(rows, kCoverGroup);
   AfsmSlabsRef slabs = afsm_slabs(pc.p.view);
-  slabs.s.cover_groups_x = min(groups, kMaxGroupsX);
-  slabs.s.cover_groups_y = (groups + kMaxGroupsX - 1u) / kMaxGroupsX;
-  slabs.s.cover_groups_z = 1u;
+  slabs.s.cover_groups_x = groups.x;
+  slabs.s.cover_groups_y = groups.y;
+  slabs.s.cover_groups_z = groups.z;
   slabs.s.cover_rows += uint64_t(rows);
 }
