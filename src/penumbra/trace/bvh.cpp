@@ -27,6 +27,15 @@ Bounds3f triangle_bounds(const BvhTriangle& t) {
   return b;
 }
 
+// A node's range as the builder knows it before it splits it: its triangles' bounds and their
+// centroids' bounds (each split hands its children theirs, found while it bins and partitions,
+// so no pass over a range computes them again).
+struct Range {
+  uint32_t begin, end;
+  Bounds3f bounds;
+  Bounds3f centroid_bounds;
+};
+
 struct Builder {
   std::vector<BvhTriangle>& tris;
   std::vector<Vec3f> centroids;
@@ -34,21 +43,23 @@ struct Builder {
   int max_leaf;
   uint32_t parallel_min;  // nodes of at least this many triangles build their halves at once
 
-  void finish_node(BvhNode& n, uint32_t begin, uint32_t end) {
-    Bounds3f b;
-    for (uint32_t i = begin; i < end; ++i) b.extend(boxes[i]);
-    n.bounds = b;
+  Range measure(uint32_t begin, uint32_t end) const {
+    Range r{begin, end, {}, {}};
+    for (uint32_t i = begin; i < end; ++i) {
+      r.bounds.extend(boxes[i]);
+      r.centroid_bounds.extend(centroids[i]);
+    }
+    return r;
   }
 
-  // Chooses where [begin, end) splits (binned SAH along the widest centroid axis, or the median
-  // where every centroid is equal) and partitions the triangles there; returns the split.
-  uint32_t partition(uint32_t begin, uint32_t end) {
+  // Chooses where a range splits (binned SAH along the widest centroid axis, or the median
+  // where every centroid is equal) and partitions the triangles there; returns the two halves.
+  std::array<Range, 2> partition(const Range& range) {
+    const uint32_t begin = range.begin, end = range.end;
     uint32_t count = end - begin;
-    Bounds3f cb;
-    for (uint32_t i = begin; i < end; ++i) cb.extend(centroids[i]);
+    const Bounds3f& cb = range.centroid_bounds;
     Vec3f extent = cb.diagonal();
     int axis = extent.x > extent.y ? (extent.x > extent.z ? 0 : 2) : (extent.y > extent.z ? 1 : 2);
-    uint32_t mid = begin + count / 2;
     if (extent[axis] > 0) {
       // Binned SAH along the widest centroid axis.
       std::array<Bounds3f, kBins> bin_bounds;
@@ -61,7 +72,7 @@ struct Builder {
         bin_bounds[b].extend(boxes[i]);
       }
       // Split s puts bins [0, s) left: sweep the right sides once, then the left sides.
-      std::array<float, kBins> right_area{};
+      std::array<Bounds3f, kBins> right_bounds;
       std::array<uint32_t, kBins> right_count{};
       {
         Bounds3f r;
@@ -69,87 +80,88 @@ struct Builder {
         for (int b = kBins - 1; b >= 1; --b) {
           r.extend(bin_bounds[b]);
           nr += bin_count[b];
-          right_area[b] = surface_area(r);
+          right_bounds[b] = r;
           right_count[b] = nr;
         }
       }
       float best_cost = kInfinity;
       int best_split = -1;
-      Bounds3f l;
+      Bounds3f l, best_left;
       uint32_t nl = 0;
       for (int s = 1; s < kBins; ++s) {
         l.extend(bin_bounds[s - 1]);
         nl += bin_count[s - 1];
         if (nl == 0 || right_count[s] == 0) continue;
-        float cost = nl * surface_area(l) + right_count[s] * right_area[s];
-        if (cost < best_cost) { best_cost = cost; best_split = s; }
+        float cost = nl * surface_area(l) + right_count[s] * surface_area(right_bounds[s]);
+        if (cost < best_cost) {
+          best_cost = cost;
+          best_split = s;
+          best_left = l;
+        }
       }
       if (best_split > 0) {
+        std::array<Range, 2> halves{};
         uint32_t i = begin, j = end;
         while (i < j) {
-          if (bin_of(i) < best_split) ++i;
-          else {
+          if (bin_of(i) < best_split) {
+            halves[0].centroid_bounds.extend(centroids[i]);
+            ++i;
+          } else {
             --j;
             std::swap(tris[i], tris[j]);
             std::swap(centroids[i], centroids[j]);
             std::swap(boxes[i], boxes[j]);
+            halves[1].centroid_bounds.extend(centroids[j]);
           }
         }
-        mid = i;
+        // Both sides are non-empty (the split skips empty ones): the bins' unions are the
+        // halves' bounds, exactly what a pass over their boxes would give.
+        halves[0].begin = begin, halves[0].end = i, halves[0].bounds = best_left;
+        halves[1].begin = i, halves[1].end = end, halves[1].bounds = right_bounds[best_split];
+        return halves;
       }
     }
-    if (mid == begin || mid == end) {  // all centroids equal: split by count
-      mid = begin + count / 2;
-      std::vector<uint32_t> order(count);
-      for (uint32_t i = 0; i < count; ++i) order[i] = begin + i;
-      std::nth_element(order.begin(), order.begin() + count / 2, order.end(),
-                       [&](uint32_t a, uint32_t b) { return centroids[a][axis] < centroids[b][axis]; });
-      std::vector<BvhTriangle> t2;
-      std::vector<Vec3f> c2;
-      std::vector<Bounds3f> b2;
-      for (uint32_t k : order) { t2.push_back(tris[k]); c2.push_back(centroids[k]); b2.push_back(boxes[k]); }
-      std::copy(t2.begin(), t2.end(), tris.begin() + begin);
-      std::copy(c2.begin(), c2.end(), centroids.begin() + begin);
-      std::copy(b2.begin(), b2.end(), boxes.begin() + begin);
-    }
-    return mid;
+    // All centroids equal (nothing to bin): split by count, in the order they are in.
+    const uint32_t mid = begin + count / 2;
+    return {measure(begin, mid), measure(mid, end)};
   }
 
-  // The subtree over [begin, end) into `nodes` from `node_index` on, depth first: a node's two
+  // The subtree over a range into `nodes` from `node_index` on, depth first: a node's two
   // children are appended side by side, then the left child's subtree, then the right one's.
-  void build(std::vector<BvhNode>& nodes, uint32_t node_index, uint32_t begin, uint32_t end) {
-    finish_node(nodes[node_index], begin, end);
-    if (end - begin <= static_cast<uint32_t>(max_leaf)) {
-      nodes[node_index].first = begin;
-      nodes[node_index].count = end - begin;
+  void build(std::vector<BvhNode>& nodes, uint32_t node_index, const Range& range) {
+    nodes[node_index].bounds = range.bounds;
+    if (range.end - range.begin <= static_cast<uint32_t>(max_leaf)) {
+      nodes[node_index].first = range.begin;
+      nodes[node_index].count = range.end - range.begin;
       return;
     }
-    const uint32_t mid = partition(begin, end);
+    const std::array<Range, 2> halves = partition(range);
     uint32_t left = static_cast<uint32_t>(nodes.size());
     nodes.emplace_back();
     nodes.emplace_back();
     nodes[node_index].first = left;
     nodes[node_index].count = 0;
-    build(nodes, left, begin, mid);
-    build(nodes, left + 1, mid, end);
+    build(nodes, left, halves[0]);
+    build(nodes, left + 1, halves[1]);
   }
 
   // The same subtree as build() gives, root first, with the two halves of a large node built at
   // once (their triangle ranges are disjoint) and spliced in build()'s order: the root, its two
   // children, the left child's descendants, the right child's. Node for node the serial tree.
-  std::vector<BvhNode> build_parallel(uint32_t begin, uint32_t end) {
+  std::vector<BvhNode> build_parallel(const Range& range) {
     std::vector<BvhNode> out(1);
-    if (end - begin < parallel_min || end - begin <= static_cast<uint32_t>(max_leaf)) {
-      build(out, 0, begin, end);
+    const uint32_t count = range.end - range.begin;
+    if (count < parallel_min || count <= static_cast<uint32_t>(max_leaf)) {
+      build(out, 0, range);
       return out;
     }
-    finish_node(out[0], begin, end);
-    const uint32_t mid = partition(begin, end);
+    out[0].bounds = range.bounds;
+    const std::array<Range, 2> halves = partition(range);
     std::vector<BvhNode> left, right;
     parallel_for(2, 1, [&](size_t first, size_t last) {
       for (size_t half = first; half < last; ++half) {
-        if (half == 0) left = build_parallel(begin, mid);
-        else right = build_parallel(mid, end);
+        if (half == 0) left = build_parallel(halves[0]);
+        else right = build_parallel(halves[1]);
       }
     });
     // Local index j >= 1 of the left subtree lands at j + 2, of the right one at j + |left| + 1.
@@ -193,7 +205,7 @@ TriangleBvh::TriangleBvh(std::vector<BvhTriangle> triangles, int max_leaf_size, 
       b.boxes[i] = triangle_bounds(t);
     }
   });
-  nodes_ = b.build_parallel(0, static_cast<uint32_t>(triangles_.size()));
+  nodes_ = b.build_parallel(b.measure(0, static_cast<uint32_t>(triangles_.size())));
 }
 
 std::vector<BvhTriangle> TriangleBvh::gather(const Scene& scene, bool skip_analytic_spheres) {

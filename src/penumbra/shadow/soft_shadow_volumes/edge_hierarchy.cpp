@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "penumbra/core/parallel.h"
+
 namespace penumbra::ssv {
 
 void EdgeHierarchy::build(const Scene& scene, const AreaLight& light) {
@@ -16,13 +18,17 @@ void EdgeHierarchy::build(const Scene& scene, const AreaLight& light) {
   // The edges in the hierarchy's leaf order (a leaf's edges side by side), with their
   // quick facing test.
   {
-    std::vector<SilhouetteEdge> ordered;
-    ordered.reserve(edges.size());
-    for (const BvhTriangle& t : bvh.triangles()) ordered.push_back(edges[t.prim]);
+    const std::vector<BvhTriangle>& order = bvh.triangles();
+    std::vector<SilhouetteEdge> ordered(edges.size());
+    facing.resize(edges.size());
+    parallel_for(edges.size(), 4096, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        ordered[i] = edges[order[i].prim];
+        facing[i] = edge_facing(ordered[i]);
+      }
+    });
     edges = std::move(ordered);
   }
-  facing.resize(edges.size());
-  for (size_t i = 0; i < edges.size(); ++i) facing[i] = edge_facing(edges[i]);
   build_node_facing();
 }
 
@@ -30,10 +36,11 @@ void EdgeHierarchy::build(const Scene& scene, const AreaLight& light) {
 void EdgeHierarchy::build_node_facing() {
   const std::vector<BvhNode>& nodes = bvh.nodes();
   node_facing.assign(nodes.size(), NodeFacing{});
+  std::vector<Vec3f> normals;  // a leaf's, reused
   for (size_t k = nodes.size(); k-- > 0;) {
     const BvhNode& node = nodes[k];
     NodeFacing& f = node_facing[k];
-    std::vector<Vec3f> normals;
+    normals.clear();
     f.cullable = true;
     if (node.leaf()) {
       for (uint32_t i = node.first; i < node.first + node.count; ++i) {

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "penumbra/core/parallel.h"
+
 namespace penumbra::ssv {
 namespace {
 
@@ -46,6 +48,86 @@ bool plane_cuts_region(Vec3f a, Vec3f b, Vec3f w, const LightRegion& light) {
   return std::abs(at_centre) <= reach * 1.001f + 1e-3f * light.radius * len + 1e-6f * len;
 }
 
+// One side of an undirected edge as a triangle sees it: the edge's key (its welded end ids, low
+// << 32 | high), the order it was met in (the triangles' order) and the triangle's third vertex,
+// with kReversed where the triangle runs along the edge from its high id to its low one.
+struct EdgeSide {
+  uint64_t key;
+  uint32_t seq;
+  uint32_t third;
+};
+
+// One object's potential silhouettes, in the order of their keys.
+std::vector<SilhouetteEdge> object_silhouettes(const SceneObject& obj, const LightRegion& light) {
+  const TriangleMesh& m = obj.mesh;
+  const float opacity = obj.material.opacity;
+  // Welded ids by position, in the order the kept triangles' corners meet them; looked up once
+  // per mesh vertex (a mesh's own sharing), not per corner.
+  constexpr uint32_t kUnset = 0xFFFFFFFFu;
+  std::vector<uint32_t> weld(m.positions.size(), kUnset);
+  std::unordered_map<VertexKey, uint32_t, VertexHash> ids;
+  ids.reserve(m.positions.size());
+  std::vector<Vec3f> points;
+  auto id_of = [&](uint32_t vi) {
+    if (weld[vi] == kUnset) {
+      const Vec3f p = m.positions[vi];
+      auto [it, inserted] = ids.emplace(key_of(p), static_cast<uint32_t>(points.size()));
+      if (inserted) points.push_back(p);
+      weld[vi] = it->second;
+    }
+    return weld[vi];
+  };
+  std::vector<EdgeSide> sides;
+  sides.reserve(3 * m.triangle_count());
+  for (size_t t = 0; t < m.triangle_count(); ++t) {
+    const float alpha = opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
+    if (!(alpha > 0) || stops_part_of_the_light(alpha, obj.material)) continue;
+    uint32_t v[3];
+    for (int k = 0; k < 3; ++k) v[k] = id_of(m.indices[3 * t + k]);
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // degenerate: blocks nothing
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t i = v[k], j = v[(k + 1) % 3];
+      const uint64_t key = static_cast<uint64_t>(std::min(i, j)) << 32 | std::max(i, j);
+      sides.push_back({key, static_cast<uint32_t>(sides.size()), v[(k + 2) % 3] | (i > j ? kReversed : 0u)});
+    }
+  }
+  // Each edge's sides together, edges by key, sides in the triangles' order: a fixed order.
+  std::sort(sides.begin(), sides.end(),
+            [](const EdgeSide& x, const EdgeSide& y) { return x.key != y.key ? x.key < y.key : x.seq < y.seq; });
+  std::vector<SilhouetteEdge> out;
+  for (size_t first = 0; first < sides.size();) {
+    size_t last = first + 1;
+    while (last < sides.size() && sides[last].key == sides[first].key) ++last;
+    const uint64_t key = sides[first].key;
+    Vec3f a = points[key >> 32], b = points[key & 0xFFFFFFFFu];
+    // a -> b along the first triangle's winding: on a consistently wound mesh, the planes
+    // (b - a) x (w_0 - a) and -(b - a) x (w_1 - a) are then both triangles' outward sides,
+    // the same for every edge (what the method's hierarchy bounds, NodeFacing).
+    if (sides[first].third & kReversed) std::swap(a, b);
+    auto third = [&](size_t i) { return points[sides[i].third & ~kReversed]; };
+    if (last - first == 2) {
+      const Vec3f w0 = third(first), w1 = third(first + 1);
+      // §3.1: a silhouette for some light point iff the triangles face it differently; the
+      // facing changes only where a point crosses one of the two planes.
+      const bool cut = plane_cuts_region(a, b, w0, light) || plane_cuts_region(a, b, w1, light);
+      const bool silhouette_from_centre = (side(a, b, light.center, w0) > 0) == (side(a, b, light.center, w1) > 0);
+      if (cut || silhouette_from_centre) out.push_back({a, b, {w0, w1}, 2});
+    } else {
+      // Boundary edges (§3.4) and non-manifold ones (their triangles' parts add up).
+      for (size_t i = first; i < last; i += 2) {
+        SilhouetteEdge e{a, b, {third(i), Vec3f(0.0f)}, 1};
+        if (i + 1 < last) {
+          e.w[1] = third(i + 1);
+          e.triangles = 2;
+        }
+        out.push_back(e);
+      }
+    }
+    first = last;
+  }
+  return out;
+}
+
 }  // namespace
 
 LightRegion light_region(const AreaLight& light) {
@@ -60,67 +142,19 @@ LightRegion light_region(const AreaLight& light) {
 }
 
 std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const LightRegion& light) {
+  // Objects are welded apart (an edge never joins two objects), so they are found at once and
+  // joined in the scene's order: the result does not depend on the thread count.
+  std::vector<std::vector<SilhouetteEdge>> per_object(scene.objects.size());
+  parallel_for(scene.objects.size(), 1, [&](size_t begin, size_t end) {
+    for (size_t o = begin; o < end; ++o) per_object[o] = object_silhouettes(scene.objects[o], light);
+  });
+  size_t total = 0;
+  for (const auto& edges : per_object) total += edges.size();
   std::vector<SilhouetteEdge> out;
-  for (const SceneObject& obj : scene.objects) {
-    const TriangleMesh& m = obj.mesh;
-    const float opacity = obj.material.opacity;
-    // Welded vertex ids, then each undirected edge's third vertices.
-    std::unordered_map<VertexKey, uint32_t, VertexHash> ids;
-    std::vector<Vec3f> points;
-    std::unordered_map<uint64_t, std::vector<uint32_t>> edges;  // (id_lo, id_hi) -> third vertex ids
-    ids.reserve(m.positions.size());
-    auto id_of = [&](Vec3f p) {
-      auto [it, inserted] = ids.emplace(key_of(p), static_cast<uint32_t>(points.size()));
-      if (inserted) points.push_back(p);
-      return it->second;
-    };
-    for (size_t t = 0; t < m.triangle_count(); ++t) {
-      const float alpha = opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
-      if (!(alpha > 0) || stops_part_of_the_light(alpha, obj.material)) continue;
-      uint32_t v[3];
-      for (int k = 0; k < 3; ++k) v[k] = id_of(m.vertex(t, k));
-      if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // degenerate: blocks nothing
-      for (int k = 0; k < 3; ++k) {
-        const uint32_t i = v[k], j = v[(k + 1) % 3];
-        const uint64_t key = static_cast<uint64_t>(std::min(i, j)) << 32 | std::max(i, j);
-        // The third vertex, and whether the triangle runs along the edge from its high id to
-        // its low one (top bit).
-        edges[key].push_back(v[(k + 2) % 3] | (i > j ? kReversed : 0u));
-      }
-    }
-    // In a fixed order (the map's is not): by key.
-    std::vector<std::pair<uint64_t, const std::vector<uint32_t>*>> sorted;
-    sorted.reserve(edges.size());
-    for (const auto& [key, thirds] : edges) sorted.emplace_back(key, &thirds);
-    std::sort(sorted.begin(), sorted.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-    for (const auto& [key, thirds] : sorted) {
-      Vec3f a = points[key >> 32], b = points[key & 0xFFFFFFFFu];
-      // a -> b along the first triangle's winding: on a consistently wound mesh, the planes
-      // (b - a) x (w_0 - a) and -(b - a) x (w_1 - a) are then both triangles' outward sides,
-      // the same for every edge (what the method's hierarchy bounds, NodeFacing).
-      if (thirds->front() & kReversed) std::swap(a, b);
-      std::vector<uint32_t> w = *thirds;
-      for (uint32_t& x : w) x &= ~kReversed;
-      if (w.size() == 2) {
-        const Vec3f w0 = points[w[0]], w1 = points[w[1]];
-        // §3.1: a silhouette for some light point iff the triangles face it differently; the
-        // facing changes only where a point crosses one of the two planes.
-        const bool cut = plane_cuts_region(a, b, w0, light) || plane_cuts_region(a, b, w1, light);
-        const bool silhouette_from_centre = (side(a, b, light.center, w0) > 0) == (side(a, b, light.center, w1) > 0);
-        if (!cut && !silhouette_from_centre) continue;
-        out.push_back({a, b, {w0, w1}, 2});
-        continue;
-      }
-      // Boundary edges (§3.4) and non-manifold ones (their triangles' parts add up).
-      for (size_t i = 0; i < w.size(); i += 2) {
-        SilhouetteEdge e{a, b, {points[w[i]], Vec3f(0.0f)}, 1};
-        if (i + 1 < w.size()) {
-          e.w[1] = points[w[i + 1]];
-          e.triangles = 2;
-        }
-        out.push_back(e);
-      }
-    }
+  out.reserve(total);
+  for (auto& edges : per_object) {
+    out.insert(out.end(), edges.begin(), edges.end());
+    std::vector<SilhouetteEdge>().swap(edges);
   }
   return out;
 }

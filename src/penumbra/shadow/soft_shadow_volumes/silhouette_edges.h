@@ -55,10 +55,11 @@ std::vector<SilhouetteEdge> potential_silhouettes(const Scene& scene, const Ligh
 
 // For memory estimates: a closed mesh has 3/2 edges per triangle (a triangle soup stored
 // without shared vertices up to 3: twice the estimate); what potential_silhouettes holds per
-// edge while it works (the welded vertices, the edge map's nodes and third-vertex lists, the
-// sorted keys), and what its result holds (grown by doubling).
+// edge while it works (the welded vertices' map nodes and the mesh vertices' welded ids, the
+// two 16-byte sides of an edge), and what its result holds (each object's edges grown by
+// doubling, then all of them joined in one array).
 inline constexpr double kEdgesPerTriangle = 1.5;
-inline constexpr uint64_t kSilhouetteBuildBytesPerEdge = 40 + 112 + 16;
-inline constexpr uint64_t kSilhouetteResultBytesPerEdge = 2 * sizeof(SilhouetteEdge);
+inline constexpr uint64_t kSilhouetteBuildBytesPerEdge = 40 + 4 + 2 * 16;
+inline constexpr uint64_t kSilhouetteResultBytesPerEdge = 3 * sizeof(SilhouetteEdge);
 
 }  // namespace penumbra::ssv

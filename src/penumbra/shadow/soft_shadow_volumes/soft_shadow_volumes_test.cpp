@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <set>
 
+#include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/shadow/light_samples.h"
 #include "penumbra/shadow/soft_shadow_volumes/crossing_kernel.h"
@@ -89,6 +90,70 @@ TEST(SoftShadowVolumesSilhouettes, OpenQuadHasItsFourBoundaryEdges) {
   // The four borders (one triangle each); the diagonal is flat as seen from the light.
   ASSERT_EQ(edges.size(), 4u);
   for (const auto& e : edges) EXPECT_EQ(e.triangles, 1u);
+}
+
+// Objects are found in parallel: the edges are each object's, in the scene's order, the same
+// list whatever the thread count; a mesh stored without shared vertices (every triangle its own
+// three) is welded by position into the same edges as the indexed one.
+TEST(SoftShadowVolumesSilhouettes, ObjectsComeInTheScenesOrderAndSplitVerticesAreWelded) {
+  // Six boxes in a row (odd ones as triangle soups when `soups`) and an open quad above them.
+  auto make = [](bool soups) {
+    Scene scene;
+    for (int k = 0; k < 6; ++k) {
+      const float x = 2.0f * static_cast<float>(k);
+      TriangleMesh m = box({x, 0, 0}, {x + 1, 1, 1});
+      if (soups && k % 2 == 1) {
+        TriangleMesh soup;
+        for (size_t t = 0; t < m.triangle_count(); ++t)
+          for (int c = 0; c < 3; ++c) {
+            soup.indices.push_back(static_cast<uint32_t>(soup.positions.size()));
+            soup.positions.push_back(m.vertex(t, c));
+          }
+        m = std::move(soup);
+      }
+      scene.objects.push_back(object(std::move(m)));
+    }
+    scene.objects.push_back(object(quad_y(2, 0, 11, 3, 4)));
+    scene.lights.push_back(rect_light_down({5, 6, 0.5f}, 1, 1));
+    scene.finalize();
+    return scene;
+  };
+  const Scene scene = make(true);
+  const ssv::LightRegion region = ssv::light_region(scene.lights[0]);
+  std::vector<ssv::SilhouetteEdge> one_thread;
+  {
+    ThreadLimit limit(1);
+    one_thread = ssv::potential_silhouettes(scene, region);
+  }
+  const auto all_threads = ssv::potential_silhouettes(scene, region);
+  ASSERT_EQ(one_thread.size(), all_threads.size());
+  for (size_t i = 0; i < one_thread.size(); ++i) {
+    const ssv::SilhouetteEdge& a = one_thread[i];
+    const ssv::SilhouetteEdge& b = all_threads[i];
+    EXPECT_TRUE(a.a == b.a && a.b == b.b && a.w[0] == b.w[0] && a.w[1] == b.w[1] && a.triangles == b.triangles) << i;
+  }
+  // Object by object: the boxes left to right (box k's edges within x in [2k, 2k + 1], each
+  // with its two triangles, soup or not, and the indexed box's edges), the quad's four borders
+  // last.
+  const auto indexed = ssv::potential_silhouettes(make(false), region);
+  auto in_box = [](const ssv::SilhouetteEdge& e, float x) {
+    return e.a.y <= 1 && e.b.y <= 1 && std::min(e.a.x, e.b.x) >= x && std::max(e.a.x, e.b.x) <= x + 1;
+  };
+  size_t i = 0;
+  for (int k = 0; k < 6; ++k) {
+    const float x = 2.0f * static_cast<float>(k);
+    std::vector<ssv::SilhouetteEdge> got, want;
+    while (i < one_thread.size() && in_box(one_thread[i], x)) {
+      EXPECT_EQ(one_thread[i].triangles, 2u);
+      got.push_back(one_thread[i++]);
+    }
+    for (const auto& e : indexed)
+      if (in_box(e, x)) want.push_back(e);
+    EXPECT_FALSE(got.empty()) << "box " << k;
+    EXPECT_EQ(edge_set(got), edge_set(want)) << "box " << k;
+  }
+  ASSERT_EQ(one_thread.size() - i, 4u);
+  for (; i < one_thread.size(); ++i) EXPECT_EQ(one_thread[i].triangles, 1u);
 }
 
 // The number of triangles the segment o-l crosses, in double (brute force).
