@@ -119,6 +119,7 @@ struct CoreParams {
   float filter_size = 4;  // texels, without the blocker search
   float min_filter = 1;   // texels: the smallest filter side
   float bias = 1e-3f;     // world units of linear depth
+  int subdivide = 4;      // most parts a side of the search and filter regions (fm_parts)
 };
 
 // The parameter table entries of the core (the light-space partitions' among them), and their values.

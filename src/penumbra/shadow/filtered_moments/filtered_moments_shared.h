@@ -149,7 +149,9 @@ PN_INLINE float fm_light_fraction_above(FmLight l, vec3 p, vec3 ng) {
 //   bytes 256-263 fixed_half: half the fixed filter side without the blocker search (double)
 //   bytes 264-267 bias (world units of linear depth)   268-271 blocker_search (0 or 1)
 //   bytes 272-279 min_fraction: a blocker search finding less is the receiver's own surface in
-//                 the Chebyshev bound's tail (1e-4)   280-287 (0)
+//                 the Chebyshev bound's tail (1e-4)
+//   bytes 280-283 subdivide: the most sub-regions a side a search or filter region is split
+//                 into (fm_parts; 1: never)   284-287 (0)
 struct FmShadeBlock {
   ShadowMapView map;
   FmLight light;
@@ -159,29 +161,75 @@ struct FmShadeBlock {
   float bias;
   uint blocker_search;
   double min_fraction;
+  uint subdivide;
   uint pad0;
-  uint pad1;
 };
 
-// The variance (normalised depth^2) of p's tangent plane over the box of half extents (sx, sy)
-// texels around p's texel: 1/z is affine in texel space along a plane, with gradient
-// (plane_a, plane_b) / plane_num (sm_receiver), and so is the normalised depth; a linear ramp
-// of slopes g over a box has variance (g_x^2 sx^2 + g_y^2 sy^2) / 3. The blocker estimates take
-// it out of the search region's spread: it lies around t, not in front of it (bunny: vsm MAE
-// 0.050 -> 0.035).
-PN_INLINE double fm_receiver_variance(FmShadeBlock b, FmDepthRange range, vec3 p, vec3 ng, double sx, double sy) {
+// The slope of p's tangent plane in normalised depth per texel along x and y: 1/z is affine in
+// texel space along a plane, with gradient (plane_a, plane_b) / plane_num (sm_receiver), and so
+// is the normalised depth. Zero where the plane is seen edge-on.
+struct FmPlaneSlope {
+  double x;
+  double y;
+};
+PN_INLINE FmPlaneSlope fm_receiver_slope(FmShadeBlock b, FmDepthRange range, vec3 p, vec3 ng) {
   ShadowBias none;
   none.bias = 0.0f;
   none.slope_bias = 0.0f;
   none.max_slope = 10.0f;
   none.receiver_plane = 0u;
   ShadowReceiver rc = sm_receiver(b.map, p, ng, none);
-  if (rc.plane_num == 0.0f) return double(0.0f);
+  FmPlaneSlope g;
+  g.x = double(0.0f);
+  g.y = double(0.0f);
+  if (rc.plane_num == 0.0f) return g;
   double k = -range.scale / double(rc.plane_num);
-  double gx = k * double(rc.plane_a);
-  double gy = k * double(rc.plane_b);
-  PN_PRECISE double v = gx * gx * sx * sx + gy * gy * sy * sy;
+  g.x = k * double(rc.plane_a);
+  g.y = k * double(rc.plane_b);
+  return g;
+}
+
+// The variance (normalised depth^2) of the tangent plane of slope g over a box of half extents
+// (sx, sy) texels: a linear ramp of slopes g over a box has variance (g_x^2 sx^2 + g_y^2 sy^2) / 3.
+// The blocker estimates take it out of the search region's spread: it lies around t, not in
+// front of it (bunny: vsm MAE 0.050 -> 0.035).
+PN_INLINE double fm_receiver_variance(FmPlaneSlope g, double sx, double sy) {
+  PN_PRECISE double v = g.x * g.x * sx * sx + g.y * g.y * sy * sy;
   return v / double(3.0f);
+}
+
+// Sub-regions a side for a region of half extent `half_side` texels: one per two texels, at most
+// `subdivide`, at least one. Yang et al. 2010 (variance soft shadow mapping, §4) split a kernel
+// whose moments cannot be trusted as one distribution; a canopy's search and filter regions
+// hold blockers in front of the receiver and the ground far behind it at once, and one bound over
+// both calls the receiver lit wherever it lies in front of their mean (light bleeding). Each part
+// holds fewer depths, and is compared with the receiver plane's depth at its own centre.
+PN_INLINE int fm_parts(double half_side, uint subdivide) {
+  return int(clamp(ceil(half_side), double(1.0f), double(subdivide)));
+}
+
+// Part (i, j) of n_x x n_y of the box [cx - hx, cx + hx] x [cy - hy, cy + hy] (texels). Its
+// outer sides are the box's own, bit for bit (one part is the whole box).
+struct FmBox {
+  double x0;
+  double y0;
+  double x1;
+  double y1;
+};
+PN_INLINE FmBox fm_part_box(double cx, double cy, double hx, double hy, int i, int j, int nx, int ny) {
+  FmBox r;
+  r.x0 = cx + hx * (double(2 * i - nx) / double(nx));
+  r.x1 = cx + hx * (double(2 * i + 2 - nx) / double(nx));
+  r.y0 = cy + hy * (double(2 * j - ny) / double(ny));
+  r.y1 = cy + hy * (double(2 * j + 2 - ny) / double(ny));
+  return r;
+}
+
+// The receiver plane's normalised depth at the centre of box r, from t at (cx, cy), kept in
+// [0, far] as t is.
+PN_INLINE double fm_plane_depth(double t, FmPlaneSlope g, double cx, double cy, FmBox r, double far) {
+  PN_PRECISE double d = t + g.x * (double(0.5f) * (r.x0 + r.x1) - cx) + g.y * (double(0.5f) * (r.y0 + r.y1) - cy);
+  return clamp(d, double(0.0f), far);
 }
 
 // What one view sample's shading did: the filtered lookups it made, and whether its blocker
@@ -216,16 +264,39 @@ PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, ve
   double t = clamp(fm_normalize(map.range, tz - b.bias), double(0.0f), map.range.far);
   double hx = b.fixed_half;
   double hy = hx;
-  FilteredChannels m;
+  FmPlaneSlope slope = fm_receiver_slope(b, map.range, p, ng);
   if (b.blocker_search != 0u) {
     // 1. Blocker search: the light projected through p onto z_min.
     float z_min = b.map.z_min;
     double search = tz > z_min ? double(1.0f) / double(z_min) - double(1.0f) / double(tz) : double(0.0f);
     double sx = pn_dmax(double(b.half_extent.x) * search, b.min_half);
     double sy = pn_dmax(double(b.half_extent.y) * search, b.min_half);
-    m = fm_mean(map, double(tx) - sx, double(ty) - sy, double(tx) + sx, double(ty) + sy);
-    count.lookups += 1u;
-    FmBlockers blockers = fm_model_blockers(model, m, t, fm_receiver_variance(b, map.range, p, ng, sx, sy));
+    // In parts (fm_parts): the blockers' fraction is the parts' mean, their depth the mean of
+    // the parts' depths weighted by their fractions (a part finding none adds nothing).
+    int nx = fm_parts(sx, b.subdivide);
+    int ny = fm_parts(sy, b.subdivide);
+    double part_variance = fm_receiver_variance(slope, sx / double(nx), sy / double(ny));
+    FmBlockers blockers;
+    blockers.fraction = double(0.0f);
+    blockers.depth = double(0.0f);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        FmBox r = fm_part_box(double(tx), double(ty), sx, sy, i, j, nx, ny);
+        FmBlockers part = fm_model_blockers(model, fm_mean(map, r.x0, r.y0, r.x1, r.y1),
+                                            fm_plane_depth(t, slope, double(tx), double(ty), r, map.range.far),
+                                            part_variance);
+        if (nx * ny == 1) {
+          blockers = part;
+        } else if (part.fraction > b.min_fraction) {
+          blockers.fraction += part.fraction;
+          blockers.depth += part.fraction * part.depth;
+        }
+      }
+    count.lookups += uint(nx * ny);
+    if (nx * ny > 1) {
+      if (blockers.fraction > double(0.0f)) blockers.depth /= blockers.fraction;
+      blockers.fraction /= double(nx * ny);
+    }
     if (!(blockers.fraction > b.min_fraction)) {
       // No blocker found. PCSS's exact search may call that lit; the moments' estimate may not:
       // where the search region holds many depths at once (a canopy, a contact, an umbra's
@@ -247,9 +318,18 @@ PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, ve
   }
   hx = pn_dmax(hx, b.min_half);
   hy = pn_dmax(hy, b.min_half);
-  m = fm_mean(map, double(tx) - hx, double(ty) - hy, double(tx) + hx, double(ty) + hy);
-  count.lookups += 1u;
-  return horizon * clamp(fm_model_visibility(model, m, t), 0.0f, 1.0f);
+  // 3. The filter, in parts as the search: V is the mean of the parts' visibilities.
+  int nx = fm_parts(hx, b.subdivide);
+  int ny = fm_parts(hy, b.subdivide);
+  float sum = 0.0f;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      FmBox r = fm_part_box(double(tx), double(ty), hx, hy, i, j, nx, ny);
+      double d = fm_plane_depth(t, slope, double(tx), double(ty), r, map.range.far);
+      sum += clamp(fm_model_visibility(model, fm_mean(map, r.x0, r.y0, r.x1, r.y1), d), 0.0f, 1.0f);
+    }
+  count.lookups += uint(nx * ny);
+  return horizon * (sum / float(nx * ny));
 }
 
 PN_SHARED_END

@@ -12,6 +12,7 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/filtered_moments/filtered_moments.h"
 #include "penumbra/shadow/filtered_moments/models.h"
+#include "penumbra/testing/gpu_method_runs.h"
 #include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
 
@@ -294,8 +295,9 @@ TEST(VsmScene, ExactForOneOccluderParallelToTheLight) {
 
 // Two occluders at different depths over the ground, the upper one hiding part of the lower
 // one from the light's centre, the light off to the side so that the camera above sees the
-// ground in their combined umbra. With a fixed filter (the papers' set-up, so that the only
-// error is the moments') as wide as the occluders' overlap, the filter regions there hold
+// ground in their combined umbra. With a fixed filter and one estimate over it (the papers'
+// set-up, so that the only error is the moments'; subdivide=1) as wide as the occluders'
+// overlap, the filter regions there hold
 // both occluders' depths and the ground behind: VSM lets light through (bleeding,
 // VsmBleeding above); the reduction, EVSM's warps and MSM's four moments remove nearly all
 // of it.
@@ -307,7 +309,7 @@ TEST(VsmScene, BleedingUnderStackedOccludersAndItsReduction) {
   scene.camera = penumbra::testing::top_camera(48, 4.0f, 60.0f);
   const Image ref = render_v(scene, "reference", {}, 256);
   auto bleeding = [&](const std::string& method, std::vector<std::string> extra) {
-    std::vector<std::string> p = {"resolution=256", "blocker_search=false", "filter_size=24"};
+    std::vector<std::string> p = {"resolution=256", "blocker_search=false", "filter_size=24", "subdivide=1"};
     p.insert(p.end(), extra.begin(), extra.end());
     const Image v = render_v(scene, method, p);
     return count(v, [&](size_t i) { return ref.data()[i] < 0.02f && v.data()[i] > 0.05f; });
@@ -346,6 +348,55 @@ TEST(VsmScene, EveryFilteredMethodIsCloseToTheReference) {
     std::printf("[ numbers  ] %s small scene: MAE %.4f, RMSE %.4f\n", method, e.mae, e.rmse);
     EXPECT_LT(e.mae, 0.015) << method;
   }
+}
+
+// The search and filter regions split into parts (subdivide, fm_parts): on the bunny, whose
+// regions over the ears and the back hold the bunny's own surfaces in front of a receiver and the
+// ground behind it, each method comes closer to the ground truth than with one estimate per
+// region (measured at 64², 64 against 256 samples: vsm 0.0228 -> 0.0166, evsm 0.0282 ->
+// 0.0150, msm 0.0240 -> 0.0155).
+TEST(VsmScene, RegionsSplitIntoPartsBleedLessOnTheBunny) {
+  const Scene bunny = penumbra::testing::shipped_scene("bunny.json", 64);
+  const Image ref = render_v(bunny, "reference", {}, 256);
+  for (const char* method : {"vsm", "evsm", "msm"}) {
+    const double one = compare_images(render_v(bunny, method, {"subdivide=1"}, 64), ref).mae;
+    const double parts = compare_images(render_v(bunny, method, {}, 64), ref).mae;
+    std::printf("[ numbers  ] %s bunny 64²: MAE one estimate %.4f, in parts %.4f\n", method, one, parts);
+    EXPECT_LT(parts, 0.85 * one) << method;
+  }
+}
+
+// The parts of a region tile it: their outer sides are the region's own bit for bit (one part is
+// the region), neighbours share their sides, and there is one part per two texels up to the cap.
+TEST(VsmScene, PartsTileTheRegion) {
+  using shader::fm_part_box;
+  using shader::fm_parts;
+  EXPECT_EQ(fm_parts(0.5, 4), 1);
+  EXPECT_EQ(fm_parts(1.0, 4), 1);
+  EXPECT_EQ(fm_parts(1.5, 4), 2);
+  EXPECT_EQ(fm_parts(3.2, 4), 4);
+  EXPECT_EQ(fm_parts(100.0, 4), 4);
+  EXPECT_EQ(fm_parts(100.0, 1), 1);
+  const double cx = 517.3, cy = 12.9, hx = 7.7, hy = 0.3;
+  const shader::FmBox whole = fm_part_box(cx, cy, hx, hy, 0, 0, 1, 1);
+  EXPECT_EQ(whole.x0, cx - hx);
+  EXPECT_EQ(whole.x1, cx + hx);
+  EXPECT_EQ(whole.y0, cy - hy);
+  EXPECT_EQ(whole.y1, cy + hy);
+  const int nx = 3, ny = 4;
+  double area = 0;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const shader::FmBox r = fm_part_box(cx, cy, hx, hy, i, j, nx, ny);
+      if (i == 0) EXPECT_EQ(r.x0, cx - hx);
+      if (i == nx - 1) EXPECT_EQ(r.x1, cx + hx);
+      if (j == 0) EXPECT_EQ(r.y0, cy - hy);
+      if (j == ny - 1) EXPECT_EQ(r.y1, cy + hy);
+      if (i > 0) EXPECT_EQ(r.x0, fm_part_box(cx, cy, hx, hy, i - 1, j, nx, ny).x1);
+      if (j > 0) EXPECT_EQ(r.y0, fm_part_box(cx, cy, hx, hy, i, j - 1, nx, ny).y1);
+      area += (r.x1 - r.x0) * (r.y1 - r.y0);
+    }
+  EXPECT_NEAR(area, 4 * hx * hy, 1e-9);
 }
 
 // EVSM with a point-like light and a one-texel filter at the largest exponents is the plain
