@@ -10,6 +10,7 @@
 #include "penumbra/core/progress.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/filtered_moments/models.h"
+#include "penumbra/shadow/light_horizon.h"
 #include "penumbra/shadow/partitions/light_partitions.h"
 
 namespace penumbra::filtered_moments {
@@ -78,40 +79,6 @@ void FilteredMomentMap::mean(double x0, double y0, double x1, double y1, double*
 
 namespace {
 
-// The light's half axes along frame.s and frame.t as a rectangle (light_half_extent's).
-Vec2f light_half_axes(const AreaLight& light) {
-  const float k = 0.5f * std::sqrt(std::numbers::pi_v<float>);
-  switch (light.shape) {
-    case LightShape::Rect: return {0.5f * light.size.x, 0.5f * light.size.y};
-    case LightShape::Ellipsoid: return {k * light.radii.x, k * light.radii.y};
-    default: return {k * light.radius, k * light.radius};
-  }
-}
-
-}  // namespace
-
-namespace {
-
-shader::FmLight shared_light(const AreaLight& light) {
-  shader::FmLight l{};
-  const Vec2f h = light_half_axes(light);
-  l.center = light.center;
-  l.n = light.frame.n;
-  l.s = light.frame.s;
-  l.t = light.frame.t;
-  l.half_s = h.x;
-  l.half_t = h.y;
-  return l;
-}
-
-}  // namespace
-
-float light_fraction_above(const AreaLight& light, Vec3f p, Vec3f ng) {
-  return shader::fm_light_fraction_above(shared_light(light), p, ng);
-}
-
-namespace {
-
 // The light's rectangle's half extent along the axes `right` and `up`.
 Vec2f half_extent(const AreaLight& light, Vec3f right, Vec3f up) {
   const Vec2f h = light_half_axes(light);
@@ -129,7 +96,7 @@ Vec2f light_half_extent(const AreaLight& light, const LightView& view) {
 shader::FmShadeBlock shade_block(const CoreParams& params, const AreaLight& light, const shader::ShadowMapView& map) {
   shader::FmShadeBlock b{};
   b.map = map;
-  b.light = shared_light(light);
+  b.light = horizon_light(light);
   // Texels per unit of (1/z_b - 1/z_p).
   b.half_extent = half_extent(light, map.view.right, map.view.up) * map.focal;
   b.min_half = 0.5 * params.min_filter;

@@ -108,9 +108,6 @@ class FilteredMomentMap {
 // The light's shape as a rectangle in a view: half its extent along the view's right and up
 // axes, world units (see the header comment).
 Vec2f light_half_extent(const AreaLight& light, const LightView& view);
-// The fraction of the light's rectangle above p's tangent plane (normal ng): on a closed
-// object the rest is hidden by the object itself.
-float light_fraction_above(const AreaLight& light, Vec3f p, Vec3f ng);
 
 struct CoreParams {
   shadow_map::ViewParams view;

@@ -12,6 +12,7 @@
 #include "penumbra/core/shader_compat_math.h"
 #include "penumbra/raster/filtered_map_shared.h"
 #include "penumbra/shadow/filtered_moments/moments_shared.h"
+#include "penumbra/shadow/light_horizon_shared.h"
 #include "penumbra/shadow/shadow_map_shared.h"
 
 PN_SHARED_BEGIN
@@ -93,56 +94,9 @@ PN_INLINE FilteredChannels fm_mean(FmMapRef r, double x0, double y0, double x1, 
   return mip_box_mean(r.mip, r.mip_view, float(x0), float(y0), float(x1), float(y1));
 }
 
-// The light as the moment methods see it, 64 bytes: its centre and normal (who is in front of it),
-// its axes s and t with the half sides of its rectangle along them (filtered_moments.cpp
-// light_half_axes: a rect's own, a disk's or an ellipse's rectangle of equal area).
-struct FmLight {
-  vec3 center;
-  float half_s;
-  vec3 n;
-  float half_t;
-  vec3 s;
-  float pad0;
-  vec3 t;
-  float pad1;
-};
-
-// light_fraction_above: the fraction of the light's rectangle above p's tangent plane (normal
-// ng). The signed height over the plane is affine over the rectangle: f(u, v) = f00 + fu u + fv v
-// on the unit square; the square clipped to f > 0 (Sutherland-Hodgman against one line), its area
-// by the shoelace formula.
-PN_INLINE float fm_light_fraction_above(FmLight l, vec3 p, vec3 ng) {
-  vec3 corner = l.center - l.s * l.half_s - l.t * l.half_t;
-  float f00 = dot(ng, corner - p);
-  float fu = dot(ng, l.s) * 2.0f * l.half_s;
-  float fv = dot(ng, l.t) * 2.0f * l.half_t;
-  vec2 square[4] = {vec2(0.0f, 0.0f), vec2(1.0f, 0.0f), vec2(1.0f, 1.0f), vec2(0.0f, 1.0f)};
-  vec2 poly[5];
-  int n = 0;
-  for (int i = 0; i < 4; ++i) {
-    vec2 a = square[i];
-    vec2 b = square[(i + 1) % 4];
-    PN_PRECISE float fa = f00 + fu * a.x + fv * a.y;
-    PN_PRECISE float fb = f00 + fu * b.x + fv * b.y;
-    if (fa > 0.0f) poly[n++] = a;
-    if ((fa > 0.0f) != (fb > 0.0f)) {
-      float s = fa / (fa - fb);
-      PN_PRECISE float qx = a.x + (b.x - a.x) * s;
-      PN_PRECISE float qy = a.y + (b.y - a.y) * s;
-      poly[n++] = vec2(qx, qy);
-    }
-  }
-  float area = 0.0f;
-  for (int i = 0; i < n; ++i) {
-    PN_PRECISE float cross_z = poly[i].x * poly[(i + 1) % n].y - poly[(i + 1) % n].x * poly[i].y;
-    area += cross_z;
-  }
-  return clamp(0.5f * area, 0.0f, 1.0f);
-}
-
 // What every lookup of one map and light reads, 288 bytes (a GPU record, uploaded per frame):
 //   bytes 0-175 the map's ShadowMapView (shadow/shadow_map_shared.h: view, focal, z_min)
-//   bytes 176-239 the FmLight
+//   bytes 176-239 the HorizonLight (shadow/light_horizon_shared.h)
 //   bytes 240-247 half_extent: texels per unit of (1/z_b - 1/z_p) along x and y (the light's rectangle
 //                 as light_half_extent sees it, times the focal length)
 //   bytes 248-255 min_half: half the smallest filter side, texels (double)
@@ -154,7 +108,7 @@ PN_INLINE float fm_light_fraction_above(FmLight l, vec3 p, vec3 ng) {
 //                 into (fm_parts; 1: never)   284-287 (0)
 struct FmShadeBlock {
   ShadowMapView map;
-  FmLight light;
+  HorizonLight light;
   vec2 half_extent;
   double min_half;
   double fixed_half;
@@ -249,7 +203,7 @@ struct FmShadeCount {
 PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, vec3 ng, bool closed,
                          PN_INOUT(FmShadeCount) count) {
   if (!sm_in_front_of_light(b.light.center, b.light.n, p)) return 0.0f;
-  float horizon = closed ? fm_light_fraction_above(b.light, p, ng) : 1.0f;
+  float horizon = closed ? light_fraction_above(b.light, p, ng) : 1.0f;
   if (!(horizon > 0.0f)) return 0.0f;
   // LightView::to_texel.
   RasterView v = b.map.view;
@@ -336,7 +290,6 @@ PN_SHARED_END
 
 #ifdef __cplusplus
 static_assert(sizeof(penumbra::shader::FmDepthRange) == 32);
-static_assert(sizeof(penumbra::shader::FmLight) == 64);
 static_assert(sizeof(penumbra::shader::FmShadeBlock) == 288);
 #endif
 

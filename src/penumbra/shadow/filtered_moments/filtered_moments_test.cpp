@@ -412,21 +412,6 @@ TEST(EvsmScene, LargeExponentsAndATinyLightGiveTheShadowMap) {
   EXPECT_GT(count(sm, [&](size_t i) { return sm.data()[i] < 0.5f; }), 64 * 64 / 40);
 }
 
-// The horizon term of closed receivers: the fraction of the light's rectangle above p's
-// tangent plane, by polygon clipping.
-TEST(VsmHorizon, FractionOfTheLightAboveTheTangentPlane) {
-  const AreaLight light = rect_light_down({0, 2, 0}, 1.0f, 0.5f);
-  EXPECT_FLOAT_EQ(light_fraction_above(light, {0, 0, 0}, {0, 1, 0}), 1.0f);
-  EXPECT_FLOAT_EQ(light_fraction_above(light, {0, 0, 0}, {0, -1, 0}), 0.0f);
-  // A vertical plane through the light's centre line: half of it.
-  EXPECT_NEAR(light_fraction_above(light, {0, 0, 0}, {1, 0, 0}), 0.5f, 1e-6);
-  // A plane through p = (0.25, 2, 0)'s vertical line: the light's x in (0.25, 0.5], a quarter.
-  EXPECT_NEAR(light_fraction_above(light, {0.25f, 0, 0}, {1, 0, 0}), 0.25f, 1e-6);
-  // Tilted: the plane through the origin with normal (1, 1, 0)/sqrt2 meets the light's plane
-  // (y = 2) at x = -2: all of the light is above.
-  EXPECT_FLOAT_EQ(light_fraction_above(light, {0, 0, 0}, normalize(Vec3f(1, 1, 0))), 1.0f);
-}
-
 TEST(EvsmParams, BadComponentsNameTheKey) {
   const Scene scene = small_scene(8);
   try {

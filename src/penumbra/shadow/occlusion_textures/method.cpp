@@ -22,7 +22,7 @@ class OcclusionTexturesMethod final : public ShadowMethod {
   }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
-    textures_.shade(vs, out.visibility, &stats_);
+    textures_.shade(*ctx.scene, vs, out.visibility, &stats_);
     if (ctx.progress) ctx.progress->add(vs.size());
   }
 
@@ -76,6 +76,11 @@ const MethodRegistration registration({
         {"cull_back_faces", ParamType::Bool, true,
          "closed objects: slice only the faces toward the centre of projection (where rays enter the solid), so that a solid "
          "occludes once in eq. 5 instead of twice, and half its triangles are rasterized",
+         {}},
+        {"horizon", ParamType::Bool, true,
+         "closed receivers: multiply V by the part of the light above the receiver's tangent plane (the rest is hidden by the "
+         "object itself, which the slices cannot show: a solid's faces away from the light read as lit; penumbra's "
+         "addition, as vsm's); false: the slices alone, as the paper",
          {}},
     },
     [](const ParamSet& p) { return std::make_unique<OcclusionTexturesMethod>(p); },

@@ -67,6 +67,7 @@ struct OtShadeParams {
   uint64_t textures;    // the pyramid (bytes) or the summed-area tables (uint32 or double)
   uint64_t bounds;      // float[4 slices]
   uint64_t counters;    // OtShadeCounters
+  uint64_t scene;       // the GpuScene (the receivers' objects: closed or not)
   uint slots;
   uint prefilter;   // kOt*
   uint sat_counts;  // the tables hold uint32 counts

@@ -17,6 +17,7 @@
 #include "penumbra/core/shader_compat.h"
 #include "penumbra/core/shader_compat_math.h"
 #include "penumbra/raster/filtered_map_shared.h"
+#include "penumbra/shadow/light_horizon_shared.h"
 
 PN_SHARED_BEGIN
 
@@ -229,11 +230,12 @@ PN_INLINE float ot_box(OtTextures t, OtSliceBounds bounds, int k, float x0, floa
 // ---------------------------------------------------------------------------------------------
 // Per point (occlusion_textures.cpp shade_batch)
 
-// The slicing and the light's frame, 224 bytes (OcclusionTextures' set-up; a GPU record):
+// The slicing and the light's frame, 288 bytes (OcclusionTextures' set-up; a GPU record):
 //   bytes 0-15 center, top   16-31 right, thickness   32-47 up, R (texture side)   48-63 forward, kx
 //   bytes 64-79 ky, inv_fade, fade (0: no fade-in), slices
-//   bytes 80-95 has_casters, combine (kOtProduct/Sum/Max), 0, 0
+//   bytes 80-95 has_casters, combine (kOtProduct/Sum/Max), horizon (0 or 1), 0
 //   bytes 96-223 scale[32]: per slice d / (plane(k) + d), the texel footprint per world unit
+//   bytes 224-287 the light as the horizon test sees it (shadow/light_horizon_shared.h)
 // right and up are the slicing view's axes; kx, ky texels per world unit at the light (R /
 // width, R / height of its rectangle).
 struct OtSetup {
@@ -251,9 +253,10 @@ struct OtSetup {
   int slices;
   uint has_casters;
   uint combine;
+  uint horizon;
   uint pad0;
-  uint pad1;
   float scale[32];
+  HorizonLight light;
 };
 
 // Slice k's texture plane: its far plane, at depth top + (k + 1) T.
@@ -317,9 +320,20 @@ PN_INLINE float ot_combine(OtSetup s, OtCombined c) {
   return c.product;
 }
 
+// The share of the light a receiver on a closed object can see at most (OtSetup::horizon): the
+// part of the light above its tangent plane (normal ng); the rest is behind the object itself.
+// The slices cannot show it: the slice holding the receiver is skipped and the one above fades in
+// (§3.4), and a closed object's faces away from the centre of projection are not sliced, so a
+// wall or a bunny's flank facing away from the light read as lit. 1 on open surfaces or with
+// horizon off.
+PN_INLINE float ot_horizon(OtSetup s, vec3 p, vec3 ng, bool closed) {
+  return (s.horizon != 0u && closed) ? light_fraction_above(s.light, p, ng) : 1.0f;
+}
+
 // V at point p (OcclusionTextures::visibility): 0 behind the light's plane, 1 without casters,
 // else eq. 5 over the slices above p, each looked up over its kernel. `bounds`: every slice's
-// covered rectangle (for the pyramids' elongated kernels), 4 floats a slice.
+// covered rectangle (for the pyramids' elongated kernels), 4 floats a slice. The slices alone:
+// shading multiplies by ot_horizon.
 PN_INLINE float ot_visibility(OtSetup s, OtTextures t, PN_FLOAT_ARRAY bounds, vec3 p, PN_INOUT(OtCounters) n) {
   vec3 q = p - s.center;
   float u = dot(q, s.right);
@@ -351,7 +365,7 @@ PN_INLINE float ot_visibility(OtSetup s, OtTextures t, PN_FLOAT_ARRAY bounds, ve
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::OtSetup) == 224);
+static_assert(sizeof(penumbra::shader::OtSetup) == 288);
 static_assert(sizeof(penumbra::shader::OtSliceBounds) == 16);
 #endif
 

@@ -11,6 +11,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/gpu/raster/raster_layout_shared.h"
+#include "penumbra/shadow/light_horizon.h"
 
 namespace penumbra::occlusion {
 
@@ -55,6 +56,7 @@ Options options_from(const ParamSet& p) {
   o.prefilter = parse_prefilter(p.get_string("prefilter"));
   o.sat_precision = parse_sat_precision(p.get_string("sat_precision"));
   o.combine = parse_combine(p.get_string("combine"));
+  o.horizon = p.get_bool("horizon");
   o.thin_fix = p.get_bool("thin_fix");
   o.fade = p.get_float("fade");
   o.cop_distance = p.get_float("cop_distance");
@@ -177,6 +179,8 @@ void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
   setup_.combine = options_.combine == Combine::Sum ? shader::kOtSum
                    : options_.combine == Combine::Max ? shader::kOtMax
                                                       : shader::kOtProduct;
+  setup_.horizon = options_.horizon ? 1u : 0u;
+  setup_.light = horizon_light(light);
   if (!has_casters_) return;
   bottom_ = zmax;
   top_ = std::max(z_eps, std::min(zmin, bottom_ * (1 - 1e-3f)));
@@ -331,6 +335,7 @@ float OcclusionTextures::box(int k, float x0, float y0, float x1, float y1, Look
 struct OcclusionTextures::Batch {
   std::vector<Vec3f> points;      // as added
   std::vector<uint32_t> targets;  // where each point's V goes
+  std::vector<float> horizon;     // as added: what the point's V is multiplied by (ot_horizon)
   std::vector<uint8_t> above;     // slices above each point
   std::vector<float> u, v, z, inv_z, product, sum, largest, cx, cy, side, occlusion;  // sorted
   std::vector<uint32_t> target;                                                    // sorted
@@ -340,6 +345,7 @@ struct OcclusionTextures::Batch {
   void reset(size_t n) {
     points.resize(n);
     targets.resize(n);
+    horizon.resize(n);
   }
 };
 
@@ -498,6 +504,7 @@ float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
   b.reset(1);
   b.points[0] = p;
   b.targets[0] = 0;
+  b.horizon[0] = 1.0f;
   float v = 0;
   dispatch([&](const auto& f) { shade_batch(f, b, std::span<float>(&v, 1), n); });
   return v;
@@ -508,8 +515,8 @@ float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
 // stays in cache, and the per-sample arithmetic runs over arrays (vectorised). The same code
 // as visibility() (a batch of one).
 template <class F>
-void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::span<float> visibility,
-                                   LookupCounters& total) const {
+void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const ViewSamples& vs,
+                                   std::span<float> visibility, LookupCounters& total) const {
   // The rendered window (the whole image, or a crop): its rows and tiles. Samples keep their
   // global pixel index y * width + x.
   const PixelWindow window = vs.traced_window();
@@ -549,12 +556,22 @@ void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::
     b.reset(n);
     size_t j = 0;
     for (int y = y0; y < y1; ++y)
-      for (uint32_t i = begin[y - y0]; i < end[y - y0]; ++i, ++j) {
-        b.points[j] = vs.samples[i].p;
+      for (uint32_t i = begin[y - y0]; i < end[y - y0]; ++i) {
+        const ViewSample& s = vs.samples[i];
+        const float h = shader::ot_horizon(setup_, s.p, s.ng, scene.objects[s.object].closed);
+        if (!(h > 0)) {  // all of the light is behind the receiver's own surface
+          visibility[i] = 0;
+          continue;
+        }
+        b.points[j] = s.p;
         b.targets[j] = i;
+        b.horizon[j] = h;
+        ++j;
       }
+    b.reset(j);
     LookupCounters counters;
     shade_batch(filter, b, visibility, counters);
+    for (size_t k = 0; k < j; ++k) visibility[b.targets[k]] *= b.horizon[k];
     lookups.fetch_add(counters.lookups, std::memory_order_relaxed);
     reads.fetch_add(counters.reads, std::memory_order_relaxed);
     outside.fetch_add(counters.outside, std::memory_order_relaxed);
@@ -566,10 +583,11 @@ void OcclusionTextures::shade_with(const F& filter, const ViewSamples& vs, std::
   total.strips += strips.load();
 }
 
-void OcclusionTextures::shade(const ViewSamples& vs, std::span<float> visibility, MethodStats* stats) const {
+void OcclusionTextures::shade(const Scene& scene, const ViewSamples& vs, std::span<float> visibility,
+                              MethodStats* stats) const {
   Timer timer;
   LookupCounters n;
-  dispatch([&](const auto& f) { shade_with(f, vs, visibility, n); });
+  dispatch([&](const auto& f) { shade_with(f, scene, vs, visibility, n); });
   stats->add_phase("shading", timer.elapsed_ms());
   stats->texels_visited += n.reads;
   auto add = [&](const char* key, uint64_t value) {

@@ -20,7 +20,10 @@
 // footprint is t W d / (plane(k) + d) texels wide (independent of the light's size), and
 // one filtered lookup gives the occluded fraction I_k. V = prod_k (1 - w_k I_k) (eq. 5), or
 // 1 - sum, or 1 - max. The slice containing P is skipped; w_k fades the slice just above P
-// in linearly over `fade` slice thicknesses below its plane (self-shadowing, §3.4).
+// in linearly over `fade` slice thicknesses below its plane (self-shadowing, §3.4). On a closed
+// object V is then multiplied by the part of the light above the receiver's tangent plane
+// (`horizon`, penumbra's addition, as vsm's): the slices cannot show a solid hiding the light
+// from its own far side.
 #pragma once
 
 #include <cstdint>
@@ -61,6 +64,7 @@ struct Options {
   float cop_distance = 0;  // d in world units; 0 = fitted to the casters
   bool cull_planar = true; // skip planar objects that cannot shadow anything (ground planes)
   bool cull_back_faces = true;   // closed objects: slice only the faces toward the centre of projection
+  bool horizon = true;     // closed receivers: V times the light's part above their tangent plane
 };
 
 // The method's parameters (method.cpp's table) as Options.
@@ -85,9 +89,10 @@ class OcclusionTextures {
   // planar non-casters culled), their depth range, the slices, the centre of projection and the
   // slicing view, and setup().
   void plan(const Scene& scene, const AreaLight& light);
-  // V for every view sample; records the phase "shading" and the lookups.
-  void shade(const ViewSamples& samples, std::span<float> visibility, MethodStats* stats) const;
-  // V at one point, and the lookups it made.
+  // V for every view sample (a receiver on a closed object of `scene` times its horizon,
+  // occlusion_shared.h ot_horizon); records the phase "shading" and the lookups.
+  void shade(const Scene& scene, const ViewSamples& samples, std::span<float> visibility, MethodStats* stats) const;
+  // V of the slices at one point (no horizon: the point has no surface), and the lookups it made.
   float visibility(Vec3f p, LookupCounters* counters = nullptr) const;
 
   // What build() chose (for tests, statistics and the docs).
@@ -121,7 +126,7 @@ class OcclusionTextures {
   template <class F>
   void shade_batch(const F& filter, Batch& batch, std::span<float> out, LookupCounters& n) const;
   template <class F>
-  void shade_with(const F& filter, const ViewSamples& samples, std::span<float> visibility,
+  void shade_with(const F& filter, const Scene& scene, const ViewSamples& samples, std::span<float> visibility,
                   LookupCounters& total) const;
   template <class Fn>
   decltype(auto) dispatch(Fn&& fn) const;

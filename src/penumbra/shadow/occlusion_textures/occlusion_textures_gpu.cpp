@@ -87,6 +87,7 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     p.textures = textures_address();
     p.bounds = bounds_.address();
     p.counters = counters_.address();
+    p.scene = frame.scene->address();
     p.slots = frame.slots;
     p.prefilter = shared_prefilter(options_.prefilter);
     p.sat_counts = options_.sat_precision == occlusion::SatPrecision::UInt32 ? 1u : 0u;

@@ -5,10 +5,12 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstdio>
 #include <map>
 
 #include "penumbra/core/error.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/shadow/light_horizon.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/test_scenes.h"
@@ -356,6 +358,55 @@ TEST(OcclusionTextures, ClosedObjectsAreSlicedAtTheirFacesTowardTheCentreOfProje
   EXPECT_EQ(bits_front, 0x1u);
   EXPECT_LT(all.visibility({0, 0, 0}), 0.01f);
   EXPECT_LT(front.visibility({0, 0, 0}), 0.01f);
+}
+
+// A box on the ground, the light off to its +x side, the camera looking down at it from the -x
+// side: its -x face sees none of the light (it is all behind the face's plane), its top all
+// of it. With `horizon` a closed receiver's V is the slices' V times the light's part above its
+// tangent plane, exactly; the -x face is then 0 (without, only the top face's slice shadows it,
+// partly: the slices skip the box's own slice, and its faces away from the centre of projection
+// are not sliced), and the box's pixels come closer to `reference`. Open and ground receivers
+// are unchanged.
+TEST(OcclusionTextures, AClosedReceiverSeesOnlyTheLightAboveItsTangentPlane) {
+  Scene scene = testing::ground_scene({testing::object(testing::box({-0.3f, 0.0f, -0.3f}, {0.3f, 0.6f, 0.3f}))},
+                                      testing::rect_light_down({1.5f, 2, 0}, 0.8f, 0.8f), 48);
+  scene.camera.eye = {-2.5f, 2.0f, 0.4f};
+  scene.camera.target = {0, 0.3f, 0};
+  scene.camera.up = {0, 1, 0};
+  scene.camera.fov_y = 40;
+  ASSERT_TRUE(scene.objects[1].closed);
+  const MethodRun with = run_method(scene, {}), without = run_method(scene, {"horizon=false"});
+  ASSERT_EQ(with.vs.size(), without.vs.size());
+  const AreaLight& light = scene.lights[0];
+  RenderSettings rs;
+  rs.method = "reference";
+  rs.light_samples = 256;
+  const Image ref = render_scene(scene, rs).visibility;
+  int far_face = 0;
+  double far_without = 0, err_with = 0, err_without = 0;
+  for (size_t i = 0; i < with.vs.size(); ++i) {
+    const ViewSample& s = with.vs.samples[i];
+    if (s.object != 1) {
+      EXPECT_EQ(with.v[i], without.v[i]);
+      continue;
+    }
+    const float h = light_fraction_above(light, s.p, s.ng);
+    EXPECT_EQ(with.v[i], h > 0 ? without.v[i] * h : 0.0f);
+    if (s.ng.x < -0.9f) {
+      ++far_face;
+      EXPECT_EQ(with.v[i], 0.0f);
+      far_without += without.v[i];
+    }
+    const float truth = ref.data()[s.pixel];
+    err_with += std::abs(with.v[i] - truth);
+    err_without += std::abs(without.v[i] - truth);
+  }
+  ASSERT_GT(far_face, 20);
+  std::printf("[ numbers  ] the box's far face: %d pixels, mean V without the horizon %.3f; the box's pixels, sum "
+              "|dV| against reference: horizon %.2f, without %.2f\n",
+              far_face, far_without / far_face, err_with, err_without);
+  EXPECT_GT(far_without / far_face, 0.05);  // the slices alone light part of it (0.116)
+  EXPECT_LT(err_with, 0.1 * err_without);  // 0.52 against 20.1
 }
 
 TEST(OcclusionTextures, DiskLightsUseTheirBoundingSquare) {

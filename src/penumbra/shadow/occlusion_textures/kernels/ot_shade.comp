@@ -2,13 +2,15 @@
 // `occlusion-textures` on the GPU (occlusion_textures.cpp shade): one thread per view-sample
 // slot, occlusion_shared.h's ot_visibility, the CPU's function: the slices above the point, its
 // kernel on each (eq. 4), one prefiltered lookup each (trilinear mipmap, N-buffer or summed-area
-// table, §3.2), combined by eq. 5. Lookups, texels read, kernels outside the texture and elongated
+// table, §3.2), combined by eq. 5, times the horizon of a closed receiver (ot_horizon; none left:
+// 0 without lookups). Lookups, texels read, kernels outside the texture and elongated
 // kernels are counted per subgroup, then one atomic each.
 // eisemann2006 §3.2: the paper's lookups are the texture units' trilinear (anisotropic) filtering
 // of mipmapped RGBA8 textures and fragment-shader reads of N-buffers; here a compute thread
 // reads the bytes and blends them with the CPU's arithmetic.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "penumbra/gpu/kernel_common.glsl"
+#include "penumbra/gpu/scene_access.glsl"
 #include "penumbra/shadow/occlusion_textures/occlusion_kernels_shared.h"
 #include "penumbra/shadow/occlusion_textures/occlusion_shared.h"
 #include "penumbra/shadow/view_samples_shared.h"
@@ -40,7 +42,12 @@ void main() {
       t.sat_u = Uints(pc.p.textures);
       t.sat_d = Doubles(pc.p.textures);
       t.sat = pc.p.sat;
-      Floats(pc.p.visibility).v[i] = ot_visibility(SetupRef(pc.p.setup).s, t, Floats(pc.p.bounds), s.p, n);
+      scene_bind(pc.p.scene);
+      bool closed = (g_objects.v[s.object].flags & kObjectClosed) != 0u;
+      float horizon = ot_horizon(SetupRef(pc.p.setup).s, s.p, s.ng, closed);
+      float v = 0.0f;
+      if (horizon > 0.0f) v = ot_visibility(SetupRef(pc.p.setup).s, t, Floats(pc.p.bounds), s.p, n) * horizon;
+      Floats(pc.p.visibility).v[i] = v;
     }
   }
   uint lookups = subgroupAdd(n.lookups), reads = subgroupAdd(n.reads);
