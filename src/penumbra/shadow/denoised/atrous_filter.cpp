@@ -42,7 +42,7 @@ void GuidedImage::resize(int w, int h) {
   normal.assign(n, Vec3f(0.0f));
   shadowed.assign(n, 0.0f);
   unshadowed.assign(n, 0.0f);
-  fallback.assign(n, 0.0f);
+  area.assign(n, 0.0f);
   variance.assign(n, 0.0f);
 }
 
@@ -50,10 +50,11 @@ shader::DenoiseImage GuidedImage::shared() const {
   return {width,           height,         1u,
           0u,              valid.data(),   depth.data(),
           normal.data(),   shadowed.data(), unshadowed.data(),
-          fallback.data(), variance.data()};
+          area.data(),     variance.data()};
 }
 
 float GuidedImage::ratio(size_t i) const { return shader::dn_ratio(shared(), static_cast<uint32_t>(i)); }
+float GuidedImage::visibility(size_t i) const { return shader::dn_visibility(shared(), static_cast<uint32_t>(i)); }
 
 void estimate_variance_spatially(GuidedImage& img, const AtrousSettings& s) {
   const std::vector<Vec2f> grad = depth_gradients(img);
@@ -72,7 +73,7 @@ void atrous_filter(GuidedImage& img, const AtrousSettings& s) {
   if (s.iterations <= 0 || img.valid.empty()) return;
   const std::vector<Vec2f> grad = depth_gradients(img);
   const size_t n = img.valid.size();
-  std::vector<float> next_s(n), next_u(n), next_var(n), prefiltered_var(n);
+  std::vector<float> next_s(n), next_u(n), next_a(n), next_var(n), prefiltered_var(n);
   const shader::DenoiseImage im = img.shared();
   for (int it = 0; it < s.iterations; ++it) {
     const int step = 1 << it;  // §4.2: the kernel's taps 2^i pixels apart
@@ -90,6 +91,7 @@ void atrous_filter(GuidedImage& img, const AtrousSettings& s) {
               shader::dn_atrous(im, grad.data(), prefiltered_var[p], x, y, step, shared_settings(s));
           next_s[p] = f.shadowed;
           next_u[p] = f.unshadowed;
+          next_a[p] = f.area;
           next_var[p] = f.variance;
         }
     });
@@ -97,6 +99,7 @@ void atrous_filter(GuidedImage& img, const AtrousSettings& s) {
       if (!img.valid[i]) continue;
       img.shadowed[i] = next_s[i];
       img.unshadowed[i] = next_u[i];
+      img.area[i] = next_a[i];
       img.variance[i] = next_var[i];
     }
   }

@@ -26,15 +26,18 @@ struct GuidedImage {
   std::vector<Vec3f> normal;   // unit shading normal
   std::vector<float> shadowed;    // S = sum_i T_i f_i / N
   std::vector<float> unshadowed;  // U = sum_i f_i / N
-  // V where U is 0 (the point faces away from the light): the fraction of the light's area
-  // it sees. Never filtered; also the luminance guide of such pixels.
-  std::vector<float> fallback;
-  std::vector<float> variance;  // Var(V) of the pixel's estimate (filtered along, §4.2)
+  // A = sum_i T_i a_i / sum_i a_i: the fraction of the light's area the point sees (samples
+  // behind a closed receiver's tangent plane blocked), filtered with S and U; V, and the
+  // luminance guide where U is 0 (the point faces away from the light).
+  std::vector<float> area;
+  std::vector<float> variance;  // Var(S / U) of the pixel's estimate (filtered along, §4.2)
 
   void resize(int w, int h);
   size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
-  // V = S / U, or the fallback where U is 0, clamped to [0, 1].
+  // The irradiance ratio S / U (A where U is 0), clamped to [0, 1].
   float ratio(size_t i) const;
+  // V: the area fraction A, clamped to [0, 1].
+  float visibility(size_t i) const;
   // The planes as the shared functions read them (atrous_shared.h; valid while the image is
   // not resized).
   shader::DenoiseImage shared() const;
@@ -63,9 +66,9 @@ inline constexpr int kMinSamplesForOwnVariance = 4;
 // img.variance.
 void estimate_variance_spatially(GuidedImage& img, const AtrousSettings& s);
 
-// Runs s.iterations a-trous passes (§4.2) over S, U and the variance, in place. Deterministic;
+// Runs s.iterations a-trous passes (§4.2) over S, U, A and the variance, in place. Deterministic;
 // parallel over rows. Extra bytes it allocates per pixel: kScratchBytesPerPixel.
 void atrous_filter(GuidedImage& img, const AtrousSettings& s);
-inline constexpr uint64_t kScratchBytesPerPixel = 4 * sizeof(float) + 2 * sizeof(float);
+inline constexpr uint64_t kScratchBytesPerPixel = 5 * sizeof(float) + 2 * sizeof(float);
 
 }  // namespace penumbra::denoise

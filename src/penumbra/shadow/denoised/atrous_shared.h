@@ -46,8 +46,8 @@ struct DenoiseImage {
   PN_VEC3_ARRAY normal;       // unit shading normal
   PN_FLOAT_ARRAY shadowed;    // S = sum_i T_i f_i / N
   PN_FLOAT_ARRAY unshadowed;  // U = sum_i f_i / N
-  PN_FLOAT_ARRAY fallback;    // V where U is 0
-  PN_FLOAT_ARRAY variance;    // Var(V)
+  PN_FLOAT_ARRAY area;        // A = sum_i T_i a_i / sum_i a_i: the fraction of the light's area seen
+  PN_FLOAT_ARRAY variance;    // Var(S / U)
 };
 
 PN_INLINE uint dn_index(DenoiseImage img, int x, int y) {
@@ -64,12 +64,18 @@ PN_INLINE bool dn_valid(DenoiseImage img, uint i) { return PN_AT(img.valid, i) !
 PN_CONST float kDenoiseSmallestNormal = 1.17549435e-38f;
 PN_INLINE float dn_flush_subnormal(float x) { return abs(x) < kDenoiseSmallestNormal ? 0.0f : x; }
 
-// GuidedImage::ratio: V = S / U, or the fallback where U is 0 (or subnormal), clamped to [0, 1].
+// GuidedImage::ratio: the irradiance ratio R = S / U (what multiplies the closed-form unshadowed
+// irradiance), or the area fraction where U is 0 (or subnormal), clamped to [0, 1]. Also the
+// filter's guide (eq. 5's luminance).
 PN_INLINE float dn_ratio(DenoiseImage img, uint i) {
   float u = dn_flush_subnormal(PN_AT(img.unshadowed, i));
-  float v = u > 0.0f ? dn_flush_subnormal(PN_AT(img.shadowed, i)) / u : PN_AT(img.fallback, i);
+  float v = u > 0.0f ? dn_flush_subnormal(PN_AT(img.shadowed, i)) / u : PN_AT(img.area, i);
   return clamp(v, 0.0f, 1.0f);
 }
+
+// GuidedImage::visibility: V, the fraction of the light's area seen (`reference`'s V: samples
+// behind a closed receiver's tangent plane count as blocked), clamped to [0, 1].
+PN_INLINE float dn_visibility(DenoiseImage img, uint i) { return clamp(PN_AT(img.area, i), 0.0f, 1.0f); }
 
 // The depth guide of a view sample at p: its linear depth along the camera's axis.
 PN_INLINE float dn_view_depth(vec3 p, vec3 eye, vec3 forward) { return dot(p - eye, forward); }
@@ -115,14 +121,14 @@ PN_INLINE void dn_fan_add_spread(PN_INOUT(DenoiseFanSums) s, float t, float f) {
 struct DenoisePixel {
   float shadowed;
   float unshadowed;
-  float fallback;
+  float area;
   float variance;
 };
 PN_INLINE DenoisePixel dn_fan_pixel(DenoiseFanSums s, int samples) {
   DenoisePixel p;
   p.shadowed = float(s.sf / double(samples));
   p.unshadowed = float(s.f / double(samples));
-  p.fallback = s.a > double(0.0f) ? float(s.sa / s.a) : 0.0f;
+  p.area = s.a > double(0.0f) ? float(s.sa / s.a) : 0.0f;
   p.variance = s.f > double(0.0f) ? float(s.sf2 / (s.f * s.f)) : 0.0f;
   return p;
 }
@@ -224,10 +230,12 @@ PN_INLINE float dn_prefiltered_variance(DenoiseImage img, int x, int y) {
 
 // One a-trous pass at a valid pixel (§4.2): the 5 x 5 B3-spline kernel with taps `step` pixels
 // apart, each weighted by depth, normal and V (eq. 5, scaled by the prefiltered standard deviation
-// `prefiltered_var` of p); S and U with the same weights, the variance with their squares.
+// `prefiltered_var` of p); S, U and the area fraction A with the same weights, the variance with
+// their squares.
 struct DenoiseFiltered {
   float shadowed;
   float unshadowed;
+  float area;
   float variance;
 };
 PN_INLINE DenoiseFiltered dn_atrous(DenoiseImage img, PN_VEC2_ARRAY grad, float prefiltered_var, int x, int y, int step,
@@ -239,6 +247,7 @@ PN_INLINE DenoiseFiltered dn_atrous(DenoiseImage img, PN_VEC2_ARRAY grad, float 
   PN_PRECISE float l_scale = s.sigma_l * sqrt(prefiltered_var) + kDenoiseEpsilonLuminance;
   double ws = double(0.0f);
   double wu = double(0.0f);
+  double wa = double(0.0f);
   double wvar = double(0.0f);
   double wsum = double(0.0f);
   for (int ky = -2; ky <= 2; ++ky)
@@ -253,8 +262,10 @@ PN_INLINE DenoiseFiltered dn_atrous(DenoiseImage img, PN_VEC2_ARRAY grad, float 
                                  dn_geometry_weight(img, gp, p, q, float(kx * step), float(ky * step), s) * w_l);
       PN_PRECISE double ws_next = ws + double(w) * double(PN_AT(img.shadowed, q));
       PN_PRECISE double wu_next = wu + double(w) * double(PN_AT(img.unshadowed, q));
+      PN_PRECISE double wa_next = wa + double(w) * double(PN_AT(img.area, q));
       ws = ws_next;
       wu = wu_next;
+      wa = wa_next;
       PN_PRECISE double wv = wvar + double(w) * double(w) * double(PN_AT(img.variance, q));  // §4.2: w^2
       wvar = wv;
       wsum += double(w);
@@ -263,6 +274,7 @@ PN_INLINE DenoiseFiltered dn_atrous(DenoiseImage img, PN_VEC2_ARRAY grad, float 
   DenoiseFiltered r;
   r.shadowed = float(ws / wsum);
   r.unshadowed = float(wu / wsum);
+  r.area = float(wa / wsum);
   r.variance = float(wvar / (wsum * wsum));
   return r;
 }

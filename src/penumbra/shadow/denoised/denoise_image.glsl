@@ -10,7 +10,7 @@
 
 layout(buffer_reference, scalar) readonly buffer DnPlanesRef { DnPlanes p; };
 
-// The image slot `slot` belongs to, with S, U and the variance of set `current`, and the slot's
+// The image slot `slot` belongs to, with S, U, A and the variance of set `current`, and the slot's
 // pixel (x, y) in it.
 DenoiseImage dn_slot_image(DnPlanes planes, DnFilterParams p, uint slot, out int x, out int y) {
   uint spp = uint(p.spp);
@@ -27,7 +27,7 @@ DenoiseImage dn_slot_image(DnPlanes planes, DnFilterParams p, uint slot, out int
   img.normal = Vec3s(planes.normal);
   img.shadowed = Floats(planes.shadowed[p.current]);
   img.unshadowed = Floats(planes.unshadowed[p.current]);
-  img.fallback = Floats(planes.fallback);
+  img.area = Floats(planes.area[p.current]);
   img.variance = Floats(planes.variance[p.current]);
   return img;
 }

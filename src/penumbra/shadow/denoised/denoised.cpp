@@ -1,11 +1,16 @@
 // Method `rt-denoised`: few-sample ray-traced shadows and a denoiser, the real-time
 // practice the paper methods compete with. Per view sample, `samples` light samples drawn
 // exactly as `reference` draws them (shadow_rays.h, trace_light_fans), then:
-//   - the ratio estimator of Heitz et al. 2018 (§3): the unshadowed irradiance is analytic
-//     (the renderer composes E = V x unshadowed, computes_irradiance() false); only the
-//     visibility ratio is stochastic. With the same samples, S = sum T_i f_i / N (shadowed)
-//     and U = sum f_i / N (unshadowed) are estimated and denoised with the same weights, and
-//     V = S' / U' (§3.2: the ratio of the denoised estimates, not the denoised ratio);
+//   - the ratio estimator of Heitz et al. 2018 (§3): the unshadowed irradiance is analytic and
+//     only the visibility ratio is stochastic. With the same samples, S = sum T_i f_i / N
+//     (shadowed) and U = sum f_i / N (unshadowed) are estimated and denoised with the same
+//     weights, and E = (S' / U') x the closed-form unshadowed irradiance (§3.2: the ratio of
+//     the denoised estimates, not the denoised ratio; computes_irradiance() true);
+//   - V, the fraction of the light's area seen (every method's V: samples behind a closed
+//     receiver's tangent plane count as blocked), is the same samples' area-weighted estimate
+//     A, denoised with the same weights: S' / U' weighs the light by the cosine and leaves out
+//     what lies behind the tangent plane, so it is not that fraction (docs/methods/rt-denoised.md,
+//     "Which V");
 //   - SVGF's spatial filter (Schied et al. 2017 §4.2-4.3; no temporal part: every frame is
 //     filtered alone): an a-trous wavelet with the 5x5 B3 kernel, taps 2^i apart, edge-
 //     stopping weights from depth (with its screen-space gradient), shading normal and V,
@@ -31,6 +36,8 @@ class DenoisedMethod final : public ShadowMethod {
       : samples_(p.get_int("samples")), settings_(denoise::atrous_settings_from(p)) {}
 
   void prepare(const ShadowContext&) override { stats_.prepare_count++; }
+  // E = the denoised ratio times the closed-form unshadowed irradiance; V is the area fraction.
+  bool computes_irradiance() const override { return true; }
   // Nothing prepared: every evaluate() traces the geometry as the tracer holds it now.
   bool keeps_prepared_after_moving(std::span<const uint32_t>, const ShadowContext&) override { return true; }
 
@@ -66,7 +73,7 @@ class DenoisedMethod final : public ShadowMethod {
             img.normal[i] = s.ns;
             img.shadowed[i] = px.shadowed;
             img.unshadowed[i] = px.unshadowed;
-            img.fallback[i] = px.fallback;
+            img.area[i] = px.area;
             img.variance[i] = px.variance;
           });
     }
@@ -77,10 +84,14 @@ class DenoisedMethod final : public ShadowMethod {
         denoise::atrous_filter(img, settings_);
       }
     }
+    const AreaLight& light = *ctx.light;
     parallel_for(vs.size(), 4096, [&](size_t begin, size_t end) {
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
-        out.visibility[k] = images[std::min<uint32_t>(s.sub, layers - 1)].ratio(pixel_of(s));
+        const denoise::GuidedImage& img = images[std::min<uint32_t>(s.sub, layers - 1)];
+        const size_t i = pixel_of(s);
+        out.visibility[k] = img.visibility(i);
+        out.irradiance[k] = (light.radiance * light.unshadowed_irradiance_scalar(s.p, s.ns)) * img.ratio(i);
       }
     });
     stats_.extra["light_samples"] = samples_;

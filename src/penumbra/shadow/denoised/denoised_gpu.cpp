@@ -3,8 +3,8 @@
 // of the reference's light samples (shadow/light_fans.glsl: the CPU's samples, traced through the
 // GPU's BVH) into guided images kept in the view-sample slots (one per camera-ray index, as the
 // CPU's); the filter's kernels (dn_gradients, dn_spatial_variance, dn_prefilter_variance,
-// dn_atrous, dn_ratio) run the CPU's per-pixel functions (atrous_shared.h), a pass per kernel
-// where the CPU has a loop over the image. Stages trace and filter, as the CPU's phases. Same
+// dn_atrous, dn_ratio: V and E) run the CPU's per-pixel functions (atrous_shared.h), a pass per
+// kernel where the CPU has a loop over the image. Stages trace and filter, as the CPU's phases. Same
 // parameters as denoised.cpp's table.
 #include <algorithm>
 
@@ -16,9 +16,9 @@
 namespace penumbra {
 namespace {
 
-// Bytes per slot: valid, depth, normal, fallback, gradient, prefiltered variance, and S, U and
-// the variance twice (denoised_kernels_shared.h DnPlanes).
-constexpr uint64_t kBytesPerSlot = 1 + 4 + 12 + 4 + 8 + 4 + 2 * (4 + 4 + 4);
+// Bytes per slot: valid, depth, normal, gradient, prefiltered variance, and S, U, A and the
+// variance twice (denoised_kernels_shared.h DnPlanes).
+constexpr uint64_t kBytesPerSlot = 1 + 4 + 12 + 8 + 4 + 2 * (4 + 4 + 4 + 4);
 
 class DenoisedGpu final : public GpuShadowMethod {
  public:
@@ -31,6 +31,8 @@ class DenoisedGpu final : public GpuShadowMethod {
   }
   // Nothing prepared: every evaluate() traces the geometry as the GPU holds it now.
   bool keeps_prepared_after_moving(std::span<const uint32_t>) override { return true; }
+  // E = the denoised ratio times the closed-form unshadowed irradiance; V is the area fraction.
+  bool computes_irradiance() const override { return true; }
 
   void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
     size_planes(frame);
@@ -50,6 +52,10 @@ class DenoisedGpu final : public GpuShadowMethod {
     shader::DnFilterParams p{};
     p.planes = record_.address();
     p.visibility = out.visibility;
+    p.irradiance = out.irradiance;
+    p.samples = frame.view_samples;
+    p.light = frame.light;
+    p.unit_circle = frame.unit_circle;
     p.slots = frame.slots;
     p.width = frame.window.width();
     p.height = frame.window.height();
@@ -99,12 +105,12 @@ class DenoisedGpu final : public GpuShadowMethod {
     r.valid = plane(valid_, 1);
     r.depth = plane(depth_, 4);
     r.normal = plane(normal_, 12);
-    r.fallback = plane(fallback_, 4);
     r.grad = plane(grad_, 8);
     r.prefiltered = plane(prefiltered_, 4);
     for (int k = 0; k < 2; ++k) {
       r.shadowed[k] = plane(shadowed_[k], 4);
       r.unshadowed[k] = plane(unshadowed_[k], 4);
+      r.area[k] = plane(area_[k], 4);
       r.variance[k] = plane(variance_[k], 4);
     }
     if (record_.empty()) record_ = gpu::Buffer(d, sizeof(r), "rt-denoised's planes");
@@ -115,8 +121,8 @@ class DenoisedGpu final : public GpuShadowMethod {
 
   int samples_;
   denoise::AtrousSettings settings_;
-  gpu::Buffer rays_, record_, valid_, depth_, normal_, fallback_, grad_, prefiltered_;
-  gpu::Buffer shadowed_[2], unshadowed_[2], variance_[2];
+  gpu::Buffer rays_, record_, valid_, depth_, normal_, grad_, prefiltered_;
+  gpu::Buffer shadowed_[2], unshadowed_[2], area_[2], variance_[2];
   uint64_t capacity_ = 0, planes_bytes_ = 0;
   bool counting_ = false;  // evaluate() ran since the last collect_stats()
 };

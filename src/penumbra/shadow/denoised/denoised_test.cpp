@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -116,14 +117,19 @@ TEST(RtDenoisedFilter, NeverCrossesADepthOrNormalDiscontinuity) {
   EXPECT_LT(img.ratio(img.index(15, 12)), 0.8f);
 }
 
-// The visibility ratio sum T f / sum f at n samples drawn as `reference` draws them.
-std::vector<float> ratio_truth(const SceneRun& r, int n) {
+// The fan sums of n light samples drawn as `reference` draws them (seed 1234), per view sample:
+// the irradiance ratio sum T f / sum f (the area fraction where sum f is 0) and the area fraction
+// sum T a / sum a (`reference`'s V).
+struct FanTruth {
+  std::vector<float> ratio, area;
+};
+FanTruth fan_truth(const SceneRun& r, int n, uint64_t seed = 1234) {
   ShadowContext ctx;
   ctx.scene = &r.scene;
   ctx.light = &r.scene.lights[0];
   ctx.tracer = r.tracer.get();
-  ctx.seed = 1234;
-  std::vector<float> v(r.vs.size());
+  ctx.seed = seed;
+  FanTruth t{std::vector<float>(r.vs.size()), std::vector<float>(r.vs.size())};
   trace_light_fans(ctx, r.vs, n, LightSampling::SolidAngle, [&](size_t k, const LightFan& fan) {
     double s = 0, f = 0, sa = 0, a = 0;
     for (int i = 0; i < fan.count; ++i) {
@@ -132,9 +138,11 @@ std::vector<float> ratio_truth(const SceneRun& r, int n) {
       sa += fan.transmittance[i] * fan.area_weight[i];
       a += fan.area_weight[i];
     }
-    v[k] = f > 0 ? static_cast<float>(s / f) : a > 0 ? static_cast<float>(sa / a) : 0.0f;
+    const float area = a > 0 ? static_cast<float>(sa / a) : 0.0f;
+    t.ratio[k] = f > 0 ? static_cast<float>(s / f) : area;
+    t.area[k] = area;
   });
-  return v;
+  return t;
 }
 
 // Mean |dV|, compare's headline error (docs/compare.md).
@@ -146,7 +154,7 @@ double mean_abs_error(const std::vector<float>& a, const std::vector<float>& b) 
 
 TEST(RtDenoisedScenes, LowerErrorThanTheUnfilteredEstimateAtTheSameSamples) {
   const SceneRun r = load_scene_at("contact", 64);
-  const std::vector<float> truth = ratio_truth(r, 256);
+  const std::vector<float> truth = fan_truth(r, 256).area;
   for (int samples : {1, 4}) {
     SCOPED_TRACE(samples);
     const std::string n = "samples=" + std::to_string(samples);
@@ -160,6 +168,40 @@ TEST(RtDenoisedScenes, LowerErrorThanTheUnfilteredEstimateAtTheSameSamples) {
     EXPECT_LT(filtered, 0.75 * unfiltered);
     EXPECT_LT(filtered, 0.75 * reference);
   }
+}
+
+// Which V and which E: unfiltered (iterations=0), V is the area fraction of the pixel's own
+// samples (`reference`'s V: the contact scene's box faces whose tangent plane cuts the light see
+// part of it) and E is the irradiance ratio of the same samples times the closed-form unshadowed
+// irradiance (Heitz et al. 2018: the colour), each the fan's own sums.
+TEST(RtDenoisedScenes, VIsTheAreaFractionAndEIsTheRatioTimesTheUnshadowedIrradiance) {
+  const SceneRun r = load_scene_at("contact", 48);
+  const int n = 8;
+  const FanTruth truth = fan_truth(r, n, 7);
+  auto m = create_method("rt-denoised", r.scene, {"samples=8", "iterations=0"});
+  ASSERT_TRUE(m->computes_irradiance());
+  ShadowContext ctx;
+  ctx.scene = &r.scene;
+  ctx.light = &r.scene.lights[0];
+  ctx.tracer = r.tracer.get();
+  ctx.seed = 7;
+  m->prepare(ctx);
+  std::vector<float> v(r.vs.size(), -1.0f);
+  std::vector<Vec3f> e(r.vs.size());
+  ShadowOutput out{v, e};
+  m->evaluate(ctx, r.vs, out);
+  const AreaLight& light = r.scene.lights[0];
+  int differ = 0;
+  for (size_t k = 0; k < r.vs.size(); ++k) {
+    const ViewSample& s = r.vs.samples[k];
+    ASSERT_NEAR(v[k], std::clamp(truth.area[k], 0.0f, 1.0f), 1e-6f) << k;
+    const Vec3f e0 = light.radiance * light.unshadowed_irradiance_scalar(s.p, s.ns);
+    const Vec3f want = e0 * std::clamp(truth.ratio[k], 0.0f, 1.0f);
+    ASSERT_NEAR(e[k].x, want.x, 1e-5f * (1 + std::abs(want.x))) << k;
+    differ += std::abs(truth.area[k] - truth.ratio[k]) > 0.05f;
+  }
+  // The two are different quantities on this scene (the box's faces, the cosine's weights).
+  EXPECT_GT(differ, 20);
 }
 
 TEST(RtDenoisedScenes, SameSeedSameImage) {

@@ -20,5 +20,6 @@ void main() {
   uint next = 1u - pc.p.current;
   Floats(planes.shadowed[next]).v[i] = f.shadowed;
   Floats(planes.unshadowed[next]).v[i] = f.unshadowed;
+  Floats(planes.area[next]).v[i] = f.area;
   Floats(planes.variance[next]).v[i] = f.variance;
 }

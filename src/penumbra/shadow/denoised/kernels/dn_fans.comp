@@ -2,7 +2,7 @@
 // `rt-denoised` on the GPU (denoised.cpp's trace): one thread per view-sample slot, the
 // reference's fan of `n` light samples (shadow/light_fans.glsl: the CPU's samples), and the
 // pixel's guide and signals in the planes' set 0 (atrous_shared.h: Heitz et al. 2018's shadowed
-// and unshadowed estimates of the same samples, the area-weighted fallback, the ratio's
+// and unshadowed estimates of the same samples, the area-weighted visibility A, the ratio's
 // variance); a miss marks its slot invalid. Rays counted per subgroup, then one atomic.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "penumbra/gpu/kernel_common.glsl"
@@ -44,7 +44,7 @@ void main() {
       Vec3s(planes.normal).v[i] = s.ns;
       Floats(planes.shadowed[0]).v[i] = px.shadowed;
       Floats(planes.unshadowed[0]).v[i] = px.unshadowed;
-      Floats(planes.fallback).v[i] = px.fallback;
+      Floats(planes.area[0]).v[i] = px.area;
       Floats(planes.variance[0]).v[i] = px.variance;
     }
   }
