@@ -180,7 +180,8 @@ PN_INLINE FmBox fm_part_box(double cx, double cy, double hx, double hy, int i, i
 }
 
 // The receiver plane's normalised depth at the centre of box r, from t at (cx, cy), kept in
-// [0, far] as t is.
+// [0, far] as t is. (A region in one part compares with t itself: the single estimate of before,
+// bit for bit.)
 PN_INLINE double fm_plane_depth(double t, FmPlaneSlope g, double cx, double cy, FmBox r, double far) {
   PN_PRECISE double d = t + g.x * (double(0.5f) * (r.x0 + r.x1) - cx) + g.y * (double(0.5f) * (r.y0 + r.y1) - cy);
   return clamp(d, double(0.0f), far);
@@ -236,9 +237,8 @@ PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, ve
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
         FmBox r = fm_part_box(double(tx), double(ty), sx, sy, i, j, nx, ny);
-        FmBlockers part = fm_model_blockers(model, fm_mean(map, r.x0, r.y0, r.x1, r.y1),
-                                            fm_plane_depth(t, slope, double(tx), double(ty), r, map.range.far),
-                                            part_variance);
+        double d = nx * ny == 1 ? t : fm_plane_depth(t, slope, double(tx), double(ty), r, map.range.far);
+        FmBlockers part = fm_model_blockers(model, fm_mean(map, r.x0, r.y0, r.x1, r.y1), d, part_variance);
         if (nx * ny == 1) {
           blockers = part;
         } else if (part.fraction > b.min_fraction) {
@@ -279,7 +279,7 @@ PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, ve
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) {
       FmBox r = fm_part_box(double(tx), double(ty), hx, hy, i, j, nx, ny);
-      double d = fm_plane_depth(t, slope, double(tx), double(ty), r, map.range.far);
+      double d = nx * ny == 1 ? t : fm_plane_depth(t, slope, double(tx), double(ty), r, map.range.far);
       sum += clamp(fm_model_visibility(model, fm_mean(map, r.x0, r.y0, r.x1, r.y1), d), 0.0f, 1.0f);
     }
   count.lookups += uint(nx * ny);
