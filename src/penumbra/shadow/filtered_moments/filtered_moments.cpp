@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <numbers>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
