@@ -33,6 +33,12 @@ PN_INLINE int raster_depth_bin(RasterDepthBins b, float z) {
   return t <= 0.0f ? 0 : min(b.last, int(t));
 }
 
+// Which tile's bins texel (x, y) uses (DepthBins::tiles): tiles of 2^shift texels, `columns` to a
+// row.
+PN_INLINE uint raster_bins_tile(int x, int y, int shift, int columns) {
+  return uint(y >> shift) * uint(columns) + uint(x >> shift);
+}
+
 PN_SHARED_END
 
 #ifdef __cplusplus

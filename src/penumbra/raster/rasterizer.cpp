@@ -155,6 +155,14 @@ inline void scan_fragments(const SetupTriangle& t, const TexelRect& r, const Fra
   });
 }
 
+// scan_fragments with the texel's coordinates: fn(i, v, x, y).
+template <class Fn>
+inline void scan_fragments_at(const SetupTriangle& t, const TexelRect& r, const FragmentAlpha& alpha, Fn&& fn) {
+  scan(t, r, [&](size_t i, float v, int x, int y) {
+    if (!t.textured || alpha(t.source, x, y) > 0) fn(i, v, x, y);
+  });
+}
+
 // v -> linear depth, kept inside [near, far] (a centre covered only thanks to snapping, or
 // float error, can extrapolate a hair beyond the clipped triangle).
 template <bool kPerspective>
@@ -566,10 +574,32 @@ void Rasterizer::visit_fragments(RasterTriangleView triangles, const LightView& 
   stats_.raster_ms = timer.elapsed_ms();
 }
 
+TileDepthBins tile_depth_bins(const DepthBins& bins, int width, int height, std::string_view who) {
+  TileDepthBins out;
+  if (bins.tiles.empty()) return out;
+  const int side = bins.tile_side;
+  if (side < 1 || !std::has_single_bit(static_cast<unsigned>(side)))
+    throw Error("{}: the depth bins' tile side {} must be a power of two", who, side);
+  out.shift = std::countr_zero(static_cast<unsigned>(side));
+  out.columns = (width + side - 1) / side;
+  const size_t rows = static_cast<size_t>((height + side - 1) / side);
+  if (bins.tiles.size() != rows * out.columns)
+    throw Error("{}: {} tiles of depth bins for a {} x {} image of {}-texel tiles ({} needed)", who, bins.tiles.size(),
+                width, height, side, rows * out.columns);
+  out.records.reserve(bins.tiles.size());
+  for (Vec2f t : bins.tiles) {
+    if (!(t.y > 0) || !std::isfinite(t.x) || !std::isfinite(t.y))
+      throw Error("{}: a tile's depth bins need a finite start and a positive width", who);
+    out.records.push_back(shader::raster_depth_bins(t.x, t.y, bins.count));
+  }
+  return out;
+}
+
 void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& view,
                                  const RasterFilter& filter, const DepthBins& bins, DepthBinMasks* out) {
   if (bins.count < 1 || bins.count > 32) throw Error("Rasterizer: {} depth bins must be in [1, 32]", bins.count);
   if (!(bins.width > 0) || !std::isfinite(bins.first)) throw Error("Rasterizer: depth bins need a finite start and a positive width");
+  const TileDepthBins tile_bins = tile_depth_bins(bins, view.width(), view.height(), "Rasterizer");
   Timer timer;
   Impl& im = *impl_;
   im.set_up_triangles(triangles, view, filter, tile_size_);
@@ -591,7 +621,26 @@ void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& 
       uint32_t* masks = out->masks.data() + rect.y0 * rect.stride + rect.x0;
       for (int y = y0; y < y1; ++y) std::fill(masks + rect.index(x0, y), masks + rect.index(x1, y), 0u);
       size_t frags = 0;
-      auto bin = [&](float v) { return shader::raster_depth_bin(depth_bins, linear_depth<kPerspective>(v, near, far)); };
+      // Per-tile bins: one record when this raster tile lies in one bins tile, else one per texel.
+      shader::RasterDepthBins tile_record = depth_bins;
+      bool per_texel = false;
+      if (!tile_bins.records.empty()) {
+        const int s = tile_bins.shift;
+        per_texel = (x0 >> s) != ((x1 - 1) >> s) || (y0 >> s) != ((y1 - 1) >> s);
+        tile_record = tile_bins.records[shader::raster_bins_tile(x0, y0, s, tile_bins.columns)];
+      }
+      if (per_texel) {
+        for (const SetupTriangle& t : im.binner.tile(tile))
+          scan_fragments_at(t, rect, im.alpha, [&](size_t i, float v, int x, int y) {
+            ++frags;
+            const shader::RasterDepthBins& b =
+                tile_bins.records[shader::raster_bins_tile(x, y, tile_bins.shift, tile_bins.columns)];
+            masks[i] |= 1u << shader::raster_depth_bin(b, linear_depth<kPerspective>(v, near, far));
+          });
+        im.fragments.fetch_add(frags, std::memory_order_relaxed);
+        return;
+      }
+      auto bin = [&](float v) { return shader::raster_depth_bin(tile_record, linear_depth<kPerspective>(v, near, far)); };
       for (const SetupTriangle& t : im.binner.tile(tile)) {
         // Most triangles are far thinner than a bin: when the depth plane over the triangle's
         // texel box (with a margin far above float rounding) lies in one bin, every fragment

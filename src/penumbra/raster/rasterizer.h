@@ -29,11 +29,13 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/fragment_lists.h"
 #include "penumbra/raster/light_view.h"
+#include "penumbra/raster/raster_bins_shared.h"
 #include "penumbra/raster/raster_triangle.h"
 
 namespace penumbra {
@@ -69,11 +71,29 @@ struct LayerOptions {
 // [first + k * width, first + (k + 1) * width). Depths before the first bin fall into it and
 // depths after the last into the last (the caller clips with the view's near and far planes;
 // this only absorbs float rounding at the ends).
+//
+// Bins per tile of texels: when `tiles` is not empty, the texels of tile (tx, ty) (square tiles of
+// tile_side texels, a power of two, row-major from the image's top-left corner, the last row and
+// column cut by the image's edge) bin by tiles[ty * ceil(width / tile_side) + tx] = (first,
+// width) instead, with the same count: slices that follow the depth range of what each part of
+// the image holds (occlusion-textures' `tiles`).
 struct DepthBins {
   float first = 0;
   float width = 1;
   int count = 1;  // 1..32
+  std::span<const Vec2f> tiles;
+  int tile_side = 0;
 };
+
+// DepthBins::tiles as the bins' records (raster_bins_shared.h), checked for a width x height
+// image (who: the caller, for the error): tile (tx, ty) is records[ty * columns + tx], tiles of
+// 2^shift texels. Empty records when bins.tiles is.
+struct TileDepthBins {
+  std::vector<shader::RasterDepthBins> records;
+  int shift = 0;
+  int columns = 0;
+};
+TileDepthBins tile_depth_bins(const DepthBins& bins, int width, int height, std::string_view who);
 
 // One bit per depth bin and texel: bit k of masks[y * width + x] is set when some fragment
 // through the texel centre lies in bin k (eisemann2006 §3.4's slices as packed bit channels).

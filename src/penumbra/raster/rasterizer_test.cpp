@@ -737,5 +737,55 @@ TEST(Rasterizer, DepthBinMasksAreTheBinsOfTheFragmentLists) {
   EXPECT_THROW(raster.depth_bin_masks(tris, random_scene_view(), {}, DepthBins{0, 0, 4}, &masks), Error);
 }
 
+TEST(Rasterizer, DepthBinMasksPerTileBinEachTexelByItsTilesBins) {
+  // DepthBins::tiles (occlusion-textures' light-space tiles): each tile of texels bins its
+  // fragments by its own start and width. Tiles smaller than the rasterizer's (a bins record per
+  // texel), as large (one per raster tile) and larger, on an image whose last tiles are cut.
+  std::vector<RasterTriangle> tris = random_triangles(100, 29);
+  const LightView view = LightView::orthographic({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, -5, 5, -4, 4, 1, 12, 72, 56);
+  FragmentLists lists;
+  Rasterizer(16).fragment_lists(tris, view, {}, &lists);
+  for (int side : {8, 16, 32}) {
+    const int columns = (view.width() + side - 1) / side, rows = (view.height() + side - 1) / side;
+    std::vector<Vec2f> tiles;
+    for (int i = 0; i < columns * rows; ++i) tiles.push_back(Vec2f(2.0f + 0.5f * float(i % 5), 0.2f + 0.05f * float(i % 7)));
+    DepthBins bins{3.0f, 0.37f, 13};
+    bins.tiles = tiles;
+    bins.tile_side = side;
+    Rasterizer raster(16);
+    DepthBinMasks masks;
+    raster.depth_bin_masks(tris, view, {}, bins, &masks);
+    int multi = 0;
+    for (int y = 0; y < view.height(); ++y)
+      for (int x = 0; x < view.width(); ++x) {
+        const Vec2f t = tiles[size_t(y / side) * columns + x / side];
+        uint32_t expect = 0;
+        for (const Fragment& f : lists.at(x, y)) {
+          const float b = (f.z - t.x) / t.y;
+          expect |= 1u << (b <= 0 ? 0 : std::min(bins.count - 1, int(b)));
+        }
+        multi += std::popcount(expect) > 1;
+        ASSERT_EQ(masks.at(x, y), expect) << x << "," << y << " tiles of " << side;
+      }
+    EXPECT_GT(multi, 300) << side;
+  }
+  // Tiles that do not fit the image, or are not a power of two a side.
+  std::vector<Vec2f> three(3, Vec2f(1, 1));
+  DepthBins bad{0, 1, 4};
+  bad.tiles = three;
+  bad.tile_side = 32;
+  DepthBinMasks masks;
+  Rasterizer raster;
+  EXPECT_THROW(raster.depth_bin_masks(tris, view, {}, bad, &masks), Error);
+  std::vector<Vec2f> six(6, Vec2f(1, 1));
+  bad.tiles = six;
+  bad.tile_side = 24;
+  EXPECT_THROW(raster.depth_bin_masks(tris, view, {}, bad, &masks), Error);
+  bad.tile_side = 32;
+  EXPECT_NO_THROW(raster.depth_bin_masks(tris, view, {}, bad, &masks));  // 3 x 2 tiles of 32
+  six[4] = Vec2f(1, 0);
+  EXPECT_THROW(raster.depth_bin_masks(tris, view, {}, bad, &masks), Error);  // a tile without width
+}
+
 }  // namespace
 }  // namespace penumbra

@@ -38,8 +38,14 @@ void GpuRasterizer::depth_bin_masks(CommandList& cl, const Submit& submit, std::
   if (bins.count < 1 || bins.count > 32) throw Error("GPU rasterizer: {} depth bins must be in [1, 32]", bins.count);
   if (!(bins.width > 0) || !std::isfinite(bins.first))
     throw Error("GPU rasterizer: depth bins need a finite start and a positive width");
+  const TileDepthBins tile_bins = tile_depth_bins(bins, view.width(), view.height(), "GPU rasterizer");
   // The host writes the view record and may reallocate buffers below.
   submit();
+  if (!tile_bins.records.empty()) {
+    ensure_buffer(*device_, tile_bins_, tile_bins.records.size() * sizeof(shader::RasterDepthBins),
+                       "the depth bins per tile");
+    tile_bins_.upload(std::span<const shader::RasterDepthBins>(tile_bins.records));
+  }
   out->resize(*device_, view.width(), view.height());
   out->view_ = view;
   const shader::RasterView record = view.shared();
@@ -51,6 +57,12 @@ void GpuRasterizer::depth_bin_masks(CommandList& cl, const Submit& submit, std::
                   bp.fill = fp;
                   bp.fill.keys = out->masks_.address();
                   bp.bins = shader::raster_depth_bins(bins.first, bins.width, bins.count);
+                  if (!tile_bins.records.empty()) {
+                    bp.tile_bins = tile_bins_.address();
+                    bp.tile_shift = tile_bins.shift;
+                    bp.tile_columns = tile_bins.columns;
+                    bp.width = view.width();
+                  }
                   cl.dispatch_indirect("raster_fill_bins", state_, offsetof(shader::GpuRasterState, fill_groups_x), bp);
                 });
 }

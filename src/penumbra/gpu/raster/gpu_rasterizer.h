@@ -137,6 +137,7 @@ class GpuRasterizer {
   uint32_t fragment_capacity_for_testing_ = 0;
   Device* device_;
   Buffer state_;
+  Buffer tile_bins_;  // depth_bin_masks' bins per tile (DepthBins::tiles)
   RasterScratch scratch_;
   RasterStats stats_;
   int attempts_ = 0;

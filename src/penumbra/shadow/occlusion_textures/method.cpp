@@ -82,6 +82,11 @@ const MethodRegistration registration({
          "object itself, which the slices cannot show: a solid's faces away from the light read as lit; penumbra's "
          "addition, as vsm's); false: the slices alone, as the paper",
          {}},
+        {"tiles", ParamType::Int, 0,
+         "light-space tiles a side (a power of two): each tile of the textures is sliced over the depth range of its own "
+         "casters instead of the whole scene's, so that a wide scene's slices follow its casters (a tree crown in `slices` "
+         "slices, not a forest); 0 = fitted (the largest penumbra spans at most 4 tiles a side); 1 = one range, as the paper",
+         {}, 0, 64},
     },
     [](const ParamSet& p) { return std::make_unique<OcclusionTexturesMethod>(p); },
     /*samples_light=*/false,

@@ -63,7 +63,7 @@ struct OtPyramidParams {
 struct OtShadeParams {
   uint64_t samples;     // GpuViewSample[slots]
   uint64_t visibility;  // float per slot
-  uint64_t setup;       // OtSetup
+  uint64_t setup;       // OtSetup, then its tiles' OtTile records (at kOtSetupBytes)
   uint64_t textures;    // the pyramid (bytes) or the summed-area tables (uint32 or double)
   uint64_t bounds;      // float[4 slices]
   uint64_t counters;    // OtShadeCounters

@@ -230,64 +230,94 @@ PN_INLINE float ot_box(OtTextures t, OtSliceBounds bounds, int k, float x0, floa
 // ---------------------------------------------------------------------------------------------
 // Per point (occlusion_textures.cpp shade_batch)
 
-// The slicing and the light's frame, 288 bytes (OcclusionTextures' set-up; a GPU record):
-//   bytes 0-15 center, top   16-31 right, thickness   32-47 up, R (texture side)   48-63 forward, kx
-//   bytes 64-79 ky, inv_fade, fade (0: no fade-in), slices
-//   bytes 80-95 has_casters, combine (kOtProduct/Sum/Max), horizon (0 or 1), 0
-//   bytes 96-223 scale[32]: per slice d / (plane(k) + d), the texel footprint per world unit
-//   bytes 224-287 the light as the horizon test sees it (shadow/light_horizon_shared.h)
+// The slicing and the light's frame, 176 bytes (OcclusionTextures' set-up; a GPU record):
+//   bytes 0-15 center, R (texture side)   16-31 right, kx   32-47 up, ky   48-63 forward, d
+//   bytes 64-79 fade_length (slice thicknesses), fade (0: no fade-in), slices, has_casters
+//   bytes 80-95 combine (kOtProduct/Sum/Max), horizon (0 or 1), tiles, tile_scale
+//   bytes 96-111 top (the casters' nearest depth), tile_side (texels), 0, 0
+//   bytes 112-175 the light as the horizon test sees it (shadow/light_horizon_shared.h)
 // right and up are the slicing view's axes; kx, ky texels per world unit at the light (R /
-// width, R / height of its rectangle).
+// width, R / height of its rectangle); d the centre of projection's distance behind the light.
+// The slices of each light-space tile (`tiles` x `tiles` of them, tile_side = R / tiles texels a
+// side, tile_scale = 1 / tile_side) follow in an OtTile array, row-major from the texture's
+// top-left corner (on the GPU right after the set-up in its buffer, as floats: top, thickness).
+PN_CONST uint kOtSetupBytes = 176u;  // sizeof(OtSetup): where the OtTile array starts on the GPU
 struct OtSetup {
   vec3 center;
-  float top;
-  vec3 right;
-  float thickness;
-  vec3 up;
   float R;
-  vec3 forward;
+  vec3 right;
   float kx;
+  vec3 up;
   float ky;
-  float inv_fade;
+  vec3 forward;
+  float d;
+  float fade_length;
   uint fade;
   int slices;
   uint has_casters;
   uint combine;
   uint horizon;
+  int tiles;
+  float tile_scale;
+  float top;
+  float tile_side;
   uint pad0;
-  float scale[32];
+  uint pad1;
   HorizonLight light;
 };
 
+// One light-space tile's slices, 8 bytes: slice k spans depths [top + k thickness, top + (k +
+// 1) thickness] (the depth range of the casters the tile's texels see, cut in `slices`).
+struct OtTile {
+  float top;
+  float thickness;
+};
+
+// A tile's slices as a point uses them: with the fade-in's 1 / (fade_length thickness).
+struct OtSlicing {
+  float top;
+  float thickness;
+  float inv_fade;
+};
+
+// The slicing of tile i (`tiles`: the OtTile array as floats).
+PN_INLINE OtSlicing ot_tile_slicing(OtSetup s, PN_FLOAT_ARRAY tiles, int i) {
+  OtSlicing c;
+  c.top = PN_AT(tiles, 2u * uint(i));
+  c.thickness = PN_AT(tiles, 2u * uint(i) + 1u);
+  c.inv_fade = s.fade != 0u ? 1.0f / (s.fade_length * c.thickness) : 0.0f;
+  return c;
+}
+
 // Slice k's texture plane: its far plane, at depth top + (k + 1) T.
-PN_INLINE float ot_plane(OtSetup s, int k) {
-  PN_PRECISE float z = s.top + float(k + 1) * s.thickness;
+PN_INLINE float ot_plane(OtSlicing c, int k) {
+  PN_PRECISE float z = c.top + float(k + 1) * c.thickness;
   return z;
 }
 
 // How many slices lie between the light and a point at depth z (their planes before z).
-PN_INLINE int ot_slices_above(OtSetup s, float z) {
+PN_INLINE int ot_slices_above(OtSetup s, OtSlicing c, float z) {
   int a = 0;
   if (s.has_casters != 0u && z > 0.0f) {
-    a = min(max(int(pn_ceilf((z - s.top) / s.thickness)) - 1, 0), s.slices);
-    while (a > 0 && !(ot_plane(s, a - 1) < z)) --a;
-    while (a < s.slices && ot_plane(s, a) < z) ++a;
+    a = min(max(int(pn_ceilf((z - c.top) / c.thickness)) - 1, 0), s.slices);
+    while (a > 0 && !(ot_plane(c, a - 1) < z)) --a;
+    while (a < s.slices && ot_plane(c, a) < z) ++a;
   }
   return a;
 }
 
-// The kernel of slice k (plane zp = ot_plane(k)) for a point at (u, v, z) in the light's frame
+// The kernel of a slice (plane zp = ot_plane(k)) for a point at (u, v, z) in the light's frame
 // (inv_z = 1 / z), eq. 4: the light seen from the point cuts the plane in a square of t x its
 // size, t = (z - zp) / z, centred where the segment to the light's centre crosses it; in texels
 // its side is t R d / (zp + d) (at least 1) and its centre R/2 + u (zp / z) (d / (zp + d)) kx
-// (rows downward in y).
+// (rows downward in y): d / (zp + d) is the plane's texels per world unit over those at the light.
 struct OtKernel {
   float cx;
   float cy;
   float side;
 };
-PN_INLINE OtKernel ot_kernel(OtSetup s, int k, float zp, float u, float v, float z, float inv_z) {
-  float scale = s.scale[k];
+PN_INLINE OtKernel ot_kernel(OtSetup s, float zp, float u, float v, float z, float inv_z) {
+  float scale = s.d / (zp + s.d);
   float half_r = 0.5f * s.R;
   float side_scale = scale * s.R;
   float a = scale * zp * inv_z;
@@ -307,9 +337,16 @@ struct OtCombined {
   float sum;
   float largest;
 };
-PN_INLINE void ot_accumulate(OtSetup s, PN_INOUT(OtCombined) c, float z, float zp, float occ) {
-  float w = s.fade != 0u ? min(1.0f, (z - zp) * s.inv_fade) : 1.0f;
-  float o = w * occ;
+PN_INLINE float ot_fade_weight(OtSetup s, float z, float zp, float inv_fade) {
+  return s.fade != 0u ? min(1.0f, (z - zp) * inv_fade) : 1.0f;
+}
+PN_INLINE void ot_combine_add(PN_INOUT(OtCombined) c, float o) {
+  c.product *= 1.0f - o;  // eq. 5
+  c.sum += o;
+  c.largest = max(c.largest, o);
+}
+PN_INLINE void ot_accumulate(OtSetup s, PN_INOUT(OtCombined) c, float z, float zp, float inv_fade, float occ) {
+  float o = ot_fade_weight(s, z, zp, inv_fade) * occ;
   c.product *= 1.0f - o;  // eq. 5
   c.sum += o;
   c.largest = max(c.largest, o);
@@ -330,34 +367,105 @@ PN_INLINE float ot_horizon(OtSetup s, vec3 p, vec3 ng, bool closed) {
   return (s.horizon != 0u && closed) ? light_fraction_above(s.light, p, ng) : 1.0f;
 }
 
+// A slice's kernel as a texel rectangle, [x0, x1) x [y0, y1), at least a texel a side.
+PN_INLINE OtSliceBounds ot_kernel_rect(OtKernel kern) {
+  float half_side = 0.5f * max(kern.side, 1.0f);
+  OtSliceBounds r;
+  r.x0 = kern.cx - half_side;
+  r.y0 = kern.cy - half_side;
+  r.x1 = kern.cx + half_side;
+  r.y1 = kern.cy + half_side;
+  return r;
+}
+
+// Slice k's covered rectangle (`bounds`: 4 floats a slice).
+PN_INLINE OtSliceBounds ot_slice_bounds(PN_FLOAT_ARRAY bounds, int k) {
+  OtSliceBounds b;
+  b.x0 = PN_AT(bounds, 4u * uint(k));
+  b.y0 = PN_AT(bounds, 4u * uint(k) + 1u);
+  b.x1 = PN_AT(bounds, 4u * uint(k) + 2u);
+  b.y1 = PN_AT(bounds, 4u * uint(k) + 3u);
+  return b;
+}
+
+// V at p over the slices of light-space tiles (tiles > 1). Slice k is then a surface that lies at
+// the tile's own plane k in each tile's part of the texture, so the light seen from p cuts it in
+// pieces: in each tile, the kernel of that tile's plane k (eq. 4), cut to the tile. Slice k's
+// occlusion is the sum over the tiles of each piece's covered area (each piece faded in by its
+// own plane's distance above p), over the kernel's area; eq. 5 combines the slices. With one
+// tile this is ot_visibility's single lookup per slice. The tiles visited: those the largest
+// kernel (at the casters' nearest depth) and p's own projection span.
+PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, float u,
+                                    float v, float z, PN_INOUT(OtCounters) n) {
+  float inv_z = 1.0f / z;
+  float occ[kOtMaxSlices];
+  float shares[kOtMaxSlices];
+  for (int k = 0; k < s.slices; ++k) occ[k] = 0.0f;
+  for (int k = 0; k < s.slices; ++k) shares[k] = 0.0f;
+  OtSliceBounds reach = ot_kernel_rect(ot_kernel(s, s.top, u, v, z, inv_z));
+  OtKernel own = ot_kernel(s, z, u, v, z, inv_z);
+  float last = float(s.tiles - 1);
+  int tx0 = int(min(max(floor(min(reach.x0, own.cx) * s.tile_scale), 0.0f), last));
+  int tx1 = int(min(max(floor(max(reach.x1, own.cx) * s.tile_scale), 0.0f), last));
+  int ty0 = int(min(max(floor(min(reach.y0, own.cy) * s.tile_scale), 0.0f), last));
+  int ty1 = int(min(max(floor(max(reach.y1, own.cy) * s.tile_scale), 0.0f), last));
+  for (int ty = ty0; ty <= ty1; ++ty) {
+    for (int tx = tx0; tx <= tx1; ++tx) {
+      OtSlicing slicing = ot_tile_slicing(s, tiles, ty * s.tiles + tx);
+      int above = ot_slices_above(s, slicing, z);
+      float rx0 = float(tx) * s.tile_side;
+      float ry0 = float(ty) * s.tile_side;
+      float rx1 = rx0 + s.tile_side;
+      float ry1 = ry0 + s.tile_side;
+      for (int k = 0; k < above; ++k) {
+        float zp = ot_plane(slicing, k);
+        OtSliceBounds kr = ot_kernel_rect(ot_kernel(s, zp, u, v, z, inv_z));
+        float x0 = max(kr.x0, rx0);
+        float y0 = max(kr.y0, ry0);
+        float x1 = min(kr.x1, rx1);
+        float y1 = min(kr.y1, ry1);
+        if (!(x1 > x0 && y1 > y0)) continue;
+        PN_PRECISE float share = (x1 - x0) * (y1 - y0) / ((kr.x1 - kr.x0) * (kr.y1 - kr.y0));
+        float covered = ot_box(t, ot_slice_bounds(bounds, k), k, x0, y0, x1, y1, n);
+        occ[k] += ot_fade_weight(s, z, zp, slicing.inv_fade) * covered * share;
+        shares[k] += share;
+      }
+    }
+  }
+  OtCombined c;
+  c.product = 1.0f;
+  c.sum = 0.0f;
+  c.largest = 0.0f;
+  for (int k = 0; k < s.slices; ++k) ot_combine_add(c, min(shares[k] > 1.0f ? occ[k] / shares[k] : occ[k], 1.0f));
+  return ot_combine(s, c);
+}
+
 // V at point p (OcclusionTextures::visibility): 0 behind the light's plane, 1 without casters,
-// else eq. 5 over the slices above p, each looked up over its kernel. `bounds`: every slice's
-// covered rectangle (for the pyramids' elongated kernels), 4 floats a slice. The slices alone:
-// shading multiplies by ot_horizon.
-PN_INLINE float ot_visibility(OtSetup s, OtTextures t, PN_FLOAT_ARRAY bounds, vec3 p, PN_INOUT(OtCounters) n) {
+// else eq. 5 over the slices above p, each looked up over its kernel (over the light-space
+// tiles' slices with tiles > 1: ot_visibility_tiled). `bounds`: every slice's covered rectangle
+// (for the pyramids' elongated kernels), 4 floats a slice; `tiles`: the OtTile array as floats.
+// The slices alone: shading multiplies by ot_horizon.
+PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, vec3 p,
+                              PN_INOUT(OtCounters) n) {
   vec3 q = p - s.center;
   float u = dot(q, s.right);
   float v = dot(q, s.up);
   float z = dot(q, s.forward);
   if (!(z > 0.0f)) return 0.0f;
   if (s.has_casters == 0u) return 1.0f;
+  if (s.tiles > 1) return ot_visibility_tiled(s, tiles, t, bounds, u, v, z, n);
   float inv_z = 1.0f / z;
-  int above = ot_slices_above(s, z);
+  OtSlicing slicing = ot_tile_slicing(s, tiles, 0);
+  int above = ot_slices_above(s, slicing, z);
   OtCombined c;
   c.product = 1.0f;
   c.sum = 0.0f;
   c.largest = 0.0f;
   for (int k = 0; k < above; ++k) {
-    float zp = ot_plane(s, k);
-    OtKernel kern = ot_kernel(s, k, zp, u, v, z, inv_z);
-    float half_side = 0.5f * max(kern.side, 1.0f);
-    OtSliceBounds b;
-    b.x0 = PN_AT(bounds, 4u * uint(k));
-    b.y0 = PN_AT(bounds, 4u * uint(k) + 1u);
-    b.x1 = PN_AT(bounds, 4u * uint(k) + 2u);
-    b.y1 = PN_AT(bounds, 4u * uint(k) + 3u);
-    float occ = ot_box(t, b, k, kern.cx - half_side, kern.cy - half_side, kern.cx + half_side, kern.cy + half_side, n);
-    ot_accumulate(s, c, z, zp, occ);
+    float zp = ot_plane(slicing, k);
+    OtSliceBounds kr = ot_kernel_rect(ot_kernel(s, zp, u, v, z, inv_z));
+    float occ = ot_box(t, ot_slice_bounds(bounds, k), k, kr.x0, kr.y0, kr.x1, kr.y1, n);
+    ot_accumulate(s, c, z, zp, slicing.inv_fade, occ);
   }
   return ot_combine(s, c);
 }
@@ -365,7 +473,8 @@ PN_INLINE float ot_visibility(OtSetup s, OtTextures t, PN_FLOAT_ARRAY bounds, ve
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::OtSetup) == 288);
+static_assert(sizeof(penumbra::shader::OtSetup) == penumbra::shader::kOtSetupBytes);
+static_assert(sizeof(penumbra::shader::OtTile) == 8);
 static_assert(sizeof(penumbra::shader::OtSliceBounds) == 16);
 #endif
 

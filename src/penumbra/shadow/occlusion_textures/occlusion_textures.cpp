@@ -62,6 +62,7 @@ Options options_from(const ParamSet& p) {
   o.cop_distance = p.get_float("cop_distance");
   o.cull_planar = p.get_bool("cull_planar");
   o.cull_back_faces = p.get_bool("cull_back_faces");
+  o.tiles = p.get_int("tiles");
   return o;
 }
 
@@ -138,6 +139,10 @@ OcclusionTextures::OcclusionTextures(const Options& options) : options_(options)
     throw Error("occlusion-textures: resolution = {} must be a power of two in [16, 4096]", options.resolution);
   if (!(options.fade >= 0)) throw Error("occlusion-textures: fade = {} must be >= 0", options.fade);
   if (!(options.cop_distance >= 0)) throw Error("occlusion-textures: cop_distance = {} must be >= 0", options.cop_distance);
+  if (options.tiles != 0 && (options.tiles > 64 || !std::has_single_bit(static_cast<unsigned>(options.tiles)) ||
+                             options.resolution / options.tiles < 8))
+    throw Error("occlusion-textures: tiles = {} must be 0 (fitted) or a power of two in [1, 64], with tiles of at least "
+                "8 texels (resolution {})", options.tiles, options.resolution);
 }
 
 void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
@@ -181,6 +186,9 @@ void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
                                                       : shader::kOtProduct;
   setup_.horizon = options_.horizon ? 1u : 0u;
   setup_.light = horizon_light(light);
+  setup_.tiles = 1;
+  tiles_side_ = 1;
+  tiles_.assign(1, shader::OtTile{0.0f, 1.0f});
   if (!has_casters_) return;
   bottom_ = zmax;
   top_ = std::max(z_eps, std::min(zmin, bottom_ * (1 - 1e-3f)));
@@ -194,16 +202,122 @@ void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
   view_ = LightView::frustum(eye, light_.forward, light_.up, -sx, sx, -sy, sy, near, far, R, R);
   // The per-point arithmetic's record (occlusion_shared.h).
   setup_.has_casters = 1u;
-  setup_.top = top_;
-  setup_.thickness = thickness_;
   setup_.right = view_.right();
   setup_.up = view_.up();
   setup_.R = float(R);
   setup_.kx = setup_.R / light_.width;
   setup_.ky = setup_.R / light_.height;
+  setup_.d = d_;
   setup_.fade = options_.fade > 0 ? 1u : 0u;
-  setup_.inv_fade = options_.fade > 0 ? 1.0f / (options_.fade * thickness_) : kInfinity;
-  for (int k = 0; k < S; ++k) setup_.scale[k] = d_ / (plane(k) + d_);
+  setup_.fade_length = options_.fade;
+  // The light-space tiles: given, or fitted so that the largest kernel (a receiver at the casters'
+  // farthest depth, the slice plane at their nearest: eq. 4) spans at most four tiles a side, which
+  // bounds the lookups a point makes (ot_visibility_tiled), with tiles of at least 8 texels. Fitted
+  // tiles are kept only where they make the slices at least three times thinner on average (a
+  // wide scene of separate casters, as a forest's crowns); one compact object's tiles see most of
+  // its depth, and their pieces' approximations and the point-by-point shading would cost more
+  // than they gain (docs/methods/occlusion-textures.md, "Slices that follow the casters").
+  const int T = options_.tiles != 0 ? options_.tiles : fitted_tiles();
+  set_tiles(T);
+  if (T > 1) fit_tiles(scene);
+  if (options_.tiles == 0 && T > 1) {
+    double ratio = 0;
+    size_t used = 0;
+    for (const shader::OtTile& t : tiles_)
+      if (t.top != top_ || t.thickness != thickness_) ratio += t.thickness / thickness_, ++used;
+    if (!(used > 0 && ratio <= used / 3.0)) set_tiles(1);
+  }
+}
+
+int OcclusionTextures::fitted_tiles() const {
+  const int R = options_.resolution;
+  const float largest = (bottom_ - top_) / bottom_ * float(R) * d_ / (top_ + d_);
+  const int side = static_cast<int>(std::bit_ceil(static_cast<unsigned>(std::clamp(largest / 4, 1.0f, float(R)))));
+  return std::clamp(R / std::max(side, 8), 1, 64);
+}
+
+void OcclusionTextures::set_tiles(int T) {
+  tiles_side_ = T;
+  setup_.tiles = T;
+  setup_.tile_side = float(options_.resolution / T);
+  setup_.tile_scale = 1.0f / setup_.tile_side;
+  setup_.top = top_;
+  tiles_.assign(size_t(T) * size_t(T), shader::OtTile{top_, thickness_});
+}
+
+// Each light-space tile's slices over the depth range of the casters it sees: every caster
+// triangle's depth range joins the tiles its projected bounding box touches (a conservative
+// range: the slicing rasterizer clamps a fragment outside its tile's range into the first or
+// last slice). A tile without casters keeps the whole range (nothing is sliced there). A
+// crown's leaves in a forest then shadow each other across slices a crown deep, not a forest
+// deep (docs/methods/occlusion-textures.md, "Slices that follow the casters").
+void OcclusionTextures::fit_tiles(const Scene& scene) {
+  const int T = tiles_side_, S = options_.slices;
+  const float R = setup_.R, scale = setup_.tile_scale, z_eps = 1e-5f * std::max(light_.width, light_.height);
+  const Vec3f right = view_.right(), up = view_.up();
+  struct Range {
+    std::vector<float> lo, hi;
+  };
+  tbb::enumerable_thread_specific<Range> ranges([&] {
+    return Range{std::vector<float>(tiles_.size(), kInfinity), std::vector<float>(tiles_.size(), -kInfinity)};
+  });
+  std::vector<uint32_t> casters;
+  for (size_t i = 0, c = 0; i < scene.objects.size(); ++i) {
+    if (c < culled_.size() && culled_[c] == i) {
+      ++c;
+      continue;
+    }
+    casters.push_back(static_cast<uint32_t>(i));
+  }
+  parallel_for(casters.size(), 1, [&](size_t b, size_t e) {
+    Range& r = ranges.local();
+    for (size_t c = b; c < e; ++c) {
+      const TriangleMesh& m = scene.objects[casters[c]].mesh;
+      for (size_t t = 0; t < m.triangle_count(); ++t) {
+        float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity, lo = kInfinity, hi = -kInfinity;
+        bool behind = false;
+        for (int j = 0; j < 3; ++j) {
+          const Vec3f q = m.vertex(t, j) - light_.center;
+          const float z = dot(q, light_.forward);
+          lo = std::min(lo, z);
+          hi = std::max(hi, z);
+          if (!(z > z_eps)) {
+            behind = true;
+            continue;
+          }
+          const float a = d_ / (z + d_);
+          const float x = 0.5f * R + dot(q, right) * a * setup_.kx, y = 0.5f * R - dot(q, up) * a * setup_.ky;
+          x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+        }
+        if (!(hi > z_eps)) continue;  // wholly behind the light's plane: not sliced
+        lo = std::clamp(lo, top_, bottom_), hi = std::clamp(hi, top_, bottom_);
+        // A triangle cut by the light's plane projects without bound: every tile.
+        int tx0 = 0, ty0 = 0, tx1 = T - 1, ty1 = T - 1;
+        if (!behind) {
+          const float margin = 1e-3f;
+          if (x1 < -margin || y1 < -margin || x0 > R + margin || y0 > R + margin) continue;  // outside the texture
+          tx0 = std::clamp(int(std::floor((x0 - margin) * scale)), 0, T - 1);
+          tx1 = std::clamp(int(std::floor((x1 + margin) * scale)), 0, T - 1);
+          ty0 = std::clamp(int(std::floor((y0 - margin) * scale)), 0, T - 1);
+          ty1 = std::clamp(int(std::floor((y1 + margin) * scale)), 0, T - 1);
+        }
+        for (int ty = ty0; ty <= ty1; ++ty)
+          for (int tx = tx0; tx <= tx1; ++tx) {
+            const size_t i = size_t(ty) * T + tx;
+            r.lo[i] = std::min(r.lo[i], lo);
+            r.hi[i] = std::max(r.hi[i], hi);
+          }
+      }
+    }
+  });
+  std::vector<float> lo(tiles_.size(), kInfinity), hi(tiles_.size(), -kInfinity);
+  for (const Range& r : ranges)
+    for (size_t i = 0; i < tiles_.size(); ++i) lo[i] = std::min(lo[i], r.lo[i]), hi[i] = std::max(hi[i], r.hi[i]);
+  // A tile's slices are at least a thousandth of the whole range's (a tile holding one flat caster
+  // facing the light has no depth range of its own).
+  const float min_thickness = 1e-3f * thickness_;
+  for (size_t i = 0; i < tiles_.size(); ++i)
+    if (hi[i] >= lo[i]) tiles_[i] = shader::OtTile{lo[i], std::max((hi[i] - lo[i]) / float(S), min_thickness)};
 }
 
 void OcclusionTextures::build(const Scene& scene, const AreaLight& light, MethodStats* stats) {
@@ -239,7 +353,8 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
     }
   }
 
-  rasterizer_.depth_bin_masks(triangles_, view_, RasterFilter{}, DepthBins{d_ + top_, thickness_, S}, &masks_);
+  std::vector<Vec2f> tile_bins;
+  rasterizer_.depth_bin_masks(triangles_, view_, RasterFilter{}, slicing_bins(&tile_bins), &masks_);
   if (options_.thin_fix && S > 1) {
     // Thin occluders (Fig. 6): what a slice holds is also written into the next slice
     // farther from the light, closing the gaps through surfaces cut by a slice plane.
@@ -253,6 +368,8 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
 
   timer.reset();
   const CoverageStack stack{R, R, S, masks_.masks};
+  slice_bounds_.clear();
+  if (tiles_side_ > 1) slice_bounds_ = coverage_bounds(stack);
   switch (options_.prefilter) {
     case Prefilter::Mipmap: mipmap_.build(stack); break;
     case Prefilter::NBuffer: nbuffer_.build(stack); break;
@@ -266,6 +383,7 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   stats->add_phase("filtering", timer.elapsed_ms());
   stats->memory_bytes = std::max<uint64_t>(stats->memory_bytes, texture_bytes());
   stats->extra["cop_distance"] = d_;
+  stats->extra["tiles"] = tiles_side_;
   stats->extra["depth_range"] = {top_, bottom_};
   stats->extra["caster_triangles"] = triangles_.size();
   // Fragments of the slicing pass: they grow with the texels the casters cover, i.e. as the
@@ -274,6 +392,17 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
   nlohmann::json culled = nlohmann::json::array();
   for (uint32_t i : culled_) culled.push_back(scene.objects[i].name);
   stats->extra["culled_objects"] = culled;
+}
+
+DepthBins OcclusionTextures::slicing_bins(std::vector<Vec2f>* tile_storage) const {
+  DepthBins bins{d_ + top_, thickness_, options_.slices};
+  tile_storage->clear();
+  if (tiles_side_ > 1) {
+    for (const shader::OtTile& t : tiles_) tile_storage->push_back(Vec2f(d_ + t.top, t.thickness));
+    bins.tiles = *tile_storage;
+    bins.tile_side = options_.resolution / tiles_side_;
+  }
+  return bins;
 }
 
 std::vector<uint32_t> OcclusionTextures::slicing_object_flags(const Scene& scene) const {
@@ -351,13 +480,13 @@ struct OcclusionTextures::Batch {
 
 namespace {
 
-// The kernels of slice k (texture plane at depth zp) for m points: centre and side in texels
+// The kernels of a slice (texture plane at depth zp) for m points: centre and side in texels
 // (occlusion_shared.h ot_kernel).
 PENUMBRA_OT_CLONES void kernels(size_t m, const float* __restrict u, const float* __restrict v, const float* __restrict z,
-                                const float* __restrict inv_z, const shader::OtSetup& setup, int k, float zp,
+                                const float* __restrict inv_z, const shader::OtSetup& setup, float zp,
                                 float* __restrict cx, float* __restrict cy, float* __restrict side) {
   for (size_t i = 0; i < m; ++i) {
-    const shader::OtKernel kern = shader::ot_kernel(setup, k, zp, u[i], v[i], z[i], inv_z[i]);
+    const shader::OtKernel kern = shader::ot_kernel(setup, zp, u[i], v[i], z[i], inv_z[i]);
     cx[i] = kern.cx;
     cy[i] = kern.cy;
     side[i] = kern.side;
@@ -366,18 +495,18 @@ PENUMBRA_OT_CLONES void kernels(size_t m, const float* __restrict u, const float
 
 // Slice k's occlusion, faded in below its plane, into the three combinations
 // (occlusion_shared.h ot_accumulate).
-inline void accumulate_one(const shader::OtSetup& setup, float z, float zp, float occ, float& product, float& sum,
-                           float& largest) {
+inline void accumulate_one(const shader::OtSetup& setup, float z, float zp, float inv_fade, float occ, float& product,
+                           float& sum, float& largest) {
   shader::OtCombined c{product, sum, largest};
-  shader::ot_accumulate(setup, c, z, zp, occ);
+  shader::ot_accumulate(setup, c, z, zp, inv_fade, occ);
   product = c.product;
   sum = c.sum;
   largest = c.largest;
 }
 PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict occ,
-                                   const shader::OtSetup& setup, float zp, float* __restrict product,
+                                   const shader::OtSetup& setup, float zp, float inv_fade, float* __restrict product,
                                    float* __restrict sum, float* __restrict largest) {
-  for (size_t i = 0; i < m; ++i) accumulate_one(setup, z[i], zp, occ[i], product[i], sum[i], largest[i]);
+  for (size_t i = 0; i < m; ++i) accumulate_one(setup, z[i], zp, inv_fade, occ[i], product[i], sum[i], largest[i]);
 }
 
 // Whether a kernel meets the R x R texture (the same test as the filters' clipping; outside
@@ -415,10 +544,11 @@ PENUMBRA_OT_CLONES size_t kernels_meeting_texture(size_t m, const float* __restr
 // accumulate() for the kernels meets[0..a) (occ[j] belongs to point meets[j]).
 PENUMBRA_OT_CLONES void accumulate_at(size_t a, const uint32_t* __restrict meets, const float* __restrict z,
                                       const float* __restrict occ, const shader::OtSetup& setup, float zp,
-                                      float* __restrict product, float* __restrict sum, float* __restrict largest) {
+                                      float inv_fade, float* __restrict product, float* __restrict sum,
+                                      float* __restrict largest) {
   for (size_t j = 0; j < a; ++j) {
     const uint32_t i = meets[j];
-    accumulate_one(setup, z[i], zp, occ[j], product[i], sum[i], largest[i]);
+    accumulate_one(setup, z[i], zp, inv_fade, occ[j], product[i], sum[i], largest[i]);
   }
 }
 
@@ -437,17 +567,30 @@ template <class F>
 void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> out, LookupCounters& n) const {
   const size_t count = b.points.size();
   const int S = options_.slices;
+  if (tiles_side_ > 1) {  // the light-space tiles' slices: point by point, as on the GPU
+    const shader::OtTextures t = filter.shared();
+    const float* tiles = reinterpret_cast<const float*>(tiles_.data());
+    const float* bounds = reinterpret_cast<const float*>(slice_bounds_.data());
+    for (size_t i = 0; i < count; ++i) {
+      shader::OtCounters c{};
+      out[b.targets[i]] = shader::ot_visibility(setup_, tiles, t, bounds, b.points[i], c);
+      n.lookups += c.lookups, n.reads += c.reads, n.outside += c.outside, n.strips += c.strips;
+    }
+    return;
+  }
   for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion,
                   &b.meets_cx, &b.meets_cy, &b.meets_side})
     a->resize(count);
   b.target.resize(count);
   b.meets.resize(count);
   b.above.resize(count);
+  // One tile: its slices (the whole depth range).
+  const shader::OtSlicing slicing = shader::ot_tile_slicing(setup_, reinterpret_cast<const float*>(tiles_.data()), 0);
   // Slices above each point, and a counting sort by that number, descending.
   uint32_t bucket[33] = {};
   const Vec3f right = view_.right(), up = view_.up();
   for (size_t i = 0; i < count; ++i) {
-    const int a = shader::ot_slices_above(setup_, dot(b.points[i] - light_.center, light_.forward));
+    const int a = shader::ot_slices_above(setup_, slicing, dot(b.points[i] - light_.center, light_.forward));
     b.above[i] = static_cast<uint8_t>(a);
     ++bucket[a];
   }
@@ -471,8 +614,8 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
   for (int k = 0; k < S; ++k) {
     m -= bucket[k];  // the points with exactly k slices above drop out
     if (m == 0) break;
-    const float zp = plane(k);
-    kernels(m, b.u.data(), b.v.data(), b.z.data(), b.inv_z.data(), setup_, k, zp, b.cx.data(), b.cy.data(),
+    const float zp = shader::ot_plane(slicing, k);
+    kernels(m, b.u.data(), b.v.data(), b.z.data(), b.inv_z.data(), setup_, zp, b.cx.data(), b.cy.data(),
             b.side.data());
     // Kernels outside the texture are 0. When more than a quarter of them are, the others are
     // gathered and filtered alone; otherwise the filter's own clipping gives the zeros (a
@@ -480,7 +623,8 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
     const size_t inside = count_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), setup_.R);
     if (4 * inside >= 3 * m) {
       filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
-      accumulate(m, b.z.data(), b.occlusion.data(), setup_, zp, b.product.data(), b.sum.data(), b.largest.data());
+      accumulate(m, b.z.data(), b.occlusion.data(), setup_, zp, slicing.inv_fade, b.product.data(), b.sum.data(),
+                 b.largest.data());
     } else {
       const size_t a = kernels_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), setup_.R, b.meets.data(),
                                                b.meets_cx.data(), b.meets_cy.data(), b.meets_side.data());
@@ -488,8 +632,8 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
       n.outside += m - a;
       if (a > 0) {
         filter.squares(k, a, b.meets_cx.data(), b.meets_cy.data(), b.meets_side.data(), b.occlusion.data(), n);
-        accumulate_at(a, b.meets.data(), b.z.data(), b.occlusion.data(), setup_, zp, b.product.data(), b.sum.data(),
-                      b.largest.data());
+        accumulate_at(a, b.meets.data(), b.z.data(), b.occlusion.data(), setup_, zp, slicing.inv_fade,
+                      b.product.data(), b.sum.data(), b.largest.data());
       }
     }
   }

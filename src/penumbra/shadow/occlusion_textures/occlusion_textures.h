@@ -8,7 +8,9 @@
 // from the light plane along forward, z = dot(p - C, forward).
 //
 // Slicing (§3.4): slice k spans depths [top + k T, top + (k + 1) T], T = (bottom - top) / S,
-// where [top, bottom] is the depth range of the casters. Its texture lies on its far
+// where [top, bottom] is the depth range of the casters; with `tiles` > 1, the range of the
+// casters each light-space tile of the texture sees (penumbra's addition, issue 34: slices that
+// follow the casters in wide scenes, still independent of the camera). Its texture lies on its far
 // ("bottom") plane, at depth plane(k) = top + (k + 1) T. One perspective rasterization from
 // the centre of projection E = C - d forward (a distance d behind the light, its frustum's
 // window exactly the light: Fig. 4-5) writes one bit per slice and texel; d is the largest
@@ -19,7 +21,8 @@
 // t = (z - plane(k)) / z (eq. 4), centred where the segment P-C crosses the plane. Its texel
 // footprint is t W d / (plane(k) + d) texels wide (independent of the light's size), and
 // one filtered lookup gives the occluded fraction I_k. V = prod_k (1 - w_k I_k) (eq. 5), or
-// 1 - sum, or 1 - max. The slice containing P is skipped; w_k fades the slice just above P
+// 1 - sum, or 1 - max (with tiles, each slice's kernel in pieces, one per tile, at each tile's
+// own plane: occlusion_shared.h ot_visibility_tiled). The slice containing P is skipped; w_k fades the slice just above P
 // in linearly over `fade` slice thicknesses below its plane (self-shadowing, §3.4). On a closed
 // object V is then multiplied by the part of the light above the receiver's tangent plane
 // (`horizon`, penumbra's addition, as vsm's): the slices cannot show a solid hiding the light
@@ -65,6 +68,7 @@ struct Options {
   bool cull_planar = true; // skip planar objects that cannot shadow anything (ground planes)
   bool cull_back_faces = true;   // closed objects: slice only the faces toward the centre of projection
   bool horizon = true;     // closed receivers: V times the light's part above their tangent plane
+  int tiles = 0;           // light-space tiles a side, each sliced over its own casters' depth range; 0 = fitted
 };
 
 // The method's parameters (method.cpp's table) as Options.
@@ -103,7 +107,11 @@ class OcclusionTextures {
   float top() const { return top_; }
   float thickness() const { return thickness_; }
   int slices() const { return options_.slices; }
-  float plane(int k) const { return shader::ot_plane(setup_, k); }
+  // Slice k's plane over the whole depth range (every tile's with tiles = 1).
+  float plane(int k) const { return shader::ot_plane(shader::OtSlicing{top_, thickness_, 0.0f}, k); }
+  // Each light-space tile's slices (tiles x tiles, row-major from the texture's top-left corner).
+  const std::vector<shader::OtTile>& tiles() const { return tiles_; }
+  int tiles_side() const { return tiles_side_; }
   float bottom() const { return bottom_; }
   // The per-point arithmetic's record (occlusion_shared.h OtSetup).
   const shader::OtSetup& setup() const { return setup_; }
@@ -114,6 +122,10 @@ class OcclusionTextures {
   // kRasterObject*, a uint per scene object): the culled objects left out, closed objects culled
   // to their faces toward the centre of projection when cull_back_faces (what build() gathers).
   std::vector<uint32_t> slicing_object_flags(const Scene& scene) const;
+  // The slicing pass's depth bins (linear depth from the centre of projection): the slices,
+  // per light-space tile when tiles > 1 (their (first, width) pairs written to *tile_storage,
+  // which the bins point into).
+  DepthBins slicing_bins(std::vector<Vec2f>* tile_storage) const;
   // The pre-filtered mean coverage of slice k over a texel-space rectangle.
   float box(int k, float x0, float y0, float x1, float y1, LookupCounters* counters = nullptr) const;
   size_t texture_bytes() const;
@@ -130,15 +142,21 @@ class OcclusionTextures {
                   LookupCounters& total) const;
   template <class Fn>
   decltype(auto) dispatch(Fn&& fn) const;
+  int fitted_tiles() const;
+  void set_tiles(int tiles);
+  void fit_tiles(const Scene& scene);
 
   Options options_;
   LightRect light_;
   bool has_casters_ = false;
   float d_ = 1, top_ = 0, thickness_ = 1;
   float bottom_ = 0;
-  // The per-point arithmetic's record (occlusion_shared.h): the light's frame, the slices, each
-  // slice's texel footprint per world unit, the fade, the combination.
+  // The per-point arithmetic's record (occlusion_shared.h): the light's frame, the centre of
+  // projection, the fade, the combination, the tiles.
   shader::OtSetup setup_{};
+  int tiles_side_ = 1;  // the tiles a side build() chose
+  std::vector<shader::OtTile> tiles_;
+  std::vector<SliceBounds> slice_bounds_;  // each slice's covered texels (tiles > 1: ot_visibility's)
   LightView view_;
   std::vector<uint32_t> culled_;
   RasterTriangles triangles_;

@@ -52,14 +52,17 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     gpu::Device& d = *frame.device;
     if (!rasterizer_) {
       rasterizer_ = std::make_unique<gpu::GpuRasterizer>(d);
-      setup_ = gpu::Buffer(d, sizeof(shader::OtSetup), "the occlusion textures' set-up");
       bounds_ = gpu::Buffer(d, 4 * sizeof(float) * shader::kOtMaxSlices, "the slices' bounds");
       counters_ = gpu::Buffer(d, sizeof(shader::OtShadeCounters), "the occlusion textures' counters");
     }
     const Scene& scene = *ctx.scene;
     plan_.plan(scene, *ctx.light);
+    // The set-up record, then the tiles' slices (occlusion_shared.h OtSetup).
     const shader::OtSetup& setup = plan_.setup();
+    const std::vector<shader::OtTile>& tiles = plan_.tiles();
+    gpu::ensure_buffer(d, setup_, sizeof(setup) + tiles.size() * sizeof(shader::OtTile), "the occlusion textures' set-up");
     setup_.upload(&setup, sizeof(setup));
+    setup_.upload(std::span<const shader::OtTile>(tiles), sizeof(setup));
     stats_.extra["slices"] = options_.slices;
     stats_.extra["resolution"] = options_.resolution;
     stats_.extra["prefilter"] = occlusion::to_string(options_.prefilter);
@@ -147,9 +150,9 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     gpu::ensure_buffer(*frame.device, flags_, flags.size() * sizeof(uint32_t), "the slicing pass's object flags");
     flags_.upload(std::span<const uint32_t>(flags));
     const int S = options_.slices;
+    std::vector<Vec2f> tile_bins;
     rasterizer_->depth_bin_masks(cl, frame.flush, "slicing", *frame.scene, plan_.view(), RasterFilter{},
-                                 DepthBins{plan_.cop_distance() + plan_.top(), plan_.thickness(), S},
-                                 flags_.address(), &masks_);
+                                 plan_.slicing_bins(&tile_bins), flags_.address(), &masks_);
     if (options_.thin_fix && S > 1) {
       cl.stage("slicing");
       cl.dispatch("ot_thin_fix", static_cast<uint64_t>(masks_.width()) * masks_.height(), mask_params());

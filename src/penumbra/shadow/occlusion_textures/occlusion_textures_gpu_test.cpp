@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/eval/run_setup.h"
 #include "penumbra/gpu/gpu_scene.h"
 #include "penumbra/gpu/gpu_test_util.h"
 #include "penumbra/gpu/raster/gpu_depth_bins.h"
@@ -40,9 +41,9 @@ class OcclusionTexturesGpu : public GpuTest {
     const std::vector<uint32_t> flags = cpu.slicing_object_flags(scene);
     gpu::Buffer flag_buf = gpu::make_buffer<uint32_t>(device(), flags, "flags");
     gpu::GpuDepthBinMasks masks;
+    std::vector<Vec2f> tile_bins;
     rasterizer->depth_bin_masks(cl, [&] { cl.submit(); }, "slicing", gs, cpu.view(), RasterFilter{},
-                                DepthBins{cpu.cop_distance() + cpu.top(), cpu.thickness(), options.slices},
-                                flag_buf.address(), &masks);
+                                cpu.slicing_bins(&tile_bins), flag_buf.address(), &masks);
     const DepthBinMasks gpu = masks.download();
     const DepthBinMasks& want = cpu.coverage();
     EXPECT_EQ(gpu.width, want.width);
@@ -57,12 +58,23 @@ class OcclusionTexturesGpu : public GpuTest {
   }
 };
 
-occlusion::Options options(int slices, int resolution, bool cull_back_faces = true) {
+occlusion::Options options(int slices, int resolution, bool cull_back_faces = true, int tiles = 1) {
   occlusion::Options o;
   o.slices = slices;
   o.resolution = resolution;
   o.cull_back_faces = cull_back_faces;
+  o.tiles = tiles;
   return o;
+}
+
+// The forest generator's scene (scenes/forest.json) with few, small trees: a wide scene whose
+// fitted light-space tiles are kept, small enough for lavapipe.
+Scene small_forest(int resolution) {
+  RunSetup setup = RunSetup::from_file(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/forest.json");
+  setup.apply("resolution", std::to_string(resolution));
+  setup.apply("generator.trees", "4");
+  setup.apply("generator.leaves", "300");
+  return setup.load();
 }
 
 TEST_F(OcclusionTexturesGpu, SlicingMasksAreTheCpus) {
@@ -79,6 +91,15 @@ TEST_F(OcclusionTexturesGpu, SlicingMasksAreTheCpus) {
       RecordProperty(std::string(name) + (cull ? " culled" : " all faces") + ": texels differing / covered",
                      std::to_string(differ) + " / " + std::to_string(covered));
     }
+  // Light-space tiles' own slices (DepthBins::tiles): tiles of 16 texels (smaller than the CPU
+  // rasterizer's, a bins record per texel there) and of 64.
+  for (int tiles : {8, 2}) {
+    const Scene scene = shipped_scene("bunny.json", 32);
+    gpu::GpuRasterizer r(device());
+    size_t covered = 0;
+    EXPECT_LE(differing_masks(scene, options(16, 128, true, tiles), &r, &covered), covered / 1000) << tiles;
+    EXPECT_GT(covered, 500u);
+  }
 }
 
 TEST_F(OcclusionTexturesGpu, RasterizerBuffersThatAreTooSmallGrowAndTheMasksAreRenderedAgain) {
@@ -115,10 +136,30 @@ TEST_F(OcclusionTexturesGpu, EveryParameterWorksAsOnTheCpu) {
            {"resolution=64", "slices=7", "combine=sum", "thin_fix=true"},
            {"resolution=128", "slices=32", "combine=max", "fade=0", "prefilter=mipmap"},
            {"resolution=64", "cop_distance=3", "cull_planar=false", "cull_back_faces=false", "prefilter=sat"},
-           {"resolution=32", "slices=1", "fade=4", "thin_fix=true"}}) {
+           {"resolution=32", "slices=1", "fade=4", "thin_fix=true"},
+           {"resolution=128", "tiles=8"},
+           {"resolution=64", "tiles=2", "prefilter=mipmap", "combine=sum"},
+           {"resolution=128", "tiles=16", "prefilter=sat", "thin_fix=true"}}) {
     const penumbra::testing::DevicePair d = render_on_both(scene, "occlusion-textures", p);
     EXPECT_LE(d.mean_abs_dv, 2e-3) << p[0] << " " << p[1];
   }
+}
+
+TEST_F(OcclusionTexturesGpu, AWideSceneGivesTheCpuPictureWithItsFittedTiles) {
+  // Issue 34: the fitted light-space tiles are kept on a forest; their slices, the tiles' pieces
+  // of each kernel (occlusion_shared.h ot_visibility_tiled) and the CPU's agree.
+  const Scene scene = small_forest(48);
+  for (const char* prefilter : {"nbuffer", "sat"}) {
+    const penumbra::testing::DevicePair d =
+        render_on_both(scene, "occlusion-textures", {"resolution=256", std::string("prefilter=") + prefilter});
+    EXPECT_GT(d.cpu_shadow, 10) << "no shadow to compare";
+    EXPECT_LE(d.mean_abs_dv, 2e-3) << prefilter;
+    RecordProperty(std::string("small forest ") + prefilter, penumbra::testing::dv_text(d.mean_abs_dv));
+  }
+  occlusion::OcclusionTextures cpu(options(16, 256, true, 0));
+  MethodStats stats;
+  cpu.build(scene, scene.lights[0], &stats);
+  EXPECT_GT(cpu.tiles_side(), 1);
 }
 
 TEST_F(OcclusionTexturesGpu, StagesStatisticsCropsAndAMovedCamera) {

@@ -12,7 +12,9 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/light_horizon.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/eval/run_setup.h"
 #include "penumbra/testing/memory_cases.h"
+#include "penumbra/testing/method_runs.h"
 #include "penumbra/testing/test_scenes.h"
 
 namespace penumbra {
@@ -90,7 +92,9 @@ TEST(OcclusionTextures, PlanarOccluderGivesTheClosedFormPenumbraWithSummedAreaTa
   const RectXZ occ = aligned_rect(96, 160, 100, 150, 1.0);  // at height 1: depth 1 below the light
   Scene scene = testing::ground_scene({quad(occ, 1.0)}, testing::rect_light_down({0, 2, 0}, 1, 1), 96);
   scene.camera.fov_y = 40;  // the ground within about 1.45 of the centre
-  MethodRun r = run_method(scene, {"prefilter=sat", "cop_distance=2", "resolution=256", "slices=4"});
+  // One depth range, the paper's slicing (tiles=1): the fitted light-space tiles would each hold the
+  // occluder's plane alone (their own test below).
+  MethodRun r = run_method(scene, {"prefilter=sat", "cop_distance=2", "resolution=256", "slices=4", "tiles=1"});
   EXPECT_EQ(r.stats.extra["culled_objects"].size(), 1u);  // the ground casts nothing
   int checked = 0, penumbra = 0;
   double worst = 0;
@@ -106,13 +110,15 @@ TEST(OcclusionTextures, PlanarOccluderGivesTheClosedFormPenumbraWithSummedAreaTa
   EXPECT_GT(checked, 8000);
   EXPECT_GT(penumbra, 1500);
   // The same with double tables, and through visibility() one point at a time.
-  MethodRun r64 = run_method(scene, {"prefilter=sat", "sat_precision=double", "cop_distance=2", "resolution=256", "slices=4"});
+  MethodRun r64 =
+      run_method(scene, {"prefilter=sat", "sat_precision=double", "cop_distance=2", "resolution=256", "slices=4", "tiles=1"});
   for (size_t i = 0; i < r.vs.size(); ++i) EXPECT_NEAR(r64.v[i], r.v[i], 1e-5);
   Options o;
   o.prefilter = occlusion::Prefilter::Sat;
   o.cop_distance = 2;
   o.resolution = 256;
   o.slices = 4;
+  o.tiles = 1;
   OcclusionTextures ot(o);
   MethodStats stats;
   ot.build(scene, scene.lights[0], &stats);
@@ -161,7 +167,7 @@ TEST(OcclusionTextures, SlicesCombineByTheirProduct) {
   scene.camera.fov_y = 20;  // the ground within 0.7 of the centre: the two shadows never overlap on the light
   for (const char* combine : {"product", "sum", "max"}) {
     MethodRun r = run_method(scene, {"prefilter=sat", "cop_distance=2", "resolution=256", "slices=4", "thin_fix=false",
-                               fmt::format("combine={}", combine)});
+                                     "tiles=1", fmt::format("combine={}", combine)});
     int both = 0;
     for (size_t i = 0; i < r.vs.size(); ++i) {
       const ViewSample& s = r.vs.samples[i];
@@ -189,7 +195,7 @@ TEST(OcclusionTextures, LookupsPerPointDoNotDependOnTheLightSize) {
                                            testing::object(testing::quad_y(1.2f, -0.3f, 0.1f, -0.05f, 0.3f))},
                                           testing::rect_light_down({0.05f, 2, 0}, size, size), 48);
       scene.camera = testing::top_camera(48, 4.0f, 5.0f);
-      MethodRun r = run_method(scene, {fmt::format("prefilter={}", prefilter)});
+      MethodRun r = run_method(scene, {fmt::format("prefilter={}", prefilter), "tiles=1"});
       const double n = double(r.vs.size());
       lookups.push_back(r.stats.extra["lookups"].get<double>() / n);
       reads.push_back(double(r.stats.texels_visited) / n);
@@ -286,6 +292,7 @@ TEST(OcclusionTextures, TheSliceJustAbovePointFadesIn) {
   Options o;
   o.slices = 4;
   o.prefilter = occlusion::Prefilter::Sat;
+  o.tiles = 1;  // one depth range (the paper's)
   OcclusionTextures ot(o);
   MethodStats stats;
   ot.build(scene, scene.lights[0], &stats);
@@ -432,11 +439,115 @@ TEST(OcclusionTextures, PointsBehindTheLightAndScenesWithoutCastersAreHandled) {
   EXPECT_EQ(ot.visibility({0, 3, 0}), 0.0f);  // above the light, which faces down
 }
 
+// Two stacks of occluders far apart: on the left a small quad 0.1 above a large one (depths 0.4
+// and 0.5 below the light), on the right a box standing on the ground (depths 1.8 to 2). With one
+// depth range [0.4, 2] in 16 slices of 0.1, both left quads fall in slice 0 and the upper one
+// cannot shadow the lower (the slice holding a point is skipped, §3.4). With light-space tiles
+// the left tiles are sliced over [0.4, 0.5] alone, and the upper quad shadows the lower as the
+// closed form says (up to its texture lying on its slice's far plane, 0.4 + 0.1 / 16).
+Scene two_stacks() {
+  const RectXZ upper{-0.75, -0.55, -0.1, 0.1}, lower{-1.0, -0.3, -0.35, 0.35};
+  return testing::ground_scene({quad(upper, 1.6), quad(lower, 1.5),
+                                testing::object(testing::box({0.5f, 0, -0.1f}, {0.7f, 0.2f, 0.1f}))},
+                               testing::rect_light_down({0, 2, 0}, 1, 1));
+}
+
+TEST(OcclusionTextures, LightSpaceTilesSliceEachTileOverItsOwnCasters) {
+  const Scene scene = two_stacks();
+  const RectXZ upper{-0.75, -0.55, -0.1, 0.1};
+  // The visibility of a point on the lower quad (height 1.5) past the upper one (height 1.6): the
+  // closed form of closed_form_v with the light 0.5 above the point and the occluder 0.1.
+  auto closed_form = [&](double x, double z) {
+    const double s = 0.5 / 0.1;
+    const double ox = overlap(x + (upper.x0 - x) * s, x + (upper.x1 - x) * s, -0.5, 0.5);
+    const double oz = overlap(z + (upper.z0 - z) * s, z + (upper.z1 - z) * s, -0.5, 0.5);
+    return 1.0 - ox * oz;
+  };
+  Options o;
+  o.slices = 16;
+  o.prefilter = occlusion::Prefilter::Sat;
+  o.resolution = 512;
+  MethodStats stats;
+  OcclusionTextures tiled(o);
+  tiled.build(scene, scene.lights[0], &stats);
+  EXPECT_GT(tiled.tiles_side(), 1);  // fitted: the left tiles' slices are 14 times thinner
+  EXPECT_EQ(stats.extra["tiles"].get<int>(), tiled.tiles_side());
+  o.tiles = 1;
+  OcclusionTextures one(o);
+  one.build(scene, scene.lights[0], &stats);
+  ASSERT_NEAR(one.top(), 0.4f, 1e-5f);
+  ASSERT_NEAR(one.thickness(), 0.1f, 1e-5f);
+  double err_tiled = 0, err_one = 0, worst = 0;
+  int n = 0;
+  for (double x = -0.95; x <= -0.35; x += 0.05)
+    for (double z = -0.3; z <= 0.3; z += 0.05) {
+      const Vec3f p{float(x), 1.5f, float(z)};
+      const double expect = closed_form(x, z);
+      err_tiled += std::abs(tiled.visibility(p) - expect);
+      err_one += std::abs(one.visibility(p) - expect);
+      worst = std::max(worst, std::abs(tiled.visibility(p) - expect));
+      ++n;
+    }
+  RecordProperty("mean |dV| on the lower quad: tiles / one range", fmt::format("{:.4f} / {:.4f}", err_tiled / n, err_one / n));
+  EXPECT_LT(err_tiled / n, 0.02);
+  EXPECT_LT(worst, 0.12);
+  EXPECT_GT(err_one / n, 0.1);  // one range: the upper quad is not seen at all
+}
+
+TEST(OcclusionTextures, FittedTilesAreKeptOnlyWhereTheyThinTheSlices) {
+  // One compact object: its tiles see most of its depth range, so the fitted tiles fall back to
+  // one range (the paper's slicing, the same picture as tiles=1)...
+  const Scene box = testing::ground_scene({testing::object(testing::box({-0.3f, 0, -0.2f}, {0.3f, 0.8f, 0.2f}))},
+                                          testing::rect_light_down({0.2f, 2, 0}, 1, 1));
+  Options o;
+  MethodStats stats;
+  OcclusionTextures fitted(o);
+  fitted.build(box, box.lights[0], &stats);
+  EXPECT_EQ(fitted.tiles_side(), 1);
+  EXPECT_EQ(fitted.tiles().size(), 1u);
+  // ...while tiles asked for are kept; every tile's range lies within the casters' whole range.
+  o.tiles = 8;
+  OcclusionTextures eight(o);
+  eight.build(box, box.lights[0], &stats);
+  ASSERT_EQ(eight.tiles().size(), 64u);
+  for (const shader::OtTile& t : eight.tiles()) {
+    EXPECT_GE(t.top, eight.top() - 1e-6f);
+    EXPECT_LE(t.top + o.slices * t.thickness, eight.bottom() * (1 + 1e-5f));
+  }
+  // The two stacks of the test above: kept.
+  const Scene stacks = two_stacks();
+  fitted.build(stacks, stacks.lights[0], &stats);
+  EXPECT_GT(fitted.tiles_side(), 1);
+}
+
+TEST(OcclusionTextures, ASmallForestIsCloserToTheGroundTruthWithTiles) {
+  // Issue 34: a forest's crowns shadow their own leaves across slices a crown deep, not a forest
+  // deep. Nine small trees at 48 x 48 pixels against the ray-traced ground truth.
+  RunSetup setup = RunSetup::from_file(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/forest.json");
+  setup.apply("resolution", "48");
+  setup.apply("generator.trees", "9");
+  setup.apply("generator.leaves", "400");
+  const testing::SceneRun r = testing::build_scene_run(setup.load());
+  const std::vector<float> truth = testing::run_method(r, "reference", 256);
+  MethodStats stats;
+  const std::vector<float> tiled = testing::run_method(r, "occlusion-textures", 1, {}, &stats);
+  const std::vector<float> one = testing::run_method(r, "occlusion-textures", 1, {"tiles=1"});
+  EXPECT_GT(stats.extra["tiles"].get<int>(), 1);
+  double e_tiled = 0, e_one = 0;
+  for (size_t i = 0; i < truth.size(); ++i) e_tiled += std::abs(tiled[i] - truth[i]), e_one += std::abs(one[i] - truth[i]);
+  e_tiled /= double(truth.size());
+  e_one /= double(truth.size());
+  RecordProperty("mean |dV| fitted tiles / one range", fmt::format("{:.4f} / {:.4f}", e_tiled, e_one));
+  EXPECT_LT(e_tiled, 0.85 * e_one);
+}
+
 TEST(OcclusionTextures, BadParametersAreRejected) {
   Scene scene = testing::ground_scene({}, testing::rect_light_down({0, 2, 0}, 1, 1), 16);
   EXPECT_THROW(create_method("occlusion-textures", scene, {"resolution=500"}), Error);
   EXPECT_THROW(create_method("occlusion-textures", scene, {"slices=33"}), Error);
   EXPECT_THROW(create_method("occlusion-textures", scene, {"prefilter=gauss"}), Error);
+  EXPECT_THROW(create_method("occlusion-textures", scene, {"tiles=3"}), Error);
+  EXPECT_THROW(create_method("occlusion-textures", scene, {"tiles=64", "resolution=256"}), Error);  // 4-texel tiles
   EXPECT_NO_THROW(create_method("occlusion-textures", scene, {"slices=4", "prefilter=mipmap", "combine=max"}));
 }
 

@@ -15,9 +15,15 @@
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { RasterBinsFillParams p; } pc;
+layout(buffer_reference, scalar) readonly buffer TileBins { RasterDepthBins b[]; };
 
 void raster_visit(uint texel, float z, uint source, float opacity) {
-  atomicOr(Uints(pc.p.fill.keys).v[texel], 1u << uint(raster_depth_bin(pc.p.bins, z)));
+  RasterDepthBins bins = pc.p.bins;
+  if (pc.p.tile_bins != 0ul) {
+    int x = int(texel % uint(pc.p.width)), y = int(texel / uint(pc.p.width));
+    bins = TileBins(pc.p.tile_bins).b[raster_bins_tile(x, y, pc.p.tile_shift, pc.p.tile_columns)];
+  }
+  atomicOr(Uints(pc.p.fill.keys).v[texel], 1u << uint(raster_depth_bin(bins, z)));
 }
 
 #include "penumbra/gpu/raster/raster_scan.glsl"

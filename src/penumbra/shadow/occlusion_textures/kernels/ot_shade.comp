@@ -46,7 +46,9 @@ void main() {
       bool closed = (g_objects.v[s.object].flags & kObjectClosed) != 0u;
       float horizon = ot_horizon(SetupRef(pc.p.setup).s, s.p, s.ng, closed);
       float v = 0.0f;
-      if (horizon > 0.0f) v = ot_visibility(SetupRef(pc.p.setup).s, t, Floats(pc.p.bounds), s.p, n) * horizon;
+      // The tiles' slices follow the set-up in its buffer (occlusion_shared.h OtSetup).
+      Floats tiles = Floats(pc.p.setup + uint64_t(kOtSetupBytes));
+      if (horizon > 0.0f) v = ot_visibility(SetupRef(pc.p.setup).s, tiles, t, Floats(pc.p.bounds), s.p, n) * horizon;
       Floats(pc.p.visibility).v[i] = v;
     }
   }
