@@ -75,6 +75,7 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, masks_.device_bytes() + textures_bytes());
     stats_.extra["cop_distance"] = plan_.cop_distance();
     stats_.extra["depth_range"] = {plan_.top(), plan_.bottom()};
+    stats_.extra["tiles"] = plan_.tiles_side();
     stats_.extra["slicing_fragments"] = rasterizer_->stats().fragments;
   }
 
