@@ -234,13 +234,14 @@ PN_INLINE float ot_box(OtTextures t, OtSliceBounds bounds, int k, float x0, floa
 //   bytes 0-15 center, R (texture side)   16-31 right, kx   32-47 up, ky   48-63 forward, d
 //   bytes 64-79 fade_length (slice thicknesses), fade (0: no fade-in), slices, has_casters
 //   bytes 80-95 combine (kOtProduct/Sum/Max), horizon (0 or 1), tiles, tile_scale
-//   bytes 96-111 top (the casters' nearest depth), tile_side (texels), 0, 0
+//   bytes 96-111 top, thickness (the whole range's slices), tile_side (texels), 0
 //   bytes 112-175 the light as the horizon test sees it (shadow/light_horizon_shared.h)
 // right and up are the slicing view's axes; kx, ky texels per world unit at the light (R /
 // width, R / height of its rectangle); d the centre of projection's distance behind the light.
 // The slices of each light-space tile (`tiles` x `tiles` of them, tile_side = R / tiles texels a
 // side, tile_scale = 1 / tile_side) follow in an OtTile array, row-major from the texture's
-// top-left corner (on the GPU right after the set-up in its buffer, as floats: top, thickness).
+// top-left corner (on the GPU right after the set-up in its buffer, as floats: top, thickness); a
+// tile sliced over the whole range holds exactly (top, thickness).
 PN_CONST uint kOtSetupBytes = 176u;  // sizeof(OtSetup): where the OtTile array starts on the GPU
 struct OtSetup {
   vec3 center;
@@ -260,9 +261,9 @@ struct OtSetup {
   int tiles;
   float tile_scale;
   float top;
+  float thickness;
   float tile_side;
   uint pad0;
-  uint pad1;
   HorizonLight light;
 };
 
@@ -388,29 +389,54 @@ PN_INLINE OtSliceBounds ot_slice_bounds(PN_FLOAT_ARRAY bounds, int k) {
   return b;
 }
 
+// The tiles a point's kernels can reach, [x0, x1] x [y0, y1]: those the largest kernel (at the
+// casters' nearest depth) and the point's own projection span.
+struct OtTileRange {
+  int x0;
+  int y0;
+  int x1;
+  int y1;
+};
+PN_INLINE OtTileRange ot_reach(OtSetup s, float u, float v, float z) {
+  float inv_z = 1.0f / z;
+  OtSliceBounds widest = ot_kernel_rect(ot_kernel(s, s.top, u, v, z, inv_z));
+  OtKernel own = ot_kernel(s, z, u, v, z, inv_z);
+  float last = float(s.tiles - 1);
+  OtTileRange r;
+  r.x0 = int(min(max(floor(min(widest.x0, own.cx) * s.tile_scale), 0.0f), last));
+  r.x1 = int(min(max(floor(max(widest.x1, own.cx) * s.tile_scale), 0.0f), last));
+  r.y0 = int(min(max(floor(min(widest.y0, own.cy) * s.tile_scale), 0.0f), last));
+  r.y1 = int(min(max(floor(max(widest.y1, own.cy) * s.tile_scale), 0.0f), last));
+  return r;
+}
+
+// Whether every tile of a range is sliced over the whole range: the point's pieces of each slice
+// then lie in one plane and make the whole kernel, one lookup (ot_visibility's plain path).
+PN_INLINE bool ot_reach_is_whole(OtSetup s, PN_FLOAT_ARRAY tiles, OtTileRange r) {
+  bool whole = true;
+  for (int ty = r.y0; ty <= r.y1; ++ty)
+    for (int tx = r.x0; tx <= r.x1; ++tx) {
+      uint i = uint(ty * s.tiles + tx);
+      whole = whole && PN_AT(tiles, 2u * i) == s.top && PN_AT(tiles, 2u * i + 1u) == s.thickness;
+    }
+  return whole;
+}
+
 // V at p over the slices of light-space tiles (tiles > 1). Slice k is then a surface that lies at
 // the tile's own plane k in each tile's part of the texture, so the light seen from p cuts it in
 // pieces: in each tile, the kernel of that tile's plane k (eq. 4), cut to the tile. Slice k's
 // occlusion is the sum over the tiles of each piece's covered area (each piece faded in by its
 // own plane's distance above p), over the kernel's area; eq. 5 combines the slices. With one
-// tile this is ot_visibility's single lookup per slice. The tiles visited: those the largest
-// kernel (at the casters' nearest depth) and p's own projection span.
+// tile this is ot_visibility's single lookup per slice. The tiles visited: `reach` (ot_reach).
 PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, float u,
-                                    float v, float z, PN_INOUT(OtCounters) n) {
+                                    float v, float z, OtTileRange reach, PN_INOUT(OtCounters) n) {
   float inv_z = 1.0f / z;
   float occ[kOtMaxSlices];
   float shares[kOtMaxSlices];
   for (int k = 0; k < s.slices; ++k) occ[k] = 0.0f;
   for (int k = 0; k < s.slices; ++k) shares[k] = 0.0f;
-  OtSliceBounds reach = ot_kernel_rect(ot_kernel(s, s.top, u, v, z, inv_z));
-  OtKernel own = ot_kernel(s, z, u, v, z, inv_z);
-  float last = float(s.tiles - 1);
-  int tx0 = int(min(max(floor(min(reach.x0, own.cx) * s.tile_scale), 0.0f), last));
-  int tx1 = int(min(max(floor(max(reach.x1, own.cx) * s.tile_scale), 0.0f), last));
-  int ty0 = int(min(max(floor(min(reach.y0, own.cy) * s.tile_scale), 0.0f), last));
-  int ty1 = int(min(max(floor(max(reach.y1, own.cy) * s.tile_scale), 0.0f), last));
-  for (int ty = ty0; ty <= ty1; ++ty) {
-    for (int tx = tx0; tx <= tx1; ++tx) {
+  for (int ty = reach.y0; ty <= reach.y1; ++ty) {
+    for (int tx = reach.x0; tx <= reach.x1; ++tx) {
       OtSlicing slicing = ot_tile_slicing(s, tiles, ty * s.tiles + tx);
       int above = ot_slices_above(s, slicing, z);
       float rx0 = float(tx) * s.tile_side;
@@ -441,8 +467,9 @@ PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures 
 }
 
 // V at point p (OcclusionTextures::visibility): 0 behind the light's plane, 1 without casters,
-// else eq. 5 over the slices above p, each looked up over its kernel (over the light-space
-// tiles' slices with tiles > 1: ot_visibility_tiled). `bounds`: every slice's covered rectangle
+// else eq. 5 over the slices above p, each looked up over its kernel (the whole range's slices;
+// where a tile the point's kernels reach has slices of its own, the tiles' pieces:
+// ot_visibility_tiled). `bounds`: every slice's covered rectangle
 // (for the pyramids' elongated kernels), 4 floats a slice; `tiles`: the OtTile array as floats.
 // The slices alone: shading multiplies by ot_horizon.
 PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, vec3 p,
@@ -453,9 +480,15 @@ PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_
   float z = dot(q, s.forward);
   if (!(z > 0.0f)) return 0.0f;
   if (s.has_casters == 0u) return 1.0f;
-  if (s.tiles > 1) return ot_visibility_tiled(s, tiles, t, bounds, u, v, z, n);
+  OtSlicing slicing;
+  slicing.top = s.top;
+  slicing.thickness = s.thickness;
+  slicing.inv_fade = s.fade != 0u ? 1.0f / (s.fade_length * s.thickness) : 0.0f;
+  if (s.tiles > 1) {
+    OtTileRange reach = ot_reach(s, u, v, z);
+    if (!ot_reach_is_whole(s, tiles, reach)) return ot_visibility_tiled(s, tiles, t, bounds, u, v, z, reach, n);
+  }
   float inv_z = 1.0f / z;
-  OtSlicing slicing = ot_tile_slicing(s, tiles, 0);
   int above = ot_slices_above(s, slicing, z);
   OtCombined c;
   c.product = 1.0f;

@@ -215,8 +215,10 @@ void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
   // bounds the lookups a point makes (ot_visibility_tiled), with tiles of at least 8 texels. Fitted
   // tiles are kept only where they make the slices at least three times thinner on average (a
   // wide scene of separate casters, as a forest's crowns); one compact object's tiles see most of
-  // its depth, and their pieces' approximations and the point-by-point shading would cost more
-  // than they gain (docs/methods/occlusion-textures.md, "Slices that follow the casters").
+  // its depth, and their pieces' approximations and lookups would cost more than they gain
+  // (docs/methods/occlusion-textures.md, "Slices that follow the casters"). A tile without
+  // casters keeps the whole range's slices, and a point whose kernels reach only such tiles is
+  // shaded as with one range (one lookup a slice, the CPU's batches).
   const int T = options_.tiles != 0 ? options_.tiles : fitted_tiles();
   set_tiles(T);
   if (T > 1) fit_tiles(scene);
@@ -242,6 +244,7 @@ void OcclusionTextures::set_tiles(int T) {
   setup_.tile_side = float(options_.resolution / T);
   setup_.tile_scale = 1.0f / setup_.tile_side;
   setup_.top = top_;
+  setup_.thickness = thickness_;
   tiles_.assign(size_t(T) * size_t(T), shader::OtTile{top_, thickness_});
 }
 
@@ -567,25 +570,14 @@ template <class F>
 void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> out, LookupCounters& n) const {
   const size_t count = b.points.size();
   const int S = options_.slices;
-  if (tiles_side_ > 1) {  // the light-space tiles' slices: point by point, as on the GPU
-    const shader::OtTextures t = filter.shared();
-    const float* tiles = reinterpret_cast<const float*>(tiles_.data());
-    const float* bounds = reinterpret_cast<const float*>(slice_bounds_.data());
-    for (size_t i = 0; i < count; ++i) {
-      shader::OtCounters c{};
-      out[b.targets[i]] = shader::ot_visibility(setup_, tiles, t, bounds, b.points[i], c);
-      n.lookups += c.lookups, n.reads += c.reads, n.outside += c.outside, n.strips += c.strips;
-    }
-    return;
-  }
   for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion,
                   &b.meets_cx, &b.meets_cy, &b.meets_side})
     a->resize(count);
   b.target.resize(count);
   b.meets.resize(count);
   b.above.resize(count);
-  // One tile: its slices (the whole depth range).
-  const shader::OtSlicing slicing = shader::ot_tile_slicing(setup_, reinterpret_cast<const float*>(tiles_.data()), 0);
+  // The whole depth range's slices (the batch's points reach no tile with slices of its own).
+  const shader::OtSlicing slicing{top_, thickness_, options_.fade > 0 ? 1.0f / (options_.fade * thickness_) : 0.0f};
   // Slices above each point, and a counting sort by that number, descending.
   uint32_t bucket[33] = {};
   const Vec3f right = view_.right(), up = view_.up();
@@ -641,9 +633,26 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
     out[b.target[i]] = !(b.z[i] > 0) ? 0.0f : (has_casters_ ? shader::ot_combine(setup_, {b.product[i], b.sum[i], b.largest[i]}) : 1.0f);
 }
 
+template <class F>
+bool OcclusionTextures::tiled_point(const F& filter, Vec3f p, float* v, LookupCounters& n) const {
+  if (tiles_side_ <= 1 || !has_casters_) return false;
+  const Vec3f q = p - light_.center;
+  const float z = dot(q, light_.forward);
+  if (!(z > 0)) return false;
+  const float* tiles = reinterpret_cast<const float*>(tiles_.data());
+  const shader::OtTileRange reach = shader::ot_reach(setup_, dot(q, setup_.right), dot(q, setup_.up), z);
+  if (shader::ot_reach_is_whole(setup_, tiles, reach)) return false;
+  shader::OtCounters c{};
+  *v = shader::ot_visibility(setup_, tiles, filter.shared(), reinterpret_cast<const float*>(slice_bounds_.data()), p, c);
+  n.lookups += c.lookups, n.reads += c.reads, n.outside += c.outside, n.strips += c.strips;
+  return true;
+}
+
 float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
   LookupCounters local;
   LookupCounters& n = counters ? *counters : local;
+  float tiled = 0;
+  if (dispatch([&](const auto& f) { return tiled_point(f, p, &tiled, n); })) return tiled;
   Batch b;
   b.reset(1);
   b.points[0] = p;
@@ -699,6 +708,7 @@ void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const Vi
     }
     b.reset(n);
     size_t j = 0;
+    LookupCounters counters;
     for (int y = y0; y < y1; ++y)
       for (uint32_t i = begin[y - y0]; i < end[y - y0]; ++i) {
         const ViewSample& s = vs.samples[i];
@@ -707,13 +717,18 @@ void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const Vi
           visibility[i] = 0;
           continue;
         }
+        // Kernels reaching a tile with slices of its own: the tiles' pieces, point by point (the
+        // GPU's function); the others in the batch, slice by slice.
+        if (float v = 0; tiled_point(filter, s.p, &v, counters)) {
+          visibility[i] = v * h;
+          continue;
+        }
         b.points[j] = s.p;
         b.targets[j] = i;
         b.horizon[j] = h;
         ++j;
       }
     b.reset(j);
-    LookupCounters counters;
     shade_batch(filter, b, visibility, counters);
     for (size_t k = 0; k < j; ++k) visibility[b.targets[k]] *= b.horizon[k];
     lookups.fetch_add(counters.lookups, std::memory_order_relaxed);

@@ -142,6 +142,10 @@ class OcclusionTextures {
                   LookupCounters& total) const;
   template <class Fn>
   decltype(auto) dispatch(Fn&& fn) const;
+  // V at p through the tiles' pieces when its kernels reach a tile with slices of its own
+  // (true; the lookups added to n), else false: the batch's slice-by-slice lookups serve it.
+  template <class F>
+  bool tiled_point(const F& filter, Vec3f p, float* v, LookupCounters& n) const;
   int fitted_tiles() const;
   void set_tiles(int tiles);
   void fit_tiles(const Scene& scene);
