@@ -4,6 +4,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <limits>
 
 #include <tbb/enumerable_thread_specific.h>
 
@@ -272,31 +273,37 @@ void OcclusionTextures::fit_tiles(const Scene& scene) {
     }
     casters.push_back(static_cast<uint32_t>(i));
   }
+  // Each vertex projected once (a vertex is shared by about six triangles): its texel position
+  // and depth, x = NaN when it lies at or behind the light's plane.
+  struct Projected {
+    float x, y, z;
+  };
+  tbb::enumerable_thread_specific<std::vector<Projected>> projected;
   parallel_for(casters.size(), 1, [&](size_t b, size_t e) {
     Range& r = ranges.local();
+    std::vector<Projected>& pv = projected.local();
     for (size_t c = b; c < e; ++c) {
       const TriangleMesh& m = scene.objects[casters[c]].mesh;
+      pv.resize(m.positions.size());
+      for (size_t i = 0; i < m.positions.size(); ++i) {
+        const Vec3f q = m.positions[i] - light_.center;
+        const float z = dot(q, light_.forward);
+        const float a = d_ / (z + d_);
+        pv[i] = z > z_eps ? Projected{0.5f * R + dot(q, right) * a * setup_.kx, 0.5f * R - dot(q, up) * a * setup_.ky, z}
+                          : Projected{std::numeric_limits<float>::quiet_NaN(), 0.0f, z};
+      }
       for (size_t t = 0; t < m.triangle_count(); ++t) {
-        float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity, lo = kInfinity, hi = -kInfinity;
-        bool behind = false;
-        for (int j = 0; j < 3; ++j) {
-          const Vec3f q = m.vertex(t, j) - light_.center;
-          const float z = dot(q, light_.forward);
-          lo = std::min(lo, z);
-          hi = std::max(hi, z);
-          if (!(z > z_eps)) {
-            behind = true;
-            continue;
-          }
-          const float a = d_ / (z + d_);
-          const float x = 0.5f * R + dot(q, right) * a * setup_.kx, y = 0.5f * R - dot(q, up) * a * setup_.ky;
-          x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
-        }
+        const Projected& p0 = pv[m.indices[3 * t]];
+        const Projected& p1 = pv[m.indices[3 * t + 1]];
+        const Projected& p2 = pv[m.indices[3 * t + 2]];
+        float lo = std::min({p0.z, p1.z, p2.z}), hi = std::max({p0.z, p1.z, p2.z});
         if (!(hi > z_eps)) continue;  // wholly behind the light's plane: not sliced
         lo = std::clamp(lo, top_, bottom_), hi = std::clamp(hi, top_, bottom_);
         // A triangle cut by the light's plane projects without bound: every tile.
         int tx0 = 0, ty0 = 0, tx1 = T - 1, ty1 = T - 1;
-        if (!behind) {
+        if (!std::isnan(p0.x) && !std::isnan(p1.x) && !std::isnan(p2.x)) {
+          const float x0 = std::min({p0.x, p1.x, p2.x}), x1 = std::max({p0.x, p1.x, p2.x});
+          const float y0 = std::min({p0.y, p1.y, p2.y}), y1 = std::max({p0.y, p1.y, p2.y});
           const float margin = 1e-3f;
           if (x1 < -margin || y1 < -margin || x0 > R + margin || y0 > R + margin) continue;  // outside the texture
           tx0 = std::clamp(int(std::floor((x0 - margin) * scale)), 0, T - 1);
