@@ -281,13 +281,18 @@ struct OtSlicing {
   float inv_fade;
 };
 
+// Slices from `top`, `thickness` apart, as a point uses them.
+PN_INLINE OtSlicing ot_slicing(OtSetup s, float top, float thickness) {
+  OtSlicing c;
+  c.top = top;
+  c.thickness = thickness;
+  c.inv_fade = s.fade != 0u ? 1.0f / (s.fade_length * thickness) : 0.0f;
+  return c;
+}
+
 // The slicing of tile i (`tiles`: the OtTile array as floats).
 PN_INLINE OtSlicing ot_tile_slicing(OtSetup s, PN_FLOAT_ARRAY tiles, int i) {
-  OtSlicing c;
-  c.top = PN_AT(tiles, 2u * uint(i));
-  c.thickness = PN_AT(tiles, 2u * uint(i) + 1u);
-  c.inv_fade = s.fade != 0u ? 1.0f / (s.fade_length * c.thickness) : 0.0f;
-  return c;
+  return ot_slicing(s, PN_AT(tiles, 2u * uint(i)), PN_AT(tiles, 2u * uint(i) + 1u));
 }
 
 // Slice k's texture plane: its far plane, at depth top + (k + 1) T.
@@ -480,10 +485,7 @@ PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_
   float z = dot(q, s.forward);
   if (!(z > 0.0f)) return 0.0f;
   if (s.has_casters == 0u) return 1.0f;
-  OtSlicing slicing;
-  slicing.top = s.top;
-  slicing.thickness = s.thickness;
-  slicing.inv_fade = s.fade != 0u ? 1.0f / (s.fade_length * s.thickness) : 0.0f;
+  OtSlicing slicing = ot_slicing(s, s.top, s.thickness);
   if (s.tiles > 1) {
     OtTileRange reach = ot_reach(s, u, v, z);
     if (!ot_reach_is_whole(s, tiles, reach)) return ot_visibility_tiled(s, tiles, t, bounds, u, v, z, reach, n);

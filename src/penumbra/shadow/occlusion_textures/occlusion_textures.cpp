@@ -584,7 +584,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
   b.meets.resize(count);
   b.above.resize(count);
   // The whole depth range's slices (the batch's points reach no tile with slices of its own).
-  const shader::OtSlicing slicing{top_, thickness_, options_.fade > 0 ? 1.0f / (options_.fade * thickness_) : 0.0f};
+  const shader::OtSlicing slicing = shader::ot_slicing(setup_, top_, thickness_);
   // Slices above each point, and a counting sort by that number, descending.
   uint32_t bucket[33] = {};
   const Vec3f right = view_.right(), up = view_.up();
