@@ -3,7 +3,8 @@
 //   raster_fill_bins  one thread per work item (as raster_fill): every texel centre of its tile
 //                     the triangle covers, alpha looked up per fragment, sets the bit of the
 //                     fragment's depth bin (raster/raster_bins_shared.h; its tile's bins when
-//                     the bins are per tile) in the texel's mask by atomicOr. The set-up and work items are raster_setup's.
+//                     the bins are per tile) in the texel's mask by atomicOr. The set-up and
+//                     work items are raster_setup's.
 #ifndef PENUMBRA_GPU_RASTER_RASTER_BINS_LAYOUT_SHARED_H
 #define PENUMBRA_GPU_RASTER_RASTER_BINS_LAYOUT_SHARED_H
 

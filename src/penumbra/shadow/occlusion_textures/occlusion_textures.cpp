@@ -647,10 +647,13 @@ bool OcclusionTextures::tiled_point(const F& filter, Vec3f p, float* v, LookupCo
   const float z = dot(q, light_.forward);
   if (!(z > 0)) return false;
   const float* tiles = reinterpret_cast<const float*>(tiles_.data());
-  const shader::OtTileRange reach = shader::ot_reach(setup_, dot(q, setup_.right), dot(q, setup_.up), z);
+  const float u = dot(q, setup_.right), w = dot(q, setup_.up);
+  const shader::OtTileRange reach = shader::ot_reach(setup_, u, w, z);
   if (shader::ot_reach_is_whole(setup_, tiles, reach)) return false;
+  // ot_visibility's tiled path, with the reach found above.
   shader::OtCounters c{};
-  *v = shader::ot_visibility(setup_, tiles, filter.shared(), reinterpret_cast<const float*>(slice_bounds_.data()), p, c);
+  *v = shader::ot_visibility_tiled(setup_, tiles, filter.shared(), reinterpret_cast<const float*>(slice_bounds_.data()),
+                                   u, w, z, reach, c);
   n.lookups += c.lookups, n.reads += c.reads, n.outside += c.outside, n.strips += c.strips;
   return true;
 }
