@@ -64,6 +64,18 @@ TEST_F(CliCompare, CompareWritesThePageJsonCsvAndImages) {
                               path("cache"), path("out2")));
   ASSERT_EQ(again.exit_code, 0) << again.err;
   EXPECT_TRUE(json::parse(slurp(dir_ / "out2" / "results.json"))["ground_truth"]["cached"].get<bool>());
+
+  // With --objects: a table by object in the summary, the groups in results.json.
+  CliRun objects = run(fmt::format("compare scenes/contact.json --methods hard --resolution 32 --reference-spp 16 "
+                                   "--no-equal-quality --cache-dir {} -o {} --objects ground,'b*'",
+                                   path("cache"), path("out3")));
+  ASSERT_EQ(objects.exit_code, 0) << objects.err;
+  EXPECT_NE(objects.out.find("mean |dV| (signed) by object:"), std::string::npos) << objects.out;
+  const json j3 = json::parse(slurp(dir_ / "out3" / "results.json"));
+  ASSERT_EQ(j3["object_groups"].size(), 2u);
+  EXPECT_EQ(j3["object_groups"][1]["pattern"], "b*");
+  EXPECT_EQ(j3["object_groups"][1]["objects"], 2);
+  EXPECT_EQ(j3["methods"][0]["v_objects"].size(), 2u);
 }
 
 // Issue 32: the cache's images serve any thread count, its times only the thread count (and
@@ -158,6 +170,13 @@ TEST_F(CliCompare, BadArgumentsAreOneLineErrors) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--plot nope: unknown column"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir_ / "x"));
+  // --objects: a pattern that names no object, or with --frame-range.
+  r = run("compare scenes/contact.json --methods hard --objects ground,'leaf*' -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--objects: 'leaf*' matches no object of the scene (its objects: ground, box, ball)"),
+            std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x"));
   std::ofstream(dir_ / "file") << "x";
   r = run("compare scenes/contact.json --methods hard --no-cache -o " + path("file"));
   EXPECT_EQ(r.exit_code, 1);
@@ -212,6 +231,10 @@ TEST_F(CliCompare, FrameRangeOnAStaticSceneIsAOneLineError) {
   r = run("compare " + path("walk.json") + " --methods hard --frame-range 2:5 -o " + path("x"));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--frame-range"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x"));
+  r = run("compare " + path("walk.json") + " --methods hard --frame-range 0:2 --objects ground -o " + path("x"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--frame-range 0:2: not available with --objects"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir_ / "x"));
 }
 

@@ -44,6 +44,7 @@ struct CompareCliOptions {
   std::string dask;             // a Dask scheduler's address: the jobs run there
   std::string meshes = "ship";  // with --dask: ship the mesh files, or read them from a shared path
   std::string frame_range;      // an animated scene's frames A:B (half-open): a sequence (issue 18)
+  std::vector<std::string> objects;  // --objects: groups of objects with errors of their own
 };
 
 // A few columns of the table on stdout, for a terminal user.
@@ -84,6 +85,24 @@ void print_summary(const Comparison& c) {
     }
     std::printf("\n");
   }
+  // --objects: each method's error over each group's pixels.
+  if (!c.object_groups.empty()) {
+    std::printf("mean |dV| (signed) by object:\n%-20s", "method");
+    for (const ObjectGroup& g : c.object_groups)
+      std::printf(" %22s", fmt::format("{} ({} px)", g.pattern, g.pixels).c_str());
+    std::printf("\n");
+    for (const MethodRun& r : c.runs) {
+      if (!r.ok) continue;
+      std::printf("%-20s", r.method.c_str());
+      for (size_t g = 0; g < c.object_groups.size(); ++g) {
+        const bool has = g < r.v_objects.size() && !std::isnan(r.v_objects[g].mae);
+        std::printf(" %22s", has ? fmt::format("{} ({:+.2g})", format_significant(r.v_objects[g].mae, 3),
+                                               r.v_objects[g].mean_signed).c_str()
+                                 : "-");
+      }
+      std::printf("\n");
+    }
+  }
   // The wide-scene line (issue 34): which methods lose to the exact hard shadow here.
   for (const MethodRun& r : c.runs)
     if (r.ok && r.method == "hard" && c.has_ground_truth) {
@@ -114,6 +133,7 @@ int run_compare(const CompareCliOptions& o) {
   co.runs = o.runs;
   co.progress = !o.quiet;
   co.equal_quality = !o.no_equal_quality;
+  co.objects = o.objects;
   co.cache_dir = o.no_cache ? std::filesystem::path() : o.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(o.cache_dir);
   std::string out = o.output.empty() ? fmt::format("compare-{}", std::filesystem::path(o.scene).stem().string()) : o.output;
 
@@ -122,6 +142,7 @@ int run_compare(const CompareCliOptions& o) {
   if (!o.frame_range.empty()) {
     const std::string asked = "--frame-range " + o.frame_range;
     if (!o.dask.empty()) throw Error("{}: not available with --dask (compare the frames locally)", asked);
+    if (!o.objects.empty()) throw Error("{}: not available with --objects (the objects' pixels move from frame to frame)", asked);
     if (!setup.scene_doc.contains("animation"))
       throw Error("{}: {} has no \"animation\" block (docs/scene-format.md)", asked, o.scene);
     const nlohmann::json& frames = setup.scene_doc["animation"].is_object()
@@ -132,9 +153,12 @@ int run_compare(const CompareCliOptions& o) {
     range = parse_frame_range(o.frame_range, count, "--frame-range");
   }
 
+  // A pattern of --objects that names no object fails before the output folder is made.
+  if (!o.objects.empty() && o.dask.empty() && !range) match_object_patterns(setup.load(), o.objects);
   make_output_folder(out);  // before any render: a bad -o fails at once
   Comparison c;
   if (!o.dask.empty()) {
+    if (!o.objects.empty()) throw Error("--objects: not available with --dask (compare locally)");
     // The same comparison as jobs on the cluster (docs/distributed.md); penumbra.distributed
     // writes the same report, read back here for the summary.
     setup.check_plain_params(co.methods);
@@ -208,6 +232,10 @@ const CommandRegistration compare_command("compare", 50, [](CLI::App& app) {
   cmd->add_option("--frame-range", o->frame_range,
                   "an animated scene's frames A:B (half-open; A:, :B, :): each frame against its own ground truth, "
                   "with temporal instability and the cost per frame with and without reuse");
+  cmd->add_option("--objects", o->objects,
+                  "also measure every method's V error over the pixels showing these objects, each a name or a "
+                  "shell-style pattern over object names (ground,'*.leaves'): where the error lives")
+      ->delimiter(',');
   return [o] { return run_compare(*o); };
 });
 

@@ -321,7 +321,7 @@ PYBIND11_MODULE(_penumbra, m) {
         "on disk between runs; stats['map_cache'] says hits and sizes).");
   m.def("_compare", [](const PyScene& s, const std::vector<std::string>& methods, int spp, int reference_spp,
                        uint64_t seed, const std::vector<std::string>& settings, int runs, bool equal_quality,
-                       const std::string& cache_dir, const std::string& device) {
+                       const std::string& cache_dir, const std::string& device, const std::vector<std::string>& objects) {
     RunSetup setup = run_setup(s, spp, reference_spp, seed, settings, device);
     CompareOptions options;
     options.methods = expand_method_list(methods);
@@ -329,6 +329,7 @@ PYBIND11_MODULE(_penumbra, m) {
     options.equal_quality = equal_quality;
     options.cache_dir = cache_dir;
     options.keep_images = false;
+    options.objects = objects;
     Comparison c = run_interruptible<Comparison>([&] { return run_comparison(setup, options); });
     return comparison_json(c).dump();
   });

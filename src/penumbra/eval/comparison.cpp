@@ -168,7 +168,8 @@ void render_once(MethodRenders& p, const Scene& scene, bool first) {
 
 // The method's row from its renders: the median run's times and statistics, the first
 // run's images measured against the ground truth.
-MethodRun summarize(MethodRenders& p, const GroundTruth* truth, const CompareOptions& options) {
+MethodRun summarize(MethodRenders& p, const GroundTruth* truth, const CompareOptions& options,
+                    const std::vector<ObjectGroup>& groups = {}) {
   MethodRun run = std::move(p.run);
   if (p.failed) {
     run.ok = false;
@@ -204,6 +205,7 @@ MethodRun summarize(MethodRenders& p, const GroundTruth* truth, const CompareOpt
   RenderResult& first = results.front();
   if (truth) {
     measure_against_truth(run, first.color, first.visibility, *truth);
+    run.v_objects = object_errors(first.visibility, truth->visibility, groups);
   } else {
     run.v.mae = run.v.rmse = run.v.max_abs = run.v.mean_signed = std::numeric_limits<double>::quiet_NaN();
     run.v.psnr = std::numeric_limits<double>::quiet_NaN();
@@ -351,6 +353,10 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
   const double load_ms = load.elapsed_ms();
   Comparison c = comparison_header(setup, scene);
   c.load_ms = load_ms;
+  if (!options.objects.empty()) {
+    if (!options.ground_truth) throw Error("--objects: the errors by object need the ground truth");
+    c.object_groups = object_groups(scene, options.objects, setup.seed);  // before any render: a typo fails at once
+  }
 
   const int runs = std::max(1, options.runs) + std::max(0, options.warmup_runs);
   const uint64_t per_render = render_units(setup);
@@ -383,7 +389,8 @@ Comparison run_comparison(const RunSetup& setup, const CompareOptions& options) 
     render_once(pending[k], scene, i == 0);
     budget.end();
   }
-  for (MethodRenders& p : pending) c.runs.push_back(summarize(p, c.has_ground_truth ? &c.truth : nullptr, options));
+  for (MethodRenders& p : pending)
+    c.runs.push_back(summarize(p, c.has_ground_truth ? &c.truth : nullptr, options, c.object_groups));
 
   if (std::optional<ReferenceLadder> ladder = comparison_ladder(c, setup, scene, options, bar))
     apply_ladder(c, std::move(*ladder));
@@ -452,6 +459,16 @@ json method_run_json(const MethodRun& r) {
   m["v_rmse"] = json_number(r.v.rmse);
   m["v_max"] = json_number(r.v.max_abs);
   m["v_mean_signed"] = json_number(r.v.mean_signed);
+  if (!r.v_objects.empty()) {
+    json objects = json::array();
+    for (const ErrorStats& e : r.v_objects)
+      objects.push_back({{"pixels", e.pixels},
+                         {"v_mae", json_number(e.mae)},
+                         {"v_rmse", json_number(e.rmse)},
+                         {"v_max", json_number(e.max_abs)},
+                         {"v_mean_signed", json_number(e.mean_signed)}});
+    m["v_objects"] = objects;  // in the order of the comparison's object_groups
+  }
   m["color_psnr"] = json_number(r.color_psnr);
   m["flip"] = json_number(r.flip);
   m["total_ms"] = r.times.total_ms;
@@ -500,6 +517,17 @@ MethodRun method_run_from_json(const json& m) {
   r.v.max_abs = number_from_json(m.at("v_max"));
   r.v.mean_signed = number_from_json(m.at("v_mean_signed"));
   r.v.psnr = std::numeric_limits<double>::quiet_NaN();
+  if (m.contains("v_objects"))
+    for (const json& e : m["v_objects"]) {
+      ErrorStats s;
+      s.pixels = e.at("pixels").get<size_t>();
+      s.mae = number_from_json(e.at("v_mae"));
+      s.rmse = number_from_json(e.at("v_rmse"));
+      s.max_abs = number_from_json(e.at("v_max"));
+      s.mean_signed = number_from_json(e.at("v_mean_signed"));
+      s.psnr = std::numeric_limits<double>::quiet_NaN();
+      r.v_objects.push_back(s);
+    }
   r.color_psnr = number_from_json(m.at("color_psnr"));
   r.flip = number_from_json(m.at("flip"));
   r.times = {m.at("total_ms").get<double>(), m.at("camera_pass_ms").get<double>(), m.at("shadow_ms").get<double>()};
@@ -686,6 +714,12 @@ json comparison_json(const Comparison& c) {
             {"command", c.command},
             {"methods", methods}};
   j["ground_truth"] = c.has_ground_truth ? ground_truth_json(c.truth) : json(nullptr);
+  if (!c.object_groups.empty()) {  // absent without --objects
+    json groups = json::array();
+    for (const ObjectGroup& g : c.object_groups)
+      groups.push_back({{"pattern", g.pattern}, {"objects", g.objects}, {"pixels", g.pixels}});
+    j["object_groups"] = groups;
+  }
   // Derived (not read back): the methods above `hard`'s error, when hard ran (issue 34).
   for (const MethodRun& r : c.runs)
     if (r.ok && r.method == "hard" && c.has_ground_truth) j["worse_than_hard"] = worse_than_hard(c);
@@ -717,6 +751,14 @@ Comparison comparison_from_json(const json& j) {
   for (const json& m : j.at("methods")) c.runs.push_back(method_run_from_json(m));
   c.has_ground_truth = !j.at("ground_truth").is_null();
   if (c.has_ground_truth) c.truth = ground_truth_from_json(j["ground_truth"]);
+  if (j.contains("object_groups"))
+    for (const json& g : j["object_groups"]) {
+      ObjectGroup group;
+      group.pattern = g.at("pattern").get<std::string>();
+      group.objects = g.at("objects").get<size_t>();
+      group.pixels = g.at("pixels").get<size_t>();
+      c.object_groups.push_back(std::move(group));
+    }
   c.has_ladder = !j.at("reference_ladder").is_null();
   if (c.has_ladder) c.ladder = reference_ladder_from_json(j["reference_ladder"]);
   c.has_frames = j.contains("frames") && !j["frames"].is_null();
@@ -739,6 +781,9 @@ std::string comparison_csv(const Comparison& c) {
                                               "ms_per_frame_fresh"};
   if (c.has_frames)
     for (const char* name : kFrameColumns) out << "," << name;
+  // With --objects, each group's mean |dV| and mean signed dV, last.
+  for (const ObjectGroup& g : c.object_groups)
+    out << "," << csv_field("v_mae[" + g.pattern + "]") << "," << csv_field("v_mean_signed[" + g.pattern + "]");
   out << "\n";
   auto frame_columns = [&](size_t k) {
     if (!c.has_frames) return std::string();
@@ -747,11 +792,22 @@ std::string comparison_csv(const Comparison& c) {
     return "," + csv_number(m->v_mae_mean) + "," + csv_number(m->temporal_instability) + "," +
            csv_number(m->ms_per_frame_reuse) + "," + csv_number(m->ms_per_frame_fresh);
   };
+  auto object_columns = [&](const MethodRun& r) {
+    std::string cells;
+    for (size_t g = 0; g < c.object_groups.size(); ++g) {
+      const bool has = r.ok && g < r.v_objects.size();
+      cells += ',';
+      if (has) cells += csv_number(r.v_objects[g].mae);
+      cells += ',';
+      if (has) cells += csv_number(r.v_objects[g].mean_signed);
+    }
+    return cells;
+  };
   for (size_t k = 0; k < c.runs.size(); ++k) {
     const MethodRun& r = c.runs[k];
     out << csv_field(r.method) << "," << (r.ok ? "true" : "false") << "," << csv_field(r.error);
     if (!r.ok) {
-      out << std::string(23 + phases.size(), ',') << frame_columns(k) << "\n";
+      out << std::string(23 + phases.size(), ',') << frame_columns(k) << object_columns(r) << "\n";
       continue;
     }
     out << "," << r.light_samples << "," << csv_number(r.v.mae) << "," << csv_number(r.v.rmse) << ","
@@ -767,7 +823,7 @@ std::string comparison_csv(const Comparison& c) {
                              [&](const auto& e) { return e.first == p; });
       out << "," << (has ? csv_number(r.stats.phase(p)) : std::string());
     }
-    out << frame_columns(k) << "\n";
+    out << frame_columns(k) << object_columns(r) << "\n";
   }
   return out.str();
 }

@@ -16,6 +16,7 @@
 #include "penumbra/core/image.h"
 #include "penumbra/eval/equal_quality.h"
 #include "penumbra/eval/metrics.h"
+#include "penumbra/eval/object_errors.h"
 #include "penumbra/eval/reference_cache.h"
 #include "penumbra/eval/run_setup.h"
 #include "penumbra/shadow/stats.h"
@@ -43,6 +44,9 @@ struct CompareOptions {
   bool progress = false;             // one progress bar on stderr over the whole comparison
   // A bar owned by the caller (a sweep over several comparisons); overrides `progress`.
   Progress* progress_bar = nullptr;
+  // `compare --objects`: patterns over object names, each a group of pixels whose V error every
+  // method also gets on its own (object_errors.h); with a ground truth only.
+  std::vector<std::string> objects;
 };
 
 // Times of one render (ms). shadow = total - camera pass - compose: what the method itself
@@ -69,6 +73,7 @@ struct MethodRun {
   size_t view_samples = 0;
   // Against the ground truth (NaN without one).
   ErrorStats v;                         // on V
+  std::vector<ErrorStats> v_objects;    // on V over each of Comparison::object_groups' pixels
   double color_psnr = std::numeric_limits<double>::quiet_NaN();  // dB, displayed (sRGB) colour
   double flip = std::numeric_limits<double>::quiet_NaN();        // mean FLIP of the colour image
   double speedup = std::numeric_limits<double>::quiet_NaN();     // basis shadow_ms / this shadow_ms
@@ -113,6 +118,7 @@ struct Comparison {
   std::vector<std::string> params;  // the run's method parameter settings
   bool has_ground_truth = false;
   GroundTruth truth;
+  std::vector<ObjectGroup> object_groups;  // CompareOptions::objects (their masks not in results.json)
   bool has_ladder = false;
   ReferenceLadder ladder;       // the reference at 1, 2, 4, ... light samples (equal quality)
   std::vector<MethodRun> runs;  // in the order of CompareOptions::methods

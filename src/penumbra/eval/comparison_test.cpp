@@ -136,6 +136,83 @@ TEST(Comparison, StepsGiveRunComparisonsNumbersAndResultsJsonReadsBack) {
   EXPECT_TRUE(std::isnan(back.runs[2].v.mae));
 }
 
+// compare --objects: each group's error is the metric over exactly its objects' pixels, the
+// groups of disjoint objects add up to the group of all of them, and that group's error is the
+// whole image's over the pixels that show a surface (the background's are 0 in every method).
+TEST(Comparison, ErrorsByObjectAddUpToTheWholeImage) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"reference", "hard"};
+  o.cache_dir = dir / "cache";
+  o.equal_quality = false;
+  o.objects = {"ground", "b*", "*"};  // contact.json: ground, box, ball
+  RunSetup setup = tiny_contact_setup();
+  const Comparison c = run_comparison(setup, o);
+  ASSERT_EQ(c.object_groups.size(), 3u);
+  const ObjectGroup &ground = c.object_groups[0], &boxes = c.object_groups[1], &all = c.object_groups[2];
+  EXPECT_EQ(ground.objects, 1u);
+  EXPECT_EQ(boxes.objects, 2u);  // box and ball
+  EXPECT_EQ(all.objects, 3u);
+  EXPECT_GT(ground.pixels, 0u);
+  EXPECT_GT(boxes.pixels, 0u);
+  EXPECT_EQ(ground.pixels + boxes.pixels, all.pixels);
+  // The masks are the camera pass's hits: every pixel off `all` is background (V = 1 everywhere).
+  const MethodRun& hard = find_run(c, "hard");
+  size_t background = 0;
+  for (int y = 0; y < c.height; ++y)
+    for (int x = 0; x < c.width; ++x)
+      if (all.mask.at(x, y) == 0.0f) {
+        ++background;
+        EXPECT_EQ(c.truth.visibility.at(x, y), 1.0f);
+        EXPECT_EQ(hard.visibility.at(x, y), 1.0f);
+      }
+  EXPECT_EQ(background + all.pixels, static_cast<size_t>(c.width) * c.height);
+  EXPECT_GT(background, 0u);
+  for (const MethodRun& r : c.runs) {
+    ASSERT_EQ(r.v_objects.size(), 3u) << r.method;
+    const ErrorStats &g = r.v_objects[0], &b = r.v_objects[1], &a = r.v_objects[2];
+    EXPECT_EQ(g.pixels, ground.pixels);
+    MetricOptions on_ground;
+    on_ground.mask = &ground.mask;
+    EXPECT_EQ(g.mae, compare_images(r.visibility, c.truth.visibility, on_ground).mae) << r.method;
+    // Sums of |dV| and dV over disjoint groups add up; over every surface they are the image's.
+    EXPECT_NEAR(g.mae * g.pixels + b.mae * b.pixels, a.mae * a.pixels, 1e-9) << r.method;
+    EXPECT_NEAR(g.mean_signed * g.pixels + b.mean_signed * b.pixels, a.mean_signed * a.pixels, 1e-9);
+    EXPECT_NEAR(a.mae * a.pixels, r.v.mae * c.width * c.height, 1e-9) << r.method;
+    EXPECT_GT(a.mae, r.v.mae);  // the background's zeros are left out
+  }
+  // results.json carries them and reads back; the CSV has two columns a group.
+  const Comparison back = comparison_from_json(comparison_json(c));
+  ASSERT_EQ(back.object_groups.size(), 3u);
+  EXPECT_EQ(back.object_groups[1].pattern, "b*");
+  EXPECT_EQ(back.object_groups[1].pixels, boxes.pixels);
+  EXPECT_EQ(find_run(back, "hard").v_objects[0].mae, hard.v_objects[0].mae);
+  EXPECT_EQ(comparison_csv(back), comparison_csv(c));
+  EXPECT_NE(comparison_csv(c).find(",v_mae[ground],v_mean_signed[ground],v_mae[b*]"), std::string::npos);
+  const std::string page = comparison_html(c, {});
+  EXPECT_NE(page.find("<table id=\"objects\">"), std::string::npos);
+  EXPECT_NE(page.find("<code>b*</code>"), std::string::npos);
+}
+
+// A pattern that names no object fails before any render, naming the pattern and the objects.
+TEST(Comparison, AnObjectPatternThatMatchesNothingNamesTheObjects) {
+  TempDir dir;
+  CompareOptions o;
+  o.methods = {"hard"};
+  o.cache_dir = dir / "cache";
+  o.objects = {"ground", "leaves*"};
+  RunSetup setup = tiny_contact_setup();
+  try {
+    run_comparison(setup, o);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "--objects: 'leaves*' matches no object of the scene (its objects: ground, box, ball)");
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "cache"));  // nothing rendered, not even the ground truth
+  o.objects = {""};
+  EXPECT_THROW(run_comparison(setup, o), Error);
+}
+
 TEST(Comparison, AFailingMethodIsReportedAndTheOthersStillRun) {
   TempDir dir;
   CompareOptions o;

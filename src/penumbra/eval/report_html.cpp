@@ -633,6 +633,31 @@ std::string comparison_html(const Comparison& c, const ReportOptions& options) {
   }
   h << "</tbody>\n</table></div>\n";
 
+  // --- error by object (compare --objects): where each method's error lives
+  if (truth && !c.object_groups.empty()) {
+    h << "<h2>Error by object</h2>\n<p class=\"meta\">Mean |ΔV| and mean signed ΔV over the pixels whose first "
+         "camera ray hits an object a pattern names (<code>--objects</code>; the whole image's in the table above, "
+         "background pixels included); the same rows as above.</p>\n<div style=\"overflow-x: auto\"><table "
+         "id=\"objects\">\n<thead><tr><th class=\"name\">method</th>";
+    for (const ObjectGroup& g : c.object_groups)
+      h << "<th colspan=\"2\" title=\"" << g.objects << " objects, " << g.pixels << " pixels\"><code>"
+        << xml_escape(g.pattern) << "</code> (" << g.pixels << " px)</th>";
+    h << "</tr>\n<tr><th></th>";
+    for (size_t g = 0; g < c.object_groups.size(); ++g) h << "<th>mean |ΔV|</th><th>signed</th>";
+    h << "</tr></thead>\n<tbody>\n";
+    for (const MethodRun* r : order) {
+      if (!r->ok) continue;
+      h << "<tr data-method=\"" << xml_escape(r->method) << "\"><td class=\"name\">" << xml_escape(r->method) << "</td>";
+      for (size_t g = 0; g < c.object_groups.size(); ++g) {
+        const bool has = g < r->v_objects.size() && !std::isnan(r->v_objects[g].mae);
+        h << "<td>" << (has ? format_significant(r->v_objects[g].mae, 3) : "-") << "</td><td>"
+          << (has ? format_significant(r->v_objects[g].mean_signed, 2) : "-") << "</td>";
+      }
+      h << "</tr>\n";
+    }
+    h << "</tbody>\n</table></div>\n";
+  }
+
   // --- equal quality: the ladder and the error-time charts
   if (c.has_ladder && !c.ladder.rungs.empty()) {
     const LadderRung& last = c.ladder.rungs.back();

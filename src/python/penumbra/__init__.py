@@ -56,17 +56,22 @@ Scene.to_dict = _scene_to_dict
 
 
 def compare(scene, methods=("all",), spp=256, reference_spp=1024, seed=0, settings=(), runs=1,
-            equal_quality=False, cache_dir="", device="cpu"):
+            equal_quality=False, cache_dir="", device="cpu", objects=()):
     """Every method in `methods` against the reference (the ground truth) on `scene`: the
     results.json structure of `penumbra compare` as Python data. `settings` are the
     command line's -p/--set keys ("light.size_scale=2", "pcss.variant=xie2007", ...).
-    device: where the methods render ("cpu", "gpu", "gpu:N"); an entry "NAME@gpu" picks its own."""
+    device: where the methods render ("cpu", "gpu", "gpu:N"); an entry "NAME@gpu" picks its own.
+    objects: `--objects`, names or shell-style patterns over object names ("ground", "*.leaves"):
+    every method's V error also over each one's pixels (results["object_groups"], and per method
+    "v_objects" in the same order)."""
     if isinstance(scene, (str, _os.PathLike)):
         scene = load_scene(_os.fspath(scene))
     if isinstance(methods, str):
         methods = [methods]
+    if isinstance(objects, str):
+        objects = [objects]
     return _json.loads(_penumbra_compare(scene, list(methods), spp, reference_spp, seed, list(settings), runs,
-                                         equal_quality, _os.fspath(cache_dir), device))
+                                         equal_quality, _os.fspath(cache_dir), device, list(objects)))
 
 
 def sweep(scene, key, values, methods=("all",), spp=256, reference_spp=1024, seed=0, settings=(), runs=1,

@@ -151,6 +151,16 @@ def test_compare_returns_the_results_json_structure():
     assert runs["pcss"]["v_mae"] < runs["hard"]["v_mae"]
     with pytest.raises(ValueError, match="nope"):
         penumbra.compare(scene, methods=["nope"])
+    # Errors by object: the ground's and the box's pixels add up to every surface's.
+    res = penumbra.compare(scene, methods=["hard"], spp=16, reference_spp=64, objects=["ground", "box", "*"])
+    groups = res["object_groups"]
+    assert [g["pattern"] for g in groups] == ["ground", "box", "*"]
+    assert groups[0]["pixels"] + groups[1]["pixels"] == groups[2]["pixels"] > 0
+    by = res["methods"][0]["v_objects"]
+    assert abs(by[0]["v_mae"] * by[0]["pixels"] + by[1]["v_mae"] * by[1]["pixels"] -
+               by[2]["v_mae"] * by[2]["pixels"]) < 1e-9
+    with pytest.raises(Exception, match="'leaf' matches no object"):
+        penumbra.compare(scene, methods=["hard"], spp=16, reference_spp=64, objects="leaf")
 
 
 def test_sweep_returns_the_sweep_json_structure():
