@@ -12,6 +12,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/shadow/lam/lam_kernels_shared.h"
 
 namespace penumbra::lam {
 
@@ -371,19 +372,25 @@ void AttenuationMap::visibility(std::span<const ViewSample> samples, std::span<f
 
 namespace {
 
-// A layer while building: running mean depth, light samples counted, last sample counted.
+// A layer while building (the GPU's LamBuildLayer, byte for byte: lam_kernels_shared.h).
 struct BuildLayer {
-  float z;
-  uint16_t count;
-  uint16_t stamp;  // 1 + index of the last light sample that counted this layer
+  float z;       // running mean depth over the samples that matched it
+  float count;   // light samples that counted it, or (weighted) the sum of the weights they added
+  float weight;  // weighted: what the sample of `stamp` has added so far
+  float peak;    // weighted: the most one sample added; < 0: a layer counted once per sample
+  uint16_t hits;   // light samples that matched it (the running mean's count)
+  uint16_t stamp;  // 1 + index of the last light sample that matched it
 };
+static_assert(sizeof(BuildLayer) == sizeof(shader::LamBuildLayer));
 
-// A warped depth-map pixel (lam_shared.h LamSplat, in 16 bytes): the texel (ix, iy) whose
+// A warped depth-map pixel (lam_shared.h LamSplat, in 28 bytes): the texel (ix, iy) whose
 // centre is the top-left of the 4 it splats into, the depth extrapolated to that texel's
-// centre along the surface's local plane, and the plane's depth gradient per reference texel.
+// centre along the surface's local plane, the plane's depth gradient per reference texel, and
+// what its weights come from (LamSplat's ax, ay, area).
 struct Splat {
   int16_t ix, iy;
   float z00, gx, gy;
+  float ax, ay, area;
   bool open;  // from an open surface (lam_epsilon)
 };
 
@@ -468,10 +475,23 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
   const float eps_open = map.open_epsilon_;
   const bool slope = opt.slope;
 
+  const bool weighted = slope && opt.weighted_splats;
   std::vector<uint8_t> counts(texels, 0);
+  // Weighted layers: the light sample that last splatted into each texel (1 + index; 0: none),
+  // whose weights its layers still hold (lam_flush_sample).
+  std::vector<uint16_t> texel_stamp(weighted ? texels : 0, 0);
   // Uninitialised: slot i of a texel is read only once counts says it exists, so the
   // planes of deep slots are never touched (nor committed) unless some texel needs them.
   auto layers = std::make_unique_for_overwrite<BuildLayer[]>(texels * K);
+  // The weights light sample `stamp` added to a texel's weighted layers, complete: each adds them
+  // to its count and its peak (lam_shared.h lam_flush_layer; the GPU's insert does it at its end).
+  const auto flush_texel = [texels](BuildLayer* L, int n, uint16_t stamp) {
+    if (stamp == 0) return;
+    for (int i = 0; i < n; ++i) {
+      BuildLayer& l = L[i * texels];
+      if (l.stamp == stamp && l.peak >= 0) shader::lam_flush_layer(l.count, l.weight, l.peak);
+    }
+  };
   const int bands = (H + kBandRows - 1) / kBandRows;
   // Per band: layers created and texels that became non-empty (depth complexity per sample).
   std::vector<size_t> band_layers(bands, 0), band_nonempty(band_layers.size(), 0), band_dropped(bands, 0);
@@ -529,7 +549,8 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
                 y + 1 < sh ? zr[x + sw] : kInfinity, bx, by, fx, fy, ix, iy, slope);
             const uint32_t object = tris[dm.triangle[static_cast<size_t>(y) * sw + x]].object;
             const bool open = !(object < map.solid_.size() && map.solid_[object]);
-            out[m++] = {static_cast<int16_t>(ix), static_cast<int16_t>(iy), sp.z00, sp.gx, sp.gy, open};
+            out[m++] = {static_cast<int16_t>(ix), static_cast<int16_t>(iy), sp.z00, sp.gx, sp.gy, sp.ax, sp.ay, sp.area,
+                        open};
             int b0 = std::max(iy, 0) / kBandRows, b1 = std::min(iy + 1, H - 1) / kBandRows;
             cnt[b0]++;
             if (b1 != b0) cnt[b1]++;
@@ -575,12 +596,19 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
       for (size_t b = b0; b < b1; ++b) {
         const int row0 = static_cast<int>(b) * kBandRows, row1 = std::min(H, row0 + kBandRows);
         size_t new_layers = 0, new_nonempty = 0, dropped = 0, n_splats = 0;
-        auto insert = [&](int tx, int ty, float z, bool open) {
+        auto insert = [&](int tx, int ty, float z, bool open, float w) {
           size_t t = static_cast<size_t>(ty) * W + tx;
           // Layer-major storage: slot i of texel t at i * texels + t, so the first layers
           // (almost every texel has one or two) are dense.
           BuildLayer* L = layers.get() + t;
           int n = counts[t];
+          const bool by_weight = weighted && open;
+          if (by_weight && !(w > 0)) return;  // lands on no part of this texel
+          if (weighted && texel_stamp[t] != stamp) {
+            // The first splat of this sample here: the previous sample's weights are complete.
+            flush_texel(L, n, texel_stamp[t]);
+            texel_stamp[t] = stamp;
+          }
           const float tol = depth_tolerance(open ? eps_open : eps, z);
           int best = -1;
           float bestd = tol;
@@ -594,13 +622,16 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
           ++n_splats;
           if (best >= 0) {
             BuildLayer& l = L[best * texels];
-            if (l.stamp != stamp) {  // at most once per light sample
+            if (l.stamp != stamp) {  // the running mean and the paper's count: once per light sample
               l.stamp = stamp;
-              l.count++;
-              l.z += (z - l.z) * inv_count[l.count];
+              l.hits++;
+              l.z += (z - l.z) * inv_count[l.hits];
+              if (l.peak < 0) l.count += 1.0f;
             }
+            if (l.peak >= 0) l.weight += w;
           } else if (n < K) {
-            L[n * texels] = {z, 1, stamp};
+            // A layer is weighted by the kind of the splat that opened it.
+            L[n * texels] = by_weight ? BuildLayer{z, 0.0f, w, 0.0f, 1, stamp} : BuildLayer{z, 1.0f, 0.0f, -1.0f, 1, stamp};
             counts[t] = static_cast<uint8_t>(n + 1);
             ++new_layers;
             if (n == 0) ++new_nonempty;
@@ -613,9 +644,11 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
           for (int j = 0; j < 2; ++j) {
             int ty = sp.iy + j;
             if (ty < row0 || ty >= row1) continue;
-            const shader::LamSplat plane{sp.ix, sp.iy, sp.z00, sp.gx, sp.gy};
-            if (sp.ix >= 0) insert(sp.ix, ty, shader::lam_splat_depth(plane, 0, j), sp.open);
-            if (sp.ix + 1 < W) insert(sp.ix + 1, ty, shader::lam_splat_depth(plane, 1, j), sp.open);
+            const shader::LamSplat plane{sp.ix, sp.iy, sp.z00, sp.gx, sp.gy, sp.ax, sp.ay, sp.area};
+            if (sp.ix >= 0)
+              insert(sp.ix, ty, shader::lam_splat_depth(plane, 0, j), sp.open, shader::lam_splat_weight(plane, 0, j));
+            if (sp.ix + 1 < W)
+              insert(sp.ix + 1, ty, shader::lam_splat_depth(plane, 1, j), sp.open, shader::lam_splat_weight(plane, 1, j));
           }
         }
         band_layers[b] = new_layers;
@@ -637,8 +670,12 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
     s.splats += band_splats[b];
   }
 
-  // Process Attenuation Maps (line 7): attenuation = count / N; layers sorted by depth in
-  // flat, texel-major storage.
+  if (weighted)
+    parallel_for(texels, 4096, [&](size_t t0, size_t t1) {
+      for (size_t t = t0; t < t1; ++t) flush_texel(layers.get() + t, counts[t], texel_stamp[t]);
+    });
+  // Process Attenuation Maps (line 7): attenuation = count / N (weighted layers: lam_shared.h
+  // lam_layer_attenuation); layers sorted by depth in flat, texel-major storage.
   Timer t_fin;
   map.offsets_.assign(texels + 1, 0);
   uint32_t acc = 0;
@@ -660,7 +697,7 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
         for (int i = 0; i < n; ++i) L[i] = layers[i * texels + t];
         std::sort(L, L + n, [](const BuildLayer& a, const BuildLayer& b) { return a.z < b.z; });
         Layer* out = map.layers_.data() + map.offsets_[t];
-        for (int i = 0; i < n; ++i) out[i] = {L[i].z, std::min(1.0f, L[i].count * inv_n)};
+        for (int i = 0; i < n; ++i) out[i] = {L[i].z, shader::lam_layer_attenuation(L[i].count, L[i].peak, inv_n)};
       }
   });
   s.finalize_ms = t_fin.elapsed_ms();
@@ -725,6 +762,7 @@ BuildOptions build_options(const ParamSet& p) {
   options.open_epsilon = p.get_float("open_epsilon");
   options.max_layers = p.get_int("max_layers");
   options.slope = p.get_bool("local_planes");
+  options.weighted_splats = p.get_bool("weighted_splats");
   return options;
 }
 

@@ -179,6 +179,10 @@ struct BuildOptions {
   // compared as is, which needs epsilon to cover the depth change across a texel or two
   // (insufficient depth sampling on oblique surfaces, agrawala2000 §6.1).
   bool slope = true;
+  // With local planes: a splat of an open surface adds its share of the texel (its bilinear
+  // weight times the texels its pixel covers) instead of counting the texel once per light
+  // sample (lam_shared.h, "Counting a layer"); false: the paper's count for every surface.
+  bool weighted_splats = true;
   // Per scene object (RasterTriangle::object, ViewSample::object): whether it is a closed
   // mesh (SceneObject::closed), whose view samples are clamped by front_fraction.
   std::vector<bool> solid_objects;

@@ -175,6 +175,10 @@ const MethodRegistration registration({
          "use each surface's local plane (penumbra's addition): compare depths at LDI texel centres, carried "
          "there along the plane, and on closed meshes hide the light behind a point's own tangent plane; "
          "false: the paper's plain rule |z - z_layer| <= epsilon z", {}},
+        {"weighted_splats", ParamType::Bool, true,
+         "with local_planes, a splat of an open surface adds its share of the texel (bilinear weight x the "
+         "texels its pixel covers) instead of counting the texel once per light sample (penumbra's addition: "
+         "gaps in a canopy are not counted several times over); false: the paper's count", {}},
         {"max_layers", ParamType::Int, 32, "most layers one LDI texel holds while building (more are dropped)", {},
          1, 255},
     },

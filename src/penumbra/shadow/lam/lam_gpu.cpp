@@ -217,6 +217,7 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
         ip.index = static_cast<uint32_t>(b0 + i);
         ip.list_capacity = slots;
         ip.slope = options_.slope ? 1u : 0u;
+        ip.weighted = options_.slope && options_.weighted_splats ? 1u : 0u;
         ip.pixels = static_cast<uint32_t>(static_cast<uint64_t>(r.width) * r.height);
         cl.dispatch("lam_scatter", ip.pixels, ip);
         cl.dispatch("lam_insert", texels, ip);

@@ -40,6 +40,10 @@ TEST_F(LamGpu, EveryParameterWorksAsOnTheCpu) {
   EXPECT_LE(difference(scene, settings(true, {"resolution=80", "local_planes=false"})), 2e-3);
   // Two layers a texel: the insertions beyond are dropped and counted, as on the CPU.
   EXPECT_LE(difference(scene, settings(true, {"resolution=64", "max_layers=2"})), 2e-3);
+  // The paper's count for every surface (the ground's splats weighted by default).
+  EXPECT_LE(difference(scene, settings(true, {"resolution=64", "weighted_splats=false"})), 2e-3);
+  // One tolerance for open and closed surfaces: the GPU still tells them apart for the weights.
+  EXPECT_LE(difference(scene, settings(true, {"resolution=64", "open_epsilon=0.005"})), 2e-3);
 }
 
 TEST_F(LamGpu, TheLdiIsTheCpusLayerForLayer) {

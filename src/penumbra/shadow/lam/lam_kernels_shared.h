@@ -23,11 +23,18 @@
 
 PN_SHARED_BEGIN
 
-// A layer while building, 8 bytes: bytes 0-3 its running mean depth, 4-7 the light samples that
-// counted it (bits 0-15) and 1 + the index of the last one (bits 16-31): the CPU's BuildLayer.
+// A layer while building, 20 bytes (the CPU's BuildLayer): bytes 0-3 its running mean depth, 4-7
+// its count: the light samples that counted it, or for a weighted layer (an open surface's with
+// weighted_splats: lam_shared.h, "Counting a layer") the sum of the weights they added, 8-11
+// (weighted) what the sample of the stamp has added so far, 12-15 (weighted) the most one sample
+// added, or < 0 for a layer counted once per sample, 16-19 the light samples that matched it (bits
+// 0-15: the running mean's count) and 1 + the index of the last one (bits 16-31).
 struct LamBuildLayer {
   float z;
-  uint count_stamp;
+  float count;
+  float weight;
+  float peak;
+  uint hits_stamp;
 };
 
 // One light sample's view in a batch, 32 bytes: bytes 0-7 (ox, oy) its texel-space origin in whole
@@ -44,11 +51,13 @@ struct LamSampleView {
   uint64_t first_texel;
 };
 
-// A splat sent to a texel, 8 bytes: bytes 0-3 the pixel of the sample's map it came from (y x
-// width + x: its place in the scan order the CPU inserts in), 4-7 its depth at the texel's centre.
+// A splat sent to a texel, 12 bytes: bytes 0-3 the pixel of the sample's map it came from (y x
+// width + x: its place in the scan order the CPU inserts in), 4-7 its depth at the texel's centre,
+// 8-11 its weight there (lam_shared.h lam_splat_weight).
 struct LamSplatEntry {
   uint pixel;
   float z;
+  float weight;
 };
 
 // 8 bytes per light sample: bytes 0-3 layers it created, 4-7 texels it made non-empty.
@@ -91,6 +100,7 @@ struct LamInsertParams {
   uint slope;  // 1: local planes
   uint pixels;  // of the sample's map
   float open_epsilon;  // the tolerance of open surfaces' splats (epsilon without local planes)
+  uint weighted;       // 1: open surfaces' layers add their splats' weights (weighted_splats with local planes)
 };
 // lam_finalize.comp: one thread per reference texel.
 struct LamFinalizeParams {
@@ -120,10 +130,10 @@ struct LamDisplayParams {
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::LamBuildLayer) == 8);
+static_assert(sizeof(penumbra::shader::LamBuildLayer) == 20);
 static_assert(sizeof(penumbra::shader::LamSampleView) == 32);
 static_assert(sizeof(penumbra::shader::LamSampleCounts) == 8);
-static_assert(sizeof(penumbra::shader::LamSplatEntry) == 8);
+static_assert(sizeof(penumbra::shader::LamSplatEntry) == 12);
 static_assert(sizeof(penumbra::shader::LamCounters) == 32);
 static_assert(sizeof(penumbra::shader::LamInsertParams) <= 128);
 static_assert(sizeof(penumbra::shader::LamFinalizeParams) <= 128);

@@ -85,14 +85,19 @@ PN_INLINE float lam_depth_tolerance(float epsilon, float z) { return epsilon * z
 // Precompute: one pixel of a light sample's depth map (attenuation_map.cpp Builder).
 
 // A warped depth-map pixel: the reference texel (ix, iy) whose centre is the top-left of the 4 it
-// splats into, the depth carried to that texel's centre along the surface's local plane, and the
-// plane's depth gradient per reference texel (x, y).
+// splats into, the depth carried to that texel's centre along the surface's local plane, the
+// plane's depth gradient per reference texel (x, y), where the warped point lies between the 4
+// centres (ax, ay in [0, 1): its bilinear weights) and the area of reference texels the pixel
+// covers (the warp's Jacobian determinant; 1 without local planes).
 struct LamSplat {
   int ix;
   int iy;
   float z00;
   float gx;
   float gy;
+  float ax;
+  float ay;
+  float area;
 };
 
 // Eq. 3 for pixel (x, y) at linear depth z of the view of a sample displaced by (bx, by) texels at
@@ -146,12 +151,18 @@ PN_INLINE LamSplat lam_splat(float z, float zl, float zr, float zu, float zd, fl
   s.z00 = z;
   s.gx = 0.0f;
   s.gy = 0.0f;
+  PN_PRECISE float ax = fx - float(ix);
+  PN_PRECISE float ay = fy - float(iy);
+  s.ax = ax;
+  s.ay = ay;
+  s.area = 1.0f;
   if (!slope) return s;
   float inv = 1.0f / z;
   float sgx = lam_axis_gradient(zl, z, zr);
   float sgy = lam_axis_gradient(zu, z, zd);
   PN_PRECISE float den = 1.0f + (-bx * sgx + by * sgy) * inv * inv;
-  float rden = 1.0f / max(den, 0.2f);
+  s.area = max(den, 0.2f);
+  float rden = 1.0f / s.area;
   float cap = kLamMaxSlope * z;
   s.gx = clamp(sgx * rden, -cap, cap);
   s.gy = clamp(sgy * rden, -cap, cap);
@@ -166,6 +177,53 @@ PN_INLINE float lam_splat_depth(LamSplat s, int i, int j) {
   PN_PRECISE float row = j != 0 ? s.z00 + s.gy : s.z00;
   PN_PRECISE float z = i != 0 ? row + s.gx : row;
   return z;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Counting a layer (penumbra's addition to agrawala2000 §4, line 6, for open surfaces).
+//
+// The paper counts a (texel, layer) once per light sample that splats into it: a pixel counts at
+// all 4 texels around its warped point. Where a sample sees a surface through gaps a texel or two
+// wide (a ground in a canopy's dappled shade) that counts each gap up to 4 times over: the forest's
+// ground read 0.033 too bright (docs/methods/lam.md, "Weighted splats"). So a layer
+// of an open surface (flat per triangle: its local plane, and so the warp's Jacobian, is exact)
+// adds each splat's share of the texel instead, its bilinear weight times the area of reference
+// texels its pixel covers: a surface a sample sees whole adds about 1 at every texel, one seen
+// through a gap its part. The sums per sample are not capped (two sampling grids beating give each
+// texel a little more or less than 1; the excess and the deficit average out over the samples), and
+// the layer's count is divided by the largest one sample gave it: a surface narrower than a texel
+// (a hair strand) covers only part of its texels in every sample that sees it, and is still lit
+// where every sample sees it. A closed object's layers keep the paper's count (its curved faces'
+// splats are too uneven for weights: the bunny's own surface read 0.063 instead of 0.041).
+
+// The weight splat s adds at texel (ix + i, iy + j).
+PN_INLINE float lam_splat_weight(LamSplat s, int i, int j) {
+  float wx = i != 0 ? s.ax : 1.0f - s.ax;
+  float wy = j != 0 ? s.ay : 1.0f - s.ay;
+  PN_PRECISE float w = wx * wy * s.area;
+  return w;
+}
+
+// Once a light sample's splats into a texel are all in: a weighted layer adds that sample's weight
+// to its count and keeps the largest (count, peak), and is ready for the next sample (weight 0).
+// A weight within 1e-4 of 1 is 1: a sample that sees a plane facing it whole gives each texel
+// bilinear weights that sum to 1 up to rounding, and such a texel is then lit exactly (1, as the
+// paper's count gives it), not 0.99999994.
+PN_CONST float kLamWholeTexel = 1e-4f;
+PN_INLINE void lam_flush_layer(PN_INOUT(float) count, PN_INOUT(float) weight, PN_INOUT(float) peak) {
+  float w = abs(weight - 1.0f) <= kLamWholeTexel ? 1.0f : weight;
+  PN_PRECISE float c = count + w;
+  count = c;
+  peak = max(peak, w);
+  weight = 0.0f;
+}
+
+// A layer's attenuation from what the samples added (count over `samples` light samples; peak: the
+// most one sample added, or < 0 for a layer counted once per sample).
+PN_INLINE float lam_layer_attenuation(float count, float peak, float inv_samples) {
+  PN_PRECISE float a = count * inv_samples;
+  if (peak >= 0.0f) a = a / max(min(peak, 1.0f), 1e-3f);
+  return min(1.0f, a);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -362,7 +420,7 @@ PN_INLINE float lam_sample_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY rang
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::LamSplat) == 20);
+static_assert(sizeof(penumbra::shader::LamSplat) == 32);
 static_assert(sizeof(penumbra::shader::LamMapView) == 192);
 #endif
 

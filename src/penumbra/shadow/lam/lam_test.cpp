@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <sstream>
 
@@ -180,6 +181,45 @@ TEST(Lam, OpenSurfacesCloserThanEpsilonStayApartWithTheOpenTolerance) {
     else
       EXPECT_GT(mean, 0.5) << open;  // merged with the leaf above: lit
   }
+}
+
+// Weighted splats (lam_shared.h, "Counting a layer"): under a comb of thin bars the ground sees
+// the light through gaps a texel or two wide. The paper's count counts each gap at every texel its
+// pixels' 4-texel splats touch, up to 4 times over: the ground reads too bright. Weighted by the
+// part of each texel they cover, the splats give the ground truth's visibility.
+TEST(Lam, GroundSeenThroughGapsATexelWideIsCountedOncePerGap) {
+  std::vector<SceneObject> bars;
+  for (int i = 0; i < 60; ++i) {  // bars 2 cm wide every 5 cm at h = 1: 40% of the light blocked
+    const float x0 = -1.5f + 0.05f * static_cast<float>(i);
+    bars.push_back(object(quad_y(kh, x0, x0 + 0.02f, -1.5f, 1.5f)));
+  }
+  const Scene scene = ground_scene(std::move(bars), rect_light_down({0, kH, 0}, kw, kw));
+  ViewSamples vs = ground_line(-0.3f, 0.3f, 300, 0.05f);
+  auto mean_of = [](const std::vector<float>& v) {
+    double m = 0;
+    for (float x : v) m += x;
+    return m / static_cast<double>(v.size());
+  };
+  // The ground truth: Embree's rays at 1024 light samples.
+  auto truth_method = create_method("reference", scene, {});
+  RayTracer tracer(scene);
+  ShadowContext ctx;
+  ctx.scene = &scene;
+  ctx.light = &scene.lights[0];
+  ctx.tracer = &tracer;
+  ctx.light_samples = 1024;
+  truth_method->prepare(ctx);
+  std::vector<float> truth(vs.size());
+  std::vector<Vec3f> e(vs.size());
+  ShadowOutput out{truth, e};
+  truth_method->evaluate(ctx, vs, out);
+  const double exact = mean_of(truth);
+  EXPECT_NEAR(exact, 0.6, 0.03);  // the comb's open fraction, the light spanning 10 periods
+  const double weighted = mean_of(run_lam(scene, vs, 64, {"resolution=256"}));
+  const double counted = mean_of(run_lam(scene, vs, 64, {"resolution=256", "weighted_splats=false"}));
+  std::printf("comb: ground truth %.4f, weighted splats %.4f, the paper's count %.4f\n", exact, weighted, counted);
+  EXPECT_NEAR(weighted, exact, 0.03) << "counted " << counted;
+  EXPECT_GT(counted, exact + 0.08) << "the paper's count, weighted " << weighted;
 }
 
 TEST(Lam, AttenuationIsMonotoneAndInTheUnitInterval) {

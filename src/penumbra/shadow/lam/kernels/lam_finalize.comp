@@ -1,7 +1,8 @@
 #version 460
 // `lam`'s "Process Attenuation Maps" on the GPU (agrawala2000 §4, Precompute line 7;
 // attenuation_map.cpp Builder::build's finalize): one thread per reference texel sorts its layers
-// by depth, takes attenuation = min(1, count / N), and writes them into the flat layer array at a
+// by depth, takes attenuation = min(1, count / N) (a weighted layer's: lam_shared.h
+// lam_layer_attenuation), and writes them into the flat layer array at a
 // place allocated with one atomic per subgroup (the CPU lays texels out in order with a prefix sum;
 // here a texel's range is (first, end) in `ranges`, and each texel's layers are the CPU's).
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -42,6 +43,6 @@ void main() {
   for (uint i = 0u; i < n; ++i) {
     LamBuildLayer l = build.v[i * texels + t];
     layers.v[2u * (first + i)] = l.z;
-    layers.v[2u * (first + i) + 1u] = min(1.0f, float(l.count_stamp & 0xffffu) * pc.p.inv_samples);
+    layers.v[2u * (first + i) + 1u] = lam_layer_attenuation(l.count, l.peak, pc.p.inv_samples);
   }
 }

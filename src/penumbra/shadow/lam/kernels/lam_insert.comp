@@ -4,7 +4,8 @@
 // one light sample. The splats lam_scatter.comp listed for the texel are sorted by the pixel they
 // came from and inserted in that order, exactly as the CPU inserts each texel's splats in the
 // sample's scan order: the layer within epsilon nearest to the depth counts the sample (once per
-// sample), its depth the running mean; else a new layer, up to max_layers (more are dropped and
+// sample; a weighted layer adds the splats' weights, lam_shared.h "Counting a layer"), its depth
+// the running mean; else a new layer, up to max_layers (more are dropped and
 // counted). So the layers are the CPU's. A texel whose list overflowed gathers instead: the pixels
 // that can reach it lie along a segment of the sample's map (the disparity bx/z, by/z over the
 // depth range), walked row by row in scan order.
@@ -27,15 +28,18 @@ BuildLayers g_layers;
 // Whether pixel `pixel` of the sample's map shows an open surface (its triangle's object is not
 // closed; lam_shared.h lam_epsilon), as the CPU's splats record it.
 bool pixel_open(uint pixel) {
-  if (pc.p.open_epsilon == pc.p.epsilon) return false;  // one tolerance for all: no need to know
+  // One tolerance for all and no weights: no need to know.
+  if (pc.p.open_epsilon == pc.p.epsilon && pc.p.weighted == 0u) return false;
   uint object, prim;
   raster_source(uint(Uint64s(pc.p.keys).v[pixel] & 0xffffffffUL), object, prim);
   return (g_objects.v[object].flags & kObjectClosed) == 0u;
 }
 
 // attenuation_map.cpp Builder::build's insert: depth z of light sample `stamp` - 1, from an open
-// surface or not.
-void insert(float z, uint stamp, bool open) {
+// surface or not, weight w at this texel (lam_shared.h, "Counting a layer").
+void insert(float z, uint stamp, bool open, float w) {
+  bool by_weight = pc.p.weighted != 0u && open;
+  if (by_weight && !(w > 0.0f)) return;  // lands on no part of this texel
   float tol = lam_depth_tolerance(open ? pc.p.open_epsilon : pc.p.epsilon, z);
   int best = -1;
   float bestd = tol;
@@ -50,13 +54,19 @@ void insert(float z, uint stamp, bool open) {
   if (best >= 0) {
     uint slot = uint(best) * g_texels + g_texel;
     LamBuildLayer l = g_layers.v[slot];
-    if ((l.count_stamp >> 16) != stamp) {  // at most once per light sample
-      uint count = (l.count_stamp & 0xffffu) + 1u;
-      precise float mean = l.z + (z - l.z) * (1.0f / float(count));
-      g_layers.v[slot] = LamBuildLayer(mean, count | (stamp << 16));
+    if ((l.hits_stamp >> 16) != stamp) {  // the running mean and the paper's count: once per light sample
+      uint hits = (l.hits_stamp & 0xffffu) + 1u;
+      precise float mean = l.z + (z - l.z) * (1.0f / float(hits));
+      l.z = mean;
+      l.hits_stamp = hits | (stamp << 16);
+      if (l.peak < 0.0f) l.count += 1.0f;
     }
+    if (l.peak >= 0.0f) l.weight += w;
+    g_layers.v[slot] = l;
   } else if (g_count < pc.p.max_layers) {
-    g_layers.v[g_count * g_texels + g_texel] = LamBuildLayer(z, 1u | (stamp << 16));
+    // A layer is weighted by the kind of the splat that opened it.
+    g_layers.v[g_count * g_texels + g_texel] =
+        by_weight ? LamBuildLayer(z, 0.0f, w, 0.0f, 1u | (stamp << 16)) : LamBuildLayer(z, 1.0f, 0.0f, -1.0f, 1u | (stamp << 16));
     ++g_count;
     ++g_new_layers;
     if (g_count == 1u) ++g_new_nonempty;
@@ -94,7 +104,7 @@ void gather(Uint64s keys, LamSampleView sv, int tx, int ty, uint stamp) {
       if (!lam_pixel_splat(keys, sv, x, y, z, W, H, pc.p.slope != 0u, s)) continue;
       int i = tx - s.ix, j = ty - s.iy;
       if (i < 0 || i > 1 || j < 0 || j > 1) continue;
-      insert(lam_splat_depth(s, i, j), stamp, pixel_open(uint(y) * uint(sv.width) + uint(x)));
+      insert(lam_splat_depth(s, i, j), stamp, pixel_open(uint(y) * uint(sv.width) + uint(x)), lam_splat_weight(s, i, j));
     }
   }
 }
@@ -126,11 +136,23 @@ void main() {
         for (; j > 0u && lists.v[base + j - 1u].pixel > e.pixel; --j) lists.v[base + j] = lists.v[base + j - 1u];
         lists.v[base + j] = e;
       }
-      for (uint i = 0u; i < n; ++i) insert(lists.v[base + i].z, stamp, pixel_open(lists.v[base + i].pixel));
+      for (uint i = 0u; i < n; ++i)
+        insert(lists.v[base + i].z, stamp, pixel_open(lists.v[base + i].pixel), lists.v[base + i].weight);
     } else {
       gather(Uint64s(pc.p.keys), SampleViewRef(pc.p.view).v, int(t % uint(pc.p.width)), int(t / uint(pc.p.width)),
              stamp);
     }
+    // This sample's splats here are all in: its weighted layers add what it gave them (the CPU does
+    // it at the texel's next sample, in the same order).
+    if (pc.p.weighted != 0u && n > 0u)
+      for (uint i = 0u; i < g_count; ++i) {
+        uint slot = i * g_texels + t;
+        LamBuildLayer l = g_layers.v[slot];
+        if ((l.hits_stamp >> 16) == stamp && l.peak >= 0.0f) {
+          lam_flush_layer(l.count, l.weight, l.peak);
+          g_layers.v[slot] = l;
+        }
+      }
     Uints(pc.p.counts).v[t] = g_count;
   }
   uint layers = subgroupAdd(g_new_layers);

@@ -32,6 +32,7 @@ void main() {
       if (tx < 0 || ty < 0 || tx >= W || ty >= H) continue;
       uint t = uint(ty) * uint(W) + uint(tx);
       uint slot = atomicAdd(list_counts.v[t], 1u);
-      if (slot < pc.p.list_capacity) lists.v[t * pc.p.list_capacity + slot] = LamSplatEntry(pixel, lam_splat_depth(s, i, j));
+      if (slot < pc.p.list_capacity)
+        lists.v[t * pc.p.list_capacity + slot] = LamSplatEntry(pixel, lam_splat_depth(s, i, j), lam_splat_weight(s, i, j));
     }
 }
