@@ -14,6 +14,7 @@
 #include "penumbra/shadow/lam/attenuation_map.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/testing/memory_cases.h"
+#include "penumbra/testing/method_runs.h"
 #include "penumbra/testing/test_scenes.h"
 #include "penumbra/trace/ray_tracer.h"
 
@@ -193,30 +194,19 @@ TEST(Lam, GroundSeenThroughGapsATexelWideIsCountedOncePerGap) {
     const float x0 = -1.5f + 0.05f * static_cast<float>(i);
     bars.push_back(object(quad_y(kh, x0, x0 + 0.02f, -1.5f, 1.5f)));
   }
-  const Scene scene = ground_scene(std::move(bars), rect_light_down({0, kH, 0}, kw, kw));
-  ViewSamples vs = ground_line(-0.3f, 0.3f, 300, 0.05f);
+  SceneRun r;
+  r.scene = ground_scene(std::move(bars), rect_light_down({0, kH, 0}, kw, kw));
+  r.tracer = std::make_unique<RayTracer>(r.scene);
+  r.vs = ground_line(-0.3f, 0.3f, 300, 0.05f);
   auto mean_of = [](const std::vector<float>& v) {
     double m = 0;
     for (float x : v) m += x;
     return m / static_cast<double>(v.size());
   };
-  // The ground truth: Embree's rays at 1024 light samples.
-  auto truth_method = create_method("reference", scene, {});
-  RayTracer tracer(scene);
-  ShadowContext ctx;
-  ctx.scene = &scene;
-  ctx.light = &scene.lights[0];
-  ctx.tracer = &tracer;
-  ctx.light_samples = 1024;
-  truth_method->prepare(ctx);
-  std::vector<float> truth(vs.size());
-  std::vector<Vec3f> e(vs.size());
-  ShadowOutput out{truth, e};
-  truth_method->evaluate(ctx, vs, out);
-  const double exact = mean_of(truth);
+  const double exact = mean_of(run_method(r, "reference", 1024));  // Embree's rays: the ground truth
   EXPECT_NEAR(exact, 0.6, 0.03);  // the comb's open fraction, the light spanning 10 periods
-  const double weighted = mean_of(run_lam(scene, vs, 64, {"resolution=256"}));
-  const double counted = mean_of(run_lam(scene, vs, 64, {"resolution=256", "weighted_splats=false"}));
+  const double weighted = mean_of(run_method(r, "lam", 64, {"resolution=256"}));
+  const double counted = mean_of(run_method(r, "lam", 64, {"resolution=256", "weighted_splats=false"}));
   std::printf("comb: ground truth %.4f, weighted splats %.4f, the paper's count %.4f\n", exact, weighted, counted);
   EXPECT_NEAR(weighted, exact, 0.03) << "counted " << counted;
   EXPECT_GT(counted, exact + 0.08) << "the paper's count, weighted " << weighted;
