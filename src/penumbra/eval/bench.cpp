@@ -121,6 +121,10 @@ BenchSuite bench_suite(const std::string& name, const fs::path& scenes_dir) {
     s.reference_spp = 1024;
     s.runs = 1;
     s.warmup_runs = 0;
+    // Where the error lives: the ground, and the casters (the bunny; the crowns' leaves).
+    s.object_groups = {{"bunny", {"ground", "bunny"}},
+                       {"forest", {"ground", "*.leaves"}},
+                       {"forest-100", {"ground", "*.leaves"}}};
     return s;
   }
   for (const char* scene : {"bunny", "contact", "furball", "knot", "plant"})
@@ -171,6 +175,12 @@ json scene_entry(const Comparison& c, const std::string& name) {
       m["run_total_ms"] = r.run_total_ms;
       m["speedup"] = json_number(r.speedup);
       if (std::isfinite(r.v.mae)) m["v_mae"] = r.v.mae;
+      // The error over each of the scene's object groups (BenchSuite::object_groups), by pattern.
+      json by_object = json::object();
+      for (size_t g = 0; g < r.v_objects.size() && g < c.object_groups.size(); ++g)
+        by_object[c.object_groups[g].pattern] = {{"v_mae", json_number(r.v_objects[g].mae)},
+                                                 {"v_mean_signed", json_number(r.v_objects[g].mean_signed)}};
+      if (!by_object.empty()) m["v_objects"] = by_object;
       m["light_samples"] = r.light_samples;
       m["rays_traced"] = r.stats.rays_traced;
       m["memory_bytes"] = r.stats.memory_bytes;
@@ -190,6 +200,12 @@ json scene_entry(const Comparison& c, const std::string& name) {
               {"speedup_basis", c.speedup_basis},
               {"reference_shadow_ms", c.speedup_basis_ms},
               {"methods", ms}};
+  if (!c.object_groups.empty()) {
+    json groups = json::array();
+    for (const ObjectGroup& g : c.object_groups)
+      groups.push_back({{"pattern", g.pattern}, {"objects", g.objects}, {"pixels", g.pixels}});
+    out["object_groups"] = groups;
+  }
   // The Embree scene every method's renderer builds alike: the first successful run's.
   for (const MethodRun& r : c.runs)
     if (r.ok && !r.tracer.is_null()) {
@@ -550,6 +566,10 @@ json run_bench(const BenchOptions& o) {
   for (size_t i = 0; i < setups.size(); ++i) {
     Comparison c;
     try {
+      co.objects.clear();
+      if (co.ground_truth)
+        for (const auto& [stem, patterns] : suite.object_groups)
+          if (setups[i].scene_path.stem().string() == stem) co.objects = patterns;
       c = run_comparison(setups[i], co);
     } catch (const Interrupted&) {
       throw;  // Ctrl-C ends the run, whatever this step would do with an error
@@ -692,6 +712,41 @@ std::string bench_markdown(const json& r) {
           cell = "error " + (eb > 0 ? format_significant(e / eb, 3) + "×" : std::string("—")) + ", time " +
                  format_significant(m->value("shadow_ms", 0.0) / std::max(1e-9, b->value("shadow_ms", 0.0)), 3) + "×";
           if (hard && hard->contains("v_mae") && e > hard->at("v_mae").get<double>()) cell += ", **worse than hard**";
+        }
+        md << " " << cell << " |";
+      }
+      md << "\n";
+    }
+  }
+  // Where the error lives (BenchSuite::object_groups): each method's mean |dV| over each group's
+  // pixels, a column per scene and group.
+  std::vector<std::pair<const json*, std::string>> group_columns;
+  for (const json& s : scene_list)
+    if (s.contains("object_groups"))
+      for (const json& g : s.at("object_groups")) group_columns.emplace_back(&s, g.value("pattern", ""));
+  if (!group_columns.empty()) {
+    md << "\nBy object: each method's mean |dV| (signed in brackets) over the pixels of each scene's objects "
+       << "(`compare --objects`), where the error lives.\n\n| method |";
+    for (const auto& [s, pattern] : group_columns) {
+      size_t pixels = 0;
+      for (const json& g : s->at("object_groups"))
+        if (g.value("pattern", "") == pattern) pixels = g.value("pixels", size_t{0});
+      md << " " << s->value("name", "?") << ": `" << pattern << "` (" << format_grouped(pixels) << " px) |";
+    }
+    md << "\n|---|";
+    for (size_t i = 0; i < group_columns.size(); ++i) md << "---:|";
+    md << "\n";
+    for (const json& mname : r.at("methods")) {
+      const std::string name = mname.get<std::string>();
+      md << "| `" << name << "` |";
+      for (const auto& [s, pattern] : group_columns) {
+        const json* m = find_method(*s, name);
+        std::string cell = "—";
+        if (m && m->contains("v_objects") && m->at("v_objects").contains(pattern)) {
+          const json& e = m->at("v_objects").at(pattern);
+          if (e.at("v_mae").is_number())
+            cell = format_significant(e["v_mae"].get<double>(), 2) + " (" +
+                   fmt::format("{:+.2g}", e["v_mean_signed"].get<double>()) + ")";
         }
         md << " " << cell << " |";
       }

@@ -59,6 +59,10 @@ struct BenchSuite {
   // > 0 (the wide suite, issue 34 part 4): every method's mean |dV| against the ground truth at
   // this many light samples (the compare cache's, default_cache_dir()) beside its time.
   int reference_spp = 0;
+  // With reference_spp > 0: per scene (its file's stem), groups of objects whose pixels each
+  // method's error is also measured over (compare --objects, eval/object_errors.h): the wide
+  // suite splits its scenes into the ground and the casters, where the error lives.
+  std::vector<std::pair<std::string, std::vector<std::string>>> object_groups;
 };
 
 // quick: 128^2, 16 light samples, 3 runs; full: 512^2, 256 light samples, 5 runs; both on

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 
 #include "penumbra/core/error.h"
@@ -51,6 +52,42 @@ TEST(Bench, SuitesAreDefined) {
   EXPECT_EQ(doc["objects"][1]["params"]["trees"], 100);
   for (const auto& f : w.scenes) EXPECT_TRUE(std::filesystem::exists(f)) << f;
   EXPECT_EQ(q.reference_spp, 0);
+  // Where the error lives: the ground and the casters of the bunny and both forests.
+  using Groups = std::vector<std::pair<std::string, std::vector<std::string>>>;
+  EXPECT_EQ(w.object_groups, (Groups{{"bunny", {"ground", "bunny"}},
+                                     {"forest", {"ground", "*.leaves"}},
+                                     {"forest-100", {"ground", "*.leaves"}}}));
+  EXPECT_TRUE(q.object_groups.empty());
+}
+
+// A suite with errors and object groups: every method's error over each group's pixels, in the
+// JSON (by pattern) and in a table of the Markdown. The ground truth goes to a cache of its own.
+TEST(Bench, ObjectGroupsGiveEachMethodsErrorWhereItLives) {
+  testing::TempDir dir;
+  const char* old = std::getenv("PENUMBRA_CACHE_DIR");
+  const std::string saved = old ? old : "";
+  setenv("PENUMBRA_CACHE_DIR", (dir / "cache").c_str(), 1);
+  BenchOptions o;
+  o.suite = tiny_suite();
+  o.suite.reference_spp = 16;
+  o.suite.runs = 1;
+  o.suite.warmup_runs = 0;
+  o.suite.object_groups = {{"contact", {"ground", "b*"}}};
+  o.methods = {"hard"};
+  const json r = run_bench(o);
+  if (old) setenv("PENUMBRA_CACHE_DIR", saved.c_str(), 1); else unsetenv("PENUMBRA_CACHE_DIR");
+  const json& scene = r["scenes"][0];
+  ASSERT_EQ(scene["object_groups"].size(), 2u) << scene.dump();
+  EXPECT_EQ(scene["object_groups"][1]["pattern"], "b*");
+  EXPECT_EQ(scene["object_groups"][1]["objects"], 2);  // the box and the ball
+  for (const json& m : scene["methods"]) {
+    ASSERT_TRUE(m.contains("v_objects")) << m.dump();
+    for (const char* pattern : {"ground", "b*"}) EXPECT_TRUE(m["v_objects"][pattern]["v_mae"].is_number()) << m.dump();
+  }
+  const std::string md = bench_markdown(r);
+  EXPECT_NE(md.find("By object: "), std::string::npos) << md;
+  EXPECT_NE(md.find("| contact: `ground` ("), std::string::npos) << md;
+  EXPECT_NE(md.find("| contact: `b*` ("), std::string::npos) << md;
 }
 
 // The wide-scene line (issue 34 part 4): each later scene's error and time as multiples of the
