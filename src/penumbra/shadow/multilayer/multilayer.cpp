@@ -41,6 +41,7 @@ class MultilayerMethod final : public ShadowMethod {
     z_thresh_ = s.z_thresh;
     z_thresh_texels_ = s.z_thresh_texels;
     trace_.self_bias = s.self_bias;
+    trace_.open_self_bias = s.open_self_bias;
     layers_ = s.layers;
     compression_ = s.compression;
     trace_.stop_below = s.stop_below;
@@ -243,7 +244,11 @@ std::vector<ParamSpec> common_specs() {
        {}, 0, 1e6},
       {"self_bias", ParamType::Float, 0.25,
        "texel widths (at the receiver) around the receiver's own tangent plane where layer samples are ignored "
-       "(its own surface is in the map)",
+       "(its own surface is in the map); for receivers on closed objects",
+       {}, 0, 1e6},
+      {"open_self_bias", ParamType::Float, 0.1,
+       "self_bias for receivers on open surfaces (leaves, cards, planes: objects that are not closed): flat per "
+       "triangle, their own plane is exact, and a narrower band keeps the leaf just above in a canopy",
        {}, 0, 1e6},
   };
 }

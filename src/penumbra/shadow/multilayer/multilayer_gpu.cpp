@@ -362,11 +362,12 @@ class MultilayerGpu final : public GpuShadowMethod {
     // z_thresh in camera space (xie2007 §6.1), as the CPU resolves it.
     multilayer::TraceParams params;
     params.self_bias = settings_.self_bias;
+    params.open_self_bias = settings_.open_self_bias;
     params.stop_below = settings_.stop_below;
     const multilayer::TraceParams resolved =
         multilayer::resolve_trace_params(params, v, z_min, settings_.z_thresh, settings_.z_thresh_texels);
     const multilayer::TraceSetup setup = multilayer::make_trace_setup(v, z_min, resolved);
-    tb.setup = {setup.z_thresh, setup.window_tolerance, setup.inv_focal, setup.self_bias, setup.stop_below, z_min};
+    tb.setup = multilayer::shared_trace_setup(setup, z_min);
     trace_block_.upload(&tb, sizeof(tb));
     receiver_bounds_ = rb;
     built_ = true;

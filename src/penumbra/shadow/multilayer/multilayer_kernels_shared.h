@@ -97,7 +97,7 @@ struct MlFitParams {
   uint pad;
 };
 
-// What the traces read besides their buffers, 208 bytes, uploaded with each map: its view
+// What the traces read besides their buffers, 216 bytes, uploaded with each map: its view
 // (LightView::shared), the resolved trace set-up, its pyramid's level table, its size and layers.
 struct MlTraceBlock {
   RasterView view;
@@ -189,7 +189,7 @@ PN_SHARED_END
 static_assert(sizeof(penumbra::shader::MlReceivers) == 28);
 static_assert(sizeof(penumbra::shader::MlPlane) == 24);
 static_assert(sizeof(penumbra::shader::MlFitBlock) == 208);
-static_assert(sizeof(penumbra::shader::MlTraceBlock) == 208);
+static_assert(sizeof(penumbra::shader::MlTraceBlock) == 216);
 static_assert(sizeof(penumbra::shader::MlGpuCounters) == 48);
 static_assert(sizeof(penumbra::shader::MlTraceFrame) == 40);
 static_assert(sizeof(penumbra::shader::MlMapCounters) == 24);

@@ -35,6 +35,7 @@ struct MultilayerSettings {
   bool fit_shadowable = true;
   float z_thresh = 0, z_thresh_texels = 1.0f;
   float self_bias = 0.25f;
+  float open_self_bias = 0.1f;
   int layers = 5;                   // mlsm
   CompressionOptions compression;   // mtsm
   float stop_below = 1e-3f;         // mtsm

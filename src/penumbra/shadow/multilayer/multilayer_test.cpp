@@ -127,6 +127,37 @@ TEST(Multilayer, RayBetweenTwoLayersFartherApartThanZThreshIsNotBlocked) {
   EXPECT_EQ(multilayer::trace_opaque(setup, map, {{0.4f, 0, 0}, {0, 1, 0}, false}, {-0.5f, 3, 0}, &c), 0.0f);
 }
 
+// The receiver's own-surface band (multilayer_trace_shared.h ml_setup_ray): a plate a fifth of a
+// texel above the receiver's plate is inside a quarter texel's band and outside a tenth's. A
+// receiver on an open surface takes open_self_bias, one on a closed object self_bias.
+TEST(Multilayer, OpenReceiversTakeTheOpenSelfBias) {
+  TestRig rig;
+  rig.add(testing::quad_y(0, -4, 4, -4, 4));
+  rig.add(testing::quad_y(1.0f, -0.2f, 0.2f, -0.2f, 0.2f));  // the receiver's plate
+  rig.fit({{1, 0, 0}, {0, 0, 0}, {-1, 0, 0}, {0, 0, 1}, {0, 1, 0}}, true);
+  const Vec3f p{0.013f, 1.0f, 0.017f};
+  // The texel's world width at the receiver's depth, then a plate 0.18 of it above.
+  multilayer::TraceParams probe;
+  const float texel = multilayer::make_trace_setup(rig.view.view, 0.0f, probe).inv_focal * rig.view.view.to_texel(p).z;
+  rig.add(testing::quad_y(1.0f + 0.18f * texel, -0.2f, 0.2f, -0.2f, 0.2f));
+  multilayer::OpaqueLayerMap map;
+  multilayer::build_opaque_layer_map(rig.raster, rig.tris, rig.view.view, 5, &map);
+  const Vec3f q{0.05f, 3.0f, 0.03f};  // straight up through the plate above
+  auto trace = [&](float self_bias, float open_self_bias, bool closed) {
+    multilayer::TraceParams params;
+    params.z_thresh = 0.01f * texel;
+    params.self_bias = self_bias;
+    params.open_self_bias = open_self_bias;
+    const multilayer::TraceSetup setup = multilayer::make_trace_setup(rig.view.view, map.z_min, params);
+    multilayer::TraceCounters c;
+    return multilayer::trace_opaque(setup, map, {p, {0, 1, 0}, closed}, q, &c);
+  };
+  EXPECT_EQ(trace(0.25f, 0.1f, false), 0.0f);   // open: the plate above is outside the 0.1 band
+  EXPECT_EQ(trace(0.25f, 0.25f, false), 1.0f);  // inside a quarter texel's band: ignored
+  EXPECT_EQ(trace(0.25f, 0.1f, true), 1.0f);    // closed: self_bias's quarter texel
+  EXPECT_EQ(trace(0.1f, 0.25f, true), 0.0f);
+}
+
 TEST(Multilayer, StackOfTransparentPlanesGivesOneMinusAToTheM) {
   const float a = 0.3f;
   const int M = 5;

@@ -18,11 +18,16 @@ TraceParams resolve_trace_params(const TraceParams& params, const LightView& vie
   return out;
 }
 
+shader::MlTraceSetup shared_trace_setup(const TraceSetup& s, float z_min) {
+  return {s.z_thresh, s.window_tolerance, s.inv_focal, s.self_bias, s.stop_below, z_min, s.open_self_bias, 0.0f};
+}
+
 TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParams& params) {
   TraceSetup s;
   s.view = &view;
   s.z_thresh = params.z_thresh;
   s.self_bias = params.self_bias;
+  s.open_self_bias = params.open_self_bias;
   s.stop_below = params.stop_below;
   s.inv_focal = 1.0f / focal_texels(view);
   // Window depth is concave in z, so [z - t, z + t] spans the most window depth at the
@@ -36,10 +41,6 @@ TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParam
 namespace {
 
 using shader::MlRay;
-
-shader::MlTraceSetup shared_setup(const TraceSetup& s, float z_min) {
-  return {s.z_thresh, s.window_tolerance, s.inv_focal, s.self_bias, s.stop_below, z_min};
-}
 
 shader::MlTraceCounters no_counts() { return {0, 0, 0, 0, 0}; }
 
@@ -60,7 +61,7 @@ void trace_packets(const TraceSetup& s, const Map& map, const RayReceiver& r, st
   DepthWalkOptions opt;
   opt.tolerance = s.window_tolerance;
   DepthWalkCounters wc;
-  const shader::MlTraceSetup ss = shared_setup(s, map.z_min);
+  const shader::MlTraceSetup ss = shared_trace_setup(s, map.z_min);
   const shader::RasterView& view = s.view->shared();
   for (size_t first = 0; first < q.size(); first += kDepthWalkPacket) {
     const size_t count = std::min<size_t>(kDepthWalkPacket, q.size() - first);
@@ -93,7 +94,7 @@ float trace_opaque(const TraceSetup& s, const OpaqueLayerMap& map, const RayRece
                    TraceCounters* counters) {
   const shader::DepthPyramidLevels levels(map.pyramid);
   shader::MlTraceCounters c = no_counts();
-  const float v = shader::ml_trace_opaque(s.view->shared(), shared_setup(s, map.z_min), levels, {&map.layers}, r.p,
+  const float v = shader::ml_trace_opaque(s.view->shared(), shared_trace_setup(s, map.z_min), levels, {&map.layers}, r.p,
                                           r.ng, r.closed, q, c);
   add_counts(c, counters);
   return v;
@@ -103,7 +104,7 @@ float trace_transparent(const TraceSetup& s, const TransparentMap& map, const Ra
                         TraceCounters* counters) {
   const shader::DepthPyramidLevels levels(map.pyramid);
   shader::MlTraceCounters c = no_counts();
-  const float v = shader::ml_trace_transparent(s.view->shared(), shared_setup(s, map.z_min), levels, {&map.layers},
+  const float v = shader::ml_trace_transparent(s.view->shared(), shared_trace_setup(s, map.z_min), levels, {&map.layers},
                                                r.p, r.ng, r.closed, q, c);
   add_counts(c, counters);
   return v;

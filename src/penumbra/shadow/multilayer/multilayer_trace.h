@@ -12,12 +12,14 @@
 #include "penumbra/core/math.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/shadow/multilayer/multilayer_map.h"
+#include "penumbra/shadow/multilayer/multilayer_trace_shared.h"
 
 namespace penumbra::multilayer {
 
 struct TraceParams {
   float z_thresh = 0;        // world units of linear depth (xie2007 §6.1)
   float self_bias = 0.25f;   // texel widths at the receiver: the band around its own tangent plane ignored
+  float open_self_bias = 0.1f;  // ... at a receiver on an open surface
   float stop_below = 1e-3f;  // mtsm: a ray whose visibility falls below this is blocked (§5.2 threshold)
 };
 
@@ -34,10 +36,13 @@ struct TraceSetup {
   float window_tolerance = 0;  // z_thresh as a (conservative) window-depth tolerance for node tests
   float inv_focal = 0;         // texel world width per unit of linear depth
   float self_bias = 0.25f;
+  float open_self_bias = 0.1f;
   float stop_below = 1e-3f;
 };
 // z_min: the map's smallest depth (the widest window-depth span of +-z_thresh is there).
 TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParams& params);
+// The set-up as the shared trace functions and the GPU's kernels read it (multilayer_trace_shared.h).
+shader::MlTraceSetup shared_trace_setup(const TraceSetup& s, float z_min);
 
 // The receiver of a shadow ray: its position and geometric normal, and whether it lies on a
 // closed object (then light points behind its tangent plane are blocked by the object).

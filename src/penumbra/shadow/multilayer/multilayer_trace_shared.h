@@ -14,14 +14,16 @@
 
 PN_SHARED_BEGIN
 
-// What one map needs for tracing (make_trace_setup), 24 bytes.
+// What one map needs for tracing (make_trace_setup, multilayer::shared_trace_setup), 32 bytes.
 struct MlTraceSetup {
   float z_thresh;          // world units of linear depth (§6.1)
   float window_tolerance;  // z_thresh as a (conservative) window-depth tolerance for node tests
   float inv_focal;         // texel world width per unit of linear depth
-  float self_bias;         // texel widths at the receiver: the band around its own tangent plane ignored
+  float self_bias;         // texel widths at a closed receiver: the band around its own tangent plane ignored
   float stop_below;        // mtsm: a ray whose visibility falls below this is blocked (§5.2)
   float z_min;             // the map's smallest linear depth (+inf: empty)
+  float open_self_bias;    // self_bias at a receiver on an open surface (a leaf, a card, a plane)
+  float pad;
 };
 
 // A ray ready to walk: the segment projected into the view, the receiver's normal turned toward
@@ -110,7 +112,9 @@ PN_INLINE float ml_next_toward_zero(float x) {
 // map right where the ray starts: a layer sample X (the surface through a texel centre at depth
 // z) can block the ray only if it lies on q's side of p's tangent plane by more than self_bias
 // texels, dot(n, X - p) > bias, n the normal turned toward q (penumbra's rule; the paper leaves
-// self-shadowing to z_thresh).
+// self-shadowing to z_thresh). A receiver on an open surface (flat per triangle: its own plane is
+// exact) takes open_self_bias: a closed object's curved faces need the wider band against acne,
+// while in a canopy the band is where the neighbouring leaves are (docs/methods/multilayer.md).
 PN_INLINE bool ml_setup_ray(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 ng, bool closed, vec3 q,
                             PN_OUT(MlRay) ray, PN_OUT(bool) blocked) {
   blocked = false;
@@ -137,7 +141,7 @@ PN_INLINE bool ml_setup_ray(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 ng
   float zp = view_linear_depth(v, p);
   if (!(zp > s.z_min)) return false;  // nothing in front of the receiver (xie2007 §4.3: clip at z_min)
   if (!depth_image_project(v, p, q, ray.ps)) return false;
-  ray.bias = s.self_bias * zp * s.inv_focal;
+  ray.bias = (closed ? s.self_bias : s.open_self_bias) * zp * s.inv_focal;
   return true;
 }
 
@@ -290,7 +294,7 @@ PN_INLINE float ml_trace_transparent(PN_IN(RasterView) v, MlTraceSetup s, DepthP
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::MlTraceSetup) == 24);
+static_assert(sizeof(penumbra::shader::MlTraceSetup) == 32);
 #endif
 
 #endif  // PENUMBRA_SHADOW_MULTILAYER_MULTILAYER_TRACE_SHARED_H
