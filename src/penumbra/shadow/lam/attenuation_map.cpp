@@ -383,7 +383,7 @@ struct BuildLayer {
 };
 static_assert(sizeof(BuildLayer) == sizeof(shader::LamBuildLayer));
 
-// A warped depth-map pixel (lam_shared.h LamSplat, in 28 bytes): the texel (ix, iy) whose
+// A warped depth-map pixel (lam_shared.h LamSplat, in 32 bytes): the texel (ix, iy) whose
 // centre is the top-left of the 4 it splats into, the depth extrapolated to that texel's
 // centre along the surface's local plane, the plane's depth gradient per reference texel, and
 // what its weights come from (LamSplat's ax, ay, area).
@@ -478,7 +478,7 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
   const bool weighted = slope && opt.weighted_splats;
   std::vector<uint8_t> counts(texels, 0);
   // Weighted layers: the light sample that last splatted into each texel (1 + index; 0: none),
-  // whose weights its layers still hold (lam_flush_sample).
+  // whose weights its layers still hold until flush_texel adds them.
   std::vector<uint16_t> texel_stamp(weighted ? texels : 0, 0);
   // Uninitialised: slot i of a texel is read only once counts says it exists, so the
   // planes of deep slots are never touched (nor committed) unless some texel needs them.
@@ -704,7 +704,8 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
   s.nonempty_texels = total_nonempty;
   s.layers = total_layers;
   s.max_depth = max_depth;
-  s.peak_bytes = counts.size() + texels * (max_depth * sizeof(BuildLayer)) + peak_scratch + map.memory_bytes();
+  s.peak_bytes = counts.size() + texel_stamp.size() * sizeof(uint16_t) + texels * (max_depth * sizeof(BuildLayer)) +
+                 peak_scratch + map.memory_bytes();
   return map;
 }
 
@@ -727,7 +728,8 @@ uint64_t build_bytes(int resolution, int max_layers) {
   const uint64_t sample_view = DepthMap::bytes(side, side) + 3 * sample_texels * sizeof(Splat) +
                                chunks * bands * (sizeof(uint32_t) + sizeof(size_t));
   const uint64_t map = (texels + 1) * sizeof(uint32_t) + slots * sizeof(Layer);
-  return texels * sizeof(uint8_t) + slots * sizeof(BuildLayer) + sample_view + map;
+  // Per texel its layer count and (weighted splats) the last sample that splatted into it.
+  return texels * (sizeof(uint8_t) + sizeof(uint16_t)) + slots * sizeof(BuildLayer) + sample_view + map;
 }
 
 nlohmann::json build_statistics(const BuildStats& bs, const AttenuationMap& map, int light_samples,
