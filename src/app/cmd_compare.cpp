@@ -153,12 +153,12 @@ int run_compare(const CompareCliOptions& o) {
     range = parse_frame_range(o.frame_range, count, "--frame-range");
   }
 
-  // A pattern of --objects that names no object fails before the output folder is made.
-  if (!o.objects.empty() && o.dask.empty() && !range) match_object_patterns(setup.load(), o.objects);
+  // --objects: not on a cluster; a pattern that names no object fails before the output folder is made.
+  if (!o.objects.empty() && !o.dask.empty()) throw Error("--objects: not available with --dask (compare locally)");
+  if (!o.objects.empty() && !range) match_object_patterns(setup.load(), o.objects);
   make_output_folder(out);  // before any render: a bad -o fails at once
   Comparison c;
   if (!o.dask.empty()) {
-    if (!o.objects.empty()) throw Error("--objects: not available with --dask (compare locally)");
     // The same comparison as jobs on the cluster (docs/distributed.md); penumbra.distributed
     // writes the same report, read back here for the summary.
     setup.check_plain_params(co.methods);
