@@ -67,6 +67,10 @@ const MethodRegistration registration({
         {"fade", ParamType::Float, 1.0,
          "the slice just above a point fades in linearly over this many slice thicknesses (self-shadowing, §3.4; 0 = no fade)",
          {}, 0, 16},
+        {"open_fade", ParamType::Float, 0.25,
+         "fade for points on open surfaces (leaves, cards, planes: objects that are not closed): in a canopy a leaf's "
+         "occluders are its neighbours a slice above, which a whole thickness's fade-in leaves out (penumbra's addition)",
+         {}, 0, 16},
         {"cop_distance", ParamType::Float, 0.0,
          "distance d of the centre of projection behind the light (world units); 0 = the largest d whose frustum contains "
          "the casters",

@@ -234,7 +234,7 @@ PN_INLINE float ot_box(OtTextures t, OtSliceBounds bounds, int k, float x0, floa
 //   bytes 0-15 center, R (texture side)   16-31 right, kx   32-47 up, ky   48-63 forward, d
 //   bytes 64-79 fade_length (slice thicknesses), fade (0: no fade-in), slices, has_casters
 //   bytes 80-95 combine (kOtProduct/Sum/Max), horizon (0 or 1), tiles, tile_scale
-//   bytes 96-111 top, thickness (the whole range's slices), tile_side (texels), 0
+//   bytes 96-111 top, thickness (the whole range's slices), tile_side (texels), open_fade_length
 //   bytes 112-175 the light as the horizon test sees it (shadow/light_horizon_shared.h)
 // right and up are the slicing view's axes; kx, ky texels per world unit at the light (R /
 // width, R / height of its rectangle); d the centre of projection's distance behind the light.
@@ -263,7 +263,7 @@ struct OtSetup {
   float top;
   float thickness;
   float tile_side;
-  uint pad0;
+  float open_fade_length;  // fade_length for receivers on open surfaces (0: no fade-in)
   HorizonLight light;
 };
 
@@ -274,25 +274,31 @@ struct OtTile {
   float thickness;
 };
 
-// A tile's slices as a point uses them: with the fade-in's 1 / (fade_length thickness).
+// A tile's slices as a point uses them: with the fade-in's 1 / (fade_length thickness), 0 for no
+// fade-in.
 struct OtSlicing {
   float top;
   float thickness;
   float inv_fade;
 };
 
-// Slices from `top`, `thickness` apart, as a point uses them.
-PN_INLINE OtSlicing ot_slicing(OtSetup s, float top, float thickness) {
+// Slices from `top`, `thickness` apart, as a point on an open surface or not uses them. A
+// receiver on an open surface (a leaf, a card, a plane) fades the slice above in over
+// open_fade_length thicknesses instead of fade_length: in a canopy the occluders of a leaf are
+// its neighbours a slice above, which a whole thickness's fade-in leaves out, while a closed
+// object's faces crossing a slice plane need it (docs/methods/occlusion-textures.md).
+PN_INLINE OtSlicing ot_slicing(OtSetup s, float top, float thickness, bool open) {
   OtSlicing c;
   c.top = top;
   c.thickness = thickness;
-  c.inv_fade = s.fade != 0u ? 1.0f / (s.fade_length * thickness) : 0.0f;
+  float length = open ? s.open_fade_length : (s.fade != 0u ? s.fade_length : 0.0f);
+  c.inv_fade = length > 0.0f ? 1.0f / (length * thickness) : 0.0f;
   return c;
 }
 
 // The slicing of tile i (`tiles`: the OtTile array as floats).
-PN_INLINE OtSlicing ot_tile_slicing(OtSetup s, PN_FLOAT_ARRAY tiles, int i) {
-  return ot_slicing(s, PN_AT(tiles, 2u * uint(i)), PN_AT(tiles, 2u * uint(i) + 1u));
+PN_INLINE OtSlicing ot_tile_slicing(OtSetup s, PN_FLOAT_ARRAY tiles, int i, bool open) {
+  return ot_slicing(s, PN_AT(tiles, 2u * uint(i)), PN_AT(tiles, 2u * uint(i) + 1u), open);
 }
 
 // Slice k's texture plane: its far plane, at depth top + (k + 1) T.
@@ -343,16 +349,16 @@ struct OtCombined {
   float sum;
   float largest;
 };
-PN_INLINE float ot_fade_weight(OtSetup s, float z, float zp, float inv_fade) {
-  return s.fade != 0u ? min(1.0f, (z - zp) * inv_fade) : 1.0f;
+PN_INLINE float ot_fade_weight(float z, float zp, float inv_fade) {
+  return inv_fade > 0.0f ? min(1.0f, (z - zp) * inv_fade) : 1.0f;
 }
 PN_INLINE void ot_combine_add(PN_INOUT(OtCombined) c, float o) {
   c.product *= 1.0f - o;  // eq. 5
   c.sum += o;
   c.largest = max(c.largest, o);
 }
-PN_INLINE void ot_accumulate(OtSetup s, PN_INOUT(OtCombined) c, float z, float zp, float inv_fade, float occ) {
-  float o = ot_fade_weight(s, z, zp, inv_fade) * occ;
+PN_INLINE void ot_accumulate(PN_INOUT(OtCombined) c, float z, float zp, float inv_fade, float occ) {
+  float o = ot_fade_weight(z, zp, inv_fade) * occ;
   c.product *= 1.0f - o;  // eq. 5
   c.sum += o;
   c.largest = max(c.largest, o);
@@ -432,9 +438,10 @@ PN_INLINE bool ot_reach_is_whole(OtSetup s, PN_FLOAT_ARRAY tiles, OtTileRange r)
 // pieces: in each tile, the kernel of that tile's plane k (eq. 4), cut to the tile. Slice k's
 // occlusion is the sum over the tiles of each piece's covered area (each piece faded in by its
 // own plane's distance above p), over the kernel's area; eq. 5 combines the slices. With one
-// tile this is ot_visibility's single lookup per slice. The tiles visited: `reach` (ot_reach).
+// tile this is ot_visibility's single lookup per slice. The tiles visited: `reach` (ot_reach);
+// `open`: the point is on an open surface (ot_slicing's fade).
 PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, float u,
-                                    float v, float z, OtTileRange reach, PN_INOUT(OtCounters) n) {
+                                    float v, float z, OtTileRange reach, bool open, PN_INOUT(OtCounters) n) {
   float inv_z = 1.0f / z;
   float occ[kOtMaxSlices];
   float shares[kOtMaxSlices];
@@ -442,7 +449,7 @@ PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures 
   for (int k = 0; k < s.slices; ++k) shares[k] = 0.0f;
   for (int ty = reach.y0; ty <= reach.y1; ++ty) {
     for (int tx = reach.x0; tx <= reach.x1; ++tx) {
-      OtSlicing slicing = ot_tile_slicing(s, tiles, ty * s.tiles + tx);
+      OtSlicing slicing = ot_tile_slicing(s, tiles, ty * s.tiles + tx, open);
       int above = ot_slices_above(s, slicing, z);
       float rx0 = float(tx) * s.tile_side;
       float ry0 = float(ty) * s.tile_side;
@@ -458,7 +465,7 @@ PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures 
         if (!(x1 > x0 && y1 > y0)) continue;
         PN_PRECISE float share = (x1 - x0) * (y1 - y0) / ((kr.x1 - kr.x0) * (kr.y1 - kr.y0));
         float covered = ot_box(t, ot_slice_bounds(bounds, k), k, x0, y0, x1, y1, n);
-        occ[k] += ot_fade_weight(s, z, zp, slicing.inv_fade) * covered * share;
+        occ[k] += ot_fade_weight(z, zp, slicing.inv_fade) * covered * share;
         shares[k] += share;
       }
     }
@@ -476,8 +483,8 @@ PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures 
 // where a tile the point's kernels reach has slices of its own, the tiles' pieces:
 // ot_visibility_tiled). `bounds`: every slice's covered rectangle
 // (for the pyramids' elongated kernels), 4 floats a slice; `tiles`: the OtTile array as floats.
-// The slices alone: shading multiplies by ot_horizon.
-PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, vec3 p,
+// The slices alone: shading multiplies by ot_horizon. `open`: p is on an open surface (ot_slicing).
+PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, vec3 p, bool open,
                               PN_INOUT(OtCounters) n) {
   vec3 q = p - s.center;
   float u = dot(q, s.right);
@@ -485,10 +492,10 @@ PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_
   float z = dot(q, s.forward);
   if (!(z > 0.0f)) return 0.0f;
   if (s.has_casters == 0u) return 1.0f;
-  OtSlicing slicing = ot_slicing(s, s.top, s.thickness);
+  OtSlicing slicing = ot_slicing(s, s.top, s.thickness, open);
   if (s.tiles > 1) {
     OtTileRange reach = ot_reach(s, u, v, z);
-    if (!ot_reach_is_whole(s, tiles, reach)) return ot_visibility_tiled(s, tiles, t, bounds, u, v, z, reach, n);
+    if (!ot_reach_is_whole(s, tiles, reach)) return ot_visibility_tiled(s, tiles, t, bounds, u, v, z, reach, open, n);
   }
   float inv_z = 1.0f / z;
   int above = ot_slices_above(s, slicing, z);
@@ -500,7 +507,7 @@ PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_
     float zp = ot_plane(slicing, k);
     OtSliceBounds kr = ot_kernel_rect(ot_kernel(s, zp, u, v, z, inv_z));
     float occ = ot_box(t, ot_slice_bounds(bounds, k), k, kr.x0, kr.y0, kr.x1, kr.y1, n);
-    ot_accumulate(s, c, z, zp, slicing.inv_fade, occ);
+    ot_accumulate(c, z, zp, slicing.inv_fade, occ);
   }
   return ot_combine(s, c);
 }

@@ -60,6 +60,7 @@ Options options_from(const ParamSet& p) {
   o.horizon = p.get_bool("horizon");
   o.thin_fix = p.get_bool("thin_fix");
   o.fade = p.get_float("fade");
+  o.open_fade = p.get_float("open_fade");
   o.cop_distance = p.get_float("cop_distance");
   o.cull_planar = p.get_bool("cull_planar");
   o.cull_back_faces = p.get_bool("cull_back_faces");
@@ -139,6 +140,7 @@ OcclusionTextures::OcclusionTextures(const Options& options) : options_(options)
   if (options.resolution < 16 || options.resolution > 4096 || !std::has_single_bit(static_cast<unsigned>(options.resolution)))
     throw Error("occlusion-textures: resolution = {} must be a power of two in [16, 4096]", options.resolution);
   if (!(options.fade >= 0)) throw Error("occlusion-textures: fade = {} must be >= 0", options.fade);
+  if (!(options.open_fade >= 0)) throw Error("occlusion-textures: open_fade = {} must be >= 0", options.open_fade);
   if (!(options.cop_distance >= 0)) throw Error("occlusion-textures: cop_distance = {} must be >= 0", options.cop_distance);
   if (options.tiles != 0 && (options.tiles > 64 || !std::has_single_bit(static_cast<unsigned>(options.tiles)) ||
                              options.resolution / options.tiles < 8))
@@ -211,6 +213,7 @@ void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
   setup_.d = d_;
   setup_.fade = options_.fade > 0 ? 1u : 0u;
   setup_.fade_length = options_.fade;
+  setup_.open_fade_length = options_.open_fade;
   // The light-space tiles: given, or fitted so that the largest kernel (a receiver at the casters'
   // farthest depth, the slice plane at their nearest: eq. 4) spans at most four tiles a side, which
   // bounds the lookups a point makes (ot_visibility_tiled), with tiles of at least 8 texels. Fitted
@@ -505,18 +508,17 @@ PENUMBRA_OT_CLONES void kernels(size_t m, const float* __restrict u, const float
 
 // Slice k's occlusion, faded in below its plane, into the three combinations
 // (occlusion_shared.h ot_accumulate).
-inline void accumulate_one(const shader::OtSetup& setup, float z, float zp, float inv_fade, float occ, float& product,
-                           float& sum, float& largest) {
+inline void accumulate_one(float z, float zp, float inv_fade, float occ, float& product, float& sum, float& largest) {
   shader::OtCombined c{product, sum, largest};
-  shader::ot_accumulate(setup, c, z, zp, inv_fade, occ);
+  shader::ot_accumulate(c, z, zp, inv_fade, occ);
   product = c.product;
   sum = c.sum;
   largest = c.largest;
 }
-PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict occ,
-                                   const shader::OtSetup& setup, float zp, float inv_fade, float* __restrict product,
-                                   float* __restrict sum, float* __restrict largest) {
-  for (size_t i = 0; i < m; ++i) accumulate_one(setup, z[i], zp, inv_fade, occ[i], product[i], sum[i], largest[i]);
+PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict occ, float zp,
+                                   float inv_fade, float* __restrict product, float* __restrict sum,
+                                   float* __restrict largest) {
+  for (size_t i = 0; i < m; ++i) accumulate_one(z[i], zp, inv_fade, occ[i], product[i], sum[i], largest[i]);
 }
 
 // Whether a kernel meets the R x R texture (the same test as the filters' clipping; outside
@@ -553,12 +555,11 @@ PENUMBRA_OT_CLONES size_t kernels_meeting_texture(size_t m, const float* __restr
 
 // accumulate() for the kernels meets[0..a) (occ[j] belongs to point meets[j]).
 PENUMBRA_OT_CLONES void accumulate_at(size_t a, const uint32_t* __restrict meets, const float* __restrict z,
-                                      const float* __restrict occ, const shader::OtSetup& setup, float zp,
-                                      float inv_fade, float* __restrict product, float* __restrict sum,
-                                      float* __restrict largest) {
+                                      const float* __restrict occ, float zp, float inv_fade,
+                                      float* __restrict product, float* __restrict sum, float* __restrict largest) {
   for (size_t j = 0; j < a; ++j) {
     const uint32_t i = meets[j];
-    accumulate_one(setup, z[i], zp, inv_fade, occ[j], product[i], sum[i], largest[i]);
+    accumulate_one(z[i], zp, inv_fade, occ[j], product[i], sum[i], largest[i]);
   }
 }
 
@@ -574,7 +575,8 @@ PENUMBRA_OT_CLONES void accumulate_at(size_t a, const uint32_t* __restrict meets
 // lookup: with a small light most of a wide receiver lies outside the frustum fitted to the
 // light (§3.4), and filtering those zeros was what made small lights slower to shade.
 template <class F>
-void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> out, LookupCounters& n) const {
+void OcclusionTextures::shade_batch(const F& filter, Batch& b, bool open, std::span<float> out,
+                                    LookupCounters& n) const {
   const size_t count = b.points.size();
   const int S = options_.slices;
   for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion,
@@ -584,7 +586,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
   b.meets.resize(count);
   b.above.resize(count);
   // The whole depth range's slices (the batch's points reach no tile with slices of its own).
-  const shader::OtSlicing slicing = shader::ot_slicing(setup_, top_, thickness_);
+  const shader::OtSlicing slicing = shader::ot_slicing(setup_, top_, thickness_, open);
   // Slices above each point, and a counting sort by that number, descending.
   uint32_t bucket[33] = {};
   const Vec3f right = view_.right(), up = view_.up();
@@ -622,7 +624,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
     const size_t inside = count_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), setup_.R);
     if (4 * inside >= 3 * m) {
       filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
-      accumulate(m, b.z.data(), b.occlusion.data(), setup_, zp, slicing.inv_fade, b.product.data(), b.sum.data(),
+      accumulate(m, b.z.data(), b.occlusion.data(), zp, slicing.inv_fade, b.product.data(), b.sum.data(),
                  b.largest.data());
     } else {
       const size_t a = kernels_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), setup_.R, b.meets.data(),
@@ -631,7 +633,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
       n.outside += m - a;
       if (a > 0) {
         filter.squares(k, a, b.meets_cx.data(), b.meets_cy.data(), b.meets_side.data(), b.occlusion.data(), n);
-        accumulate_at(a, b.meets.data(), b.z.data(), b.occlusion.data(), setup_, zp, slicing.inv_fade,
+        accumulate_at(a, b.meets.data(), b.z.data(), b.occlusion.data(), zp, slicing.inv_fade,
                       b.product.data(), b.sum.data(), b.largest.data());
       }
     }
@@ -641,7 +643,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, std::span<float> 
 }
 
 template <class F>
-bool OcclusionTextures::tiled_point(const F& filter, Vec3f p, float* v, LookupCounters& n) const {
+bool OcclusionTextures::tiled_point(const F& filter, Vec3f p, bool open, float* v, LookupCounters& n) const {
   if (tiles_side_ <= 1 || !has_casters_) return false;
   const Vec3f q = p - light_.center;
   const float z = dot(q, light_.forward);
@@ -653,23 +655,23 @@ bool OcclusionTextures::tiled_point(const F& filter, Vec3f p, float* v, LookupCo
   // ot_visibility's tiled path, with the reach found above.
   shader::OtCounters c{};
   *v = shader::ot_visibility_tiled(setup_, tiles, filter.shared(), reinterpret_cast<const float*>(slice_bounds_.data()),
-                                   u, w, z, reach, c);
+                                   u, w, z, reach, open, c);
   n.lookups += c.lookups, n.reads += c.reads, n.outside += c.outside, n.strips += c.strips;
   return true;
 }
 
-float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters) const {
+float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters, bool open) const {
   LookupCounters local;
   LookupCounters& n = counters ? *counters : local;
   float tiled = 0;
-  if (dispatch([&](const auto& f) { return tiled_point(f, p, &tiled, n); })) return tiled;
+  if (dispatch([&](const auto& f) { return tiled_point(f, p, open, &tiled, n); })) return tiled;
   Batch b;
   b.reset(1);
   b.points[0] = p;
   b.targets[0] = 0;
   b.horizon[0] = 1.0f;
   float v = 0;
-  dispatch([&](const auto& f) { shade_batch(f, b, std::span<float>(&v, 1), n); });
+  dispatch([&](const auto& f) { shade_batch(f, b, open, std::span<float>(&v, 1), n); });
   return v;
 }
 
@@ -716,31 +718,37 @@ void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const Vi
       end[y - y0] = x1 < window.width() ? first_at_or_after(y, x1) : row[y + 1];
       n += end[y - y0] - begin[y - y0];
     }
-    b.reset(n);
-    size_t j = 0;
     LookupCounters counters;
-    for (int y = y0; y < y1; ++y)
-      for (uint32_t i = begin[y - y0]; i < end[y - y0]; ++i) {
-        const ViewSample& s = vs.samples[i];
-        const float h = shader::ot_horizon(setup_, s.p, s.ng, scene.objects[s.object].closed);
-        if (!(h > 0)) {  // all of the light is behind the receiver's own surface
-          visibility[i] = 0;
-          continue;
+    // Receivers on closed objects, then those on open surfaces: each kind its own fade-in
+    // (occlusion_shared.h ot_slicing), a batch each.
+    for (const bool open : {false, true}) {
+      b.reset(n);
+      size_t j = 0;
+      for (int y = y0; y < y1; ++y)
+        for (uint32_t i = begin[y - y0]; i < end[y - y0]; ++i) {
+          const ViewSample& s = vs.samples[i];
+          const bool closed = scene.objects[s.object].closed;
+          if (closed == open) continue;
+          const float h = shader::ot_horizon(setup_, s.p, s.ng, closed);
+          if (!(h > 0)) {  // all of the light is behind the receiver's own surface
+            visibility[i] = 0;
+            continue;
+          }
+          // Kernels reaching a tile with slices of its own: the tiles' pieces, point by point (the
+          // GPU's function); the others in the batch, slice by slice.
+          if (float v = 0; tiled_point(filter, s.p, open, &v, counters)) {
+            visibility[i] = v * h;
+            continue;
+          }
+          b.points[j] = s.p;
+          b.targets[j] = i;
+          b.horizon[j] = h;
+          ++j;
         }
-        // Kernels reaching a tile with slices of its own: the tiles' pieces, point by point (the
-        // GPU's function); the others in the batch, slice by slice.
-        if (float v = 0; tiled_point(filter, s.p, &v, counters)) {
-          visibility[i] = v * h;
-          continue;
-        }
-        b.points[j] = s.p;
-        b.targets[j] = i;
-        b.horizon[j] = h;
-        ++j;
-      }
-    b.reset(j);
-    shade_batch(filter, b, visibility, counters);
-    for (size_t k = 0; k < j; ++k) visibility[b.targets[k]] *= b.horizon[k];
+      b.reset(j);
+      shade_batch(filter, b, open, visibility, counters);
+      for (size_t k = 0; k < j; ++k) visibility[b.targets[k]] *= b.horizon[k];
+    }
     lookups.fetch_add(counters.lookups, std::memory_order_relaxed);
     reads.fetch_add(counters.reads, std::memory_order_relaxed);
     outside.fetch_add(counters.outside, std::memory_order_relaxed);

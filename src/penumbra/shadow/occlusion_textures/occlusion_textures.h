@@ -64,6 +64,7 @@ struct Options {
   Combine combine = Combine::Product;
   bool thin_fix = false;   // also fill the next slice farther from the light (§3.4, Fig. 6)
   float fade = 1.0f;       // fade-in length of the slice just above a point, in slice thicknesses
+  float open_fade = 0.25f;  // ... above a point on an open surface (occlusion_shared.h ot_slicing)
   float cop_distance = 0;  // d in world units; 0 = fitted to the casters
   bool cull_planar = true; // skip planar objects that cannot shadow anything (ground planes)
   bool cull_back_faces = true;   // closed objects: slice only the faces toward the centre of projection
@@ -97,7 +98,8 @@ class OcclusionTextures {
   // occlusion_shared.h ot_horizon); records the phase "shading" and the lookups.
   void shade(const Scene& scene, const ViewSamples& samples, std::span<float> visibility, MethodStats* stats) const;
   // V of the slices at one point (no horizon: the point has no surface), and the lookups it made.
-  float visibility(Vec3f p, LookupCounters* counters = nullptr) const;
+  // `open`: p lies on an open surface (the fade-in of open_fade).
+  float visibility(Vec3f p, LookupCounters* counters = nullptr, bool open = false) const;
 
   // What build() chose (for tests, statistics and the docs).
   bool has_casters() const { return has_casters_; }
@@ -136,7 +138,7 @@ class OcclusionTextures {
  private:
   struct Batch;
   template <class F>
-  void shade_batch(const F& filter, Batch& batch, std::span<float> out, LookupCounters& n) const;
+  void shade_batch(const F& filter, Batch& batch, bool open, std::span<float> out, LookupCounters& n) const;
   template <class F>
   void shade_with(const F& filter, const Scene& scene, const ViewSamples& samples, std::span<float> visibility,
                   LookupCounters& total) const;
@@ -145,7 +147,7 @@ class OcclusionTextures {
   // V at p through the tiles' pieces when its kernels reach a tile with slices of its own
   // (true; the lookups added to n), else false: the batch's slice-by-slice lookups serve it.
   template <class F>
-  bool tiled_point(const F& filter, Vec3f p, float* v, LookupCounters& n) const;
+  bool tiled_point(const F& filter, Vec3f p, bool open, float* v, LookupCounters& n) const;
   int fitted_tiles() const;
   void set_tiles(int tiles);
   void fit_tiles(const Scene& scene);

@@ -134,9 +134,9 @@ TEST_F(OcclusionTexturesGpu, EveryParameterWorksAsOnTheCpu) {
   const Scene scene = shipped_scene("bunny.json", 32);
   for (const std::vector<std::string>& p : std::vector<std::vector<std::string>>{
            {"resolution=64", "slices=7", "combine=sum", "thin_fix=true"},
-           {"resolution=128", "slices=32", "combine=max", "fade=0", "prefilter=mipmap"},
+           {"resolution=128", "slices=32", "combine=max", "fade=0", "open_fade=0", "prefilter=mipmap"},
            {"resolution=64", "cop_distance=3", "cull_planar=false", "cull_back_faces=false", "prefilter=sat"},
-           {"resolution=32", "slices=1", "fade=4", "thin_fix=true"},
+           {"resolution=32", "slices=1", "fade=4", "open_fade=2", "thin_fix=true"},
            {"resolution=128", "tiles=8"},
            {"resolution=64", "tiles=2", "prefilter=mipmap", "combine=sum"},
            {"resolution=128", "tiles=16", "prefilter=sat", "thin_fix=true"}}) {

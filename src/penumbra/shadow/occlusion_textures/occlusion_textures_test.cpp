@@ -304,6 +304,11 @@ TEST(OcclusionTextures, TheSliceJustAbovePointFadesIn) {
   EXPECT_NEAR(ot.visibility({0, 2 - 1.25f - 0.0625f, 0}), 0.75f, 1e-3f);  // a quarter of the way
   EXPECT_NEAR(ot.visibility({0, 2 - 1.25f - 0.125f, 0}), 0.5f, 1e-3f);
   EXPECT_NEAR(ot.visibility({0, 2 - 1.6f, 0}), 0.0f, 1e-6f);
+  // A point on an open surface fades the slice in over open_fade (a quarter) thicknesses: half
+  // way at 1/32 below the plane, whole at 1/16, where a closed object's point has a quarter.
+  EXPECT_NEAR(ot.visibility({0, 2 - 1.25f - 0.03125f, 0}, nullptr, /*open=*/true), 0.5f, 1e-3f);
+  EXPECT_NEAR(ot.visibility({0, 2 - 1.25f - 0.0625f, 0}, nullptr, /*open=*/true), 0.0f, 1e-3f);
+  EXPECT_NEAR(ot.visibility({0, 2 - 1.1f, 0}, nullptr, /*open=*/true), 1.0f, 1e-6f);  // its own slice: skipped
   o.fade = 0;  // no fade: full weight as soon as the point is past the plane
   OcclusionTextures hard(o);
   hard.build(scene, scene.lights[0], &stats);

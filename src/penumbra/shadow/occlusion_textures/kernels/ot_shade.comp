@@ -48,7 +48,7 @@ void main() {
       float v = 0.0f;
       // The tiles' slices follow the set-up in its buffer (occlusion_shared.h OtSetup).
       Floats tiles = Floats(pc.p.setup + uint64_t(kOtSetupBytes));
-      if (horizon > 0.0f) v = ot_visibility(SetupRef(pc.p.setup).s, tiles, t, Floats(pc.p.bounds), s.p, n) * horizon;
+      if (horizon > 0.0f) v = ot_visibility(SetupRef(pc.p.setup).s, tiles, t, Floats(pc.p.bounds), s.p, !closed, n) * horizon;
       Floats(pc.p.visibility).v[i] = v;
     }
   }
