@@ -200,12 +200,7 @@ json scene_entry(const Comparison& c, const std::string& name) {
               {"speedup_basis", c.speedup_basis},
               {"reference_shadow_ms", c.speedup_basis_ms},
               {"methods", ms}};
-  if (!c.object_groups.empty()) {
-    json groups = json::array();
-    for (const ObjectGroup& g : c.object_groups)
-      groups.push_back({{"pattern", g.pattern}, {"objects", g.objects}, {"pixels", g.pixels}});
-    out["object_groups"] = groups;
-  }
+  if (!c.object_groups.empty()) out["object_groups"] = object_groups_json(c.object_groups);
   // The Embree scene every method's renderer builds alike: the first successful run's.
   for (const MethodRun& r : c.runs)
     if (r.ok && !r.tracer.is_null()) {

@@ -64,9 +64,16 @@ TEST(Bench, SuitesAreDefined) {
 // JSON (by pattern) and in a table of the Markdown. The ground truth goes to a cache of its own.
 TEST(Bench, ObjectGroupsGiveEachMethodsErrorWhereItLives) {
   testing::TempDir dir;
-  const char* old = std::getenv("PENUMBRA_CACHE_DIR");
-  const std::string saved = old ? old : "";
-  setenv("PENUMBRA_CACHE_DIR", (dir / "cache").c_str(), 1);
+  // The ground truth's cache for this test alone, the variable as it was afterwards.
+  struct CacheDir {
+    const char* old = std::getenv("PENUMBRA_CACHE_DIR");
+    std::string saved = old ? old : "";
+    explicit CacheDir(const std::string& path) { setenv("PENUMBRA_CACHE_DIR", path.c_str(), 1); }
+    ~CacheDir() {
+      if (old) setenv("PENUMBRA_CACHE_DIR", saved.c_str(), 1);
+      else unsetenv("PENUMBRA_CACHE_DIR");
+    }
+  } cache_dir((dir / "cache").string());
   BenchOptions o;
   o.suite = tiny_suite();
   o.suite.reference_spp = 16;
@@ -75,7 +82,6 @@ TEST(Bench, ObjectGroupsGiveEachMethodsErrorWhereItLives) {
   o.suite.object_groups = {{"contact", {"ground", "b*"}}};
   o.methods = {"hard"};
   const json r = run_bench(o);
-  if (old) setenv("PENUMBRA_CACHE_DIR", saved.c_str(), 1); else unsetenv("PENUMBRA_CACHE_DIR");
   const json& scene = r["scenes"][0];
   ASSERT_EQ(scene["object_groups"].size(), 2u) << scene.dump();
   EXPECT_EQ(scene["object_groups"][1]["pattern"], "b*");

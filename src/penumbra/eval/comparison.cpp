@@ -692,6 +692,12 @@ FrameSequence frame_sequence_from_json(const json& j) {
   return f;
 }
 
+json object_groups_json(const std::vector<ObjectGroup>& groups) {
+  json out = json::array();
+  for (const ObjectGroup& g : groups) out.push_back({{"pattern", g.pattern}, {"objects", g.objects}, {"pixels", g.pixels}});
+  return out;
+}
+
 json comparison_json(const Comparison& c) {
   json methods = json::array();
   for (const MethodRun& r : c.runs) methods.push_back(method_run_json(r));
@@ -714,12 +720,7 @@ json comparison_json(const Comparison& c) {
             {"command", c.command},
             {"methods", methods}};
   j["ground_truth"] = c.has_ground_truth ? ground_truth_json(c.truth) : json(nullptr);
-  if (!c.object_groups.empty()) {  // absent without --objects
-    json groups = json::array();
-    for (const ObjectGroup& g : c.object_groups)
-      groups.push_back({{"pattern", g.pattern}, {"objects", g.objects}, {"pixels", g.pixels}});
-    j["object_groups"] = groups;
-  }
+  if (!c.object_groups.empty()) j["object_groups"] = object_groups_json(c.object_groups);  // absent without --objects
   // Derived (not read back): the methods above `hard`'s error, when hard ran (issue 34).
   for (const MethodRun& r : c.runs)
     if (r.ok && r.method == "hard" && c.has_ground_truth) j["worse_than_hard"] = worse_than_hard(c);

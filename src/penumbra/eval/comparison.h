@@ -152,6 +152,9 @@ Comparison comparison_header(const RunSetup& setup, const Scene& scene);
 // message. `progress` (optional) is advanced while rendering.
 MethodRun compare_method(const RunSetup& setup, const Scene& scene, const std::string& label, const GroundTruth* truth,
                          const CompareOptions& options, Progress* progress = nullptr);
+// The groups of `--objects` as results.json and the bench's JSON hold them: pattern, objects
+// matched, pixels (no masks).
+nlohmann::json object_groups_json(const std::vector<ObjectGroup>& groups);
 // A method's error columns (V errors, colour PSNR, FLIP) from its first render's images:
 // compare_method does it when given the ground truth; penumbra.distributed renders a method
 // while the ground truth is still being rendered elsewhere, and measures it after.
