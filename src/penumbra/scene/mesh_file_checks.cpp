@@ -448,8 +448,28 @@ void check_gltf(const fs::path& path, std::ifstream& f, bool binary) {
   } else {
     json_text.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
   }
-  const nlohmann::json doc = nlohmann::json::parse(json_text, nullptr, /*allow_exceptions=*/false);
-  if (!doc.is_object()) return;  // not JSON: Assimp reports it
+  // Text that starts like a JSON object must be JSON. Assimp's parser (rapidjson) accepts
+  // text nlohmann refuses, ill-formed UTF-8 in a key above all, and then reads the accessors
+  // of a document these checks never saw (fuzz_mesh, 2026-11-28: a key "sc\xe5ne" and an
+  // accessor reading past its view). Anything else is not glTF: Assimp reports it (or reads
+  // it as the OBJ or STEP text it sniffs, which check_obj_elements and its own readers check).
+  const size_t bom = json_text.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0;
+  const size_t first = json_text.find_first_not_of(" \t\r\n", bom);
+  if (first == std::string::npos || json_text[first] != '{') return;
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(json_text);
+  } catch (const nlohmann::json::exception& e) {
+    // what(): "[json.exception.parse_error.101] parse error at line 1, column 95: ...; last
+    // read: '...'": from "line", one line of printable ASCII (the bytes read may be anything).
+    std::string msg = e.what();
+    const size_t at = msg.find("at line ");
+    if (at != std::string::npos) msg = msg.substr(at + 3);
+    for (char& c : msg)
+      if (c < 32 || c >= 127) c = '?';
+    throw Error("{}: invalid glTF JSON: {}", path.string(), msg);
+  }
+  if (!doc.is_object()) return;
   GltfBounds(path, doc, bin_size).check();
 }
 

@@ -144,6 +144,16 @@ TEST(MeshImport, ErrorsNameTheFile) {
   write_text_file_atomic(dir / "ok.gltf", gltf_head + R"("accessors": [{"bufferView": 0, "byteOffset": 0,
       "componentType": 5126, "count": 3, "type": "VEC3", "max": [1, 1, 0], "min": [0, 0, 0]}]})");
   EXPECT_EQ(import_mesh(dir / "ok.gltf").triangle_count(), 1u);
+  // Found by fuzz_mesh (2026-11-28): the same accessor behind a key of ill-formed UTF-8, which
+  // Assimp's JSON parser accepts and the checks' parser refused, so they let it through.
+  std::string bad_utf8 = gltf_head;
+  bad_utf8.replace(bad_utf8.find("\"scene\""), 7, "\"sc\xe5ne\"");
+  write_text_file_atomic(dir / "utf8.gltf", bad_utf8 + R"("accessors": [{"bufferView": 0, "byteOffset": 5,
+      "componentType": 5126, "count": 3, "type": "VEC3", "max": [1, 1, 0], "min": [0, 0, 0]}]})");
+  msg = error_message([&] { import_mesh(dir / "utf8.gltf"); });
+  EXPECT_EQ(msg.rfind((dir / "utf8.gltf").string() + ": invalid glTF JSON: line 1, column ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("ill-formed UTF-8 byte"), std::string::npos) << msg;
+  EXPECT_EQ(std::count_if(msg.begin(), msg.end(), [](char c) { return c < 32 || c >= 127; }), 0) << msg;
   std::string long_view = gltf_head, long_buffer = gltf_head;
   long_view.replace(long_view.rfind("\"byteLength\": 36}],"), 21, "\"byteLength\": 48}],");
   write_text_file_atomic(dir / "view.gltf", long_view + R"("accessors": []})");
