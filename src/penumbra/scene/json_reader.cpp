@@ -245,8 +245,14 @@ json parse_json_text(std::string_view text, const std::string& name) {
     std::string msg = e.what();
     size_t at = msg.find("at line ");
     msg = at != std::string::npos ? msg.substr(at + 3) : fmt::format("byte {}: {}", e.byte, msg);
-    for (char& c : msg)
-      if (c == '\n' || c == '\r') c = ' ';
+    // One line; the bytes it quotes ("last read: '...'") as printable text where they are
+    // ill-formed UTF-8 (else they would pass the bad bytes on to the terminal or a log).
+    const bool bad_utf8 = msg.find("ill-formed UTF-8") != std::string::npos;
+    for (char& c : msg) {
+      const auto u = static_cast<unsigned char>(c);
+      if (u < 32 || u == 127) c = ' ';
+      else if (bad_utf8 && u >= 128) c = '?';
+    }
     throw Error("{}: invalid JSON: {}", name, msg);
   } catch (const json::out_of_range& e) {
     // Numbers beyond double range (1e400): "number overflow parsing '1e400'".

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
 
 #include "penumbra/core/file_util.h"
@@ -350,6 +351,11 @@ TEST(SceneFile, RejectsBadJsonTextNamingFileAndPosition) {
   std::string syntax = load_text("{\n  \"camera\": {\n    \"eye\": [0, 1, 5],,\n");
   EXPECT_NE(syntax.find("scenes/t.json: invalid JSON: line 3, column"), std::string::npos) << syntax;
   EXPECT_EQ(syntax.find('\n'), std::string::npos);
+  // A key of ill-formed UTF-8: the message quotes it as printable ASCII.
+  std::string utf8 = load_text("{\"sc\xe5ne\": 0}");
+  EXPECT_NE(utf8.find("scenes/t.json: invalid JSON: line 1, column"), std::string::npos) << utf8;
+  EXPECT_NE(utf8.find("'\"sc?"), std::string::npos) << utf8;
+  EXPECT_EQ(std::count_if(utf8.begin(), utf8.end(), [](char c) { return c < 32 || c >= 127; }), 0) << utf8;
   std::string dup = load_text(R"({"lights": [{"size": [1, 1]}, {"size": [1, 1], "size": [2, 2]}]})");
   EXPECT_EQ(dup, "scenes/t.json: lights[1].size: duplicate key");
   EXPECT_EQ(load_text(""), error_message([] { parse_json_text("", kOrigin); }));
