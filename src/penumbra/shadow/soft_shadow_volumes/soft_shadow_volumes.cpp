@@ -267,10 +267,27 @@ class SoftShadowVolumes final : public ShadowMethod {
     ray.tnear = 0.0f;
     ray.tfar = dist * (1.0f - 1e-5f);
     int32_t count = 0;
-    Hit hit, last;
-    bool any = false;
+    Hit hit, last, previous;
+    bool any = false, any_hit = false;
+    float step = 0.0f;  // how far past a repeated hit the next search starts (doubling)
     for (int guard = 0; guard < 4096 && tracer.intersect(ray, &hit); ++guard) {
       ++*hits;
+      // The triangle just found, found again: a ray meets a triangle once, but Embree's own
+      // distance (its reciprocal's rounding, which differs between its AVX2 and AVX-512
+      // kernels) can put the hit just past the t it reported, so a search from the next float
+      // finds it again, for ever (contact, bunny and plant on an AVX2 machine: the box's
+      // second face never reached, every sample of a penumbra point counted blocked).
+      // Step past it by a growing distance instead.
+      if (any_hit && hit.object == previous.object && hit.prim == previous.prim &&
+          hit.t - previous.t <= 1e-5f * std::max(1.0f, hit.t)) {
+        step = step > 0.0f ? 2.0f * step : std::max(hit.t, 1e-30f) * 1e-7f;
+        ray.tnear = std::max(ray.tnear, hit.t) + step;
+        if (!(ray.tnear < ray.tfar)) break;
+        continue;
+      }
+      previous = hit;
+      any_hit = true;
+      step = 0.0f;
       if (counted_[hit.object][hit.prim]) {
         const bool same_crossing = any && hit.object == last.object &&
                                    hit.t - last.t <= 1e-6f * std::max(1.0f, hit.t) &&
