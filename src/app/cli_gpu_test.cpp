@@ -219,8 +219,8 @@ TEST_F(CliGpu, TheGpuBenchSuiteWithoutItsCpuSide) {
   ASSERT_TRUE(m.value("ok", false)) << m.dump();
   EXPECT_FALSE(m.contains("cpu"));
   EXPECT_FALSE(m.contains("cpu_over_gpu"));
-  // Two runs, or one where the first frame took over 2 s (the bench's rule for slow methods;
-  // lavapipe's first frame at 32 x 32 has, with another test busy on both cores).
+  // Two runs, or one where the first frame took over 2 s (the bench's rule for slow methods),
+  // as lavapipe's first frame at 32 x 32 once did with another test busy on both cores.
   const size_t runs = m["gpu"]["first_frame_ms"].value("total", 0.0) > 2000.0 ? 1 : 2;
   EXPECT_EQ(m["gpu"]["runs"], runs);
   EXPECT_EQ(m["gpu"]["run_shadow_ms"].size(), runs);

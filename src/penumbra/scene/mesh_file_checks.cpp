@@ -451,8 +451,8 @@ void check_gltf(const fs::path& path, std::ifstream& f, bool binary) {
   // Text that starts like a JSON object must be JSON. Assimp's parser (rapidjson) accepts
   // text nlohmann refuses, ill-formed UTF-8 in a key above all, and then reads the accessors
   // of a document these checks never saw (fuzz_mesh, 2026-11-28: a key "sc\xe5ne" and an
-  // accessor reading past its view). Anything else is not glTF: Assimp reports it (or reads
-  // it as the OBJ or STEP text it sniffs, which check_obj_elements and its own readers check).
+  // accessor reading past its view). Anything else is not glTF: Assimp's glTF reader
+  // refuses it (and check_obj_elements below still checks it as OBJ text).
   const size_t bom = json_text.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0;
   const size_t first = json_text.find_first_not_of(" \t\r\n", bom);
   if (first == std::string::npos || json_text[first] != '{') return;
