@@ -273,10 +273,11 @@ class SoftShadowVolumes final : public ShadowMethod {
     for (int guard = 0; guard < 4096 && tracer.intersect(ray, &hit); ++guard) {
       ++*hits;
       // The triangle just found, found again: a ray meets a triangle once, but Embree's
-      // distance test can accept it again from the float after the t it reported (seen on an
-      // AVX2 machine, not on AVX-512 ones: on the contact scene 4,096 repeats, the box's far
-      // face never reached, every sample of a penumbra point counted blocked). Step past it
-      // by a growing distance instead (at least one float: 1e-7 of t is over half an ulp).
+      // distance test can accept it again from the float after the t it reported (seen on one
+      // machine with AVX2 and no AVX-512, never before: on the contact scene 4,096 repeats,
+      // the box's far face never reached, every sample of a penumbra point counted blocked).
+      // Step past it by a growing distance instead (at least one float: 1e-7 of t is over
+      // half an ulp).
       if (any_hit && hit.object == previous.object && hit.prim == previous.prim &&
           hit.t - previous.t <= 1e-5f * std::max(1.0f, hit.t)) {
         step = step > 0.0f ? 2.0f * step : std::max(hit.t, 1e-30f) * 1e-7f;
