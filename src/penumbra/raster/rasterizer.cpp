@@ -610,6 +610,18 @@ void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& 
   out->width = width;
   out->height = view.height();
   out->masks.resize(static_cast<size_t>(width) * view.height());
+  const size_t plane = static_cast<size_t>(width) * view.height();
+  // Zeros where no fragment is: an array of the same size is cleared in parallel; a new one comes
+  // from zeroed pages, of which only those a bin covers are ever written.
+  const size_t nearest_size = bins.nearest ? plane * static_cast<size_t>(bins.count) : 0;
+  if (out->nearest.size() == nearest_size) {
+    parallel_for(nearest_size, size_t{1} << 18, [&](size_t b, size_t e) {
+      std::fill(out->nearest.begin() + b, out->nearest.begin() + e, 0.0f);
+    });
+  } else {
+    decltype(out->nearest)().swap(out->nearest);
+    out->nearest.resize(nearest_size);
+  }
   im.fragments = 0;
   const shader::RasterDepthBins depth_bins = shader::raster_depth_bins(bins.first, bins.width, bins.count);
   dispatch_projection(view, [&](auto perspective) {
@@ -620,6 +632,13 @@ void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& 
       const TexelRect rect{x0, y0, x1, y1, static_cast<size_t>(width)};
       uint32_t* masks = out->masks.data() + rect.y0 * rect.stride + rect.x0;
       for (int y = y0; y < y1; ++y) std::fill(masks + rect.index(x0, y), masks + rect.index(x1, y), 0u);
+      // The bins' nearest depths: bin k's plane at nearest + k * plane, the tile's corner as masks'
+      // (0: none yet; the depths are positive).
+      float* nearest = bins.nearest ? out->nearest.data() + rect.y0 * rect.stride + rect.x0 : nullptr;
+      auto keep_nearest = [&](size_t i, int k, float z) {
+        float& n = nearest[static_cast<size_t>(k) * plane + i];
+        if (n == 0.0f || z < n) n = z;
+      };
       size_t frags = 0;
       // Per-tile bins: one record when this raster tile lies in one bins tile, else one per texel.
       shader::RasterDepthBins tile_record = depth_bins;
@@ -635,7 +654,10 @@ void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& 
             ++frags;
             const shader::RasterDepthBins& b =
                 tile_bins.records[shader::raster_bins_tile(x, y, tile_bins.shift, tile_bins.columns)];
-            masks[i] |= 1u << shader::raster_depth_bin(b, linear_depth<kPerspective>(v, near, far));
+            const float z = linear_depth<kPerspective>(v, near, far);
+            const int k = shader::raster_depth_bin(b, z);
+            masks[i] |= 1u << k;
+            if (nearest) keep_nearest(i, k, z);
           });
         im.fragments.fetch_add(frags, std::memory_order_relaxed);
         return;
@@ -649,6 +671,16 @@ void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& 
         const float lo = t.v0 + std::min(0.0f, ex) + std::min(0.0f, ey), hi = t.v0 + std::max(0.0f, ex) + std::max(0.0f, ey);
         const float margin = 1e-5f * std::max(std::abs(lo), std::abs(hi));
         const int k_lo = bin(lo - margin), k_hi = bin(hi + margin);
+        if (nearest) {
+          scan_fragments(t, rect, im.alpha, [&](size_t i, float v, float) {
+            ++frags;
+            const float z = linear_depth<kPerspective>(v, near, far);
+            const int k = shader::raster_depth_bin(tile_record, z);
+            masks[i] |= 1u << k;
+            keep_nearest(i, k, z);
+          });
+          continue;
+        }
         if (k_lo == k_hi) {
           const uint32_t bit = 1u << k_lo;
           scan_fragments(t, rect, im.alpha, [&](size_t i, float, float) {

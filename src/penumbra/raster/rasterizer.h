@@ -26,6 +26,8 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdlib>
+#include <new>
 #include <functional>
 #include <memory>
 #include <span>
@@ -83,6 +85,7 @@ struct DepthBins {
   int count = 1;  // 1..32
   std::span<const Vec2f> tiles;
   int tile_side = 0;
+  bool nearest = false;  // also keep each bin's nearest depth per texel (DepthBinMasks::nearest)
 };
 
 // DepthBins::tiles as the bins' records (raster_bins_shared.h), checked for a width x height
@@ -97,10 +100,42 @@ TileDepthBins tile_depth_bins(const DepthBins& bins, int width, int height, std:
 
 // One bit per depth bin and texel: bit k of masks[y * width + x] is set when some fragment
 // through the texel centre lies in bin k (eisemann2006 §3.4's slices as packed bit channels).
+// An allocator whose memory comes zeroed from calloc and whose elements are left as they come:
+// a large array of zeros costs only the pages that are written (the OS maps zero pages lazily),
+// not a memset of the whole.
+template <class T>
+struct ZeroedAllocator {
+  using value_type = T;
+  ZeroedAllocator() = default;
+  template <class U>
+  ZeroedAllocator(const ZeroedAllocator<U>&) {}
+  T* allocate(size_t n) {
+    if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
+    throw std::bad_alloc();
+  }
+  void deallocate(T* p, size_t) { std::free(p); }
+  template <class U>
+  void construct(U*) {}  // value-initialisation: calloc's zeros
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+  template <class U>
+  bool operator==(const ZeroedAllocator<U>&) const { return true; }
+};
+
+// With DepthBins::nearest, also the nearest fragment of each bin through each texel centre:
+// nearest[(k * height + y) * width + x] is the smallest linear depth in bin k there (depths are
+// positive), 0 where bit k is clear (occlusion textures' own slice,
+// docs/methods/occlusion-textures.md). Zeroed pages: slices a scene leaves empty cost nothing.
 struct DepthBinMasks {
   int width = 0, height = 0;
   std::vector<uint32_t> masks;
+  std::vector<float, ZeroedAllocator<float>> nearest;  // empty without DepthBins::nearest
   static uint64_t bytes(int w, int h) { return static_cast<uint64_t>(w) * static_cast<uint64_t>(h) * sizeof(uint32_t); }
+  static uint64_t nearest_bytes(int w, int h, int bins) {
+    return static_cast<uint64_t>(w) * static_cast<uint64_t>(h) * static_cast<uint64_t>(bins) * sizeof(float);
+  }
   size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
   uint32_t at(int x, int y) const { return masks[index(x, y)]; }
 };

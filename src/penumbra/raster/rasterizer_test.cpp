@@ -707,25 +707,40 @@ TEST(Rasterizer, DepthBinMasksAreTheBinsOfTheFragmentLists) {
     Rasterizer raster(16);
     FragmentLists lists;
     raster.fragment_lists(tris, view, {}, &lists);
-    const DepthBins bins{3.0f, 0.37f, 13};  // [3, 7.81): some fragments before, some after
+    DepthBins bins{3.0f, 0.37f, 13};  // [3, 7.81): some fragments before, some after
     DepthBinMasks masks;
     raster.depth_bin_masks(tris, view, {}, bins, &masks);
+    EXPECT_TRUE(masks.nearest.empty());
+    // With each bin's nearest depth (occlusion textures' own slice): the same masks, and the
+    // smallest depth of the bin's fragments, 0 in an empty bin. Twice: a second render into the
+    // same masks clears what the first left.
+    DepthBinMasks nearest;
+    bins.nearest = true;
+    raster.depth_bin_masks(tris, view, {}, bins, &nearest);
+    raster.depth_bin_masks(tris, view, {}, bins, &nearest);
+    ASSERT_EQ(nearest.nearest.size(), static_cast<size_t>(view.width()) * view.height() * bins.count);
     ASSERT_EQ(masks.width, view.width());
     ASSERT_EQ(masks.height, view.height());
     EXPECT_EQ(raster.stats().fragments, lists.total());
     int before = 0, after = 0, multi = 0;
+    const size_t plane = static_cast<size_t>(view.width()) * view.height();
     for (int y = 0; y < view.height(); ++y)
       for (int x = 0; x < view.width(); ++x) {
         uint32_t expect = 0;
+        std::vector<float> lowest(bins.count, 0.0f);
         for (const Fragment& f : lists.at(x, y)) {
           float b = (f.z - bins.first) / bins.width;
           int k = b <= 0 ? 0 : std::min(bins.count - 1, int(b));
           before += b < 0;
           after += b >= bins.count;
           expect |= 1u << k;
+          if (lowest[k] == 0.0f || f.z < lowest[k]) lowest[k] = f.z;
         }
         multi += std::popcount(expect) > 1;
         EXPECT_EQ(masks.at(x, y), expect) << x << "," << y;
+        EXPECT_EQ(nearest.at(x, y), expect) << x << "," << y;
+        for (int k = 0; k < bins.count; ++k)
+          EXPECT_EQ(nearest.nearest[k * plane + nearest.index(x, y)], lowest[k]) << x << "," << y << " bin " << k;
       }
     EXPECT_GT(before, 0);
     EXPECT_GT(after, 0);

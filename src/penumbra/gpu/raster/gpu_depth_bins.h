@@ -22,16 +22,20 @@ class GpuDepthBinMasks {
   uint64_t view_record() const { return view_record_.address(); }
   // The masks copied back (tests and tools).
   DepthBinMasks download() const;
-  uint64_t device_bytes() const { return masks_.bytes() + view_record_.bytes(); }
-  // What a w x h image of masks holds, its view record included.
-  static uint64_t bytes(int w, int h);
+  // With DepthBins::nearest: a float per bin and texel (DepthBinMasks::nearest's layout), else 0.
+  uint64_t nearest() const { return nearest_bins_ > 0 ? nearest_.address() : 0; }
+  int nearest_bins() const { return nearest_bins_; }
+  uint64_t device_bytes() const { return masks_.bytes() + nearest_.bytes() + view_record_.bytes(); }
+  // What a w x h image of masks holds, its view record included (and `nearest_bins` bins'
+  // nearest depths).
+  static uint64_t bytes(int w, int h, int nearest_bins = 0);
 
  private:
   friend class GpuRasterizer;
-  void resize(Device& device, int w, int h);
-  int width_ = 0, height_ = 0;
+  void resize(Device& device, int w, int h, int nearest_bins);
+  int width_ = 0, height_ = 0, nearest_bins_ = 0;
   LightView view_;
-  Buffer masks_, view_record_;
+  Buffer masks_, nearest_, view_record_;
 };
 
 }  // namespace penumbra::gpu

@@ -86,6 +86,11 @@ const MethodRegistration registration({
          "object itself, which the slices cannot show: a solid's faces away from the light read as lit; penumbra's "
          "addition, as vsm's); false: the slices alone, as the paper",
          {}},
+        {"own_slice", ParamType::Bool, true,
+         "open receivers (leaves, cards): also test the slice holding the point, which the paper leaves out (§3.4), by its "
+         "nearest depths per texel, kept by the slicing pass: a shadow map per slice, tested against the receiver's plane "
+         "(penumbra's addition: a canopy's leaves are shadowed by leaves centimetres above, in their own slice)",
+         {}},
         {"tiles", ParamType::Int, 0,
          "light-space tiles a side (a power of two): each tile of the textures is sliced over the depth range of its own "
          "casters instead of the whole scene's, so that a wide scene's slices follow its casters (a tree crown in `slices` "

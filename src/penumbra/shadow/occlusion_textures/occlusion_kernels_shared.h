@@ -68,6 +68,7 @@ struct OtShadeParams {
   uint64_t bounds;      // float[4 slices]
   uint64_t counters;    // OtShadeCounters
   uint64_t scene;       // the GpuScene (the receivers' objects: closed or not)
+  uint64_t nearest;     // the slices' nearest depths (ot_own_slice), 0: own_slice off
   uint slots;
   uint prefilter;   // kOt*
   uint sat_counts;  // the tables hold uint32 counts

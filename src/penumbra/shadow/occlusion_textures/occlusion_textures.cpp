@@ -58,6 +58,7 @@ Options options_from(const ParamSet& p) {
   o.sat_precision = parse_sat_precision(p.get_string("sat_precision"));
   o.combine = parse_combine(p.get_string("combine"));
   o.horizon = p.get_bool("horizon");
+  o.own_slice = p.get_bool("own_slice");
   o.thin_fix = p.get_bool("thin_fix");
   o.fade = p.get_float("fade");
   o.open_fade = p.get_float("open_fade");
@@ -409,6 +410,7 @@ void OcclusionTextures::build(const Scene& scene, const AreaLight& light, Method
 
 DepthBins OcclusionTextures::slicing_bins(std::vector<Vec2f>* tile_storage) const {
   DepthBins bins{d_ + top_, thickness_, options_.slices};
+  bins.nearest = options_.own_slice;  // each slice's nearest depths (ot_own_slice)
   tile_storage->clear();
   if (tiles_side_ > 1) {
     for (const shader::OtTile& t : tiles_) tile_storage->push_back(Vec2f(d_ + t.top, t.thickness));
@@ -436,7 +438,7 @@ size_t OcclusionTextures::texture_bytes() const {
       filter = options_.sat_precision == SatPrecision::UInt32 ? sat32_.memory_bytes() : sat64_.memory_bytes();
       break;
   }
-  return filter + masks_.masks.size() * sizeof(uint32_t);
+  return filter + masks_.masks.size() * sizeof(uint32_t) + masks_.nearest.size() * sizeof(float);
 }
 
 uint64_t OcclusionTextures::texture_bytes(const Options& o) {
@@ -450,7 +452,7 @@ uint64_t OcclusionTextures::texture_bytes(const Options& o) {
                                                         : SatFilter<double>::bytes(R, R, S);
       break;
   }
-  return filter + DepthBinMasks::bytes(R, R);
+  return filter + DepthBinMasks::bytes(R, R) + (o.own_slice ? DepthBinMasks::nearest_bytes(R, R, S) : 0);
 }
 
 template <class Fn>
@@ -760,11 +762,28 @@ void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const Vi
   total.strips += strips.load();
 }
 
+float OcclusionTextures::own_slice_visibility(Vec3f p, Vec3f ng) const {
+  if (!options_.own_slice || !has_casters_ || masks_.nearest.empty()) return 1.0f;
+  return shader::ot_own_slice(setup_, reinterpret_cast<const float*>(tiles_.data()), masks_.nearest.data(), p, ng);
+}
+
 void OcclusionTextures::shade(const Scene& scene, const ViewSamples& vs, std::span<float> visibility,
                               MethodStats* stats) const {
   Timer timer;
   LookupCounters n;
   dispatch([&](const auto& f) { shade_with(f, scene, vs, visibility, n); });
+  if (options_.own_slice && has_casters_ && !masks_.nearest.empty()) {
+    // The receiver's own slice (occlusion_shared.h ot_own_slice), for points on open surfaces.
+    const float* tiles = reinterpret_cast<const float*>(tiles_.data());
+    const float* nearest = masks_.nearest.data();
+    parallel_for(vs.size(), 4096, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) {
+        const ViewSample& s = vs.samples[i];
+        if (visibility[i] > 0 && !scene.objects[s.object].closed)
+          visibility[i] *= shader::ot_own_slice(setup_, tiles, nearest, s.p, s.ng);  // own_slice_visibility
+      }
+    });
+  }
   stats->add_phase("shading", timer.elapsed_ms());
   stats->texels_visited += n.reads;
   auto add = [&](const char* key, uint64_t value) {

@@ -23,7 +23,9 @@
 // one filtered lookup gives the occluded fraction I_k. V = prod_k (1 - w_k I_k) (eq. 5), or
 // 1 - sum, or 1 - max (with tiles, each slice's kernel in pieces, one per tile, at each tile's
 // own plane: occlusion_shared.h ot_visibility_tiled). The slice containing P is skipped; w_k fades the slice just above P
-// in linearly over `fade` slice thicknesses below its plane (self-shadowing, §3.4). On a closed
+// in linearly over `fade` slice thicknesses below its plane (self-shadowing, §3.4); a point on an
+// open surface also tests its own slice's nearest depths (`own_slice`, penumbra's addition,
+// occlusion_shared.h ot_own_slice). On a closed
 // object V is then multiplied by the part of the light above the receiver's tangent plane
 // (`horizon`, penumbra's addition, as vsm's): the slices cannot show a solid hiding the light
 // from its own far side.
@@ -69,6 +71,7 @@ struct Options {
   bool cull_planar = true; // skip planar objects that cannot shadow anything (ground planes)
   bool cull_back_faces = true;   // closed objects: slice only the faces toward the centre of projection
   bool horizon = true;     // closed receivers: V times the light's part above their tangent plane
+  bool own_slice = true;   // open receivers: their own slice's nearest depths tested (ot_own_slice)
   int tiles = 0;           // light-space tiles a side, each sliced over its own casters' depth range; 0 = fitted
 };
 
@@ -100,6 +103,9 @@ class OcclusionTextures {
   // V of the slices at one point (no horizon: the point has no surface), and the lookups it made.
   // `open`: p lies on an open surface (the fade-in of open_fade).
   float visibility(Vec3f p, LookupCounters* counters = nullptr, bool open = false) const;
+  // The own slice's V at a point on an open surface with geometric normal ng (occlusion_shared.h
+  // ot_own_slice; shade() multiplies the slices' V by it): 1 with own_slice off or no casters.
+  float own_slice_visibility(Vec3f p, Vec3f ng) const;
 
   // What build() chose (for tests, statistics and the docs).
   bool has_casters() const { return has_casters_; }

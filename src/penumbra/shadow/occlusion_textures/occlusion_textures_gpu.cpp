@@ -92,6 +92,7 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     p.bounds = bounds_.address();
     p.counters = counters_.address();
     p.scene = frame.scene->address();
+    p.nearest = options_.own_slice ? masks_.nearest() : 0;
     p.slots = frame.slots;
     p.prefilter = shared_prefilter(options_.prefilter);
     p.sat_counts = options_.sat_precision == occlusion::SatPrecision::UInt32 ? 1u : 0u;
@@ -120,7 +121,7 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     const Options o = occlusion::options_from(params);
     const int R = o.resolution;
     MemoryTally tally;
-    tally.add(gpu::GpuDepthBinMasks::bytes(R, R) + textures_bytes(o), "resolution");
+    tally.add(gpu::GpuDepthBinMasks::bytes(R, R, o.own_slice ? o.slices : 0) + textures_bytes(o), "resolution");
     tally.add(gpu::GpuRasterizer::scratch_bytes(q.triangles, R, R) + q.triangles * sizeof(uint32_t),
               kTrianglesSetting);
     tally.add(sizeof(shader::OtSetup) + 4 * sizeof(float) * shader::kOtMaxSlices + sizeof(shader::OtShadeCounters),

@@ -4,7 +4,8 @@
 // texel centre of the tile the triangle covers (raster_fill's coverage and depth, the CPU's:
 // raster_scan.glsl) is a fragment; an alpha-textured triangle's mask holes drop it. The fragment
 // sets the bit of its depth bin in the texel's mask by atomicOr: the masks do not depend on the
-// order fragments come in.
+// order fragments come in. With `nearest`, it also keeps the bin's nearest depth by atomicMin
+// (the CPU's DepthBinMasks::nearest, an order-independent minimum too).
 // eisemann2006 §3.4: the paper writes one colour channel per slice with blending (one
 // rasterization pass of the scene, the slice's channel chosen by the fragment's depth); here a
 // compute thread ORs the slice's bit into the texel's word.
@@ -23,7 +24,10 @@ void raster_visit(uint texel, float z, uint source, float opacity) {
     int x = int(texel % uint(pc.p.width)), y = int(texel / uint(pc.p.width));
     bins = TileBins(pc.p.tile_bins).b[raster_bins_tile(x, y, pc.p.tile_shift, pc.p.tile_columns)];
   }
-  atomicOr(Uints(pc.p.fill.keys).v[texel], 1u << uint(raster_depth_bin(bins, z)));
+  int k = raster_depth_bin(bins, z);
+  atomicOr(Uints(pc.p.fill.keys).v[texel], 1u << uint(k));
+  // The bin's nearest depth (z >= 0: its bits order as the floats do).
+  if (pc.p.nearest != 0ul) atomicMin(Uints(pc.p.nearest).v[uint(k) * pc.p.plane + texel], floatBitsToUint(max(z, 0.0f)));
 }
 
 #include "penumbra/gpu/raster/raster_scan.glsl"

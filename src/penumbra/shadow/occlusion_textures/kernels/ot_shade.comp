@@ -3,7 +3,7 @@
 // slot, occlusion_shared.h's ot_visibility, the CPU's function: the slices above the point, its
 // kernel on each (eq. 4), one prefiltered lookup each (trilinear mipmap, N-buffer or summed-area
 // table, §3.2), combined by eq. 5, times the horizon of a closed receiver (ot_horizon; none left:
-// 0 without lookups). Lookups, texels read, kernels outside the texture and elongated
+// 0 without lookups), or for an open receiver times its own slice's test (ot_own_slice). Lookups, texels read, kernels outside the texture and elongated
 // kernels are counted per subgroup, then one atomic each.
 // eisemann2006 §3.2: the paper's lookups are the texture units' trilinear (anisotropic) filtering
 // of mipmapped RGBA8 textures and fragment-shader reads of N-buffers; here a compute thread
@@ -49,6 +49,9 @@ void main() {
       // The tiles' slices follow the set-up in its buffer (occlusion_shared.h OtSetup).
       Floats tiles = Floats(pc.p.setup + uint64_t(kOtSetupBytes));
       if (horizon > 0.0f) v = ot_visibility(SetupRef(pc.p.setup).s, tiles, t, Floats(pc.p.bounds), s.p, !closed, n) * horizon;
+      // An open receiver's own slice (penumbra's addition; the CPU's shade does the same).
+      if (v > 0.0f && !closed && pc.p.nearest != 0ul)
+        v *= ot_own_slice(SetupRef(pc.p.setup).s, tiles, Floats(pc.p.nearest), s.p, s.ng);
       Floats(pc.p.visibility).v[i] = v;
     }
   }
