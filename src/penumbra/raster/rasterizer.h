@@ -101,8 +101,10 @@ TileDepthBins tile_depth_bins(const DepthBins& bins, int width, int height, std:
 // One bit per depth bin and texel: bit k of masks[y * width + x] is set when some fragment
 // through the texel centre lies in bin k (eisemann2006 §3.4's slices as packed bit channels).
 // An allocator whose memory comes zeroed from calloc and whose elements are left as they come:
-// a large array of zeros costs only the pages that are written (the OS maps zero pages lazily),
-// not a memset of the whole.
+// a large block is a fresh anonymous mapping whose pages the kernel maps, as zeros, when first
+// written, so a large sparse array of zeros costs the pages that are written, not a memset of the
+// whole. (2 MiB pages, asked for with madvise, made occlusion textures' nearest depths slower:
+// each is zeroed whole on its first write.)
 template <class T>
 struct ZeroedAllocator {
   using value_type = T;
@@ -110,7 +112,7 @@ struct ZeroedAllocator {
   template <class U>
   ZeroedAllocator(const ZeroedAllocator<U>&) {}
   T* allocate(size_t n) {
-    if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
+    if (void* p = std::calloc(n == 0 ? 1 : n, sizeof(T))) return static_cast<T*>(p);
     throw std::bad_alloc();
   }
   void deallocate(T* p, size_t) { std::free(p); }

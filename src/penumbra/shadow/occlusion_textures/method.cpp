@@ -39,8 +39,9 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   const occlusion::Options o = occlusion::options_from(p);
   MemoryTally tally;
   tally.add(occlusion::OcclusionTextures::texture_bytes(o), "resolution");
-  tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, o.resolution, o.resolution),
-            kTrianglesSetting);
+  // The larger rasterization: the own slice's nearest depths' pass at own_slice_scale x resolution.
+  const int side = o.own_slice ? o.resolution * occlusion::own_slice_fitted_scale(o, q.triangles) : o.resolution;
+  tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, side, side), kTrianglesSetting);
   return tally.estimate();
 }
 
@@ -91,6 +92,11 @@ const MethodRegistration registration({
          "nearest depths per texel, kept by the slicing pass: a shadow map per slice, tested against the receiver's plane "
          "(penumbra's addition: a canopy's leaves are shadowed by leaves centimetres above, in their own slice)",
          {}},
+        {"own_slice_scale", ParamType::Int, 0,
+         "the own slice's nearest depths at this many times `resolution` texels a side (1, 2 or 4; above 1 a pass of "
+         "their own): a shadow map's test needs finer texels than the textures' filtered coverage; 0 = fitted: 2 where "
+         "the casters' triangles outnumber the texels (a canopy), else 1",
+         {}, 0, 4},
         {"tiles", ParamType::Int, 0,
          "light-space tiles a side (a power of two): each tile of the textures is sliced over the depth range of its own "
          "casters instead of the whole scene's, so that a wide scene's slices follow its casters (a tree crown in `slices` "

@@ -69,6 +69,7 @@ struct OtShadeParams {
   uint64_t counters;    // OtShadeCounters
   uint64_t scene;       // the GpuScene (the receivers' objects: closed or not)
   uint64_t nearest;     // the slices' nearest depths (ot_own_slice), 0: own_slice off
+  int nearest_scale;    // their texels a side per the texture's (own_slice_scale)
   uint slots;
   uint prefilter;   // kOt*
   uint sat_counts;  // the tables hold uint32 counts

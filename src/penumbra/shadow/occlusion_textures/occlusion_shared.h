@@ -491,20 +491,23 @@ PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures 
 // receiver's plane through that texel's centre, less a margin of 10^-4 of the depth (far above
 // the float rounding of either depth; the plane keeps a tilted leaf from shadowing itself). The
 // occluders are within a slice of the point, so their penumbra is narrow: a hard test. V of the
-// own slice, in [0, 1]; `nearest`: the slices' planes of R x R depths (linear, from the centre of
-// projection: d + z), row-major from the texture's top-left corner, 0 or +infinity where the slice
-// has none; `tiles` as ot_visibility's.
-PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nearest, vec3 p, vec3 ng) {
+// own slice, in [0, 1]; `nearest`: the slices' planes of (scale R) x (scale R) depths (linear,
+// from the centre of projection: d + z), row-major from the texture's top-left corner, 0 or
+// +infinity where the slice has none (a shadow map's hard test wants finer texels than the
+// filtered coverage: `own_slice_scale`); `tiles` as ot_visibility's.
+PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nearest, int scale, vec3 p, vec3 ng) {
   vec3 q = p - s.center;
   float u = dot(q, s.right);
   float v = dot(q, s.up);
   float z = dot(q, s.forward);
   if (!(z > 0.0f) || s.has_casters == 0u) return 1.0f;
-  // Depth from the centre of projection, and the point's texel position (ot_kernel at zp = z).
+  // Depth from the centre of projection, and the point's position in the nearest depths' texels
+  // (ot_kernel's centre at zp = z, times scale).
   PN_PRECISE float dp = z + s.d;
-  float scale = s.d / dp;
-  PN_PRECISE float px = 0.5f * s.R + u * scale * s.kx - 0.5f;
-  PN_PRECISE float py = 0.5f * s.R - v * scale * s.ky - 0.5f;
+  float at_light = s.d / dp;
+  float m = float(scale);
+  PN_PRECISE float px = (0.5f * s.R + u * at_light * s.kx) * m - 0.5f;
+  PN_PRECISE float py = (0.5f * s.R - v * at_light * s.ky) * m - 0.5f;
   float fx0 = floor(px);
   float fy0 = floor(py);
   float wx = px - fx0;
@@ -516,7 +519,7 @@ PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nea
   float nu = dot(ng, s.up);
   float nf = dot(ng, s.forward);
   PN_PRECISE float num = nr * u + nu * v + nf * dp;
-  int side = int(s.R);
+  int side = int(s.R) * scale;
   float lit = 0.0f;
   for (int j = 0; j < 2; ++j) {
     for (int i = 0; i < 2; ++i) {
@@ -529,8 +532,8 @@ PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nea
       }
       OtSlicing slicing = ot_slicing(s, s.top, s.thickness, true);
       if (s.tiles > 1) {
-        int tx = min(int(float(x) * s.tile_scale), s.tiles - 1);
-        int ty = min(int(float(y) * s.tile_scale), s.tiles - 1);
+        int tx = min(int(float(x / scale) * s.tile_scale), s.tiles - 1);
+        int ty = min(int(float(y / scale) * s.tile_scale), s.tiles - 1);
         slicing = ot_tile_slicing(s, tiles, ty * s.tiles + tx, true);
       }
       int k = ot_slices_above(s, slicing, z);  // the slice holding the point there
@@ -538,8 +541,8 @@ PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nea
         lit += w;  // below every slice of this texel: nothing sliced at its depth
         continue;
       }
-      PN_PRECISE float a = (float(x) + 0.5f - 0.5f * s.R) / (s.kx * s.d);
-      PN_PRECISE float b = (0.5f * s.R - float(y) - 0.5f) / (s.ky * s.d);
+      PN_PRECISE float a = ((float(x) + 0.5f) / m - 0.5f * s.R) / (s.kx * s.d);
+      PN_PRECISE float b = (0.5f * s.R - (float(y) + 0.5f) / m) / (s.ky * s.d);
       PN_PRECISE float den = nr * a + nu * b + nf;
       // The plane's depth there, within a slice of the point's (a plane grazing the ray from
       // the centre of projection has no useful depth at the next texel).

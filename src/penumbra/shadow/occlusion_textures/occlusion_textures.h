@@ -72,11 +72,18 @@ struct Options {
   bool cull_back_faces = true;   // closed objects: slice only the faces toward the centre of projection
   bool horizon = true;     // closed receivers: V times the light's part above their tangent plane
   bool own_slice = true;   // open receivers: their own slice's nearest depths tested (ot_own_slice)
+  int own_slice_scale = 0; // ... kept at own_slice_scale x resolution texels a side (1, 2 or 4; 0 = fitted,
+                           // own_slice_fitted_scale)
   int tiles = 0;           // light-space tiles a side, each sliced over its own casters' depth range; 0 = fitted
 };
 
 // The method's parameters (method.cpp's table) as Options.
 Options options_from(const ParamSet& p);
+
+// own_slice_scale 0 (fitted): 2 where the casters' triangles outnumber the texture's texels (a
+// canopy's leaves smaller than a texel, whose shadow-map test wants finer texels than the
+// filtered coverage does), else 1 (the slicing pass keeps the depths, at no extra pass).
+int own_slice_fitted_scale(const Options& o, uint64_t caster_triangles);
 
 // The light as a rectangle: a rect light itself, a disk (or a sphere's disk facing
 // frame.n) as its bounding square.
@@ -124,6 +131,18 @@ class OcclusionTextures {
   // The per-point arithmetic's record (occlusion_shared.h OtSetup).
   const shader::OtSetup& setup() const { return setup_; }
   const DepthBinMasks& coverage() const { return masks_; }
+  // The slices' nearest depths the own slice tests (DepthBinMasks::nearest; empty with
+  // own_slice off): the slicing pass's own at own_slice_scale 1, else a pass of their own over
+  // nearest_view().
+  const DepthBinMasks& own_slice_depths() const { return own_slice_scale_ == 1 ? masks_ : nearest_; }
+  // The scale plan() chose (own_slice_scale, or fitted).
+  int own_slice_scale() const { return own_slice_scale_; }
+  const LightView& nearest_view() const { return nearest_view_; }
+  // Whether plan() chose to test the own slice: own_slice, and some caster is open.
+  bool own_slice_active() const { return own_slice_active_; }
+  // The bins of the nearest depths' own pass (own_slice_scale > 1): the slicing's, with nearest
+  // depths, its tiles own_slice_scale times as many texels a side.
+  DepthBins nearest_bins(std::vector<Vec2f>* tile_storage) const;
   // Objects left out as planar non-casters.
   const std::vector<uint32_t>& culled_objects() const { return culled_; }
   // The casters as the GPU rasterizer's per-object flags (gpu/raster/raster_layout_shared.h
@@ -161,6 +180,8 @@ class OcclusionTextures {
   Options options_;
   LightRect light_;
   bool has_casters_ = false;
+  bool own_slice_active_ = false;
+  int own_slice_scale_ = 1;
   float d_ = 1, top_ = 0, thickness_ = 1;
   float bottom_ = 0;
   // The per-point arithmetic's record (occlusion_shared.h): the light's frame, the centre of
@@ -170,10 +191,12 @@ class OcclusionTextures {
   std::vector<shader::OtTile> tiles_;
   std::vector<SliceBounds> slice_bounds_;  // each slice's covered texels (tiles > 1: ot_visibility's)
   LightView view_;
+  LightView nearest_view_;  // view_ at own_slice_scale x its texels
   std::vector<uint32_t> culled_;
   RasterTriangles triangles_;
   Rasterizer rasterizer_;
   DepthBinMasks masks_;
+  DepthBinMasks nearest_;  // own_slice_scale > 1: the nearest depths' own pass
   MipmapFilter mipmap_;
   NBufferFilter nbuffer_;
   SatFilter<uint32_t> sat32_;

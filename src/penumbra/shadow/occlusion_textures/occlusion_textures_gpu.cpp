@@ -72,11 +72,13 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     if (!plan_.has_casters()) return;
     slice(scene, frame);
     prefilter(frame);
-    stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, masks_.device_bytes() + textures_bytes());
+    stats_.memory_bytes =
+        std::max<uint64_t>(stats_.memory_bytes, masks_.device_bytes() + nearest_masks_.device_bytes() + textures_bytes());
     stats_.extra["cop_distance"] = plan_.cop_distance();
     stats_.extra["depth_range"] = {plan_.top(), plan_.bottom()};
     stats_.extra["tiles"] = plan_.tiles_side();
-    stats_.extra["slicing_fragments"] = rasterizer_->stats().fragments;
+    stats_.extra["own_slice"] = plan_.own_slice_active();
+    if (plan_.own_slice_active()) stats_.extra["own_slice_scale"] = plan_.own_slice_scale();
   }
 
   void evaluate(const ShadowContext&, GpuFrame& frame, const GpuShadowOutput& out) override {
@@ -92,7 +94,8 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     p.bounds = bounds_.address();
     p.counters = counters_.address();
     p.scene = frame.scene->address();
-    p.nearest = options_.own_slice ? masks_.nearest() : 0;
+    p.nearest = plan_.own_slice_active() ? own_slice_depths().nearest() : 0;
+    p.nearest_scale = plan_.own_slice_scale();
     p.slots = frame.slots;
     p.prefilter = shared_prefilter(options_.prefilter);
     p.sat_counts = options_.sat_precision == occlusion::SatPrecision::UInt32 ? 1u : 0u;
@@ -121,8 +124,15 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     const Options o = occlusion::options_from(params);
     const int R = o.resolution;
     MemoryTally tally;
-    tally.add(gpu::GpuDepthBinMasks::bytes(R, R, o.own_slice ? o.slices : 0) + textures_bytes(o), "resolution");
-    tally.add(gpu::GpuRasterizer::scratch_bytes(q.triangles, R, R) + q.triangles * sizeof(uint32_t),
+    const int scale = occlusion::own_slice_fitted_scale(o, q.triangles);
+    const int RN = R * scale;
+    uint64_t own = 0;  // the own slice's nearest depths: in the slicing pass's masks, or a pass of their own
+    if (o.own_slice)
+      own = scale == 1 ? gpu::GpuDepthBinMasks::bytes(R, R, o.slices) - gpu::GpuDepthBinMasks::bytes(R, R)
+                                   : gpu::GpuDepthBinMasks::bytes(RN, RN, o.slices);
+    tally.add(gpu::GpuDepthBinMasks::bytes(R, R) + own + textures_bytes(o), "resolution");
+    const int raster_side = o.own_slice ? RN : R;  // the larger pass
+    tally.add(gpu::GpuRasterizer::scratch_bytes(q.triangles, raster_side, raster_side) + q.triangles * sizeof(uint32_t),
               kTrianglesSetting);
     tally.add(sizeof(shader::OtSetup) + 4 * sizeof(float) * shader::kOtMaxSlices + sizeof(shader::OtShadeCounters),
               "resolution");
@@ -155,6 +165,11 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     std::vector<Vec2f> tile_bins;
     rasterizer_->depth_bin_masks(cl, frame.flush, "slicing", *frame.scene, plan_.view(), RasterFilter{},
                                  plan_.slicing_bins(&tile_bins), flags_.address(), &masks_);
+    stats_.extra["slicing_fragments"] = rasterizer_->stats().fragments;
+    // The own slice's nearest depths at their finer texels (own_slice_scale > 1): a pass of their own.
+    if (plan_.own_slice_active() && plan_.own_slice_scale() > 1)
+      rasterizer_->depth_bin_masks(cl, frame.flush, "slicing", *frame.scene, plan_.nearest_view(), RasterFilter{},
+                                   plan_.nearest_bins(&tile_bins), flags_.address(), &nearest_masks_);
     if (options_.thin_fix && S > 1) {
       cl.stage("slicing");
       cl.dispatch("ot_thin_fix", static_cast<uint64_t>(masks_.width()) * masks_.height(), mask_params());
@@ -231,6 +246,8 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
   occlusion::OcclusionTextures plan_;  // the CPU version's set-up (plan() only)
   std::unique_ptr<gpu::GpuRasterizer> rasterizer_;
   gpu::GpuDepthBinMasks masks_;
+  gpu::GpuDepthBinMasks nearest_masks_;  // own_slice_scale > 1
+  const gpu::GpuDepthBinMasks& own_slice_depths() const { return plan_.own_slice_scale() == 1 ? masks_ : nearest_masks_; }
   gpu::GpuSummedAreaTable sat_;
   gpu::Buffer setup_, bounds_, counters_, flags_, pyramid_;
   bool counting_ = false;  // evaluate() ran since the last collect_stats()

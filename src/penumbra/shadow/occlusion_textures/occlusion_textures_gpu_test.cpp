@@ -161,14 +161,20 @@ TEST_F(OcclusionTexturesGpu, AWideSceneGivesTheCpuPictureWithItsFittedTiles) {
   // Issue 34: the fitted light-space tiles are kept on a forest; their slices, the tiles' pieces
   // of each kernel (occlusion_shared.h ot_visibility_tiled) and the CPU's agree.
   const Scene scene = small_forest(48);
-  for (const char* prefilter : {"nbuffer", "sat"}) {
-    const penumbra::testing::DevicePair d =
-        render_on_both(scene, "occlusion-textures", {"resolution=256", std::string("prefilter=") + prefilter});
-    EXPECT_GT(d.cpu_shadow, 10) << "no shadow to compare";
-    EXPECT_LE(d.mean_abs_dv, 2e-3) << prefilter;
-    RecordProperty(std::string("small forest ") + prefilter, penumbra::testing::dv_text(d.mean_abs_dv));
-  }
-  occlusion::OcclusionTextures cpu(options(16, 256, true, 0));
+  // The fitted tiles are made with the slices alone (own_slice=false); with the own slice one
+  // range, its nearest depths at the texture's texels (kept by the slicing pass: the fitted scale
+  // here) or at twice them (a pass of their own).
+  for (const char* own : {"own_slice=false", "own_slice=true", "own_slice_scale=2"})
+    for (const char* prefilter : {"nbuffer", "sat"}) {
+      const penumbra::testing::DevicePair d =
+          render_on_both(scene, "occlusion-textures", {"resolution=256", std::string("prefilter=") + prefilter, own});
+      EXPECT_GT(d.cpu_shadow, 10) << "no shadow to compare";
+      EXPECT_LE(d.mean_abs_dv, 2e-3) << prefilter << " " << own;
+      RecordProperty(std::string("small forest ") + prefilter + " " + own, penumbra::testing::dv_text(d.mean_abs_dv));
+    }
+  occlusion::Options alone = options(16, 256, true, 0);
+  alone.own_slice = false;
+  occlusion::OcclusionTextures cpu(alone);
   MethodStats stats;
   cpu.build(scene, scene.lights[0], &stats);
   EXPECT_GT(cpu.tiles_side(), 1);

@@ -51,7 +51,7 @@ void main() {
       if (horizon > 0.0f) v = ot_visibility(SetupRef(pc.p.setup).s, tiles, t, Floats(pc.p.bounds), s.p, !closed, n) * horizon;
       // An open receiver's own slice (penumbra's addition; the CPU's shade does the same).
       if (v > 0.0f && !closed && pc.p.nearest != 0ul)
-        v *= ot_own_slice(SetupRef(pc.p.setup).s, tiles, Floats(pc.p.nearest), s.p, s.ng);
+        v *= ot_own_slice(SetupRef(pc.p.setup).s, tiles, Floats(pc.p.nearest), pc.p.nearest_scale, s.p, s.ng);
       Floats(pc.p.visibility).v[i] = v;
     }
   }
