@@ -178,11 +178,15 @@ void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
   const float hw = 0.5f * light_.width, hh = 0.5f * light_.height;
   const float z_eps = 1e-5f * std::max(light_.width, light_.height);
   float zmin = kInfinity, zmax = -kInfinity, d_fit = kInfinity;
+  bool open_casters = false;
+  uint64_t caster_triangles = 0;
   for (size_t i = 0, c = 0; i < scene.objects.size(); ++i) {
     if (c < culled_.size() && culled_[c] == i) {
       ++c;
       continue;
     }
+    open_casters = open_casters || !scene.objects[i].closed;
+    caster_triangles += scene.objects[i].mesh.triangle_count();
     for (Vec3f p : scene.objects[i].mesh.positions) {
       const Vec3f q = p - light_.center;
       const float z = dot(q, light_.forward);
@@ -198,16 +202,7 @@ void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
   // The own slice's test is for canopies, open surfaces shadowing each other from centimetres
   // away: a scene whose casters are all closed keeps the paper's slices (the fade serves a solid's
   // own faces), and the nearest depths are not kept.
-  own_slice_active_ = false;
-  uint64_t caster_triangles = 0;
-  for (size_t i = 0, c = 0; options_.own_slice && i < scene.objects.size(); ++i) {
-    if (c < culled_.size() && culled_[c] == i) {
-      ++c;
-      continue;
-    }
-    own_slice_active_ = own_slice_active_ || !scene.objects[i].closed;
-    caster_triangles += scene.objects[i].mesh.triangle_count();
-  }
+  own_slice_active_ = options_.own_slice && open_casters;
   own_slice_scale_ = own_slice_fitted_scale(options_, caster_triangles);
   setup_ = {};
   setup_.center = light_.center;
@@ -832,16 +827,12 @@ void OcclusionTextures::shade(const Scene& scene, const ViewSamples& vs, std::sp
   Timer timer;
   LookupCounters n;
   dispatch([&](const auto& f) { shade_with(f, scene, vs, visibility, n); });
-  if (own_slice_active_ && has_casters_ && !own_slice_depths().nearest.empty()) {
-    // The receiver's own slice (occlusion_shared.h ot_own_slice), for points on open surfaces.
-    const float* tiles = reinterpret_cast<const float*>(tiles_.data());
-    const float* nearest = own_slice_depths().nearest.data();
-    const int scale = own_slice_scale_;
+  if (own_slice_active_ && has_casters_) {
+    // The receiver's own slice, for points on open surfaces.
     parallel_for(vs.size(), 4096, [&](size_t b, size_t e) {
       for (size_t i = b; i < e; ++i) {
         const ViewSample& s = vs.samples[i];
-        if (visibility[i] > 0 && !scene.objects[s.object].closed)
-          visibility[i] *= shader::ot_own_slice(setup_, tiles, nearest, scale, s.p, s.ng);  // own_slice_visibility
+        if (visibility[i] > 0 && !scene.objects[s.object].closed) visibility[i] *= own_slice_visibility(s.p, s.ng);
       }
     });
   }
