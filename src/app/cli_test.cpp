@@ -494,11 +494,11 @@ TEST_F(Cli, MethodMapsTooLargeForMemoryAreRefusedUpFront) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(fs::exists(out));
   };
-  // A 32 x 24 image (about 100 KiB of view samples) whose method would build about 13 GiB of
-  // occlusion textures (4096^2 texels, 32 slices, 13 N-buffer levels, and 8 GiB of the slices'
-  // nearest depths at 8192^2): refused before anything is allocated, naming the parameter to lower.
+  // A 32 x 24 image (about 100 KiB of view samples) whose method would build about 7 GiB of
+  // occlusion textures (4096^2 texels, 32 slices, 13 N-buffer levels, and 2 GiB of the slices'
+  // nearest depths): refused before anything is allocated, naming the parameter to lower.
   expect_refused("-m occlusion-textures -p resolution=4096 -p slices=32 --memory-limit 64M",
-                 "tiny.json: occlusion-textures needs about 13.5 GiB for its light-space data (and 102 KiB for the "
+                 "tiny.json: occlusion-textures needs about 7.2 GiB for its light-space data (and 102 KiB for the "
                  "view samples), over the memory limit of 64.0 MiB; lower -p occlusion-textures.resolution or raise "
                  "--memory-limit");
   // mlsm's layered map: 8192^2 texels of 64 layers (about 64 GiB).

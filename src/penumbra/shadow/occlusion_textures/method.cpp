@@ -38,7 +38,7 @@ class OcclusionTexturesMethod final : public ShadowMethod {
 MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   const occlusion::Options o = occlusion::options_from(p);
   MemoryTally tally;
-  tally.add(occlusion::OcclusionTextures::texture_bytes(o), "resolution");
+  tally.add(occlusion::OcclusionTextures::texture_bytes(o, q.triangles), "resolution");
   // The larger rasterization: the own slice's nearest depths' pass at own_slice_scale x resolution.
   const int side = o.own_slice ? o.resolution * occlusion::own_slice_fitted_scale(o, q.triangles) : o.resolution;
   tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, side, side), kTrianglesSetting);

@@ -489,7 +489,7 @@ size_t OcclusionTextures::texture_bytes() const {
          nearest_.masks.size() * sizeof(uint32_t) + nearest_.nearest.size() * sizeof(float);
 }
 
-uint64_t OcclusionTextures::texture_bytes(const Options& o) {
+uint64_t OcclusionTextures::texture_bytes(const Options& o, uint64_t caster_triangles) {
   const int R = o.resolution, S = o.slices;
   uint64_t filter = 0;
   switch (o.prefilter) {
@@ -500,8 +500,7 @@ uint64_t OcclusionTextures::texture_bytes(const Options& o) {
                                                         : SatFilter<double>::bytes(R, R, S);
       break;
   }
-  // Fitted: the larger choice (the estimate does not know the casters).
-  const int scale = o.own_slice_scale == 0 ? own_slice_fitted_scale(o, ~uint64_t{0}) : o.own_slice_scale;
+  const int scale = own_slice_fitted_scale(o, caster_triangles);
   const int RN = R * scale;
   uint64_t own = 0;
   if (o.own_slice) own = DepthBinMasks::nearest_bytes(RN, RN, S) + (scale > 1 ? DepthBinMasks::bytes(RN, RN) : 0);

@@ -156,9 +156,10 @@ class OcclusionTextures {
   // The pre-filtered mean coverage of slice k over a texel-space rectangle.
   float box(int k, float x0, float y0, float x1, float y1, LookupCounters* counters = nullptr) const;
   size_t texture_bytes() const;
-  // What texture_bytes() will be at these options (the coverage masks and the prefilter's
-  // tables), before anything is built.
-  static uint64_t texture_bytes(const Options& options);
+  // What texture_bytes() will be at these options (the coverage masks, the prefilter's tables and
+  // the own slice's depths), before anything is built: for at most `caster_triangles` casters
+  // (the fitted own_slice_scale; by default the larger).
+  static uint64_t texture_bytes(const Options& options, uint64_t caster_triangles = ~uint64_t{0});
 
  private:
   struct Batch;
