@@ -666,22 +666,12 @@ void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& 
       for (const SetupTriangle& t : im.binner.tile(tile)) {
         // Most triangles are far thinner than a bin: when the depth plane over the triangle's
         // texel box (with a margin far above float rounding) lies in one bin, every fragment
-        // sets that bit without its own depth.
+        // sets that bit without its own depth (unless the bins' nearest depths are kept).
         const float ex = t.dvdx * static_cast<float>(t.x1 - 1 - t.x0), ey = t.dvdy * static_cast<float>(t.y1 - 1 - t.y0);
         const float lo = t.v0 + std::min(0.0f, ex) + std::min(0.0f, ey), hi = t.v0 + std::max(0.0f, ex) + std::max(0.0f, ey);
         const float margin = 1e-5f * std::max(std::abs(lo), std::abs(hi));
         const int k_lo = bin(lo - margin), k_hi = bin(hi + margin);
-        if (nearest) {
-          scan_fragments(t, rect, im.alpha, [&](size_t i, float v, float) {
-            ++frags;
-            const float z = linear_depth<kPerspective>(v, near, far);
-            const int k = shader::raster_depth_bin(tile_record, z);
-            masks[i] |= 1u << k;
-            keep_nearest(i, k, z);
-          });
-          continue;
-        }
-        if (k_lo == k_hi) {
+        if (k_lo == k_hi && !nearest) {
           const uint32_t bit = 1u << k_lo;
           scan_fragments(t, rect, im.alpha, [&](size_t i, float, float) {
             ++frags;
@@ -691,7 +681,10 @@ void Rasterizer::depth_bin_masks(RasterTriangleView triangles, const LightView& 
         }
         scan_fragments(t, rect, im.alpha, [&](size_t i, float v, float) {
           ++frags;
-          masks[i] |= 1u << bin(v);
+          const float z = linear_depth<kPerspective>(v, near, far);
+          const int k = shader::raster_depth_bin(tile_record, z);
+          masks[i] |= 1u << k;
+          if (nearest) keep_nearest(i, k, z);
         });
       }
       im.fragments.fetch_add(frags, std::memory_order_relaxed);

@@ -98,8 +98,6 @@ struct TileDepthBins {
 };
 TileDepthBins tile_depth_bins(const DepthBins& bins, int width, int height, std::string_view who);
 
-// One bit per depth bin and texel: bit k of masks[y * width + x] is set when some fragment
-// through the texel centre lies in bin k (eisemann2006 §3.4's slices as packed bit channels).
 // An allocator whose memory comes zeroed from calloc and whose elements are left as they come:
 // a large block is a fresh anonymous mapping whose pages the kernel maps, as zeros, when first
 // written, so a large sparse array of zeros costs the pages that are written, not a memset of the
@@ -126,6 +124,8 @@ struct ZeroedAllocator {
   bool operator==(const ZeroedAllocator<U>&) const { return true; }
 };
 
+// One bit per depth bin and texel: bit k of masks[y * width + x] is set when some fragment
+// through the texel centre lies in bin k (eisemann2006 §3.4's slices as packed bit channels).
 // With DepthBins::nearest, also the nearest fragment of each bin through each texel centre:
 // nearest[(k * height + y) * width + x] is the smallest linear depth in bin k there (depths are
 // positive), 0 where bit k is clear (occlusion textures' own slice,

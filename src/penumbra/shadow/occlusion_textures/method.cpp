@@ -1,6 +1,8 @@
 // Method `occlusion-textures` (eisemann2006): plausible soft shadows from pre-filtered
 // occlusion textures. The work is in occlusion_textures.h/.cpp and prefilter.h/.cpp; this
 // file is the ShadowMethod wrapper and the parameter table.
+#include <algorithm>
+
 #include "penumbra/core/progress.h"
 #include "penumbra/shadow/occlusion_textures/occlusion_textures.h"
 #include "penumbra/shadow/shadow_method.h"
@@ -40,7 +42,7 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   MemoryTally tally;
   tally.add(occlusion::OcclusionTextures::texture_bytes(o, q.triangles), "resolution");
   // The larger rasterization: the own slice's nearest depths' pass at own_slice_scale x resolution.
-  const int side = o.own_slice ? o.resolution * occlusion::own_slice_fitted_scale(o, q.triangles) : o.resolution;
+  const int side = std::max(o.resolution, occlusion::own_slice_side(o, q.triangles));
   tally.add(raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, side, side), kTrianglesSetting);
   return tally.estimate();
 }

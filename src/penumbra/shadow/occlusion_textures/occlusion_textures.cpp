@@ -163,6 +163,10 @@ int own_slice_fitted_scale(const Options& o, uint64_t caster_triangles) {
   return caster_triangles > texels && o.resolution * 2 <= 8192 ? 2 : 1;
 }
 
+int own_slice_side(const Options& o, uint64_t caster_triangles) {
+  return o.own_slice ? o.resolution * own_slice_fitted_scale(o, caster_triangles) : 0;
+}
+
 void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
   light_ = light_rect(light);
   const int S = options_.slices, R = options_.resolution;
@@ -500,10 +504,8 @@ uint64_t OcclusionTextures::texture_bytes(const Options& o, uint64_t caster_tria
                                                         : SatFilter<double>::bytes(R, R, S);
       break;
   }
-  const int scale = own_slice_fitted_scale(o, caster_triangles);
-  const int RN = R * scale;
-  uint64_t own = 0;
-  if (o.own_slice) own = DepthBinMasks::nearest_bytes(RN, RN, S) + (scale > 1 ? DepthBinMasks::bytes(RN, RN) : 0);
+  const int RN = own_slice_side(o, caster_triangles);  // a pass of its own above R
+  const uint64_t own = DepthBinMasks::nearest_bytes(RN, RN, S) + (RN > R ? DepthBinMasks::bytes(RN, RN) : 0);
   return filter + DepthBinMasks::bytes(R, R) + own;
 }
 

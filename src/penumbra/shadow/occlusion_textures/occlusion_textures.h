@@ -84,6 +84,9 @@ Options options_from(const ParamSet& p);
 // canopy's leaves smaller than a texel, whose shadow-map test wants finer texels than the
 // filtered coverage does), else 1 (the slicing pass keeps the depths, at no extra pass).
 int own_slice_fitted_scale(const Options& o, uint64_t caster_triangles);
+// The side of the own slice's depths for at most `caster_triangles` casters (0 with own_slice off):
+// what the memory estimates size their map and the larger rasterization by.
+int own_slice_side(const Options& o, uint64_t caster_triangles);
 
 // The light as a rectangle: a rect light itself, a disk (or a sphere's disk facing
 // frame.n) as its bounding square.

@@ -7,6 +7,7 @@
 // summed-area tables of gpu/filtered/), and the lookups (kernels/ot_shade.comp), one thread per
 // view sample running the CPU's per-point function (occlusion_shared.h ot_visibility). Stages
 // slicing, filtering and shading, as the CPU's phases. Same parameters as method.cpp's table.
+#include <algorithm>
 #include <bit>
 
 #include "penumbra/gpu/filtered/gpu_filtered_map.h"
@@ -124,14 +125,11 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     const Options o = occlusion::options_from(params);
     const int R = o.resolution;
     MemoryTally tally;
-    const int scale = occlusion::own_slice_fitted_scale(o, q.triangles);
-    const int RN = R * scale;
-    uint64_t own = 0;  // the own slice's nearest depths: in the slicing pass's masks, or a pass of their own
-    if (o.own_slice)
-      own = scale == 1 ? gpu::GpuDepthBinMasks::bytes(R, R, o.slices) - gpu::GpuDepthBinMasks::bytes(R, R)
-                                   : gpu::GpuDepthBinMasks::bytes(RN, RN, o.slices);
+    // The own slice's nearest depths: in the slicing pass's masks, or a pass of their own above R.
+    const int RN = occlusion::own_slice_side(o, q.triangles);
+    const uint64_t own = RN > R ? gpu::GpuDepthBinMasks::bytes(RN, RN, o.slices) : DepthBinMasks::nearest_bytes(RN, RN, o.slices);
     tally.add(gpu::GpuDepthBinMasks::bytes(R, R) + own + textures_bytes(o), "resolution");
-    const int raster_side = o.own_slice ? RN : R;  // the larger pass
+    const int raster_side = std::max(R, RN);  // the larger pass
     tally.add(gpu::GpuRasterizer::scratch_bytes(q.triangles, raster_side, raster_side) + q.triangles * sizeof(uint32_t),
               kTrianglesSetting);
     tally.add(sizeof(shader::OtSetup) + 4 * sizeof(float) * shader::kOtMaxSlices + sizeof(shader::OtShadeCounters),
