@@ -1,17 +1,16 @@
 #version 460
 // `coherent-rt` on the GPU (coherent_rt_kernels_shared.h; coherent_rt.cpp evaluate): ONE THREAD PER
-// TILE, 32 tiles a work group. agrawala2000 §5.2's coherence is sequential: SoftShad predicts a
-// point's light cells from the blocker points of the points shaded before it. The CPU shades each
-// tile's pixels along a Hilbert curve, each tile with its own prediction; here each tile is one
-// thread that walks its pixels in that very order, and each pixel's view samples in slot order, so
-// every point follows the same points as on the CPU and gets the same prediction. Per point: the
-// `reference` stream's stratified light points (area samples), SoftShad's cells to trace
-// (soft_shad_shared.h), each traced through the reference depth images (depth_image_trace_shared.h)
-// or, with tracer=geometry, the GPU's BVH (closest hit: the blocker point), and eq. 1 (area
-// sampling) over the visible cells. The tile's sampler and span lists live in its slices of two
-// scratch buffers. A tile's work may be split over several dispatches (resume, cell_budget;
-// lavapipe limits the loop iterations of one invocation): where it stands and the sampler wait in
-// its scratch.
+// TILE. agrawala2000 §5.2's coherence is sequential: SoftShad predicts a point's light cells from
+// the blocker points of the points shaded before it. The CPU shades each tile's pixels along a
+// Hilbert curve, each tile with its own prediction; here each tile is one thread that walks its
+// pixels in that very order, and each pixel's view samples in slot order, so every point follows
+// the same points as on the CPU and gets the same prediction. Per point: the `reference` stream's
+// stratified light points (area samples), SoftShad's cells to trace (soft_shad_shared.h), each
+// traced through the reference depth images (depth_image_trace_shared.h) or, with
+// tracer=geometry, the GPU's BVH (closest hit: the blocker point), and eq. 1 (area sampling) over
+// the visible cells. The tile's sampler and span lists live in its slices of two scratch buffers.
+// A tile's work may be split over several dispatches (resume, cell_budget; lavapipe limits the
+// loop iterations of one invocation): where it stands and the sampler wait in its scratch.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/bvh_traverse.glsl"
 #include "penumbra/gpu/light_access.glsl"
@@ -21,9 +20,7 @@
 #include "penumbra/shadow/view_samples_shared.h"
 #include "penumbra/trace/ray_shared.h"
 
-// 32 tiles a work group, one a thread (a group of one thread would leave 31 lanes of each warp idle
-// and cap the resident threads at the groups an SM holds: H100, 2026-11-27, docs/benchmarks.md).
-layout(local_size_x = 32) in;
+layout(local_size_x = 1) in;
 layout(push_constant, scalar) uniform Push { CrtTilesParams p; } pc;
 layout(buffer_reference, scalar) readonly buffer ViewSamplesIn { GpuViewSample v[]; };
 layout(buffer_reference, scalar) readonly buffer TileBlockRef { CrtTileBlock b; };
