@@ -20,6 +20,9 @@
 #include "penumbra/shadow/view_samples_shared.h"
 #include "penumbra/trace/ray_shared.h"
 
+// One tile a work group: each tile's walk is a long chain of dependent loads, so what hides their
+// latency is many resident warps, not full ones. 32 tiles a group (one warp, 64 of an H200's 132
+// SMs busy at 1920x1080) made a 480x270 frame 14.2 s against 5 s (NVIDIA, 2026-11-28).
 layout(local_size_x = 1) in;
 layout(push_constant, scalar) uniform Push { CrtTilesParams p; } pc;
 layout(buffer_reference, scalar) readonly buffer ViewSamplesIn { GpuViewSample v[]; };
