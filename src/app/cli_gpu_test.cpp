@@ -198,6 +198,7 @@ TEST_F(CliGpu, TheGpuBenchSuiteRunsAtASmallSize) {
     EXPECT_GT(m["gpu"]["shadow_ms"].get<double>(), 0.0);
     EXPECT_GT(m["cpu"]["shadow_ms"].get<double>(), 0.0);
     EXPECT_GT(m["cpu_over_gpu"].get<double>(), 0.0);
+    EXPECT_EQ(m["gpu"]["warmup_frames"], 0);  // --warmup 0 is kept: no frames added to warm the clocks
     if (m["method"] == "reference") EXPECT_GT(m["gpu"]["rays_per_s"].get<double>(), 0.0);
   }
   EXPECT_EQ(ok, 4);
@@ -224,6 +225,10 @@ TEST_F(CliGpu, TheGpuBenchSuiteWithoutItsCpuSide) {
   const size_t runs = m["gpu"]["first_frame_ms"].value("total", 0.0) > 2000.0 ? 1 : 2;
   EXPECT_EQ(m["gpu"]["runs"], runs);
   EXPECT_EQ(m["gpu"]["run_shadow_ms"].size(), runs);
+  // At least the one warm-up frame asked for; more while the GPU has been busy under 0.5 s (its
+  // clocks), never over 100.
+  EXPECT_GE(m["gpu"]["warmup_frames"].get<int>(), 1);
+  EXPECT_LE(m["gpu"]["warmup_frames"].get<int>(), 100);
   // vsm rasterizes and prefilters its map in the first frame and reuses it after.
   EXPECT_GT(m["gpu"]["first_frame_ms"].value("raster", 0.0), 0.0);
   EXPECT_FALSE(m["gpu"]["stages_ms"].contains("raster")) << m["gpu"]["stages_ms"].dump();
