@@ -83,6 +83,27 @@ TEST_F(GpuTest, BuffersRoundTripAndCountTheirBytes) {
   EXPECT_EQ(device().allocated_bytes(), before);
 }
 
+// CommandList::dispatch folds a 1D grid of more than 65535 groups into rows of 65535 groups;
+// pn_thread_index() (gpu/kernel_common.glsl) must number the threads of every row on from the
+// last: each index of the dispatch exactly once.
+TEST_F(GpuTest, AFoldedGridNumbersEveryThreadOnce) {
+  const uint32_t n = 65535u * 64u + 1000u * 64u + 17u;  // a second row of 1001 groups, the last short
+  Buffer counts(device(), uint64_t{n} * 4, "thread counts");
+  struct Push {
+    uint64_t counts;
+    uint32_t n;
+  } push{counts.address(), n};
+  CommandList cl(device());
+  cl.fill(counts, 0);
+  cl.dispatch("test_thread_index", n, push);
+  cl.submit();
+  const std::vector<uint32_t> got = counts.download_vector<uint32_t>(n);
+  size_t wrong = 0, first_wrong = n;
+  for (size_t i = 0; i < n; ++i)
+    if (got[i] != 1u && wrong++ == 0) first_wrong = i;
+  EXPECT_EQ(wrong, 0u) << "first at index " << first_wrong << ": counted " << got[first_wrong] << " times";
+}
+
 TEST_F(GpuTest, AFailedAllocationOrSubmissionIsAOneLineErrorNamingTheCall) {
   testing::fail_next(testing::Failure::Allocation);
   try {

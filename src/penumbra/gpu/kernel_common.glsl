@@ -13,10 +13,13 @@
 #extension GL_EXT_scalar_block_layout : require
 
 // The global index of this thread in a 1D dispatch of N threads (check it against N: the last
-// group runs past it).
-uint pn_thread_index() {
-  return gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-}
+// group runs past it). A macro, not a function: this file comes before the kernel's
+// `layout(local_size_x = ...) in;`, and glslang gives gl_WorkGroupSize its default (1, 1, 1) in a
+// function defined above that declaration, so a function here numbered the threads of a folded
+// grid's second row from 65535 instead of 65535 x the group size: duplicates and gaps past
+// 65535 groups (ssv-rt at 480x270: wrong on lavapipe, no frame on an H200;
+// GpuTest.AFoldedGridNumbersEveryThreadOnce).
+#define pn_thread_index() (gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x)
 
 // The group counts (x, y, z) of an indirect dispatch of `threads` threads in groups of `local`,
 // folded into two dimensions as CommandList::dispatch folds long grids (kMaxGroupsX in
