@@ -263,12 +263,13 @@ std::string gpu_bench_markdown(const json& r) {
   const json& st = r.at("settings");
   const json& dev = r.at("device");
   const json& mc = r.at("machine");
-  md << fmt::format("Suite `{}`: {}×{} pixels, {} light samples; GPU: {} ({}, {}), median of {} runs after {} warm-up (more while the "
-                    "GPU has been busy under 0.5 s), "
+  const int warmup = st.value("warmup_runs", 0);
+  md << fmt::format("Suite `{}`: {}×{} pixels, {} light samples; GPU: {} ({}, {}), median of {} runs after {} warm-up{}, "
                     "timed by its timestamps; CPU: {}, {} threads, {}; {}.\n\n",
                     r.value("suite", "?"), st["resolution"][0].get<int>(), st["resolution"][1].get<int>(),
                     st.value("spp", 0), dev.value("name", "?"), dev.value("driver", "?"), dev.value("type", "?"),
-                    st.value("runs", 0), st.value("warmup_runs", 0), mc.value("cpu", "?"), mc.value("threads", 0),
+                    st.value("runs", 0), warmup, warmup > 0 ? " (more while the GPU has been busy under 0.5 s)" : "",
+                    mc.value("cpu", "?"), mc.value("threads", 0),
                     st.value("cpu_side", true) ? "once" : "not run (--no-cpu)", r.value("started", "?"));
   md << "GPU shadow: the GPU time of the method's stages (stage by stage in brackets); frame: every stage of the frame "
         "(camera pass, method, compose, resolve); first frame: the same for the warm-up frame, which also pays "
