@@ -101,7 +101,7 @@ namespace {
 void staged_copy(Device& device, const Buffer& target, void* host, uint64_t bytes, uint64_t offset, bool upload) {
   DeviceState& s = device.state();
   const RawBuffer staging = create(s, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                   s.staging_type, "a staging copy of " + target.what());
+                                   upload ? s.staging_type : s.readback_type, "a staging copy of " + target.what());
   VkCommandBuffer cb = VK_NULL_HANDLE;
   try {
     void* mapped = nullptr;

@@ -391,37 +391,43 @@ Device::Device(int index) : state_(std::make_unique<DeviceState>()) {
   li.pPushConstantRanges = &range;
   check(vkCreatePipelineLayout(s.device, &li, nullptr, &s.pipeline_layout), "vkCreatePipelineLayout", s.info.name);
 
-  // Memory types: kernels' buffers in the largest device-local heap (host-visible too on
-  // unified-memory devices such as lavapipe: then no staging copies), staging in a
-  // host-visible coherent type.
+  // Memory types (choose_memory_types): kernels' buffers device-local, uploads through a
+  // write-combined staging type, downloads through a cached one where the device has it.
   VkPhysicalDeviceMemoryProperties mem;
   vkGetPhysicalDeviceMemoryProperties(s.physical, &mem);
-  int device_type = -1, staging = -1;
-  const bool unified = s.info.type == "cpu" || s.info.type == "integrated";
-  for (uint32_t t = 0; t < mem.memoryTypeCount; ++t) {
-    const VkMemoryPropertyFlags f = mem.memoryTypes[t].propertyFlags;
-    const uint64_t heap = mem.memoryHeaps[mem.memoryTypes[t].heapIndex].size;
-    const bool host = (f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) && (f & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-    if ((f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) && heap == s.info.memory_bytes) {
-      // A type that is also host-visible only on unified memory (a CPU driver, an integrated
-      // GPU), never a discrete card's BAR window: reading it back from the host is uncached.
-      if (device_type < 0) device_type = static_cast<int>(t);
-      if (host && unified && !(mem.memoryTypes[device_type].propertyFlags & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT))
-        device_type = static_cast<int>(t);
-    }
-    if (host && staging < 0) staging = static_cast<int>(t);
-  }
-  if (device_type < 0 || staging < 0)
+  const MemoryTypes types =
+      choose_memory_types(mem, s.info.memory_bytes, s.info.type == "cpu" || s.info.type == "integrated");
+  if (types.device_local < 0 || types.staging < 0)
     throw Error("--device gpu:{}: {} has no usable memory types", index, s.info.name);
-  s.device_local_type = static_cast<uint32_t>(device_type);
-  const VkMemoryPropertyFlags df = mem.memoryTypes[device_type].propertyFlags;
-  s.device_local_host_visible =
-      (df & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) && (df & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-  s.staging_type = static_cast<uint32_t>(staging);
+  s.device_local_type = static_cast<uint32_t>(types.device_local);
+  s.device_local_host_visible = types.device_local_host_visible;
+  s.staging_type = static_cast<uint32_t>(types.staging);
+  s.readback_type = static_cast<uint32_t>(types.readback);
   s.heap_bytes = s.info.memory_bytes;
   VkPhysicalDeviceProperties props;
   vkGetPhysicalDeviceProperties(s.physical, &props);
   s.timestamp_period_ns = props.limits.timestampPeriod;
+}
+
+MemoryTypes choose_memory_types(const VkPhysicalDeviceMemoryProperties& mem, uint64_t device_heap_bytes, bool unified) {
+  MemoryTypes out;
+  auto has = [](VkMemoryPropertyFlags f, VkMemoryPropertyFlags want) { return (f & want) == want; };
+  const VkMemoryPropertyFlags host = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  for (uint32_t t = 0; t < mem.memoryTypeCount; ++t) {
+    const VkMemoryPropertyFlags f = mem.memoryTypes[t].propertyFlags;
+    const uint64_t heap = mem.memoryHeaps[mem.memoryTypes[t].heapIndex].size;
+    if (has(f, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) && heap == device_heap_bytes) {
+      if (out.device_local < 0) out.device_local = static_cast<int>(t);
+      if (has(f, host) && unified && !has(mem.memoryTypes[out.device_local].propertyFlags, host))
+        out.device_local = static_cast<int>(t);
+    }
+    if (has(f, host) && out.staging < 0) out.staging = static_cast<int>(t);
+    if (has(f, host | VK_MEMORY_PROPERTY_HOST_CACHED_BIT) && out.readback < 0) out.readback = static_cast<int>(t);
+  }
+  if (out.readback < 0) out.readback = out.staging;
+  out.device_local_host_visible =
+      out.device_local >= 0 && unified && has(mem.memoryTypes[out.device_local].propertyFlags, host);
+  return out;
 }
 
 Device::~Device() = default;  // never runs for the shared devices (see get)

@@ -9,6 +9,7 @@
 #include "penumbra/gpu/commands.h"
 #include "penumbra/gpu/gpu_test_util.h"
 #include "penumbra/gpu/shaders.h"
+#include "penumbra/gpu/vulkan_state.h"
 
 namespace penumbra::gpu {
 namespace {
@@ -102,6 +103,45 @@ TEST_F(GpuTest, AFoldedGridNumbersEveryThreadOnce) {
   for (size_t i = 0; i < n; ++i)
     if (got[i] != 1u && wrong++ == 0) first_wrong = i;
   EXPECT_EQ(wrong, 0u) << "first at index " << first_wrong << ": counted " << got[first_wrong] << " times";
+}
+
+// The memory types a device's buffers use, from memory properties written as drivers report them.
+TEST(GpuMemoryTypes, DownloadsGoThroughACachedTypeAndKernelsBuffersStayDeviceLocal) {
+  constexpr VkMemoryPropertyFlags kLocal = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+  constexpr VkMemoryPropertyFlags kHost = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  constexpr VkMemoryPropertyFlags kCached = VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+  const uint64_t gib = uint64_t{1} << 30;
+  auto props = [](std::vector<uint64_t> heaps, std::vector<std::pair<VkMemoryPropertyFlags, uint32_t>> types) {
+    VkPhysicalDeviceMemoryProperties m{};
+    m.memoryHeapCount = static_cast<uint32_t>(heaps.size());
+    for (size_t h = 0; h < heaps.size(); ++h) m.memoryHeaps[h].size = heaps[h];
+    m.memoryTypeCount = static_cast<uint32_t>(types.size());
+    for (size_t t = 0; t < types.size(); ++t) m.memoryTypes[t] = {types[t].first, types[t].second};
+    return m;
+  };
+  // A discrete NVIDIA card: device memory, host memory write-combined and cached, and a
+  // 256 MiB window of device memory the host can map.
+  const MemoryTypes nv = choose_memory_types(
+      props({80 * gib, 128 * gib, gib / 4},
+            {{0, 1}, {kLocal, 0}, {kHost, 1}, {kHost | kCached, 1}, {kLocal | kHost, 2}}),
+      80 * gib, false);
+  EXPECT_EQ(nv.device_local, 1);
+  EXPECT_FALSE(nv.device_local_host_visible);
+  EXPECT_EQ(nv.staging, 2);   // uploads: write-combined
+  EXPECT_EQ(nv.readback, 3);  // downloads: cached
+  // No cached type: downloads share the staging type.
+  const MemoryTypes plain = choose_memory_types(props({8 * gib, 16 * gib}, {{kLocal, 0}, {kHost, 1}}), 8 * gib, false);
+  EXPECT_EQ(plain.device_local, 0);
+  EXPECT_EQ(plain.staging, 1);
+  EXPECT_EQ(plain.readback, 1);
+  // Unified memory (lavapipe, an integrated GPU): kernels' buffers in the mappable type.
+  const MemoryTypes cpu = choose_memory_types(props({2 * gib}, {{kLocal, 0}, {kLocal | kHost | kCached, 0}}), 2 * gib, true);
+  EXPECT_EQ(cpu.device_local, 1);
+  EXPECT_TRUE(cpu.device_local_host_visible);
+  EXPECT_EQ(cpu.staging, 1);
+  EXPECT_EQ(cpu.readback, 1);
+  // No device-local type in the device's heap: none chosen (the device is refused).
+  EXPECT_EQ(choose_memory_types(props({gib}, {{kHost, 0}}), 2 * gib, false).device_local, -1);
 }
 
 TEST_F(GpuTest, AFailedAllocationOrSubmissionIsAOneLineErrorNamingTheCall) {

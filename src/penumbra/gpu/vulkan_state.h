@@ -21,6 +21,19 @@ const char* result_name(VkResult result);
 // Throws Error "GPU <device>: <call> failed (<VkResult>)<context>" unless result is VK_SUCCESS.
 void check(VkResult result, const char* call, const std::string& device_name, const std::string& context = {});
 
+// The memory types a device's buffers use (chosen once per device from its memory properties).
+struct MemoryTypes {
+  int device_local = -1;  // kernels' buffers: the largest device-local heap's
+  bool device_local_host_visible = false;  // that type can be mapped (no staging needed)
+  int staging = -1;       // host-visible and coherent: uploads (write-combined on a discrete card)
+  int readback = -1;      // host-visible, coherent and cached, else `staging`: downloads (the CPU
+                          // reads write-combined memory at a fraction of its speed)
+};
+// Kernels' buffers in the device-local type of the heap of `device_heap_bytes` (host-visible too
+// on unified memory, `unified`: a CPU driver or an integrated GPU, where no staging copy is
+// needed; never a discrete card's BAR window, which the host reads uncached). -1 where none.
+MemoryTypes choose_memory_types(const VkPhysicalDeviceMemoryProperties& mem, uint64_t device_heap_bytes, bool unified);
+
 struct DeviceState {
   DeviceInfo info;
   VkInstance instance = VK_NULL_HANDLE;
@@ -32,7 +45,8 @@ struct DeviceState {
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;  // push constants only, shared by every kernel
   uint32_t device_local_type = 0;  // memory type of kernels' buffers
   bool device_local_host_visible = false;  // that type can be mapped (no staging needed)
-  uint32_t staging_type = 0;       // host-visible, coherent
+  uint32_t staging_type = 0;       // host-visible, coherent: uploads
+  uint32_t readback_type = 0;      // host-visible, coherent and cached where there is one: downloads
   uint64_t heap_bytes = 0;
   double timestamp_period_ns = 1;
   std::atomic<uint64_t> allocated{0};
