@@ -55,7 +55,7 @@ constexpr VkBufferUsageFlags kUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BU
 Buffer::Buffer(Device& device, uint64_t bytes, std::string what) : what_(std::move(what)) {
   DeviceState& s = device.state();
   bytes = std::max<uint64_t>(16, (bytes + 15) / 16 * 16);
-  const RawBuffer b = create(s, bytes, kUsage, s.device_local_type, what_);
+  const RawBuffer b = create(s, bytes, kUsage, static_cast<uint32_t>(s.memory.device_local), what_);
   device_ = &device;
   bytes_ = bytes;
   buffer_ = reinterpret_cast<uint64_t>(b.buffer);
@@ -63,7 +63,7 @@ Buffer::Buffer(Device& device, uint64_t bytes, std::string what) : what_(std::mo
   VkBufferDeviceAddressInfo ai{VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO};
   ai.buffer = b.buffer;
   address_ = vkGetBufferDeviceAddress(s.device, &ai);
-  if (s.device_local_host_visible) {
+  if (s.memory.device_local_host_visible) {
     if (vkMapMemory(s.device, b.memory, 0, VK_WHOLE_SIZE, 0, &mapped_) != VK_SUCCESS) mapped_ = nullptr;
   }
   s.allocated += bytes_;
@@ -100,8 +100,9 @@ namespace {
 // A copy through a host-visible staging buffer: to the device (upload) or back.
 void staged_copy(Device& device, const Buffer& target, void* host, uint64_t bytes, uint64_t offset, bool upload) {
   DeviceState& s = device.state();
-  const RawBuffer staging = create(s, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                   upload ? s.staging_type : s.readback_type, "a staging copy of " + target.what());
+  const uint32_t type = static_cast<uint32_t>(upload ? s.memory.staging : s.memory.readback);
+  const RawBuffer staging = create(s, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, type,
+                                   "a staging copy of " + target.what());
   VkCommandBuffer cb = VK_NULL_HANDLE;
   try {
     void* mapped = nullptr;

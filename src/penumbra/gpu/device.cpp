@@ -395,14 +395,9 @@ Device::Device(int index) : state_(std::make_unique<DeviceState>()) {
   // write-combined staging type, downloads through a cached one where the device has it.
   VkPhysicalDeviceMemoryProperties mem;
   vkGetPhysicalDeviceMemoryProperties(s.physical, &mem);
-  const MemoryTypes types =
-      choose_memory_types(mem, s.info.memory_bytes, s.info.type == "cpu" || s.info.type == "integrated");
-  if (types.device_local < 0 || types.staging < 0)
+  s.memory = choose_memory_types(mem, s.info.memory_bytes, s.info.type == "cpu" || s.info.type == "integrated");
+  if (s.memory.device_local < 0 || s.memory.staging < 0)
     throw Error("--device gpu:{}: {} has no usable memory types", index, s.info.name);
-  s.device_local_type = static_cast<uint32_t>(types.device_local);
-  s.device_local_host_visible = types.device_local_host_visible;
-  s.staging_type = static_cast<uint32_t>(types.staging);
-  s.readback_type = static_cast<uint32_t>(types.readback);
   s.heap_bytes = s.info.memory_bytes;
   VkPhysicalDeviceProperties props;
   vkGetPhysicalDeviceProperties(s.physical, &props);

@@ -43,10 +43,7 @@ struct DeviceState {
   uint32_t queue_family = 0;
   VkCommandPool command_pool = VK_NULL_HANDLE;  // guarded by mutex
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;  // push constants only, shared by every kernel
-  uint32_t device_local_type = 0;  // memory type of kernels' buffers
-  bool device_local_host_visible = false;  // that type can be mapped (no staging needed)
-  uint32_t staging_type = 0;       // host-visible, coherent: uploads
-  uint32_t readback_type = 0;      // host-visible, coherent and cached where there is one: downloads
+  MemoryTypes memory;  // the types of kernels' buffers, uploads and downloads (all found: checked at creation)
   uint64_t heap_bytes = 0;
   double timestamp_period_ns = 1;
   std::atomic<uint64_t> allocated{0};
