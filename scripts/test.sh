@@ -7,9 +7,9 @@
 #      over everything (-O1) and the libFuzzer targets (fuzz/), then the same test suite under
 #      the sanitizers plus a 60-s run of each fuzzer (CTest label `fuzz`).
 # docs/reliability.md says what each part covers. Stops at the first failure.
-# The GPU tests run on whatever Vulkan device there is (in CI: Mesa's lavapipe, on the CPU), under
-# the Khronos validation layers (any message fails a test), and fail rather than skip when there
-# is none (docs/gpu.md, "Tests").
+# The GPU tests run on whatever Vulkan device there is (in CI: Mesa's lavapipe, on the CPU), in the
+# Release stage under the Khronos validation layers (any message fails a test), and fail rather
+# than skip when there is none (docs/gpu.md, "Tests").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PENUMBRA_GPU_VALIDATION=1 PENUMBRA_REQUIRE_GPU=1
