@@ -93,6 +93,8 @@ cat > "$tmp/gpu-bench.sh" <<'RUN'
 #   afsm-128/, afsm-1024/       afsm and reference on the bunny at 128 and 1024 light samples, the
 #                               GPU side alone (sintorn2008's cost from 128 to 1024 samples)
 #   crt-tile-8/                 coherent-rt with 8-pixel tiles (16 times the threads), GPU side alone
+#   lam-paper-display/          lam with the paper's display (unresolved=umbra: no point traced),
+#                               GPU side alone: what its display target (<= 1 ms) times
 #   ot-light-S/                 occlusion-textures at light size S x (0.25 to 4), GPU side alone
 #   wide/                       the bunny, the 25-tree forest and the street, GPU side alone
 #                               (issue 34: what the wide scenes cost on a GPU)
@@ -178,6 +180,10 @@ for spp in 128 1024; do
 done
 step crt-tile-8 90 "$pen" bench --suite gpu --no-cpu --runs 1 --warmup 0 --scenes-dir scenes --scenes bunny,plant --methods coherent-rt \
   -p coherent-rt.tile=8 -o "$out/crt-tile-8" -q "$@"
+# lam's display target (<= 1 ms) is the paper's display: the lookup alone, no point traced
+# (docs/methods/lam.md "Points the LDI does not resolve"); the suites above time the default.
+step lam-paper-display 90 "$pen" bench --suite gpu --no-cpu --scenes-dir scenes --scenes bunny,plant --methods lam \
+  -p lam.unresolved=umbra -o "$out/lam-paper-display" -q "$@"
 for s in 0.25 0.5 1 2 4; do
   step "ot-light-$s" 60 "$pen" bench --suite gpu --no-cpu --scenes-dir scenes --scenes bunny,plant \
     --methods occlusion-textures -p "light.size_scale=$s" -o "$out/ot-light-$s" -q "$@"

@@ -228,6 +228,8 @@ void AttenuationMap::update_shared() {
   m.off2 = proj_[2][3];
   m.near = near_;
   m.far = far_;
+  m.unresolved = unresolved_ ? 1u : 0u;
+  m.trace_spread = trace_spread_;
   m.width = width_;
   m.height = height_;
   m.eye = eye_;

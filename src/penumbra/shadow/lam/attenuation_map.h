@@ -114,6 +114,17 @@ class AttenuationMap {
   // given) is increased by the number of texels read. The tolerance is epsilon's (a closed
   // object's); the run of view samples below picks open_epsilon for open ones (lam_epsilon).
   float visibility(Vec3f p, Vec3f n, Filter filter, uint64_t* texels = nullptr) const;
+  // The display's answer where its texels do not resolve a point (lam_shared.h lam_visibility):
+  // with `unresolved` on, shader::kLamUnresolved (< 0) where not all of the point's texels hold
+  // its surface or their attenuations differ by more than `trace_spread`, for the caller to trace
+  // (lam.cpp); off (the default), the paper's umbra and lit. A display option, not part of the
+  // map: write() and read() leave it out.
+  void set_unresolved(bool unresolved, float trace_spread) {
+    unresolved_ = unresolved;
+    trace_spread_ = trace_spread;
+    shared_.unresolved = unresolved ? 1u : 0u;
+    shared_.trace_spread = trace_spread;
+  }
   // The same for a run of view samples (p and ng): out[i] for samples[i]; on a solid object
   // (BuildOptions::solid_objects) V is also at most front_fraction(p, ng).
   void visibility(std::span<const ViewSample> samples, std::span<float> out, Filter filter,
@@ -142,6 +153,8 @@ class AttenuationMap {
   Vec3f light_center_, light_normal_{0, 0, 1};
   float light_area_ = 1, light_radius_ = 0;
   std::vector<bool> solid_;  // per scene object: closed mesh
+  bool unresolved_ = false;   // set_unresolved
+  float trace_spread_ = 1.0f;
   template <bool kBilinear, bool kSlope>
   float visibility_impl(Vec3f p, Vec3f n, bool closed, uint64_t& texels) const;
   template <bool kBilinear, bool kSlope>

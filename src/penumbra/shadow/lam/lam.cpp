@@ -7,6 +7,7 @@
 #include <atomic>
 #include <istream>
 #include <ostream>
+#include <vector>
 
 #include "penumbra/core/binary_io.h"
 #include "penumbra/core/parallel.h"
@@ -17,6 +18,7 @@
 #include "penumbra/raster/rasterizer.h"
 #include "penumbra/shadow/lam/attenuation_map.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/trace/ray_tracer.h"
 
 namespace penumbra {
 namespace {
@@ -52,7 +54,10 @@ std::vector<RasterTriangle> cull_hidden_back_faces(const Scene& scene, const Are
 class LayeredAttenuationMaps final : public ShadowMethod {
  public:
   explicit LayeredAttenuationMaps(const ParamSet& p)
-      : options_(lam::build_options(p)), filter_(lam::display_filter(p)) {}
+      : options_(lam::build_options(p)),
+        filter_(lam::display_filter(p)),
+        trace_unresolved_(p.get_string("unresolved") == "trace"),
+        trace_spread_(static_cast<float>(p.get_float("trace_spread"))) {}
 
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
@@ -70,6 +75,7 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     map_ = lam::build_attenuation_map(RasterTriangleView(tris, &all.textures), *ctx.light, region, set.base(),
                                       lam::options_for_scene(options_, *ctx.scene), &bs);
     bs.fit_ms = fit_ms;
+    set_display(ctx, set);
 
     extra_ = lam::build_statistics(bs, map_, n, map_.memory_bytes());
     extra_.update({
@@ -98,10 +104,13 @@ class LayeredAttenuationMaps final : public ShadowMethod {
       });
       stats_.texels_visited += texels.load();
     }
+    traced_samples_ = 0;
+    if (trace_unresolved_) trace_unresolved(ctx, vs, out);
     // Stats are per frame (the Renderer clears them), the LDI is not: report it every frame.
     stats_.memory_bytes = std::max<uint64_t>(peak_bytes_, map_.memory_bytes());
     const std::string suffix = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
     for (auto it = extra_.begin(); it != extra_.end(); ++it) stats_.extra[it.key() + suffix] = it.value();
+    if (trace_unresolved_) stats_.extra["traced_samples" + suffix] = traced_samples_;
   }
 
   // The LDI depends on the geometry, the light, the parameters, the seed and the light
@@ -124,15 +133,76 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     map_ = std::move(map);
     extra_ = std::move(extra_json);
     peak_bytes_ = peak;
+    set_display(ctx, lam::light_sample_set(ctx));
     return true;
   }
 
   const lam::AttenuationMap& map() const { return map_; }
 
  private:
+  // The display's options on a built or loaded map, and the light points of its samples.
+  void set_display(const ShadowContext& ctx, const LightSampleSet& set) {
+    map_.set_unresolved(trace_unresolved_, trace_spread_);
+    light_points_.clear();
+    for (const Vec2f& u : set.base()) light_points_.push_back(ctx.light->sample_area(u));
+  }
+
+  // The view samples the LDI does not resolve (the display returned kLamUnresolved: one of p's
+  // texels does not hold p's surface, which the paper reads as umbra or lit, or their attenuations
+  // differ by more than trace_spread, a shadow finer than the texels) take their V from the LDI's
+  // own N light samples, traced: the fraction of the points q_i = sample_area(u_i) that p sees, a
+  // light point behind a closed surface's own plane counting as blocked (its ray would enter the
+  // solid). The same samples as the LDI, so a traced point keeps its neighbours' banding; the rays
+  // are the exact answer the LDI approximates (docs/methods/lam.md "Points the LDI does not
+  // resolve").
+  void trace_unresolved(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) {
+    ScopedPhase phase(stats_, "trace");
+    std::vector<uint32_t> todo;
+    for (size_t k = 0; k < vs.size(); ++k)
+      if (out.visibility[k] < 0.0f) todo.push_back(static_cast<uint32_t>(k));
+    if (!ctx.tracer) {  // no scene to trace (a bare context): the paper's umbra
+      for (uint32_t k : todo) out.visibility[k] = 0.0f;
+      traced_samples_ = todo.size();
+      return;
+    }
+    std::atomic<uint64_t> rays{0};
+    const int n = static_cast<int>(light_points_.size());
+    parallel_for(todo.size(), 64, [&](size_t b, size_t e) {
+      std::vector<float> x(n), y(n), z(n), t(n);
+      uint64_t local = 0;
+      for (size_t j = b; j < e; ++j) {
+        const ViewSample& s = vs.samples[todo[j]];
+        const bool closed = ctx.scene->objects[s.object].closed;
+        int m = 0;
+        for (const Vec3f& q : light_points_) {
+          const Vec3f d = q - s.p;
+          if (closed && dot(d, s.ng) <= 0.0f) continue;  // behind the solid's own plane: blocked
+          x[m] = d.x;
+          y[m] = d.y;
+          z[m] = d.z;
+          ++m;
+        }
+        float lit = 0.0f;
+        if (m > 0) {
+          ctx.tracer->transmittance_fan(s.p, s.ng, x.data(), y.data(), z.data(), m, t.data());
+          for (int i = 0; i < m; ++i) lit += t[i];
+        }
+        out.visibility[todo[j]] = n > 0 ? lit / static_cast<float>(n) : 0.0f;
+        local += static_cast<uint64_t>(m);
+      }
+      rays += local;
+    });
+    stats_.rays_traced += rays.load();
+    traced_samples_ = todo.size();
+  }
+
   lam::BuildOptions options_;
   lam::Filter filter_ = lam::Filter::Bilinear;
+  bool trace_unresolved_ = true;
+  float trace_spread_ = 0.05f;
   lam::AttenuationMap map_;
+  std::vector<Vec3f> light_points_;  // sample_area of the LDI's light samples
+  size_t traced_samples_ = 0;
   nlohmann::json extra_ = nlohmann::json::object();
   size_t peak_bytes_ = 0;
 };
@@ -146,6 +216,9 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   const int r = p.get_int("resolution");
   tally.add(lam::build_bytes(r, p.get_int("max_layers")), "resolution");
   const int side = lam::sample_view_side_bound(r);
+  // The traced points' fans: the light points once, 4 floats a sample per worker (two).
+  tally.add(static_cast<uint64_t>(std::max(1, q.light_samples)) * (sizeof(Vec3f) + 8 * sizeof(float)),
+            kLightSamplesSetting);
   tally.add(2 * raster_triangles_bytes(q.triangles) + Rasterizer::scratch_bytes(q.triangles, side, side),
             kTrianglesSetting);
   return tally.estimate();
@@ -179,6 +252,16 @@ const MethodRegistration registration({
          "with local_planes, a splat of an open surface adds its share of the texel (bilinear weight x the "
          "texels its pixel covers) instead of counting the texel once per light sample (penumbra's addition: "
          "gaps in a canopy are not counted several times over); false: the paper's count", {}},
+        {"unresolved", ParamType::String, "trace",
+         "the view samples the LDI does not resolve (a texel around them does not hold their surface, or their "
+         "texels' attenuations differ by more than trace_spread): 'trace' the LDI's light samples from them "
+         "(penumbra's addition: exact there) or 'umbra' (the paper's display: umbra where a layer lies in front, "
+         "lit where none does)",
+         {"trace", "umbra"}},
+        {"trace_spread", ParamType::Float, 0.05,
+         "with unresolved=trace, a point whose 4 texels' attenuations differ by more than this is traced too (a "
+         "shadow finer than the LDI's texels); 1: only the points whose texels do not hold their surface",
+         {}, 0, 1},
         {"max_layers", ParamType::Int, 32, "most layers one LDI texel holds while building (more are dropped)", {},
          1, 255},
     },

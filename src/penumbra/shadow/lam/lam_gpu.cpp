@@ -59,7 +59,10 @@ uint64_t sample_view_texels(int resolution) {
 class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
  public:
   explicit LayeredAttenuationMapsGpu(const ParamSet& p)
-      : options_(lam::build_options(p)), bilinear_(lam::display_filter(p) == lam::Filter::Bilinear) {}
+      : options_(lam::build_options(p)),
+        bilinear_(lam::display_filter(p) == lam::Filter::Bilinear),
+        trace_unresolved_(p.get_string("unresolved") == "trace"),
+        trace_spread_(static_cast<float>(p.get_float("trace_spread"))) {}
 
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
@@ -73,10 +76,14 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
     const lam::BuildOptions options = lam::options_for_scene(options_, scene);
     const lam::ShadowRegion region = lam::fit_shadow_region(scene, light);
     map_ = lam::attenuation_map_frame(light, region, n, options);
+    map_.set_unresolved(trace_unresolved_, trace_spread_);  // the view below carries it
     view_ = gpu::make_buffer<shader::LamMapView>(device, std::span(&map_.shared(), 1), "lam's view");
     std::vector<Vec3f> outline(map_.outline().begin(), map_.outline().end());
     if (outline.empty()) outline.push_back(Vec3f(0.0f));
     outline_ = gpu::make_buffer<Vec3f>(device, outline, "lam's light outline");
+    std::vector<Vec3f> points;
+    for (const Vec2f& u : set.base()) points.push_back(light.sample_area(u));
+    points_ = gpu::make_buffer<Vec3f>(device, points, "lam's light points");
     counters_ = gpu::Buffer(device, sizeof(LamCounters), "lam's counters");
     sample_counts_ = gpu::Buffer(device, n * sizeof(LamSampleCounts), "lam's per-sample counts");
     cl.stage("precompute");
@@ -115,7 +122,7 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
   void evaluate(const ShadowContext& ctx, GpuFrame& frame, const GpuShadowOutput& out) override {
     gpu::CommandList& cl = *frame.commands;
     cl.stage("display");
-    if (!counting_) cl.fill(counters_, 0, offsetof(LamCounters, texels), 8);
+    if (!counting_) cl.fill(counters_, 0, offsetof(LamCounters, texels), sizeof(LamCounters) - offsetof(LamCounters, texels));
     counting_ = true;
     shader::LamDisplayParams p{};
     p.scene = frame.scene->address();
@@ -126,21 +133,25 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
     p.outline = outline_.address();
     p.view = view_.address();
     p.counters = counters_.address();
+    p.points = points_.address();
+    p.point_count = static_cast<uint32_t>(points_.bytes() / sizeof(Vec3f));
     p.slots = frame.slots;
     p.bilinear = bilinear_ ? 1u : 0u;
     cl.dispatch("lam_display", frame.slots, p);
     // Stats are per frame (the renderer clears them), the LDI is not: report it every frame.
     stats_.memory_bytes = std::max<uint64_t>(peak_bytes_, ldi_bytes());
-    const std::string suffix = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
-    for (auto it = extra_.begin(); it != extra_.end(); ++it) stats_.extra[it.key() + suffix] = it.value();
+    suffix_ = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
+    for (auto it = extra_.begin(); it != extra_.end(); ++it) stats_.extra[it.key() + suffix_] = it.value();
   }
 
-  // The texels the display read, counted on the device.
+  // The texels the display read and the points it traced, counted on the device.
   void collect_stats() override {
     if (!counting_) return;
     LamCounters c{};
     counters_.download(&c, sizeof(c));
     stats_.texels_visited += c.texels;
+    stats_.rays_traced += c.rays;
+    if (trace_unresolved_) stats_.extra["traced_samples" + suffix_] = c.traced;
     counting_ = false;
   }
 
@@ -247,14 +258,17 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
 
   // What the finished LDI holds on the device.
   uint64_t ldi_bytes() const {
-    return layers_.bytes() + ranges_.bytes() + view_.bytes() + outline_.bytes() + counters_.bytes() +
+    return layers_.bytes() + ranges_.bytes() + view_.bytes() + outline_.bytes() + points_.bytes() + counters_.bytes() +
            sample_counts_.bytes();
   }
 
   lam::BuildOptions options_;
   bool bilinear_ = true;
+  bool trace_unresolved_ = true;  // lam.cpp's `unresolved` and `trace_spread`
+  float trace_spread_ = 0.05f;
+  std::string suffix_;  // the light's suffix for the statistics (lam.cpp's)
   lam::AttenuationMap map_;  // the frame only (lam::attenuation_map_frame): the layers are on the device
-  gpu::Buffer view_, outline_, counters_, sample_counts_, ranges_, layers_;
+  gpu::Buffer view_, outline_, points_, counters_, sample_counts_, ranges_, layers_;
   nlohmann::json extra_ = nlohmann::json::object();
   uint64_t peak_bytes_ = 0, sample_texels_ = 0;
   bool counting_ = false;
@@ -280,7 +294,8 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   tally.add(gpu::GpuBatchRasterizer::scratch_bytes(q.triangles, batch, batch * per_view) + q.triangles * 4 +
                 33 * sizeof(Vec3f),
             kTrianglesSetting);
-  tally.add(static_cast<uint64_t>(n) * (sizeof(LamSampleCounts) + sizeof(LamSampleView)), kLightSamplesSetting);
+  tally.add(static_cast<uint64_t>(n) * (sizeof(LamSampleCounts) + sizeof(LamSampleView) + sizeof(Vec3f)),
+            kLightSamplesSetting);
   return tally.estimate();
 }
 

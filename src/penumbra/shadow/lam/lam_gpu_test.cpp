@@ -44,6 +44,9 @@ TEST_F(LamGpu, EveryParameterWorksAsOnTheCpu) {
   EXPECT_LE(difference(scene, settings(true, {"resolution=64", "weighted_splats=false"})), 2e-3);
   // One tolerance for open and closed surfaces: the GPU still tells them apart for the weights.
   EXPECT_LE(difference(scene, settings(true, {"resolution=64", "open_epsilon=0.005"})), 2e-3);
+  // The paper's display (nothing traced), and more points traced than by default.
+  EXPECT_LE(difference(scene, settings(true, {"resolution=64", "unresolved=umbra"})), 2e-3);
+  EXPECT_LE(difference(scene, settings(true, {"resolution=64", "trace_spread=0"})), 2e-3);
 }
 
 TEST_F(LamGpu, TheLdiIsTheCpusLayerForLayer) {
@@ -58,6 +61,12 @@ TEST_F(LamGpu, TheLdiIsTheCpusLayerForLayer) {
   EXPECT_EQ(cpu.stats.extra.at("sample_texels"), gpu.stats.extra.at("sample_texels"));
   EXPECT_EQ(cpu.stats.extra.at("depth_complexity"), gpu.stats.extra.at("depth_complexity"));
   EXPECT_EQ(cpu.stats.texels_visited, gpu.stats.texels_visited);
+  // The same points traced (the lookups are the CPU's), nearly the same rays (a light point exactly
+  // in a closed surface's plane may fall either side on the other device).
+  EXPECT_EQ(cpu.stats.extra.at("traced_samples"), gpu.stats.extra.at("traced_samples"));
+  EXPECT_GT(cpu.stats.extra.at("traced_samples").get<uint64_t>(), 0u);
+  EXPECT_NEAR(static_cast<double>(cpu.stats.rays_traced), static_cast<double>(gpu.stats.rays_traced),
+              1e-3 * static_cast<double>(cpu.stats.rays_traced));
 }
 
 TEST_F(LamGpu, TheLdiSurvivesACameraMoveAndOnlyTheDisplayRunsAgain) {

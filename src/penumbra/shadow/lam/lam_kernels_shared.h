@@ -66,15 +66,17 @@ struct LamSampleCounts {
   uint nonempty;
 };
 
-// 32 bytes: bytes 0-7 splats (texel insertions attempted), 8-15 dropped (insertions lost to
+// 48 bytes: bytes 0-7 splats (texel insertions attempted), 8-15 dropped (insertions lost to
 // max_layers), 16-19 the most layers of one texel, 20-23 layers allocated by the finalize,
-// 24-31 texels the display read.
+// 24-31 texels the display read, 32-39 view samples it traced (kLamUnresolved), 40-47 their rays.
 struct LamCounters {
   uint64_t splats;
   uint64_t dropped;
   uint max_depth;
   uint allocated;
   uint64_t texels;
+  uint64_t traced;
+  uint64_t rays;
 };
 
 // lam_scatter.comp (one thread per pixel of one light sample's map) and lam_insert.comp (one
@@ -123,8 +125,10 @@ struct LamDisplayParams {
   uint64_t outline;     // float[3 x outline points]
   uint64_t view;        // LamMapView
   uint64_t counters;    // LamCounters
+  uint64_t points;      // vec3[point_count]: the LDI's light samples on the light (sample_area)
   uint slots;
   uint bilinear;  // 1: the 4 texels around p; 0: the nearest
+  uint point_count;
 };
 
 PN_SHARED_END
@@ -134,7 +138,7 @@ static_assert(sizeof(penumbra::shader::LamBuildLayer) == 20);
 static_assert(sizeof(penumbra::shader::LamSampleView) == 32);
 static_assert(sizeof(penumbra::shader::LamSampleCounts) == 8);
 static_assert(sizeof(penumbra::shader::LamSplatEntry) == 12);
-static_assert(sizeof(penumbra::shader::LamCounters) == 32);
+static_assert(sizeof(penumbra::shader::LamCounters) == 48);
 static_assert(sizeof(penumbra::shader::LamInsertParams) <= 128);
 static_assert(sizeof(penumbra::shader::LamFinalizeParams) <= 128);
 static_assert(sizeof(penumbra::shader::LamDisplayParams) <= 128);

@@ -31,6 +31,9 @@ PN_CONST int kLamMaxOutline = 16;
 // What a texel's lookup returns besides an attenuation (>= 0).
 PN_CONST float kLamOccluded = -1.0f;
 PN_CONST float kLamUndefined = -2.0f;
+// What the display returns, with LamMapView::unresolved on, for a point its texels do not resolve
+// (lam_visibility): the caller traces that point's light samples instead (lam.cpp, lam_display.comp).
+PN_CONST float kLamUnresolved = -3.0f;
 
 // The reference view and the light as the display reads them (AttenuationMap's frame), 192 bytes:
 //   bytes   0-47  the texel projection's rows 0-2 (world -> (X z, Y z, z)), each (vec3, offset)
@@ -44,7 +47,10 @@ PN_CONST float kLamUndefined = -2.0f;
 //                 planes), solid (1: the map clamps closed objects by front_fraction), empty (1: no
 //                 layers at all: the shadow region was empty)
 //   bytes 176-179 open_epsilon (the tolerance for open surfaces with local planes: lam_epsilon)
-//   bytes 180-191 (unused, 0)
+//   bytes 180-187 unresolved (1: the display returns kLamUnresolved where its texels do not resolve
+//                 a point; 0: the paper's umbra and lit), trace_spread (the largest difference
+//                 between the 4 texels' attenuations the bilinear display interpolates)
+//   bytes 188-191 (unused, 0)
 struct LamMapView {
   vec3 row0;
   float off0;
@@ -73,8 +79,8 @@ struct LamMapView {
   uint solid;
   uint empty;
   float open_epsilon;
-  uint pad1;
-  uint pad2;
+  uint unresolved;
+  float trace_spread;
   uint pad3;
 };
 
@@ -288,6 +294,10 @@ PN_INLINE float lam_epsilon(LamMapView m, bool closed) { return m.slope != 0u &&
 // skips that); no matching layer but one in front: umbra (0); no layer in front either: lit (1).
 // Bilinear weighs the 4 texels around p, skipping those without a layer at or in front of p.
 // Outside the shadow region: 1. `texels` counts the texels read.
+// With m.unresolved (penumbra's addition; lam.md "Points the LDI does not resolve"), a point whose
+// texels do not all hold its surface (nearest: the one texel; bilinear: each of the 4), or whose 4
+// attenuations differ by more than m.trace_spread (a shadow detail finer than the texels), gets
+// kLamUnresolved instead: the caller traces its light samples.
 PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uint stride, LamMapView m, vec3 p,
                                vec3 n, float epsilon, bool bilinear, bool slope, PN_INOUT(uint) texels) {
   float z = lam_row(m.row2, m.off2, p);
@@ -322,6 +332,7 @@ PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uin
     texels += 1u;
     float zt = lam_plane_depth(plane, nd, nr, nu, nf, den_p, z, cap, float(ix) + 0.5f, float(iy) + 0.5f);
     float r = lam_lookup_texel(layers, ranges, stride, uint(iy) * uint(m.width) + uint(ix), zt, epsilon);
+    if (r < 0.0f && m.unresolved != 0u) return kLamUnresolved;
     return r >= 0.0f ? r : (r == kLamOccluded ? 0.0f : 1.0f);
   }
   // Bilinear over the 4 texel centres around p (percentage-closer style, agrawala2000 §6.1);
@@ -334,6 +345,9 @@ PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uin
   float wy = fy - float(y0);
   float sum = 0.0f;
   float wsum = 0.0f;
+  uint matched = 0u;  // taps that hold p's surface, and the range of their attenuations
+  float lo = 1.0f;
+  float hi = 0.0f;
   for (int k = 0; k < 4; ++k) {
     int tx = x0 + (k & 1);
     int ty = y0 + (k >> 1);
@@ -345,10 +359,14 @@ PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uin
     if (r >= 0.0f) {
       sum += w * r;
       wsum += w;
+      matched += 1u;
+      lo = min(lo, r);
+      hi = max(hi, r);
     } else if (r == kLamOccluded) {
       wsum += w;
     }
   }
+  if (m.unresolved != 0u && (matched < 4u || hi - lo > m.trace_spread)) return kLamUnresolved;
   return wsum > 0.0f ? sum / wsum : 1.0f;
 }
 

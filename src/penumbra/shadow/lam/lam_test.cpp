@@ -184,6 +184,67 @@ TEST(Lam, OpenSurfacesCloserThanEpsilonStayApartWithTheOpenTolerance) {
   }
 }
 
+// Points the LDI does not resolve (lam.md): where one of a point's 4 texels does not hold its
+// surface (the paper's umbra, or lit) or their attenuations differ by more than trace_spread, the
+// display traces the LDI's own light samples from the point. On the edge scene with texels 16
+// times coarser than the penumbra's test above, the traced points are exactly the fixed samples'
+// visibility, the picture is closer to the analytic penumbra than the paper's display, and the
+// option `unresolved=umbra` traces nothing.
+TEST(Lam, PointsTheTexelsDoNotResolveTakeTheTracedVisibilityOfTheLdisSamples) {
+  const Scene scene = edge_scene();
+  const ViewSamples vs = ground_line(-1.2f, 1.2f, 480);
+  constexpr int kSpp = 64;
+  // The LDI's light points, as lam.cpp draws them for run_lam's context (seed 0, light 0), and
+  // each view sample's visibility of them through Embree.
+  RayTracer tracer(scene);
+  ShadowContext ctx;
+  ctx.light = &scene.lights[0];
+  ctx.light_samples = kSpp;
+  const LightSampleSet set = lam::light_sample_set(ctx);
+  std::vector<float> x, y, z;
+  for (const Vec2f& u : set.base()) {
+    const Vec3f d = scene.lights[0].sample_area(u);
+    x.push_back(d.x), y.push_back(d.y), z.push_back(d.z);
+  }
+  std::vector<float> fixed(vs.size());
+  for (size_t i = 0; i < vs.size(); ++i) {
+    const ViewSample& s = vs.samples[i];
+    std::vector<float> dx(kSpp), dy(kSpp), dz(kSpp), t(kSpp);
+    for (int k = 0; k < kSpp; ++k) dx[k] = x[k] - s.p.x, dy[k] = y[k] - s.p.y, dz[k] = z[k] - s.p.z;
+    tracer.transmittance_fan(s.p, s.ng, dx.data(), dy.data(), dz.data(), kSpp, t.data());
+    double lit = 0;
+    for (float v : t) lit += v;
+    fixed[i] = static_cast<float>(lit / kSpp);
+  }
+  auto error = [&](const std::vector<float>& v) {
+    double e = 0;
+    for (size_t i = 0; i < v.size(); ++i) e += std::abs(v[i] - analytic_v(vs.samples[i].p.x));
+    return e / static_cast<double>(v.size());
+  };
+  auto traced = [](const MethodStats& st) { return st.extra.value("traced_samples", uint64_t{0}); };
+  MethodStats st_trace, st_umbra, st_all, st_none;
+  const std::vector<float> v_trace = run_lam(scene, vs, kSpp, {"resolution=16"}, &st_trace);
+  const std::vector<float> v_umbra = run_lam(scene, vs, kSpp, {"resolution=16", "unresolved=umbra"}, &st_umbra);
+  run_lam(scene, vs, kSpp, {"resolution=16", "trace_spread=0"}, &st_all);
+  run_lam(scene, vs, kSpp, {"resolution=16", "trace_spread=1"}, &st_none);
+  size_t exact = 0;
+  for (size_t i = 0; i < vs.size(); ++i) exact += std::abs(v_trace[i] - fixed[i]) <= 1e-6f;
+  std::printf("edge at 16 texels: %zu of %zu points traced (%zu with trace_spread 0, %zu with 1); mean |V - exact| "
+              "%.4f traced, %.4f the paper's display\n",
+              static_cast<size_t>(traced(st_trace)), vs.size(), static_cast<size_t>(traced(st_all)),
+              static_cast<size_t>(traced(st_none)), error(v_trace), error(v_umbra));
+  EXPECT_GT(traced(st_trace), vs.size() / 10);
+  EXPECT_GE(exact, traced(st_trace));  // every traced point is the fixed samples' own answer
+  EXPECT_GT(st_trace.rays_traced, 0u);
+  EXPECT_LE(st_trace.rays_traced, traced(st_trace) * kSpp);
+  EXPECT_LT(error(v_trace), 0.5 * error(v_umbra));
+  // The paper's display traces nothing; a larger spread traces fewer points, never more.
+  EXPECT_EQ(st_umbra.rays_traced, 0u);
+  EXPECT_FALSE(st_umbra.extra.contains("traced_samples"));
+  EXPECT_GE(traced(st_all), traced(st_trace));
+  EXPECT_LE(traced(st_none), traced(st_trace));
+}
+
 // Weighted splats (lam_shared.h, "Counting a layer"): under a comb of thin bars the ground sees
 // the light through gaps a texel or two wide. The paper's count counts each gap at every texel its
 // pixels' 4-texel splats touch, up to 4 times over: the ground reads too bright. Weighted by the
