@@ -43,6 +43,7 @@ class CoherentRayTracing final : public ShadowMethod {
     sampling_ = settings.sampling;
     tile_ = settings.tile;
     own_plane_ = settings.own_plane;
+    near_field_ = settings.near_field;
   }
 
   bool computes_irradiance() const override { return true; }
@@ -81,6 +82,12 @@ class CoherentRayTracing final : public ShadowMethod {
     ScopedPhase phase(stats_, "trace");
     const AreaLight& light = *ctx.light;
     if (geometry_ && !ctx.tracer) throw Error("coherent-rt: tracer=geometry needs the Embree scene");
+    // The near field (coherent-rt.md): the first near_field texels of each ray through Embree.
+    std::vector<LightView> views;
+    for (const ReferenceImage& img : images_) views.push_back(img.view);
+    const float near_scale = geometry_ || views.empty() || !ctx.tracer ? 0.0f : near_field_scale(near_field_, views);
+    const Vec3f near_eye = views.empty() ? Vec3f(0.0f) : views[0].eye();
+    const Vec3f near_forward = views.empty() ? Vec3f(0.0f) : views[0].forward();
     const int n = std::max(1, ctx.light_samples);
     int cols = 1, rows = 1;
     stratification_grid(n, &cols, &rows);
@@ -119,14 +126,14 @@ class CoherentRayTracing final : public ShadowMethod {
     std::mutex mutex;
     TraceCounters trace_total;
     SoftShadCounters sample_total;
-    uint64_t geometry_rays = 0, own_plane_total = 0;
+    uint64_t geometry_rays = 0, own_plane_total = 0, near_total = 0;
     parallel_for_tiles(tiles_x, tiles_y, 1, [&](int i, int j, int, int) {
       const int x0 = (tx0 + i) * tile_, y0 = (ty0 + j) * tile_;
       SoftShad sampler(light, cols, rows, sampling_);
       TraceScratch scratch;
       TraceCounters tc;
       SoftShadCounters sc;
-      uint64_t grays = 0, own_plane_cells = 0;
+      uint64_t grays = 0, own_plane_cells = 0, near_rays = 0;
       std::vector<Vec2f> u(n);
       std::vector<Vec3f> q(n);
       size_t done = 0;
@@ -172,7 +179,21 @@ class CoherentRayTracing final : public ShadowMethod {
                 a.point = sr.org + sr.dir * h.t;
               }
             } else {
-              TraceResult t = tracer.trace(sr.org, q[j], sampling_.coherence, scratch, &tc);
+              Vec3f start = sr.org;
+              if (near_scale > 0) {
+                const float len = shader::crt_near_field_length(s.p, near_eye, near_forward, near_scale, sr.tfar);
+                ++near_rays;
+                Ray r{sr.org, sr.dir, sr.tnear, len};
+                Hit h;
+                if (ctx.tracer->intersect(r, &h)) {
+                  a.blocked = a.has_point = true;
+                  a.point = sr.org + sr.dir * h.t;
+                  return a;
+                }
+                if (len >= sr.tfar) return a;  // the whole segment was near: unblocked
+                start = sr.org + sr.dir * len;
+              }
+              TraceResult t = tracer.trace(start, q[j], sampling_.coherence, scratch, &tc);
               a.blocked = t.blocked;
               a.has_point = t.has_point;
               a.point = t.point;
@@ -199,6 +220,7 @@ class CoherentRayTracing final : public ShadowMethod {
       sample_total.add(sc);
       geometry_rays += grays;
       own_plane_total += own_plane_cells;
+      near_total += near_rays;
     });
     // Rays actually traced (cells the sampler asked for, less those the own-plane test answered).
     const uint64_t traced = geometry_ ? geometry_rays : trace_total.rays;
@@ -215,6 +237,7 @@ class CoherentRayTracing final : public ShadowMethod {
     extra["ray_fraction"] = traced / (points * n);
     extra["cells_evaluated_per_point"] = sample_total.rays / points;
     extra["own_plane_cells_per_point"] = own_plane_total / points;
+    if (!geometry_) extra["near_field_rays_per_point"] = near_total / points;
     if (sampling_.coherence)
       extra["coherence"] = {{"resets", sample_total.resets},
                             {"predicted_wrong_per_point", sample_total.predicted_wrong / points},
@@ -238,6 +261,7 @@ class CoherentRayTracing final : public ShadowMethod {
   std::string views_;
   int tile_ = 32;
   bool own_plane_ = true;
+  float near_field_ = 16.0f;
   ReferenceImageOptions image_options_;
   TraceOptions trace_options_;
   SoftShadOptions sampling_;
@@ -321,6 +345,12 @@ const MethodRegistration registration({
          {}},
         {"tile", ParamType::Int, 32, "image tiles shaded in Hilbert order, each with its own prediction (power of two)",
          {}, 1, 1024},
+        {"near_field", ParamType::Float, 16.0,
+         "depth images: the first near_field texels (of the images, at the point's depth) of each shadow ray are "
+         "traced through the scene itself, the images answer for the rest (penumbra's addition: within a few "
+         "texels of its receiver a ray meets surfaces the images hold only as biased texel floors); 0: the "
+         "paper's rays, images alone",
+         {}, 0, 1e6},
     },
     [](const ParamSet& p) { return std::make_unique<CoherentRayTracing>(p); },
     /*samples_light=*/true,

@@ -176,6 +176,14 @@ class CoherentRtGpu final : public GpuShadowMethod {
     b.images = static_cast<int>(images_.size());
     b.own_plane = settings_.own_plane ? 1u : 0u;
     b.geometry = settings_.geometry ? 1u : 0u;
+    // The near field (coherent_rt.cpp): the first near_field texels of each ray through the BVH.
+    std::vector<LightView> views;
+    for (const GpuReferenceImage& img : images_) views.push_back(img.view);
+    if (!settings_.geometry && !views.empty()) {
+      b.near_scale = near_field_scale(settings_.near_field, views);
+      b.near_eye = views[0].eye();
+      b.near_forward = views[0].forward();
+    }
     const uint64_t tiles = static_cast<uint64_t>(b.tiles_x) * static_cast<uint64_t>(b.tiles_y);
     const uint64_t scratch = tiles * shader::crt_tile_scratch_words(n, b.sub_grid) * 4;
     gpu::ensure_buffer(device, scratch_, scratch, "coherent-rt's tile samplers");
@@ -270,6 +278,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
     extra["ray_fraction"] = traced / (points * light_samples_);
     extra["cells_evaluated_per_point"] = t.rays / points;
     extra["own_plane_cells_per_point"] = t.own_plane_cells / points;
+    if (!settings_.geometry) extra["near_field_rays_per_point"] = t.near_rays / points;
     extra["span_capacity"] = span_capacity_;
     extra["span_retries"] = span_retries_;
     extra["cells_per_dispatch"] = cells_per_dispatch_;
@@ -296,7 +305,11 @@ class CoherentRtGpu final : public GpuShadowMethod {
   void add(const shader::CrtGpuCounters& c) {
     uint64_t* dst = &totals_.points;
     const uint64_t* src = &c.points;
-    for (int k = 0; k < 17; ++k) dst[k] += src[k];
+    // The 64-bit counters, points .. near_rays, in order.
+    constexpr int kCounters = (offsetof(shader::CrtGpuCounters, near_rays) - offsetof(shader::CrtGpuCounters, points)) /
+                                  sizeof(uint64_t) + 1;
+    static_assert(kCounters == 18);
+    for (int k = 0; k < kCounters; ++k) dst[k] += src[k];
   }
 
   CoherentRtSettings settings_;

@@ -71,6 +71,9 @@ TEST_F(CoherentRtGpu, EveryParameterWorksAsOnTheCpu) {
                                "hidden_blocks=true", "views=center", "reset_distance=0.05"}),
             2e-3);
   EXPECT_LE(difference(scene, {"tracer=geometry", "tile=16"}), 2e-3);
+  // The paper's rays (no near field) and a near field longer than most rays.
+  EXPECT_LE(difference(scene, {"resolution=128", "near_field=0"}), 2e-3);
+  EXPECT_LE(difference(scene, {"resolution=64", "near_field=200"}), 2e-3);
 }
 
 // 64 light samples a point: on lavapipe more loop iterations than one invocation may run

@@ -61,7 +61,20 @@ PN_INLINE float crt_cell_irradiance(vec3 p, vec3 ns, vec3 light_n, vec3 q) {
   return max(0.0f, dot(ns, w)) * cos_l / d2;
 }
 
-// What the tiles read besides their buffers, 120 bytes, uploaded with each evaluate.
+// The near field of a shadow ray (penumbra's addition; coherent-rt.md "The near field"): how far
+// from its origin, along the segment of length tfar, the ray is traced through the scene itself
+// before the depth images answer for the rest. `scale` is near_field (texels) times the images'
+// largest texel at unit depth, `eye` and `forward` the images' (shared) depth axis: near_field
+// texels of the images at p's depth, at most the whole segment. Within a few texels of its receiver
+// a ray meets surfaces the images hold only as whole texels' floors pushed back by their biases (a
+// leaf a few centimetres under another).
+PN_INLINE float crt_near_field_length(vec3 p, vec3 eye, vec3 forward, float scale, float tfar) {
+  float z = max(0.0f, dot(p - eye, forward));
+  return min(tfar, scale * z);
+}
+
+// What the tiles read besides their buffers, 152 bytes (the near field's last 32), uploaded with each
+// evaluate.
 struct CrtTileBlock {
   CrtTraceOptions trace;  // 24 bytes
   int cols;               // light cells (stratification_grid)
@@ -88,6 +101,10 @@ struct CrtTileBlock {
   int span_capacity;  // spans per list per tile
   uint own_plane;     // closed meshes: light behind the point's plane is blocked without a ray
   uint geometry;      // tracer=geometry: rays through the GPU's BVH
+  vec3 near_eye;      // crt_near_field_length's depth axis and scale (0: no near field)
+  float near_scale;
+  vec3 near_forward;
+  uint pad_near;
 };
 
 // A tile's scratch, `words` uint32 words each (crt_tile_scratch_words): stamps (n sub^2),
@@ -100,7 +117,7 @@ PN_INLINE uint crt_tile_scratch_words(int n, int sub_grid) {
   return subs + cells + 2u * cells + cells + 3u * subs + 3u * cells + 16u + 2u;
 }
 
-// What the tiles count, 152 bytes (one atomic per tile and counter): SoftShadCounts, CrtTraceCounts
+// What the tiles count, 160 bytes (one atomic per tile and counter): SoftShadCounts, CrtTraceCounts
 // (overflow: some ray's span lists were too small: the host traces again with longer ones), the
 // own-plane cells and the BVH rays of tracer=geometry.
 struct CrtGpuCounters {
@@ -121,6 +138,7 @@ struct CrtGpuCounters {
   uint64_t texels;
   uint64_t own_plane_cells;
   uint64_t geometry_rays;
+  uint64_t near_rays;  // the near fields traced through the BVH (crt_near_field_length)
   uint overflow;
   // Some tile's dispatch ran into the driver's loop limit (lavapipe: 65535 loop iterations per
   // invocation; the loops then stop early, silently): what is written is wrong and the host traces
@@ -174,8 +192,8 @@ struct CrtBuildParams {
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::CrtTileBlock) == 120);
-static_assert(sizeof(penumbra::shader::CrtGpuCounters) == 152);
+static_assert(sizeof(penumbra::shader::CrtTileBlock) == 152);
+static_assert(sizeof(penumbra::shader::CrtGpuCounters) == 160);
 static_assert(sizeof(penumbra::shader::CrtTilesParams) <= 128);
 static_assert(sizeof(penumbra::shader::CrtBuildParams) <= 128);
 #endif

@@ -2,6 +2,8 @@
 // device.
 #pragma once
 
+#include <algorithm>
+#include <span>
 #include <string>
 
 #include "penumbra/core/error.h"
@@ -20,7 +22,16 @@ struct CoherentRtSettings {
   SoftShadOptions sampling;
   int tile = 32;
   bool own_plane = true;
+  float near_field = 16.0f;  // texels of the images at the point's depth traced through the scene
 };
+
+// The near field's scale for crt_near_field_length: near_field texels of the largest texel among
+// the views, per unit of depth (their windows differ a little; they share the depth axis).
+inline float near_field_scale(float near_field, std::span<const LightView> views) {
+  float texel = 0.0f;
+  for (const LightView& v : views) texel = std::max(texel, v.texel_world_size(1.0f));
+  return near_field * texel;
+}
 
 inline CoherentRtSettings coherent_rt_settings(const ParamSet& p) {
   CoherentRtSettings s;
@@ -43,6 +54,7 @@ inline CoherentRtSettings coherent_rt_settings(const ParamSet& p) {
   s.sampling.shortcut = p.get_bool("shortcut");
   s.tile = p.get_int("tile");
   s.own_plane = p.get_bool("own_plane");
+  s.near_field = p.get_float("near_field");
   if (s.tile & (s.tile - 1)) throw Error("coherent-rt: tile={} must be a power of two", s.tile);
   return s;
 }

@@ -7,7 +7,8 @@
 // the same points as on the CPU and gets the same prediction. Per point: the `reference` stream's
 // stratified light points (area samples), SoftShad's cells to trace (soft_shad_shared.h), each
 // traced through the reference depth images (depth_image_trace_shared.h) or, with
-// tracer=geometry, the GPU's BVH (closest hit: the blocker point), and eq. 1 (area sampling) over
+// tracer=geometry, the GPU's BVH (closest hit: the blocker point; also each ray's near field before
+// the images, crt_near_field_length), and eq. 1 (area sampling) over
 // the visible cells. The tile's sampler and span lists live in its slices of two scratch buffers.
 // A tile's work may be split over several dispatches (resume, cell_budget; lavapipe limits the
 // loop iterations of one invocation): where it stands and the sampler wait in its scratch.
@@ -82,7 +83,7 @@ void main() {
   tc.nodes = 0u;
   tc.texels = 0u;
   tc.overflow = 0u;
-  uint own_plane_cells = 0u, geometry_rays = 0u;
+  uint own_plane_cells = 0u, geometry_rays = 0u, near_rays = 0u;
   int x0 = (b.tile_x0 + int(tile % uint(b.tiles_x))) * b.tile;
   int y0 = (b.tile_y0 + int(tile / uint(b.tiles_x))) * b.tile;
   int ww = b.window_x1 - b.window_x0;
@@ -154,7 +155,25 @@ void main() {
               point = org + dir * hit.t;
             }
           } else {
-            crt_trace(images, b.trace, org, q, b.coherence != 0u, spans, tc, blocked, has_point, point);
+            // The near field (crt_near_field_length): its part of the ray through the BVH first.
+            vec3 start = org;
+            bool done_near = false;
+            if (b.near_scale > 0.0f) {
+              float len = crt_near_field_length(s.p, b.near_eye, b.near_forward, b.near_scale, tfar);
+              RayHit hit;
+              near_rays += 1u;
+              if (trace_closest(org, dir, len, hit)) {
+                blocked = true;
+                has_point = true;
+                point = org + dir * hit.t;
+                done_near = true;
+              } else if (len >= tfar) {
+                done_near = true;  // the whole segment was near: unblocked
+              }
+              start = org + dir * len;
+            }
+            if (!done_near)
+              crt_trace(images, b.trace, start, q, b.coherence != 0u, spans, tc, blocked, has_point, point);
           }
           if (tc.overflow == 0u) ss_answer(r, st, L, s.p, j, blocked, has_point, point, sc);
           done += 1;
@@ -205,5 +224,6 @@ void main() {
   atomicAdd(c.c.texels, uint64_t(tc.texels));
   atomicAdd(c.c.own_plane_cells, uint64_t(own_plane_cells));
   atomicAdd(c.c.geometry_rays, uint64_t(geometry_rays));
+  atomicAdd(c.c.near_rays, uint64_t(near_rays));
   if (tc.overflow != 0u) atomicMax(c.c.overflow, 1u);
 }
