@@ -23,6 +23,7 @@
 #include "penumbra/shadow/multilayer/multilayer_view_shared.h"
 #include "penumbra/shadow/partitions/light_partitions.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/trace/ray_tracer.h"
 
 namespace penumbra {
 namespace {
@@ -45,6 +46,7 @@ class MultilayerMethod final : public ShadowMethod {
     layers_ = s.layers;
     compression_ = s.compression;
     trace_.stop_below = s.stop_below;
+    trace_.near_field = s.near_field;
   }
 
   void prepare(const ShadowContext& ctx) override {
@@ -70,6 +72,8 @@ class MultilayerMethod final : public ShadowMethod {
 
     ScopedPhase phase(stats_, "trace");
     const int n = std::max(1, ctx.light_samples);
+    const shader::MlTraceSetup near_shared =
+        multilayer::shared_trace_setup(setup, kind_ == Kind::Opaque ? opaque_.z_min : transparent_.z_min);
     const StratifiedGrid grid(n);
     const Scene& scene = *ctx.scene;
     multilayer::TraceCounters total;
@@ -84,6 +88,7 @@ class MultilayerMethod final : public ShadowMethod {
       batch.resize(n);
       std::vector<Vec3f> q(n);
       std::vector<float> transmit(n);
+      NearFields near(n);
       for (size_t k = begin; k < end; ++k) {
         const ViewSample& s = vs.samples[k];
         // Keyed by (seed, light, camera ray, frame): independent of thread count. The same
@@ -106,6 +111,7 @@ class MultilayerMethod final : public ShadowMethod {
           multilayer::trace_opaque(setup, opaque_, r, points, transmit.data(), &local);
         else
           multilayer::trace_transparent(setup, transparent_, r, points, transmit.data(), &local);
+        if (near_shared.near_field > 0 && ctx.tracer) trace_near_fields(ctx, near_shared, s, points, near, transmit);
         double v = 0, wsum = 0;
         for (int i = 0; i < m; ++i) {
           v += transmit[i] * batch.area_weight[i];
@@ -135,6 +141,35 @@ class MultilayerMethod final : public ShadowMethod {
   const multilayer::CentreView& view() const { return view_; }
 
  private:
+  // One point's near fields (ml_near_fraction): the first part of each of its rays, traced through
+  // the scene (Embree's fan from the point), its transmittance times the map's answer for the rest
+  // (mtsm), or blocking outright where anything is hit (mlsm: every caster opaque).
+  struct NearFields {
+    explicit NearFields(int n) : x(n), y(n), z(n), t(n), index(n) {}
+    std::vector<float> x, y, z, t;
+    std::vector<int> index;  // the ray of each near field
+  };
+  void trace_near_fields(const ShadowContext& ctx, const shader::MlTraceSetup& ss, const ViewSample& s,
+                         std::span<const Vec3f> q, NearFields& near, std::vector<float>& transmit) const {
+    const shader::RasterView& view = view_.view.shared();
+    int m = 0;
+    for (size_t i = 0; i < q.size(); ++i) {
+      if (transmit[i] <= 0.0f) continue;  // the map (or the receiver's own solid) already blocks it
+      const Vec3f d = (q[i] - s.p) * shader::ml_near_fraction(view, ss, s.p, q[i]);
+      near.x[m] = d.x;
+      near.y[m] = d.y;
+      near.z[m] = d.z;
+      near.index[m++] = static_cast<int>(i);
+    }
+    if (m == 0) return;
+    ctx.tracer->transmittance_fan(s.p, s.ng, near.x.data(), near.y.data(), near.z.data(), m, near.t.data());
+    for (int j = 0; j < m; ++j) {
+      float& t = transmit[near.index[j]];
+      t = kind_ == Kind::Opaque ? (near.t[j] < 1.0f ? 0.0f : t) : t * near.t[j];
+      if (kind_ == Kind::Transparent && t < resolved_trace_.stop_below) t = 0.0f;
+    }
+  }
+
   size_t memory_bytes() const {
     return kind_ == Kind::Opaque ? opaque_.memory_bytes() : transparent_.memory_bytes();
   }
@@ -249,6 +284,11 @@ std::vector<ParamSpec> common_specs() {
       {"open_self_bias", ParamType::Float, 0.1,
        "self_bias for receivers on open surfaces (leaves, cards, planes: objects that are not closed): flat per "
        "triangle, their own plane is exact, and a narrower band keeps the leaf just above in a canopy",
+       {}, 0, 1e6},
+      {"near_field", ParamType::Float, 16.0,
+       "texel widths (at the receiver) at the start of each shadow ray traced through the scene itself, the map "
+       "answering for the rest (penumbra's addition: near its receiver a ray meets surfaces the map holds only at "
+       "texel centres and inside the own-surface band); 0: the paper's rays, the map alone",
        {}, 0, 1e6},
   };
 }

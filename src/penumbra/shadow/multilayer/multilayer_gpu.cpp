@@ -364,6 +364,7 @@ class MultilayerGpu final : public GpuShadowMethod {
     params.self_bias = settings_.self_bias;
     params.open_self_bias = settings_.open_self_bias;
     params.stop_below = settings_.stop_below;
+    params.near_field = settings_.near_field;
     const multilayer::TraceParams resolved =
         multilayer::resolve_trace_params(params, v, z_min, settings_.z_thresh, settings_.z_thresh_texels);
     const multilayer::TraceSetup setup = multilayer::make_trace_setup(v, z_min, resolved);

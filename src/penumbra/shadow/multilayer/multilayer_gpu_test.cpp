@@ -58,11 +58,11 @@ TEST_F(MultilayerGpu, EveryParameterWorksAsOnTheCpu) {
   const Scene scene = shipped_scene("bunny.json", 32);
   EXPECT_LE(difference(scene, "mlsm",
                        {"resolution=128", "push_back=false", "fit_shadowable=false", "z_thresh=0.01", "self_bias=1",
-                        "open_self_bias=0.5", "layers=2", "max_fov=90"}),
+                        "open_self_bias=0.5", "layers=2", "max_fov=90", "near_field=0"}),
             2e-3);
   EXPECT_LE(difference(scene, "mtsm",
                        {"resolution=160", "z_thresh_texels=2", "error=0", "stop_below=0.01", "resets=0",
-                        "open_self_bias=0.05"}),
+                        "open_self_bias=0.05", "near_field=3"}),
             2e-3);
 }
 

@@ -24,6 +24,7 @@ MultilayerSettings multilayer_settings(const ParamSet& p, bool transparent) {
   s.z_thresh_texels = p.get_float("z_thresh_texels");
   s.self_bias = p.get_float("self_bias");
   s.open_self_bias = p.get_float("open_self_bias");
+  s.near_field = p.get_float("near_field");
   if (!transparent) {
     s.layers = p.get_int("layers");
   } else {

@@ -39,6 +39,7 @@ struct MultilayerSettings {
   int layers = 5;                   // mlsm
   CompressionOptions compression;   // mtsm
   float stop_below = 1e-3f;         // mtsm
+  float near_field = 16.0f;         // texels at the receiver traced through the scene first
 };
 MultilayerSettings multilayer_settings(const ParamSet& p, bool transparent);
 // Where the light-space partitions (partitions/light_partitions.h) put guard samples for these

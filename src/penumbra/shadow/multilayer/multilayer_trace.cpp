@@ -19,7 +19,7 @@ TraceParams resolve_trace_params(const TraceParams& params, const LightView& vie
 }
 
 shader::MlTraceSetup shared_trace_setup(const TraceSetup& s, float z_min) {
-  return {s.z_thresh, s.window_tolerance, s.inv_focal, s.self_bias, s.stop_below, z_min, s.open_self_bias, 0.0f};
+  return {s.z_thresh, s.window_tolerance, s.inv_focal, s.self_bias, s.stop_below, z_min, s.open_self_bias, s.near_field};
 }
 
 TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParams& params) {
@@ -29,6 +29,7 @@ TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParam
   s.self_bias = params.self_bias;
   s.open_self_bias = params.open_self_bias;
   s.stop_below = params.stop_below;
+  s.near_field = params.near_field;
   s.inv_focal = 1.0f / focal_texels(view);
   // Window depth is concave in z, so [z - t, z + t] spans the most window depth at the
   // smallest z; the lower side is the wider one.

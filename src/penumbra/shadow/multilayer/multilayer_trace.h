@@ -21,6 +21,9 @@ struct TraceParams {
   float self_bias = 0.25f;   // texel widths at the receiver: the band around its own tangent plane ignored
   float open_self_bias = 0.1f;  // ... at a receiver on an open surface
   float stop_below = 1e-3f;  // mtsm: a ray whose visibility falls below this is blocked (§5.2 threshold)
+  // Texel widths at the receiver that the caller traces through the scene before the map answers
+  // (ml_near_fraction; the method's `near_field`); 0: the map answers for the whole ray.
+  float near_field = 0;
 };
 
 // The trace parameters with z_thresh resolved for a map (xie2007 §6.1: in camera space): the
@@ -38,6 +41,7 @@ struct TraceSetup {
   float self_bias = 0.25f;
   float open_self_bias = 0.1f;
   float stop_below = 1e-3f;
+  float near_field = 0;
 };
 // z_min: the map's smallest depth (the widest window-depth span of +-z_thresh is there).
 TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParams& params);

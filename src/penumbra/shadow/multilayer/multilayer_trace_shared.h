@@ -23,7 +23,7 @@ struct MlTraceSetup {
   float stop_below;        // mtsm: a ray whose visibility falls below this is blocked (§5.2)
   float z_min;             // the map's smallest linear depth (+inf: empty)
   float open_self_bias;    // self_bias at a receiver on an open surface (a leaf, a card, a plane)
-  float pad;
+  float near_field;        // texel widths at the receiver traced through the scene first (0: none)
 };
 
 // A ray ready to walk: the segment projected into the view, the receiver's normal turned toward
@@ -115,6 +115,18 @@ PN_INLINE float ml_next_toward_zero(float x) {
 // self-shadowing to z_thresh). A receiver on an open surface (flat per triangle: its own plane is
 // exact) takes open_self_bias: a closed object's curved faces need the wider band against acne,
 // while in a canopy the band is where the neighbouring leaves are (docs/methods/multilayer.md).
+// The near field (penumbra's addition; multilayer.md "The near field"): the fraction of the segment
+// from receiver p to light point q, from p, that the caller traces through the scene itself (0 with
+// no near field; 1: the whole segment): near_field texel widths at p's depth. Within a few texels
+// of its receiver a ray meets surfaces the map holds only where they cover a texel's centre, and
+// inside the own-surface band; beyond, the map answers (ml_setup_ray starts there).
+PN_INLINE float ml_near_fraction(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 q) {
+  if (!(s.near_field > 0.0f)) return 0.0f;
+  float near = s.near_field * max(0.0f, view_linear_depth(v, p)) * s.inv_focal;
+  float dist = length(q - p);
+  return dist > near ? near / dist : 1.0f;
+}
+
 PN_INLINE bool ml_setup_ray(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 ng, bool closed, vec3 q,
                             PN_OUT(MlRay) ray, PN_OUT(bool) blocked) {
   blocked = false;
@@ -139,8 +151,13 @@ PN_INLINE bool ml_setup_ray(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 ng
     return false;
   }
   float zp = view_linear_depth(v, p);
-  if (!(zp > s.z_min)) return false;  // nothing in front of the receiver (xie2007 §4.3: clip at z_min)
-  if (!depth_image_project(v, p, q, ray.ps)) return false;
+  // With a near field the map's part of the ray starts where it ends (the whole ray near: nothing
+  // left for the map).
+  float f = ml_near_fraction(v, s, p, q);
+  if (f >= 1.0f) return false;
+  vec3 p0 = p + d * f;
+  if (!(view_linear_depth(v, p0) > s.z_min)) return false;  // nothing in front (xie2007 §4.3: clip at z_min)
+  if (!depth_image_project(v, p0, q, ray.ps)) return false;
   ray.bias = (closed ? s.self_bias : s.open_self_bias) * zp * s.inv_focal;
   return true;
 }

@@ -13,4 +13,7 @@ float trace_ray(MlTraceBlock b, DepthPyramidRef pyr, vec3 p, vec3 ng, bool close
   return ml_trace_opaque(b.view, b.setup, pyr, m, p, ng, closed, q, c);
 }
 
+// Every caster is opaque to mlsm: anything in the near field blocks.
+float combine_near(float t_map, float t_near) { return t_near < 1.0f ? 0.0f : t_map; }
+
 #include "penumbra/shadow/multilayer/kernels/multilayer_trace.glsl"

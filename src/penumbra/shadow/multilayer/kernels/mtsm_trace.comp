@@ -13,4 +13,10 @@ float trace_ray(MlTraceBlock b, DepthPyramidRef pyr, vec3 p, vec3 ng, bool close
   return ml_trace_transparent(b.view, b.setup, pyr, m, p, ng, closed, q, c);
 }
 
+// The near field's transmittance times the map's, blocked below stop_below (multilayer.cpp).
+float combine_near(float t_map, float t_near) {
+  float t = t_map * t_near;
+  return t < TraceBlockRef(pc.p.block).b.setup.stop_below ? 0.0f : t;
+}
+
 #include "penumbra/shadow/multilayer/kernels/multilayer_trace.glsl"

@@ -4,8 +4,11 @@
 // light point with the including kernel's
 //   float trace_ray(MlTraceBlock b, DepthPyramidRef pyr, vec3 p, vec3 ng, bool closed, vec3 q,
 //                   inout MlTraceCounters c)
-// and writes V = sum T a / sum a (multilayer.cpp evaluate). Counters per subgroup, then one
-// atomic each.
+// and writes V = sum T a / sum a (multilayer.cpp evaluate). With a near field (ml_near_fraction)
+// the first part of each ray is traced through the scene's BVH as the CPU's fan traces it and
+// combined with the map's answer by the kernel's
+//   float combine_near(float t_map, float t_near)
+// Counters per subgroup, then one atomic each.
 #ifndef PENUMBRA_SHADOW_MULTILAYER_KERNELS_MULTILAYER_TRACE_GLSL
 #define PENUMBRA_SHADOW_MULTILAYER_KERNELS_MULTILAYER_TRACE_GLSL
 
@@ -43,7 +46,14 @@ void main() {
             vec3 dir;
             float dist, pdf, a;
             if (!gpu_light_sample(light, S, u, dir, dist, pdf, a)) continue;
-            float t = trace_ray(b, pyr, s.p, s.ng, closed, s.p + dir * dist, c);
+            vec3 q = s.p + dir * dist;
+            float t = trace_ray(b, pyr, s.p, s.ng, closed, q, c);
+            if (t > 0.0f && b.setup.near_field > 0.0f) {  // multilayer.cpp trace_near_fields
+              vec3 org, seg;
+              fan_segment(s.p, offset_normal(s.ng), ray_offset_epsilon(s.p),
+                          (q - s.p) * ml_near_fraction(b.view, b.setup, s.p, q), org, seg);
+              t = combine_near(t, trace_transmittance(org, seg, kFanTfar));
+            }
             sum += t * a;
             wsum += a;
           }
