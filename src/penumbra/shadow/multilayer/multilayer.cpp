@@ -322,7 +322,7 @@ std::vector<ParamSpec> mtsm_specs() {
 // opaque scene's texels hold, and its build's per-texel vectors) with its quadtree; the
 // gathered triangles and the rasterizer's scratch; per view sample, the receivers, the
 // fitted ones (grown by doubling) and which are kept, and the points the light-centre view
-// is fitted to; per worker thread, one point's light samples.
+// is fitted to; per worker thread, one point's light samples and its rays' near fields.
 MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, Kind kind) {
   MemoryTally tally;
   const ViewSize v = fitted_view_bound(p.get_int("resolution"));
@@ -338,7 +338,8 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q, Kind kind) {
             kViewSamplesSetting);
   const int n = std::max(1, q.light_samples);
   const uint64_t per_thread = LightSampleBatch::bytes(n) + 2 * LightSampleBatch::padded(n) * sizeof(float) +
-                              static_cast<uint64_t>(n) * (sizeof(Vec3f) + sizeof(float));
+                              static_cast<uint64_t>(n) * (sizeof(Vec3f) + sizeof(float)) +
+                              static_cast<uint64_t>(n) * (4 * sizeof(float) + sizeof(int));  // NearFields
   tally.add(static_cast<uint64_t>(q.threads) * per_thread, kLightSamplesSetting);
   partitions::add_memory(tally, p, q);
   return tally.estimate();

@@ -105,6 +105,19 @@ PN_INLINE float ml_next_toward_zero(float x) {
   return uintBitsToFloat(floatBitsToUint(x) - 1u);
 }
 
+// The near field (penumbra's addition; multilayer.md "The near field"): the fraction of the segment
+// from receiver p to light point q, from p, that the caller traces through the scene itself (0 with
+// no near field; 1: the whole segment): near_field texel widths at p's depth. Within a few texels
+// of its receiver a ray meets surfaces the map holds only where they cover a texel's centre, and
+// inside the own-surface band; beyond, the map answers (ml_setup_ray starts there: with a near
+// field it projects the segment from where the near field ends).
+PN_INLINE float ml_near_fraction(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 q) {
+  if (!(s.near_field > 0.0f)) return 0.0f;
+  float near = s.near_field * max(0.0f, view_linear_depth(v, p)) * s.inv_focal;
+  float dist = length(q - p);
+  return dist > near ? near / dist : 1.0f;
+}
+
 // Sets up the ray from receiver p (geometric normal ng, on a closed object or not) to light point
 // q. False when nothing in the map can block it (it lies entirely in front of the map's nearest
 // surface, or outside the view's depth range); `blocked` is set when the receiver's own closed
@@ -115,18 +128,6 @@ PN_INLINE float ml_next_toward_zero(float x) {
 // self-shadowing to z_thresh). A receiver on an open surface (flat per triangle: its own plane is
 // exact) takes open_self_bias: a closed object's curved faces need the wider band against acne,
 // while in a canopy the band is where the neighbouring leaves are (docs/methods/multilayer.md).
-// The near field (penumbra's addition; multilayer.md "The near field"): the fraction of the segment
-// from receiver p to light point q, from p, that the caller traces through the scene itself (0 with
-// no near field; 1: the whole segment): near_field texel widths at p's depth. Within a few texels
-// of its receiver a ray meets surfaces the map holds only where they cover a texel's centre, and
-// inside the own-surface band; beyond, the map answers (ml_setup_ray starts there).
-PN_INLINE float ml_near_fraction(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 q) {
-  if (!(s.near_field > 0.0f)) return 0.0f;
-  float near = s.near_field * max(0.0f, view_linear_depth(v, p)) * s.inv_focal;
-  float dist = length(q - p);
-  return dist > near ? near / dist : 1.0f;
-}
-
 PN_INLINE bool ml_setup_ray(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 ng, bool closed, vec3 q,
                             PN_OUT(MlRay) ray, PN_OUT(bool) blocked) {
   blocked = false;
