@@ -82,12 +82,11 @@ class CoherentRayTracing final : public ShadowMethod {
     ScopedPhase phase(stats_, "trace");
     const AreaLight& light = *ctx.light;
     if (geometry_ && !ctx.tracer) throw Error("coherent-rt: tracer=geometry needs the Embree scene");
-    // The near field (coherent-rt.md): the first near_field texels of each ray through Embree.
+    // The near field (coherent-rt.md): the first near_field texels of each ray through Embree (none
+    // without an Embree scene, a bare context: the images answer for the whole ray).
     std::vector<LightView> views;
     for (const ReferenceImage& img : images_) views.push_back(img.view);
-    const float near_scale = geometry_ || views.empty() || !ctx.tracer ? 0.0f : near_field_scale(near_field_, views);
-    const Vec3f near_eye = views.empty() ? Vec3f(0.0f) : views[0].eye();
-    const Vec3f near_forward = views.empty() ? Vec3f(0.0f) : views[0].forward();
+    const NearFieldFrame near = geometry_ || !ctx.tracer ? NearFieldFrame{} : near_field_frame(near_field_, views);
     const int n = std::max(1, ctx.light_samples);
     int cols = 1, rows = 1;
     stratification_grid(n, &cols, &rows);
@@ -180,8 +179,8 @@ class CoherentRayTracing final : public ShadowMethod {
               }
             } else {
               Vec3f start = sr.org;
-              if (near_scale > 0) {
-                const float len = shader::crt_near_field_length(s.p, near_eye, near_forward, near_scale, sr.tfar);
+              if (near.scale > 0) {
+                const float len = shader::crt_near_field_length(s.p, near.eye, near.forward, near.scale, sr.tfar);
                 ++near_rays;
                 Ray r{sr.org, sr.dir, sr.tnear, len};
                 Hit h;

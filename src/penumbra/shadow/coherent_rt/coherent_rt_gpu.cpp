@@ -179,10 +179,11 @@ class CoherentRtGpu final : public GpuShadowMethod {
     // The near field (coherent_rt.cpp): the first near_field texels of each ray through the BVH.
     std::vector<LightView> views;
     for (const GpuReferenceImage& img : images_) views.push_back(img.view);
-    if (!settings_.geometry && !views.empty()) {
-      b.near_scale = near_field_scale(settings_.near_field, views);
-      b.near_eye = views[0].eye();
-      b.near_forward = views[0].forward();
+    if (!settings_.geometry) {
+      const NearFieldFrame near = near_field_frame(settings_.near_field, views);
+      b.near_scale = near.scale;
+      b.near_eye = near.eye;
+      b.near_forward = near.forward;
     }
     const uint64_t tiles = static_cast<uint64_t>(b.tiles_x) * static_cast<uint64_t>(b.tiles_y);
     const uint64_t scratch = tiles * shader::crt_tile_scratch_words(n, b.sub_grid) * 4;

@@ -25,12 +25,20 @@ struct CoherentRtSettings {
   float near_field = 16.0f;  // texels of the images at the point's depth traced through the scene
 };
 
-// The near field's scale for crt_near_field_length: near_field texels of the largest texel among
-// the views, per unit of depth (their windows differ a little; they share the depth axis).
-inline float near_field_scale(float near_field, std::span<const LightView> views) {
-  float texel = 0.0f;
-  for (const LightView& v : views) texel = std::max(texel, v.texel_world_size(1.0f));
-  return near_field * texel;
+// What crt_near_field_length reads: the scale, near_field texels of the largest texel among the
+// reference views per unit of depth (their windows differ a little), and their shared depth axis
+// (the eyes lie in the light's plane, the views look along its normal). scale 0: no near field.
+struct NearFieldFrame {
+  float scale = 0.0f;
+  Vec3f eye{0.0f}, forward{0.0f};
+};
+inline NearFieldFrame near_field_frame(float near_field, std::span<const LightView> views) {
+  NearFieldFrame f;
+  if (views.empty()) return f;
+  for (const LightView& v : views) f.scale = std::max(f.scale, near_field * v.texel_world_size(1.0f));
+  f.eye = views[0].eye();
+  f.forward = views[0].forward();
+  return f;
 }
 
 inline CoherentRtSettings coherent_rt_settings(const ParamSet& p) {
