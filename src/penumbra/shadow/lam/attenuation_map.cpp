@@ -786,6 +786,13 @@ LightSampleSet light_sample_set(const ShadowContext& ctx) {
                         /*per_pixel=*/false);
 }
 
+std::vector<Vec3f> light_points(const AreaLight& light, const LightSampleSet& set) {
+  std::vector<Vec3f> points;
+  points.reserve(set.base().size());
+  for (const Vec2f& u : set.base()) points.push_back(light.sample_area(u));
+  return points;
+}
+
 AttenuationMap attenuation_map_frame(const AreaLight& light, const ShadowRegion& region, int light_samples,
                                      const BuildOptions& options) {
   return Builder::frame(light, region, light_samples, options);

@@ -233,6 +233,9 @@ BuildOptions options_for_scene(BuildOptions options, const Scene& scene);
 // The light samples of the light ctx.light_index (agrawala2000 §3: the same stratified, jittered
 // samples for every surface point, banding rather than noise): max(1, ctx.light_samples) of them.
 LightSampleSet light_sample_set(const ShadowContext& ctx);
+// Those samples as points on the light (AreaLight::sample_area): the sample views' eyes, and the
+// points the display traces toward where the LDI does not resolve a view sample.
+std::vector<Vec3f> light_points(const AreaLight& light, const LightSampleSet& set);
 
 // The map build_attenuation_map would return before any layer: its reference view, the light's
 // outline, the parameters (checked as build_attenuation_map checks them). The GPU builds the

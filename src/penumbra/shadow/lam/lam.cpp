@@ -143,8 +143,7 @@ class LayeredAttenuationMaps final : public ShadowMethod {
   // The display's options on a built or loaded map, and the light points of its samples.
   void set_display(const ShadowContext& ctx, const LightSampleSet& set) {
     map_.set_unresolved(trace_unresolved_, trace_spread_);
-    light_points_.clear();
-    for (const Vec2f& u : set.base()) light_points_.push_back(ctx.light->sample_area(u));
+    light_points_ = lam::light_points(*ctx.light, set);
   }
 
   // The view samples the LDI does not resolve (the display returned kLamUnresolved: one of p's

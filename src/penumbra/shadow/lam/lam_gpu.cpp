@@ -81,9 +81,7 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
     std::vector<Vec3f> outline(map_.outline().begin(), map_.outline().end());
     if (outline.empty()) outline.push_back(Vec3f(0.0f));
     outline_ = gpu::make_buffer<Vec3f>(device, outline, "lam's light outline");
-    std::vector<Vec3f> points;
-    for (const Vec2f& u : set.base()) points.push_back(light.sample_area(u));
-    points_ = gpu::make_buffer<Vec3f>(device, points, "lam's light points");
+    points_ = gpu::make_buffer<Vec3f>(device, lam::light_points(light, set), "lam's light points");
     counters_ = gpu::Buffer(device, sizeof(LamCounters), "lam's counters");
     sample_counts_ = gpu::Buffer(device, n * sizeof(LamSampleCounts), "lam's per-sample counts");
     cl.stage("precompute");

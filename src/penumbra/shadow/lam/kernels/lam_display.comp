@@ -8,8 +8,9 @@
 // A point the texels do not resolve (kLamUnresolved, with the view's `unresolved` on) is traced
 // here, as lam.cpp traces it: the fraction of the LDI's light points it sees through the scene's
 // BVH, a light point behind a closed surface's own plane counting as blocked. Those threads run
-// N rays while their neighbours are done: the points cluster (crowns, shadow edges), so whole
-// subgroups mostly trace or mostly look up.
+// N rays while their subgroup's other threads may be done (what that divergence costs on a GPU is
+// for issue 31's next measurement: the `lam-paper-display` step of gpu-bench.sh times the lookup
+// alone beside the suite's default).
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/bvh_traverse.glsl"
