@@ -6,10 +6,9 @@
 // pixels in that very order, and each pixel's view samples in slot order, so every point follows
 // the same points as on the CPU and gets the same prediction. Per point: the `reference` stream's
 // stratified light points (area samples), SoftShad's cells to trace (soft_shad_shared.h), each
-// traced through the reference depth images (depth_image_trace_shared.h) or, with
-// tracer=geometry, the GPU's BVH (closest hit: the blocker point; also each ray's near field before
-// the images, crt_near_field_length), and eq. 1 (area sampling) over
-// the visible cells. The tile's sampler and span lists live in its slices of two scratch buffers.
+// traced through the reference depth images (depth_image_trace_shared.h) after its near field
+// through the GPU's BVH (crt_near_field_length), or, with tracer=geometry, wholly through the BVH
+// (closest hit: the blocker point), and eq. 1 (area sampling) over the visible cells. The tile's sampler and span lists live in its slices of two scratch buffers.
 // A tile's work may be split over several dispatches (resume, cell_budget; lavapipe limits the
 // loop iterations of one invocation): where it stands and the sampler wait in its scratch.
 #include "penumbra/gpu/kernel_common.glsl"
