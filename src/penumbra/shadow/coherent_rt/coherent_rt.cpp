@@ -82,11 +82,12 @@ class CoherentRayTracing final : public ShadowMethod {
     ScopedPhase phase(stats_, "trace");
     const AreaLight& light = *ctx.light;
     if (geometry_ && !ctx.tracer) throw Error("coherent-rt: tracer=geometry needs the Embree scene");
-    // The near field (coherent-rt.md): the first near_field texels of each ray through Embree (none
-    // without an Embree scene, a bare context: the images answer for the whole ray).
+    // The near field (coherent-rt.md): each ray's part where an occluder's penumbra would be
+    // narrower than near_field texels of the images, through Embree (none without an Embree scene,
+    // a bare context: the images answer for the whole ray).
     std::vector<LightView> views;
     for (const ReferenceImage& img : images_) views.push_back(img.view);
-    const NearFieldFrame near = geometry_ || !ctx.tracer ? NearFieldFrame{} : near_field_frame(near_field_, views);
+    const NearFieldFrame near = geometry_ || !ctx.tracer ? NearFieldFrame{} : near_field_frame(near_field_, light, views);
     const int n = std::max(1, ctx.light_samples);
     int cols = 1, rows = 1;
     stratification_grid(n, &cols, &rows);
@@ -180,7 +181,7 @@ class CoherentRayTracing final : public ShadowMethod {
             } else {
               Vec3f start = sr.org;
               if (near.scale > 0) {
-                const float len = shader::crt_near_field_length(s.p, near.eye, near.forward, near.scale, sr.tfar);
+                const float len = shader::crt_near_field_length(s.p, near.eye, near.forward, near.scale, near.light_width, sr.tfar);
                 ++near_rays;
                 Ray r{sr.org, sr.dir, sr.tnear, len};
                 Hit h;
@@ -260,7 +261,7 @@ class CoherentRayTracing final : public ShadowMethod {
   std::string views_;
   int tile_ = 32;
   bool own_plane_ = true;
-  float near_field_ = 16.0f;
+  float near_field_ = 32.0f;
   ReferenceImageOptions image_options_;
   TraceOptions trace_options_;
   SoftShadOptions sampling_;
@@ -344,10 +345,10 @@ const MethodRegistration registration({
          {}},
         {"tile", ParamType::Int, 32, "image tiles shaded in Hilbert order, each with its own prediction (power of two)",
          {}, 1, 1024},
-        {"near_field", ParamType::Float, 16.0,
-         "depth images: the first near_field texels (of the images, at the point's depth) of each shadow ray are "
-         "traced through the scene itself, the images answer for the rest (penumbra's addition: within a few "
-         "texels of its receiver a ray meets surfaces the images hold only as biased texel floors); 0: the "
+        {"near_field", ParamType::Float, 32.0,
+         "depth images: the images answer for occluders whose penumbra at the point is at least near_field of "
+         "their texels wide; each shadow ray's part nearer its point than that is traced through the scene itself "
+         "(penumbra's addition: there a ray meets surfaces the images hold only as biased texel floors); 0: the "
          "paper's rays, images alone",
          {}, 0, 1e6},
     },

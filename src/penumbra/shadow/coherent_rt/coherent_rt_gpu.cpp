@@ -176,12 +176,14 @@ class CoherentRtGpu final : public GpuShadowMethod {
     b.images = static_cast<int>(images_.size());
     b.own_plane = settings_.own_plane ? 1u : 0u;
     b.geometry = settings_.geometry ? 1u : 0u;
-    // The near field (coherent_rt.cpp): the first near_field texels of each ray through the BVH.
+    // The near field (coherent_rt.cpp): the part of each ray near enough its point for an occluder's
+    // penumbra to be narrower than near_field texels, through the BVH.
     std::vector<LightView> views;
     for (const GpuReferenceImage& img : images_) views.push_back(img.view);
     if (!settings_.geometry) {
-      const NearFieldFrame near = near_field_frame(settings_.near_field, views);
+      const NearFieldFrame near = near_field_frame(settings_.near_field, *ctx.light, views);
       b.near_scale = near.scale;
+      b.near_light_width = near.light_width;
       b.near_eye = near.eye;
       b.near_forward = near.forward;
     }

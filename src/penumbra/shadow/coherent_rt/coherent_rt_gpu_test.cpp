@@ -84,7 +84,9 @@ TEST_F(CoherentRtGpu, ManyLightSamplesGiveTheCpuPicture) {
 
 TEST_F(CoherentRtGpu, TilesKeepTheCpusOrderUnderCropsAndReRenders) {
   Scene scene = shipped_scene("bunny.json", 48);
-  Renderer r(scene, settings({"resolution=128", "tile=16"}, true, 8));
+  // The paper's rays (no near field): at 128 texels the near field would be whole rays, and the
+  // images' walk is what keeps the tiles' order.
+  Renderer r(scene, settings({"resolution=128", "tile=16", "near_field=0"}, true, 8));
   const RenderResult first = r.render();
   for (const std::string& stage : {std::string("precompute"), std::string("trace")})
     EXPECT_TRUE(first.gpu_ms.contains(stage)) << first.gpu_ms.dump();
@@ -97,7 +99,7 @@ TEST_F(CoherentRtGpu, TilesKeepTheCpusOrderUnderCropsAndReRenders) {
   // A crop whose edges lie on tile boundaries shades its pixels as the whole frame does, and as
   // the CPU shades that crop; one that cuts tiles as the CPU shades it.
   for (PixelWindow w : {PixelWindow{16, 16, 48, 32}, PixelWindow{5, 9, 37, 30}}) {
-    RenderSettings gpu_crop = settings({"resolution=128", "tile=16"}, true, 8);
+    RenderSettings gpu_crop = settings({"resolution=128", "tile=16", "near_field=0"}, true, 8);
     gpu_crop.crop = w;
     RenderSettings cpu_crop = gpu_crop;
     cpu_crop.device = {};
@@ -112,15 +114,16 @@ TEST_F(CoherentRtGpu, TilesKeepTheCpusOrderUnderCropsAndReRenders) {
   const RenderResult moved = r.render();
   Scene moved_scene = scene;
   moved_scene.camera = cam;
-  const RenderResult fresh = render_scene(moved_scene, settings({"resolution=128", "tile=16"}, true, 8));
+  const RenderResult fresh = render_scene(moved_scene, settings({"resolution=128", "tile=16", "near_field=0"}, true, 8));
   EXPECT_EQ(mean_abs_dv(moved.visibility, fresh.visibility), 0.0);
 }
 
 TEST_F(CoherentRtGpu, OcclusionSpanListsTooShortGrowAndGiveTheSamePicture) {
   const Scene scene = shipped_scene("foliage.json", 32);
-  const RenderResult normal = render_scene(scene, settings({"resolution=128"}, true, 8));
+  // The paper's rays (no near field): every ray's whole length walks the images' span lists.
+  const RenderResult normal = render_scene(scene, settings({"resolution=128", "near_field=0"}, true, 8));
   coherent_rt::set_first_gpu_span_capacity_for_testing(1);
-  const RenderResult grown = render_scene(scene, settings({"resolution=128"}, true, 8));
+  const RenderResult grown = render_scene(scene, settings({"resolution=128", "near_field=0"}, true, 8));
   coherent_rt::set_first_gpu_span_capacity_for_testing(0);
   EXPECT_GT(grown.stats.extra.at("span_retries").get<uint64_t>(), 0u) << "no list was too short";
   EXPECT_EQ(mean_abs_dv(normal.visibility, grown.visibility), 0.0);

@@ -23,6 +23,7 @@
 #include "penumbra/shadow/coherent_rt/depth_image_trace_shared.h"
 #include "penumbra/shadow/coherent_rt/reference_images_shared.h"
 #include "penumbra/shadow/coherent_rt/soft_shad_shared.h"
+#include "penumbra/shadow/near_field_shared.h"
 
 PN_SHARED_BEGIN
 
@@ -64,13 +65,13 @@ PN_INLINE float crt_cell_irradiance(vec3 p, vec3 ns, vec3 light_n, vec3 q) {
 // The near field of a shadow ray (penumbra's addition; coherent-rt.md "The near field"): how far
 // from its origin, along the segment of length tfar, the ray is traced through the scene itself
 // before the depth images answer for the rest. `scale` is near_field (texels) times the images'
-// largest texel at unit depth, `eye` and `forward` the images' (shared) depth axis: near_field
-// texels of the images at p's depth, at most the whole segment. Within a few texels of its receiver
-// a ray meets surfaces the images hold only as whole texels' floors pushed back by their biases (a
-// leaf a few centimetres under another).
-PN_INLINE float crt_near_field_length(vec3 p, vec3 eye, vec3 forward, float scale, float tfar) {
+// largest texel at unit depth, `eye` and `forward` the images' (shared) depth axis: the images
+// answer for occluders whose penumbra at p is at least near_field texels of the images at p's
+// depth wide (near_field_length). Nearer, the images hold a ray's occluders only as whole texels'
+// floors pushed back by their biases (a leaf a few centimetres under another).
+PN_INLINE float crt_near_field_length(vec3 p, vec3 eye, vec3 forward, float scale, float light_width, float tfar) {
   float z = max(0.0f, dot(p - eye, forward));
-  return min(tfar, scale * z);
+  return near_field_length(scale * z, tfar, light_width);
 }
 
 // What the tiles read besides their buffers, 152 bytes (the near field's last 32), uploaded with each
@@ -104,7 +105,7 @@ struct CrtTileBlock {
   vec3 near_eye;      // crt_near_field_length's depth axis and scale (0: no near field)
   float near_scale;
   vec3 near_forward;
-  uint pad_near;
+  float near_light_width;  // near_field_light_width of the light
 };
 
 // A tile's scratch, `words` uint32 words each (crt_tile_scratch_words): stamps (n sub^2),

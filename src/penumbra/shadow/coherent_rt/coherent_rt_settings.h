@@ -7,9 +7,11 @@
 #include <string>
 
 #include "penumbra/core/error.h"
+#include "penumbra/scene/light.h"
 #include "penumbra/shadow/coherent_rt/depth_image_tracer.h"
 #include "penumbra/shadow/coherent_rt/reference_images.h"
 #include "penumbra/shadow/coherent_rt/soft_shad.h"
+#include "penumbra/shadow/near_field_shared.h"
 #include "penumbra/shadow/params.h"
 
 namespace penumbra::coherent_rt {
@@ -22,20 +24,23 @@ struct CoherentRtSettings {
   SoftShadOptions sampling;
   int tile = 32;
   bool own_plane = true;
-  float near_field = 16.0f;  // texels of the images at the point's depth traced through the scene
+  float near_field = 32.0f;  // narrowest penumbra the images answer for, in their texels at the point (near_field_length)
 };
 
 // What crt_near_field_length reads: the scale, near_field texels of the largest texel among the
-// reference views per unit of depth (their windows differ a little), and their shared depth axis
-// (the eyes lie in the light's plane, the views look along its normal). scale 0: no near field.
+// reference views per unit of depth (their windows differ a little), their shared depth axis (the
+// eyes lie in the light's plane, the views look along its normal) and the light's width
+// (near_field_light_width). scale 0: no near field.
 struct NearFieldFrame {
   float scale = 0.0f;
+  float light_width = 0.0f;
   Vec3f eye{0.0f}, forward{0.0f};
 };
-inline NearFieldFrame near_field_frame(float near_field, std::span<const LightView> views) {
+inline NearFieldFrame near_field_frame(float near_field, const AreaLight& light, std::span<const LightView> views) {
   NearFieldFrame f;
   if (views.empty()) return f;
   for (const LightView& v : views) f.scale = std::max(f.scale, near_field * v.texel_world_size(1.0f));
+  f.light_width = shader::near_field_light_width(light.area());
   f.eye = views[0].eye();
   f.forward = views[0].forward();
   return f;

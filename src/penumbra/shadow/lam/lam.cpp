@@ -198,7 +198,7 @@ class LayeredAttenuationMaps final : public ShadowMethod {
   lam::BuildOptions options_;
   lam::Filter filter_ = lam::Filter::Bilinear;
   bool trace_unresolved_ = true;
-  float trace_spread_ = 0.05f;
+  float trace_spread_ = 0.005f;
   lam::AttenuationMap map_;
   std::vector<Vec3f> light_points_;  // sample_area of the LDI's light samples
   size_t traced_samples_ = 0;
@@ -257,7 +257,7 @@ const MethodRegistration registration({
          "(penumbra's addition: exact there) or 'umbra' (the paper's display: umbra where a layer lies in front, "
          "lit where none does)",
          {"trace", "umbra"}},
-        {"trace_spread", ParamType::Float, 0.05,
+        {"trace_spread", ParamType::Float, 0.005,
          "with unresolved=trace, a point whose 4 texels' attenuations differ by more than this is traced too (a "
          "shadow finer than the LDI's texels); 1: only the points whose texels do not hold their surface",
          {}, 0, 1},

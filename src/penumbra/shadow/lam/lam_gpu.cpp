@@ -263,7 +263,7 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
   lam::BuildOptions options_;
   bool bilinear_ = true;
   bool trace_unresolved_ = true;  // lam.cpp's `unresolved` and `trace_spread`
-  float trace_spread_ = 0.05f;
+  float trace_spread_ = 0.005f;
   std::string suffix_;  // the light's suffix for the statistics (lam.cpp's)
   lam::AttenuationMap map_;  // the frame only (lam::attenuation_map_frame): the layers are on the device
   gpu::Buffer view_, outline_, points_, counters_, sample_counts_, ranges_, layers_;

@@ -47,6 +47,7 @@ class MultilayerMethod final : public ShadowMethod {
     compression_ = s.compression;
     trace_.stop_below = s.stop_below;
     trace_.near_field = s.near_field;
+    trace_unresolved_ = s.trace_unresolved;
   }
 
   void prepare(const ShadowContext& ctx) override {
@@ -111,7 +112,12 @@ class MultilayerMethod final : public ShadowMethod {
           multilayer::trace_opaque(setup, opaque_, r, points, transmit.data(), &local);
         else
           multilayer::trace_transparent(setup, transparent_, r, points, transmit.data(), &local);
-        if (near_shared.near_field > 0 && ctx.tracer) trace_near_fields(ctx, near_shared, s, points, near, transmit);
+        if (ctx.tracer && (near_shared.near_field > 0 || trace_unresolved_))
+          trace_near_fields(ctx, near_shared, s, points, near, transmit, &local);
+        // Without an Embree scene (a bare context) a ray the map cannot answer for is lit, as
+        // the paper's k layers answer it.
+        for (int i = 0; i < m; ++i)
+          if (transmit[i] == shader::kMlUnresolved) transmit[i] = 1.0f;
         double v = 0, wsum = 0;
         for (int i = 0; i < m; ++i) {
           v += transmit[i] * batch.area_weight[i];
@@ -129,12 +135,19 @@ class MultilayerMethod final : public ShadowMethod {
     stats_.texels_visited += total.texels;
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, memory_bytes());
     const std::string suffix = ctx.light_index == 0 ? "" : "_light" + std::to_string(ctx.light_index);
+    // The frame's traces so far: the light-space partitions (partitions::wrap) evaluate one map
+    // after another within a frame; the renderer resets the statistics between frames.
+    if (!stats_.extra.contains("trace" + suffix)) frame_trace_ = {};
+    frame_trace_.add(total);
+    const multilayer::TraceCounters& t = frame_trace_;
+    const double rays = t.rays ? static_cast<double>(t.rays) : 1.0;
     nlohmann::json e = build_extra_;
-    e["trace"] = {{"rays", total.rays},
-                  {"nodes_per_ray", total.rays ? double(total.nodes) / total.rays : 0.0},
-                  {"texels_per_ray", total.rays ? double(total.texels) / total.rays : 0.0},
-                  {"layers_tested_per_ray", total.rays ? double(total.layers_tested) / total.rays : 0.0},
-                  {"layer_hits", total.layer_hits}};
+    e["trace"] = {{"rays", t.rays},
+                  {"nodes_per_ray", t.nodes / rays},
+                  {"texels_per_ray", t.texels / rays},
+                  {"layers_tested_per_ray", t.layers_tested / rays},
+                  {"layer_hits", t.layer_hits},
+                  {"unresolved_rays", t.unresolved}};
     for (auto it = e.begin(); it != e.end(); ++it) stats_.extra[it.key() + suffix] = it.value();
   }
 
@@ -143,19 +156,28 @@ class MultilayerMethod final : public ShadowMethod {
  private:
   // One point's near fields (ml_near_fraction): the first part of each of its rays, traced through
   // the scene (Embree's fan from the point), its transmittance times the map's answer for the rest
-  // (mtsm), or blocking outright where anything is hit (mlsm: every caster opaque).
+  // (mtsm), or blocking outright where anything is hit (mlsm: every caster opaque). A ray the map
+  // could not answer for (kMlUnresolved: behind a full texel's k layers) is traced whole.
   struct NearFields {
     explicit NearFields(int n) : x(n), y(n), z(n), t(n), index(n) {}
     std::vector<float> x, y, z, t;
     std::vector<int> index;  // the ray of each near field
   };
   void trace_near_fields(const ShadowContext& ctx, const shader::MlTraceSetup& ss, const ViewSample& s,
-                         std::span<const Vec3f> q, NearFields& near, std::vector<float>& transmit) const {
+                         std::span<const Vec3f> q, NearFields& near, std::vector<float>& transmit,
+                         multilayer::TraceCounters* counters) const {
     const shader::RasterView& view = view_.view.shared();
     int m = 0;
     for (size_t i = 0; i < q.size(); ++i) {
-      if (transmit[i] <= 0.0f) continue;  // the map (or the receiver's own solid) already blocks it
-      const Vec3f d = (q[i] - s.p) * shader::ml_near_fraction(view, ss, s.p, q[i]);
+      const bool unresolved = transmit[i] == shader::kMlUnresolved;
+      if (!unresolved && transmit[i] <= 0.0f) continue;  // the map (or the receiver's own solid) already blocks it
+      const float f = unresolved ? 1.0f : shader::ml_near_fraction(view, ss, s.p, q[i]);
+      if (!(f > 0.0f)) continue;  // no near field: the map's answer stands
+      if (unresolved) {
+        transmit[i] = 1.0f;  // the whole ray is the trace's
+        counters->unresolved++;
+      }
+      const Vec3f d = (q[i] - s.p) * f;
       near.x[m] = d.x;
       near.y[m] = d.y;
       near.z[m] = d.z;
@@ -194,16 +216,18 @@ class MultilayerMethod final : public ShadowMethod {
     const RasterTriangleView casters = culling_.visible(triangles_, view_.view, visible_, &culled);
     stats_.extra["culled_triangles"] = stats_.extra.value("culled_triangles", uint64_t{0}) + culled;
     if (kind_ == Kind::Opaque) {
-      multilayer::build_opaque_layer_map(rasterizer_, casters, view_.view, layers_, &opaque_);
+      multilayer::build_opaque_layer_map(rasterizer_, casters, view_.view, layers_, &opaque_, trace_unresolved_);
       z_min = opaque_.z_min;
     } else {
-      multilayer::build_transparent_map(rasterizer_, casters, view_.view, compression_, &transparent_);
+      multilayer::build_transparent_map(rasterizer_, casters, view_.view, compression_, &transparent_,
+                                        trace_unresolved_);
       z_min = transparent_.z_min;
     }
     const double raster_ms = t_raster.elapsed_ms();
     // z_thresh in camera space (xie2007 §6.1); the automatic value is z_thresh_texels texel
     // widths at the geometric mean of the map's nearest depth and the farthest receiver.
     resolved_trace_ = multilayer::resolve_trace_params(trace_, view_.view, z_min, z_thresh_, z_thresh_texels_);
+    resolved_trace_.light_width = shader::near_field_light_width(light.area());
     receiver_bounds_ = rb;
     built_ = true;
 
@@ -244,6 +268,8 @@ class MultilayerMethod final : public ShadowMethod {
   multilayer::CompressionOptions compression_;
   float z_thresh_ = 0, z_thresh_texels_ = 1.0f;
   multilayer::TraceParams trace_, resolved_trace_;
+  bool trace_unresolved_ = true;  // `unresolved`: the map's full texels marked, the rays behind them traced
+  multilayer::TraceCounters frame_trace_;  // this frame's, over its partitions' evaluates
   RasterTriangles triangles_;
   CasterCulling culling_;  // the casters outside the fitted view are not rasterized
   std::vector<RasterTriangle> visible_;
@@ -285,11 +311,17 @@ std::vector<ParamSpec> common_specs() {
        "self_bias for receivers on open surfaces (leaves, cards, planes: objects that are not closed): flat per "
        "triangle, their own plane is exact, and a narrower band keeps the leaf just above in a canopy",
        {}, 0, 1e6},
-      {"near_field", ParamType::Float, 16.0,
-       "texel widths (at the receiver) at the start of each shadow ray traced through the scene itself, the map "
-       "answering for the rest (penumbra's addition: near its receiver a ray meets surfaces the map holds only at "
-       "texel centres and inside the own-surface band); 0: the paper's rays, the map alone",
+      {"near_field", ParamType::Float, 32.0,
+       "the map answers for occluders whose penumbra at the receiver is at least near_field texel widths wide; "
+       "each shadow ray's part nearer its receiver than that is traced through the scene itself (penumbra's "
+       "addition: there a ray meets surfaces the map holds only at texel centres and inside the own-surface "
+       "band); 0: the paper's rays, the map alone",
        {}, 0, 1e6},
+      {"unresolved", ParamType::String, "trace",
+       "the rays that pass behind the last layer of a full texel, where the map dropped what lies behind (mlsm: k "
+       "layers held; mtsm: its visibility at zero once more than `resets` allow) and that no layer blocks: "
+       "'trace' them through the scene (penumbra's addition) or 'lit', the paper's answer",
+       {"trace", "lit"}},
   };
 }
 

@@ -195,6 +195,7 @@ class MultilayerGpu final : public GpuShadowMethod {
           totals_.texels += c.texels;
           totals_.tested += c.tested;
           totals_.hits += c.hits;
+          totals_.unresolved += c.unresolved;
           return false;
         });
     counting_ = true;
@@ -217,6 +218,7 @@ class MultilayerGpu final : public GpuShadowMethod {
                   {"texels_per_ray", rays > 0 ? c.texels / rays : 0.0},
                   {"layers_tested_per_ray", rays > 0 ? c.tested / rays : 0.0},
                   {"layer_hits", c.hits}};
+    e["trace"]["unresolved_rays"] = c.unresolved;
     for (auto it = e.begin(); it != e.end(); ++it) stats_.extra[it.key() + light_suffix_] = it.value();
   }
 
@@ -317,6 +319,7 @@ class MultilayerGpu final : public GpuShadowMethod {
     mp.nodes = pyramid_.address();
     mp.counters = map_counters_.address();
     mp.texels = static_cast<uint32_t>(texels);
+    mp.unknown_beyond_full = settings_.trace_unresolved ? 1u : 0u;
     cl.fill(map_counters_, 0);
     cl.fill(map_counters_, kSmallest, offsetof(shader::MlMapCounters, z_min_bits), 4);
     float z_min = kInfinity;
@@ -365,6 +368,7 @@ class MultilayerGpu final : public GpuShadowMethod {
     params.open_self_bias = settings_.open_self_bias;
     params.stop_below = settings_.stop_below;
     params.near_field = settings_.near_field;
+    params.light_width = shader::near_field_light_width(light.area());
     const multilayer::TraceParams resolved =
         multilayer::resolve_trace_params(params, v, z_min, settings_.z_thresh, settings_.z_thresh_texels);
     const multilayer::TraceSetup setup = multilayer::make_trace_setup(v, z_min, resolved);

@@ -97,7 +97,7 @@ struct MlFitParams {
   uint pad;
 };
 
-// What the traces read besides their buffers, 216 bytes, uploaded with each map: its view
+// What the traces read besides their buffers, 224 bytes, uploaded with each map: its view
 // (LightView::shared), the resolved trace set-up, its pyramid's level table, its size and layers.
 struct MlTraceBlock {
   RasterView view;
@@ -109,14 +109,16 @@ struct MlTraceBlock {
   int level_count;
 };
 
-// What the traces count, 48 bytes (added to by one atomic per subgroup): rays, quadtree nodes
-// tested, texels reached, layers tested, layer hits (MlTraceCounters summed), the loop-limit flag.
+// What the traces count, 56 bytes (added to by one atomic per subgroup): rays, quadtree nodes
+// tested, texels reached, layers tested, layer hits (MlTraceCounters summed), the rays the map
+// could not answer for, traced whole (mlsm's kMlUnresolved), the loop-limit flag.
 struct MlGpuCounters {
   uint64_t rays;
   uint64_t nodes;
   uint64_t texels;
   uint64_t tested;
   uint64_t hits;
+  uint64_t unresolved;
   // Some thread ran into the driver's loop limit (lavapipe: 65535 loop iterations per invocation,
   // after which loops stop without an error; docs/gpu.md): its V is wrong, the render an error.
   uint64_t limited;
@@ -181,6 +183,8 @@ struct MlMapParams {
   float error;        // mtsm: CompressionOptions
   int resets;
   float zero;
+  uint unknown_beyond_full;  // a full texel's range reaches kMlBeyondFullTexel (the method's unresolved=trace)
+  uint pad;
 };
 
 PN_SHARED_END
@@ -189,8 +193,8 @@ PN_SHARED_END
 static_assert(sizeof(penumbra::shader::MlReceivers) == 28);
 static_assert(sizeof(penumbra::shader::MlPlane) == 24);
 static_assert(sizeof(penumbra::shader::MlFitBlock) == 208);
-static_assert(sizeof(penumbra::shader::MlTraceBlock) == 216);
-static_assert(sizeof(penumbra::shader::MlGpuCounters) == 48);
+static_assert(sizeof(penumbra::shader::MlTraceBlock) == 224);
+static_assert(sizeof(penumbra::shader::MlGpuCounters) == 56);
 static_assert(sizeof(penumbra::shader::MlTraceFrame) == 40);
 static_assert(sizeof(penumbra::shader::MlMapCounters) == 24);
 static_assert(sizeof(penumbra::shader::MlFitReceiversParams) <= 128);

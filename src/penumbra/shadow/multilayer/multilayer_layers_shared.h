@@ -75,14 +75,27 @@ float ml_ceil(float x) { return ceil(x); }
 
 PN_SHARED_BEGIN
 
+// Full texels (penumbra's addition; multilayer.md "Rays the map cannot answer for"): a texel of
+// the k-layer map that holds k layers (xie2007 §4.2: the k nearest, the rest dropped), or of the
+// transparent map whose visibility reached zero once more than its resets allow (§5.1: the
+// fragments behind dropped; ml_compress_fragments' truncated), does not know what lies behind its
+// last layer. With the method's unresolved=trace the top of its range in the pyramid's level 0
+// is this window depth (multilayer_map.cpp, mlsm_layer_ranges.comp, mtsm_compress.comp): a ray
+// behind its last layer is walked to the texel instead of skipped as behind every surface, and
+// the leaf tests tell it there (multilayer_trace_shared.h, ml_behind_full_texel).
+PN_CONST float kMlBeyondFullTexel = 1e30f;
+
 // Compresses fragments[first, first + n) (sorted by z) into layers written at out[out_first ..];
 // returns how many (at most n). Greedy deep-shadow compression: a run of samples is extended
 // while a straight line from the previous control vertex to the candidate end stays within
 // o.error of the visibility just before and just after every sample in the run (the
 // slope-interval test of Lokovic & Veach 2000 §4.2); a run also ends where the visibility
-// reaches zero, after which the visibility resets to 1 up to o.resets times.
+// reaches zero, after which the visibility resets to 1 up to o.resets times. truncated: the
+// visibility reached zero once more than o.resets allow with fragments left behind, dropped (what
+// lies behind the last layer is unknown: multilayer_trace_shared.h, kMlBeyondFullTexel).
 PN_INLINE uint ml_compress_fragments(MlFragmentsRef fragments, uint first, uint n, MlCompression o, MlLayersOut layers,
-                                     uint out_first) {
+                                     uint out_first, PN_OUT(bool) truncated) {
+  truncated = false;
   uint written = 0u;
   int resets_left = o.resets;
   uint i = 0u;
@@ -145,7 +158,10 @@ PN_INLINE uint ml_compress_fragments(MlFragmentsRef fragments, uint first, uint 
     i = j + 1u;
     v_epoch = v;
     if (v_epoch <= o.zero) {
-      if (resets_left <= 0) break;  // nothing behind can be seen through any more
+      if (resets_left <= 0) {  // nothing behind can be seen through any more
+        truncated = i < n;
+        break;
+      }
       resets_left -= 1;
       v_epoch = 1.0f;
     }

@@ -25,6 +25,7 @@ MultilayerSettings multilayer_settings(const ParamSet& p, bool transparent) {
   s.self_bias = p.get_float("self_bias");
   s.open_self_bias = p.get_float("open_self_bias");
   s.near_field = p.get_float("near_field");
+  s.trace_unresolved = p.get_string("unresolved") == "trace";
   if (!transparent) {
     s.layers = p.get_int("layers");
   } else {
@@ -194,7 +195,8 @@ uint64_t light_centre_view_bytes(uint64_t receivers, uint64_t outline_points) {
 uint64_t TransparentMap::build_bytes(int w, int h, int layers_per_texel) {
   const uint64_t texels = static_cast<uint64_t>(w) * static_cast<uint64_t>(h);
   const uint64_t layers = texels * static_cast<uint64_t>(layers_per_texel);
-  const uint64_t map = (texels + 1) * sizeof(uint32_t) + layers * sizeof(TransparentLayer) + MinMaxPyramid::bytes(w, h);
+  const uint64_t map = (texels + 1) * sizeof(uint32_t) + layers * sizeof(TransparentLayer) + texels /* truncated */ +
+                       MinMaxPyramid::bytes(w, h);
   const uint64_t per_texel = texels * sizeof(std::vector<TransparentLayer>) + 2 * layers * sizeof(TransparentLayer);
   return map + per_texel + texels * sizeof(DepthRange);
 }
@@ -212,32 +214,49 @@ size_t TransparentMap::memory_bytes() const {
 }
 
 void build_opaque_layer_map(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view,
-                            int k, OpaqueLayerMap* out) {
+                            int k, OpaqueLayerMap* out, bool unknown_beyond_full) {
   LayerOptions options;
   options.layers = k;
   rasterizer.layered_depth_map(triangles, view, options, &out->layers);
   // Over window depth, which is affine along a projected segment (the walker's contract);
   // the layers are compared in linear depth at the texels (xie2007 §6.1).
-  out->pyramid = MinMaxPyramid(out->layers, DepthKind::Window);
+  const LayeredDepthMap& m = out->layers;
+  if (!unknown_beyond_full) {
+    out->pyramid = MinMaxPyramid(m, DepthKind::Window);
+  } else {
+    std::vector<DepthRange> ranges(static_cast<size_t>(m.width) * m.height);
+    parallel_for(ranges.size(), 16384, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        const int n = m.counts[i];
+        if (n == 0) continue;  // empty range
+        const DepthSample* s = m.samples.data() + i * m.max_layers;  // nearest first
+        ranges[i] = {s[0].depth, n >= m.max_layers ? shader::kMlBeyondFullTexel : s[n - 1].depth};
+      }
+    });
+    out->pyramid = MinMaxPyramid(m.width, m.height, ranges);
+  }
   const DepthRange root = out->pyramid.root();
   out->z_min = root.empty() ? kInfinity : view.linear_depth_from_window(root.lo);
 }
 
 void build_transparent_map(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view,
-                           const CompressionOptions& options, TransparentMap* out) {
+                           const CompressionOptions& options, TransparentMap* out, bool unknown_beyond_full) {
   const int w = view.width(), h = view.height();
   const size_t texels = static_cast<size_t>(w) * h;
   // Compressed layers per texel, written by the visitor (one call per texel, any thread,
   // so each texel's vector is written by one thread only), then packed into flat storage.
   std::vector<std::vector<TransparentLayer>> per_texel(texels);
+  TransparentLayerMap& m = out->layers;
+  m.truncated.assign(unknown_beyond_full ? texels : 0, 0);
   std::atomic<size_t> fragments{0};
   rasterizer.visit_fragments(triangles, view, RasterFilter{}, [&](int x, int y, std::span<const Fragment> f) {
     if (f.empty()) return;
     fragments += f.size();
-    std::vector<TransparentLayer>& dst = per_texel[static_cast<size_t>(y) * w + x];
-    compress_fragments(f, options, &dst);
+    const size_t i = static_cast<size_t>(y) * w + x;
+    bool truncated = false;
+    compress_fragments(f, options, &per_texel[i], &truncated);
+    if (unknown_beyond_full) m.truncated[i] = truncated ? 1 : 0;
   });
-  TransparentLayerMap& m = out->layers;
   m.width = w;
   m.height = h;
   m.offsets.assign(texels + 1, 0);
@@ -246,14 +265,10 @@ void build_transparent_map(Rasterizer& rasterizer, RasterTriangleView triangles,
   parallel_for(texels, 4096, [&](size_t b, size_t e) {
     for (size_t i = b; i < e; ++i) std::copy(per_texel[i].begin(), per_texel[i].end(), m.layers.begin() + m.offsets[i]);
   });
-  std::vector<DepthRange> ranges = m.texel_ranges();
   float z_min = kInfinity;
-  for (DepthRange& r : ranges) {
-    if (r.empty()) continue;
-    z_min = std::min(z_min, r.lo);
-    r = {view.window_depth(r.lo), view.window_depth(r.hi)};
-  }
-  out->pyramid = MinMaxPyramid(w, h, ranges);
+  for (const DepthRange& r : m.texel_ranges())
+    if (!r.empty()) z_min = std::min(z_min, r.lo);
+  out->pyramid = MinMaxPyramid(w, h, m.window_ranges(view));
   out->z_min = z_min;
   out->fragments = fragments.load();
 }

@@ -37,9 +37,10 @@ struct MultilayerSettings {
   float self_bias = 0.25f;
   float open_self_bias = 0.1f;
   int layers = 5;                   // mlsm
+  bool trace_unresolved = true;     // rays behind a full texel's last layer traced (`unresolved`)
   CompressionOptions compression;   // mtsm
   float stop_below = 1e-3f;         // mtsm
-  float near_field = 16.0f;         // texels at the receiver traced through the scene first
+  float near_field = 32.0f;         // narrowest penumbra the map answers for, texels at the receiver
 };
 MultilayerSettings multilayer_settings(const ParamSet& p, bool transparent);
 // Where the light-space partitions (partitions/light_partitions.h) put guard samples for these
@@ -142,8 +143,10 @@ struct OpaqueLayerMap {
   // What a w x h map of k layers holds, for memory estimates.
   static uint64_t bytes(int w, int h, int k) { return LayeredDepthMap::bytes(w, h, k) + MinMaxPyramid::bytes(w, h); }
 };
+// unknown_beyond_full: a full texel's range reaches kMlBeyondFullTexel (trace_unresolved's
+// pyramid: a ray behind its last layer reaches the texel to be told it is unknown there).
 void build_opaque_layer_map(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view,
-                            int k, OpaqueLayerMap* out);
+                            int k, OpaqueLayerMap* out, bool unknown_beyond_full = false);
 
 // MTSM: every fragment of each light-centre ray, compressed per texel (§5.1), and its quadtree.
 struct TransparentMap {
@@ -157,7 +160,9 @@ struct TransparentMap {
   // is built each texel's own vector (grown by doubling) and the texel ranges.
   static uint64_t build_bytes(int w, int h, int layers_per_texel);
 };
+// unknown_beyond_full: each texel's truncation is kept and its range reaches kMlBeyondFullTexel
+// where fragments were dropped (as build_opaque_layer_map's).
 void build_transparent_map(Rasterizer& rasterizer, RasterTriangleView triangles, const LightView& view,
-                           const CompressionOptions& options, TransparentMap* out);
+                           const CompressionOptions& options, TransparentMap* out, bool unknown_beyond_full = false);
 
 }  // namespace penumbra::multilayer

@@ -295,8 +295,9 @@ TEST(Multilayer, MlsmAgreesWithReferenceOnBunny) {
 // The near field (multilayer.md): a comb of bars 2 cm wide every 5 cm, 3 cm above a plate, in a
 // map of 64 texels (several centimetres each at the plate). The map holds the bars only where they
 // cover a texel's centre, so the paper's rays (near_field=0) see a comb the texels resample; with
-// the first near_field texels of each ray traced through the scene, the plate gets `reference`'s
-// visibility from the same light samples. mtsm likewise (the transmittances multiply).
+// the part of each ray where the bars' penumbrae are narrower than near_field texels traced
+// through the scene, the plate gets `reference`'s visibility from the same light samples. mtsm
+// likewise (the transmittances multiply).
 TEST(Multilayer, TheNearFieldTracesTheFirstTexelsOfEachRayThroughTheScene) {
   std::vector<SceneObject> objects = {testing::object(testing::quad_y(1.0f, -0.4f, 0.4f, -0.6f, 0.6f))};
   for (int i = 0; i < 16; ++i) {
@@ -313,6 +314,46 @@ TEST(Multilayer, TheNearFieldTracesTheFirstTexelsOfEachRayThroughTheScene) {
                 without);
     EXPECT_LT(with_near, 0.25 * without) << method;
     EXPECT_LT(with_near, 0.01) << method;
+  }
+}
+
+// Rays behind a full texel (multilayer.md "Rays the map cannot answer for"): a comb of wide bars
+// high above a square plate over the ground, between it and the light. With one layer per texel (mlsm layers=1; mtsm
+// resets=0: the comb's opaque bars end every texel they cover) the map keeps the bars where they
+// cover a texel and drops the plate there, so the paper's rays from the ground in the plate's
+// umbra that pass behind the bars' layer and not through a bar are unblocked (`lit`); traced
+// (`trace`), they meet the plate: the umbra stays black. No near field, to see the map alone.
+TEST(Multilayer, RaysBehindAFullTexelAreTracedThroughTheScene) {
+  // The light to the side (x = -1.2), so that part of the plate's umbra on the ground (x from 0 to
+  // 1.2) lies beside the plate, in the top camera's view; the bars over the plate's light-centre
+  // lines at y = 2 (x from -0.8 to -0.4).
+  std::vector<SceneObject> objects = {testing::object(testing::quad_y(1.0f, -0.4f, 0.4f, -0.4f, 0.4f))};
+  for (int i = 0; i < 6; ++i) {  // bars 15 cm wide every 20 cm: several texels each
+    const float x0 = -1.2f + 0.2f * static_cast<float>(i);
+    objects.push_back(testing::object(testing::quad_y(2.0f, x0, x0 + 0.15f, -0.6f, 0.6f)));
+  }
+  Scene scene = testing::ground_scene(std::move(objects), testing::rect_light_down({-1.2f, 3, 0}, 0.5f, 0.5f));
+  scene.camera = testing::top_camera(48, 2.9f, 30.0f);
+  const Image ref = render_v(scene, "reference", {}, 64);
+  // The pixels in umbra (the plate's on the ground, and the bars' on the plate).
+  auto mean_in_umbra = [&](const Image& v) {
+    double sum = 0;
+    size_t count = 0;
+    for (size_t i = 0; i < ref.data().size(); ++i)
+      if (ref.data()[i] == 0.0f) {
+        sum += v.data()[i];
+        ++count;
+      }
+    EXPECT_GT(count, 100u);
+    return sum / static_cast<double>(std::max<size_t>(1, count));
+  };
+  for (const char* method : {"mlsm", "mtsm"}) {
+    const std::string k = std::string(method) == "mlsm" ? "layers=1" : "resets=0";
+    const double traced = mean_in_umbra(render_v(scene, method, {"resolution=64", "near_field=0", k}, 64));
+    const double lit = mean_in_umbra(render_v(scene, method, {"resolution=64", "near_field=0", k, "unresolved=lit"}, 64));
+    std::printf("%s, mean V in the reference's umbra: traced %.4f, the paper's (lit) %.4f\n", method, traced, lit);
+    EXPECT_GT(lit, 0.02) << method;
+    EXPECT_LT(traced, 0.1 * lit) << method;
   }
 }
 

@@ -19,7 +19,8 @@ TraceParams resolve_trace_params(const TraceParams& params, const LightView& vie
 }
 
 shader::MlTraceSetup shared_trace_setup(const TraceSetup& s, float z_min) {
-  return {s.z_thresh, s.window_tolerance, s.inv_focal, s.self_bias, s.stop_below, z_min, s.open_self_bias, s.near_field};
+  return {s.z_thresh,   s.window_tolerance, s.inv_focal,     s.self_bias, s.stop_below,
+          z_min,        s.open_self_bias,   s.near_field,    s.light_width, 0.0f};
 }
 
 TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParams& params) {
@@ -30,6 +31,7 @@ TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParam
   s.open_self_bias = params.open_self_bias;
   s.stop_below = params.stop_below;
   s.near_field = params.near_field;
+  s.light_width = params.light_width;
   s.inv_focal = 1.0f / focal_texels(view);
   // Window depth is concave in z, so [z - t, z + t] spans the most window depth at the
   // smallest z; the lower side is the wider one.
@@ -55,7 +57,8 @@ void add_counts(const shader::MlTraceCounters& c, TraceCounters* counters) {
 
 // Rays of one receiver, walked in packets of kDepthWalkPacket: out[i] = Texel(i's texel
 // results) as the single-ray traces give them (the shared set-up and leaf tests,
-// multilayer_trace_shared.h).
+// multilayer_trace_shared.h): 0 below stop_below, kMlUnresolved where a texel set its `unknown`
+// and the ray is not blocked.
 template <class Map, class Texel>
 void trace_packets(const TraceSetup& s, const Map& map, const RayReceiver& r, std::span<const Vec3f> q, float* out,
                    TraceCounters* counters, Texel&& texel) {
@@ -69,6 +72,7 @@ void trace_packets(const TraceSetup& s, const Map& map, const RayReceiver& r, st
     MlRay rs[kDepthWalkPacket];
     DepthImageSegment segs[kDepthWalkPacket];
     int ray_of[kDepthWalkPacket];
+    bool unknown[kDepthWalkPacket] = {};
     int walked = 0;
     for (size_t k = 0; k < count; ++k) {
       bool blocked = false;
@@ -83,7 +87,14 @@ void trace_packets(const TraceSetup& s, const Map& map, const RayReceiver& r, st
     }
     walk_depth_image_packet(
         map.pyramid, std::span<const DepthImageSegment>(segs, walked), opt,
-        [&](int i, const DepthWalkTexel& t) { return texel(ss, rs[i], t, &out[ray_of[i]]); }, &wc);
+        [&](int i, const DepthWalkTexel& t) { return texel(ss, rs[i], t, &out[ray_of[i]], unknown[i]); }, &wc);
+    for (int i = 0; i < walked; ++i) {
+      float& o = out[ray_of[i]];
+      if (o < s.stop_below)
+        o = 0.0f;
+      else if (unknown[i])
+        o = shader::kMlUnresolved;
+    }
   }
   counters->nodes += wc.nodes;
   counters->texels += wc.texels;
@@ -116,10 +127,12 @@ void trace_opaque(const TraceSetup& s, const OpaqueLayerMap& map, const RayRecei
   uint32_t tested = 0;
   const shader::RasterView& view = s.view->shared();
   trace_packets(s, map, r, q, out, counters,
-                [&](const shader::MlTraceSetup& ss, const MlRay& rs, const DepthWalkTexel& t, float* vis) {
-                  if (!shader::ml_opaque_texel_blocks(view, ss, {&map.layers}, rs, r.p, t.x, t.y, t.d_enter, t.d_exit,
-                                                      tested))
-                    return WalkStep::Continue;
+                [&](const shader::MlTraceSetup& ss, const MlRay& rs, const DepthWalkTexel& t, float* vis,
+                    bool& unknown) {
+                  const uint32_t test = shader::ml_opaque_texel_test(view, ss, {&map.layers}, rs, r.p, t.x, t.y,
+                                                                     t.d_enter, t.d_exit, t.range.hi, tested);
+                  if (test == shader::kMlTexelUnknown) unknown = true;  // unless a later texel blocks it
+                  if (test != shader::kMlTexelBlocks) return WalkStep::Continue;
                   *vis = 0.0f;
                   counters->layer_hits++;
                   return WalkStep::Stop;
@@ -132,14 +145,13 @@ void trace_transparent(const TraceSetup& s, const TransparentMap& map, const Ray
   uint32_t tested = 0, hits = 0;
   const shader::RasterView& view = s.view->shared();
   trace_packets(s, map, r, q, out, counters,
-                [&](const shader::MlTraceSetup& ss, const MlRay& rs, const DepthWalkTexel& t, float* vis) {
+                [&](const shader::MlTraceSetup& ss, const MlRay& rs, const DepthWalkTexel& t, float* vis,
+                    bool& unknown) {
                   return shader::ml_transparent_texel(view, ss, {&map.layers}, rs, r.p, t.x, t.y, t.t_enter, t.t_exit,
-                                                      t.d_enter, t.d_exit, *vis, tested, hits)
+                                                      t.d_enter, t.d_exit, t.range.hi, *vis, unknown, tested, hits)
                              ? WalkStep::Stop
                              : WalkStep::Continue;
                 });
-  for (size_t i = 0; i < q.size(); ++i)
-    if (out[i] < s.stop_below) out[i] = 0.0f;
   counters->layers_tested += tested;
   counters->layer_hits += hits;
 }

@@ -21,9 +21,11 @@ struct TraceParams {
   float self_bias = 0.25f;   // texel widths at the receiver: the band around its own tangent plane ignored
   float open_self_bias = 0.1f;  // ... at a receiver on an open surface
   float stop_below = 1e-3f;  // mtsm: a ray whose visibility falls below this is blocked (§5.2 threshold)
-  // Texel widths at the receiver that the caller traces through the scene before the map answers
+  // The narrowest penumbra the map answers for, in texel widths at the receiver: the part of a ray
+  // where an occluder's would be narrower is traced through the scene by the caller first
   // (ml_near_fraction; the method's `near_field`); 0: the map answers for the whole ray.
   float near_field = 0;
+  float light_width = 0;  // near_field_light_width of the light
 };
 
 // The trace parameters with z_thresh resolved for a map (xie2007 §6.1: in camera space): the
@@ -42,6 +44,7 @@ struct TraceSetup {
   float open_self_bias = 0.1f;
   float stop_below = 1e-3f;
   float near_field = 0;
+  float light_width = 0;
 };
 // z_min: the map's smallest depth (the widest window-depth span of +-z_thresh is there).
 TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParams& params);
@@ -61,16 +64,19 @@ struct TraceCounters {
   uint64_t texels = 0;         // texels reached (leaf visits)
   uint64_t layers_tested = 0;  // layers compared with a ray in those texels
   uint64_t layer_hits = 0;     // layers (mtsm: estimated samples) that attenuated a ray
+  uint64_t unresolved = 0;     // rays the map could not answer for, traced through the scene (mlsm)
   void add(const TraceCounters& o) {
     rays += o.rays;
     nodes += o.nodes;
     texels += o.texels;
     layers_tested += o.layers_tested;
     layer_hits += o.layer_hits;
+    unresolved += o.unresolved;
   }
 };
 
-// Transmittance of the segment from r.p to light point q: MLSM (§4.3), 0 or 1.
+// Transmittance of the segment from r.p to light point q: MLSM (§4.3), 0 or 1; kMlUnresolved
+// where the map cannot answer (ml_trace_opaque: a map built with unknown_beyond_full).
 float trace_opaque(const TraceSetup& setup, const OpaqueLayerMap& map, const RayReceiver& r, Vec3f q,
                    TraceCounters* counters);
 // MTSM (§5.2): the product of the per-sample transmittances of the estimated samples the ray

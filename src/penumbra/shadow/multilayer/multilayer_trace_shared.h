@@ -11,10 +11,11 @@
 #include "penumbra/raster/depth_image_walk_shared.h"
 #include "penumbra/raster/raster_shared.h"
 #include "penumbra/shadow/multilayer/multilayer_layers_shared.h"
+#include "penumbra/shadow/near_field_shared.h"
 
 PN_SHARED_BEGIN
 
-// What one map needs for tracing (make_trace_setup, multilayer::shared_trace_setup), 32 bytes.
+// What one map needs for tracing (make_trace_setup, multilayer::shared_trace_setup), 40 bytes.
 struct MlTraceSetup {
   float z_thresh;          // world units of linear depth (§6.1)
   float window_tolerance;  // z_thresh as a (conservative) window-depth tolerance for node tests
@@ -23,7 +24,9 @@ struct MlTraceSetup {
   float stop_below;        // mtsm: a ray whose visibility falls below this is blocked (§5.2)
   float z_min;             // the map's smallest linear depth (+inf: empty)
   float open_self_bias;    // self_bias at a receiver on an open surface (a leaf, a card, a plane)
-  float near_field;        // texel widths at the receiver traced through the scene first (0: none)
+  float near_field;        // narrowest penumbra the map answers for, texel widths at the receiver (0: no near field)
+  float light_width;       // near_field_light_width of the light
+  float pad;
 };
 
 // A ray ready to walk: the segment projected into the view, the receiver's normal turned toward
@@ -99,6 +102,22 @@ TransparentLayer ml_transparent_layer(MlTransparentMapRef r, uint i) { return Ml
 
 PN_SHARED_BEGIN
 
+// Rays behind a full texel (kMlBeyondFullTexel, multilayer_layers_shared.h): a ray no layer
+// blocks (mtsm: none takes its visibility below stop_below) that passed behind a full texel's last
+// layer is kMlUnresolved: the caller traces it whole through the scene.
+PN_CONST float kMlUnresolved = -1.0f;
+// What a texel of the k-layer map tells a ray (ml_opaque_texel_test).
+PN_CONST uint kMlTexelClear = 0u;    // no layer of the texel blocks it
+PN_CONST uint kMlTexelBlocks = 1u;   // a layer blocks it
+PN_CONST uint kMlTexelUnknown = 2u;  // none blocks it, and it passes behind a full texel's last layer
+
+// Whether a ray over a texel whose pyramid range reaches up to texel_hi, its linear depths up to
+// zhi, passes more than z_thresh behind the texel's last layer (linear depth z_last) where that
+// texel is full.
+PN_INLINE bool ml_behind_full_texel(float texel_hi, float z_last, float zhi, float z_thresh) {
+  return texel_hi >= kMlBeyondFullTexel && zhi > z_last + z_thresh;
+}
+
 // The largest float below x in magnitude (nextafter toward 0) for a finite non-zero x.
 PN_INLINE float ml_next_toward_zero(float x) {
   if (x == 0.0f || x != x) return x;
@@ -107,15 +126,17 @@ PN_INLINE float ml_next_toward_zero(float x) {
 
 // The near field (penumbra's addition; multilayer.md "The near field"): the fraction of the segment
 // from receiver p to light point q, from p, that the caller traces through the scene itself (0 with
-// no near field; 1: the whole segment): near_field texel widths at p's depth. Within a few texels
-// of its receiver a ray meets surfaces the map holds only where they cover a texel's centre, and
-// inside the own-surface band; beyond, the map answers (ml_setup_ray starts there: with a near
-// field it projects the segment from where the near field ends).
+// no near field; 1: the whole segment): where an occluder's penumbra at p would be narrower than
+// near_field texel widths at p's depth (near_field_length). There the map holds a ray's occluders
+// only where they cover a texel's centre, and not inside the own-surface band; beyond, the map
+// answers (ml_setup_ray starts there: with a near field it projects the segment from where the
+// near field ends).
 PN_INLINE float ml_near_fraction(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 q) {
   if (!(s.near_field > 0.0f)) return 0.0f;
-  float near = s.near_field * max(0.0f, view_linear_depth(v, p)) * s.inv_focal;
+  float resolved = s.near_field * max(0.0f, view_linear_depth(v, p)) * s.inv_focal;
   float dist = length(q - p);
-  return dist > near ? near / dist : 1.0f;
+  float near = near_field_length(resolved, dist, s.light_width);
+  return near < dist ? near / dist : 1.0f;
 }
 
 // Sets up the ray from receiver p (geometric normal ng, on a closed object or not) to light point
@@ -184,10 +205,12 @@ PN_INLINE bool ml_clip_to_light_side(PN_IN(RasterView) v, PN_IN(MlRay) ray, vec3
 }
 
 // MLSM's leaf test (xie2007 §4.3, §6.1) at texel (x, y), the ray's window depths d_enter and
-// d_exit over its crossing: whether a layer within z_thresh of the ray's linear depth interval
-// (the perspective divide only here, at the leaves) blocks it.
-PN_INLINE bool ml_opaque_texel_blocks(PN_IN(RasterView) v, MlTraceSetup s, MlOpaqueMapRef m, PN_IN(MlRay) ray, vec3 p,
-                                      int x, int y, float d_enter, float d_exit, PN_INOUT(uint) tested) {
+// d_exit over its crossing, texel_hi its pyramid range's top: whether a layer within z_thresh of
+// the ray's linear depth interval (the perspective divide only here, at the leaves) blocks it, or,
+// at a full texel, none does and the ray passes behind its last layer (ml_behind_full_texel).
+PN_INLINE uint ml_opaque_texel_test(PN_IN(RasterView) v, MlTraceSetup s, MlOpaqueMapRef m, PN_IN(MlRay) ray, vec3 p,
+                                    int x, int y, float d_enter, float d_exit, float texel_hi,
+                                    PN_INOUT(uint) tested) {
   float zt = s.z_thresh;
   float zlo = view_linear_depth_from_window(v, dw_min(d_enter, d_exit));
   float zhi = view_linear_depth_from_window(v, dw_max(d_enter, d_exit));
@@ -201,12 +224,13 @@ PN_INLINE bool ml_opaque_texel_blocks(PN_IN(RasterView) v, MlTraceSetup s, MlOpa
     if (z < a || z > b) continue;
     if (!clipped) {  // the own-surface bound, once per texel and only when needed
       clipped = true;
-      if (!ml_clip_to_light_side(v, ray, p, x, y, a, b)) return false;
+      if (!ml_clip_to_light_side(v, ray, p, x, y, a, b)) return kMlTexelClear;  // within its own surface's band
       if (z < a || z > b) continue;
     }
-    return true;
+    return kMlTexelBlocks;
   }
-  return false;
+  if (n > 0 && ml_behind_full_texel(texel_hi, ml_opaque_z(m, x, y, n - 1), zhi, zt)) return kMlTexelUnknown;
+  return kMlTexelClear;
 }
 
 // MTSM's leaf test (xie2007 §5.2) at texel (x, y), the ray's crossing [t_enter, t_exit] with
@@ -216,10 +240,12 @@ PN_INLINE bool ml_opaque_texel_blocks(PN_IN(RasterView) v, MlTraceSetup s, MlOpa
 // over the texel holds them, half-open, unwidened: consecutive texels' intervals partition the
 // ray's depths, so each surface the ray passes counts once (widened windows overlap by 2 z_thresh
 // per texel and would attenuate an oblique ray crossing many texels several times over:
-// penumbra's reading of §5.2's "reduce ray.vis by dv_i").
+// penumbra's reading of §5.2's "reduce ray.vis by dv_i"). unknown is set where the ray passes
+// behind a full texel's last layer (texel_hi, its pyramid range's top: ml_behind_full_texel).
 PN_INLINE bool ml_transparent_texel(PN_IN(RasterView) v, MlTraceSetup s, MlTransparentMapRef m, PN_IN(MlRay) ray,
                                     vec3 p, int x, int y, float t_enter, float t_exit, float d_enter, float d_exit,
-                                    PN_INOUT(float) vis, PN_INOUT(uint) tested, PN_INOUT(uint) hits) {
+                                    float texel_hi, PN_INOUT(float) vis, PN_INOUT(bool) unknown,
+                                    PN_INOUT(uint) tested, PN_INOUT(uint) hits) {
   float zt = s.z_thresh;
   float zlo = view_linear_depth_from_window(v, dw_min(d_enter, d_exit));
   float zhi = view_linear_depth_from_window(v, dw_max(d_enter, d_exit));
@@ -261,10 +287,13 @@ PN_INLINE bool ml_transparent_texel(PN_IN(RasterView) v, MlTraceSetup s, MlTrans
     vis = opaque ? 0.0f : vis * (n == 1u ? l.transmit : ml_pow(l.transmit, float(n)));
     if (vis < s.stop_below) return true;
   }
+  if (count > 0u && ml_behind_full_texel(texel_hi, ml_transparent_layer(m, first + count - 1u).z, zhi, zt))
+    unknown = true;
   return false;
 }
 
-// One ray's transmittance through a k-layer map (MLSM, xie2007 §4.3): 0 or 1.
+// One ray's transmittance through a k-layer map (MLSM, xie2007 §4.3): 0 or 1, or kMlUnresolved
+// where no layer blocks it and it passed behind a full texel.
 PN_INLINE float ml_trace_opaque(PN_IN(RasterView) v, MlTraceSetup s, DepthPyramidRef pyr, MlOpaqueMapRef m, vec3 p,
                                 vec3 ng, bool closed, vec3 q, PN_INOUT(MlTraceCounters) c) {
   c.rays += 1u;
@@ -274,21 +303,25 @@ PN_INLINE float ml_trace_opaque(PN_IN(RasterView) v, MlTraceSetup s, DepthPyrami
   DepthWalkState w;
   depth_walk_begin(w, pyr, ray.ps.segment, s.window_tolerance, kDepthWalkMinmax);
   bool hit = false;
+  bool unknown = false;  // a later texel's layer may still block it: walk on
   DepthWalkEvent ev;
   while (depth_walk_next(w, pyr, ev) == kDepthWalkTexel) {
-    if (ml_opaque_texel_blocks(v, s, m, ray, p, ev.x, ev.y, ev.d_enter, ev.d_exit, c.tested)) {
+    uint t = ml_opaque_texel_test(v, s, m, ray, p, ev.x, ev.y, ev.d_enter, ev.d_exit, ev.range.y, c.tested);
+    if (t == kMlTexelBlocks) {
       hit = true;
       break;
     }
+    if (t == kMlTexelUnknown) unknown = true;
   }
   c.nodes += w.nodes;
   c.texels += w.texels;
   if (hit) c.hits += 1u;
-  return hit ? 0.0f : 1.0f;
+  return hit ? 0.0f : (unknown ? kMlUnresolved : 1.0f);
 }
 
 // One ray's transmittance through a transparent map (MTSM, xie2007 §5.2): the product of the
-// per-sample transmittances of the estimated samples it crosses; 0 once below stop_below.
+// per-sample transmittances of the estimated samples it crosses; 0 once below stop_below;
+// kMlUnresolved where it is not and the ray passed behind a full texel.
 PN_INLINE float ml_trace_transparent(PN_IN(RasterView) v, MlTraceSetup s, DepthPyramidRef pyr, MlTransparentMapRef m,
                                      vec3 p, vec3 ng, bool closed, vec3 q, PN_INOUT(MlTraceCounters) c) {
   c.rays += 1u;
@@ -298,21 +331,22 @@ PN_INLINE float ml_trace_transparent(PN_IN(RasterView) v, MlTraceSetup s, DepthP
   DepthWalkState w;
   depth_walk_begin(w, pyr, ray.ps.segment, s.window_tolerance, kDepthWalkMinmax);
   float vis = 1.0f;
+  bool unknown = false;
   DepthWalkEvent ev;
   while (depth_walk_next(w, pyr, ev) == kDepthWalkTexel) {
-    if (ml_transparent_texel(v, s, m, ray, p, ev.x, ev.y, ev.t_enter, ev.t_exit, ev.d_enter, ev.d_exit, vis, c.tested,
-                             c.hits))
+    if (ml_transparent_texel(v, s, m, ray, p, ev.x, ev.y, ev.t_enter, ev.t_exit, ev.d_enter, ev.d_exit, ev.range.y,
+                             vis, unknown, c.tested, c.hits))
       break;
   }
   c.nodes += w.nodes;
   c.texels += w.texels;
-  return vis < s.stop_below ? 0.0f : vis;
+  return vis < s.stop_below ? 0.0f : (unknown ? kMlUnresolved : vis);
 }
 
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::MlTraceSetup) == 32);
+static_assert(sizeof(penumbra::shader::MlTraceSetup) == 40);
 #endif
 
 #endif  // PENUMBRA_SHADOW_MULTILAYER_MULTILAYER_TRACE_SHARED_H

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "penumbra/raster/fragment_lists.h"
+#include "penumbra/raster/light_view.h"
 #include "penumbra/raster/minmax_pyramid.h"
 #include "penumbra/shadow/multilayer/multilayer_layers_shared.h"
 
@@ -33,14 +34,18 @@ struct CompressionOptions {
 // options.error of the visibility just before and just after every sample in the run (the
 // slope-interval test of Lokovic & Veach 2000 §4.2); a run also ends where the visibility
 // reaches zero, after which the visibility resets to 1 up to options.resets times.
+// *truncated (when given): fragments behind the last layer were dropped (ml_compress_fragments).
 uint32_t compress_fragments(std::span<const Fragment> fragments, const CompressionOptions& options,
-                            std::vector<TransparentLayer>* out);
+                            std::vector<TransparentLayer>* out, bool* truncated = nullptr);
 
 // Flat storage of every texel's layers (texel i owns layers[offsets[i], offsets[i+1])).
 struct TransparentLayerMap {
   int width = 0, height = 0;
   std::vector<uint32_t> offsets;
   std::vector<TransparentLayer> layers;
+  // Per texel, 1 where fragments behind its last layer were dropped (compress_fragments); empty
+  // when not tracked (the method's unresolved=lit).
+  std::vector<uint8_t> truncated;
 
   size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
   std::span<const TransparentLayer> at(int x, int y) const {
@@ -48,10 +53,13 @@ struct TransparentLayerMap {
     return {layers.data() + offsets[i], offsets[i + 1] - offsets[i]};
   }
   size_t memory_bytes() const {
-    return offsets.size() * sizeof(uint32_t) + layers.size() * sizeof(TransparentLayer);
+    return offsets.size() * sizeof(uint32_t) + layers.size() * sizeof(TransparentLayer) + truncated.size();
   }
-  // Per-texel depth ranges [first sample, last layer] for a MinMaxPyramid.
+  // Per-texel linear depth ranges [first sample, last layer].
   std::vector<DepthRange> texel_ranges() const;
+  // The same in the view's window depth, for a MinMaxPyramid; a truncated texel's reaching
+  // kMlBeyondFullTexel.
+  std::vector<DepthRange> window_ranges(const LightView& view) const;
 };
 
 // ---- Hit rules (xie2007 §4.3 and §6.1; multilayer_layers_shared.h): linear depths. ----

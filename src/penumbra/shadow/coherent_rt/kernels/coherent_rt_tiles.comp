@@ -158,7 +158,7 @@ void main() {
             vec3 start = org;
             bool done_near = false;
             if (b.near_scale > 0.0f) {
-              float len = crt_near_field_length(s.p, b.near_eye, b.near_forward, b.near_scale, tfar);
+              float len = crt_near_field_length(s.p, b.near_eye, b.near_forward, b.near_scale, b.near_light_width, tfar);
               RayHit hit;
               near_rays += 1u;
               if (trace_closest(org, dir, len, hit)) {

@@ -2,8 +2,8 @@
 // `mlsm` on the GPU (multilayer_kernels_shared.h): one thread per texel of the k-layer map writes
 // the pyramid's level 0, the texel's window-depth range over all its layers, nearest to farthest
 // (xie2007 §4.3: each node holds min and max over all layers; MinMaxPyramid(LayeredDepthMap,
-// Window): window depth is affine along a projected segment, the walk's contract), and counts
-// the map's statistics.
+// Window): window depth is affine along a projected segment, the walk's contract), a full
+// texel's reaching kMlBeyondFullTexel with unknown_beyond_full, and counts the map's statistics.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/shadow/multilayer/multilayer_kernels_shared.h"
@@ -23,6 +23,8 @@ void main() {
     if (n > 0u) {
       Floats samples = Floats(pc.p.map_b);
       r = vec2(samples.v[i * uint(k) * 4u + 1u], samples.v[(i * uint(k) + n - 1u) * 4u + 1u]);
+      // A full texel does not know what lies behind its last layer (multilayer_map.cpp).
+      if (pc.p.unknown_beyond_full != 0u && n >= uint(k)) r.y = kMlBeyondFullTexel;
     }
     Vec2s(pc.p.nodes).v[i] = r;
   }

@@ -3,7 +3,8 @@
 // fragment list into transparent layers (xie2007 §5.1: multilayer_layers_shared.h's
 // ml_compress_fragments, the CPU's), written at the list's own offset (a texel never has more
 // layers than fragments), and writes the pyramid's level 0: the window depths of its first
-// layer's first sample and its last layer's control vertex. The map's smallest linear depth
+// layer's first sample and its last layer's control vertex (or kMlBeyondFullTexel where the
+// compression dropped fragments behind it, with unknown_beyond_full). The map's smallest linear depth
 // (z_min) and statistics are counted.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "penumbra/gpu/kernel_common.glsl"
@@ -27,13 +28,17 @@ void main() {
     o.resets = pc.p.resets;
     o.zero = pc.p.zero;
     MlLayersOut layers = MlLayersOut(pc.p.map_d);
-    if (end > first) n = ml_compress_fragments(MlFragmentsRef(pc.p.map_b), first, end - first, o, layers, first);
+    bool truncated = false;
+    if (end > first)
+      n = ml_compress_fragments(MlFragmentsRef(pc.p.map_b), first, end - first, o, layers, first, truncated);
     Uints(pc.p.map_c).v[i] = n;
     vec2 r = vec2(pn_inf(), -pn_inf());
     if (n > 0u) {
       RasterView view = TraceBlockRef(pc.p.block).b.view;
       float lo = layers.v[first].z_first;
       r = vec2(view_window_depth(view, lo), view_window_depth(view, layers.v[first + n - 1u].z));
+      // Fragments behind the last layer dropped: unknown there (kMlBeyondFullTexel).
+      if (pc.p.unknown_beyond_full != 0u && truncated) r.y = kMlBeyondFullTexel;
       z_bits = raster_order_bits(lo);
     }
     Vec2s(pc.p.nodes).v[i] = r;

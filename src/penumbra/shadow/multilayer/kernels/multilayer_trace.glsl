@@ -8,6 +8,7 @@
 // the first part of each ray is traced through the scene's BVH as the CPU's fan traces it and
 // combined with the map's answer by the kernel's
 //   float combine_near(float t_map, float t_near)
+// and a ray the map cannot answer for (kMlUnresolved, mlsm) is traced whole through the BVH.
 // Counters per subgroup, then one atomic each.
 #ifndef PENUMBRA_SHADOW_MULTILAYER_KERNELS_MULTILAYER_TRACE_GLSL
 #define PENUMBRA_SHADOW_MULTILAYER_KERNELS_MULTILAYER_TRACE_GLSL
@@ -20,6 +21,7 @@ void main() {
   c.texels = 0u;
   c.tested = 0u;
   c.hits = 0u;
+  uint unresolved = 0u;
   if (i < pc.p.slots) {
     GpuViewSample s = ViewSamplesIn(pc.p.samples).v[i];
     if (s.object != kMissObject) {
@@ -48,7 +50,12 @@ void main() {
             if (!gpu_light_sample(light, S, u, dir, dist, pdf, a)) continue;
             vec3 q = s.p + dir * dist;
             float t = trace_ray(b, pyr, s.p, s.ng, closed, q, c);
-            if (t > 0.0f && b.setup.near_field > 0.0f) {  // multilayer.cpp trace_near_fields
+            if (t == kMlUnresolved) {  // multilayer.cpp trace_near_fields: the whole ray
+              vec3 org, seg;
+              fan_segment(s.p, offset_normal(s.ng), ray_offset_epsilon(s.p), q - s.p, org, seg);
+              t = combine_near(1.0f, trace_transmittance(org, seg, kFanTfar));
+              unresolved += 1u;
+            } else if (t > 0.0f && b.setup.near_field > 0.0f) {  // multilayer.cpp trace_near_fields
               vec3 org, seg;
               fan_segment(s.p, offset_normal(s.ng), ray_offset_epsilon(s.p),
                           (q - s.p) * ml_near_fraction(b.view, b.setup, s.p, q), org, seg);
@@ -67,7 +74,7 @@ void main() {
   }
   uint limited = subgroupMax(pn_loop_limit_hit(pc.p.canary) ? 1u : 0u);  // gpu/loop_limit.h
   uint rays = subgroupAdd(c.rays), nodes = subgroupAdd(c.nodes), texels = subgroupAdd(c.texels);
-  uint tested = subgroupAdd(c.tested), hits = subgroupAdd(c.hits);
+  uint tested = subgroupAdd(c.tested), hits = subgroupAdd(c.hits), unresolved_rays = subgroupAdd(unresolved);
   if (subgroupElect() && limited != 0u) atomicMax(CountersRef(pc.p.counters).c.limited, uint64_t(1));
   if (subgroupElect() && rays > 0u) {
     CountersRef counters = CountersRef(pc.p.counters);
@@ -76,6 +83,7 @@ void main() {
     atomicAdd(counters.c.texels, uint64_t(texels));
     atomicAdd(counters.c.tested, uint64_t(tested));
     atomicAdd(counters.c.hits, uint64_t(hits));
+    atomicAdd(counters.c.unresolved, uint64_t(unresolved_rays));
   }
 }
 
