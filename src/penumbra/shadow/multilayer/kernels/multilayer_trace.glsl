@@ -8,7 +8,8 @@
 // the first part of each ray is traced through the scene's BVH as the CPU's fan traces it and
 // combined with the map's answer by the kernel's
 //   float combine_near(float t_map, float t_near)
-// and a ray the map cannot answer for (kMlUnresolved, mlsm) is traced whole through the BVH.
+// and a ray the map cannot answer for (kMlUnresolved: behind a full texel) is traced whole
+// through the BVH.
 // Counters per subgroup, then one atomic each.
 #ifndef PENUMBRA_SHADOW_MULTILAYER_KERNELS_MULTILAYER_TRACE_GLSL
 #define PENUMBRA_SHADOW_MULTILAYER_KERNELS_MULTILAYER_TRACE_GLSL
