@@ -247,7 +247,7 @@ void build_transparent_map(Rasterizer& rasterizer, RasterTriangleView triangles,
   // so each texel's vector is written by one thread only), then packed into flat storage.
   std::vector<std::vector<TransparentLayer>> per_texel(texels);
   TransparentLayerMap& m = out->layers;
-  m.truncated.assign(unknown_beyond_full ? texels : 0, 0);
+  std::vector<uint8_t> truncated_texels(unknown_beyond_full ? texels : 0, 0);  // window_ranges' flags
   std::atomic<size_t> fragments{0};
   rasterizer.visit_fragments(triangles, view, RasterFilter{}, [&](int x, int y, std::span<const Fragment> f) {
     if (f.empty()) return;
@@ -255,7 +255,7 @@ void build_transparent_map(Rasterizer& rasterizer, RasterTriangleView triangles,
     const size_t i = static_cast<size_t>(y) * w + x;
     bool truncated = false;
     compress_fragments(f, options, &per_texel[i], &truncated);
-    if (unknown_beyond_full) m.truncated[i] = truncated ? 1 : 0;
+    if (unknown_beyond_full) truncated_texels[i] = truncated ? 1 : 0;
   });
   m.width = w;
   m.height = h;
@@ -268,7 +268,7 @@ void build_transparent_map(Rasterizer& rasterizer, RasterTriangleView triangles,
   float z_min = kInfinity;
   for (const DepthRange& r : m.texel_ranges())
     if (!r.empty()) z_min = std::min(z_min, r.lo);
-  out->pyramid = MinMaxPyramid(w, h, m.window_ranges(view));
+  out->pyramid = MinMaxPyramid(w, h, m.window_ranges(view, truncated_texels));
   out->z_min = z_min;
   out->fragments = fragments.load();
 }

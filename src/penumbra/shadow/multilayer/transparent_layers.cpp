@@ -29,7 +29,8 @@ std::vector<DepthRange> TransparentLayerMap::texel_ranges() const {
   return ranges;
 }
 
-std::vector<DepthRange> TransparentLayerMap::window_ranges(const LightView& view) const {
+std::vector<DepthRange> TransparentLayerMap::window_ranges(const LightView& view,
+                                                           std::span<const uint8_t> truncated) const {
   std::vector<DepthRange> ranges = texel_ranges();
   for (size_t i = 0; i < ranges.size(); ++i) {
     DepthRange& r = ranges[i];

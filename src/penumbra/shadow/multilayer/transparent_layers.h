@@ -43,9 +43,6 @@ struct TransparentLayerMap {
   int width = 0, height = 0;
   std::vector<uint32_t> offsets;
   std::vector<TransparentLayer> layers;
-  // Per texel, 1 where fragments behind its last layer were dropped (compress_fragments); empty
-  // when not tracked (the method's unresolved=lit).
-  std::vector<uint8_t> truncated;
 
   size_t index(int x, int y) const { return static_cast<size_t>(y) * width + x; }
   std::span<const TransparentLayer> at(int x, int y) const {
@@ -53,13 +50,14 @@ struct TransparentLayerMap {
     return {layers.data() + offsets[i], offsets[i + 1] - offsets[i]};
   }
   size_t memory_bytes() const {
-    return offsets.size() * sizeof(uint32_t) + layers.size() * sizeof(TransparentLayer) + truncated.size();
+    return offsets.size() * sizeof(uint32_t) + layers.size() * sizeof(TransparentLayer);
   }
   // Per-texel linear depth ranges [first sample, last layer].
   std::vector<DepthRange> texel_ranges() const;
-  // The same in the view's window depth, for a MinMaxPyramid; a truncated texel's reaching
-  // kMlBeyondFullTexel.
-  std::vector<DepthRange> window_ranges(const LightView& view) const;
+  // The same in the view's window depth, for a MinMaxPyramid; a texel whose `truncated` flag is
+  // set (fragments behind its last layer dropped: compress_fragments) reaching kMlBeyondFullTexel.
+  // truncated: one flag per texel, or empty (not tracked: the method's unresolved=lit).
+  std::vector<DepthRange> window_ranges(const LightView& view, std::span<const uint8_t> truncated) const;
 };
 
 // ---- Hit rules (xie2007 §4.3 and §6.1; multilayer_layers_shared.h): linear depths. ----
