@@ -133,12 +133,18 @@ PN_INLINE float sm_transmit_at(PN_FLOAT_ARRAY z, PN_FLOAT_ARRAY opacity, ShadowM
 
 // The hard-shadow lookup of one point at its own texel (ShadowDepthMap::lookup): 0 when p lies
 // on a closed object and does not face the eye, else sm_transmit_at(sm_receiver(p, ng), its
-// texel). The same numbers as those calls, with the per-map set-up hoisted.
-PN_INLINE float sm_lookup(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapView m, vec3 p, vec3 ng, bool closed,
-                          ShadowBias b) {
+// texel). The same numbers as those calls, with the per-map set-up hoisted. `cut`: only a surface
+// in front of this depth as well as of the biased reference depth blocks (+inf: the plain lookup;
+// multi-view-sm's near field passes the depth where the map's answer begins, multi_view_shared.h).
+PN_INLINE float sm_lookup_beyond(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapView m, vec3 p, vec3 ng,
+                                 bool closed, ShadowBias b, float cut) {
   if (b.receiver_plane != 0u) {
     ShadowReceiver r = sm_receiver(m, p, ng, b);
-    return !r.faces && closed ? 0.0f : sm_transmit_at(zs, opacity, m, r, r.texel, b);
+    if (!r.faces && closed) return 0.0f;
+    int x = int(floor(r.texel.x));
+    int y = int(floor(r.texel.y));
+    if (x < 0 || y < 0 || x >= m.view.width || y >= m.view.height) return 1.0f;
+    return sm_transmit(zs, opacity, m.view.width, m.view.height, x, y, min(sm_reference_depth(r, x, y, b), cut));
   }
   RasterView v = m.view;
   vec3 d = p - v.eye;
@@ -160,7 +166,12 @@ PN_INLINE float sm_lookup(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapVi
   float slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
   // Own texel: reach max(1, d_t) = 1; s = z / focal.
   float ref = z - b.bias - b.slope_bias * z * m.inv_focal * slope;
-  return zt < ref ? 1.0f - PN_AT(opacity, i) : 1.0f;
+  return zt < min(ref, cut) ? 1.0f - PN_AT(opacity, i) : 1.0f;
+}
+
+PN_INLINE float sm_lookup(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapView m, vec3 p, vec3 ng, bool closed,
+                          ShadowBias b) {
+  return sm_lookup_beyond(zs, opacity, m, p, ng, closed, b, uintBitsToFloat(0x7f800000u));
 }
 
 // Whether a receiver lies outside the map: behind its near plane or beyond its window (not

@@ -7,18 +7,27 @@
 // xie2007 §3 calls the first reference method ("around 1000 light samples") and that
 // sintorn2008 compares against ("one shadow map per light sample").
 //
+// The near field (penumbra's addition, issue 34; multi_view_shared.h mv_near_field_length): where
+// an occluder's penumbra at p would be narrower than `near_field` texels of the maps, the maps'
+// average cannot draw it (each answers a texel-sized hard shadow at the same texels), so that part
+// of each shadow ray is traced through the scene (Embree) and the map answers for the rest, as
+// hybrid ray-traced shadows do with a shadow map and rays near the receiver.
+//
 // Memory stays bounded by one map: render map i, test every view sample against it
 // (parallel over view samples), accumulate, go on to map i + 1. One Rasterizer serves all
 // maps. docs/methods/multi-view-sm.md.
 #include <algorithm>
 #include <atomic>
+#include <vector>
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/sampling.h"
+#include "penumbra/shadow/baseline/multi_view_shared.h"
 #include "penumbra/shadow/partitions/light_partitions.h"
 #include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/trace/ray_tracer.h"
 
 namespace penumbra {
 namespace {
@@ -28,7 +37,8 @@ using shadow_map::in_front_of_light;
 
 class MultiViewShadowMap final : public ShadowMethod {
  public:
-  explicit MultiViewShadowMap(const ParamSet& p) : view_(shadow_map::view_params(p)), bias_(shadow_map::bias_params(p)) {}
+  explicit MultiViewShadowMap(const ParamSet& p)
+      : view_(shadow_map::view_params(p)), bias_(shadow_map::bias_params(p)), near_field_(p.get_float("near_field")) {}
 
   void prepare(const ShadowContext& ctx) override {
     ScopedPhase phase(stats_, "gather");
@@ -50,7 +60,10 @@ class MultiViewShadowMap final : public ShadowMethod {
     // no noise. Keyed by (seed, light, frame) so progressive frames take new points.
     const LightSampleSet set(maps, hash_combine(hash_combine(ctx.seed, 0x4d5653u /* "MVS" */ + ctx.light_index), ctx.frame),
                              /*per_pixel=*/false);
-    std::atomic<uint64_t> texels{0};
+    std::atomic<uint64_t> texels{0}, near_rays{0};
+    // The near field needs the Embree scene (a bare context without one: the maps alone).
+    const float near_field = ctx.tracer ? near_field_ : 0.0f;
+    const float light_width = shader::near_field_light_width(light.area());
     for (int i = 0; i < maps; ++i) {
       const Vec3f q = light.sample_area(set.sample(i, 0));
       LightView view;
@@ -65,13 +78,37 @@ class MultiViewShadowMap final : public ShadowMethod {
         culled_ += culled;
       }
       ScopedPhase phase(stats_, "lookup");
+      const shader::ShadowMapView& m = map_.shared();
+      const DepthMap& planes = map_.map();
       parallel_for(n, 4096, [&](size_t begin, size_t end) {
         uint64_t local = 0;
+        // The near fields of the view samples the map lets light through, traced as one stream.
+        std::vector<ShadowRay> rays;
+        std::vector<uint32_t> traced;
+        std::vector<float> far, transmit;
         for (size_t k = begin; k < end; ++k) {
           const ViewSample& s = vs.samples[k];
           if (!in_front_of_light(light, s.p)) continue;
-          out.visibility[k] += map_.lookup(s.p, s.ng, ctx.scene->objects[s.object].closed, bias_);
           ++local;
+          const bool closed = ctx.scene->objects[s.object].closed;
+          const float near = shader::mv_near_field_length(m, s.p, near_field, light_width);
+          const float t = shader::mv_far_lookup(planes.z.data(), planes.opacity.data(), m, s.p, s.ng, closed,
+                                                bias_.shared(), near);
+          if (t > 0.0f && near > 0.0f) {
+            ShadowRay r = shadow_ray_to(s.p, s.ng, m.view.eye);
+            r.tfar = std::min(r.tfar, near);
+            rays.push_back(r);
+            traced.push_back(static_cast<uint32_t>(k));
+            far.push_back(t);
+          } else {
+            out.visibility[k] += t;
+          }
+        }
+        if (!rays.empty()) {
+          transmit.resize(rays.size());
+          ctx.tracer->transmittance(rays, transmit);
+          for (size_t j = 0; j < rays.size(); ++j) out.visibility[traced[j]] += far[j] * transmit[j];
+          near_rays += rays.size();
         }
         texels += local;
       });
@@ -82,6 +119,7 @@ class MultiViewShadowMap final : public ShadowMethod {
     stats_.texels_visited += texels.load();
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, map_.memory_bytes());
     stats_.extra["maps"] = maps;
+    stats_.extra["near_field_rays"] = near_rays.load();
     stats_.extra["culled_triangles"] = culled_;
     stats_.extra["map_width"] = map_.map().width;
     stats_.extra["map_height"] = map_.map().height;
@@ -90,6 +128,7 @@ class MultiViewShadowMap final : public ShadowMethod {
  private:
   shadow_map::ViewParams view_;
   BiasParams bias_;
+  float near_field_;  // mv_near_field_length's texels (0: the maps alone)
   RasterTriangles triangles_;
   CasterCulling culling_;  // the casters outside a sample's fitted view are not rasterized
   std::vector<RasterTriangle> visible_;
@@ -101,6 +140,12 @@ class MultiViewShadowMap final : public ShadowMethod {
 
 std::vector<ParamSpec> params() {
   std::vector<ParamSpec> p = shadow_map::common_param_specs(512);
+  p.push_back({"near_field", ParamType::Float, 32.0,
+               "the maps answer for occluders whose penumbra at the point is at least near_field of their texels "
+               "wide; each shadow ray's part nearer its point than that is traced through the scene itself "
+               "(penumbra's addition, as hybrid ray-traced shadows: the maps' average draws a narrower penumbra as "
+               "texel steps); 0: the maps alone",
+               {}, 0, 1e6});
   // One map per light sample already: partitions multiply that, so they are asked for.
   for (ParamSpec& s : partitions::param_specs(/*default_partitions=*/1)) p.push_back(std::move(s));
   return p;

@@ -4,7 +4,8 @@
 // CPU's code), the maps rendered many at once by the GPU rasterizer's batch mode
 // (gpu/raster/gpu_batch_rasterizer.h), and each view sample looked up in every map of a batch
 // (kernels/multi_view_lookup.comp, shadow_map_shared.h sm_lookup: the CPU's lookup and biases),
-// V summed in the CPU's order. The CPU renders one map at a time; the GPU holds a batch of maps
+// V summed in the CPU's order; the near field of each shadow ray (multi_view_shared.h) traced
+// through the device's BVH where the CPU traces it through Embree. The CPU renders one map at a time; the GPU holds a batch of maps
 // (GpuBatchRasterizer::batch_budget) so each pass fills the device. Same parameters as
 // multi_view_shadow_map.cpp's table.
 #include <algorithm>
@@ -35,7 +36,7 @@ uint64_t map_texels(int resolution) {
 class MultiViewShadowMapGpu final : public GpuShadowMethod {
  public:
   explicit MultiViewShadowMapGpu(const ParamSet& p)
-      : view_(shadow_map::view_params(p)), bias_(shadow_map::bias_params(p)) {}
+      : view_(shadow_map::view_params(p)), bias_(shadow_map::bias_params(p)), near_field_(p.get_float("near_field")) {}
 
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
@@ -43,7 +44,7 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
     culling_.prepare(*frame.device, *ctx.scene);
     if (!rasterizer_) {
       rasterizer_ = std::make_unique<gpu::GpuBatchRasterizer>(*frame.device);
-      counters_ = gpu::Buffer(*frame.device, sizeof(uint64_t), "multi-view-sm's counters");
+      counters_ = gpu::Buffer(*frame.device, 2 * sizeof(uint64_t), "multi-view-sm's counters");
     }
   }
 
@@ -93,6 +94,8 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
     lp.light_center = light.center;
     lp.slots = frame.slots;
     lp.light_n = light.frame.n;
+    lp.near_field = near_field_;
+    lp.light_width = shader::near_field_light_width(light.area());
     if (!counting_) cl.fill(counters_, 0);
     counting_ = true;
     if (ranges[0].receivers == 0) {
@@ -145,18 +148,20 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
     stats_.extra["map_height"] = views.back().height();
   }
 
-  // The texels read, counted on the device.
+  // The texels read and the near fields traced, counted on the device.
   void collect_stats() override {
     if (!counting_) return;
-    uint64_t texels = 0;
-    counters_.download(&texels, sizeof(texels));
-    stats_.texels_visited += texels;
+    uint64_t counts[2] = {0, 0};
+    counters_.download(counts, sizeof(counts));
+    stats_.texels_visited += counts[0];
+    stats_.extra["near_field_rays"] = counts[1];
     counting_ = false;
   }
 
  private:
   shadow_map::ViewParams view_;
   shadow_map::BiasParams bias_;
+  float near_field_;  // mv_near_field_length's texels (0: the maps alone)
   Bounds3f casters_;
   std::unique_ptr<gpu::GpuBatchRasterizer> rasterizer_;
   gpu::ObjectCulling culling_;
@@ -178,7 +183,7 @@ MemoryEstimate memory(const ParamSet& p, const MemoryQuery& q) {
   tally.add(gpu::GpuDepthMapBatch::bytes(batch * texels, batch, /*resolve=*/true), "resolution");
   tally.add(gpu::GpuBatchRasterizer::scratch_bytes(q.triangles, batch, batch * texels), kTrianglesSetting);
   tally.add(static_cast<uint64_t>(maps) * (sizeof(GpuReceiverRange) + sizeof(Vec3f)) + batch * sizeof(MultiViewMap) +
-                sizeof(uint64_t),
+                2 * sizeof(uint64_t),
             kLightSamplesSetting);
   partitions::add_gpu_memory(tally, p, q);
   return tally.estimate();

@@ -7,6 +7,7 @@
 
 #include "penumbra/core/shader_compat.h"
 #include "penumbra/raster/shadow_view_shared.h"
+#include "penumbra/shadow/near_field_shared.h"
 #include "penumbra/shadow/shadow_map_shared.h"
 
 PN_SHARED_BEGIN
@@ -18,6 +19,32 @@ struct MultiViewMap {
   ShadowMapView map;
   uint64_t first_texel;
 };
+
+// The near field (docs/methods/multi-view-sm.md "The near field"; near_field_shared.h): the part of
+// the segment from p to map m's eye, its light point, where an occluder's penumbra at p would be
+// narrower than `near_field` texels of the maps at p's depth. There the map's answer is a texel-sized
+// hard shadow that the maps' average does not turn into the penumbra (every map's texels lie on the
+// same receivers), and the shadow ray is traced through the scene itself; beyond it the map answers.
+// The light's width L: near_field_light_width. 0 with near_field 0 (the maps alone).
+PN_INLINE float mv_near_field_length(ShadowMapView m, vec3 p, float near_field, float light_width) {
+  if (!(near_field > 0.0f)) return 0.0f;
+  RasterView v = m.view;
+  float z = dot(p - v.eye, v.forward);
+  float texel = (v.r - v.l) / float(v.width) * max(z, v.near) / v.near;  // sm_receiver's s
+  return near_field_length(near_field * texel, length(v.eye - p), light_width);
+}
+
+// The map's answer for p's segment to its eye beyond `near` of p. Seen from the eye, the whole
+// segment is p's own texel, and the point `near` along it toward the eye has the linear depth
+// z_p (1 - near / |eye - p|): a surface of the texel in front of that depth (and of the biased
+// reference depth, which still keeps p's own surface out) blocks; one behind it lies in the
+// near field, which the ray traces. near 0: sm_lookup.
+PN_INLINE float mv_far_lookup(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapView m, vec3 p, vec3 ng, bool closed,
+                              ShadowBias b, float near) {
+  float cut = uintBitsToFloat(0x7f800000u);
+  if (near > 0.0f) cut = dot(p - m.view.eye, m.view.forward) * (1.0f - near / length(m.view.eye - p));
+  return sm_lookup_beyond(zs, opacity, m, p, ng, closed, b, cut);
+}
 
 // multi_view_fit.comp: one thread per view-sample slot, every light point's view in turn. The
 // views share their axes and min_near (`axes`, its eye unused) and differ in their eye, the light
@@ -35,7 +62,9 @@ struct MultiViewFitParams {
 };
 
 // multi_view_lookup.comp: one thread per view-sample slot, the batch's maps in order, each the
-// hard lookup sm_lookup (shadow_map.cpp's, with the method's biases). V accumulates in the
+// hard lookup sm_lookup (shadow_map.cpp's, with the method's biases), or with a near field the
+// map's answer beyond it (mv_far_lookup) times the near field's transmittance through the BVH
+// where the map lets light through. V accumulates in the
 // visibility buffer over the batches in the CPU's order: the first batch starts from 0, the last
 // multiplies by 1 / maps. A view sample behind the light's plane gets 0.
 struct MultiViewLookupParams {
@@ -45,7 +74,7 @@ struct MultiViewLookupParams {
   uint64_t maps;        // MultiViewMap[map_count]
   uint64_t z;           // the batch's planes (float per texel)
   uint64_t opacity;
-  uint64_t counters;  // uint64: texels read
+  uint64_t counters;  // uint64[2]: texels read, near fields traced
   ShadowBias bias;
   vec3 light_center;
   uint slots;
@@ -53,6 +82,8 @@ struct MultiViewLookupParams {
   uint map_count;
   uint first;  // 1: the first batch (V starts from 0)
   float scale;  // V is multiplied by it after this batch's maps: 1 / maps for the last, else 1
+  float near_field;   // mv_near_field_length's (0: the maps alone)
+  float light_width;  // near_field_light_width of the light
 };
 
 PN_SHARED_END

@@ -2,12 +2,17 @@
 // `multi-view-sm` on the GPU (multi_view_shadow_map.cpp): one thread per view-sample slot, the
 // hard lookup (shadow_map_shared.h sm_lookup, the CPU's function, with the method's biases) of its
 // point in each map of a batch, added to V in map order as the CPU adds them; the last batch
-// scales by 1 / maps. Texels read are counted per subgroup, then one atomic.
+// scales by 1 / maps. With a near field (multi_view_shared.h mv_near_field_length), each map
+// answers beyond it (mv_far_lookup) and, where it lets light through, the near field's part of the
+// shadow ray (trace/ray_shared.h shadow_segment, the CPU's segment) is traced through the BVH, as
+// the CPU traces it through Embree. Texels read and near fields traced are counted per subgroup,
+// then one atomic each.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "penumbra/gpu/kernel_common.glsl"
-#include "penumbra/gpu/scene_access.glsl"
+#include "penumbra/gpu/bvh_traverse.glsl"
 #include "penumbra/shadow/baseline/multi_view_shared.h"
 #include "penumbra/shadow/view_samples_shared.h"
+#include "penumbra/trace/ray_shared.h"
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { MultiViewLookupParams p; } pc;
@@ -16,7 +21,7 @@ layout(buffer_reference, scalar) readonly buffer Maps { MultiViewMap m[]; };
 
 void main() {
   uint i = pn_thread_index();
-  uint texels = 0u;
+  uint texels = 0u, near_rays = 0u;
   if (i < pc.p.slots) {
     GpuViewSample s = ViewSamplesIn(pc.p.samples).v[i];
     if (s.object != kMissObject) {
@@ -29,7 +34,17 @@ void main() {
         for (uint m = 0u; m < pc.p.map_count; ++m) {
           MultiViewMap map = maps.m[m];
           uint64_t offset = map.first_texel * 4UL;
-          v += sm_lookup(Floats(pc.p.z + offset), Floats(pc.p.opacity + offset), map.map, s.p, s.ng, closed, pc.p.bias);
+          float near = mv_near_field_length(map.map, s.p, pc.p.near_field, pc.p.light_width);
+          float t = mv_far_lookup(Floats(pc.p.z + offset), Floats(pc.p.opacity + offset), map.map, s.p, s.ng, closed,
+                                  pc.p.bias, near);
+          if (t > 0.0f && near > 0.0f) {
+            vec3 org, dir;
+            float tfar;
+            shadow_segment(s.p, s.ng, map.map.view.eye, org, dir, tfar);
+            t *= trace_transmittance(org, dir, min(near, tfar));
+            near_rays += 1u;
+          }
+          v += t;
         }
         texels = pc.p.map_count;
       }
@@ -37,5 +52,7 @@ void main() {
     }
   }
   texels = subgroupAdd(texels);
+  near_rays = subgroupAdd(near_rays);
   if (subgroupElect() && texels > 0u) atomicAdd(Uint64s(pc.p.counters).v[0], uint64_t(texels));
+  if (subgroupElect() && near_rays > 0u) atomicAdd(Uint64s(pc.p.counters).v[1], uint64_t(near_rays));
 }
