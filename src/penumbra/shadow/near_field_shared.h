@@ -1,9 +1,10 @@
 // The near field of a shadow ray, once for both devices and for every method that has one
-// (penumbra's addition to coherent-rt, mlsm, mtsm and multi-view-sm; coherent-rt.md, multilayer.md
-// and multi-view-sm.md, "The near field"): the part of the segment from a receiver p toward a light
-// point that is traced through the scene itself, before the method's light-space structure (depth
-// images, a multilayer map, one light point's depth map) answers for the rest. Common subset of
-// C++ and GLSL (core/shader_compat.h).
+// (penumbra's addition to coherent-rt, mlsm, mtsm, multi-view-sm, vsm, evsm and msm;
+// coherent-rt.md, multilayer.md, multi-view-sm.md and vsm.md, "The near field"): the part of the
+// segment from a receiver p toward a light point that is traced through the scene itself, before
+// the method's light-space structure (depth images, a multilayer map, one light point's depth map,
+// a filtered moment map) answers for the rest. Common subset of C++ and GLSL
+// (core/shader_compat.h).
 #ifndef PENUMBRA_SHADOW_NEAR_FIELD_SHARED_H
 #define PENUMBRA_SHADOW_NEAR_FIELD_SHARED_H
 

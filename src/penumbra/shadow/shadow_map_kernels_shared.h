@@ -48,13 +48,16 @@ struct ShadowMapBlock {
   ShadowBias bias;
 };
 
-// What the lookup kernels count, 16 bytes: bytes 0-7 texels read, 8-11 receivers outside the map
+// What the lookup kernels count, 24 bytes: bytes 0-7 texels read, 8-11 receivers outside the map
 // (MethodStats extra receivers_outside_map), 12-15 view samples whose blocker search found none
-// (pcss fernando: samples_without_blockers).
+// (pcss fernando: samples_without_blockers), 16-19 near fields traced (vsm, evsm, msm:
+// near_field_rays), 20-23 (0).
 struct GpuShadowMapCounters {
   uint64_t texels;
   uint outside;
   uint no_blocker;
+  uint near_rays;
+  uint pad;
 };
 
 // What every lookup kernel reads and writes, 64 bytes (GpuLightCentreMap::lookup_inputs).
@@ -100,7 +103,7 @@ PN_SHARED_END
 static_assert(sizeof(penumbra::shader::GpuReceiverRange) == 32);
 static_assert(sizeof(penumbra::shader::FitReceiversParams) <= 128);
 static_assert(sizeof(penumbra::shader::ShadowMapBlock) == 192);
-static_assert(sizeof(penumbra::shader::GpuShadowMapCounters) == 16);
+static_assert(sizeof(penumbra::shader::GpuShadowMapCounters) == 24);
 static_assert(sizeof(penumbra::shader::ShadowMapInputs) == 64);
 static_assert(sizeof(penumbra::shader::ShadowMapLookupParams) <= 128);
 static_assert(sizeof(penumbra::shader::PcssFilterParams) <= 128);

@@ -14,6 +14,7 @@
 #include "penumbra/core/shader_compat.h"
 #include "penumbra/raster/raster_shared.h"
 #include "penumbra/scene/light_shared.h"
+#include "penumbra/shadow/near_field_shared.h"
 
 PN_SHARED_BEGIN
 
@@ -172,6 +173,19 @@ PN_INLINE float sm_lookup_beyond(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, Shad
 PN_INLINE float sm_lookup(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapView m, vec3 p, vec3 ng, bool closed,
                           ShadowBias b) {
   return sm_lookup_beyond(zs, opacity, m, p, ng, closed, b, uintBitsToFloat(0x7f800000u));
+}
+
+// The near field of the segment from p to map m's eye (near_field_shared.h): its part where an
+// occluder's penumbra at p would be narrower than `near_field` texels of the map at p's depth, for
+// a light of width `light_width` (near_field_light_width). There the map draws a shadow coarser
+// than the penumbra, and the methods with a near field trace that part of the ray instead
+// (multi-view-sm: every light point's; vsm, evsm, msm: the light centre's). 0 with near_field 0.
+PN_INLINE float sm_near_field_length(ShadowMapView m, vec3 p, float near_field, float light_width) {
+  if (!(near_field > 0.0f)) return 0.0f;
+  RasterView v = m.view;
+  float z = dot(p - v.eye, v.forward);
+  float texel = (v.r - v.l) / float(v.width) * max(z, v.near) / v.near;  // sm_receiver's s
+  return near_field_length(near_field * texel, length(v.eye - p), light_width);
 }
 
 // Whether a receiver lies outside the map: behind its near plane or beyond its window (not

@@ -425,9 +425,9 @@ TEST(MultiViewShadowMap, TheFarLookupIsTheLookupWithoutANearFieldAndIgnoresSurfa
   const float z = dot(p - m.view.eye, m.view.forward);
   const float texel = (m.view.r - m.view.l) / m.view.width * z / m.view.near;
   const float seg = length(m.view.eye - p);
-  EXPECT_NEAR(shader::mv_near_field_length(m, p, 8, 1.0f), 8 * texel * seg / (1.0f + 8 * texel), 1e-5f * seg);
-  EXPECT_EQ(shader::mv_near_field_length(m, p, 0, 1.0f), 0.0f);
-  EXPECT_FLOAT_EQ(shader::mv_near_field_length(m, p, 8, 0.0f), seg);  // a point light: the whole ray
+  EXPECT_NEAR(shader::sm_near_field_length(m, p, 8, 1.0f), 8 * texel * seg / (1.0f + 8 * texel), 1e-5f * seg);
+  EXPECT_EQ(shader::sm_near_field_length(m, p, 0, 1.0f), 0.0f);
+  EXPECT_FLOAT_EQ(shader::sm_near_field_length(m, p, 8, 0.0f), seg);  // a point light: the whole ray
 }
 
 TEST(MultiViewShadowMap, TheNearFieldDrawsPenumbraeNarrowerThanTheTexels) {

@@ -7,7 +7,7 @@
 // xie2007 §3 calls the first reference method ("around 1000 light samples") and that
 // sintorn2008 compares against ("one shadow map per light sample").
 //
-// The near field (penumbra's addition, issue 34; multi_view_shared.h mv_near_field_length): where
+// The near field (penumbra's addition, issue 34; shadow_map_shared.h sm_near_field_length): where
 // an occluder's penumbra at p would be narrower than `near_field` texels of the maps, the maps'
 // average cannot draw it (each answers a texel-sized hard shadow at the same texels), so that part
 // of each shadow ray is traced through the scene (Embree) and the map answers for the rest, as
@@ -91,7 +91,7 @@ class MultiViewShadowMap final : public ShadowMethod {
           if (!in_front_of_light(light, s.p)) continue;
           ++local;
           const bool closed = ctx.scene->objects[s.object].closed;
-          const float near = shader::mv_near_field_length(m, s.p, near_field, light_width);
+          const float near = shader::sm_near_field_length(m, s.p, near_field, light_width);
           const float t = shader::mv_far_lookup(planes.z.data(), planes.opacity.data(), m, s.p, s.ng, closed,
                                                 bias_.shared(), near);
           if (t > 0.0f && near > 0.0f) {
@@ -128,7 +128,7 @@ class MultiViewShadowMap final : public ShadowMethod {
  private:
   shadow_map::ViewParams view_;
   BiasParams bias_;
-  float near_field_;  // mv_near_field_length's texels (0: the maps alone)
+  float near_field_;  // sm_near_field_length's texels (0: the maps alone)
   RasterTriangles triangles_;
   CasterCulling culling_;  // the casters outside a sample's fitted view are not rasterized
   std::vector<RasterTriangle> visible_;

@@ -161,7 +161,7 @@ class MultiViewShadowMapGpu final : public GpuShadowMethod {
  private:
   shadow_map::ViewParams view_;
   shadow_map::BiasParams bias_;
-  float near_field_;  // mv_near_field_length's texels (0: the maps alone)
+  float near_field_;  // sm_near_field_length's texels (0: the maps alone)
   Bounds3f casters_;
   std::unique_ptr<gpu::GpuBatchRasterizer> rasterizer_;
   gpu::ObjectCulling culling_;

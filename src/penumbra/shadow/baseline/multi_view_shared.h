@@ -7,7 +7,6 @@
 
 #include "penumbra/core/shader_compat.h"
 #include "penumbra/raster/shadow_view_shared.h"
-#include "penumbra/shadow/near_field_shared.h"
 #include "penumbra/shadow/shadow_map_shared.h"
 
 PN_SHARED_BEGIN
@@ -20,19 +19,10 @@ struct MultiViewMap {
   uint64_t first_texel;
 };
 
-// The near field (docs/methods/multi-view-sm.md "The near field"; near_field_shared.h): the part of
-// the segment from p to map m's eye, its light point, where an occluder's penumbra at p would be
-// narrower than `near_field` texels of the maps at p's depth. There the map's answer is a texel-sized
-// hard shadow that the maps' average does not turn into the penumbra (every map's texels lie on the
+// The near field (docs/methods/multi-view-sm.md "The near field"): shadow_map_shared.h's
+// sm_near_field_length of each map, its light point's. There the map's answer is a texel-sized hard
+// shadow that the maps' average does not turn into the penumbra (every map's texels lie on the
 // same receivers), and the shadow ray is traced through the scene itself; beyond it the map answers.
-// The light's width L: near_field_light_width. 0 with near_field 0 (the maps alone).
-PN_INLINE float mv_near_field_length(ShadowMapView m, vec3 p, float near_field, float light_width) {
-  if (!(near_field > 0.0f)) return 0.0f;
-  RasterView v = m.view;
-  float z = dot(p - v.eye, v.forward);
-  float texel = (v.r - v.l) / float(v.width) * max(z, v.near) / v.near;  // sm_receiver's s
-  return near_field_length(near_field * texel, length(v.eye - p), light_width);
-}
 
 // The map's answer for p's segment to its eye beyond `near` of p. Seen from the eye, the whole
 // segment is p's own texel, and the point `near` along it toward the eye has the linear depth
@@ -82,7 +72,7 @@ struct MultiViewLookupParams {
   uint map_count;
   uint first;  // 1: the first batch (V starts from 0)
   float scale;  // V is multiplied by it after this batch's maps: 1 / maps for the last, else 1
-  float near_field;   // mv_near_field_length's (0: the maps alone)
+  float near_field;   // sm_near_field_length's texels (0: the maps alone)
   float light_width;  // near_field_light_width of the light
 };
 

@@ -11,6 +11,7 @@
 #include "penumbra/shadow/filtered_moments/models.h"
 #include "penumbra/shadow/light_horizon.h"
 #include "penumbra/shadow/partitions/light_partitions.h"
+#include "penumbra/trace/ray_tracer.h"
 
 namespace penumbra::filtered_moments {
 
@@ -105,6 +106,8 @@ shader::FmShadeBlock shade_block(const CoreParams& params, const AreaLight& ligh
   // A fraction this small is the receiver's own surface in the Chebyshev bound's tail.
   b.min_fraction = 1e-4;
   b.subdivide = static_cast<uint32_t>(params.subdivide);
+  b.near_field = params.near_field;
+  b.light_width = shader::near_field_light_width(light.area());
   return b;
 }
 
@@ -132,6 +135,12 @@ std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter defaul
        "less light bleeding where a region holds blockers in front of the receiver and surfaces behind it); 1: "
        "one estimate over each region",
        {}, 1, 16},
+      {"near_field", ParamType::Float, 2.0,
+       "where an occluder's penumbra at the point would be narrower than near_field texels of the map, one ray "
+       "toward the light's centre is traced over that part and V multiplied by its transmittance (penumbra's "
+       "addition, as hybrid ray-traced shadows: there the filtered map bleeds light through a mix of depths and a "
+       "penumbra that narrow is close to the hard shadow); 0: the map alone",
+       {}, 0, 1e6},
   };
   // A filtered map samples its casters (four texels a caster triangle, as pcss's) and splits only
   // where they are dense: the view samples' rule is off by default (kFilteredReceivers).
@@ -150,6 +159,7 @@ CoreParams core_params(const ParamSet& p) {
   c.min_filter = p.get_float("min_filter");
   c.bias = p.get_float("bias");
   c.subdivide = p.get_int("subdivide");
+  c.near_field = p.get_float("near_field");
   return c;
 }
 
@@ -195,12 +205,32 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
   const shader::FmMapRef map = moments_.ref();
   const shader::FmModel model = model_->shared();
   const int C = model_->channels();
-  std::atomic<uint64_t> lookups{0}, unblocked{0};
+  std::atomic<uint64_t> lookups{0}, unblocked{0}, near_rays{0};
+  // The near field's rays need the Embree scene (a bare context without one: the map alone).
+  const bool near_field = ctx.tracer && params_.near_field > 0;
   parallel_for(vs.size(), 1024, [&](size_t begin, size_t end) {
     shader::FmShadeCount count{0, 0};
+    // The near fields of this range's view samples, traced as one stream.
+    std::vector<ShadowRay> rays;
+    std::vector<uint32_t> traced;
     for (size_t k = begin; k < end; ++k) {
       const ViewSample& s = vs.samples[k];
-      out.visibility[k] = shader::fm_shade(map, model, block, s.p, s.ng, ctx.scene->objects[s.object].closed, count);
+      const bool closed = ctx.scene->objects[s.object].closed;
+      const float v = shader::fm_shade(map, model, block, s.p, s.ng, closed, count);
+      out.visibility[k] = v;
+      const float near = near_field ? shader::fm_near_field_length(block, s.p, s.ng, closed, v) : 0.0f;
+      if (near > 0.0f) {
+        ShadowRay r = shadow_ray_to(s.p, s.ng, block.map.view.eye);
+        r.tfar = std::min(r.tfar, near);
+        rays.push_back(r);
+        traced.push_back(static_cast<uint32_t>(k));
+      }
+    }
+    if (!rays.empty()) {
+      std::vector<float> transmit(rays.size());
+      ctx.tracer->transmittance(rays, transmit);
+      for (size_t j = 0; j < rays.size(); ++j) out.visibility[traced[j]] *= transmit[j];
+      near_rays += rays.size();
     }
     lookups += count.lookups;
     unblocked += count.unblocked;
@@ -211,6 +241,7 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
   stats_.texels_visited += lookups.load() * 16 * C;
   stats_.extra["filtered_lookups"] = lookups.load();
   if (params_.blocker_search) stats_.extra["samples_without_blockers"] = unblocked.load();
+  stats_.extra["near_field_rays"] = near_rays.load();
 }
 
 }  // namespace penumbra::filtered_moments

@@ -117,6 +117,7 @@ struct CoreParams {
   float min_filter = 1;   // texels: the smallest filter side
   float bias = 1e-3f;     // world units of linear depth
   int subdivide = 4;      // most parts a side of the search and filter regions (fm_parts)
+  float near_field = 2;   // texels: the light centre's ray traced nearer (fm_near_field_length; 0: none)
 };
 
 // The parameter table entries of the core (the light-space partitions' among them), and their values.

@@ -61,14 +61,15 @@ class FilteredMomentsGpu final : public GpuShadowMethod {
     ran_ = true;
   }
 
-  // The texels read (16 per channel and lookup), the lookups, the receivers outside the map and
-  // the samples without blockers, counted on the device; the memory held.
+  // The texels read (16 per channel and lookup), the lookups, the receivers outside the map, the
+  // samples without blockers and the near fields traced, counted on the device; the memory held.
   void collect_stats() override {
     if (!ran_) return;
     const shader::GpuShadowMapCounters c = map_.collect(stats_);
     const uint64_t per_lookup = 16 * static_cast<uint64_t>(model_->channels());
     stats_.extra["filtered_lookups"] = c.texels / per_lookup;
     if (params_.blocker_search) stats_.extra["samples_without_blockers"] = c.no_blocker;
+    stats_.extra["near_field_rays"] = c.near_rays;
     const uint64_t table = params_.prefilter == Prefilter::Sat ? sat_.device_bytes() : mip_.device_bytes();
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, map_.map().device_bytes() + texels_.bytes() + table);
     ran_ = false;

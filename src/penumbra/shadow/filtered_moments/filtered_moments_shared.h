@@ -105,7 +105,9 @@ PN_INLINE FilteredChannels fm_mean(FmMapRef r, double x0, double y0, double x1, 
 //   bytes 272-279 min_fraction: a blocker search finding less is the receiver's own surface in
 //                 the Chebyshev bound's tail (1e-4)
 //   bytes 280-283 subdivide: the most sub-regions a side a search or filter region is split
-//                 into (fm_parts; 1: never)   284-287 (0)
+//                 into (fm_parts; 1: never)
+//   bytes 284-287 near_field: texels (fm_near_field_length; 0: none)
+//   bytes 288-291 light_width: near_field_light_width of the light   292-295 (0)
 struct FmShadeBlock {
   ShadowMapView map;
   HorizonLight light;
@@ -116,6 +118,8 @@ struct FmShadeBlock {
   uint blocker_search;
   double min_fraction;
   uint subdivide;
+  float near_field;
+  float light_width;
   uint pad0;
 };
 
@@ -286,11 +290,26 @@ PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, ve
   return horizon * (sum / float(nx * ny));
 }
 
+// The near field (penumbra's addition, docs/methods/vsm.md "The near field"): where an occluder's
+// penumbra at p would be narrower than near_field texels of the map (sm_near_field_length), the
+// filtered map draws it no narrower than its smallest filter and from a mix of depths (light
+// bleeding through a canopy). There a penumbra that narrow is close to the hard shadow, so one ray
+// toward the light's centre (the map's eye) is traced over that part and V is multiplied by its
+// transmittance, as hybrid ray-traced shadows blend a ray-traced hard shadow near the contact with
+// a filtered one (Story 2015). The length, or 0 for no ray: where the map already says dark (v 0),
+// without a near field, and on a closed object whose own surface hides the light's centre (its
+// horizon, light_fraction_above, answers there).
+PN_INLINE float fm_near_field_length(FmShadeBlock b, vec3 p, vec3 ng, bool closed, float v) {
+  if (!(v > 0.0f) || !(b.near_field > 0.0f)) return 0.0f;
+  if (closed && !(dot(ng, b.map.view.eye - p) > 0.0f)) return 0.0f;
+  return sm_near_field_length(b.map, p, b.near_field, b.light_width);
+}
+
 PN_SHARED_END
 
 #ifdef __cplusplus
 static_assert(sizeof(penumbra::shader::FmDepthRange) == 32);
-static_assert(sizeof(penumbra::shader::FmShadeBlock) == 288);
+static_assert(sizeof(penumbra::shader::FmShadeBlock) == 296);
 #endif
 
 #endif  // PENUMBRA_SHADOW_FILTERED_MOMENTS_FILTERED_MOMENTS_SHARED_H

@@ -2,14 +2,17 @@
 // `vsm`, `evsm`, `msm` on the GPU (filtered_moments_gpu.cpp): one thread per view-sample slot,
 // filtered_moments_shared.h's fm_shade, the CPU's function: the blocker search and the filter as
 // two lookups of the moment map's summed-area table or mip chain, the model's estimates from the
-// moments. Texels read, receivers outside the map and samples without blockers are counted per
-// subgroup, then one atomic each.
+// moments; then the near field's ray toward the light's centre through the BVH
+// (fm_near_field_length, trace/ray_shared.h shadow_segment: the CPU's segment, which Embree traces
+// there). Texels read, receivers outside the map, samples without blockers and near fields traced
+// are counted per subgroup, then one atomic each.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "penumbra/gpu/kernel_common.glsl"
-#include "penumbra/gpu/scene_access.glsl"
+#include "penumbra/gpu/bvh_traverse.glsl"
 #include "penumbra/shadow/filtered_moments/filtered_moments_kernels_shared.h"
 #include "penumbra/shadow/filtered_moments/filtered_moments_shared.h"
 #include "penumbra/shadow/view_samples_shared.h"
+#include "penumbra/trace/ray_shared.h"
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { FmFilterParams p; } pc;
@@ -22,7 +25,7 @@ layout(buffer_reference, scalar) buffer CountersRef { GpuShadowMapCounters c; };
 
 void main() {
   uint i = pn_thread_index();
-  uint texels = 0u, outside = 0u, unblocked = 0u;
+  uint texels = 0u, outside = 0u, unblocked = 0u, near_rays = 0u;
   if (i < pc.p.io.slots) {
     GpuViewSample s = ViewSamplesIn(pc.p.io.samples).v[i];
     if (s.object != kMissObject) {
@@ -49,6 +52,14 @@ void main() {
         count.lookups = 0u;
         count.unblocked = 0u;
         v = fm_shade(map, model, block, s.p, s.ng, closed, count);
+        float near = fm_near_field_length(block, s.p, s.ng, closed, v);
+        if (near > 0.0f) {
+          vec3 org, dir;
+          float tfar;
+          shadow_segment(s.p, s.ng, block.map.view.eye, org, dir, tfar);
+          v *= trace_transmittance(org, dir, min(near, tfar));
+          near_rays = 1u;
+        }
         texels = count.lookups * 16u * uint(model.channels);
         unblocked = count.unblocked;
         if (sm_in_front_of_light(block.light.center, block.light.n, s.p) && sm_outside(block.map, s.p)) outside = 1u;
@@ -59,10 +70,12 @@ void main() {
   texels = subgroupAdd(texels);
   outside = subgroupAdd(outside);
   unblocked = subgroupAdd(unblocked);
-  if (subgroupElect() && (texels > 0u || outside > 0u || unblocked > 0u)) {
+  near_rays = subgroupAdd(near_rays);
+  if (subgroupElect() && (texels > 0u || outside > 0u || unblocked > 0u || near_rays > 0u)) {
     CountersRef c = CountersRef(pc.p.io.counters);
     atomicAdd(c.c.texels, uint64_t(texels));
     atomicAdd(c.c.outside, outside);
     atomicAdd(c.c.no_blocker, unblocked);
+    atomicAdd(c.c.near_rays, near_rays);
   }
 }
