@@ -20,15 +20,14 @@ struct MultiViewMap {
 };
 
 // The near field (docs/methods/multi-view-sm.md "The near field"): shadow_map_shared.h's
-// sm_near_field_length of each map, its light point's. There the map's answer is a texel-sized hard
-// shadow that the maps' average does not turn into the penumbra (every map's texels lie on the
-// same receivers), and the shadow ray is traced through the scene itself; beyond it the map answers.
-
-// The map's answer for p's segment to its eye beyond `near` of p. Seen from the eye, the whole
-// segment is p's own texel, and the point `near` along it toward the eye has the linear depth
-// z_p (1 - near / |eye - p|): a surface of the texel in front of that depth (and of the biased
-// reference depth, which still keeps p's own surface out) blocks; one behind it lies in the
-// near field, which the ray traces. near 0: sm_lookup.
+// sm_near_field_length of each map, from its light point. There the map's answer is a texel-sized
+// hard shadow that the maps' average does not turn into the penumbra (every map's texels lie on the
+// same receivers), so the shadow ray is traced through the scene itself, and the map answers for
+// the rest: mv_far_lookup, the map's answer for p's segment to its eye beyond `near` of p. Seen
+// from the eye, the whole segment is p's own texel, and the point `near` along it toward the eye
+// has the linear depth z_p (1 - near / |eye - p|): a surface of the texel in front of that depth
+// (and of the biased reference depth, which still keeps p's own surface out) blocks; one behind
+// it lies in the near field, which the ray traces. near 0: sm_lookup.
 PN_INLINE float mv_far_lookup(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowMapView m, vec3 p, vec3 ng, bool closed,
                               ShadowBias b, float near) {
   float cut = uintBitsToFloat(0x7f800000u);
