@@ -5,9 +5,9 @@
 // (gpu/raster/gpu_batch_rasterizer.h), and each view sample looked up in every map of a batch
 // (kernels/multi_view_lookup.comp, shadow_map_shared.h sm_lookup: the CPU's lookup and biases),
 // V summed in the CPU's order; the near field of each shadow ray (multi_view_shared.h) traced
-// through the device's BVH where the CPU traces it through Embree. The CPU renders one map at a time; the GPU holds a batch of maps
-// (GpuBatchRasterizer::batch_budget) so each pass fills the device. Same parameters as
-// multi_view_shadow_map.cpp's table.
+// through the device's BVH where the CPU traces it through Embree. The CPU renders one map at a
+// time; the GPU holds a batch of maps (GpuBatchRasterizer::batch_budget) so each pass fills the
+// device. Same parameters as multi_view_shadow_map.cpp's table.
 #include <algorithm>
 
 #include "penumbra/core/rng.h"

@@ -2,7 +2,7 @@
 // `multi-view-sm` on the GPU (multi_view_shadow_map.cpp): one thread per view-sample slot, the
 // hard lookup (shadow_map_shared.h sm_lookup, the CPU's function, with the method's biases) of its
 // point in each map of a batch, added to V in map order as the CPU adds them; the last batch
-// scales by 1 / maps. With a near field (multi_view_shared.h sm_near_field_length), each map
+// scales by 1 / maps. With a near field (shadow_map_shared.h sm_near_field_length), each map
 // answers beyond it (mv_far_lookup) and, where it lets light through, the near field's part of the
 // shadow ray (trace/ray_shared.h shadow_segment, the CPU's segment) is traced through the BVH, as
 // the CPU traces it through Embree. Texels read and near fields traced are counted per subgroup,
