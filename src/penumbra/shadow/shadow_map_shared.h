@@ -66,6 +66,9 @@ PN_INLINE float sm_row(vec3 row, float off, vec3 p) {
   return h;
 }
 
+// The world size of one texel at linear depth z (LightView::texel_world_size at max(z, near)).
+PN_INLINE float sm_texel_size(RasterView v, float z) { return (v.r - v.l) / float(v.width) * max(z, v.near) / v.near; }
+
 // ShadowDepthMap::receiver.
 PN_INLINE ShadowReceiver sm_receiver(ShadowMapView m, vec3 p, vec3 ng, ShadowBias b) {
   RasterView v = m.view;
@@ -75,8 +78,7 @@ PN_INLINE ShadowReceiver sm_receiver(ShadowMapView m, vec3 p, vec3 ng, ShadowBia
   float tz = sm_row(v.row2, v.off2, p);
   r.texel = vec2(sm_row(v.row0, v.off0, p) / w, sm_row(v.row1, v.off1, p) / w);
   r.z = tz;
-  // LightView::texel_world_size at max(z, near).
-  r.s = (v.r - v.l) / float(v.width) * max(tz, v.near) / v.near;
+  r.s = sm_texel_size(v, tz);
   r.ng = ng;
   vec3 to_eye = v.eye - p;
   r.faces = dot(ng, to_eye) > 0.0f;
@@ -184,8 +186,7 @@ PN_INLINE float sm_near_field_length(ShadowMapView m, vec3 p, float near_field, 
   if (!(near_field > 0.0f)) return 0.0f;
   RasterView v = m.view;
   float z = dot(p - v.eye, v.forward);
-  float texel = (v.r - v.l) / float(v.width) * max(z, v.near) / v.near;  // sm_receiver's s
-  return near_field_length(near_field * texel, length(v.eye - p), light_width);
+  return near_field_length(near_field * sm_texel_size(v, z), length(v.eye - p), light_width);
 }
 
 // Whether a receiver lies outside the map: behind its near plane or beyond its window (not
