@@ -50,7 +50,10 @@ san_skip+='|CoherentRt\.DepthImagesAgreeWithTheReferenceOnTheSameSamples|Coheren
 san_skip+='|Methods/MethodRegression\.MeanErrorAgainstTheReferenceIsNoWorseThanMeasured/lam'
 san_skip+='|Methods/EveryMethodRespectsAlpha\.CheckerboardMaskCastsTheCheckerboardInTriangles/lam'
 san_skip+='|Renderer\.SetLightsEqualsAFreshRendererAndKeepsUnchangedLights|Viewer\.MapCacheKeepsLamsMapsBetweenSessions'
-san_skip+='|CliGpu\.TheGpuBenchSuiteRunsAtASmallSize)( +# GetParam.*)?$'
+san_skip+='|CliGpu\.TheGpuBenchSuiteRunsAtASmallSize'
+# and `penumbra devices --compile`, which builds every kernel's pipeline in Mesa's compiler (not
+# instrumented: 21 s here, 5 in Release; every GPU test above builds the pipelines it uses).
+san_skip+='|CliGpu\.DevicesCompileTimesEveryKernel)( +# GetParam.*)?$'
 # The Khronos validation layers are the Release stage's check: here they would only check the
 # same Vulkan calls again, at a quarter of each GPU test's time (they are not instrumented).
 PENUMBRA_GPU_VALIDATION=0 LSAN_OPTIONS=suppressions=$PWD/scripts/lsan-vulkan.supp:print_suppressions=0 \
