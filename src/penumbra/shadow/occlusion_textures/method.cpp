@@ -24,7 +24,7 @@ class OcclusionTexturesMethod final : public ShadowMethod {
   }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
-    textures_.shade(*ctx.scene, vs, out.visibility, &stats_);
+    textures_.shade(*ctx.scene, vs, out.visibility, &stats_, ctx.tracer);
     if (ctx.progress) ctx.progress->add(vs.size());
   }
 
@@ -103,6 +103,11 @@ const MethodRegistration registration({
          "light-space tiles a side (a power of two): each tile of the textures is sliced over the depth range of its own "
          "casters instead of the whole scene's, so that a wide scene's slices follow its casters (a tree crown in `slices` "
          "slices, not a forest); 0 = fitted (the largest penumbra spans at most 4 tiles a side); 1 = one range, as the paper",
+         {}, 0, 64},
+        {"near_field", ParamType::Float, 2.0,
+         "where an occluder's penumbra at the point would be narrower than near_field texels of the textures, one ray "
+         "toward the light's centre answers instead of the slices, whose coverage cannot place an occluder that near (a "
+         "leaf centimetres above another; penumbra's addition, as vsm's); 0 = the slices alone, as the paper",
          {}, 0, 64},
     },
     [](const ParamSet& p) { return std::make_unique<OcclusionTexturesMethod>(p); },

@@ -22,13 +22,14 @@ PN_SHARED_BEGIN
 // OtSliceBounds), reduced as their bits (order-preserving for floats >= 0); before any texel x0
 // = width, y0 = height, x1 = y1 = 0 (an empty slice: x0 >= x1).
 
-// What the lookups count, 32 bytes: lookups, texels read, kernels outside the texture, elongated
-// kernels (uint64 each).
+// What the lookups count, 40 bytes: lookups, texels read, kernels outside the texture, elongated
+// kernels, near fields traced (uint64 each).
 struct OtShadeCounters {
   uint64_t lookups;
   uint64_t reads;
   uint64_t outside;
   uint64_t strips;
+  uint64_t near_rays;
 };
 
 // ot_thin_fix.comp and ot_slice_bounds.comp: one thread per texel.
@@ -82,7 +83,7 @@ struct OtShadeParams {
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::OtShadeCounters) == 32);
+static_assert(sizeof(penumbra::shader::OtShadeCounters) == 40);
 static_assert(sizeof(penumbra::shader::OtMaskParams) <= 128);
 static_assert(sizeof(penumbra::shader::OtPyramidParams) <= 128);
 static_assert(sizeof(penumbra::shader::OtShadeParams) <= 128);

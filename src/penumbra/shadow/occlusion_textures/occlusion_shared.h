@@ -18,6 +18,7 @@
 #include "penumbra/core/shader_compat_math.h"
 #include "penumbra/raster/filtered_map_shared.h"
 #include "penumbra/shadow/light_horizon_shared.h"
+#include "penumbra/shadow/near_field_shared.h"
 
 PN_SHARED_BEGIN
 
@@ -230,19 +231,20 @@ PN_INLINE float ot_box(OtTextures t, OtSliceBounds bounds, int k, float x0, floa
 // ---------------------------------------------------------------------------------------------
 // Per point (occlusion_textures.cpp shade_batch)
 
-// The slicing and the light's frame, 176 bytes (OcclusionTextures' set-up; a GPU record):
+// The slicing and the light's frame, 192 bytes (OcclusionTextures' set-up; a GPU record):
 //   bytes 0-15 center, R (texture side)   16-31 right, kx   32-47 up, ky   48-63 forward, d
 //   bytes 64-79 fade_length (slice thicknesses), fade (0: no fade-in), slices, has_casters
 //   bytes 80-95 combine (kOtProduct/Sum/Max), horizon (0 or 1), tiles, tile_scale
 //   bytes 96-111 top, thickness (the whole range's slices), tile_side (texels), open_fade_length
 //   bytes 112-175 the light as the horizon test sees it (shadow/light_horizon_shared.h)
+//   bytes 176-191 near_field (texels; 0: none), light_width (near_field_light_width), 2 x (0)
 // right and up are the slicing view's axes; kx, ky texels per world unit at the light (R /
 // width, R / height of its rectangle); d the centre of projection's distance behind the light.
 // The slices of each light-space tile (`tiles` x `tiles` of them, tile_side = R / tiles texels a
 // side, tile_scale = 1 / tile_side) follow in an OtTile array, row-major from the texture's
 // top-left corner (on the GPU right after the set-up in its buffer, as floats: top, thickness); a
 // tile sliced over the whole range holds exactly (top, thickness).
-PN_CONST uint kOtSetupBytes = 176u;  // sizeof(OtSetup): where the OtTile array starts on the GPU
+PN_CONST uint kOtSetupBytes = 192u;  // sizeof(OtSetup): where the OtTile array starts on the GPU
 struct OtSetup {
   vec3 center;
   float R;
@@ -265,6 +267,10 @@ struct OtSetup {
   float tile_side;
   float open_fade_length;  // fade_length for receivers on open surfaces (0: no fade-in)
   HorizonLight light;
+  float near_field;   // ot_near_field_length
+  float light_width;
+  uint pad0;
+  uint pad1;
 };
 
 // One light-space tile's slices, 8 bytes: slice k spans depths [top + k thickness, top + (k +
@@ -352,13 +358,23 @@ struct OtCombined {
 PN_INLINE float ot_fade_weight(float z, float zp, float inv_fade) {
   return inv_fade > 0.0f ? min(1.0f, (z - zp) * inv_fade) : 1.0f;
 }
+// Slice k's weight at a point of depth z: its fade-in (above), times the part of its depth band
+// [zp - thickness, zp] beyond the point's near field, nearer the light than z - near_z
+// (ot_near_field_depth): the near field's ray answers for the occluders within it, the slices
+// for the rest, so that none counts twice (a leaf's neighbours a few centimetres above it are in
+// both the ray and the slices above it). near_z 0: the fade alone.
+PN_INLINE float ot_slice_weight(OtSlicing c, float z, float zp, float near_z) {
+  float w = ot_fade_weight(z, zp, c.inv_fade);
+  if (near_z > 0.0f) w *= clamp((z - near_z - zp) / c.thickness + 1.0f, 0.0f, 1.0f);
+  return w;
+}
 PN_INLINE void ot_combine_add(PN_INOUT(OtCombined) c, float o) {
   c.product *= 1.0f - o;  // eq. 5
   c.sum += o;
   c.largest = max(c.largest, o);
 }
-PN_INLINE void ot_accumulate(PN_INOUT(OtCombined) c, float z, float zp, float inv_fade, float occ) {
-  float o = ot_fade_weight(z, zp, inv_fade) * occ;
+PN_INLINE void ot_accumulate(PN_INOUT(OtCombined) c, OtSlicing slicing, float z, float zp, float near_z, float occ) {
+  float o = ot_slice_weight(slicing, z, zp, near_z) * occ;
   c.product *= 1.0f - o;  // eq. 5
   c.sum += o;
   c.largest = max(c.largest, o);
@@ -377,6 +393,31 @@ PN_INLINE float ot_combine(OtSetup s, OtCombined c) {
 // horizon off.
 PN_INLINE float ot_horizon(OtSetup s, vec3 p, vec3 ng, bool closed) {
   return (s.horizon != 0u && closed) ? light_fraction_above(s.light, p, ng) : 1.0f;
+}
+
+// The near field (penumbra's addition, issue 34; shadow/near_field_shared.h): the length of the
+// segment from p toward the light's centre that is traced through the scene, where an occluder's
+// penumbra at p would be narrower than `near_field` texels of the textures at p's depth (a texel
+// there is (z + d) / (d k) world units: ot_kernel's centre at zp = z). A slice's filtered coverage
+// cannot place such an occluder: a leaf a few centimetres above another, one texel of the 16
+// slices' coverage, which eq. 5 spreads over the kernel. 0 without a near field, behind the
+// light, or on a closed object whose own surface hides the light's centre (the horizon answers
+// there).
+PN_INLINE float ot_near_field_length(OtSetup s, vec3 p, vec3 ng, bool closed) {
+  if (!(s.near_field > 0.0f) || s.has_casters == 0u) return 0.0f;
+  vec3 q = p - s.center;
+  float z = dot(q, s.forward);
+  if (!(z > 0.0f)) return 0.0f;
+  if (closed && !(dot(ng, -q) > 0.0f)) return 0.0f;
+  float texel = (z + s.d) / (s.d * min(s.kx, s.ky));
+  return near_field_length(s.near_field * texel, length(q), s.light_width);
+}
+// The depth (along the light's forward axis) the near field of length `near` spans from p: the
+// slices' share of it is left to the ray (ot_slice_weight).
+PN_INLINE float ot_near_field_depth(OtSetup s, vec3 p, float near) {
+  vec3 q = p - s.center;
+  float len = length(q);
+  return near > 0.0f && len > 0.0f ? near * dot(q, s.forward) / len : 0.0f;
 }
 
 // A slice's kernel as a texel rectangle, [x0, x1) x [y0, y1), at least a texel a side.
@@ -439,9 +480,10 @@ PN_INLINE bool ot_reach_is_whole(OtSetup s, PN_FLOAT_ARRAY tiles, OtTileRange r)
 // occlusion is the sum over the tiles of each piece's covered area (each piece faded in by its
 // own plane's distance above p), over the kernel's area; eq. 5 combines the slices. With one
 // tile this is ot_visibility's single lookup per slice. The tiles visited: `reach` (ot_reach);
-// `open`: the point is on an open surface (ot_slicing's fade).
+// `open`: the point is on an open surface (ot_slicing's fade); `near_z`: ot_slice_weight's.
 PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, float u,
-                                    float v, float z, OtTileRange reach, bool open, PN_INOUT(OtCounters) n) {
+                                    float v, float z, float near_z, OtTileRange reach, bool open,
+                                    PN_INOUT(OtCounters) n) {
   float inv_z = 1.0f / z;
   float occ[kOtMaxSlices];
   float shares[kOtMaxSlices];
@@ -465,7 +507,7 @@ PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures 
         if (!(x1 > x0 && y1 > y0)) continue;
         PN_PRECISE float share = (x1 - x0) * (y1 - y0) / ((kr.x1 - kr.x0) * (kr.y1 - kr.y0));
         float covered = ot_box(t, ot_slice_bounds(bounds, k), k, x0, y0, x1, y1, n);
-        occ[k] += ot_fade_weight(z, zp, slicing.inv_fade) * covered * share;
+        occ[k] += ot_slice_weight(slicing, z, zp, near_z) * covered * share;
         shares[k] += share;
       }
     }
@@ -494,8 +536,11 @@ PN_INLINE float ot_visibility_tiled(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures 
 // own slice, in [0, 1]; `nearest`: the slices' planes of (scale R) x (scale R) depths (linear,
 // from the centre of projection: d + z), row-major from the texture's top-left corner, 0 or
 // +infinity where the slice has none (a shadow map's hard test wants finer texels than the
-// filtered coverage: `own_slice_scale`); `tiles` as ot_visibility's.
-PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nearest, int scale, vec3 p, vec3 ng) {
+// filtered coverage: `own_slice_scale`); `tiles` as ot_visibility's. With a near field
+// (ot_near_field_depth: near_z), a fragment counts only beyond it, nearer the light than the
+// plane by more than near_z: the ray answers for the nearer ones.
+PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nearest, int scale, vec3 p, vec3 ng,
+                             float near_z) {
   vec3 q = p - s.center;
   float u = dot(q, s.right);
   float v = dot(q, s.up);
@@ -550,7 +595,7 @@ PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nea
       if (num * den > 0.0f) plane = clamp(num / den, dp - slicing.thickness, dp + slicing.thickness);
       float nearest_depth = PN_AT(nearest, (uint(k) * uint(side) + uint(y)) * uint(side) + uint(x));
       // An empty bin holds 0 (the CPU's zeroed pages) or +infinity (the GPU's atomicMin start).
-      if (!(nearest_depth > 0.0f && nearest_depth < plane - 1e-4f * dp)) lit += w;
+      if (!(nearest_depth > 0.0f && nearest_depth < plane - max(1e-4f * dp, near_z))) lit += w;
     }
   }
   return lit;
@@ -561,9 +606,11 @@ PN_INLINE float ot_own_slice(OtSetup s, PN_FLOAT_ARRAY tiles, PN_FLOAT_ARRAY nea
 // where a tile the point's kernels reach has slices of its own, the tiles' pieces:
 // ot_visibility_tiled). `bounds`: every slice's covered rectangle
 // (for the pyramids' elongated kernels), 4 floats a slice; `tiles`: the OtTile array as floats.
-// The slices alone: shading multiplies by ot_horizon. `open`: p is on an open surface (ot_slicing).
+// The slices alone: shading multiplies by ot_horizon. `open`: p is on an open surface (ot_slicing);
+// `near_z`: the depth of its near field (ot_near_field_depth; 0: none), whose share of the slices
+// is left out (ot_slice_weight).
 PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_FLOAT_ARRAY bounds, vec3 p, bool open,
-                              PN_INOUT(OtCounters) n) {
+                              float near_z, PN_INOUT(OtCounters) n) {
   vec3 q = p - s.center;
   float u = dot(q, s.right);
   float v = dot(q, s.up);
@@ -573,7 +620,8 @@ PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_
   OtSlicing slicing = ot_slicing(s, s.top, s.thickness, open);
   if (s.tiles > 1) {
     OtTileRange reach = ot_reach(s, u, v, z);
-    if (!ot_reach_is_whole(s, tiles, reach)) return ot_visibility_tiled(s, tiles, t, bounds, u, v, z, reach, open, n);
+    if (!ot_reach_is_whole(s, tiles, reach))
+      return ot_visibility_tiled(s, tiles, t, bounds, u, v, z, near_z, reach, open, n);
   }
   float inv_z = 1.0f / z;
   int above = ot_slices_above(s, slicing, z);
@@ -585,7 +633,7 @@ PN_INLINE float ot_visibility(OtSetup s, PN_FLOAT_ARRAY tiles, OtTextures t, PN_
     float zp = ot_plane(slicing, k);
     OtSliceBounds kr = ot_kernel_rect(ot_kernel(s, zp, u, v, z, inv_z));
     float occ = ot_box(t, ot_slice_bounds(bounds, k), k, kr.x0, kr.y0, kr.x1, kr.y1, n);
-    ot_accumulate(c, z, zp, slicing.inv_fade, occ);
+    ot_accumulate(c, slicing, z, zp, near_z, occ);
   }
   return ot_combine(s, c);
 }

@@ -67,6 +67,7 @@ Options options_from(const ParamSet& p) {
   o.cull_planar = p.get_bool("cull_planar");
   o.cull_back_faces = p.get_bool("cull_back_faces");
   o.tiles = p.get_int("tiles");
+  o.near_field = p.get_float("near_field");
   return o;
 }
 
@@ -217,6 +218,8 @@ void OcclusionTextures::plan(const Scene& scene, const AreaLight& light) {
                                                       : shader::kOtProduct;
   setup_.horizon = options_.horizon ? 1u : 0u;
   setup_.light = horizon_light(light);
+  setup_.near_field = options_.near_field;
+  setup_.light_width = shader::near_field_light_width(light.area());
   setup_.tiles = 1;
   tiles_side_ = 1;
   tiles_.assign(1, shader::OtTile{0.0f, 1.0f});
@@ -534,8 +537,9 @@ struct OcclusionTextures::Batch {
   std::vector<Vec3f> points;      // as added
   std::vector<uint32_t> targets;  // where each point's V goes
   std::vector<float> horizon;     // as added: what the point's V is multiplied by (ot_horizon)
+  std::vector<float> near_z;      // as added: the depth of its near field (ot_near_field_depth)
   std::vector<uint8_t> above;     // slices above each point
-  std::vector<float> u, v, z, inv_z, product, sum, largest, cx, cy, side, occlusion;  // sorted
+  std::vector<float> u, v, z, inv_z, near, product, sum, largest, cx, cy, side, occlusion;  // sorted
   std::vector<uint32_t> target;                                                    // sorted
   // One slice's kernels that meet the texture: their index among the points, centre and side.
   std::vector<uint32_t> meets;
@@ -544,6 +548,7 @@ struct OcclusionTextures::Batch {
     points.resize(n);
     targets.resize(n);
     horizon.resize(n);
+    near_z.resize(n);
   }
 };
 
@@ -562,19 +567,21 @@ PENUMBRA_OT_CLONES void kernels(size_t m, const float* __restrict u, const float
   }
 }
 
-// Slice k's occlusion, faded in below its plane, into the three combinations
-// (occlusion_shared.h ot_accumulate).
-inline void accumulate_one(float z, float zp, float inv_fade, float occ, float& product, float& sum, float& largest) {
+// Slice k's occlusion, faded in below its plane and left out over the point's near field, into
+// the three combinations (occlusion_shared.h ot_accumulate).
+inline void accumulate_one(const shader::OtSlicing& slicing, float z, float zp, float near_z, float occ,
+                           float& product, float& sum, float& largest) {
   shader::OtCombined c{product, sum, largest};
-  shader::ot_accumulate(c, z, zp, inv_fade, occ);
+  shader::ot_accumulate(c, slicing, z, zp, near_z, occ);
   product = c.product;
   sum = c.sum;
   largest = c.largest;
 }
-PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict occ, float zp,
-                                   float inv_fade, float* __restrict product, float* __restrict sum,
-                                   float* __restrict largest) {
-  for (size_t i = 0; i < m; ++i) accumulate_one(z[i], zp, inv_fade, occ[i], product[i], sum[i], largest[i]);
+PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const float* __restrict near_z,
+                                   const float* __restrict occ, float zp, shader::OtSlicing slicing,
+                                   float* __restrict product, float* __restrict sum, float* __restrict largest) {
+  for (size_t i = 0; i < m; ++i)
+    accumulate_one(slicing, z[i], zp, near_z[i], occ[i], product[i], sum[i], largest[i]);
 }
 
 // Whether a kernel meets the R x R texture (the same test as the filters' clipping; outside
@@ -611,11 +618,12 @@ PENUMBRA_OT_CLONES size_t kernels_meeting_texture(size_t m, const float* __restr
 
 // accumulate() for the kernels meets[0..a) (occ[j] belongs to point meets[j]).
 PENUMBRA_OT_CLONES void accumulate_at(size_t a, const uint32_t* __restrict meets, const float* __restrict z,
-                                      const float* __restrict occ, float zp, float inv_fade,
-                                      float* __restrict product, float* __restrict sum, float* __restrict largest) {
+                                      const float* __restrict near_z, const float* __restrict occ, float zp,
+                                      shader::OtSlicing slicing, float* __restrict product, float* __restrict sum,
+                                      float* __restrict largest) {
   for (size_t j = 0; j < a; ++j) {
     const uint32_t i = meets[j];
-    accumulate_one(z[i], zp, inv_fade, occ[j], product[i], sum[i], largest[i]);
+    accumulate_one(slicing, z[i], zp, near_z[i], occ[j], product[i], sum[i], largest[i]);
   }
 }
 
@@ -635,7 +643,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, bool open, std::s
                                     LookupCounters& n) const {
   const size_t count = b.points.size();
   const int S = options_.slices;
-  for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion,
+  for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.near, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion,
                   &b.meets_cx, &b.meets_cy, &b.meets_side})
     a->resize(count);
   b.target.resize(count);
@@ -663,6 +671,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, bool open, std::s
     b.v[j] = dot(q, up);
     b.z[j] = dot(q, light_.forward);
     b.inv_z[j] = 1.0f / b.z[j];
+    b.near[j] = b.near_z[i];
     b.product[j] = 1.0f;
     b.sum[j] = b.largest[j] = 0.0f;
     b.target[j] = b.targets[i];
@@ -680,7 +689,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, bool open, std::s
     const size_t inside = count_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), setup_.R);
     if (4 * inside >= 3 * m) {
       filter.squares(k, m, b.cx.data(), b.cy.data(), b.side.data(), b.occlusion.data(), n);
-      accumulate(m, b.z.data(), b.occlusion.data(), zp, slicing.inv_fade, b.product.data(), b.sum.data(),
+      accumulate(m, b.z.data(), b.near.data(), b.occlusion.data(), zp, slicing, b.product.data(), b.sum.data(),
                  b.largest.data());
     } else {
       const size_t a = kernels_meeting_texture(m, b.cx.data(), b.cy.data(), b.side.data(), setup_.R, b.meets.data(),
@@ -689,7 +698,7 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, bool open, std::s
       n.outside += m - a;
       if (a > 0) {
         filter.squares(k, a, b.meets_cx.data(), b.meets_cy.data(), b.meets_side.data(), b.occlusion.data(), n);
-        accumulate_at(a, b.meets.data(), b.z.data(), b.occlusion.data(), zp, slicing.inv_fade,
+        accumulate_at(a, b.meets.data(), b.z.data(), b.near.data(), b.occlusion.data(), zp, slicing,
                       b.product.data(), b.sum.data(), b.largest.data());
       }
     }
@@ -699,7 +708,8 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, bool open, std::s
 }
 
 template <class F>
-bool OcclusionTextures::tiled_point(const F& filter, Vec3f p, bool open, float* v, LookupCounters& n) const {
+bool OcclusionTextures::tiled_point(const F& filter, Vec3f p, bool open, float near_z, float* v,
+                                    LookupCounters& n) const {
   if (tiles_side_ <= 1 || !has_casters_) return false;
   const Vec3f q = p - light_.center;
   const float z = dot(q, light_.forward);
@@ -711,21 +721,22 @@ bool OcclusionTextures::tiled_point(const F& filter, Vec3f p, bool open, float* 
   // ot_visibility's tiled path, with the reach found above.
   shader::OtCounters c{};
   *v = shader::ot_visibility_tiled(setup_, tiles, filter.shared(), reinterpret_cast<const float*>(slice_bounds_.data()),
-                                   u, w, z, reach, open, c);
+                                   u, w, z, near_z, reach, open, c);
   n.lookups += c.lookups, n.reads += c.reads, n.outside += c.outside, n.strips += c.strips;
   return true;
 }
 
-float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters, bool open) const {
+float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters, bool open, float near_z) const {
   LookupCounters local;
   LookupCounters& n = counters ? *counters : local;
   float tiled = 0;
-  if (dispatch([&](const auto& f) { return tiled_point(f, p, open, &tiled, n); })) return tiled;
+  if (dispatch([&](const auto& f) { return tiled_point(f, p, open, near_z, &tiled, n); })) return tiled;
   Batch b;
   b.reset(1);
   b.points[0] = p;
   b.targets[0] = 0;
   b.horizon[0] = 1.0f;
+  b.near_z[0] = near_z;
   float v = 0;
   dispatch([&](const auto& f) { shade_batch(f, b, open, std::span<float>(&v, 1), n); });
   return v;
@@ -737,7 +748,7 @@ float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters, bool open
 // as visibility() (a batch of one).
 template <class F>
 void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const ViewSamples& vs,
-                                   std::span<float> visibility, LookupCounters& total) const {
+                                   std::span<float> visibility, bool near_field, LookupCounters& total) const {
   // The rendered window (the whole image, or a crop): its rows and tiles. Samples keep their
   // global pixel index y * width + x.
   const PixelWindow window = vs.traced_window();
@@ -790,15 +801,19 @@ void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const Vi
             visibility[i] = 0;
             continue;
           }
+          const float near_z =
+              near_field ? shader::ot_near_field_depth(setup_, s.p, shader::ot_near_field_length(setup_, s.p, s.ng, closed))
+                         : 0.0f;
           // Kernels reaching a tile with slices of its own: the tiles' pieces, point by point (the
           // GPU's function); the others in the batch, slice by slice.
-          if (float v = 0; tiled_point(filter, s.p, open, &v, counters)) {
+          if (float v = 0; tiled_point(filter, s.p, open, near_z, &v, counters)) {
             visibility[i] = v * h;
             continue;
           }
           b.points[j] = s.p;
           b.targets[j] = i;
           b.horizon[j] = h;
+          b.near_z[j] = near_z;
           ++j;
         }
       b.reset(j);
@@ -816,25 +831,44 @@ void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const Vi
   total.strips += strips.load();
 }
 
-float OcclusionTextures::own_slice_visibility(Vec3f p, Vec3f ng) const {
+float OcclusionTextures::own_slice_visibility(Vec3f p, Vec3f ng, float near_z) const {
   const DepthBinMasks& depths = own_slice_depths();
   if (!own_slice_active_ || !has_casters_ || depths.nearest.empty()) return 1.0f;
   return shader::ot_own_slice(setup_, reinterpret_cast<const float*>(tiles_.data()), depths.nearest.data(),
-                              own_slice_scale_, p, ng);
+                              own_slice_scale_, p, ng, near_z);
 }
 
 void OcclusionTextures::shade(const Scene& scene, const ViewSamples& vs, std::span<float> visibility,
-                              MethodStats* stats) const {
+                              MethodStats* stats, const RayTracer* tracer) const {
   Timer timer;
   LookupCounters n;
-  dispatch([&](const auto& f) { shade_with(f, scene, vs, visibility, n); });
-  if (own_slice_active_ && has_casters_) {
-    // The receiver's own slice, for points on open surfaces.
+  const bool near_field = tracer && options_.near_field > 0 && has_casters_;
+  dispatch([&](const auto& f) { shade_with(f, scene, vs, visibility, near_field, n); });
+  std::atomic<uint64_t> near_rays{0};
+  if ((own_slice_active_ && has_casters_) || near_field) {
+    // The receiver's own slice, for points on open surfaces; then each lit point's near field,
+    // traced toward the light's centre (a stream of rays per range).
     parallel_for(vs.size(), 4096, [&](size_t b, size_t e) {
+      std::vector<ShadowRay> rays;
+      std::vector<uint32_t> traced;
       for (size_t i = b; i < e; ++i) {
         const ViewSample& s = vs.samples[i];
-        if (visibility[i] > 0 && !scene.objects[s.object].closed) visibility[i] *= own_slice_visibility(s.p, s.ng);
+        const bool closed = scene.objects[s.object].closed;
+        const float near = near_field ? shader::ot_near_field_length(setup_, s.p, s.ng, closed) : 0.0f;
+        if (visibility[i] > 0 && !closed && own_slice_active_)
+          visibility[i] *= own_slice_visibility(s.p, s.ng, shader::ot_near_field_depth(setup_, s.p, near));
+        if (visibility[i] > 0 && near > 0) {
+          ShadowRay r = shadow_ray_to(s.p, s.ng, setup_.center);
+          r.tfar = std::min(r.tfar, near);
+          rays.push_back(r);
+          traced.push_back(static_cast<uint32_t>(i));
+        }
       }
+      if (rays.empty()) return;
+      std::vector<float> transmit(rays.size());
+      tracer->transmittance(rays, transmit);
+      for (size_t j = 0; j < rays.size(); ++j) visibility[traced[j]] *= transmit[j];
+      near_rays += rays.size();
     });
   }
   stats->add_phase("shading", timer.elapsed_ms());
@@ -845,6 +879,7 @@ void OcclusionTextures::shade(const Scene& scene, const ViewSamples& vs, std::sp
   add("lookups", n.lookups);
   add("lookups_outside", n.outside);
   add("lookups_strips", n.strips);
+  add("near_field_rays", near_rays.load());
 }
 
 }  // namespace penumbra::occlusion

@@ -28,7 +28,9 @@
 // occlusion_shared.h ot_own_slice). On a closed
 // object V is then multiplied by the part of the light above the receiver's tangent plane
 // (`horizon`, penumbra's addition, as vsm's): the slices cannot show a solid hiding the light
-// from its own far side.
+// from its own far side. Near the point, where an occluder's penumbra would be narrower than
+// `near_field` texels, one ray toward the light's centre answers instead of the slices
+// (penumbra's addition, issue 34: occlusion_shared.h ot_near_field_length, ot_slice_weight).
 #pragma once
 
 #include <cstdint>
@@ -45,6 +47,7 @@
 #include "penumbra/shadow/occlusion_textures/prefilter.h"
 #include "penumbra/shadow/stats.h"
 #include "penumbra/shadow/view_samples.h"
+#include "penumbra/trace/ray_tracer.h"
 
 namespace penumbra::occlusion {
 
@@ -75,6 +78,7 @@ struct Options {
   int own_slice_scale = 0; // ... kept at own_slice_scale x resolution texels a side (1, 2 or 4; 0 = fitted,
                            // own_slice_fitted_scale)
   int tiles = 0;           // light-space tiles a side, each sliced over its own casters' depth range; 0 = fitted
+  float near_field = 2;    // texels: the near field traced toward the light's centre (ot_near_field_length; 0: none)
 };
 
 // The method's parameters (method.cpp's table) as Options.
@@ -108,14 +112,18 @@ class OcclusionTextures {
   // slicing view, and setup().
   void plan(const Scene& scene, const AreaLight& light);
   // V for every view sample (a receiver on a closed object of `scene` times its horizon,
-  // occlusion_shared.h ot_horizon); records the phase "shading" and the lookups.
-  void shade(const Scene& scene, const ViewSamples& samples, std::span<float> visibility, MethodStats* stats) const;
+  // occlusion_shared.h ot_horizon); records the phase "shading" and the lookups. With `tracer`
+  // (the Embree scene of the same geometry), each point's near field is traced (near_field; the
+  // statistic near_field_rays); without, the slices answer for all of it.
+  void shade(const Scene& scene, const ViewSamples& samples, std::span<float> visibility, MethodStats* stats,
+             const RayTracer* tracer = nullptr) const;
   // V of the slices at one point (no horizon: the point has no surface), and the lookups it made.
-  // `open`: p lies on an open surface (the fade-in of open_fade).
-  float visibility(Vec3f p, LookupCounters* counters = nullptr, bool open = false) const;
+  // `open`: p lies on an open surface (the fade-in of open_fade); `near_z`: the depth of a near
+  // field left to a ray (occlusion_shared.h ot_near_field_depth; 0: none).
+  float visibility(Vec3f p, LookupCounters* counters = nullptr, bool open = false, float near_z = 0) const;
   // The own slice's V at a point on an open surface with geometric normal ng (occlusion_shared.h
   // ot_own_slice; shade() multiplies the slices' V by it): 1 with own_slice off or no casters.
-  float own_slice_visibility(Vec3f p, Vec3f ng) const;
+  float own_slice_visibility(Vec3f p, Vec3f ng, float near_z = 0) const;
 
   // What build() chose (for tests, statistics and the docs).
   bool has_casters() const { return has_casters_; }
@@ -170,13 +178,13 @@ class OcclusionTextures {
   void shade_batch(const F& filter, Batch& batch, bool open, std::span<float> out, LookupCounters& n) const;
   template <class F>
   void shade_with(const F& filter, const Scene& scene, const ViewSamples& samples, std::span<float> visibility,
-                  LookupCounters& total) const;
+                  bool near_field, LookupCounters& total) const;
   template <class Fn>
   decltype(auto) dispatch(Fn&& fn) const;
   // V at p through the tiles' pieces when its kernels reach a tile with slices of its own
   // (true; the lookups added to n), else false: the batch's slice-by-slice lookups serve it.
   template <class F>
-  bool tiled_point(const F& filter, Vec3f p, bool open, float* v, LookupCounters& n) const;
+  bool tiled_point(const F& filter, Vec3f p, bool open, float near_z, float* v, LookupCounters& n) const;
   int fitted_tiles() const;
   void set_tiles(int tiles);
   void fit_tiles(const Scene& scene);

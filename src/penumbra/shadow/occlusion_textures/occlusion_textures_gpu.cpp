@@ -115,6 +115,7 @@ class OcclusionTexturesGpu final : public GpuShadowMethod {
     stats_.extra["lookups"] = c.lookups;
     stats_.extra["lookups_outside"] = c.outside;
     stats_.extra["lookups_strips"] = c.strips;
+    stats_.extra["near_field_rays"] = c.near_rays;
     counting_ = false;
   }
 
