@@ -132,7 +132,7 @@ bool LightCentreMap::update(const AreaLight& light, const ViewSamples& vs, const
     ScopedPhase phase(stats, "raster");
     uint64_t culled = 0;
     map_.render(rasterizer_, culling_.visible(triangles_, view, visible_, &culled), view);
-    stats.extra["culled_triangles"] = stats.extra.value("culled_triangles", uint64_t{0}) + culled;
+    stats.add_count("culled_triangles", culled);
     valid_ = true;
     ++renders_;
   }

@@ -99,7 +99,7 @@ bool GpuLightCentreMap::update(const ShadowContext& ctx, GpuFrame& frame, const 
     uint64_t culled = 0;
     const uint64_t flags = culling_.flags_for(view, &culled);
     rasterizer_->depth_map(cl, frame.flush, "raster", *frame.scene, view, RasterFilter{}, &map_, flags);
-    stats.extra["culled_triangles"] = stats.extra.value("culled_triangles", uint64_t{0}) + culled;
+    stats.add_count("culled_triangles", culled);
     shader::ShadowMapBlock block{};
     block.map = shadow_map_view(view, map_.z_min());
     block.bias = bias.shared();

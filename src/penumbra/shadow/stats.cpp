@@ -32,6 +32,10 @@ void MethodStats::accumulate(const MethodStats& o) {
   for (auto it = o.extra.begin(); it != o.extra.end(); ++it) extra[it.key()] = it.value();
 }
 
+void MethodStats::add_count(const std::string& key, uint64_t n) {
+  extra[key] = extra.value(key, uint64_t{0}) + n;
+}
+
 nlohmann::json MethodStats::to_json() const {
   nlohmann::json phases = nlohmann::json::object();
   for (const auto& [n, t] : phases_ms) phases[n] = t;

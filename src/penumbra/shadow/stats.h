@@ -27,6 +27,10 @@ struct MethodStats {
   double total_ms() const;
   // Adds counters and phase times of `o` into this (per-light stats into a frame's).
   void accumulate(const MethodStats& o);
+  // Adds n to the counter extra[key] (0 if absent): what one evaluate counts, summed over the
+  // evaluates of a frame (the light-space partitions, partitions::wrap, evaluate one map after
+  // another; the renderer resets the statistics between frames).
+  void add_count(const std::string& key, uint64_t n);
   nlohmann::json to_json() const;
 };
 

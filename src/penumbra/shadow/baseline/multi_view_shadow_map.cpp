@@ -119,7 +119,7 @@ class MultiViewShadowMap final : public ShadowMethod {
     stats_.texels_visited += texels.load();
     stats_.memory_bytes = std::max<uint64_t>(stats_.memory_bytes, map_.memory_bytes());
     stats_.extra["maps"] = maps;
-    stats_.extra["near_field_rays"] = near_rays.load();
+    stats_.add_count("near_field_rays", near_rays.load());
     stats_.extra["culled_triangles"] = culled_;
     stats_.extra["map_width"] = map_.map().width;
     stats_.extra["map_height"] = map_.map().height;

@@ -85,7 +85,7 @@ class Pcss final : public ShadowMethod {
     });
     stats_.texels_visited += texels.load();
     stats_.extra["z_min"] = sm.z_min();
-    if (!s_.xie2007) stats_.extra["samples_without_blockers"] = no_blocker.load();
+    if (!s_.xie2007) stats_.add_count("samples_without_blockers", no_blocker.load());
   }
 
  private:

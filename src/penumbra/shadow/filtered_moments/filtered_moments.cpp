@@ -239,9 +239,9 @@ void FilteredMomentShadows::evaluate(const ShadowContext& ctx, const ViewSamples
   // Texels read: 16 per channel for a summed-area box; for the mip chain's tap grid (4 to 64
   // bilinear taps at one or two levels) 16 per channel is a lower bound.
   stats_.texels_visited += lookups.load() * 16 * C;
-  stats_.extra["filtered_lookups"] = lookups.load();
-  if (params_.blocker_search) stats_.extra["samples_without_blockers"] = unblocked.load();
-  stats_.extra["near_field_rays"] = near_rays.load();
+  stats_.add_count("filtered_lookups", lookups.load());
+  if (params_.blocker_search) stats_.add_count("samples_without_blockers", unblocked.load());
+  stats_.add_count("near_field_rays", near_rays.load());
 }
 
 }  // namespace penumbra::filtered_moments

@@ -214,7 +214,7 @@ class MultilayerMethod final : public ShadowMethod {
     float z_min;
     uint64_t culled = 0;
     const RasterTriangleView casters = culling_.visible(triangles_, view_.view, visible_, &culled);
-    stats_.extra["culled_triangles"] = stats_.extra.value("culled_triangles", uint64_t{0}) + culled;
+    stats_.add_count("culled_triangles", culled);
     if (kind_ == Kind::Opaque) {
       multilayer::build_opaque_layer_map(rasterizer_, casters, view_.view, layers_, &opaque_, trace_unresolved_);
       z_min = opaque_.z_min;

@@ -326,7 +326,7 @@ class MultilayerGpu final : public GpuShadowMethod {
     // The objects wholly outside the fitted view are not rasterized (gpu/raster/object_culling.h).
     uint64_t culled = 0;
     const uint64_t flags = culling_.flags_for(v, &culled);
-    stats_.extra["culled_triangles"] = stats_.extra.value("culled_triangles", uint64_t{0}) + culled;
+    stats_.add_count("culled_triangles", culled);
     if (!transparent_) {
       LayerOptions options;
       options.layers = settings_.layers;

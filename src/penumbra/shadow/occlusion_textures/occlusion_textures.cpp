@@ -873,13 +873,10 @@ void OcclusionTextures::shade(const Scene& scene, const ViewSamples& vs, std::sp
   }
   stats->add_phase("shading", timer.elapsed_ms());
   stats->texels_visited += n.reads;
-  auto add = [&](const char* key, uint64_t value) {
-    stats->extra[key] = (stats->extra.contains(key) ? stats->extra[key].get<uint64_t>() : 0) + value;
-  };
-  add("lookups", n.lookups);
-  add("lookups_outside", n.outside);
-  add("lookups_strips", n.strips);
-  add("near_field_rays", near_rays.load());
+  stats->add_count("lookups", n.lookups);
+  stats->add_count("lookups_outside", n.outside);
+  stats->add_count("lookups_strips", n.strips);
+  stats->add_count("near_field_rays", near_rays.load());
 }
 
 }  // namespace penumbra::occlusion

@@ -185,7 +185,7 @@ TEST_F(OcclusionTexturesGpu, TheNearFieldIsTracedAsOnTheCpu) {
   // (ot_near_field_length) through the BVH where the CPU traces it through Embree, the slices and
   // the own slice leaving its depth out alike: at 2 texels (the default), at 8 through the fitted
   // tiles' pieces (own_slice off), and at 0. The CPU's pictures, the CPU's count of rays to 0.1%.
-  const Scene scene = small_forest(48);
+  const Scene scene = small_forest(32);
   for (const std::vector<std::string>& p : std::vector<std::vector<std::string>>{
            {"resolution=256", "near_field=2"}, {"resolution=256", "near_field=8", "own_slice=false"},
            {"resolution=256", "near_field=0"}}) {
@@ -194,7 +194,7 @@ TEST_F(OcclusionTexturesGpu, TheNearFieldIsTracedAsOnTheCpu) {
     const double rays = d.cpu.stats.extra.at("near_field_rays").get<double>();
     EXPECT_NEAR(d.gpu.stats.extra.at("near_field_rays").get<double>(), rays, 1e-3 * rays + 1) << p[1];
     if (p[1] == "near_field=0") EXPECT_EQ(rays, 0);
-    else EXPECT_GT(rays, 48 * 48 / 10) << p[1];
+    else EXPECT_GT(rays, 32 * 32 / 10) << p[1];
   }
 }
 

@@ -294,6 +294,14 @@ TEST_F(LightPartitionsGpu, PartitionsGiveTheCpuPictures) {
       EXPECT_GT(pair.cpu.stats.extra.value("culled_triangles", uint64_t{0}), 0u) << method;
       EXPECT_GT(pair.gpu.stats.extra.value("culled_triangles", uint64_t{0}), 0u) << method;
     }
+    // What the method counts per view sample is summed over the partitions on both devices
+    // (MethodStats::add_count on the CPU, one counter buffer per frame on the GPU).
+    for (const char* key : {"near_field_rays", "samples_without_blockers"}) {
+      if (!pair.cpu.stats.extra.contains(key)) continue;
+      const double cpu = pair.cpu.stats.extra[key].get<double>();
+      EXPECT_GT(cpu, 0) << method << " " << key;
+      EXPECT_NEAR(pair.gpu.stats.extra.value(key, 0.0), cpu, 1e-3 * cpu + 1) << method << " " << key;
+    }
   }
   // The view samples' rule alone (no caster splits): the device counts the receivers per cell
   // (partition_occupancy) and makes the CPU's plan from them. At 0.2 samples per texel the root
