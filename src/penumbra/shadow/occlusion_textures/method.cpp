@@ -105,9 +105,9 @@ const MethodRegistration registration({
          "slices, not a forest); 0 = fitted (the largest penumbra spans at most 4 tiles a side); 1 = one range, as the paper",
          {}, 0, 64},
         {"near_field", ParamType::Float, 2.0,
-         "where an occluder's penumbra at the point would be narrower than near_field texels of the textures, one ray "
-         "toward the light's centre answers instead of the slices, whose coverage cannot place an occluder that near (a "
-         "leaf centimetres above another; penumbra's addition, as vsm's); 0 = the slices alone, as the paper",
+         "where an occluder's penumbra at the point would be narrower than near_field texels of the textures, one "
+         "ray toward the light's centre answers instead of the slices, whose coverage cannot place an occluder that "
+         "near (a leaf centimetres above another; penumbra's addition, as vsm's); 0 = the slices alone, as the paper",
          {}, 0, 64},
     },
     [](const ParamSet& p) { return std::make_unique<OcclusionTexturesMethod>(p); },

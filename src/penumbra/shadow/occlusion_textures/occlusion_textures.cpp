@@ -643,8 +643,8 @@ void OcclusionTextures::shade_batch(const F& filter, Batch& b, bool open, std::s
                                     LookupCounters& n) const {
   const size_t count = b.points.size();
   const int S = options_.slices;
-  for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.near, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side, &b.occlusion,
-                  &b.meets_cx, &b.meets_cy, &b.meets_side})
+  for (auto* a : {&b.u, &b.v, &b.z, &b.inv_z, &b.near, &b.product, &b.sum, &b.largest, &b.cx, &b.cy, &b.side,
+                  &b.occlusion, &b.meets_cx, &b.meets_cy, &b.meets_side})
     a->resize(count);
   b.target.resize(count);
   b.meets.resize(count);
@@ -801,9 +801,8 @@ void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const Vi
             visibility[i] = 0;
             continue;
           }
-          const float near_z =
-              near_field ? shader::ot_near_field_depth(setup_, s.p, shader::ot_near_field_length(setup_, s.p, s.ng, closed))
-                         : 0.0f;
+          const float near = near_field ? shader::ot_near_field_length(setup_, s.p, s.ng, closed) : 0.0f;
+          const float near_z = shader::ot_near_field_depth(setup_, s.p, near);
           // Kernels reaching a tile with slices of its own: the tiles' pieces, point by point (the
           // GPU's function); the others in the batch, slice by slice.
           if (float v = 0; tiled_point(filter, s.p, open, near_z, &v, counters)) {

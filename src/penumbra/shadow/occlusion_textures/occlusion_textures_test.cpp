@@ -655,7 +655,8 @@ TEST(OcclusionTextures, TheNearFieldHasItsLengthAndTheSlicesLeaveItsDepthOut) {
   o.resolution = 64;
   o.near_field = 4;
   OcclusionTextures ot(o);
-  const Scene scene = testing::ground_scene({quad({-0.4, 0.4, -0.4, 0.4}, 1.2)}, testing::rect_light_down({0, 2, 0}, 1, 1), 16);
+  const Scene scene =
+      testing::ground_scene({quad({-0.4, 0.4, -0.4, 0.4}, 1.2)}, testing::rect_light_down({0, 2, 0}, 1, 1), 16);
   MethodStats stats;
   ot.build(scene, scene.lights[0], &stats);
   ASSERT_TRUE(ot.has_casters());
