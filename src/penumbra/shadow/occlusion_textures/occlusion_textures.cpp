@@ -748,7 +748,8 @@ float OcclusionTextures::visibility(Vec3f p, LookupCounters* counters, bool open
 // as visibility() (a batch of one).
 template <class F>
 void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const ViewSamples& vs,
-                                   std::span<float> visibility, bool near_field, LookupCounters& total) const {
+                                   std::span<float> visibility, std::span<const float> near,
+                                   LookupCounters& total) const {
   // The rendered window (the whole image, or a crop): its rows and tiles. Samples keep their
   // global pixel index y * width + x.
   const PixelWindow window = vs.traced_window();
@@ -801,8 +802,7 @@ void OcclusionTextures::shade_with(const F& filter, const Scene& scene, const Vi
             visibility[i] = 0;
             continue;
           }
-          const float near = near_field ? shader::ot_near_field_length(setup_, s.p, s.ng, closed) : 0.0f;
-          const float near_z = shader::ot_near_field_depth(setup_, s.p, near);
+          const float near_z = near.empty() ? 0.0f : shader::ot_near_field_depth(setup_, s.p, near[i]);
           // Kernels reaching a tile with slices of its own: the tiles' pieces, point by point (the
           // GPU's function); the others in the batch, slice by slice.
           if (float v = 0; tiled_point(filter, s.p, open, near_z, &v, counters)) {
@@ -842,7 +842,17 @@ void OcclusionTextures::shade(const Scene& scene, const ViewSamples& vs, std::sp
   Timer timer;
   LookupCounters n;
   const bool near_field = tracer && options_.near_field > 0 && has_casters_;
-  dispatch([&](const auto& f) { shade_with(f, scene, vs, visibility, near_field, n); });
+  // Each view sample's near field, once: the slices leave its depth out (shade_with), the ray
+  // below traces it.
+  std::vector<float> near(near_field ? vs.size() : 0, 0.0f);
+  if (near_field)
+    parallel_for(vs.size(), 4096, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) {
+        const ViewSample& s = vs.samples[i];
+        near[i] = shader::ot_near_field_length(setup_, s.p, s.ng, scene.objects[s.object].closed);
+      }
+    });
+  dispatch([&](const auto& f) { shade_with(f, scene, vs, visibility, near, n); });
   std::atomic<uint64_t> near_rays{0};
   if ((own_slice_active_ && has_casters_) || near_field) {
     // The receiver's own slice, for points on open surfaces; then each lit point's near field,
@@ -853,12 +863,12 @@ void OcclusionTextures::shade(const Scene& scene, const ViewSamples& vs, std::sp
       for (size_t i = b; i < e; ++i) {
         const ViewSample& s = vs.samples[i];
         const bool closed = scene.objects[s.object].closed;
-        const float near = near_field ? shader::ot_near_field_length(setup_, s.p, s.ng, closed) : 0.0f;
+        const float near_length = near_field ? near[i] : 0.0f;
         if (visibility[i] > 0 && !closed && own_slice_active_)
-          visibility[i] *= own_slice_visibility(s.p, s.ng, shader::ot_near_field_depth(setup_, s.p, near));
-        if (visibility[i] > 0 && near > 0) {
+          visibility[i] *= own_slice_visibility(s.p, s.ng, shader::ot_near_field_depth(setup_, s.p, near_length));
+        if (visibility[i] > 0 && near_length > 0) {
           ShadowRay r = shadow_ray_to(s.p, s.ng, setup_.center);
-          r.tfar = std::min(r.tfar, near);
+          r.tfar = std::min(r.tfar, near_length);
           rays.push_back(r);
           traced.push_back(static_cast<uint32_t>(i));
         }

@@ -177,8 +177,9 @@ class OcclusionTextures {
   template <class F>
   void shade_batch(const F& filter, Batch& batch, bool open, std::span<float> out, LookupCounters& n) const;
   template <class F>
+  // `near`: each view sample's near field (ot_near_field_length; empty: none).
   void shade_with(const F& filter, const Scene& scene, const ViewSamples& samples, std::span<float> visibility,
-                  bool near_field, LookupCounters& total) const;
+                  std::span<const float> near, LookupCounters& total) const;
   template <class Fn>
   decltype(auto) dispatch(Fn&& fn) const;
   // V at p through the tiles' pieces when its kernels reach a tile with slices of its own
