@@ -19,10 +19,12 @@
 //
 //   node viewer_e2e.mjs --penumbra build/penumbra --scene scenes/bunny.json \
 //        --chromium /usr/bin/chromium [--screenshots DIR] [--port 18421] [--web DIR] \
-//        [--scenes scenes --scene-format docs/scene-format.md] [--devices cpu,gpu]
+//        [--scenes scenes --scene-format docs/scene-format.md] [--devices cpu,gpu] [--every-scene-only]
 //
 // --devices: steps 1-7 once per device (`penumbra view --device D`), in order; the page must show
 // the device. Step 8 runs on the first device.
+// --every-scene-only: step 8 alone (CTest's viewer_e2e_scenes: it measures no latency, so it need
+// not run alone on the machine as steps 1-7 do).
 //
 // Exit 0: pass; 77: skipped (puppeteer-core or Chromium missing); else: failed, with one
 // line per failed check. `--penumbra mock_server.mjs` runs it against the mock server.
@@ -46,8 +48,10 @@ const webDir = opt('--web', null);
 // optional keys.
 const scenesDir = opt('--scenes', null), sceneFormat = opt('--scene-format', null);
 const devices = opt('--devices', 'cpu').split(',').filter((d) => d);
-if (!penumbra || !scene) {
-  console.error('usage: node viewer_e2e.mjs --penumbra PATH --scene PATH --chromium PATH [--screenshots DIR]');
+const everySceneOnly = argv.includes('--every-scene-only');
+if (!penumbra || !scene || (everySceneOnly && !(scenesDir && sceneFormat))) {
+  console.error('usage: node viewer_e2e.mjs --penumbra PATH --scene PATH --chromium PATH [--screenshots DIR] ' +
+    '[--scenes DIR --scene-format FILE [--every-scene-only]]');
   process.exit(2);
 }
 
@@ -117,15 +121,9 @@ async function waitFor(js, timeoutMs, what) {
   catch (e) { throw new Error(`${what}: not within ${timeoutMs / 1000} s`); }
 }
 
-// Steps 1-7 on `device`; returns step 4's median latency. `boundMs`: step 4's latency bound.
-async function run(device, boundMs, withEveryScene) {
-  // 1. server
-  let t = performance.now();
-  // lavapipe traces a few hundred thousand rays a second: the GPU session renders a small view
-  // (its auto preview measures every method there, step 3b: 81 s at 96 x 96, 2026-12-06).
-  const url = await startServer(scene, ['--device', device, ...(device === 'cpu' ? [] : ['--resolution', '64'])]);
-  console.log(`[${device}] step 1 server: ${url} (${secs(t)})`);
-
+// A new page in the one browser (launched on first use), reporting its errors; with --web DIR
+// its three files come from DIR.
+async function openPage(url) {
   if (!browser) browser = await puppeteer.launch({
     executablePath: chromium, headless: true,
     args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--window-size=1280,800'],
@@ -148,6 +146,17 @@ async function run(device, boundMs, withEveryScene) {
     console.log(`        (the page comes from ${webDir}, not from the server)`);
   }
   page.on('pageerror', (e) => fail(`${pageContext}page error: ${String(e.message || e).split('\n')[0]}`));
+}
+
+// Steps 1-7 on `device`; returns step 4's median latency. `boundMs`: step 4's latency bound.
+async function run(device, boundMs, withEveryScene) {
+  // 1. server
+  let t = performance.now();
+  // lavapipe traces a few hundred thousand rays a second: the GPU session renders a small view
+  // (its auto preview measures every method there, step 3b: 81 s at 96 x 96, 2026-12-06).
+  const url = await startServer(scene, ['--device', device, ...(device === 'cpu' ? [] : ['--resolution', '64'])]);
+  console.log(`[${device}] step 1 server: ${url} (${secs(t)})`);
+  await openPage(url);
 
   // 2. first frame, not uniform
   t = performance.now();
@@ -458,7 +467,11 @@ try {
   // The first device's median drag latency bounds the others' (3x): lavapipe runs "GPU" frames
   // on the same CPU cores.
   let firstMedian = null;
-  for (let i = 0; i < devices.length; i++) {
+  if (everySceneOnly) {
+    await openPage(await startServer(scene, ['--resolution', '64']));
+    await everyScene();
+  }
+  else for (let i = 0; i < devices.length; i++) {
     const bound = i === 0 ? 100 : 3 * firstMedian;
     const med = await run(devices[i], bound, i === 0);
     if (i === 0) firstMedian = med;
