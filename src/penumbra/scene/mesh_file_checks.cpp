@@ -74,28 +74,40 @@ int ply_type_size(std::string_view type) {
 // An ASCII PLY body's list counts: Assimp 5.2 reserves a list's items from its count before
 // reading them, so a count of 10^19 in a 300-byte file made it allocate 13 GB (fuzz_mesh). Each
 // count must be an unsigned integer no larger than the items the rest of the file can hold (two
-// bytes an item, "0 "). Walks the entries as the header declares them; stops where the file ends.
+// bytes an item, "0 "). Walks the entries as Assimp reads them: one line each (blank lines
+// skipped), and none at all for an element whose name it does not know (vertex, face,
+// tristrips, edge, material): it reads such an element's count from where the name starts,
+// which is 0 for a name that does not start with a digit (those are refused below). A walk of
+// the declared counts instead let a face's list count be read from an unknown element's first
+// line, 3.8 billion items (fuzz_mesh, 2026-12-07). Stops where the file ends.
 template <class Element>
 void check_ply_ascii_lists(const std::string& name, std::ifstream& f, const std::vector<Element>& elements,
                            uint64_t remaining) {
-  std::string token;
-  for (const Element& e : elements) {
-    if (std::find(e.lists.begin(), e.lists.end(), true) == e.lists.end()) {
-      // No lists: its entries' tokens skipped unread.
-      for (uint64_t i = 0; i < e.count * e.lists.size(); ++i)
-        if (!(f >> token)) return;
-      continue;
+  std::string line;
+  const auto next_line = [&]() {
+    while (std::getline(f, line)) {
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      if (!line.empty()) return true;
     }
-    for (uint64_t i = 0; i < e.count; ++i) {
+    return false;
+  };
+  for (const Element& e : elements) {
+    const uint64_t entries = e.known ? e.count : 0;
+    const bool has_list = std::find(e.lists.begin(), e.lists.end(), true) != e.lists.end();
+    for (uint64_t i = 0; i < entries; ++i) {
+      if (!next_line()) return;  // short files are Assimp's to refuse
+      if (!has_list) continue;
+      const std::vector<std::string_view> tokens = split_words(line);
+      size_t t = 0;
       for (const bool list : e.lists) {
-        if (!(f >> token)) return;  // short files are Assimp's to refuse
+        if (t >= tokens.size()) break;
+        const std::string_view token = tokens[t++];
         if (!list) continue;
         uint64_t items = 0;
         if (!parse_count(token, &items) || items > remaining / 2)
           throw Error("{}: PLY element \"{}\" entry {}: list count \"{}\" is not a count the file can hold", name,
                       abbreviate_line(e.name), i, abbreviate_line(token));
-        for (uint64_t k = 0; k < items; ++k)
-          if (!(f >> token)) return;
+        t += std::min<uint64_t>(items, tokens.size() - t);
       }
     }
   }
@@ -120,6 +132,7 @@ void check_ply(const fs::path& path, std::ifstream& f, uint64_t file_size) {
     uint64_t min_bytes = 0;  // per entry
     int properties = 0;
     std::vector<bool> lists;  // per property: a list (a count, then that many items)
+    bool known = false;       // a name Assimp reads entries of (check_ply_ascii_lists)
   };
   std::vector<Element> elements;
   bool ascii = false;
@@ -171,7 +184,8 @@ void check_ply(const fs::path& path, std::ifstream& f, uint64_t file_size) {
       if (std::isdigit(static_cast<unsigned char>(w[1][0])))
         throw Error("{}: PLY element name \"{}\" starts with a digit (Assimp would read it as the count)", name,
                     abbreviate_line(w[1]));
-      elements.push_back({std::string(w[1]), count, 0, 0});
+      const bool known = w[1] == "vertex" || w[1] == "face" || w[1] == "tristrips" || w[1] == "edge" || w[1] == "material";
+      elements.push_back({std::string(w[1]), count, 0, 0, {}, known});
     } else if (w[0] == "property") {
       if (elements.empty()) throw Error("{}: PLY property line \"{}\" before any element", name, abbreviate_line(line));
       Element& e = elements.back();

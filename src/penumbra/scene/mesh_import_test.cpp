@@ -223,6 +223,22 @@ TEST(MeshImport, DeclaredCountsMustFitTheFile) {
             (dir / "digits.ply").string() +
                 ": PLY element name \"666666666666666666666666666666666vertex\" starts with a digit (Assimp would "
                 "read it as the count)");
+  // An element whose name Assimp does not know has no entries for it (the count is read from
+  // the name), so the face's list count is the unknown element's first token (fuzz_mesh,
+  // 2026-12-07: "7777...70" wrapped to 3.8 billion items, 15 GB).
+  EXPECT_EQ(refused("unknown.ply",
+                    "ply\nformat ascii 1.0\nelement ve2tex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n" +
+                        std::string(70, '7') + "0 0 0\n1 0 0\n0 a1 0\n3 0 1 2\n"),
+            (dir / "unknown.ply").string() + ": PLY element \"face\" entry 0: list count \"" + std::string(60, '7') +
+                "...\" is not a count the file can hold");
+  // A known element's entries are one line each, as Assimp reads them: the count of the face
+  // on the second line is its first token, whatever the first line held.
+  EXPECT_EQ(refused("lines.ply",
+                    "ply\nformat ascii 1.0\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+                    "3 0 1 2 9\n\n900 0 1 2\n"),
+            (dir / "lines.ply").string() + ": PLY element \"face\" entry 1: list count \"900\" is not a count the "
+                                           "file can hold");
   EXPECT_EQ(refused("huge.ply", "ply\nformat ascii 1.0\nelement vertex 99999999999\nproperty float x\nend_header\n"),
             (dir / "huge.ply").string() + ": PLY element \"vertex\" declares 99999999999 entries (at most 4294967295)");
   EXPECT_EQ(refused("empty_element.ply", "ply\nformat binary_little_endian 1.0\nelement nothing 4000000000\nend_header\n"),

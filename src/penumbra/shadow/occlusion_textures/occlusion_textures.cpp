@@ -589,7 +589,7 @@ PENUMBRA_OT_CLONES void accumulate(size_t m, const float* __restrict z, const fl
 inline bool meets_texture(float cx, float cy, float side, float R) {
   const float half = 0.5f * std::max(side, 1.0f);
   const float x0 = cx - half, x1 = cx + half, y0 = cy - half, y1 = cy + half;
-  return (std::min(x1, R) - std::max(x0, 0.0f) > 0) & (std::min(y1, R) - std::max(y0, 0.0f) > 0);
+  return (std::min(x1, R) - std::max(x0, 0.0f) > 0) && (std::min(y1, R) - std::max(y0, 0.0f) > 0);
 }
 
 // How many of the m kernels meet the texture.

@@ -109,7 +109,7 @@ PENUMBRA_INLINE F box_bound2(const CenterBox& b, const RayFramePacket<F>& r) {
   F dx = vmax_v(zero, vabs_v(cx * r.e1x + cy * r.e1y + cz * r.e1z) - (h.x * r.ae1x + h.y * r.ae1y + h.z * r.ae1z));
   F dy = vmax_v(zero, vabs_v(cx * r.e2x + cy * r.e2y + cz * r.e2z) - (h.x * r.ae2x + h.y * r.ae2y + h.z * r.ae2z));
   F bound = (dx * dx + dy * dy) / (tmax * tmax);
-  return (tmax <= r.near) | (tc - th >= r.far) ? splat_v<F>(kInfinity) : bound;
+  return ((tmax <= r.near) | (tc - th >= r.far)) ? splat_v<F>(kInfinity) : bound;
 }
 
 // triangle_cone_distance2 of one triangle for the packet's rays; lanes whose ray sees a
