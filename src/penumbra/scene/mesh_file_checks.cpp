@@ -74,23 +74,35 @@ int ply_type_size(std::string_view type) {
 // An ASCII PLY body's list counts: Assimp 5.2 reserves a list's items from its count before
 // reading them, so a count of 10^19 in a 300-byte file made it allocate 13 GB (fuzz_mesh). Each
 // count must be an unsigned integer no larger than the items the rest of the file can hold (two
-// bytes an item, "0 "). Walks the entries as Assimp reads them: one line each (blank lines
-// skipped), and none at all for an element whose name it does not know (vertex, face,
-// tristrips, edge, material): it reads such an element's count from where the name starts,
+// bytes an item, "0 "). Walks the entries as Assimp reads them: one line each, split as its
+// line reader splits them (below), and none at all for an element whose name it does not know
+// (vertex, face, tristrips, edge, material): it reads such an element's count from where the name starts,
 // which is 0 for a name that does not start with a digit (those are refused below). A walk of
 // the declared counts instead let a face's list count be read from an unknown element's first
 // line, 3.8 billion items (fuzz_mesh, 2026-12-07). Stops where the file ends.
 template <class Element>
 void check_ply_ascii_lists(const std::string& name, std::ifstream& f, const std::vector<Element>& elements,
-                           uint64_t remaining) {
+                           uint64_t remaining, bool at_line_end) {
+  // Assimp 5.2's IOStreamBuffer::getNextLine: a line ends at '\r', '\n', '\f' or '\0', which it
+  // consumes; a call that starts on a line end first skips past the next '\n' (so one blank
+  // line of a "\n" file is skipped, while a "\r\n" file's blank line is an empty entry); a line
+  // the file ends inside is not read. The stream starts where Assimp's does: on the header's
+  // last line end (`at_line_end`: a "\r\n" header ends on its '\n').
+  const auto line_end = [](int c) { return c == '\r' || c == '\n' || c == '\f' || c == '\0'; };
   std::string line;
   const auto next_line = [&]() {
-    while (std::getline(f, line)) {
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      if (!line.empty()) return true;
+    int c = f.peek();
+    if (c == EOF) return false;
+    if (line_end(c)) {
+      while ((c = f.get()) != EOF && c != '\n') {
+      }
+      if (c == EOF || f.peek() == EOF) return false;
     }
-    return false;
+    line.clear();
+    while ((c = f.get()) != EOF && !line_end(c)) line += static_cast<char>(c);
+    return c != EOF;
   };
+  if (at_line_end) f.seekg(-1, std::ios::cur);
   for (const Element& e : elements) {
     const uint64_t entries = e.known ? e.count : 0;
     const bool has_list = std::find(e.lists.begin(), e.lists.end(), true) != e.lists.end();
@@ -140,7 +152,8 @@ void check_ply(const fs::path& path, std::ifstream& f, uint64_t file_size) {
     return Error("{}: malformed PLY header line \"{}\"", name, abbreviate_line(l));
   };
   for (int lines = 0; lines < 10000 && std::getline(f, line); ++lines) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const bool crlf = !line.empty() && line.back() == '\r';
+    if (crlf) line.pop_back();
     if (line == "end_header") {
       const std::streamoff at = f.tellg();
       const uint64_t remaining = at < 0 ? 0 : file_size - std::min<uint64_t>(file_size, static_cast<uint64_t>(at));
@@ -158,7 +171,7 @@ void check_ply(const fs::path& path, std::ifstream& f, uint64_t file_size) {
           throw Error("{}: PLY header declares {} \"{}\" entries, more than the {} bytes after the header can hold",
                       name, e.count, abbreviate_line(e.name), remaining);
       }
-      if (ascii) check_ply_ascii_lists(name, f, elements, remaining);
+      if (ascii) check_ply_ascii_lists(name, f, elements, remaining, crlf);
       return;
     }
     if (lines == 0) {

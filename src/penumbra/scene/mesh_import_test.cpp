@@ -239,6 +239,12 @@ TEST(MeshImport, DeclaredCountsMustFitTheFile) {
                     "3 0 1 2 9\n\n900 0 1 2\n"),
             (dir / "lines.ply").string() + ": PLY element \"face\" entry 1: list count \"900\" is not a count the "
                                            "file can hold");
+  // In a "\r\n" file Assimp reads a blank line as an (empty) entry: the 900 is then no face's.
+  EXPECT_EQ(refused("crlf.ply",
+                    "ply\r\nformat ascii 1.0\r\nelement face 2\r\nproperty list uchar int vertex_indices\r\n"
+                    "end_header\r\n3 0 1 2\r\n\r\n900 0 1 2\r\n")
+                .find("list count"),
+            std::string::npos);
   EXPECT_EQ(refused("huge.ply", "ply\nformat ascii 1.0\nelement vertex 99999999999\nproperty float x\nend_header\n"),
             (dir / "huge.ply").string() + ": PLY element \"vertex\" declares 99999999999 entries (at most 4294967295)");
   EXPECT_EQ(refused("empty_element.ply", "ply\nformat binary_little_endian 1.0\nelement nothing 4000000000\nend_header\n"),
