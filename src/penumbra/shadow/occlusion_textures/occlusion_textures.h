@@ -176,8 +176,8 @@ class OcclusionTextures {
   struct Batch;
   template <class F>
   void shade_batch(const F& filter, Batch& batch, bool open, std::span<float> out, LookupCounters& n) const;
-  template <class F>
   // `near`: each view sample's near field (ot_near_field_length; empty: none).
+  template <class F>
   void shade_with(const F& filter, const Scene& scene, const ViewSamples& samples, std::span<float> visibility,
                   std::span<const float> near, LookupCounters& total) const;
   template <class Fn>
