@@ -15,6 +15,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -281,5 +282,6 @@ TEST_F(CliCompare, BenchPerfSuiteErrorsAreOneLine) {
   EXPECT_NE(r.err.find("--suite"), std::string::npos) << r.err;
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -22,6 +22,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 
@@ -259,5 +260,6 @@ TEST_F(CliGpu, TheGpuBenchSuiteWithoutItsCpuSide) {
   EXPECT_NE(other.err.find("--no-cpu"), std::string::npos) << other.err;
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

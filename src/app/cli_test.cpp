@@ -28,6 +28,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 
@@ -673,5 +674,6 @@ TEST(CliView, ASceneThatDoesNotLoadIsOneLineAndExit1) {
   fs::remove_all(dir);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -9,6 +9,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 using test::error_message;
@@ -32,5 +33,6 @@ TEST(FileUtil, ErrorsNameTheFile) {
             std::string::npos);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

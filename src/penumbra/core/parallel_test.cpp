@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 TEST(Parallel, WithoutATokenEveryGrainRuns) {
   std::atomic<size_t> sum{0};
@@ -74,5 +75,6 @@ TEST(Parallel, CancelledIsAnInterruptionSoStepsThatLetCtrlCThroughLetItThrough) 
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -8,6 +8,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 TEST(Stratification, GridIsAsSquareAsPossible) {
   int c, r;
@@ -109,5 +110,6 @@ TEST(PiecewiseConstant2D, SamplesFollowTheValuesAndThePdfIsNormalised) {
   EXPECT_THROW(PiecewiseConstant2D({1, 1, 1}, 2, 1), Error);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -13,6 +13,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 
@@ -311,5 +312,6 @@ TEST(Bench, AFailingMethodOrSceneIsReported) {
   EXPECT_NE(md.find("missing.obj"), std::string::npos);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

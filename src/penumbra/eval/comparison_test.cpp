@@ -17,6 +17,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 using testing::TempDir;
@@ -587,5 +588,6 @@ TEST(Comparison, PageIsSelfContained) {
   EXPECT_EQ(comparison_heatmap_scale(c, ReportOptions{0.25f}), 0.25f);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -11,6 +11,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 using testing::TempDir;
@@ -248,5 +249,6 @@ TEST(EqualQuality, JsonCsvPageAndChartCarryIt) {
   EXPECT_EQ(comparison_html(plain).find("data-key=\"eq_v_spp\""), std::string::npos);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

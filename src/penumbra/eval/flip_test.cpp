@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 Image constant(int w, int h, Vec3f c) {
   Image im(w, h, 3);
@@ -170,5 +171,6 @@ TEST(Flip, SizeMismatchAndBadParametersThrow) {
   EXPECT_THROW(flip(Image(4, 4, 2), Image(4, 4, 3)), Error);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

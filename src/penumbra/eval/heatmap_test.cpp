@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 Vec3f linear_pixel(const Image& im, int x) {
   return im.rgb(size_t(x));
@@ -98,5 +99,6 @@ TEST(Heatmap, NaNIsGreenAndMultiChannelThrows) {
   EXPECT_THROW(signed_heatmap(Image(2, 2, 3)), Error);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 Image make(int w, int h, int c, std::initializer_list<float> values) {
   Image im(w, h, c);
@@ -162,5 +163,6 @@ TEST(Metrics, DifferenceMap) {
   EXPECT_NEAR(g.at(0, 0), 0.0f, 1e-7f);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -12,6 +12,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::slurp;
 using testing::TempDir;
@@ -85,5 +86,6 @@ TEST(ReportHtml, OpensInHeadlessChromiumWithEveryImageAndNoConsoleErrors) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

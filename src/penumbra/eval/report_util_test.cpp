@@ -8,6 +8,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 TEST(ReportUtil, Base64Rfc4648Vectors) {
   EXPECT_EQ(base64_encode(""), "");
@@ -67,5 +68,6 @@ TEST(ReportUtil, Formatting) {
   EXPECT_EQ(format_light_samples(181.6), "182");
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

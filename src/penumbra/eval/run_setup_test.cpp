@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 
@@ -193,5 +194,6 @@ TEST(RunSetup, MethodLists) {
   EXPECT_THROW(expand_method_list({""}), Error);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

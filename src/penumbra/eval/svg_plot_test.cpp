@@ -9,6 +9,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 int count(const std::string& s, const std::string& what) {
   int n = 0;
@@ -102,5 +103,6 @@ TEST(SvgPlot, PointLabelsAndMarkersOnlySeries) {
   EXPECT_EQ(count(svg, "<circle"), 3 + 1 + 2 + 3);  // markers, then one per legend entry
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

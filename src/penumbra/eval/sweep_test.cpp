@@ -9,6 +9,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 using testing::slurp;
@@ -116,11 +117,13 @@ TEST(Sweep, BadValuesAndColumnsFailBeforeAnyRender) {
   EXPECT_NO_THROW(check_sweep_column("rays_traced"));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 TEST(Sweep, NumbersAMethodReportsInExtraArePlottedUnasked) {
   testing::TempDir dir;
@@ -163,5 +166,6 @@ TEST(Sweep, NumbersAMethodReportsInExtraArePlottedUnasked) {
   EXPECT_TRUE(testing::xml_well_formed(testing::slurp(plots[1]), &problem)) << problem;
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::TempDir;
 using testing::tiny_animated_contact_setup;
@@ -152,5 +153,6 @@ TEST(Temporal, ASceneWithoutAnimationIsAnError) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

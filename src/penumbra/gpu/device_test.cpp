@@ -13,6 +13,7 @@
 
 namespace penumbra::gpu {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::GpuTest;
 
@@ -171,5 +172,6 @@ TEST_F(GpuTest, AFailedAllocationOrSubmissionIsAOneLineErrorNamingTheCall) {
   EXPECT_EQ(b.download_vector<uint32_t>(1)[0], 5u);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::gpu

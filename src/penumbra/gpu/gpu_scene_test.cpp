@@ -18,6 +18,7 @@
 
 namespace penumbra::gpu {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::GpuTest;
 
@@ -211,5 +212,6 @@ TEST_F(GpuTracer, MovedObjectsAreRefitOrReplacedAndHitAsEmbreesDo) {
   expect_same_hits(scene, embree, gpu, 20000);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::gpu

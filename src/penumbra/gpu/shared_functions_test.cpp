@@ -14,6 +14,7 @@
 
 namespace penumbra::gpu {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 class SharedFunctions : public testing::GpuTest {};
 
@@ -123,5 +124,6 @@ TEST_F(SharedFunctions, EveryLightShapesSamplesAndIrradianceAgreeWithTheCpus) {
     expect_light_functions_agree(device(), light);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::gpu

@@ -9,6 +9,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 Bounds3f box(Vec3f c, float half) {
   Bounds3f b;
@@ -89,5 +90,6 @@ TEST(CasterCulling, TheCulledListRendersTheSameMap) {
   EXPECT_TRUE(scratch.empty());
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

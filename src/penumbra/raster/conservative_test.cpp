@@ -11,6 +11,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 struct P {
   double x, y;
@@ -213,5 +214,6 @@ TEST(Conservative, TrianglesAreClippedAtTheNearPlane) {
   for (auto [x, y] : got) EXPECT_GE(x, 26) << y;
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -14,6 +14,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // A smooth depth field with steps, holes (empty texels) and a few spikes: nodes of every
 // size pass and fail the overlap test.
@@ -418,5 +419,6 @@ TEST(DepthImageWalk, ProjectedSegmentsMatchTheViewAndClipAtNear) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The exact mean of channel c over [x0, x1] x [y0, y1]: every texel weighted by its overlap,
 // the outside part by `outside`.
@@ -66,5 +67,6 @@ TEST(FilteredMap, MipChainIsExactOnAlignedPowerOfTwoSquaresAndPadsWithTheOutside
   EXPECT_LE(mip.memory_bytes(), MipChain::bytes(w, h, C));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

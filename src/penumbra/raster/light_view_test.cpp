@@ -7,6 +7,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 Vec3f random_in(const Bounds3f& b, Rng& rng) {
   Vec3f d = b.diagonal();
@@ -161,5 +162,6 @@ TEST(LightView, RejectsBadParameters) {
   EXPECT_THROW(LightView::perspective({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 60, 20000, 10, 0.1f, 1), Error);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

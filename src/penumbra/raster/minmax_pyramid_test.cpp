@@ -9,6 +9,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // Every node must equal the min/max over the level-0 texels it covers (so it bounds each
 // child and each texel below), and contain each of its children's ranges.
@@ -117,5 +118,6 @@ TEST(MinMaxPyramid, OverRasterizedDepthAndLayerMaps) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -9,6 +9,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 TEST(RasterTriangles, GatheredFromASceneWithTheirOpacity) {
   Scene scene;
@@ -80,5 +81,6 @@ TEST(RasterTriangles, AnAlphaTexturedObjectsTrianglesFindTheirTextureInTheSideTa
   EXPECT_EQ(RasterTriangleView(tris).opacity_on_line(t, {0.7f, 0.1f, 2}, {0, 0, -2}), 0.0f);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

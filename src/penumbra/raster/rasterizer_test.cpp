@@ -16,6 +16,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // An orthographic view looking down -z with one texel per world unit: world (x, y, *) lands
 // on texel-space point (x, H - y), so texel centres are at half-integer world coordinates and
@@ -802,5 +803,6 @@ TEST(Rasterizer, DepthBinMasksPerTileBinEachTexelByItsTilesBins) {
   EXPECT_THROW(raster.depth_bin_masks(tris, view, {}, bad, &masks), Error);  // a tile without width
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

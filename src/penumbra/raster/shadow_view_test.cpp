@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 std::vector<Vec3f> random_points(Vec3f lo, Vec3f hi, int n, uint64_t seed) {
   Rng rng(seed);
@@ -95,5 +96,6 @@ TEST(ShadowView, RejectsReceiversBehindTheEyeAndBadSettings) {
   EXPECT_LT(t.x, static_cast<float>(v.width()));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

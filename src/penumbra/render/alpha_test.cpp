@@ -15,6 +15,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 constexpr int kChecks = 4;                        // texels (squares) per side
 constexpr float kX0 = -0.6f, kZ0 = -0.6f, kW = 1.2f, kY = 0.6f;  // the occluder quad
@@ -145,5 +146,6 @@ TEST(Foliage, ReferenceOnMaskedLeavesMatchesTheLeavesInTriangles) {
   EXPECT_GT(mean_abs_difference(masked, diamonds), 4 * diff);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -8,6 +8,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using namespace penumbra::testing;
 
@@ -82,5 +83,6 @@ TEST(CoherentShading, RenderOptionOnlyDarkens) {
   EXPECT_GT(darker, 0);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -13,6 +13,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // A box and a semi-transparent quad over the ground under a rect light: umbra, penumbra,
 // transmittance and a closed mesh, at a size every method renders in well under a second.
@@ -60,5 +61,6 @@ TEST(Determinism, EveryMethodGivesTheSameImageWithOneAndTwoThreads) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -23,6 +23,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using gpu::testing::GpuTest;
 
@@ -367,5 +368,6 @@ TEST_F(GpuFrame, AFailedVulkanCallIsAnErrorAndTheDeviceStaysUsable) {
   EXPECT_NO_THROW(r.render());
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

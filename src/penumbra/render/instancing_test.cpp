@@ -14,6 +14,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 
@@ -99,5 +100,6 @@ TEST(Instancing, AnimatedInstancesMoveByTheirTransforms) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

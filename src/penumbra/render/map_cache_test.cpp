@@ -15,6 +15,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::same_bits;
 
@@ -185,5 +186,6 @@ TEST(MapCache, AFileInPlaceOfTheFolderIsAnErrorNamingIt) {
       << message;
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -116,6 +116,7 @@ void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcep
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // Bytes in use through operator new since the window opened: now and at most. Frees of
 // blocks allocated before count too (the heap in use went down).
@@ -357,5 +358,6 @@ TEST(MemoryEstimate, NamesTheSettingThatDrivesIt) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -27,6 +27,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 constexpr int kResolution = 64;
 constexpr int kLightSamples = 64;
@@ -137,5 +138,6 @@ TEST_P(MethodRegression, MeanErrorAgainstTheReferenceIsNoWorseThanMeasured) {
 INSTANTIATE_TEST_SUITE_P(Methods, MethodRegression, ::testing::ValuesIn(testing::registered_method_names()),
                          testing::method_test_name);
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

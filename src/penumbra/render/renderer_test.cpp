@@ -12,6 +12,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 Scene two_light_scene() {
   std::vector<SceneObject> occluders;
@@ -177,5 +178,6 @@ TEST(Renderer, FramesRenderedOneAtATimeAverageToTheFramesRender) {
   EXPECT_LT(max_dc, 1e-4);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

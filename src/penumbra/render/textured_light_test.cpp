@@ -16,6 +16,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 constexpr float kH = 4.0f;      // the light's height; the occluder's edge is at kH / 2
 constexpr float kWidth = 1.0f;  // the light is kWidth x kWidth, red for x < 0, blue for x > 0
@@ -101,5 +102,6 @@ TEST(TexturedLight, TwoColourLightGivesTheClosedFormColouredPenumbra) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

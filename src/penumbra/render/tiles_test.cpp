@@ -17,6 +17,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // A box and a semi-transparent quad over the ground under two rect lights, seen by a camera
 // of uneven size with two jittered rays per pixel.
@@ -216,5 +217,6 @@ TEST(Tiles, MemoryEstimateCountsTheCropsPixels) {
   EXPECT_EQ(whole, row * 29);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

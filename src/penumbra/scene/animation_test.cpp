@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 using test::error_message;
@@ -296,5 +297,6 @@ TEST(AnimationFile, RejectsBadBlocksNamingTheKey) {
   EXPECT_EQ(error_message([&] { parse_scene(d, kOrigin); }), "scenes/t.json: animation: expected an object, got 24");
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -9,6 +9,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 TEST(Camera, FrameIsRightUpBackward) {
   Camera c;
@@ -113,7 +114,6 @@ TEST(Camera, CropWindowIsTheWholeImageWhenEmptyAndMustLieInside) {
   }
 }
 
-}  // namespace
 TEST(Camera, ResolutionsAreNOrWxHWithSidesUpTo16384) {
   int w = 0, h = 0;
   EXPECT_TRUE(parse_resolution("32", &w, &h));
@@ -128,4 +128,6 @@ TEST(Camera, ResolutionsAreNOrWxHWithSidesUpTo16384) {
   EXPECT_EQ(w, 16384);  // untouched by the refused ones
 }
 
+}  // namespace PENUMBRA_UNITY_ID
+}  // namespace
 }  // namespace penumbra

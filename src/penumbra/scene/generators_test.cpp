@@ -11,6 +11,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 using test::error_message;
@@ -159,11 +160,13 @@ TEST(Generators, MakeExampleSceneParsesKeyValues) {
   EXPECT_NE(error_message([] { make_example_scene("vase", {}); }).find("unknown generator"), std::string::npos);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // docs/scene-format.md documents every generator parameter (a new one must be added there).
 TEST(Generators, EveryParameterIsDocumented) {
@@ -175,5 +178,6 @@ TEST(Generators, EveryParameterIsDocumented) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -6,6 +6,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 using test::error_message;
@@ -58,5 +59,6 @@ TEST(JsonValue, LongValuesAreAbbreviated) {
   EXPECT_EQ(s.substr(37), "...");
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // Configuration-factor form of the irradiance of a unit-radiance rectangle a x b parallel
 // to the receiver at height c, with the receiver point under one corner (Howell's
@@ -510,5 +511,6 @@ TEST(AreaLight, TexturedRectSamplesFollowTheImageAndExpandsPerChannel) {
   EXPECT_NEAR(e / m, exact, 0.01 * exact);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -15,6 +15,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 using test::error_message;
@@ -301,11 +302,13 @@ TEST(MeshImport, BadIndicesAndCoordinatesAreRefusedDegenerateTrianglesDropped) {
             (dir / "flat.obj").string() + ": the file contains no triangles of non-zero area (1 degenerate)");
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // Issue 20: an OBJ whose material has map_Kd and map_d (a leaf card as asset libraries ship it)
 // imports as a part of its own with texture coordinates, the diffuse texture and a mask; a
@@ -508,5 +511,6 @@ TEST(MeshImportUvs, AMergedPartKeepsUvsOnlyWhenEveryMeshHasThem) {
   EXPECT_TRUE(parts[0].mesh.uvs.empty());
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

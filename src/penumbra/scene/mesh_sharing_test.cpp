@@ -13,6 +13,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -128,5 +129,6 @@ TEST(MeshSharing, AnAnimatedMeshPlacedOnceStaysAnObjectOfItsOwn) {
   EXPECT_TRUE(same_bits(own_ball(dir, t), s.objects[1].mesh));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -6,6 +6,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 void expect_near(Vec3f a, Vec3f b, float eps = 1e-5f) {
   EXPECT_NEAR(a.x, b.x, eps);
@@ -146,5 +147,6 @@ TEST(Shapes, TubesAreClosedAndOutward) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -13,6 +13,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -406,11 +407,13 @@ TEST(SceneSuite, EveryShippedSceneLoads) {
   EXPECT_GE(count, have_bunny ? 6 : 4);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // Issue 20: material keys for textures, relative to the scene file's folder.
 TEST(SceneFileTextures, AlphaAndAlbedoTexturesOnAPlane) {
@@ -517,11 +520,13 @@ TEST(SceneFileTextures, ATextureOnAMeshWithoutUvsNamesTheMeshFile) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // Issue 20 part 3: "radiance_texture" on a rect light, relative to the scene file; an error on
 // other light types and for a missing file.
@@ -556,11 +561,13 @@ TEST(SceneFileTextures, RadianceTextureOnARectLight) {
   EXPECT_NE(infinite.find((dir / "hot.exr").string() + ": texel (1, 0) is not finite"), std::string::npos) << infinite;
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The scene's material overrides a mesh file's alpha mode and keeps its alpha texture: an OBJ
 // leaf card whose map_d makes a mask becomes a blend.
@@ -580,5 +587,6 @@ TEST(SceneFileTextures, SceneAlphaModeOverridesAMeshFilesAndKeepsItsTexture) {
   EXPECT_NEAR(m.alpha.opacity({0.25f, 0.5f}), 0.25f, 0.01f);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -11,6 +11,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 
@@ -129,5 +130,6 @@ TEST(Texture, BadFilesGiveOneLineErrorsNamingThem) {
   EXPECT_NE(huge.find("wide.png: a 100000x1 image; textures are read up to 8192x8192"), std::string::npos) << huge;
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

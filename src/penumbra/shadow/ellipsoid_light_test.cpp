@@ -18,6 +18,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using namespace penumbra::testing;
 
@@ -162,5 +163,6 @@ TEST(EllipsoidLight, ReferenceIrradianceOfLitPointsIsTheClosedForm) {
   EXPECT_GT(lit, 200);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::rect_light_down;
 
@@ -41,5 +42,6 @@ TEST(LightHorizon, ADiskIsTheSquareOfEqualArea) {
   EXPECT_FLOAT_EQ(light_fraction_above(disk, {h.x + 1e-3f, 0, 0}, {1, 0, 0}), 0.0f);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

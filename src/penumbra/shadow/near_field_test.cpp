@@ -8,6 +8,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using shader::near_field_length;
 using shader::near_field_light_width;
@@ -45,5 +46,6 @@ TEST(NearField, TheLightsWidthIsTheSideOfTheSquareOfItsArea) {
   EXPECT_EQ(near_field_light_width(0.0f), 0.0f);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

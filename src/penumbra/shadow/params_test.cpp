@@ -7,6 +7,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 std::vector<ParamSpec> specs() {
   return {{"samples", ParamType::Int, 64, "light samples", {}, 1, 4096},
@@ -75,5 +76,6 @@ TEST(MethodRegistry, SceneDefaultsThenCommandLineOverrides) {
   EXPECT_NE(message_of([&] { create_method("nope", Scene{}, {}); }).find("known: "), std::string::npos);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

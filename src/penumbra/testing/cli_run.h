@@ -20,8 +20,10 @@ struct CliRun {
   std::string out, err;
 };
 
+// The whole file, byte for byte ("" where it cannot be read: the test's assertion on the
+// content then says what is missing).
 inline std::string slurp(const std::filesystem::path& p) {
-  std::ifstream f(p);
+  std::ifstream f(p, std::ios::binary);
   std::stringstream ss;
   ss << f.rdbuf();
   return ss.str();

@@ -6,13 +6,12 @@
 #include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include <fmt/format.h>
 
 #include "penumbra/eval/run_setup.h"
+#include "penumbra/testing/cli_run.h"  // slurp
 
 namespace penumbra::testing {
 
@@ -56,12 +55,5 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
-
-inline std::string slurp(const std::filesystem::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
 
 }  // namespace penumbra::testing

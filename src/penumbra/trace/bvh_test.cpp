@@ -13,6 +13,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // Small triangles scattered in clusters over a wide field (a forest's leaves, roughly), with a
 // run of identical ones (every centroid equal: the median split).
@@ -93,5 +94,6 @@ TEST(TriangleBvh, EveryTriangleIsInOneLeafInsideEveryBoxAboveIt) {
   for (size_t t = 0; t < seen.size(); ++t) ASSERT_EQ(seen[t], 1) << "triangle " << t;
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -16,6 +16,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::instanced_scene;
 using testing::unshared;
@@ -203,5 +204,6 @@ TEST(RayTracerInstances, AMovedInstanceTakesItsNewTransform) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

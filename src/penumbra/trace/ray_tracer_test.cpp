@@ -15,6 +15,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // A ground, a box that moves and a half-transparent slab that moves.
 Scene moving_scene() {
@@ -164,5 +165,6 @@ TEST(RayTracerAlpha, MaskHolesPassShadowAndCameraRaysBlendAttenuates) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -4,6 +4,7 @@
 
 namespace penumbra::viewer {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 TEST(PreviewChooser, LeastErrorWithinTheTargetFromWhatWasMeasured) {
   PreviewChooser c({"a", "b", "c", "d"}, /*target_ms=*/50);
@@ -46,5 +47,6 @@ TEST(PreviewChooser, LeastErrorWithinTheTargetFromWhatWasMeasured) {
   EXPECT_EQ(j["b"]["light_ms"], 40.0);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::viewer

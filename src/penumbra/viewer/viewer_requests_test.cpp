@@ -9,6 +9,7 @@
 
 namespace penumbra::viewer {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 
@@ -138,5 +139,6 @@ TEST(ViewerRequests, ATexturedLightsImageIsFoundBesideTheSceneFile) {
   EXPECT_EQ(v1.parsed_lights[0].center.x, -1.0f);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::viewer

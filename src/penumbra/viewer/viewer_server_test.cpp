@@ -28,6 +28,7 @@
 
 namespace penumbra::viewer {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -518,11 +519,13 @@ TEST_F(Viewer, CompareGivesTheHeatMapAndMeanAbsoluteVisibilityError) {
   EXPECT_NEAR(d["mean_dv"].get<double>(), sum / va.pixel_count(), 1e-4);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::viewer
 
 namespace penumbra::viewer {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // `penumbra view --device gpu` (issue 30 part 2): every frame renders on the GPU, the state names
 // the device, the methods offered are those with a GPU version, and the auto preview measures
@@ -576,5 +579,6 @@ TEST_F(ViewerOnGpu, ASessionOnTheGpuRendersThereAndOffersItsMethods) {
   EXPECT_TRUE(calibration.contains("reference"));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::viewer

@@ -15,6 +15,7 @@
 
 namespace penumbra::gpu {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 class GpuFilteredMap : public testing::GpuTest {};
 
@@ -143,5 +144,6 @@ TEST_F(GpuFilteredMap, DoubleExpAndLogAreWithinAnUlpOrTwoOfLibm) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::gpu

@@ -14,6 +14,7 @@
 
 namespace penumbra::gpu {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::GpuTest;
 
@@ -188,5 +189,6 @@ TEST_F(GpuBatchRasterizerTest, BatchSizeFollowsTheBudget) {
             uint64_t{256} << 20);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::gpu

@@ -18,6 +18,7 @@
 
 namespace penumbra::gpu {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::GpuTest;
 
@@ -200,5 +201,6 @@ TEST(GpuRasterModesMemory, BytesCountEveryBuffer) {
   EXPECT_EQ(GpuScan::scratch_bytes(1000), 3u * 4u);  // two blocks: their totals and one more
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::gpu

@@ -14,6 +14,7 @@
 
 namespace penumbra::gpu {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::GpuTest;
 
@@ -202,5 +203,6 @@ TEST(GpuRasterizerMemory, ScratchGrowsWithTrianglesAndTheMap) {
   EXPECT_EQ(GpuDepthMap::bytes(64, 32), 64u * 32u * 24u + sizeof(shader::RasterView));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::gpu

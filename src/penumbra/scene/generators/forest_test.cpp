@@ -11,6 +11,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using nlohmann::json;
 using testing::placed_exactly;
@@ -106,5 +107,6 @@ TEST(Forest, ExampleSceneGrowsWithTheTrees) {
   EXPECT_EQ(s.objects.size(), 201u);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -25,6 +25,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using gpu::testing::GpuTest;
 
@@ -259,5 +260,6 @@ TEST_F(AliasFreeGpu, MemoryEstimatesCoverTheRender) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -27,6 +27,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using namespace penumbra::testing;
 
@@ -697,11 +698,13 @@ TEST(AliasFreeShapes, BadSampleCountIsAnError) {
   EXPECT_THROW(run_method(r, "afsm", 2048), Error);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -714,5 +717,6 @@ const testing::MemoryCaseRegistration kAfsmMemory(
       // What grows with the triangles: the casters and their regions per slab.
       {"afsm", {"resolution=64", "slabs=8"}, 16, /*many_triangles=*/true}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -15,6 +15,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using gpu::testing::GpuTest;
 
@@ -126,5 +127,6 @@ TEST_F(BaselinesGpu, MemoryEstimateCoversWhatTheMethodHolds) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

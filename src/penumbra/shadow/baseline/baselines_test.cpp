@@ -17,6 +17,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::ground_scene;
 using testing::object;
@@ -498,11 +499,13 @@ TEST(MultiViewShadowMap, SameImageForAnyThreadCountAndBoundedMemory) {
   EXPECT_GT(a.stats.phase("lookup"), 0.0);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -516,5 +519,6 @@ const testing::MemoryCaseRegistration kMultiViewSmMemory(
     "multi-view-sm", {"resolution", "--spp", "triangles"},
     {{"multi-view-sm", {"resolution=1024"}, 2}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

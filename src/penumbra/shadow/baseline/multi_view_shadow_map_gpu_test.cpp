@@ -10,6 +10,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::mean_abs_dv;
 using testing::shipped_scene;
@@ -129,5 +130,6 @@ TEST_F(MultiViewGpu, StagesCountersAndMemoryEstimate) {
   EXPECT_GT(info->estimate_memory(resolve_method_params("multi-view-sm", scene, {"resolution=1024"}), q).bytes, e.bytes);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -18,6 +18,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using gpu::testing::GpuTest;
 using testing::mean_abs_dv;
@@ -159,5 +160,6 @@ TEST_F(CoherentRtGpu, MemoryEstimateCoversWhatTheMethodHolds) {
   EXPECT_GT(e.bytes, 4u * 128u * 128u * 8u);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -18,6 +18,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using namespace penumbra::testing;
 using namespace penumbra::coherent_rt;
@@ -359,11 +360,13 @@ TEST(CoherentRt, BadParametersAndLightsGiveClearErrors) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -371,5 +374,6 @@ const testing::MemoryCaseRegistration kCoherentRtMemory(
     "coherent-rt", {"resolution", "--spp", "sub_grid", "triangles"},
     {{"coherent-rt", {"resolution=1024"}}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

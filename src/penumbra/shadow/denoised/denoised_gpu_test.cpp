@@ -16,6 +16,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using gpu::testing::GpuTest;
 using penumbra::testing::DevicePair;
@@ -89,5 +90,6 @@ TEST_F(DenoisedGpu, CropsAMovedCameraStagesAndMemory) {
   EXPECT_LE(moved.stats.memory_bytes, e.bytes);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -13,6 +13,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using namespace penumbra::testing;
 
@@ -225,11 +226,13 @@ TEST(RtDenoisedScenes, BadParameterNamesTheKey) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h).
 const testing::MemoryCaseRegistration kRtDenoisedMemory(
@@ -238,5 +241,6 @@ const testing::MemoryCaseRegistration kRtDenoisedMemory(
      // alone (its 1-8 light samples fit one padded fan).
      {"rt-denoised", {}, 4, false, 512}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -14,6 +14,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using gpu::testing::GpuTest;
 using penumbra::testing::DevicePair;
@@ -137,5 +138,6 @@ TEST_F(FilteredMomentsGpu, MemoryEstimateCoversWhatTheMethodHolds) {
     }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -19,6 +19,7 @@
 
 namespace penumbra::filtered_moments {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using penumbra::testing::ground_scene;
 using penumbra::testing::object;
@@ -486,11 +487,13 @@ TEST(MsmRegistration, FlagsAndEstimates) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::filtered_moments
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -504,5 +507,6 @@ const testing::MemoryCaseRegistration kMsmMemory(
     "msm", {"resolution", "triangles"},
     {{"msm", {"resolution=1024"}}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -12,6 +12,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::mean_abs_dv;
 using testing::shipped_scene;
@@ -136,5 +137,6 @@ TEST_F(LamGpu, MemoryEstimateCoversWhatTheMethodHolds) {
   EXPECT_GT(info->estimate_memory(resolve_method_params("lam", scene, {"resolution=512"}), q).bytes, e.bytes);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

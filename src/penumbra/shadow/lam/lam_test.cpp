@@ -20,6 +20,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using namespace penumbra::testing;
 
@@ -435,11 +436,13 @@ TEST(Lam, ResultsDoNotDependOnTheThreadCount) {
   EXPECT_EQ(one, all);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The map cache's record (AttenuationMap::write/read): the map read back gives the very
 // lookups of the map written, and a record cut short anywhere reads as nothing.
@@ -468,11 +471,13 @@ TEST(Lam, MapRecordReadsBackToTheSameLookupsAndRejectsTruncation) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -480,5 +485,6 @@ const testing::MemoryCaseRegistration kLamMemory(
     "lam", {"resolution", "max_layers", "triangles"},
     {{"lam", {"resolution=512"}}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -18,6 +18,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using gpu::testing::GpuTest;
 using testing::mean_abs_dv;
@@ -177,5 +178,6 @@ TEST_F(MultilayerGpu, MemoryEstimateCoversWhatTheMethodHolds) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

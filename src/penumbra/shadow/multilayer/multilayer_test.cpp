@@ -18,6 +18,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using multilayer::CompressionOptions;
 using multilayer::TransparentLayer;
@@ -399,11 +400,13 @@ TEST(Multilayer, BadParametersNameTheKey) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -414,5 +417,6 @@ const testing::MemoryCaseRegistration kMtsmMemory(
     "mtsm", {"resolution", "resets", "--spp", "triangles"},
     {{"mtsm", {"resolution=1024", "resets=1"}}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -20,6 +20,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using gpu::testing::GpuTest;
 using penumbra::testing::render_on_both;
@@ -241,5 +242,6 @@ TEST_F(OcclusionTexturesGpu, ASceneWithoutCastersIsLit) {
   EXPECT_FALSE(d.gpu.gpu_ms.contains("slicing"));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -19,6 +19,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using occlusion::LookupCounters;
 using occlusion::OcclusionTextures;
@@ -725,11 +726,13 @@ TEST(OcclusionTextures, BadParametersAreRejected) {
   EXPECT_NO_THROW(create_method("occlusion-textures", scene, {"slices=4", "prefilter=mipmap", "combine=max"}));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -737,5 +740,6 @@ const testing::MemoryCaseRegistration kOcclusionTexturesMemory(
     "occlusion-textures", {"resolution", "slices", "triangles"},
     {{"occlusion-textures", {"resolution=1024", "slices=8"}}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

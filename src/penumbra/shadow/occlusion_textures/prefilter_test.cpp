@@ -9,6 +9,7 @@
 
 namespace penumbra::occlusion {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // A random stack of S slices over a w x h texture: blobs of coverage (so that filtered values
 // cover the whole range) plus salt.
@@ -180,5 +181,6 @@ TEST(Prefilter, CoverageBoundsAreTheCoveredTexels) {
   EXPECT_FALSE(b[2].meets(21.0f, 0, 30, 16));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::occlusion

@@ -16,6 +16,7 @@
 
 namespace penumbra::partitions {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 AreaLight test_light() {
   AreaLight l;
@@ -316,5 +317,6 @@ TEST_F(LightPartitionsGpu, PartitionsGiveTheCpuPictures) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra::partitions

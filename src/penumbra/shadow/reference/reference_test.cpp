@@ -14,6 +14,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::ground_scene;
 using testing::object;
@@ -206,11 +207,13 @@ TEST(RayTracer, StreamIntersectEqualsOneRayAtATime) {
   EXPECT_GT(miss_count, 10);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -219,5 +222,6 @@ const testing::MemoryCaseRegistration kReferenceMemory(
     {// Per-thread light samples only: many of them, on a small image (few rays in all).
       {"reference", {}, 131072, false, 8}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -11,6 +11,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::mean_abs_dv;
 using testing::shipped_scene;
@@ -122,5 +123,6 @@ TEST_F(SingleSampleGpu, StatisticsAndMemoryEstimate) {
   EXPECT_LE(gpu.stats.memory_bytes, e.bytes);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

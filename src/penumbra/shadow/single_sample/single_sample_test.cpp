@@ -15,6 +15,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using single_sample::falloff;
 using single_sample::sphere_transmission;
@@ -192,11 +193,13 @@ TEST(SingleSample, CombinationRulesOfTwoOccluders) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // V of single-sample (with `params`) at the given receivers of `scene`.
 std::vector<float> single_sample_v(const Scene& scene, const ViewSamples& vs, const std::vector<std::string>& params) {
@@ -387,11 +390,13 @@ TEST(SingleSample, PacketsGiveTheSameVisibilityAsSingleRays) {
   }
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h): what
 // each estimate must grow with, and a case whose maps dominate the heap.
@@ -400,5 +405,6 @@ const testing::MemoryCaseRegistration kSingleSampleMemory(
     {// What grows with the triangles: the BVH of the outer objects.
       {"single-sample", {"candidates=all"}, 4, /*many_triangles=*/true}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -18,6 +18,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using testing::box;
 using testing::ground_scene;
@@ -138,5 +139,6 @@ TEST_F(SoftShadowVolumesGpu, MemoryEstimateCoversTheRender) {
   EXPECT_GE(e.bytes, gpu.stats.memory_bytes);
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra

@@ -16,6 +16,7 @@
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 using namespace penumbra::testing;
 
@@ -305,11 +306,13 @@ TEST(SoftShadowVolumesShapes, SameSeedSameImageAndNewFramesNewSamples) {
   EXPECT_NE(a, run_method(r, "ssv-rt", 16, {}, nullptr, 6));
 }
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
 
 namespace penumbra {
 namespace {
+namespace PENUMBRA_UNITY_ID {
 
 // The memory-estimate checks (render/memory_estimate_test.cpp, testing/memory_cases.h).
 const testing::MemoryCaseRegistration kSsvRtMemory(
@@ -317,5 +320,6 @@ const testing::MemoryCaseRegistration kSsvRtMemory(
     {// The silhouette edges: many triangles.
      {"ssv-rt", {}, 16, /*many_triangles=*/true}});
 
+}  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
