@@ -1,7 +1,12 @@
 // filter_pairs (pair_filter.h): Highway, compiled once per SIMD target and dispatched at run
-// time. No fused multiply-adds (the pragma below): every product and sum is rounded as in the
-// scalar test, so the survivors and their lines are the scalar code's bit for bit.
+// time. No fused multiply-adds (the pragmas below, clang's and g++'s): every product and sum
+// is rounded as in the scalar test, so the survivors and their lines are the scalar code's bit
+// for bit.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#else
 #pragma GCC optimize("fp-contract=off")
+#endif
 
 #include "penumbra/shadow/alias_free/pair_filter.h"
 

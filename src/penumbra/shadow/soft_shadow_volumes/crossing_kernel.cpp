@@ -1,6 +1,10 @@
 // add_crossings (crossing_kernel.h): Highway, one copy per SIMD target. No fused multiply-adds
-// (the pragma below): every target rounds each product and sum alike.
+// (the pragmas below, clang's and g++'s): every target rounds each product and sum alike.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#else
 #pragma GCC optimize("fp-contract=off")
+#endif
 
 #include "penumbra/shadow/soft_shadow_volumes/crossing_kernel.h"
 
