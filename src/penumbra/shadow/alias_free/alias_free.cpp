@@ -880,9 +880,11 @@ class AliasFreeSoft final : public AliasFreeBase {
               for (int y = cells.y0; y <= cells.y1; ++y)
                 for (uint32_t k = grid.row_begin(y, cells.x0), k_end = grid.row_end(y, cells.x1); k < k_end; ++k) {
                   const float ux = grid.x()[k], uy = grid.y()[k];
-                  if (afsm::above(ux, uy, edges[0].g, edges[0].h) & afsm::above(ux, uy, edges[1].g, edges[1].h) &
-                      afsm::above(ux, uy, edges[2].g, edges[2].h))
-                    inside[inside_count++] = k;
+                  // All three tests, without branches between them (bitwise, not &&).
+                  const unsigned in_all = static_cast<unsigned>(afsm::above(ux, uy, edges[0].g, edges[0].h)) &
+                                          static_cast<unsigned>(afsm::above(ux, uy, edges[1].g, edges[1].h)) &
+                                          static_cast<unsigned>(afsm::above(ux, uy, edges[2].g, edges[2].h));
+                  if (in_all) inside[inside_count++] = k;
                 }
             }
             for (size_t q = 0; q < inside_count; ++q) {
