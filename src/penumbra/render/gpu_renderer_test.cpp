@@ -287,6 +287,22 @@ TEST_F(GpuFrame, EveryMethodRunsOnBothDevices) {
   EXPECT_EQ(testing::cpu_only_method(), "");
 }
 
+// scene_units_test.cpp's two properties on the GPU: every method draws the same V for the scene
+// 100 times smaller and 10^5 times larger, and V = 0 where the light faces away.
+TEST_F(GpuFrame, EveryMethodsVIsTheSameInAnyUnitAndZeroWhereTheLightFacesAway) {
+  for (const MethodInfo* m : MethodRegistry::all()) {
+    const RenderSettings settings = testing::device_settings(m->name, {}, true, 3, 16);
+    const RenderResult unit = render_on(testing::contact_scene_at_scale(1.0f), settings, true);
+    for (float scale : {1e-2f, 1e5f}) {
+      const RenderResult scaled = render_on(testing::contact_scene_at_scale(scale), settings, true);
+      EXPECT_LE(mean_abs_diff(scaled.visibility, unit.visibility), testing::kSceneUnitsTolerance)
+          << m->name << " at scale " << scale;
+    }
+    const RenderResult away = render_on(testing::facing_away_ground_only(), settings, true);
+    for (float v : away.visibility.data()) ASSERT_EQ(v, 0.0f) << m->name;
+  }
+}
+
 TEST_F(GpuFrame, ARenderOverTheGpusMemoryIsRefusedUpFront) {
   RenderSettings settings;
   settings.method = "reference";

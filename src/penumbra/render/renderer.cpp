@@ -498,6 +498,7 @@ RenderResult Renderer::render() {
                                                                           : CoherentShading();
     {
       ScopedPhase phase(method.stats(), "compose");
+      const shader::LightGeometry geometry = light.geometry();
       parallel_for(n, 4096, [&](size_t b, size_t e) {
         // The closed-form unshadowed irradiance, a chunk of samples at a time (SIMD for rects).
         constexpr size_t kChunk = 256;
@@ -516,7 +517,10 @@ RenderResult Renderer::render() {
           }
           const ViewSample& s = vs.samples[i];
           const Vec3f e0 = light.radiance * e_unit[k];
-          float v = clamp01(vis[i]);
+          // Where the light's emitting side does not face the point (behind a rect's or disk's
+          // plane, inside a sphere), it sees none of the light: V = 0 whatever the method drew
+          // there (a ray to the light's back is unblocked; a map covers only what is in front).
+          float v = shader::light_faces(geometry, s.p) ? clamp01(vis[i]) : 0.0f;
           // A method that gives only V is multiplied with the closed-form unshadowed
           // irradiance; Lambertian: L = albedo / pi * E.
           Vec3f E = has_e ? irr[i] : e0 * (v * coherent.factor(s, light.center));

@@ -18,7 +18,7 @@ std::vector<ParamSpec> common_param_specs(int default_resolution) {
        "largest field of view of a map, degrees: receivers beyond it (grazing the light's plane) are not covered and "
        "count as lit",
        {}, 1, 179},
-      {"bias", ParamType::Float, 1e-3, "constant depth bias, world units of linear depth", {}, 0, 1e30},
+      {"bias", ParamType::Float, 1e-3, "constant depth bias, world units of linear depth, kept between 64 float epsilons of the receiver's depth and one texel (a scene in any unit)", {}, 0, 1e30},
       {"slope_bias", ParamType::Float, 1.0,
        "slope-scaled bias in texels: adds slope_bias x texel size x the receiver's depth slope (depth change per "
        "texel / texel size; tan(angle between normal and light direction) on the axis) x max(1, lookup distance in "

@@ -69,6 +69,20 @@ PN_INLINE float sm_row(vec3 row, float off, vec3 p) {
 // The world size of one texel at linear depth z (LightView::texel_world_size at max(z, near)).
 PN_INLINE float sm_texel_size(RasterView v, float z) { return (v.r - v.l) / float(v.width) * max(z, v.near) / v.near; }
 
+// The constant depth bias of a receiver at linear depth z where one texel of the map is s wide:
+// the `bias` parameter (world units; its defaults, 0.001 and 0.002, suit scenes about a unit
+// large) kept within [kSmBiasFloor z, s], so that a scene means the same in any unit:
+// - at least 64 float epsilons of the depth: below, a lit surface shadows itself from rounding
+//   alone (a street modelled in millimetres lies 10^5 units from the light, where a float depth
+//   is exact to 0.008: `shadow-map` drew acne over all of it, mean |dV| 0.06 against `hard`'s
+//   0.0007; 16 epsilons still left acne on a few pixels at 3 x 10^5);
+// - at most one texel: a larger bias lets light through occluders the map resolves (the bunny
+//   scene at 1/100 of its size: `vsm` 0.017 -> 0.026, at 1/1000 `shadow-map` 0.031 -> 0.061).
+// The shipped scenes' pictures are the same bit for bit (docs/methods/shadow-map.md, "A scene in
+// any unit").
+PN_CONST float kSmBiasFloor = 64.0f * 1.1920929e-07f;
+PN_INLINE float sm_constant_bias(float bias, float z, float s) { return max(kSmBiasFloor * z, min(bias, s)); }
+
 // ShadowDepthMap::receiver.
 PN_INLINE ShadowReceiver sm_receiver(ShadowMapView m, vec3 p, vec3 ng, ShadowBias b) {
   RasterView v = m.view;
@@ -105,7 +119,8 @@ PN_INLINE float sm_reference_depth(ShadowReceiver r, int x, int y, ShadowBias b)
   float dx = float(x) + 0.5f - r.texel.x;
   float dy = float(y) + 0.5f - r.texel.y;
   float reach = max(1.0f, sqrt(dx * dx + dy * dy));
-  if (b.receiver_plane == 0u) return r.z - b.bias - b.slope_bias * r.s * r.slope * reach;
+  float bias = sm_constant_bias(b.bias, r.z, r.s);
+  if (b.receiver_plane == 0u) return r.z - bias - b.slope_bias * r.s * r.slope * reach;
   float limit = b.max_slope * r.s * reach;
   float den = r.plane_a * (float(x) + 0.5f) + r.plane_b * (float(y) + 0.5f) + r.plane_c;
   // The ray meets the plane in front when den has the sign of plane_num (both negative for a
@@ -113,7 +128,7 @@ PN_INLINE float sm_reference_depth(ShadowReceiver r, int x, int y, ShadowBias b)
   float zp = den * r.plane_num > 0.0f ? r.plane_num / den : uintBitsToFloat(0x7f800000u);
   // Nothing behind p can block it (every point of a segment from p to the light is at most as
   // deep as p), however far the plane runs.
-  return clamp(zp, r.z - limit, r.z) - b.bias;
+  return clamp(zp, r.z - limit, r.z) - bias;
 }
 
 // The fraction of light texel (x, y) lets through to a receiver whose reference depth there is
@@ -168,7 +183,7 @@ PN_INLINE float sm_lookup_beyond(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, Shad
   float den = abs(plane_num) * inv_z;
   float slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
   // Own texel: reach max(1, d_t) = 1; s = z / focal.
-  float ref = z - b.bias - b.slope_bias * z * m.inv_focal * slope;
+  float ref = z - sm_constant_bias(b.bias, z, z * m.inv_focal) - b.slope_bias * z * m.inv_focal * slope;
   return zt < min(ref, cut) ? 1.0f - PN_AT(opacity, i) : 1.0f;
 }
 

@@ -112,6 +112,14 @@ inline Scene light_facing_away_scene() {
   return scene;
 }
 
+// light_facing_away_scene seen from nearer, so that every pixel shows the ground (a pixel
+// without a surface counts as lit).
+inline Scene facing_away_ground_only() {
+  Scene scene = light_facing_away_scene();
+  scene.camera = top_camera(16, 2.0f);
+  return scene;
+}
+
 // The camera moved a fraction `t` of the way toward its target: other view samples, the same
 // light-space structures for the methods that keep them.
 inline Camera moved_camera(const Camera& c, float t) {

@@ -18,7 +18,8 @@ void main() {
   if (s.object == kMissObject) return;
   GpuLight light = LightRef(pc.p.light).v;
   vec3 e0 = light.radiance * light_irradiance(light.geometry, s.p, s.ns, Floats(pc.p.unit_circle));
-  float v = clamp(Floats(pc.p.visibility).v[i], 0.0f, 1.0f);
+  // Renderer::render's rule: V = 0 where the light's emitting side does not face the point.
+  float v = light_faces(light.geometry, s.p) ? clamp(Floats(pc.p.visibility).v[i], 0.0f, 1.0f) : 0.0f;
   vec3 e = pc.p.has_irradiance != 0u ? Vec3s(pc.p.irradiance).v[i] : e0 * v;
   Vec3s(pc.p.radiance).v[i] += s.albedo * e * 0.31830988618379067154f;
   float w = 0.2126f * e0.x + 0.7152f * e0.y + 0.0722f * e0.z;  // luminance

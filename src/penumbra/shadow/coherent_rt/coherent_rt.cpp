@@ -56,6 +56,11 @@ class CoherentRayTracing final : public ShadowMethod {
     images_.clear();
     extra_ = nlohmann::json::object();
     if (geometry_) return;
+    if (!casts_shadows(*ctx.scene, *ctx.light)) {  // no image: nothing blocks a ray
+      extra_["views"] = nlohmann::json::array();
+      memory_bytes_ = 0;
+      return;
+    }
     ScopedPhase phase(stats_, "precompute");
     Timer t_gather;
     const RasterTriangles tris = gather_raster_triangles(*ctx.scene);

@@ -75,7 +75,10 @@ class CoherentRtGpu final : public GpuShadowMethod {
     if (!rasterizer_) rasterizer_ = std::make_unique<gpu::GpuRasterizer>(device);
     std::vector<shader::CrtImageDesc> descs;
     nlohmann::json views = nlohmann::json::array();
-    for (Vec3f eye : view_points(*ctx.light, settings_.views)) {
+    // No image where no caster can shadow a receiver (casts_shadows): nothing blocks a ray.
+    const std::vector<Vec3f> eyes =
+        casts_shadows(*ctx.scene, *ctx.light) ? view_points(*ctx.light, settings_.views) : std::vector<Vec3f>{};
+    for (Vec3f eye : eyes) {
       GpuReferenceImage img;
       img.view = reference_view(*ctx.scene, *ctx.light, eye, settings_.images.resolution);
       const int w = img.view.width(), h = img.view.height();
@@ -133,7 +136,8 @@ class CoherentRtGpu final : public GpuShadowMethod {
     }
     // The maps are built when the frame runs; the next depth map waits for nothing (each
     // depth_map call submits what was recorded first).
-    descs_ = gpu::make_buffer<shader::CrtImageDesc>(device, descs, "coherent-rt's reference images");
+    descs_ = descs.empty() ? gpu::Buffer(device, 16, "coherent-rt's reference images")
+                           : gpu::make_buffer<shader::CrtImageDesc>(device, descs, "coherent-rt's reference images");
     uint64_t bytes = map_.device_bytes();
     for (const GpuReferenceImage& img : images_) bytes += img.device_bytes();
     memory_bytes_ = bytes;

@@ -57,6 +57,8 @@ std::vector<Vec3f> view_points(const AreaLight& light, const std::string& views)
   return out;
 }
 
+bool casts_shadows(const Scene& scene, const AreaLight& light) { return !lam::fit_shadow_region(scene, light).empty; }
+
 LightView reference_view(const Scene& scene, const AreaLight& light, Vec3f eye, int resolution) {
   const lam::ShadowRegion region = lam::fit_shadow_region(scene, light);
   if (region.empty) throw Error("coherent-rt: no object can cast a shadow from this light");

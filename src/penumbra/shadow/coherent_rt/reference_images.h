@@ -85,8 +85,13 @@ int view_point_count(const std::string& views);
 // A view from `eye` on the light, looking along the light's normal, containing everything
 // that can cast or receive a shadow from `light` (lam::fit_shadow_region, widened for the
 // eye's offset from the light's centre), `resolution` texels along its longer side.
-// Throws if the scene has no shadow region.
+// Throws if the scene has no shadow region (casts_shadows is false).
 LightView reference_view(const Scene& scene, const AreaLight& light, Vec3f eye, int resolution);
+
+// Whether some caster can shadow some receiver from `light` (lam::fit_shadow_region is not
+// empty). Where none can (a lone ground under the light, a light facing away from the scene),
+// the method builds no image and every ray is unblocked: crt_trace with no map blocks nothing.
+bool casts_shadows(const Scene& scene, const AreaLight& light);
 
 struct BuildTimes {
   double raster_ms = 0, floors_ms = 0, pyramid_ms = 0;

@@ -127,7 +127,7 @@ std::vector<ParamSpec> core_param_specs(int default_resolution, Prefilter defaul
        {}},
       {"filter_size", ParamType::Float, 4.0, "filter side in texels when blocker_search=false", {}, 0, 4096},
       {"min_filter", ParamType::Float, 1.0, "smallest filter side in texels (the map's own resolution)", {}, 0, 4096},
-      {"bias", ParamType::Float, 2e-3, "depth bias, world units of linear depth, subtracted from the receiver's depth",
+      {"bias", ParamType::Float, 2e-3, "depth bias, world units of linear depth, subtracted from the receiver's depth; kept between 64 float epsilons of that depth and one texel (a scene in any unit)",
        {}, 0, 1e30},
       {"subdivide", ParamType::Int, 4,
        "most parts a side the blocker search and the filter are split into (one per two texels), each its own "

@@ -220,7 +220,8 @@ PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, ve
     return horizon;  // not covered by the map (beyond max_fov): lit
   // Normalised like the texels (a receiver behind every covered depth compares as the farthest
   // one: empty texels, at 1, never block).
-  double t = clamp(fm_normalize(map.range, tz - b.bias), double(0.0f), map.range.far);
+  double t = clamp(fm_normalize(map.range, tz - sm_constant_bias(b.bias, tz, sm_texel_size(v, tz))), double(0.0f),
+                   map.range.far);
   double hx = b.fixed_half;
   double hy = hx;
   FmPlaneSlope slope = fm_receiver_slope(b, map.range, p, ng);
