@@ -75,11 +75,23 @@ LightView build_shadow_view(const ShadowViewFrame& frame, const ShadowViewRange&
   const Vec3f eye = frame.axes.eye, fwd = frame.axes.forward;
   const float min_near = frame.axes.min_near;
   if (!(r.z1 >= r.z0)) throw Error("fit_shadow_view: no receiver lies in front of the eye");
-  const float cap = std::tan(radians(fit.max_fov) * 0.5f);
-  r.x0 = std::max(r.x0, -cap); r.x1 = std::min(r.x1, cap);
-  r.y0 = std::max(r.y0, -cap); r.y1 = std::min(r.y1, cap);
-  if (!(r.x1 >= r.x0) || !(r.y1 >= r.y0))
-    throw Error("fit_shadow_view: every receiver lies outside the {}-degree field of view", fit.max_fov);
+  // The cap keeps grazing receivers from taking the texels of the rest. Where every receiver
+  // lies beyond it (a street seen from far down its length under a high light: all its points
+  // 70-85 degrees off the light's axis) there is no rest: the window then holds them, up to
+  // kWidestFov (before, the shadow-map family stopped with an error and the other fits counted
+  // every receiver lit).
+  auto capped = [&](float max_fov) {
+    const float cap = std::tan(radians(max_fov) * 0.5f);
+    ShadowViewRange c = range;
+    c.x0 = std::max(c.x0, -cap); c.x1 = std::min(c.x1, cap);
+    c.y0 = std::max(c.y0, -cap); c.y1 = std::min(c.y1, cap);
+    return c;
+  };
+  auto empty = [](const ShadowViewRange& c) { return !(c.x1 >= c.x0) || !(c.y1 >= c.y0); };
+  r = capped(fit.max_fov);
+  if (empty(r)) r = capped(kWidestFov);
+  if (empty(r))
+    throw Error("fit_shadow_view: every receiver lies outside the {}-degree field of view", kWidestFov);
   // A little slack so points on the boundary land inside the image, and a minimum size.
   float px = std::max(1e-6f, (r.x1 - r.x0) * 1e-4f), py = std::max(1e-6f, (r.y1 - r.y0) * 1e-4f);
   float l = r.x0 - px, rr = r.x1 + px, b = r.y0 - py, t = r.y1 + py;

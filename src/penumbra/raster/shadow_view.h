@@ -15,7 +15,8 @@
 // Receivers seen at grazing angles from the light (a ground plane running off toward the
 // light's own plane) would stretch the window toward a 180-degree field of view and leave
 // few texels for the rest; the window is therefore capped at max_fov around the view axis.
-// Receivers outside the cap are not covered (a lookup there finds nothing: lit).
+// Receivers outside the cap are not covered (a lookup there finds nothing: lit). Where every
+// receiver lies outside it, there is no rest to keep texels for: the cap is kWidestFov.
 #pragma once
 
 #include <span>
@@ -25,6 +26,10 @@
 #include "penumbra/raster/shadow_view_shared.h"
 
 namespace penumbra {
+
+// The field of view (degrees) a fitted window is capped at when no receiver lies within
+// max_fov: everything in front of the eye but the last half degree to its plane.
+inline constexpr float kWidestFov = 179.0f;
 
 struct ShadowViewFit {
   // Texels along the longer side of the fitted window; the other side gets as many as

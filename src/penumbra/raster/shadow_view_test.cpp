@@ -77,6 +77,29 @@ TEST(ShadowView, GrazingReceiversAreCappedAtMaxFov) {
   EXPECT_NEAR(focal_texels(v), 128.0f, 0.1f);
 }
 
+TEST(ShadowView, WhereEveryReceiverLiesBeyondMaxFovTheWindowHoldsThem) {
+  // A patch of ground 20 to 30 units off to the side of a light 4 above it: 79-83 degrees off
+  // the axis, beyond the 120-degree cap. There is nothing inside the cap to keep texels for, so
+  // the window holds the patch (it used to be an error).
+  const Vec3f eye{0, 4, 0};
+  std::vector<Vec3f> receivers;
+  for (int i = 0; i <= 10; ++i)
+    for (int j = 0; j <= 10; ++j) receivers.push_back({20.0f + i, 0, -5.0f + j});
+  ShadowViewFit fit;
+  fit.resolution = 256;
+  const LightView v = fit_shadow_view(eye, {0, -1, 0}, {0, 0, 1}, receivers, {}, fit);
+  for (Vec3f p : receivers) {
+    const Vec3f t = v.to_texel(p);
+    EXPECT_GE(t.x, 0.0f);
+    EXPECT_LT(t.x, static_cast<float>(v.width()));
+    EXPECT_GE(t.y, 0.0f);
+    EXPECT_LT(t.y, static_cast<float>(v.height()));
+  }
+  // No wider than it must be: the patch starts 5 (= 20 / 4) to the side of the axis.
+  EXPECT_GT(std::max(std::abs(v.window_left()), std::abs(v.window_right())) / v.near(), 7.4f);
+  EXPECT_GT(std::min(std::abs(v.window_left()), std::abs(v.window_right())) / v.near(), 4.9f);
+}
+
 TEST(ShadowView, RejectsReceiversBehindTheEyeAndBadSettings) {
   std::vector<Vec3f> behind = {{0, 2, 0}, {1, 3, 0}};
   EXPECT_NE(test::error_message([&] { fit_shadow_view({0, 1, 0}, {0, -1, 0}, {0, 0, 1}, behind, {}, {}); })
