@@ -9,9 +9,8 @@
 //   the point sees none of the light, whatever the method's rays or maps would say there.
 #include <gtest/gtest.h>
 
-#include <cmath>
+#include <cstdio>
 #include <string>
-#include <vector>
 
 #include "penumbra/render/renderer.h"
 #include "penumbra/testing/every_method.h"
