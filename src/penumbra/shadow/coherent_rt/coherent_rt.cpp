@@ -56,7 +56,8 @@ class CoherentRayTracing final : public ShadowMethod {
     images_.clear();
     extra_ = nlohmann::json::object();
     if (geometry_) return;
-    if (!casts_shadows(*ctx.scene, *ctx.light)) {  // no image: nothing blocks a ray
+    const lam::ShadowRegion region = lam::fit_shadow_region(*ctx.scene, *ctx.light);
+    if (region.empty) {  // no image: nothing blocks a ray (reference_view)
       extra_["views"] = nlohmann::json::array();
       memory_bytes_ = 0;
       return;
@@ -69,7 +70,7 @@ class CoherentRayTracing final : public ShadowMethod {
     const std::vector<uint8_t> closed = objects_closed(*ctx.scene);
     nlohmann::json views = nlohmann::json::array();
     for (Vec3f eye : view_points(*ctx.light, views_)) {
-      const LightView view = reference_view(*ctx.scene, *ctx.light, eye, image_options_.resolution);
+      const LightView view = reference_view(region, *ctx.light, eye, image_options_.resolution);
       images_.push_back(build_reference_image(tris, view, image_options_, closed, &times));
       views.push_back({{"width", view.width()}, {"height", view.height()}, {"near", view.near()}, {"far", view.far()}});
     }

@@ -75,12 +75,12 @@ class CoherentRtGpu final : public GpuShadowMethod {
     if (!rasterizer_) rasterizer_ = std::make_unique<gpu::GpuRasterizer>(device);
     std::vector<shader::CrtImageDesc> descs;
     nlohmann::json views = nlohmann::json::array();
-    // No image where no caster can shadow a receiver (casts_shadows): nothing blocks a ray.
-    const std::vector<Vec3f> eyes =
-        casts_shadows(*ctx.scene, *ctx.light) ? view_points(*ctx.light, settings_.views) : std::vector<Vec3f>{};
+    // No image where no caster can shadow a receiver (reference_view): nothing blocks a ray.
+    const lam::ShadowRegion region = lam::fit_shadow_region(*ctx.scene, *ctx.light);
+    const std::vector<Vec3f> eyes = region.empty ? std::vector<Vec3f>{} : view_points(*ctx.light, settings_.views);
     for (Vec3f eye : eyes) {
       GpuReferenceImage img;
-      img.view = reference_view(*ctx.scene, *ctx.light, eye, settings_.images.resolution);
+      img.view = reference_view(region, *ctx.light, eye, settings_.images.resolution);
       const int w = img.view.width(), h = img.view.height();
       const uint64_t texels = static_cast<uint64_t>(w) * static_cast<uint64_t>(h);
       // The depth map (one, reused for every view: each image is built before the next map).

@@ -57,10 +57,11 @@ std::vector<Vec3f> view_points(const AreaLight& light, const std::string& views)
   return out;
 }
 
-bool casts_shadows(const Scene& scene, const AreaLight& light) { return !lam::fit_shadow_region(scene, light).empty; }
-
 LightView reference_view(const Scene& scene, const AreaLight& light, Vec3f eye, int resolution) {
-  const lam::ShadowRegion region = lam::fit_shadow_region(scene, light);
+  return reference_view(lam::fit_shadow_region(scene, light), light, eye, resolution);
+}
+
+LightView reference_view(const lam::ShadowRegion& region, const AreaLight& light, Vec3f eye, int resolution) {
   if (region.empty) throw Error("coherent-rt: no object can cast a shadow from this light");
   lam::LightAxes axes = lam::light_axes(light);
   // A point at depth z and centre-view coordinate u appears at u - dx / z from the eye
