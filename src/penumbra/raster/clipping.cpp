@@ -3,7 +3,7 @@
 namespace penumbra::raster_internal {
 
 TriangleClipper::TriangleClipper(const LightView& view)
-    : near_(view.near()), far_(view.far()), x_max_(static_cast<float>(view.width()) + kGuardBand),
+    : eye_(view.eye()), near_(view.near()), far_(view.far()), x_max_(static_cast<float>(view.width()) + kGuardBand),
       y_max_(static_cast<float>(view.height()) + kGuardBand) {
   const Mat4& m = view.texel_projection();
   for (int c = 0; c < 4; ++c) col_[c] = Float4{m.m[0][c], m.m[1][c], m.m[2][c], m.m[3][c]};
@@ -23,7 +23,7 @@ int TriangleClipper::clip(const RasterTriangle& t, ClipVertex out[kMaxClipVertic
   };
   unsigned any = 0, all = ~0u;
   for (int k = 0; k < 3; ++k) {
-    const Vec3f& p = t.p[k];
+    const Vec3f p = t.p[k] - eye_;  // texel_projection takes p - eye
     Float4 h = col_[0] * p.x + col_[1] * p.y + col_[2] * p.z + col_[3];
     ClipVertex& v = out[k];
     v = {h[0], h[1], h[2], h[3]};

@@ -37,6 +37,7 @@ class TriangleClipper {
   // extensions): a vertex transform is then 3 multiply-adds instead of 28 scalar operations.
   typedef float Float4 __attribute__((vector_size(16)));
   Float4 col_[4];
+  Vec3f eye_;  // texel_projection takes p - eye
   float near_, far_, x_max_, y_max_;
 };
 

@@ -137,8 +137,9 @@ PN_INLINE float view_linear_depth(PN_IN(RasterView) v, vec3 p) { return dot(p - 
 
 // The homogeneous texel coordinates of p (LightView::texel_projection, Mat4::transform_homogeneous's
 // sums): x, y, z (the linear depth), w.
-PN_INLINE void view_texel_homogeneous(PN_IN(RasterView) v, vec3 p, PN_OUT(float) h0, PN_OUT(float) h1, PN_OUT(float) h2,
+PN_INLINE void view_texel_homogeneous(PN_IN(RasterView) v, vec3 world, PN_OUT(float) h0, PN_OUT(float) h1, PN_OUT(float) h2,
                                       PN_OUT(float) h3) {
+  PN_PRECISE vec3 p = world - v.eye;  // texel_projection takes p - eye
   PN_PRECISE float x = v.row0.x * p.x + v.row0.y * p.y + v.row0.z * p.z + v.off0;
   PN_PRECISE float y = v.row1.x * p.x + v.row1.y * p.y + v.row1.z * p.z + v.off1;
   PN_PRECISE float z = v.row2.x * p.x + v.row2.y * p.y + v.row2.z * p.z + v.off2;

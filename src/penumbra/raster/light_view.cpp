@@ -144,7 +144,7 @@ void LightView::finish() {
   Mat4& m = texel_projection_;
   auto set_row = [&](int row, Vec3f v, float offset) {
     m.m[row][0] = v.x; m.m[row][1] = v.y; m.m[row][2] = v.z;
-    m.m[row][3] = offset - dot(v, eye_);
+    m.m[row][3] = offset;  // of p - eye (light_view.h texel_projection)
   };
   if (kind_ == ProjectionKind::Perspective) {
     projection_ = Mat4::frustum(l_, r_, b_, t_, near_, far_);
@@ -188,7 +188,7 @@ void LightView::finish() {
 
 Vec3f LightView::to_texel(Vec3f world) const {
   float h[4];
-  texel_projection_.transform_homogeneous(world, h);
+  texel_homogeneous(world, h);
   return {h[0] / h[3], h[1] / h[3], h[2]};
 }
 

@@ -92,10 +92,16 @@ class LightView {
   const Mat4& view() const { return view_; }
   const Mat4& projection() const { return projection_; }
   Mat4 view_projection() const { return projection_ * view_; }
-  // World -> homogeneous texel coordinates (X, Y, z, w): texel = (X / w, Y / w), z is the
-  // linear depth, w = z for a perspective view and 1 for an orthographic one. Everything
-  // here is affine in the world point, so clipping can interpolate it (the rasterizer does).
+  // A point's offset from the eye, p - eye(), -> homogeneous texel coordinates (X, Y, z, w):
+  // texel = (X / w, Y / w), z is the linear depth, w = z for a perspective view and 1 for an
+  // orthographic one. Everything here is affine in the point, so clipping can interpolate it
+  // (the rasterizer does). It takes p - eye, not p: far from the world's origin (a georeferenced
+  // model 2 x 10^4 units out) a world-space matrix would subtract two coordinates of that size
+  // after rounding each, and lose depths and texel positions to its ulp (0.002); p - eye is exact
+  // to the ulp of p, and what follows is at the view's own scale.
   const Mat4& texel_projection() const { return texel_projection_; }
+  // texel_projection applied to p (p - eye first).
+  void texel_homogeneous(Vec3f p, float h[4]) const { texel_projection_.transform_homogeneous(p - eye_, h); }
 
   float linear_depth(Vec3f world) const { return dot(world - eye_, forward_); }
   // Window depth of a linear depth and back (see the conventions above).

@@ -210,7 +210,7 @@ PN_INLINE float raster_key_depth(uint64_t key) { return raster_order_float(uint(
 
 // A LightView as kernels and shared functions see it, 160 bytes (scalar layout; light_view.h's
 // conventions; LightView::shared() writes it):
-//   bytes   0-63  texel_projection, rows 0-3, each (vec3 row, float offset)
+//   bytes   0-63  texel_projection (of p - eye), rows 0-3, each (vec3 row, float offset)
 //   bytes  64-79  eye, near   80-95 right, far   96-111 up, width   112-127 forward, height
 //   bytes 128-143 the window l, r, b, t   144-147 perspective (1) or orthographic (0)
 //   bytes 148-159 (unused, 0)

@@ -303,6 +303,20 @@ TEST_F(GpuFrame, EveryMethodsVIsTheSameInAnyUnitAndZeroWhereTheLightFacesAway) {
   }
 }
 
+// scene_units_test.cpp's scene far from the origin (2 x 10^4 units out, where a float coordinate
+// is exact to 0.002): every method's GPU version draws its CPU version's V there (the ray offset,
+// the eye-relative texel projection and the biases are the devices' shared functions).
+TEST_F(GpuFrame, FarFromTheOriginEveryMethodDrawsTheCpusV) {
+  const Scene far = testing::contact_scene_at_scale(1.0f, 40, Vec3f(2e4f, 50.0f, -1.5e4f));
+  for (const MethodInfo* m : MethodRegistry::all()) {
+    const RenderSettings settings = testing::device_settings(m->name, {}, true, 3, 16);
+    const RenderResult gpu = render_on(far, settings, true), cpu = render_on(far, settings, false);
+    const double dv = mean_abs_diff(gpu.visibility, cpu.visibility);
+    std::printf("%-20s GPU against CPU at offset 2e4: %.6f\n", m->name.c_str(), dv);
+    EXPECT_LE(dv, 2e-3) << m->name;
+  }
+}
+
 TEST_F(GpuFrame, ARenderOverTheGpusMemoryIsRefusedUpFront) {
   RenderSettings settings;
   settings.method = "reference";

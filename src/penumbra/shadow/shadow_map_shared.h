@@ -15,6 +15,7 @@
 #include "penumbra/raster/raster_shared.h"
 #include "penumbra/scene/light_shared.h"
 #include "penumbra/shadow/near_field_shared.h"
+#include "penumbra/trace/ray_shared.h"
 
 PN_SHARED_BEGIN
 
@@ -52,6 +53,7 @@ struct ShadowReceiver {
   float plane_b;
   float plane_c;
   vec3 ng;
+  vec3 p;      // the point (its coordinates' size bounds its rounding: sm_constant_bias)
   bool faces;  // dot(ng, eye - p) > 0
 };
 
@@ -59,10 +61,10 @@ struct ShadowReceiver {
 // nothing of the light's emitting side.
 PN_INLINE bool sm_in_front_of_light(vec3 c, vec3 n, vec3 p) { return dot(p - c, n) > 0.0f; }
 
-// Row `row` (offset `off`) of the texel projection applied to p, summed as Mat4::
-// transform_homogeneous sums it.
-PN_INLINE float sm_row(vec3 row, float off, vec3 p) {
-  PN_PRECISE float h = row.x * p.x + row.y * p.y + row.z * p.z + off;
+// Row `row` (offset `off`) of the texel projection applied to d = p - eye (LightView::
+// texel_projection), summed as Mat4::transform_homogeneous sums it.
+PN_INLINE float sm_row(vec3 row, float off, vec3 d) {
+  PN_PRECISE float h = row.x * d.x + row.y * d.y + row.z * d.z + off;
   return h;
 }
 
@@ -78,22 +80,32 @@ PN_INLINE float sm_texel_size(RasterView v, float z) { return (v.r - v.l) / floa
 //   0.0007; 16 epsilons still left acne on a few pixels at 3 x 10^5);
 // - at most one texel: a larger bias lets light through occluders the map resolves (the bunny
 //   scene at 1/100 of its size: `vsm` 0.017 -> 0.026, at 1/1000 `shadow-map` 0.031 -> 0.061).
-// The shipped scenes' pictures are the same bit for bit (docs/methods/shadow-map.md, "A scene in
-// any unit").
+// - at least the ray offset's share of p's largest coordinate (trace/ray_shared.h): p is exact to
+//   a few ulps of its coordinates, not of its depth (a street 2 x 10^4 units from the world's
+//   origin, 10 from its light: its points are exact to 0.002, and `shadow-map` drew acne on
+//   every face the light grazes).
+// The shipped scenes' pictures stayed the same bit for bit with the first two; the third, with
+// the eye-relative projection, moved them by a mean |dV| of 2e-4 at most (docs/methods/
+// shadow-map.md, "A scene in any unit", "A scene far from the origin").
 PN_CONST float kSmBiasFloor = 64.0f * 1.1920929e-07f;
-PN_INLINE float sm_constant_bias(float bias, float z, float s) { return max(kSmBiasFloor * z, min(bias, s)); }
+PN_INLINE float sm_constant_bias(float bias, float z, float s, vec3 p, float slope) {
+  float position = kRayOffsetRelative * max(abs(p.x), max(abs(p.y), abs(p.z))) * (1.0f + slope);
+  return max(max(kSmBiasFloor * z, position), min(bias, s));
+}
 
 // ShadowDepthMap::receiver.
 PN_INLINE ShadowReceiver sm_receiver(ShadowMapView m, vec3 p, vec3 ng, ShadowBias b) {
   RasterView v = m.view;
   ShadowReceiver r;
   // LightView::to_texel.
-  float w = sm_row(v.row3, v.off3, p);
-  float tz = sm_row(v.row2, v.off2, p);
-  r.texel = vec2(sm_row(v.row0, v.off0, p) / w, sm_row(v.row1, v.off1, p) / w);
+  vec3 d = p - v.eye;
+  float w = sm_row(v.row3, v.off3, d);
+  float tz = sm_row(v.row2, v.off2, d);
+  r.texel = vec2(sm_row(v.row0, v.off0, d) / w, sm_row(v.row1, v.off1, d) / w);
   r.z = tz;
   r.s = sm_texel_size(v, tz);
   r.ng = ng;
+  r.p = p;
   vec3 to_eye = v.eye - p;
   r.faces = dot(ng, to_eye) > 0.0f;
   r.plane_num = -dot(ng, to_eye);
@@ -119,7 +131,7 @@ PN_INLINE float sm_reference_depth(ShadowReceiver r, int x, int y, ShadowBias b)
   float dx = float(x) + 0.5f - r.texel.x;
   float dy = float(y) + 0.5f - r.texel.y;
   float reach = max(1.0f, sqrt(dx * dx + dy * dy));
-  float bias = sm_constant_bias(b.bias, r.z, r.s);
+  float bias = sm_constant_bias(b.bias, r.z, r.s, r.p, r.slope);
   if (b.receiver_plane == 0u) return r.z - bias - b.slope_bias * r.s * r.slope * reach;
   float limit = b.max_slope * r.s * reach;
   float den = r.plane_a * (float(x) + 0.5f) + r.plane_b * (float(y) + 0.5f) + r.plane_c;
@@ -170,8 +182,8 @@ PN_INLINE float sm_lookup_beyond(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, Shad
   if (!(plane_num < 0.0f) && closed) return 0.0f;  // faces: dot(ng, eye - p) > 0
   float z = dot(d, v.forward);
   float inv_z = 1.0f / z;
-  float tx = sm_row(v.row0, v.off0, p) * inv_z;
-  float ty = sm_row(v.row1, v.off1, p) * inv_z;
+  float tx = sm_row(v.row0, v.off0, d) * inv_z;
+  float ty = sm_row(v.row1, v.off1, d) * inv_z;
   if (!(tx >= 0.0f) || !(ty >= 0.0f) || !(tx < float(v.width)) || !(ty < float(v.height))) return 1.0f;
   uint i = uint(ty) * uint(v.width) + uint(tx);
   float zt = PN_AT(zs, i);
@@ -183,7 +195,7 @@ PN_INLINE float sm_lookup_beyond(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, Shad
   float den = abs(plane_num) * inv_z;
   float slope = lateral < b.max_slope * den ? lateral / den : b.max_slope;
   // Own texel: reach max(1, d_t) = 1; s = z / focal.
-  float ref = z - sm_constant_bias(b.bias, z, z * m.inv_focal) - b.slope_bias * z * m.inv_focal * slope;
+  float ref = z - sm_constant_bias(b.bias, z, z * m.inv_focal, p, slope) - b.slope_bias * z * m.inv_focal * slope;
   return zt < min(ref, cut) ? 1.0f - PN_AT(opacity, i) : 1.0f;
 }
 
@@ -208,10 +220,11 @@ PN_INLINE float sm_near_field_length(ShadowMapView m, vec3 p, float near_field, 
 // covered; it counts as lit).
 PN_INLINE bool sm_outside(ShadowMapView m, vec3 p) {
   RasterView v = m.view;
-  float w = sm_row(v.row3, v.off3, p);
-  float z = sm_row(v.row2, v.off2, p);
-  float x = sm_row(v.row0, v.off0, p) / w;
-  float y = sm_row(v.row1, v.off1, p) / w;
+  vec3 d = p - v.eye;
+  float w = sm_row(v.row3, v.off3, d);
+  float z = sm_row(v.row2, v.off2, d);
+  float x = sm_row(v.row0, v.off0, d) / w;
+  float y = sm_row(v.row1, v.off1, d) / w;
   return !(z >= v.near && x >= 0.0f && y >= 0.0f && x < float(v.width) && y < float(v.height));
 }
 

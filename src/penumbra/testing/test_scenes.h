@@ -99,24 +99,27 @@ inline Scene ground_scene(std::vector<SceneObject> occluders, AreaLight light, i
 }
 
 // A box and two open plates on an 8 x 8 ground under a tilted rect light, seen at a slant, every
-// length times `scale`: one plate 0.04 above the ground (a contact a world-unit bias swallows at
-// small scales), one 0.5 above it. At scale 10^5 the light is 3 x 10^5 units from the ground,
-// where a float depth is exact to 0.03. The scene units test (render/scene_units_test.cpp).
-inline Scene contact_scene_at_scale(float scale, int res = 40) {
+// length times `scale`, the whole moved by `offset`: one plate 0.04 above the ground (a contact a
+// world-unit bias swallows at small scales), one 0.5 above it. At scale 10^5 the light is 3 x 10^5
+// units from the ground, where a float depth is exact to 0.03; at an offset of 2 x 10^4 (a
+// georeferenced model) a float coordinate is exact to 0.002, though every distance is unit-sized.
+// The scene units test (render/scene_units_test.cpp).
+inline Scene contact_scene_at_scale(float scale, int res = 40, Vec3f offset = {0, 0, 0}) {
   const float k = scale;
   Scene s;
-  s.camera.eye = Vec3f(0.6f, 3.2f, 4.0f) * k;
-  s.camera.target = Vec3f(0.2f, 0.2f, 0.0f) * k;
+  s.camera.eye = Vec3f(0.6f, 3.2f, 4.0f) * k + offset;
+  s.camera.target = Vec3f(0.2f, 0.2f, 0.0f) * k + offset;
   s.camera.up = {0, 1, 0};
   s.camera.fov_y = 50;
   s.camera.width = s.camera.height = res;
-  AreaLight light = rect_light_down(Vec3f(-0.6f, 3.0f, 0.4f) * k, 1.2f * k, 0.8f * k);
+  AreaLight light = rect_light_down(Vec3f(-0.6f, 3.0f, 0.4f) * k + offset, 1.2f * k, 0.8f * k);
   light.frame = Frame::from_zx(normalize(Vec3f(0.2f, -1.0f, -0.1f)), {1, 0, 0});
   s.lights.push_back(light);
-  s.objects.push_back(object(quad_y(0, -4 * k, 4 * k, -4 * k, 4 * k)));
-  s.objects.push_back(object(box(Vec3f(-0.6f, 0.0f, -0.5f) * k, Vec3f(0.2f, 0.7f, 0.3f) * k)));
-  s.objects.push_back(object(quad_y(0.04f * k, 0.7f * k, 1.5f * k, -0.3f * k, 0.5f * k)));
-  s.objects.push_back(object(quad_y(0.5f * k, -0.4f * k, 0.4f * k, 0.8f * k, 1.4f * k)));
+  const Vec3f o = offset;
+  s.objects.push_back(object(quad_y(o.y, o.x - 4 * k, o.x + 4 * k, o.z - 4 * k, o.z + 4 * k)));
+  s.objects.push_back(object(box(Vec3f(-0.6f, 0.0f, -0.5f) * k + o, Vec3f(0.2f, 0.7f, 0.3f) * k + o)));
+  s.objects.push_back(object(quad_y(o.y + 0.04f * k, o.x + 0.7f * k, o.x + 1.5f * k, o.z - 0.3f * k, o.z + 0.5f * k)));
+  s.objects.push_back(object(quad_y(o.y + 0.5f * k, o.x - 0.4f * k, o.x + 0.4f * k, o.z + 0.8f * k, o.z + 1.4f * k)));
   s.finalize();
   return s;
 }

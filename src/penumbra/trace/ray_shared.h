@@ -8,9 +8,16 @@
 
 PN_SHARED_BEGIN
 
-// The offset off a surface at p: Embree's watertight triangle test is accurate to a few ulps of
-// the coordinates, so it scales with the largest coordinate; 2^-15 relative is ~250 ulps.
-PN_INLINE float ray_offset_epsilon(vec3 p) { return (1.0f + max(abs(p.x), max(abs(p.y), abs(p.z)))) * 3.0e-5f; }
+// The offset off a surface at p. p is a barycentric sum of its triangle's corners, and a
+// triangle test (Embree's watertight one, the GPU's bvh_traverse.glsl) works on corners minus the
+// ray's origin: both are accurate to a few ulps of the coordinates, so the offset scales with the
+// largest coordinate, 2^-20 of it (8 to 16 ulps). A 3e-5 floor covers a point near the origin on
+// a large triangle (its corners' ulps, not p's, are the error). At 2 x 10^4 from the origin (a
+// georeferenced model) that is 0.019, where 2^-15 (~250 ulps, before) moved every ray 0.6 off its
+// surface and lit every contact shadow (render/scene_units_test.cpp).
+PN_CONST float kRayOffsetFloor = 3.0e-5f;
+PN_CONST float kRayOffsetRelative = 9.5367431640625e-7f;  // 2^-20
+PN_INLINE float ray_offset_epsilon(vec3 p) { return kRayOffsetFloor + max(abs(p.x), max(abs(p.y), abs(p.z))) * kRayOffsetRelative; }
 
 // The unit normal a ray's origin moves along (ng normalised; zero for a degenerate ng).
 PN_INLINE vec3 offset_normal(vec3 ng) {

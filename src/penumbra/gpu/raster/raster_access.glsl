@@ -101,9 +101,10 @@ float raster_fragment_opacity(RasterView view, uint object, uint prim, int x, in
   return surface_opacity(object, prim, b1, b2);
 }
 
-// The homogeneous texel coordinates (x, y, z, w) of a world point: texel = (x / w, y / w), z the
+// The homogeneous texel coordinates (x, y, z, w) of a world point (p - eye through the rows): texel = (x / w, y / w), z the
 // linear depth (LightView::texel_projection; summed as clipping.cpp's vector transform sums it).
-vec4 raster_project(RasterView v, vec3 p) {
+vec4 raster_project(RasterView v, vec3 world) {
+  precise vec3 p = world - v.eye;  // texel_projection takes p - eye
   precise vec4 h = vec4(v.row0.x, v.row1.x, v.row2.x, v.row3.x) * p.x +
                    vec4(v.row0.y, v.row1.y, v.row2.y, v.row3.y) * p.y +
                    vec4(v.row0.z, v.row1.z, v.row2.z, v.row3.z) * p.z + vec4(v.off0, v.off1, v.off2, v.off3);

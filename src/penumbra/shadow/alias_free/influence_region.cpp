@@ -26,7 +26,7 @@ InfluenceRegions::InfluenceRegions(const AreaLight& light, const LightView& view
     outline_ = light.outline(8);
     for (const Vec3f& q : outline_) {
       float h[4];
-      view.texel_projection().transform_homogeneous(q, h);
+      view.texel_homogeneous(q, h);
       outline_texel_.push_back({h[0], h[1], h[3], dot(q - light.center, view.forward())});
     }
   }
@@ -40,7 +40,7 @@ bool InfluenceRegions::project(std::span<const Vec3f> v, std::vector<Vec2f>* out
     // A rect or disk: the same polygon for every vertex (the loop below, one transform a vertex).
     for (const Vec3f& x : v) {
       float hv[4];
-      view_.texel_projection().transform_homogeneous(x, hv);
+      view_.texel_homogeneous(x, hv);
       const float zv = dot(x - c, axis);
       for (const std::array<float, 4>& q : outline_texel_) {
         const float ahead = zv - q[3], reach = far_ - q[3];

@@ -212,15 +212,16 @@ PN_INLINE float fm_shade(FmMapRef map, FmModel model, FmShadeBlock b, vec3 p, ve
   if (!(horizon > 0.0f)) return 0.0f;
   // LightView::to_texel.
   RasterView v = b.map.view;
-  float w = sm_row(v.row3, v.off3, p);
-  float tz = sm_row(v.row2, v.off2, p);
-  float tx = sm_row(v.row0, v.off0, p) / w;
-  float ty = sm_row(v.row1, v.off1, p) / w;
+  vec3 d = p - v.eye;
+  float w = sm_row(v.row3, v.off3, d);
+  float tz = sm_row(v.row2, v.off2, d);
+  float tx = sm_row(v.row0, v.off0, d) / w;
+  float ty = sm_row(v.row1, v.off1, d) / w;
   if (!(tz >= v.near && tx >= 0.0f && ty >= 0.0f && tx < float(v.width) && ty < float(v.height)))
     return horizon;  // not covered by the map (beyond max_fov): lit
   // Normalised like the texels (a receiver behind every covered depth compares as the farthest
   // one: empty texels, at 1, never block).
-  double t = clamp(fm_normalize(map.range, tz - sm_constant_bias(b.bias, tz, sm_texel_size(v, tz))), double(0.0f),
+  double t = clamp(fm_normalize(map.range, tz - sm_constant_bias(b.bias, tz, sm_texel_size(v, tz), p, 0.0f)), double(0.0f),
                    map.range.far);
   double hx = b.fixed_half;
   double hy = hx;

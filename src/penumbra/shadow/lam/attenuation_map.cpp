@@ -261,7 +261,8 @@ inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, bool closed, uint
 }
 
 namespace {
-constexpr uint64_t kMapRecordMagic = 0x324d4454414d414cull;  // "LAMATDM2" (2: open_epsilon)
+// "LAMATDM3" (2: open_epsilon; 3: the projection takes p - eye, LightView::texel_projection)
+constexpr uint64_t kMapRecordMagic = 0x334d4454414d414cull;
 }  // namespace
 
 void AttenuationMap::write(std::ostream& out) const {

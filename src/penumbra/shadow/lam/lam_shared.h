@@ -263,9 +263,10 @@ PN_INLINE float lam_lookup_texel(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, u
                     lam_depth_tolerance(epsilon, z));
 }
 
-// One row of the texel projection applied to p, summed as the CPU sums it.
-PN_INLINE float lam_row(vec3 row, float off, vec3 p) {
-  PN_PRECISE float h = row.x * p.x + row.y * p.y + row.z * p.z + off;
+// One row of the texel projection applied to d = p - eye (LightView::texel_projection), summed as
+// the CPU sums it.
+PN_INLINE float lam_row(vec3 row, float off, vec3 d) {
+  PN_PRECISE float h = row.x * d.x + row.y * d.y + row.z * d.z + off;
   return h;
 }
 
@@ -300,11 +301,12 @@ PN_INLINE float lam_epsilon(LamMapView m, bool closed) { return m.slope != 0u &&
 // kLamUnresolved instead: the caller traces its light samples.
 PN_INLINE float lam_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uint stride, LamMapView m, vec3 p,
                                vec3 n, float epsilon, bool bilinear, bool slope, PN_INOUT(uint) texels) {
-  float z = lam_row(m.row2, m.off2, p);
+  vec3 d = p - m.eye;
+  float z = lam_row(m.row2, m.off2, d);
   if (!(z >= m.near && z <= m.far)) return 1.0f;
   float inv = 1.0f / z;
-  PN_PRECISE float x = lam_row(m.row0, m.off0, p) * inv;
-  PN_PRECISE float y = lam_row(m.row1, m.off1, p) * inv;
+  PN_PRECISE float x = lam_row(m.row0, m.off0, d) * inv;
+  PN_PRECISE float y = lam_row(m.row1, m.off1, d) * inv;
   if (!(x >= 0.0f && y >= 0.0f && x < float(m.width) && y < float(m.height))) return 1.0f;
   // p's surface as a plane in the reference view: linear depth on the ray through texel point
   // (X, Y) is nd / (nr X - nu Y + nf) (u = u0 + X delta, v = v1 - Y delta). The layers hold depths

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "penumbra/core/parallel.h"
+#include "penumbra/trace/ray_shared.h"
 
 namespace penumbra::single_sample {
 
@@ -43,9 +44,18 @@ Occluders build_occluders(const Scene& scene, const AreaLight& l, const Occluder
   occ.light_frame = length_squared(toward) > 0 ? Frame::from_z(toward) : Frame::from_z(-l.frame.n);
   occ.light_pos = l.center;
   {
+    // Planes and receivers are compared in the light frame, where lengths are at the scale of
+    // the scene's reach from the light; the receivers came from world coordinates, exact to
+    // their ulps. So the tolerance is 1e-4 of the reach plus the ray offset's share of the
+    // largest coordinate (trace/ray_shared.h): a scene 2 x 10^4 units from the origin keeps a
+    // plate 0.04 over its ground apart from it, and one modelled 1/1000 of its size its contacts.
     const Bounds3f& b = scene_bounds;
-    occ.scene_scale = 1.0f + std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
-    occ.plane_eps = 1e-4f * occ.scene_scale;
+    float reach = 0;
+    for (int c = 0; c < 8; ++c)
+      reach = std::max(reach, length(Vec3f(c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y, c & 4 ? b.hi.z : b.lo.z) - l.center));
+    const float largest = std::max(max_component(vmax(b.hi, -b.hi)), max_component(vmax(b.lo, -b.lo)));
+    occ.scene_scale = reach;
+    occ.plane_eps = 1e-4f * reach + shader::kRayOffsetRelative * largest;
   }
   std::vector<BvhTriangle> tris;
   size_t all_count = 0;

@@ -53,7 +53,7 @@ struct Occluders {
   // boxes aligned with this frame are thin across the rays.
   Frame light_frame;
   Vec3f light_pos;
-  float scene_scale = 1;  // 1 + the largest coordinate of the scene
+  float scene_scale = 1;  // the scene's reach: the largest distance of its bounds' corners from the light
   float plane_eps = 1e-4f;  // two points closer than this to one plane lie in it
   TriangleBvh bvh;  // the candidates, light frame
   std::vector<Plane> planes;  // per BVH triangle: its plane
