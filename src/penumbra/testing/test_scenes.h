@@ -123,6 +123,26 @@ inline Scene contact_scene_at_scale(float scale, int res = 40, Vec3f offset = {0
   s.finalize();
   return s;
 }
+// A street 400 units long and 2 wide with a box every 10 units, under a 3 x 3 light 30 above its
+// middle, seen from one end: most of what the camera sees lies 70-85 degrees off the light's axis,
+// beyond the 76 degrees lam's shadow region is cut at (lam_test.cpp, lam_gpu_test.cpp).
+inline Scene street_beyond_the_cap_scene(int res = 48) {
+  Scene s;
+  s.camera.eye = {-200, 2, 0};
+  s.camera.target = {0, 0, 0};
+  s.camera.up = {0, 1, 0};
+  s.camera.fov_y = 30;
+  s.camera.width = s.camera.height = res;
+  AreaLight light = rect_light_down({0, 30, 3}, 3, 3);
+  light.frame = Frame::from_zx(normalize(Vec3f(0, -1, -0.1f)), {1, 0, 0});
+  s.lights.push_back(light);
+  s.objects.push_back(object(quad_y(0, -200, 200, -1, 1)));
+  for (int x = -190; x <= 190; x += 10)
+    s.objects.push_back(object(box(Vec3f(x - 0.25f, 0, -0.25f), Vec3f(x + 0.25f, 1, 0.25f))));
+  s.finalize();
+  return s;
+}
+
 // The largest mean |dV| between contact_scene_at_scale(1) and another scale that still counts as
 // the same picture (float rounding moves a few texels' decisions).
 inline constexpr double kSceneUnitsTolerance = 0.003;

@@ -115,7 +115,6 @@ ShadowRegion fit_shadow_region(const Scene& scene, const AreaLight& light, float
     float gu = ex / c.z0, gv = ey / c.z0;
     float su0 = std::max(-max_tan, c.u0 - gu), su1 = std::min(max_tan, c.u1 + gu);
     float sv0 = std::max(-max_tan, c.v0 - gv), sv1 = std::min(max_tan, c.v1 + gv);
-    if (!(su0 < su1) || !(sv0 < sv1)) continue;
     Vec3f pn, p0;
     const bool flat = planar(scene.objects[o].mesh, tol, &pn, &p0);
     // A planar caster with the whole light on one side shadows only the other side.
@@ -130,28 +129,49 @@ ShadowRegion fit_shadow_region(const Scene& scene, const AreaLight& light, float
       if (pos == static_cast<int>(outline.size())) light_side = 1;
       if (neg == static_cast<int>(outline.size())) light_side = -1;
     }
-    bool any = false;
-    float ru0 = kInfinity, ru1 = -kInfinity, rv0 = kInfinity, rv1 = -kInfinity, far = 0;
-    for (size_t q = 0; q < n; ++q) {
-      const ViewBox& rb = boxes[q];
-      if (rb.empty) continue;
-      if (q == o) {
-        if (flat) continue;
-      } else {
-        if (rb.z1 <= c.z0) continue;  // entirely nearer to the light than the caster
-        if (!windows_overlap(rb, su0, su1, sv0, sv1)) continue;
-        if (light_side != 0) {
-          bool beyond = false;
-          for (int k = 0; k < 8 && !beyond; ++k) beyond = light_side * dot(bounds[q].corner(k) - p0, pn) < -tol;
-          if (!beyond) continue;
+    // The objects O shadows within the window [u0, u1] x [v0, v1]: their windows' union and
+    // their farthest depth (any = false: none).
+    struct Receivers {
+      bool any = false;
+      float u0 = kInfinity, u1 = -kInfinity, v0 = kInfinity, v1 = -kInfinity, far = 0;
+    };
+    auto receivers = [&](float u0, float u1, float v0, float v1) {
+      Receivers rs;
+      for (size_t q = 0; q < n; ++q) {
+        const ViewBox& rb = boxes[q];
+        if (rb.empty) continue;
+        if (q == o) {
+          if (flat) continue;
+        } else {
+          if (rb.z1 <= c.z0) continue;  // entirely nearer to the light than the caster
+          if (!windows_overlap(rb, u0, u1, v0, v1)) continue;
+          if (light_side != 0) {
+            bool beyond = false;
+            for (int k = 0; k < 8 && !beyond; ++k) beyond = light_side * dot(bounds[q].corner(k) - p0, pn) < -tol;
+            if (!beyond) continue;
+          }
         }
+        rs.any = true;
+        rs.u0 = std::min(rs.u0, rb.u0); rs.u1 = std::max(rs.u1, rb.u1);
+        rs.v0 = std::min(rs.v0, rb.v0); rs.v1 = std::max(rs.v1, rb.v1);
+        rs.far = std::max(rs.far, rb.z1);
       }
-      any = true;
-      ru0 = std::min(ru0, rb.u0); ru1 = std::max(ru1, rb.u1);
-      rv0 = std::min(rv0, rb.v0); rv1 = std::max(rv1, rb.v1);
-      far = std::max(far, rb.z1);
+      return rs;
+    };
+    // Where the shadow volume reaches beyond the cap onto something it can shadow, the region is
+    // cut there (cap_tan): the display traces the points beyond it (lam_beyond_cap).
+    const float uu0 = c.u0 - gu, uu1 = c.u1 + gu, uv0 = c.v0 - gv, uv1 = c.v1 + gv;
+    if (r.cap_tan == 0 && (uu0 < -max_tan || uu1 > max_tan || uv0 < -max_tan || uv1 > max_tan)) {
+      const Receivers all = receivers(uu0, uu1, uv0, uv1);
+      const float au0 = std::max(uu0, all.u0), au1 = std::min(uu1, all.u1);
+      const float av0 = std::max(uv0, all.v0), av1 = std::min(uv1, all.v1);
+      if (all.any && au0 <= au1 && av0 <= av1 && (au0 < -max_tan || au1 > max_tan || av0 < -max_tan || av1 > max_tan))
+        r.cap_tan = max_tan;
     }
-    if (!any) continue;
+    if (!(su0 < su1) || !(sv0 < sv1)) continue;
+    const Receivers rs = receivers(su0, su1, sv0, sv1);
+    if (!rs.any) continue;
+    const float ru0 = rs.u0, ru1 = rs.u1, rv0 = rs.v0, rv1 = rs.v1, far = rs.far;
     float wu0 = std::max(su0, ru0), wu1 = std::min(su1, ru1);
     float wv0 = std::max(sv0, rv0), wv1 = std::min(sv1, rv1);
     if (!(wu0 < wu1) || !(wv0 < wv1)) continue;
@@ -161,7 +181,11 @@ ShadowRegion fit_shadow_region(const Scene& scene, const AreaLight& light, float
     r.near = std::min(r.near, c.z0);
     r.far = std::max(r.far, far);
   }
-  if (r.empty) return ShadowRegion{};
+  if (r.empty) {
+    ShadowRegion none;
+    none.cap_tan = r.cap_tan;
+    return none;
+  }
   return r;
 }
 
@@ -230,6 +254,7 @@ void AttenuationMap::update_shared() {
   m.far = far_;
   m.unresolved = unresolved_ ? 1u : 0u;
   m.trace_spread = trace_spread_;
+  m.cap_tan = cap_tan_;
   m.width = width_;
   m.height = height_;
   m.eye = eye_;
@@ -261,7 +286,8 @@ inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, bool closed, uint
 }
 
 namespace {
-// "LAMATDM3" (2: open_epsilon; 3: the projection takes p - eye, LightView::texel_projection)
+// "LAMATDM3" (2: open_epsilon; 3: the projection takes p - eye, LightView::texel_projection, and
+// the region's cut, cap_tan)
 constexpr uint64_t kMapRecordMagic = 0x334d4454414d414cull;
 }  // namespace
 
@@ -291,6 +317,7 @@ void AttenuationMap::write(std::ostream& out) const {
   binary::write(out, u0_);
   binary::write(out, v1_);
   binary::write(out, delta_);
+  binary::write(out, cap_tan_);
   binary::write_array(out, offsets_);
   binary::write_array(out, layers_);
   binary::write(out, kMapRecordMagic);
@@ -311,7 +338,7 @@ bool AttenuationMap::read(std::istream& in) {
       binary::read(in, m.near_) && binary::read(in, m.far_) && binary::read(in, m.slope_) &&
       binary::read(in, m.eye_) && binary::read(in, m.right_) && binary::read(in, m.up_) &&
       binary::read(in, m.forward_) && binary::read(in, m.u0_) && binary::read(in, m.v1_) &&
-      binary::read(in, m.delta_) && binary::read_array(in, m.offsets_, kMaxElements) &&
+      binary::read(in, m.delta_) && binary::read(in, m.cap_tan_) && binary::read_array(in, m.offsets_, kMaxElements) &&
       binary::read_array(in, m.layers_, kMaxElements) && binary::read(in, end_magic) && end_magic == kMapRecordMagic;
   if (!ok || m.width_ < 0 || m.height_ < 0) return false;
   // The lookups index offsets_ by texel and layers_ by offset: check they stay inside.
@@ -349,6 +376,10 @@ void AttenuationMap::visibility_batch(std::span<const ViewSample> samples, std::
   for (size_t i = 0; i < samples.size(); ++i) {
     const ViewSample& s = samples[i];
     const bool closed = s.object < solid_.size() && solid_[s.object];
+    if (shader::lam_beyond_cap(shared_, s.p)) {
+      out[i] = shader::kLamUnresolved;
+      continue;
+    }
     const float v = visibility_impl<kBilinear, kSlope>(s.p, s.ng, closed, t);
     out[i] = v > 0 && closed ? std::min(v, front_fraction(s.p, s.ng)) : v;
   }
@@ -360,7 +391,9 @@ void AttenuationMap::visibility(std::span<const ViewSample> samples, std::span<f
   if (empty()) {
     for (size_t i = 0; i < samples.size(); ++i) {
       const ViewSample& s = samples[i];
-      out[i] = s.object < solid_.size() && solid_[s.object] ? front_fraction(s.p, s.ng) : 1.0f;
+      out[i] = shader::lam_beyond_cap(shared_, s.p)                   ? shader::kLamUnresolved
+               : s.object < solid_.size() && solid_[s.object] ? front_fraction(s.p, s.ng)
+                                                              : 1.0f;
     }
     return;
   }
@@ -437,18 +470,20 @@ AttenuationMap Builder::frame(const AreaLight& light, const ShadowRegion& region
     if (area < 0) map.light_normal_ = -map.light_normal_;  // counter-clockwise around the normal
     map.light_radius_ = radius * (1 + 1e-5f);
   }
+  map.cap_tan_ = region.cap_tan;
+  // The light's axes, also for an empty region (lam_beyond_cap reads them).
+  const LightAxes axes = light_axes(light);
+  map.eye_ = axes.eye;
+  map.right_ = axes.right;
+  map.up_ = axes.up;
+  map.forward_ = axes.forward;
   if (!region.empty) {
-    const LightAxes axes = light_axes(light);
     map.view_ = reference_view(axes, region, opt.resolution);
     const LightView& ref = map.view_;
     map.slope_ = opt.slope;
     map.delta_ = (ref.window_right() - ref.window_left()) / (ref.near() * ref.width());
     map.u0_ = ref.window_left() / ref.near();
     map.v1_ = ref.window_top() / ref.near();
-    map.eye_ = axes.eye;
-    map.right_ = axes.right;
-    map.up_ = axes.up;
-    map.forward_ = axes.forward;
     map.width_ = ref.width();
     map.height_ = ref.height();
     map.near_ = ref.near();

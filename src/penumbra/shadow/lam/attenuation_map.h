@@ -52,6 +52,9 @@ struct ShadowRegion {
   bool empty = true;
   float u0 = 0, u1 = 0, v0 = 0, v1 = 0;
   float near = 0, far = 0;
+  // > 0 (the cap, max_tan) where some caster's shadow volume reaches beyond it onto something it
+  // can shadow: the region was cut there, even when nothing is left of it (empty).
+  float cap_tan = 0;
 };
 
 // The region where some part of `light` can be hidden by scene geometry: for every object O
@@ -59,8 +62,8 @@ struct ShadowRegion {
 // overlap O's shadow volume and, when O is planar and the light lies on one side of its
 // plane, reach the other side of it), the window of O's bounds grown by the light's
 // half-extent divided by O's nearest depth (eq. 3), clipped to the receivers' windows.
-// Windows are capped at |u|, |v| <= max_tan (points farther off-axis than that are treated
-// as unshadowed).
+// Windows are capped at |u|, |v| <= max_tan; where that cuts a shadow off, cap_tan says so and the
+// display traces the points beyond (lam_shared.h lam_beyond_cap).
 ShadowRegion fit_shadow_region(const Scene& scene, const AreaLight& light, float max_tan = 4.0f);
 
 // The tolerance within which two linear depths are one surface: epsilon * z (relative).
@@ -155,6 +158,7 @@ class AttenuationMap {
   std::vector<bool> solid_;  // per scene object: closed mesh
   bool unresolved_ = false;   // set_unresolved
   float trace_spread_ = 1.0f;
+  float cap_tan_ = 0;  // ShadowRegion::cap_tan: > 0 where the region was cut (lam_beyond_cap)
   template <bool kBilinear, bool kSlope>
   float visibility_impl(Vec3f p, Vec3f n, bool closed, uint64_t& texels) const;
   template <bool kBilinear, bool kSlope>
@@ -164,7 +168,7 @@ class AttenuationMap {
   float epsilon_ = 0.01f;
   float open_epsilon_ = 0.01f;
   LightView view_;
-  // Texel projection rows (world -> (X z, Y z, z)), copied out of the view for speed.
+  // Texel projection rows (p - eye -> (X z, Y z, z)), copied out of the view for speed.
   float proj_[3][4] = {};
   float near_ = 0, far_ = 0;
   // Slope correction: the view's axes and window (u0 left, v1 top, delta per texel).

@@ -121,6 +121,13 @@ TEST_F(LamGpu, AnEmptyShadowRegionGivesTheCpuPicture) {
   EXPECT_EQ(gpu.stats.extra.at("ldi").at("layers"), 0);
 }
 
+TEST_F(LamGpu, ShadowsBeyondTheRegionsCutAreTracedAsOnTheCpu) {
+  // lam_test.cpp's street: its shadows 73-82 degrees off the light's axis lie beyond the region's
+  // cut, and the display traces them (lam_beyond_cap, both devices' function).
+  const RenderResult gpu = expect_the_cpus_picture(testing::street_beyond_the_cap_scene(32));
+  EXPECT_GT(gpu.stats.extra.at("traced_samples").get<uint64_t>(), 0u);
+}
+
 TEST_F(LamGpu, MemoryEstimateCoversWhatTheMethodHolds) {
   const Scene scene = shipped_scene("bunny.json", 32);
   const GpuMethodInfo* info = find_gpu_method("lam");

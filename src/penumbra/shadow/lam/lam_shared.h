@@ -50,7 +50,8 @@ PN_CONST float kLamUnresolved = -3.0f;
 //   bytes 180-187 unresolved (1: the display returns kLamUnresolved where its texels do not resolve
 //                 a point; 0: the paper's umbra and lit), trace_spread (the largest difference
 //                 between the 4 texels' attenuations the bilinear display interpolates)
-//   bytes 188-191 (unused, 0)
+//   bytes 188-191 cap_tan (> 0: the shadow region was cut at |u|, |v| = cap_tan, and some caster's
+//                 shadow reaches beyond it: with unresolved, the points there are traced; 0: not cut)
 struct LamMapView {
   vec3 row0;
   float off0;
@@ -81,7 +82,7 @@ struct LamMapView {
   float open_epsilon;
   uint unresolved;
   float trace_spread;
-  uint pad3;
+  float cap_tan;
 };
 
 // The tolerance within which two linear depths are one surface: epsilon * z (relative).
@@ -426,12 +427,26 @@ PN_INLINE float lam_front_fraction(PN_FLOAT_ARRAY outline, LamMapView m, vec3 p,
   return clamp(0.5f * area / m.light_area, 0.0f, 1.0f);
 }
 
+// Whether p lies beyond the cut of the shadow region (m.cap_tan, fit_shadow_region's max_tan: 76
+// degrees off the light's axis) where some caster's shadow reaches: the map holds nothing there, so
+// with m.unresolved the point is traced (a street seen from far down its length under a high
+// light: its points 73-82 degrees off the axis were counted lit). p behind the light's plane is
+// the compose step's (V = 0).
+PN_INLINE bool lam_beyond_cap(LamMapView m, vec3 p) {
+  if (m.unresolved == 0u || !(m.cap_tan > 0.0f)) return false;
+  vec3 d = p - m.eye;
+  float z = dot(d, m.forward);
+  float reach = m.cap_tan * z;
+  return z > 0.0f && (abs(dot(d, m.right)) > reach || abs(dot(d, m.up)) > reach);
+}
+
 // A view sample's V from the map: lam_visibility, and on a solid object (the map's solid flag and
-// the object closed) at most its front_fraction.
+// the object closed) at most its front_fraction; kLamUnresolved beyond the region's cut.
 PN_INLINE float lam_sample_visibility(PN_FLOAT_ARRAY layers, LAM_UINT_ARRAY ranges, uint stride,
                                       PN_FLOAT_ARRAY outline, LamMapView m, vec3 p, vec3 ng, bool closed,
                                       bool bilinear, PN_INOUT(uint) texels) {
   bool solid = m.solid != 0u && closed;
+  if (lam_beyond_cap(m, p)) return kLamUnresolved;
   if (m.empty != 0u) return solid ? lam_front_fraction(outline, m, p, ng) : 1.0f;
   float v = lam_visibility(layers, ranges, stride, m, p, ng, lam_epsilon(m, closed), bilinear, m.slope != 0u, texels);
   return v > 0.0f && solid ? min(v, lam_front_fraction(outline, m, p, ng)) : v;

@@ -13,6 +13,7 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadow/lam/attenuation_map.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/testing/gpu_method_runs.h"
 #include "penumbra/testing/memory_cases.h"
 #include "penumbra/testing/method_runs.h"
 #include "penumbra/testing/test_scenes.h"
@@ -374,6 +375,28 @@ TEST(Lam, ShadowRegionIsTheCastersShadowNotTheWholeGround) {
   EXPECT_NEAR(span, 3.0f, 1e-3f);
   EXPECT_NEAR(r.near, kH - kh, 1e-4f);
   EXPECT_NEAR(r.far, kH, 1e-4f);
+}
+
+// Shadows beyond the 76-degree cut of the shadow region (fit_shadow_region's max_tan): the LDI
+// holds nothing there, so the display traces those points (lam_beyond_cap); before, they were lit.
+TEST(Lam, ShadowsBeyondTheRegionsCutAreTraced) {
+  const Scene street = testing::street_beyond_the_cap_scene(48);
+  EXPECT_EQ(lam::fit_shadow_region(street, street.lights[0]).cap_tan, 4.0f);
+  EXPECT_EQ(lam::fit_shadow_region(edge_scene(), edge_scene().lights[0]).cap_tan, 0.0f);  // nothing cut
+  auto render = [&](const std::string& method, std::vector<std::string> params) {
+    return render_scene(street, testing::device_settings(method, std::move(params), false, 7, 64));
+  };
+  const RenderResult truth = render("reference", {}), traced = render("lam", {}), paper = render("lam", {"unresolved=umbra"});
+  double shadow = 0;
+  for (float v : truth.visibility.data()) shadow += 1 - v;
+  const double e_traced = testing::mean_abs_dv(traced.visibility, truth.visibility);
+  const double e_paper = testing::mean_abs_dv(paper.visibility, truth.visibility);
+  std::printf("street beyond the cut: mean |dV| %.5f traced, %.5f the paper's display (lit beyond the cut)\n", e_traced,
+              e_paper);
+  EXPECT_GT(shadow / static_cast<double>(truth.visibility.data().size()), 0.005) << "a shadow to find";
+  EXPECT_LE(e_traced, 1e-3);
+  EXPECT_GT(e_paper, 5 * e_traced);
+  EXPECT_GT(traced.stats.extra.at("traced_samples").get<uint64_t>(), 0u);
 }
 
 TEST(Lam, CameraChangeReusesTheLdi) {
