@@ -89,6 +89,18 @@ LightView build_shadow_view(const ShadowViewFrame& frame, const ShadowViewRange&
   };
   auto empty = [](const ShadowViewRange& c) { return !(c.x1 >= c.x0) || !(c.y1 >= c.y0); };
   r = capped(fit.max_fov);
+  // Beyond the cap, the receivers some caster can shadow (fit.reach): they would count lit.
+  ShadowViewRange reach = capped(kWidestFov);
+  reach.x0 = std::max(reach.x0, fit.reach_x0); reach.x1 = std::min(reach.x1, fit.reach_x1);
+  reach.y0 = std::max(reach.y0, fit.reach_y0); reach.y1 = std::min(reach.y1, fit.reach_y1);
+  if (!empty(reach)) {
+    if (empty(r)) {
+      r = reach;
+    } else {
+      r.x0 = std::min(r.x0, reach.x0); r.x1 = std::max(r.x1, reach.x1);
+      r.y0 = std::min(r.y0, reach.y0); r.y1 = std::max(r.y1, reach.y1);
+    }
+  }
   if (empty(r)) r = capped(kWidestFov);
   if (empty(r))
     throw Error("fit_shadow_view: every receiver lies outside the {}-degree field of view", kWidestFov);

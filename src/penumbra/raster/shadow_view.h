@@ -40,6 +40,12 @@ struct ShadowViewFit {
   // Nothing closer to the eye than this (world units) is rasterized or fitted; 0 = 1e-4
   // of the casters' (or receivers') bounding diagonal.
   float min_near = 0;
+  // Where casters can shadow something, as x/z, y/z in the view's frame (shadow/shadow_region.h,
+  // for a view from the light's centre along its normal): the receivers in it beyond max_fov stay
+  // in the window too, up to kWidestFov (a street seen from far down its length, its light high
+  // over its middle: the boxes near the camera cast their shadows 73-85 degrees off the light's
+  // axis). Empty (x0 > x1, the default): max_fov alone.
+  float reach_x0 = 0, reach_x1 = -1, reach_y0 = 0, reach_y1 = -1;
 };
 
 // The fitted view from `eye` along `dir` (`up` fixes the roll). `receivers`: the points to

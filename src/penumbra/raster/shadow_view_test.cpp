@@ -100,6 +100,41 @@ TEST(ShadowView, WhereEveryReceiverLiesBeyondMaxFovTheWindowHoldsThem) {
   EXPECT_GT(std::min(std::abs(v.window_left()), std::abs(v.window_right())) / v.near(), 4.9f);
 }
 
+TEST(ShadowView, ReceiversBeyondMaxFovWithinTheReachStayInTheWindow) {
+  // Ground under a light 4 above it, from 2 to 30 units off to its side: the part beyond 6.9 (60
+  // degrees off the axis) lies beyond the 120-degree cap. Without a reach the window stops at the
+  // cap; with a reach of x/z in [5, 6] (where some caster's shadow falls) it holds the receivers
+  // up to 24 units out, and no farther.
+  const Vec3f eye{0, 4, 0};
+  std::vector<Vec3f> receivers;
+  for (int i = 2; i <= 30; ++i) receivers.push_back({static_cast<float>(i), 0, 0});
+  ShadowViewFit fit;
+  fit.resolution = 256;
+  auto covered = [&](const LightView& v, Vec3f p) {
+    const Vec3f t = v.to_texel(p);
+    return t.x >= 0 && t.x < static_cast<float>(v.width()) && t.y >= 0 && t.y < static_cast<float>(v.height());
+  };
+  const LightView capped = fit_shadow_view(eye, {0, -1, 0}, {0, 0, 1}, receivers, {}, fit);
+  EXPECT_TRUE(covered(capped, {6.5f, 0, 0}));
+  EXPECT_FALSE(covered(capped, {8, 0, 0}));
+  // The view's x axis: right = forward x up = (0, -1, 0) x (0, 0, 1) = (-1, 0, 0), so +x in the
+  // world is -x/z in the view.
+  fit.reach_x0 = -6;
+  fit.reach_x1 = -5;
+  fit.reach_y0 = -1;
+  fit.reach_y1 = 1;
+  const LightView reached = fit_shadow_view(eye, {0, -1, 0}, {0, 0, 1}, receivers, {}, fit);
+  EXPECT_TRUE(covered(reached, {2, 0, 0}));
+  EXPECT_TRUE(covered(reached, {23.9f, 0, 0}));
+  EXPECT_FALSE(covered(reached, {24.5f, 0, 0}));
+  // A reach inside the cap changes nothing.
+  fit.reach_x0 = -1;
+  fit.reach_x1 = -0.5f;
+  const LightView inside = fit_shadow_view(eye, {0, -1, 0}, {0, 0, 1}, receivers, {}, fit);
+  EXPECT_EQ(inside.window_left(), capped.window_left());
+  EXPECT_EQ(inside.window_right(), capped.window_right());
+}
+
 TEST(ShadowView, RejectsReceiversBehindTheEyeAndBadSettings) {
   std::vector<Vec3f> behind = {{0, 2, 0}, {1, 3, 0}};
   EXPECT_NE(test::error_message([&] { fit_shadow_view({0, 1, 0}, {0, -1, 0}, {0, 0, 1}, behind, {}, {}); })

@@ -317,6 +317,18 @@ TEST_F(GpuFrame, FarFromTheOriginEveryMethodDrawsTheCpusV) {
   }
 }
 
+// baselines_test.cpp's street: the fitted maps hold the receivers beyond max_fov a caster can
+// shadow on the GPU as on the CPU (the reach is host code both devices' fits call).
+TEST_F(GpuFrame, ReceiversBeyondMaxFovThatACasterCanShadowAreInTheMapAsOnTheCpu) {
+  const Scene street = testing::street_beyond_the_cap_scene(32);
+  for (const char* method : {"shadow-map", "pcss", "afsm", "afsm-hard"}) {
+    const RenderSettings settings = testing::device_settings(method, {}, true, 3, 16);
+    const RenderResult gpu = render_on(street, settings, true), cpu = render_on(street, settings, false);
+    EXPECT_EQ(gpu.stats.extra.value("receivers_outside_map", uint64_t{0}), 0u) << method;
+    EXPECT_LE(mean_abs_diff(gpu.visibility, cpu.visibility), 2e-3) << method;
+  }
+}
+
 TEST_F(GpuFrame, ARenderOverTheGpusMemoryIsRefusedUpFront) {
   RenderSettings settings;
   settings.method = "reference";

@@ -67,11 +67,24 @@ std::vector<Vec3f> receiver_points(const ViewSamples& vs, const AreaLight& light
   return out;
 }
 
+ShadowRegion shadow_reach(const Scene& scene, const AreaLight& light) {
+  return fit_shadow_region(scene, light, std::tan(radians(kWidestFov) * 0.5f));
+}
+
+void set_reach(ShadowViewFit& fit, const ShadowRegion& reach) {
+  if (reach.empty) return;
+  fit.reach_x0 = reach.u0;
+  fit.reach_x1 = reach.u1;
+  fit.reach_y0 = reach.v0;
+  fit.reach_y1 = reach.v1;
+}
+
 LightView light_view_from(const AreaLight& light, Vec3f eye, std::span<const Vec3f> receivers,
-                          const Bounds3f& casters, int resolution, float max_fov) {
+                          const Bounds3f& casters, int resolution, float max_fov, const ShadowRegion* reach) {
   ShadowViewFit fit;
   fit.resolution = resolution;
   fit.max_fov = max_fov;
+  if (reach) set_reach(fit, *reach);
   return fit_shadow_view(eye, light.frame.n, light.frame.t, receivers, casters, fit);
 }
 
@@ -105,7 +118,12 @@ size_t ShadowDepthMap::memory_bytes() const {
          map_.triangle.size() * sizeof(uint32_t);
 }
 
-void LightCentreMap::prepare(const Scene& scene, MethodStats& stats) {
+void LightCentreMap::prepare(const Scene& scene, const AreaLight& light, MethodStats& stats, bool hold_reach) {
+  reach_ = {};
+  if (hold_reach) {
+    ScopedPhase phase(stats, "reach");
+    reach_ = shadow_reach(scene, light);
+  }
   ScopedPhase phase(stats, "gather");
   triangles_ = gather_raster_triangles(scene);
   culling_.build(triangles_);
@@ -121,8 +139,9 @@ bool LightCentreMap::update(const AreaLight& light, const ViewSamples& vs, const
     ScopedPhase phase(stats, "fit");
     std::vector<Vec3f> receivers = receiver_points(vs, light);
     if (receivers.empty()) return false;
-    view = light_view_from(light, light.center, receivers, scene_bounds_, params.resolution, params.max_fov);
-    // Receivers beyond max_fov (or too close to the light's plane): not covered, lit.
+    view = light_view_from(light, light.center, receivers, scene_bounds_, params.resolution, params.max_fov, &reach_);
+    // Receivers beyond max_fov that no caster can shadow (or too close to the light's plane):
+    // not covered, lit.
     for (Vec3f p : receivers) {
       Vec3f t = view.to_texel(p);
       outside += !(t.z >= view.near() && t.x >= 0 && t.y >= 0 && t.x < view.width() && t.y < view.height());

@@ -39,10 +39,12 @@
 #include "penumbra/raster/depth_map.h"
 #include "penumbra/raster/light_view.h"
 #include "penumbra/raster/rasterizer.h"
+#include "penumbra/raster/shadow_view.h"
 #include "penumbra/scene/light.h"
 #include "penumbra/shadow/params.h"
 #include "penumbra/shadow/shadow_map_shared.h"
 #include "penumbra/shadow/shadow_method.h"
+#include "penumbra/shadow/shadow_region.h"
 #include "penumbra/shadow/stats.h"
 #include "penumbra/shadow/view_samples.h"
 
@@ -85,11 +87,20 @@ inline bool in_front_of_light(const AreaLight& light, Vec3f p) {
 // Positions of the view samples in front of the light (the receivers a map must cover).
 std::vector<Vec3f> receiver_points(const ViewSamples& vs, const AreaLight& light);
 
+// Where the light's casters can shadow something, seen from its centre, up to kWidestFov: the
+// shadow region (shadow_region.h) cut there instead of at 76 degrees. Per light, camera-free.
+ShadowRegion shadow_reach(const Scene& scene, const AreaLight& light);
+// `fit` holds the receivers in `reach` beyond its max_fov too (ShadowViewFit::reach; for a view
+// from the light's centre, whose frame the region's window is in).
+void set_reach(ShadowViewFit& fit, const ShadowRegion& reach);
+
 // The view from `eye` (a point on the light's plane) along the light's normal, its roll
 // fixed by the light's t axis, fitted to the receivers with the near plane before every
-// caster and a field of view of at most max_fov degrees (raster/shadow_view.h).
+// caster and a field of view of at most max_fov degrees (raster/shadow_view.h), wider where
+// `reach` (for eye = the light's centre) holds receivers beyond it.
 LightView light_view_from(const AreaLight& light, Vec3f eye, std::span<const Vec3f> receivers,
-                          const Bounds3f& casters, int resolution, float max_fov);
+                          const Bounds3f& casters, int resolution, float max_fov,
+                          const ShadowRegion* reach = nullptr);
 
 // A view sample as one map sees it (texel, depth, texel size, depth slope, receiver plane,
 // facing): shadow_map_shared.h's ShadowReceiver.
@@ -165,8 +176,10 @@ bool same_fitted_view(const LightView& a, const LightView& b);
 // reuses it).
 class LightCentreMap {
  public:
-  // Gathers the scene's triangles (phase "gather"); call again when the geometry changes.
-  void prepare(const Scene& scene, MethodStats& stats);
+  // Gathers the scene's triangles (phase "gather") and, with hold_reach, the light's shadow reach
+  // (phase "reach": the map then holds the receivers beyond max_fov a caster can shadow); call
+  // again when the geometry or the light changes.
+  void prepare(const Scene& scene, const AreaLight& light, MethodStats& stats, bool hold_reach = true);
   // Makes map() serve `vs` (phase "raster" when it renders). False if no view sample is in
   // front of the light (there is nothing to look up then).
   bool update(const AreaLight& light, const ViewSamples& vs, const ViewParams& view, MethodStats& stats);
@@ -182,6 +195,7 @@ class LightCentreMap {
   CasterCulling culling_;              // the casters outside a fitted view are not rasterized
   std::vector<RasterTriangle> visible_;  // those inside, when some are culled
   Bounds3f scene_bounds_;
+  ShadowRegion reach_;  // shadow_reach
   Rasterizer rasterizer_;
   ShadowDepthMap map_;
   bool valid_ = false;

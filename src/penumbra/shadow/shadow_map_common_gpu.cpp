@@ -60,13 +60,15 @@ GpuReceiverRange reduce_receivers(const AreaLight& light, GpuFrame& frame, const
 }
 
 std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
-                                               const Bounds3f& casters, gpu::Buffer& range_buffer) {
+                                               const Bounds3f& casters, const ShadowRegion& reach,
+                                               gpu::Buffer& range_buffer) {
   const AreaLight& light = *ctx.light;
   // The fit: the receivers reduced on the device, 32 bytes read back, the view built here by
   // the CPU's code (light_view_from's frame: from the light's centre along its normal).
   ShadowViewFit fit;
   fit.resolution = params.resolution;
   fit.max_fov = params.max_fov;
+  set_reach(fit, reach);
   const ShadowViewFrame frame_axes = shadow_view_frame(light.center, light.frame.n, light.frame.t, casters, {}, fit);
   frame.commands->stage("fit");
   const GpuReceiverRange r = reduce_receivers(light, frame, frame_axes, range_buffer);
@@ -74,8 +76,9 @@ std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFram
   return view_from_range(frame_axes, r, casters, fit);
 }
 
-void GpuLightCentreMap::prepare(const ShadowContext& ctx, GpuFrame& frame) {
+void GpuLightCentreMap::prepare(const ShadowContext& ctx, GpuFrame& frame, bool hold_reach) {
   casters_ = ctx.scene->bounds();
+  reach_ = hold_reach ? shadow_reach(*ctx.scene, *ctx.light) : ShadowRegion{};
   culling_.prepare(*frame.device, *ctx.scene);
   valid_ = false;
   if (!rasterizer_) {
@@ -89,7 +92,7 @@ void GpuLightCentreMap::prepare(const ShadowContext& ctx, GpuFrame& frame) {
 bool GpuLightCentreMap::update(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
                                const BiasParams& bias, MethodStats& stats) {
   gpu::CommandList& cl = *frame.commands;
-  const std::optional<LightView> fitted = fit_light_centre_view(ctx, frame, params, casters_, range_);
+  const std::optional<LightView> fitted = fit_light_centre_view(ctx, frame, params, casters_, reach_, range_);
   if (!fitted) return false;
   const LightView& view = *fitted;
   // Rendered again only when the fitted view changed (LightCentreMap::update's rule).

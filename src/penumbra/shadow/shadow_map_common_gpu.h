@@ -33,14 +33,16 @@ shader::GpuReceiverRange reduce_receivers(const AreaLight& light, GpuFrame& fram
 // The fitted view from the light's centre along its normal (stage "fit"): the receivers of
 // frame.view_samples reduced on the device into `range` (a GpuReceiverRange buffer), read back
 // after frame.flush(), the view built by the CPU's code (build_shadow_view; `casters`: the
-// casters' bounds). Empty when no view sample is in front of the light.
+// casters' bounds; `reach`: shadow_reach, the receivers beyond max_fov the window holds too).
+// Empty when no view sample is in front of the light.
 std::optional<LightView> fit_light_centre_view(const ShadowContext& ctx, GpuFrame& frame, const ViewParams& params,
-                                               const Bounds3f& casters, gpu::Buffer& range);
+                                               const Bounds3f& casters, const ShadowRegion& reach, gpu::Buffer& range);
 
 class GpuLightCentreMap {
  public:
-  // The casters' bounds (the scene's); call again when the geometry changes.
-  void prepare(const ShadowContext& ctx, GpuFrame& frame);
+  // The casters' bounds (the scene's) and, with hold_reach, the light's shadow reach
+  // (LightCentreMap::prepare); call again when the geometry or the light changes.
+  void prepare(const ShadowContext& ctx, GpuFrame& frame, bool hold_reach = true);
   // Makes the map serve frame.view_samples (stage "fit"; "raster" when it renders), uploading
   // the view and `bias` (the method's, the same at every call) for the lookups (block()). False
   // if no view sample is in front of the light (there is nothing to look up then; every V is 0).
@@ -66,6 +68,7 @@ class GpuLightCentreMap {
 
  private:
   Bounds3f casters_;
+  ShadowRegion reach_;  // shadow_reach
   gpu::ObjectCulling culling_;  // the objects wholly outside the fitted view are not rasterized
   std::unique_ptr<gpu::GpuRasterizer> rasterizer_;
   gpu::GpuDepthMap map_;

@@ -123,9 +123,11 @@ inline Scene contact_scene_at_scale(float scale, int res = 40, Vec3f offset = {0
   s.finalize();
   return s;
 }
-// A street 400 units long and 2 wide with a box every 10 units, under a 3 x 3 light 30 above its
-// middle, seen from one end: most of what the camera sees lies 70-85 degrees off the light's axis,
-// beyond the 76 degrees lam's shadow region is cut at (lam_test.cpp, lam_gpu_test.cpp).
+// A street 400 units long and 2 wide with a box every 10 units and a block 8 wide and 10 tall at its middle,
+// under a 3 x 3 light 30 above it, seen from one end: most of what the camera sees lies 70-85
+// degrees off the light's axis, beyond the 60 degrees of a fitted map's max_fov and the 76 lam's
+// shadow region is cut at, while the block far down the street lies inside both
+// (baselines_test.cpp, lam_test.cpp, lam_gpu_test.cpp, gpu_renderer_test.cpp).
 inline Scene street_beyond_the_cap_scene(int res = 48) {
   Scene s;
   s.camera.eye = {-200, 2, 0};
@@ -139,6 +141,7 @@ inline Scene street_beyond_the_cap_scene(int res = 48) {
   s.objects.push_back(object(quad_y(0, -200, 200, -1, 1)));
   for (int x = -190; x <= 190; x += 10)
     s.objects.push_back(object(box(Vec3f(x - 0.25f, 0, -0.25f), Vec3f(x + 0.25f, 1, 0.25f))));
+  s.objects.push_back(object(box(Vec3f(-3, 0, -4), Vec3f(3, 10, 4))));
   s.finalize();
   return s;
 }

@@ -39,6 +39,7 @@
 #include "penumbra/shadow/alias_free/pair_filter.h"
 #include "penumbra/shadow/alias_free/sample_masks.h"
 #include "penumbra/shadow/alias_free/texel_lists.h"
+#include "penumbra/shadow/shadow_map_common.h"
 #include "penumbra/shadow/shadow_method.h"
 #include "penumbra/trace/ray_shared.h"
 #include "penumbra/trace/ray_tracer.h"
@@ -84,6 +85,7 @@ class AliasFreeBase : public ShadowMethod {
     stats_.prepare_count++;
     triangles_ = gather_raster_triangles(*ctx.scene);
     scene_bounds_ = ctx.scene->bounds();
+    reach_ = shadow_map::shadow_reach(*ctx.scene, *ctx.light);
   }
 
  protected:
@@ -104,6 +106,7 @@ class AliasFreeBase : public ShadowMethod {
     ShadowViewFit fit;
     fit.resolution = resolution_;
     fit.max_fov = max_fov_;
+    shadow_map::set_reach(fit, reach_);
     try {
       view_ = fit_shadow_view(light.center, light.frame.n, light.frame.t, points, scene_bounds_, fit);
     } catch (const Interrupted&) {
@@ -225,6 +228,7 @@ class AliasFreeBase : public ShadowMethod {
   float max_fov_;
   RasterTriangles triangles_;  // with their alpha textures
   Bounds3f scene_bounds_;
+  ShadowRegion reach_;  // shadow_map::shadow_reach: the samples beyond max_fov a caster can shadow are listed too
   LightView view_;
   TexelLists lists_;
   ConservativeRasterizer rasterizer_;

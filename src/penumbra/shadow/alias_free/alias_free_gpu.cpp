@@ -60,6 +60,7 @@ class AliasFreeGpuBase : public GpuShadowMethod {
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
     casters_bounds_ = ctx.scene->bounds();
+    reach_ = shadow_map::shadow_reach(*ctx.scene, *ctx.light);
     if (range_.empty()) {
       range_ = gpu::Buffer(*frame.device, sizeof(shader::GpuReceiverRange), "afsm's receiver range");
       view_buffer_ = gpu::Buffer(*frame.device, kViewBufferBytes, "afsm's light view");
@@ -77,7 +78,7 @@ class AliasFreeGpuBase : public GpuShadowMethod {
     // (The counters, and the slabs' record with its cover_rows counter.)
     if (!counting_) frame.commands->fill(view_buffer_, 0, kCountersOffset, kViewBufferBytes - kCountersOffset);
     counting_ = true;
-    std::optional<LightView> view = shadow_map::fit_light_centre_view(ctx, frame, view_, casters_bounds_, range_);
+    std::optional<LightView> view = shadow_map::fit_light_centre_view(ctx, frame, view_, casters_bounds_, reach_, range_);
     const shader::RasterView rv = view ? view->shared() : shader::RasterView{};
     view_buffer_.upload(&rv, sizeof(rv));
     return view;
@@ -199,6 +200,7 @@ class AliasFreeGpuBase : public GpuShadowMethod {
 
   shadow_map::ViewParams view_;
   Bounds3f casters_bounds_;
+  ShadowRegion reach_;  // shadow_map::shadow_reach
   uint32_t capacity_ = 0;  // list positions listed_ holds
   bool counting_ = false;  // a frame ran since the last collect_stats()
   gpu::Buffer range_, view_buffer_, listed_;

@@ -27,7 +27,7 @@ class ShadowMapMethod final : public ShadowMethod {
 
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
-    map_.prepare(*ctx.scene, stats_);
+    map_.prepare(*ctx.scene, *ctx.light, stats_);
   }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {

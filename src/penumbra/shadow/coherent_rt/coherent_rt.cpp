@@ -56,7 +56,7 @@ class CoherentRayTracing final : public ShadowMethod {
     images_.clear();
     extra_ = nlohmann::json::object();
     if (geometry_) return;
-    const lam::ShadowRegion region = lam::fit_shadow_region(*ctx.scene, *ctx.light);
+    const ShadowRegion region = fit_shadow_region(*ctx.scene, *ctx.light);
     if (region.empty) {  // no image: nothing blocks a ray (reference_view)
       extra_["views"] = nlohmann::json::array();
       memory_bytes_ = 0;

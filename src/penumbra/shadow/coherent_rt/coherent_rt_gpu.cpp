@@ -76,7 +76,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
     std::vector<shader::CrtImageDesc> descs;
     nlohmann::json views = nlohmann::json::array();
     // No image where no caster can shadow a receiver (reference_view): nothing blocks a ray.
-    const lam::ShadowRegion region = lam::fit_shadow_region(*ctx.scene, *ctx.light);
+    const ShadowRegion region = fit_shadow_region(*ctx.scene, *ctx.light);
     const std::vector<Vec3f> eyes = region.empty ? std::vector<Vec3f>{} : view_points(*ctx.light, settings_.views);
     for (Vec3f eye : eyes) {
       GpuReferenceImage img;

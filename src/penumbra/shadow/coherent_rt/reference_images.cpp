@@ -58,18 +58,18 @@ std::vector<Vec3f> view_points(const AreaLight& light, const std::string& views)
 }
 
 LightView reference_view(const Scene& scene, const AreaLight& light, Vec3f eye, int resolution) {
-  return reference_view(lam::fit_shadow_region(scene, light), light, eye, resolution);
+  return reference_view(fit_shadow_region(scene, light), light, eye, resolution);
 }
 
-LightView reference_view(const lam::ShadowRegion& region, const AreaLight& light, Vec3f eye, int resolution) {
+LightView reference_view(const ShadowRegion& region, const AreaLight& light, Vec3f eye, int resolution) {
   if (region.empty) throw Error("coherent-rt: no object can cast a shadow from this light");
-  lam::LightAxes axes = lam::light_axes(light);
+  LightAxes axes = light_axes(light);
   // A point at depth z and centre-view coordinate u appears at u - dx / z from the eye
   // (eq. 3 of agrawala2000 §4, the same depth for every point of the light's plane).
   const Vec3f d = eye - axes.eye;
   const float dx = dot(d, axes.right), dy = dot(d, axes.up);
   constexpr float kMaxTan = 4.0f;
-  lam::ShadowRegion r = region;
+  ShadowRegion r = region;
   r.u0 = std::max(-kMaxTan, region.u0 - std::max(dx / region.near, dx / region.far));
   r.u1 = std::min(kMaxTan, region.u1 - std::min(dx / region.near, dx / region.far));
   r.v0 = std::max(-kMaxTan, region.v0 - std::max(dy / region.near, dy / region.far));

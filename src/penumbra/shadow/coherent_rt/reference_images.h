@@ -25,7 +25,7 @@
 #include "penumbra/raster/light_view.h"
 #include "penumbra/raster/minmax_pyramid.h"
 #include "penumbra/raster/raster_triangle.h"
-#include "penumbra/shadow/lam/attenuation_map.h"
+#include "penumbra/shadow/shadow_region.h"
 
 namespace penumbra {
 
@@ -84,12 +84,12 @@ std::vector<Vec3f> view_points(const AreaLight& light, const std::string& views)
 int view_point_count(const std::string& views);
 
 // A view from `eye` on the light, looking along the light's normal, containing `region`
-// (lam::fit_shadow_region: everything that can cast or receive a shadow from `light`) widened
+// (fit_shadow_region: everything that can cast or receive a shadow from `light`) widened
 // for the eye's offset from the light's centre, `resolution` texels along its longer side.
 // Throws if the region is empty. Where it is (no caster can shadow a receiver: a lone ground
 // under the light, a light facing away from the scene) the method builds no image and every ray
 // is unblocked: crt_trace with no map blocks nothing.
-LightView reference_view(const lam::ShadowRegion& region, const AreaLight& light, Vec3f eye, int resolution);
+LightView reference_view(const ShadowRegion& region, const AreaLight& light, Vec3f eye, int resolution);
 // The same for the scene's region.
 LightView reference_view(const Scene& scene, const AreaLight& light, Vec3f eye, int resolution);
 

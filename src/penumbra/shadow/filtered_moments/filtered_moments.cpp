@@ -183,7 +183,10 @@ FilteredMomentShadows::FilteredMomentShadows(const ParamSet& p, std::unique_ptr<
 
 void FilteredMomentShadows::prepare(const ShadowContext& ctx) {
   stats_.prepare_count++;
-  map_.prepare(*ctx.scene, stats_);
+  // No shadow reach (LightCentreMap::prepare): the receivers beyond max_fov keep their near
+  // field's rays, which on a street seen from one end were exact where the reach's 85-degree map
+  // was ten times coarser (docs/methods/vsm.md, "Beyond max_fov").
+  map_.prepare(*ctx.scene, *ctx.light, stats_, /*hold_reach=*/false);
   built_from_ = 0;
 }
 

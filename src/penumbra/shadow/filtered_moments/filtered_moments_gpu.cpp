@@ -25,7 +25,7 @@ class FilteredMomentsGpu final : public GpuShadowMethod {
 
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
-    map_.prepare(ctx, frame);
+    map_.prepare(ctx, frame, /*hold_reach=*/false);  // as the CPU's (filtered_moments.cpp)
     built_from_ = 0;
     if (model_record_.empty()) {
       gpu::Device& d = *frame.device;

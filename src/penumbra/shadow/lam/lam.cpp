@@ -64,7 +64,7 @@ class LayeredAttenuationMaps final : public ShadowMethod {
     ScopedPhase phase(stats_, "precompute");
     const int n = std::max(1, ctx.light_samples);
     Timer t_fit;
-    const lam::ShadowRegion region = lam::fit_shadow_region(*ctx.scene, *ctx.light);
+    const ShadowRegion region = fit_shadow_region(*ctx.scene, *ctx.light);
     const double fit_ms = t_fit.elapsed_ms();
     const LightSampleSet set = lam::light_sample_set(ctx);
     Timer t_gather;

@@ -74,7 +74,7 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
     const LightSampleSet set = lam::light_sample_set(ctx);
     const int n = set.size();
     const lam::BuildOptions options = lam::options_for_scene(options_, scene);
-    const lam::ShadowRegion region = lam::fit_shadow_region(scene, light);
+    const ShadowRegion region = fit_shadow_region(scene, light);
     map_ = lam::attenuation_map_frame(light, region, n, options);
     map_.set_unresolved(trace_unresolved_, trace_spread_);  // the view below carries it
     view_ = gpu::make_buffer<shader::LamMapView>(device, std::span(&map_.shared(), 1), "lam's view");
@@ -167,7 +167,7 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
     cl.fill(counts, 0);
     // The light samples' views (the CPU's, lam::sample_view) and where their pixels warp to.
     const int n = set.size();
-    const lam::LightAxes axes = lam::light_axes(light);
+    const LightAxes axes = light_axes(light);
     const float delta = map_.shared().delta;
     std::vector<LightView> views(n);
     std::vector<LamSampleView> records(n);

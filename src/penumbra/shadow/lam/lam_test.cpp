@@ -74,7 +74,7 @@ std::vector<float> run_lam(const Scene& scene, const ViewSamples& vs, int spp, s
 // fixed at construction; one map serves both lookups here).
 lam::AttenuationMap build_map(const Scene& scene, int spp, int resolution = 512) {
   const RasterTriangles tris = gather_raster_triangles(scene);
-  const lam::ShadowRegion region = lam::fit_shadow_region(scene, scene.lights[0]);
+  const ShadowRegion region = fit_shadow_region(scene, scene.lights[0]);
   const LightSampleSet set(spp, 7, /*per_pixel=*/false);
   lam::BuildOptions opt;
   opt.resolution = resolution;
@@ -99,8 +99,8 @@ TEST(Lam, Eq3WarpEqualsTheProjectiveWarp) {
                                       0.5f + rng.next_float(), 0.5f + rng.next_float());
     light.frame = Frame::from_zx(normalize(Vec3f(rng.next_float() - 0.5f, -1.0f, rng.next_float() - 0.5f)),
                                  {1, 0, 0});
-    const lam::LightAxes axes = lam::light_axes(light);
-    lam::ShadowRegion region;
+    const LightAxes axes = light_axes(light);
+    ShadowRegion region;
     region.empty = false;
     region.u0 = -0.6f; region.u1 = 0.5f; region.v0 = -0.4f; region.v1 = 0.7f;
     region.near = 1.0f; region.far = 5.0f;
@@ -296,7 +296,7 @@ TEST(Lam, UnoccludedPointsAreFullyLit) {
   // No caster at all: an empty shadow region, V = 1 without any lookup.
   {
     Scene scene = ground_scene({}, rect_light_down({0, kH, 0}, kw, kw));
-    EXPECT_TRUE(lam::fit_shadow_region(scene, scene.lights[0]).empty);
+    EXPECT_TRUE(fit_shadow_region(scene, scene.lights[0]).empty);
     ViewSamples vs = ground_line(-3.5f, 3.5f, 200);
     for (float x : run_lam(scene, vs, 16, {})) EXPECT_EQ(x, 1.0f);
   }
@@ -304,7 +304,7 @@ TEST(Lam, UnoccludedPointsAreFullyLit) {
   // ground around it and on the caster's lit top) see every light sample.
   {
     Scene scene = ground_scene({object(quad_y(kh, 0.5f, 1.0f, -0.25f, 0.25f))}, rect_light_down({0, kH, 0}, kw, kw));
-    ASSERT_FALSE(lam::fit_shadow_region(scene, scene.lights[0]).empty);
+    ASSERT_FALSE(fit_shadow_region(scene, scene.lights[0]).empty);
     const lam::AttenuationMap map = build_map(scene, 64, 256);
     for (lam::Filter f : kFilters) {
       const char* filter = name(f);
@@ -315,7 +315,7 @@ TEST(Lam, UnoccludedPointsAreFullyLit) {
       ViewSamples top = ground_line(0.52f, 0.98f, 50, 0.1f);
       for (auto& s : top.samples) s.p.y = kh;
       for (const ViewSamples* more : {&side, &top}) vs.samples.insert(vs.samples.end(), more->samples.begin(), more->samples.end());
-      const lam::ShadowRegion r = lam::fit_shadow_region(scene, scene.lights[0]);
+      const ShadowRegion r = fit_shadow_region(scene, scene.lights[0]);
       EXPECT_NEAR(r.u0, -1.5f, 1e-4f);  // u = -x / z here (the view's right axis is -x)
       EXPECT_NEAR(r.u1, 0.0f, 1e-4f);
       std::vector<float> v = lookup_all(map, vs, f);
@@ -366,7 +366,7 @@ TEST(Lam, SolidsAreDarkWhereTheirOwnPlaneHidesTheLight) {
 
 TEST(Lam, ShadowRegionIsTheCastersShadowNotTheWholeGround) {
   const Scene scene = edge_scene();
-  const lam::ShadowRegion r = lam::fit_shadow_region(scene, scene.lights[0]);
+  const ShadowRegion r = fit_shadow_region(scene, scene.lights[0]);
   ASSERT_FALSE(r.empty);
   // The occluder spans u in [-1.5, 0], v in [-1, 1] at depth 1; the light's half-extent
   // 0.5 over depth 1 grows that by 0.5. (The 8 x 8 ground alone casts nothing: the light is
@@ -381,8 +381,8 @@ TEST(Lam, ShadowRegionIsTheCastersShadowNotTheWholeGround) {
 // holds nothing there, so the display traces those points (lam_beyond_cap); before, they were lit.
 TEST(Lam, ShadowsBeyondTheRegionsCutAreTraced) {
   const Scene street = testing::street_beyond_the_cap_scene(48);
-  EXPECT_EQ(lam::fit_shadow_region(street, street.lights[0]).cap_tan, 4.0f);
-  EXPECT_EQ(lam::fit_shadow_region(edge_scene(), edge_scene().lights[0]).cap_tan, 0.0f);  // nothing cut
+  EXPECT_EQ(fit_shadow_region(street, street.lights[0]).cap_tan, 4.0f);
+  EXPECT_EQ(fit_shadow_region(edge_scene(), edge_scene().lights[0]).cap_tan, 0.0f);  // nothing cut
   auto render = [&](const std::string& method, std::vector<std::string> params) {
     return render_scene(street, testing::device_settings(method, std::move(params), false, 7, 64));
   };
