@@ -89,7 +89,7 @@ PN_INLINE float sm_texel_size(RasterView v, float z) { return (v.r - v.l) / floa
 // shadow-map.md, "A scene in any unit", "A scene far from the origin").
 PN_CONST float kSmBiasFloor = 64.0f * 1.1920929e-07f;
 PN_INLINE float sm_constant_bias(float bias, float z, float s, vec3 p, float slope) {
-  float position = kRayOffsetRelative * max(abs(p.x), max(abs(p.y), abs(p.z))) * (1.0f + slope);
+  float position = ray_coordinate_rounding(p) * (1.0f + slope);
   return max(max(kSmBiasFloor * z, position), min(bias, s));
 }
 

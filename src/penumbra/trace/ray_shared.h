@@ -17,7 +17,10 @@ PN_SHARED_BEGIN
 // surface and lit every contact shadow (render/scene_units_test.cpp).
 PN_CONST float kRayOffsetFloor = 3.0e-5f;
 PN_CONST float kRayOffsetRelative = 9.5367431640625e-7f;  // 2^-20
-PN_INLINE float ray_offset_epsilon(vec3 p) { return kRayOffsetFloor + max(abs(p.x), max(abs(p.y), abs(p.z))) * kRayOffsetRelative; }
+// The share of p's largest coordinate: how far rounding can move p (shadow_map_shared.h's bias
+// floor takes it too).
+PN_INLINE float ray_coordinate_rounding(vec3 p) { return max(abs(p.x), max(abs(p.y), abs(p.z))) * kRayOffsetRelative; }
+PN_INLINE float ray_offset_epsilon(vec3 p) { return kRayOffsetFloor + ray_coordinate_rounding(p); }
 
 // The unit normal a ray's origin moves along (ng normalised; zero for a degenerate ng).
 PN_INLINE vec3 offset_normal(vec3 ng) {
