@@ -317,6 +317,20 @@ TEST_F(GpuFrame, FarFromTheOriginEveryMethodDrawsTheCpusV) {
   }
 }
 
+// scene_units_test.cpp's ceiling flush with the light: the methods that leave out what lies on or
+// behind the light's plane do so on the GPU as on the CPU (afsm's caster kernel, the multilayer
+// maps' near plane from the shared plan, single-sample's occluders built once for both devices).
+TEST_F(GpuFrame, ACeilingFlushWithTheLightBlocksNothingAsOnTheCpu) {
+  const Scene scene = testing::with_a_ceiling_at_the_light(testing::contact_scene_at_scale(1.0f, 32), 0.0f, 1.0f);
+  for (const char* method : {"afsm", "mlsm", "mtsm", "single-sample"}) {
+    const RenderSettings settings = testing::device_settings(method, {}, true, 3, 16);
+    const RenderResult gpu = render_on(scene, settings, true), cpu = render_on(scene, settings, false);
+    const double dv = mean_abs_diff(gpu.visibility, cpu.visibility);
+    std::printf("%-20s GPU against CPU with the ceiling: %.6f\n", method, dv);
+    EXPECT_LE(dv, 2e-3) << method;
+  }
+}
+
 // baselines_test.cpp's street: the fitted maps hold the receivers beyond max_fov a caster can
 // shadow on the GPU as on the CPU (the reach is host code both devices' fits call).
 TEST_F(GpuFrame, ReceiversBeyondMaxFovThatACasterCanShadowAreInTheMapAsOnTheCpu) {

@@ -8,6 +8,9 @@
 // - A scene far from the world's origin (a georeferenced model) is drawn as well as at the
 //   origin: the ground truth stays where it is, and no method's error against it grows. A ray
 //   offset or a projection sized by world coordinates is where this breaks.
+// - What lies on or behind a light's plane changes no V: a ceiling flush with a panel light, or
+//   just above it, blocks none of its light. A method that maps its casters from the light's side
+//   or projects them onto it is where this breaks (the ceiling covered every light sample).
 // - V = 0 where the light's emitting side does not face the point (behind a rect light's plane):
 //   the point sees none of the light, whatever the method's rays or maps would say there.
 #include <gtest/gtest.h>
@@ -86,6 +89,25 @@ TEST_P(SceneUnits, VIsZeroWhereTheLightFacesAway) {
   const RenderResult r = render_scene(testing::facing_away_ground_only(), settings_for(method));
   for (float v : r.visibility.data()) ASSERT_EQ(v, 0.0f) << method;
   for (float c : r.color.data()) ASSERT_EQ(c, 0.0f) << method;
+}
+
+// The ceiling reaches 0.4 and 0.6 past the light's edges and stays out of the camera's view (the
+// camera is above the light's plane).
+constexpr float kCeilingHalfSize = 1.0f;
+
+TEST_P(SceneUnits, ACeilingFlushWithTheLightOrBehindItChangesNoV) {
+  // Before (flush / 0.001 behind): afsm 0.37 / 0 (the ceiling's corners round to a hair in front
+  // of the plane), mlsm and mtsm 0.43 / 0.41 (the map started 0.1% before the light's plane),
+  // single-sample 0.69 / 0.69 (its outer objects, b(t) wide at the light, covered it).
+  const std::string& method = GetParam();
+  const Scene scene = testing::contact_scene_at_scale(1.0f, 32);
+  const RenderResult bare = render_scene(scene, settings_for(method));
+  for (float gap : {0.0f, 1e-3f}) {
+    const RenderResult ceiling = render_scene(testing::with_a_ceiling_at_the_light(scene, gap, kCeilingHalfSize), settings_for(method));
+    const double dv = testing::mean_abs_dv(ceiling.visibility, bare.visibility);
+    std::printf("%-20s ceiling %g behind the light: mean |dV| against none %.5f\n", method.c_str(), gap, dv);
+    EXPECT_LE(dv, testing::kSceneUnitsTolerance) << method << " with the ceiling " << gap << " behind the light";
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Methods, SceneUnits, ::testing::ValuesIn(testing::registered_method_names()),

@@ -123,6 +123,23 @@ inline Scene contact_scene_at_scale(float scale, int res = 40, Vec3f offset = {0
   s.finalize();
   return s;
 }
+// `scene` with a ceiling in its first light's plane: a square 2 half_size across around the light,
+// facing where the light faces, `gap` behind the light's plane (0: flush with it, a panel light
+// set into its ceiling). Nothing there can block any of the light for a point in front of it
+// (trace/ray_shared.h on_or_behind_light_plane), so every method's V is the scene's own
+// (render/scene_units_test.cpp, gpu_renderer_test.cpp).
+inline Scene with_a_ceiling_at_the_light(Scene scene, float gap, float half_size) {
+  const AreaLight& l = scene.lights.at(0);
+  const Vec3f c = l.center - l.frame.n * gap, s = l.frame.s * half_size, t = l.frame.t * half_size;
+  TriangleMesh m;
+  m.positions = {c - s - t, c + s - t, c + s + t, c - s + t};
+  // Counter-clockwise seen from the side the light faces (its normal along frame.n).
+  m.indices = dot(cross(s, t), l.frame.n) > 0 ? std::vector<uint32_t>{0, 1, 2, 0, 2, 3} : std::vector<uint32_t>{0, 2, 1, 0, 3, 2};
+  scene.objects.push_back(object(std::move(m)));
+  scene.finalize();
+  return scene;
+}
+
 // A street 400 units long and 2 wide with a box every 10 units and a block 8 wide and 10 tall at its middle,
 // under a 3 x 3 light 30 above it, seen from one end: most of what the camera sees lies 70-85
 // degrees off the light's axis, beyond the 60 degrees of a fitted map's max_fov and the 76 lam's

@@ -61,6 +61,16 @@ PN_INLINE void fan_segment(vec3 p, vec3 n_unit, float eps, vec3 d, PN_OUT(vec3) 
 }
 PN_CONST float kFanTfar = 1.0f - 1e-5f;
 
+// Whether a point p at distance z in front of a light's plane (z along the light's normal, from
+// its centre) lies on that plane or behind it, as far as p's coordinates tell: within its ray
+// offset. Such a point blocks none of the light for a receiver in front (the segment to a point of
+// the light lies wholly in front of its plane, and every shadow segment stops short of the light:
+// shadow_segment, kFanTfar). A ceiling flush with a panel light, or the light's own fixture, lies
+// there; a method that projects its casters onto the light, or maps them from the light's side,
+// leaves out the triangles whose every corner is there (afsm's casters, single-sample's occluders;
+// multilayer_map.cpp starts its map just past the plane).
+PN_INLINE bool on_or_behind_light_plane(float z, vec3 p) { return z <= ray_offset_epsilon(p); }
+
 PN_SHARED_END
 
 #endif  // PENUMBRA_TRACE_RAY_SHARED_H

@@ -607,9 +607,12 @@ class AliasFreeSoft final : public AliasFreeBase {
       uint32_t run_object = ~0u;
       for (const RasterTriangle& t : triangles_.list) {
         if (!(t.opacity > 0)) continue;
-        // A triangle entirely behind the light's sample plane blocks nothing in front of it.
+        // A triangle entirely on or behind the light's sample plane blocks nothing in front of it
+        // (a ceiling flush with the light: trace/ray_shared.h on_or_behind_light_plane).
         const float z0 = view_.linear_depth(t.p[0]), z1 = view_.linear_depth(t.p[1]), z2 = view_.linear_depth(t.p[2]);
-        if (z0 <= 0 && z1 <= 0 && z2 <= 0) continue;
+        if (shader::on_or_behind_light_plane(z0, t.p[0]) && shader::on_or_behind_light_plane(z1, t.p[1]) &&
+            shader::on_or_behind_light_plane(z2, t.p[2]))
+          continue;
         Caster cs;
         for (int i = 0; i < 3; ++i) cs.v[i] = t.p[i];
         cs.normal = cross(t.p[1] - t.p[0], t.p[2] - t.p[0]);

@@ -7,6 +7,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/raster/shadow_view.h"
 #include "penumbra/shadow/multilayer/multilayer_view_shared.h"
+#include "penumbra/trace/ray_shared.h"
 
 namespace penumbra::multilayer {
 
@@ -61,12 +62,19 @@ PushBackPlan plan_push_back(const AreaLight& light, const LightView& centre, con
   float z_light = kInfinity;
   for (Vec3f q : plan.outline) z_light = std::min(z_light, dot(q - plan.eye, plan.dir));
   plan.crossings = plan.z_c > z_light;
-  // Nothing behind the light's plane can stand between a receiver and a point of the light (the
-  // segment lies in front of it), so the map starts there: a hair before it, keeping the
-  // outline in the window. In a room lit from just below its ceiling, the ceiling was otherwise
-  // every texel's nearest layer, no quadtree node could be skipped, and mlsm took 7,000 times
-  // the reference's time (docs/methods/multilayer.md, "Casters behind the light").
-  plan.fit.min_near = z_light * (1 - 1e-3f);
+  // Nothing on or behind the light's plane can stand between a receiver and a point of the light
+  // (the segment lies in front of it, trace/ray_shared.h on_or_behind_light_plane), so the map
+  // starts just past it, the light centre's ray offset beyond. In a room lit from just below its
+  // ceiling, the ceiling was otherwise every texel's nearest layer, no quadtree node could be
+  // skipped, and mlsm took 7,000 times the reference's time; a ceiling flush with the light
+  // covered every ray (docs/methods/multilayer.md, "Casters behind the light"). The outline,
+  // which the window must hold and which the fit ignores nearer than min_near, moves along its
+  // rays from the eye to just past that: the same texels. (The segments to the light are clipped
+  // at the near plane: depth_image_project.)
+  const float margin = shader::ray_offset_epsilon(light.center);
+  plan.fit.min_near = z_light + margin;
+  const float to_past_near = (z_light + 2 * margin) / z_light;
+  for (Vec3f& q : plan.outline) q = plan.eye + (q - plan.eye) * to_past_near;
   plan.frame = shadow_view_frame(plan.eye, plan.dir, plan.up, casters, {}, plan.fit);
   return plan;
 }

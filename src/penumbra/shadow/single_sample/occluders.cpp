@@ -57,6 +57,19 @@ Occluders build_occluders(const Scene& scene, const AreaLight& l, const Occluder
     occ.scene_scale = reach;
     occ.plane_eps = 1e-4f * reach + shader::kRayOffsetRelative * largest;
   }
+  // A planar light's occluders lie in front of its plane: a triangle wholly on or behind it (a
+  // ceiling flush with the light, its fixture) blocks none of its light, though its outer object,
+  // b(t) wide at the light, would cover the whole light for every oblique ray
+  // (trace/ray_shared.h on_or_behind_light_plane).
+  const bool planar = l.shape == LightShape::Rect || l.shape == LightShape::Disk;
+  auto behind_the_light = [&](const TriangleMesh& m, size_t t) {
+    if (!planar) return false;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3f p = m.vertex(t, k);
+      if (!shader::on_or_behind_light_plane(dot(p - l.center, l.frame.n), p)) return false;
+    }
+    return true;
+  };
   std::vector<BvhTriangle> tris;
   size_t all_count = 0;
   occ.objects.assign(scene.objects.size(), {});
@@ -114,7 +127,7 @@ Occluders build_occluders(const Scene& scene, const AreaLight& l, const Occluder
       }
     }
     for (size_t t = 0; t < count; ++t)
-      if (keep.empty() || keep[t])
+      if ((keep.empty() || keep[t]) && !behind_the_light(m, t))
         tris.push_back({occ.to_light_space(m.vertex(t, 0)), occ.to_light_space(m.vertex(t, 1)),
                         occ.to_light_space(m.vertex(t, 2)), static_cast<uint32_t>(o), static_cast<uint32_t>(t),
                         opacity(t)});

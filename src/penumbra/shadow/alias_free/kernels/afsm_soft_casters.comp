@@ -12,6 +12,7 @@
 #include "penumbra/gpu/raster/conservative_cover.glsl"
 #include "penumbra/gpu/raster/raster_access.glsl"
 #include "penumbra/shadow/alias_free/kernels/afsm_soft_access.glsl"
+#include "penumbra/trace/ray_shared.h"
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { AfsmSoftParams p; } pc;
@@ -35,8 +36,9 @@ void main() {
   float far_depth = uintBitsToFloat(afsm_slabs(pc.p.view).s.far_bits[pc.p.slab]) * (1.0f + 1e-4f) + 1e-6f;
   float z[3];
   for (int k = 0; k < 3; ++k) z[k] = dot(v[k] - light.c, light.axis);
-  // Entirely behind the light's sample plane, or deeper than every listed sample of the slab: blocks none.
-  if (z[0] <= 0.0f && z[1] <= 0.0f && z[2] <= 0.0f) return;
+  // Entirely on or behind the light's sample plane, or deeper than every listed sample of the slab: blocks none.
+  if (on_or_behind_light_plane(z[0], v[0]) && on_or_behind_light_plane(z[1], v[1]) && on_or_behind_light_plane(z[2], v[2]))
+    return;
   if (!(min(z[0], min(z[1], z[2])) < far_depth)) return;
   RasterView view = RasterViewRef(pc.p.view).v;
   vec2 pts[kConservativeHullPoints];
