@@ -35,6 +35,28 @@ PN_INLINE vec2 concentric_disk(vec2 u) {
   return vec2(r * pn_cos(theta), r * pn_sin(theta));
 }
 
+// The inverse of concentric_disk: the point of [0,1)^2 that maps to d (|d| < 1). Shirley-Chiu's
+// wedges: where |d.x| >= |d.y| the square's ox = sign(d.x) |d|, theta = atan(d.y / d.x) = pi/4
+// oy / ox; elsewhere oy = sign(d.y) |d|, atan(d.x / d.y) = pi/4 ox / oy. Neighbouring cells of
+// the square stay neighbours on the disk, its border is the rim: coherent-rt's light cells on a
+// disk light (soft_shad_shared.h ss_project).
+PN_INLINE vec2 concentric_square(vec2 d) {
+  float r = sqrt(d.x * d.x + d.y * d.y);
+  if (r == 0.0f) return vec2(0.5f, 0.5f);
+  float ox;
+  float oy;
+  if (abs(d.x) >= abs(d.y)) {
+    ox = d.x > 0.0f ? r : -r;
+    float theta = float(atan2_double(double(d.y), double(abs(d.x)))) * (d.x > 0.0f ? 1.0f : -1.0f);
+    oy = ox * theta * (4.0f / kPiShared);
+  } else {
+    oy = d.y > 0.0f ? r : -r;
+    float theta = float(atan2_double(double(d.x), double(abs(d.y)))) * (d.y > 0.0f ? 1.0f : -1.0f);
+    ox = oy * theta * (4.0f / kPiShared);
+  }
+  return vec2(0.5f * (ox + 1.0f), 0.5f * (oy + 1.0f));
+}
+
 // Uniform direction inside a cone of half-angle acos(cos_max) around +z.
 PN_INLINE vec3 uniform_cone(vec2 u, float cos_max) {
   float cos_t = (1.0f - u.x) + u.x * cos_max;

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <set>
 
 namespace penumbra {
@@ -65,6 +67,23 @@ TEST(Sampling, ConcentricDiskStaysInsideAndCoversArea) {
   }
   // Uniform on the disk: P(r < 1/2) = 1/4.
   EXPECT_NEAR(static_cast<double>(inside_half) / n, 0.25, 0.01);
+}
+
+// concentric_square inverts concentric_disk: back to the same point of the square (to float
+// rounding), in each of the four wedges and on their diagonals, and the centre to the centre.
+TEST(Sampling, ConcentricSquareInvertsTheConcentricDisk) {
+  Rng rng(11);
+  float worst = 0;
+  for (int i = 0; i < 20000; ++i) {
+    Vec2f u = rng.next_2d();
+    if (i < 4) u = Vec2f(i & 1 ? 0.9f : 0.1f, i & 2 ? 0.9f : 0.1f);  // the wedges' diagonals
+    const Vec2f back = shader::concentric_square(shader::concentric_disk(u));
+    worst = std::max({worst, std::abs(back.x - u.x), std::abs(back.y - u.y)});
+  }
+  EXPECT_LT(worst, 1e-5f);
+  const Vec2f centre = shader::concentric_square(Vec2f(0.0f, 0.0f));
+  EXPECT_EQ(centre.x, 0.5f);
+  EXPECT_EQ(centre.y, 0.5f);
 }
 
 // Issue 20 part 3: a piecewise-constant density on a 4 x 2 grid. Samples land in each cell in

@@ -50,9 +50,9 @@ class CoherentRayTracing final : public ShadowMethod {
 
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
-    if (ctx.light->shape != LightShape::Rect)
-      throw Error("coherent-rt does not support {} lights (light {}); only rect lights", to_string(ctx.light->shape),
-                  ctx.light_index);
+    if (!coherent_rt::supports_light(ctx.light->shape))
+      throw Error("coherent-rt does not support {} lights (light {}); only rect and disk lights",
+                  to_string(ctx.light->shape), ctx.light_index);
     images_.clear();
     extra_ = nlohmann::json::object();
     if (geometry_) return;

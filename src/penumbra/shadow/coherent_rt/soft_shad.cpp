@@ -15,8 +15,9 @@ void SoftShadCounters::add(const SoftShadCounters& o) {
 
 SoftShad::SoftShad(const AreaLight& light, int cols, int rows, const SoftShadOptions& options)
     : light_(light.geometry()) {
-  if (light.shape != LightShape::Rect)
-    throw Error("coherent-rt: coherence sampling does not support {} lights; only rect lights", to_string(light.shape));
+  if (!supports_light(light.shape))
+    throw Error("coherent-rt: coherence sampling does not support {} lights; only rect and disk lights",
+                to_string(light.shape));
   if (options.sub_grid < 1) throw Error("coherent-rt: sub_grid {} must be at least 1", options.sub_grid);
   state_ = shader::ss_make(cols, rows, options.sub_grid, options.coherence, options.shortcut, options.reset_distance);
   const size_t cells = static_cast<size_t>(cols) * rows;

@@ -16,8 +16,9 @@
 // point; otherwise an empty list predicts the whole light visible and only its border is
 // traced (§5.2.1's missed-blocker argument).
 //
-// Only planar lights with an affine map from the unit square (rect lights) are supported:
-// a blocker point projects through p_i onto the light's plane and back to the square.
+// Planar lights whose samples are a map of the unit square that keeps neighbours neighbours: a
+// rect (affine) and a disk (concentric_disk): a blocker point projects through p_i onto the
+// light's plane and back to the square (ss_project). supports_light says which.
 #pragma once
 
 #include <cstdint>
@@ -28,6 +29,11 @@
 #include "penumbra/shadow/coherent_rt/soft_shad_shared.h"
 
 namespace penumbra::coherent_rt {
+
+// The light shapes coherent-rt samples (both devices): a rect, agrawala2000's, and a disk, its
+// cells the rect's under concentric_disk. A sphere's or an ellipsoid's V is a fraction of its
+// solid angle (reference), which cells on its central disk do not sample.
+inline bool supports_light(LightShape s) { return s == LightShape::Rect || s == LightShape::Disk; }
 
 struct SoftShadOptions {
   bool coherence = true;        // off: every cell traced (plain stratified sampling)

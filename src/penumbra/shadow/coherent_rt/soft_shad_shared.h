@@ -144,8 +144,10 @@ PN_INLINE void ss_clear(SoftShadRef r, SoftShadState s) {
   }
 }
 
-// Where the line from p through b meets the light's plane, on the unit square; false if it does
-// not (b not between p and the light's plane) or misses the square (rect lights).
+// Where the line from p through b meets the light's plane, on the unit square the light's cells
+// tile; false if it does not (b not between p and the light's plane) or misses the light. A rect's
+// square is the rect itself; a disk's is the square concentric_disk maps onto it (light_sample_area),
+// so u is its inverse, concentric_square.
 PN_INLINE bool ss_project(LightGeometry L, vec3 p, vec3 b, PN_OUT(vec2) u) {
   u = vec2(0.0f, 0.0f);
   float denom = dot(b - p, L.n);
@@ -153,7 +155,13 @@ PN_INLINE bool ss_project(LightGeometry L, vec3 p, vec3 b, PN_OUT(vec2) u) {
   float tau = dot(L.center - p, L.n) / denom;
   if (!(tau >= 1.0f)) return false;
   vec3 q = p + (b - p) * tau - L.center;
-  u = vec2(dot(q, L.s) / L.size_x + 0.5f, dot(q, L.t) / L.size_y + 0.5f);
+  if (L.shape == kLightDisk) {
+    vec2 d = vec2(dot(q, L.s) / L.radius, dot(q, L.t) / L.radius);
+    if (!(d.x * d.x + d.y * d.y < 1.0f)) return false;
+    u = concentric_square(d);
+  } else {
+    u = vec2(dot(q, L.s) / L.size_x + 0.5f, dot(q, L.t) / L.size_y + 0.5f);
+  }
   return u.x >= 0.0f && u.x < 1.0f && u.y >= 0.0f && u.y < 1.0f;
 }
 
