@@ -6,6 +6,7 @@
 #include <unordered_map>
 
 #include "penumbra/core/parallel.h"
+#include "penumbra/trace/ray_shared.h"
 
 namespace penumbra::ssv {
 namespace {
@@ -77,18 +78,54 @@ std::vector<SilhouetteEdge> object_silhouettes(const SceneObject& obj, const Lig
     }
     return weld[vi];
   };
+  auto id_of_point = [&](Vec3f p) {
+    auto [it, inserted] = ids.emplace(key_of(p), static_cast<uint32_t>(points.size()));
+    if (inserted) points.push_back(p);
+    return it->second;
+  };
   std::vector<EdgeSide> sides;
   sides.reserve(3 * m.triangle_count());
+  auto add_triangle = [&](const uint32_t v[3]) {
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) return;  // degenerate: blocks nothing
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t i = v[k], j = v[(k + 1) % 3];
+      const uint64_t key = static_cast<uint64_t>(std::min(i, j)) << 32 | std::max(i, j);
+      sides.push_back({key, static_cast<uint32_t>(sides.size()), v[(k + 2) % 3] | (i > j ? kReversed : 0u)});
+    }
+  };
+  // The cut just in front of a one-sided light's plane (silhouette_edges.h).
+  const float cut_depth = shader::ray_offset_epsilon(light.center);
+  auto depth = [&](uint32_t id) { return dot(points[id] - light.center, light.n); };
   for (size_t t = 0; t < m.triangle_count(); ++t) {
     const float alpha = opacity * (m.triangle_opacity.empty() ? 1.0f : m.triangle_opacity[t]);
     if (!(alpha > 0) || stops_part_of_the_light(alpha, obj.material)) continue;
     uint32_t v[3];
     for (int k = 0; k < 3; ++k) v[k] = id_of(m.indices[3 * t + k]);
-    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // degenerate: blocks nothing
+    if (!light.one_sided) {
+      add_triangle(v);
+      continue;
+    }
+    const float z[3] = {depth(v[0]), depth(v[1]), depth(v[2])};
+    const bool in[3] = {z[0] > cut_depth, z[1] > cut_depth, z[2] > cut_depth};
+    if (in[0] && in[1] && in[2]) {
+      add_triangle(v);
+      continue;
+    }
+    // The polygon in front of the cut (3 or 4 corners, the triangle's winding), as a fan.
+    uint32_t poly[4];
+    int n = 0;
     for (int k = 0; k < 3; ++k) {
-      const uint32_t i = v[k], j = v[(k + 1) % 3];
-      const uint64_t key = static_cast<uint64_t>(std::min(i, j)) << 32 | std::max(i, j);
-      sides.push_back({key, static_cast<uint32_t>(sides.size()), v[(k + 2) % 3] | (i > j ? kReversed : 0u)});
+      const int i = k, j = (k + 1) % 3;
+      if (in[i]) poly[n++] = v[i];
+      if (in[i] != in[j]) {
+        const int lo = v[i] < v[j] ? i : j, hi = lo == i ? j : i;
+        const Vec3f a = points[v[lo]], b = points[v[hi]];
+        poly[n++] = id_of_point(a + (b - a) * ((cut_depth - z[lo]) / (z[hi] - z[lo])));
+      }
+    }
+    for (int q = 1; q + 1 < n; ++q) {
+      const uint32_t tri[3] = {poly[0], poly[q], poly[q + 1]};
+      add_triangle(tri);
     }
   }
   // Each edge's sides together, edges by key, sides in the triangles' order: a fixed order.
@@ -138,6 +175,8 @@ LightRegion light_region(const AreaLight& light) {
   r.s = light.frame.s;
   r.t = light.frame.t;
   r.half = light.shape == LightShape::Rect ? light.size * 0.5f : Vec2f{light.radius, light.radius};
+  r.one_sided = light.shape == LightShape::Rect || light.shape == LightShape::Disk;
+  r.n = light.frame.n;
   return r;
 }
 

@@ -31,6 +31,10 @@ struct LightRegion {
   bool planar = false;
   Vec3f s, t;
   Vec2f half{0, 0};
+  // A one-sided light (rect, disk) emits along n only: what lies on or behind its plane blocks
+  // none of it, and the casters are clipped to the part in front (potential_silhouettes).
+  bool one_sided = false;
+  Vec3f n{0, 0, 0};
 };
 // The region of a light: planar for rect, disk and sphere, the ball of its extent radius for
 // an ellipsoid.
@@ -44,6 +48,14 @@ inline bool stops_part_of_the_light(float opacity, const Material& material) {
   return material.alpha_textured() || !(opacity >= 1.0f);
 }
 
+// For a one-sided light the casters are first clipped to the part in front of its plane, cut just
+// in front of it (the light centre's ray offset, trace/ray_shared.h on_or_behind_light_plane): a
+// triangle wholly on or behind the plane (a ceiling flush with the light) has no edge here, and a
+// surface through the light (a wall across it) ends there in boundary edges (§3.4). §3.2's sweep
+// changes D only where the segment's end crosses an edge, so a surface that met the light itself
+// would change D along a line of the light that is no edge. A cut point is computed from the
+// edge's welded ends in one order, so the two triangles of an edge cut it at the same point.
+//
 // Edges are welded by position (bitwise equal vertices count as one, so meshes stored with
 // split vertices at seams and creases do not turn every crease into two boundary edges).
 // An edge with two triangles is kept when one of their planes cuts the region (some light
