@@ -163,6 +163,18 @@ ShadowRegion fit_shadow_region(const Scene& scene, const AreaLight& light, float
     if (!(su0 < su1) || !(sv0 < sv1)) continue;
     const Receivers rs = receivers(su0, su1, sv0, sv1);
     if (!rs.any) continue;
+    {
+      // Seen from a point of the light (at most the light's half-extent off the centre), a point
+      // of the caster at depth z lies within the cap where its lateral offset plus that is at most
+      // max_tan z: beyond it only nearer than `need`.
+      float lateral = 0;
+      for (int k = 0; k < 8; ++k) {
+        const Vec3f d = bounds[o].corner(k) - a.eye;
+        lateral = std::max({lateral, std::abs(dot(d, a.right)), std::abs(dot(d, a.up))});
+      }
+      const float need = (lateral + std::max(ex, ey)) / max_tan;
+      if (need > c.z0) r.light_field = std::max(r.light_field, std::min(c.z1, need));
+    }
     const float ru0 = rs.u0, ru1 = rs.u1, rv0 = rs.v0, rv1 = rs.v1, far = rs.far;
     float wu0 = std::max(su0, ru0), wu1 = std::min(su1, ru1);
     float wv0 = std::max(sv0, rv0), wv1 = std::min(sv1, rv1);

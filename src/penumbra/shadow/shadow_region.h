@@ -29,6 +29,11 @@ struct ShadowRegion {
   // > 0 (the cap, max_tan) where some caster's shadow volume reaches beyond it onto something it
   // can shadow: the region was cut there, even when nothing is left of it (empty).
   float cap_tan = 0;
+  // The depth within which some caster that can shadow something may lie beyond the cap seen from
+  // some point of the light (its lateral reach plus the light's over max_tan): a caster right
+  // beside the light, a lamp's shade. Views from points of the light capped at max_tan cannot hold
+  // it there; coherent-rt traces the part of each ray nearer the light than this (0: none).
+  float light_field = 0;
 };
 
 // The region where some part of `light` can be hidden by scene geometry: for every object O

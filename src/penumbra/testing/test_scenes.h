@@ -140,6 +140,23 @@ inline Scene with_a_ceiling_at_the_light(Scene scene, float gap, float half_size
   return scene;
 }
 
+// A 1 x 1 light 2.5 over ground_scene's ground, facing down, with a lamp's two shades hanging
+// beside it (1.3 x 0.3 x 0.05, 0.13 off its edges, their tops in its plane) and a box under it: casters so near the light and so far off its axis that views from points of the light capped
+// at 76 degrees cannot hold them (ShadowRegion::light_field; coherent_rt_test.cpp,
+// coherent_rt_gpu_test.cpp).
+inline Scene lamp_shades_scene(int res) {
+  Scene s = ground_scene({object(box({-0.63f, 2.2f, 0.605f}, {0.67f, 2.5f, 0.655f})),
+                          object(box({-0.67f, 2.2f, -0.655f}, {0.63f, 2.5f, -0.605f})),
+                          object(box({-0.2f, 0.0f, -0.2f}, {0.2f, 0.9f, 0.2f}))},
+                         rect_light_down({0.0f, 2.5f, 0.0f}, 1.0f, 1.0f), res);
+  s.camera.eye = {0.6f, 1.3f, 2.6f};
+  s.camera.target = {0.1f, 0.35f, 0.0f};
+  s.camera.up = {0, 1, 0};
+  s.camera.fov_y = 40;
+  s.finalize();
+  return s;
+}
+
 // A street 400 units long and 2 wide with a box every 10 units and a block 8 wide and 10 tall at its middle,
 // under a 3 x 3 light 30 above it, seen from one end: most of what the camera sees lies 70-85
 // degrees off the light's axis, beyond the 60 degrees of a fitted map's max_fov and the 76 lam's

@@ -44,6 +44,7 @@ class CoherentRayTracing final : public ShadowMethod {
     tile_ = settings.tile;
     own_plane_ = settings.own_plane;
     near_field_ = settings.near_field;
+    light_field_on_ = settings.light_field;
   }
 
   bool computes_irradiance() const override { return true; }
@@ -55,8 +56,10 @@ class CoherentRayTracing final : public ShadowMethod {
                   to_string(ctx.light->shape), ctx.light_index);
     images_.clear();
     extra_ = nlohmann::json::object();
+    light_field_ = 0;
     if (geometry_) return;
     const ShadowRegion region = fit_shadow_region(*ctx.scene, *ctx.light);
+    if (light_field_on_) light_field_ = region.light_field;
     if (region.empty) {  // no image: nothing blocks a ray (reference_view)
       extra_["views"] = nlohmann::json::array();
       memory_bytes_ = 0;
@@ -132,14 +135,14 @@ class CoherentRayTracing final : public ShadowMethod {
     std::mutex mutex;
     TraceCounters trace_total;
     SoftShadCounters sample_total;
-    uint64_t geometry_rays = 0, own_plane_total = 0, near_total = 0;
+    uint64_t geometry_rays = 0, own_plane_total = 0, near_total = 0, light_total = 0;
     parallel_for_tiles(tiles_x, tiles_y, 1, [&](int i, int j, int, int) {
       const int x0 = (tx0 + i) * tile_, y0 = (ty0 + j) * tile_;
       SoftShad sampler(light, cols, rows, sampling_);
       TraceScratch scratch;
       TraceCounters tc;
       SoftShadCounters sc;
-      uint64_t grays = 0, own_plane_cells = 0, near_rays = 0;
+      uint64_t grays = 0, own_plane_cells = 0, near_rays = 0, light_rays = 0;
       std::vector<Vec2f> u(n);
       std::vector<Vec3f> q(n);
       size_t done = 0;
@@ -185,9 +188,29 @@ class CoherentRayTracing final : public ShadowMethod {
                 a.point = sr.org + sr.dir * h.t;
               }
             } else {
+              // The light field (crt_light_field_start): the ray's part nearer the light than the
+              // images can hold a caster, through the scene; the images answer up to where it begins.
+              float t_end = sr.tfar;
+              if (ctx.tracer) {
+                const float t_light = shader::crt_light_field_start(sr.org, sr.dir, sr.tfar, light.center, light.frame.n, light_field_);
+                if (t_light < sr.tfar) {
+                  ++light_rays;
+                  const Vec3f from = sr.org + sr.dir * t_light;
+                  Ray r{from, sr.dir, 0.0f, sr.tfar - t_light};
+                  Hit h;
+                  if (ctx.tracer->intersect(r, &h)) {
+                    a.blocked = a.has_point = true;
+                    a.point = from + sr.dir * h.t;
+                    return a;
+                  }
+                  if (!(t_light > 0.0f)) return a;  // the whole segment was in it: unblocked
+                  t_end = t_light;
+                }
+              }
               Vec3f start = sr.org;
               if (near.scale > 0) {
-                const float len = shader::crt_near_field_length(s.p, near.eye, near.forward, near.scale, near.light_width, sr.tfar);
+                const float len = std::min(
+                    t_end, shader::crt_near_field_length(s.p, near.eye, near.forward, near.scale, near.light_width, sr.tfar));
                 ++near_rays;
                 Ray r{sr.org, sr.dir, sr.tnear, len};
                 Hit h;
@@ -196,10 +219,11 @@ class CoherentRayTracing final : public ShadowMethod {
                   a.point = sr.org + sr.dir * h.t;
                   return a;
                 }
-                if (len >= sr.tfar) return a;  // the whole segment was near: unblocked
+                if (len >= t_end) return a;  // the whole segment was near (or in the light field): unblocked
                 start = sr.org + sr.dir * len;
               }
-              TraceResult t = tracer.trace(start, q[j], sampling_.coherence, scratch, &tc);
+              const Vec3f end = t_end < sr.tfar ? sr.org + sr.dir * t_end : q[j];
+              TraceResult t = tracer.trace(start, end, sampling_.coherence, scratch, &tc);
               a.blocked = t.blocked;
               a.has_point = t.has_point;
               a.point = t.point;
@@ -227,6 +251,7 @@ class CoherentRayTracing final : public ShadowMethod {
       geometry_rays += grays;
       own_plane_total += own_plane_cells;
       near_total += near_rays;
+      light_total += light_rays;
     });
     // Rays actually traced (cells the sampler asked for, less those the own-plane test answered).
     const uint64_t traced = geometry_ ? geometry_rays : trace_total.rays;
@@ -243,7 +268,11 @@ class CoherentRayTracing final : public ShadowMethod {
     extra["ray_fraction"] = traced / (points * n);
     extra["cells_evaluated_per_point"] = sample_total.rays / points;
     extra["own_plane_cells_per_point"] = own_plane_total / points;
-    if (!geometry_) extra["near_field_rays_per_point"] = near_total / points;
+    if (!geometry_) {
+      extra["near_field_rays_per_point"] = near_total / points;
+      extra["light_field"] = light_field_;
+      extra["light_field_rays_per_point"] = light_total / points;
+    }
     if (sampling_.coherence)
       extra["coherence"] = {{"resets", sample_total.resets},
                             {"predicted_wrong_per_point", sample_total.predicted_wrong / points},
@@ -268,6 +297,8 @@ class CoherentRayTracing final : public ShadowMethod {
   int tile_ = 32;
   bool own_plane_ = true;
   float near_field_ = 32.0f;
+  bool light_field_on_ = true;
+  float light_field_ = 0;  // ShadowRegion::light_field of the prepared light (0: none)
   ReferenceImageOptions image_options_;
   TraceOptions trace_options_;
   SoftShadOptions sampling_;
@@ -357,6 +388,11 @@ const MethodRegistration registration({
          "(penumbra's addition: there a ray meets surfaces the images hold only as biased texel floors); 0: the "
          "paper's rays, images alone",
          {}, 0, 1e6},
+        {"light_field", ParamType::Bool, true,
+         "depth images: where a caster that can shadow something lies so near the light and so far off its axis "
+         "that the images (cut at 76 degrees) cannot hold it (a lamp's shade), each shadow ray's part as near the "
+         "light is traced through the scene itself (penumbra's addition); false: the images alone",
+         {}},
     },
     [](const ParamSet& p) { return std::make_unique<CoherentRayTracing>(p); },
     /*samples_light=*/true,

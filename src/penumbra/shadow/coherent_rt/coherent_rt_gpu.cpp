@@ -67,6 +67,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
       counters_buffer_ = gpu::Buffer(device, sizeof(shader::CrtGpuCounters), "coherent-rt's counters");
       block_ = gpu::Buffer(device, sizeof(shader::CrtTileBlock), "coherent-rt's tiles");
     }
+    light_field_ = 0;
     if (settings_.geometry) {
       descs_ = gpu::Buffer(device, 16, "coherent-rt's reference images");
       return;
@@ -77,6 +78,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
     nlohmann::json views = nlohmann::json::array();
     // No image where no caster can shadow a receiver (reference_view): nothing blocks a ray.
     const ShadowRegion region = fit_shadow_region(*ctx.scene, *ctx.light);
+    light_field_ = settings_.light_field ? region.light_field : 0.0f;  // coherent_rt.cpp
     const std::vector<Vec3f> eyes = region.empty ? std::vector<Vec3f>{} : view_points(*ctx.light, settings_.views);
     for (Vec3f eye : eyes) {
       GpuReferenceImage img;
@@ -190,6 +192,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
       b.near_light_width = near.light_width;
       b.near_eye = near.eye;
       b.near_forward = near.forward;
+      b.light_field = light_field_;  // the light field (coherent_rt.cpp): its part of each ray through the BVH
     }
     const uint64_t tiles = static_cast<uint64_t>(b.tiles_x) * static_cast<uint64_t>(b.tiles_y);
     const uint64_t scratch = tiles * shader::crt_tile_scratch_words(n, b.sub_grid) * 4;
@@ -285,7 +288,11 @@ class CoherentRtGpu final : public GpuShadowMethod {
     extra["ray_fraction"] = traced / (points * light_samples_);
     extra["cells_evaluated_per_point"] = t.rays / points;
     extra["own_plane_cells_per_point"] = t.own_plane_cells / points;
-    if (!settings_.geometry) extra["near_field_rays_per_point"] = t.near_rays / points;
+    if (!settings_.geometry) {
+      extra["near_field_rays_per_point"] = t.near_rays / points;
+      extra["light_field"] = light_field_;
+      extra["light_field_rays_per_point"] = t.light_rays / points;
+    }
     extra["span_capacity"] = span_capacity_;
     extra["span_retries"] = span_retries_;
     extra["cells_per_dispatch"] = cells_per_dispatch_;
@@ -312,10 +319,10 @@ class CoherentRtGpu final : public GpuShadowMethod {
   void add(const shader::CrtGpuCounters& c) {
     uint64_t* dst = &totals_.points;
     const uint64_t* src = &c.points;
-    // The 64-bit counters, points .. near_rays, in order.
-    constexpr int kCounters = (offsetof(shader::CrtGpuCounters, near_rays) - offsetof(shader::CrtGpuCounters, points)) /
+    // The 64-bit counters, points .. light_rays, in order.
+    constexpr int kCounters = (offsetof(shader::CrtGpuCounters, light_rays) - offsetof(shader::CrtGpuCounters, points)) /
                                   sizeof(uint64_t) + 1;
-    static_assert(kCounters == 18);
+    static_assert(kCounters == 19);
     for (int k = 0; k < kCounters; ++k) dst[k] += src[k];
   }
 
@@ -326,6 +333,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
   gpu::Buffer descs_, block_, counters_buffer_, scratch_, spans_;
   int span_capacity_ = first_span_capacity;
   uint64_t span_retries_ = 0;
+  float light_field_ = 0;  // ShadowRegion::light_field of the prepared light (0: none)
   // Light cells (and point starts) of every tile per dispatch: 0 for all of them, unless the
   // driver limits the loops of one invocation (lavapipe), then as many as fit, learned by retrying.
   int cells_per_dispatch_ = 0;

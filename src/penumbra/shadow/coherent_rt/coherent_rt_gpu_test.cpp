@@ -141,6 +141,12 @@ TEST_F(CoherentRtGpu, DiskLightGivesTheCpuPicture) {
   EXPECT_LE(difference(scene, {"resolution=256"}), 2e-3);
 }
 
+// The light field: the parts of the rays near the light where the lamp's shades lie beyond the
+// images, through the BVH as on the CPU through Embree.
+TEST_F(CoherentRtGpu, CastersBesideTheLightGiveTheCpuPicture) {
+  EXPECT_LE(difference(testing::lamp_shades_scene(40), {"resolution=256"}), 2e-3);
+}
+
 TEST_F(CoherentRtGpu, OtherLightShapesAreAOneLineError) {
   Scene scene = shipped_scene("bunny.json", 16);
   scene.lights[0].shape = LightShape::Sphere;

@@ -74,8 +74,22 @@ PN_INLINE float crt_near_field_length(vec3 p, vec3 eye, vec3 forward, float scal
   return near_field_length(scale * z, tfar, light_width);
 }
 
-// What the tiles read besides their buffers, 152 bytes (the near field's last 32), uploaded with each
-// evaluate.
+// The light field (coherent-rt.md, "Casters beside the light"): where the shadow ray org + t dir,
+// t in [0, tfar], comes nearer the light's plane (centre c, unit normal n toward the scene) than
+// depth z_l, the reference images cannot hold a caster that ShadowRegion::light_field says may be
+// there, and the rest of the ray is traced through the scene. The t it starts at: tfar where the
+// ray never comes that near (and for z_l = 0: no light field), 0 where it starts there.
+PN_INLINE float crt_light_field_start(vec3 org, vec3 dir, float tfar, vec3 c, vec3 n, float z_l) {
+  if (!(z_l > 0.0f)) return tfar;
+  float z0 = dot(org - c, n);
+  if (!(z0 > z_l)) return 0.0f;
+  float dz = dot(dir, n);  // < 0 toward the light
+  if (!(dz < 0.0f)) return tfar;
+  return min(tfar, (z0 - z_l) / -dz);
+}
+
+// What the tiles read besides their buffers, 156 bytes (the near field's 32 and the light field's
+// 4 last), uploaded with each evaluate.
 struct CrtTileBlock {
   CrtTraceOptions trace;  // 24 bytes
   int cols;               // light cells (stratification_grid)
@@ -106,6 +120,7 @@ struct CrtTileBlock {
   float near_scale;
   vec3 near_forward;
   float near_light_width;  // near_field_light_width of the light
+  float light_field;       // crt_light_field_start's z_l (0: no light field)
 };
 
 // A tile's scratch, `words` uint32 words each (crt_tile_scratch_words): stamps (n sub^2),
@@ -118,9 +133,9 @@ PN_INLINE uint crt_tile_scratch_words(int n, int sub_grid) {
   return subs + cells + 2u * cells + cells + 3u * subs + 3u * cells + 16u + 2u;
 }
 
-// What the tiles count, 160 bytes (one atomic per tile and counter): SoftShadCounts, CrtTraceCounts
+// What the tiles count, 168 bytes (one atomic per tile and counter): SoftShadCounts, CrtTraceCounts
 // (overflow: some ray's span lists were too small: the host traces again with longer ones), the
-// own-plane cells and the BVH rays of tracer=geometry.
+// own-plane cells, the BVH rays of tracer=geometry and of the near and light fields.
 struct CrtGpuCounters {
   uint64_t points;
   uint64_t rays;
@@ -140,6 +155,7 @@ struct CrtGpuCounters {
   uint64_t own_plane_cells;
   uint64_t geometry_rays;
   uint64_t near_rays;  // the near fields traced through the BVH (crt_near_field_length)
+  uint64_t light_rays;  // the light fields traced through the BVH (crt_light_field_start)
   uint overflow;
   // Some tile's dispatch ran into the driver's loop limit (lavapipe: 65535 loop iterations per
   // invocation; the loops then stop early, silently): what is written is wrong and the host traces
@@ -193,8 +209,8 @@ struct CrtBuildParams {
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::CrtTileBlock) == 152);
-static_assert(sizeof(penumbra::shader::CrtGpuCounters) == 160);
+static_assert(sizeof(penumbra::shader::CrtTileBlock) == 156);
+static_assert(sizeof(penumbra::shader::CrtGpuCounters) == 168);
 static_assert(sizeof(penumbra::shader::CrtTilesParams) <= 128);
 static_assert(sizeof(penumbra::shader::CrtBuildParams) <= 128);
 #endif

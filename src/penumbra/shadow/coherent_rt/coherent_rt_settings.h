@@ -25,6 +25,7 @@ struct CoherentRtSettings {
   int tile = 32;
   bool own_plane = true;
   float near_field = 32.0f;  // narrowest penumbra the images answer for, in their texels at the point (near_field_length)
+  bool light_field = true;   // rays' parts near the light, where casters beyond the images' cap may lie, traced
 };
 
 // What crt_near_field_length reads: the scale, near_field texels of the largest texel among the
@@ -68,6 +69,7 @@ inline CoherentRtSettings coherent_rt_settings(const ParamSet& p) {
   s.tile = p.get_int("tile");
   s.own_plane = p.get_bool("own_plane");
   s.near_field = p.get_float("near_field");
+  s.light_field = p.get_bool("light_field");
   if (s.tile & (s.tile - 1)) throw Error("coherent-rt: tile={} must be a power of two", s.tile);
   return s;
 }

@@ -82,7 +82,7 @@ void main() {
   tc.nodes = 0u;
   tc.texels = 0u;
   tc.overflow = 0u;
-  uint own_plane_cells = 0u, geometry_rays = 0u, near_rays = 0u;
+  uint own_plane_cells = 0u, geometry_rays = 0u, near_rays = 0u, light_rays = 0u;
   int x0 = (b.tile_x0 + int(tile % uint(b.tiles_x))) * b.tile;
   int y0 = (b.tile_y0 + int(tile / uint(b.tiles_x))) * b.tile;
   int ww = b.window_x1 - b.window_x0;
@@ -154,11 +154,29 @@ void main() {
               point = org + dir * hit.t;
             }
           } else {
+            // The light field (crt_light_field_start): the ray's part nearer the light than the images
+            // can hold a caster, through the BVH; the images answer up to where it begins.
+            bool done_near = false;
+            float t_end = tfar;
+            float t_light = crt_light_field_start(org, dir, tfar, L.center, L.n, b.light_field);
+            if (t_light < tfar) {
+              RayHit hit;
+              light_rays += 1u;
+              vec3 from = org + dir * t_light;
+              if (trace_closest(from, dir, tfar - t_light, hit)) {
+                blocked = true;
+                has_point = true;
+                point = from + dir * hit.t;
+                done_near = true;
+              } else if (!(t_light > 0.0f)) {
+                done_near = true;  // the whole segment was in it: unblocked
+              }
+              t_end = t_light;
+            }
             // The near field (crt_near_field_length): its part of the ray through the BVH first.
             vec3 start = org;
-            bool done_near = false;
-            if (b.near_scale > 0.0f) {
-              float len = crt_near_field_length(s.p, b.near_eye, b.near_forward, b.near_scale, b.near_light_width, tfar);
+            if (!done_near && b.near_scale > 0.0f) {
+              float len = min(t_end, crt_near_field_length(s.p, b.near_eye, b.near_forward, b.near_scale, b.near_light_width, tfar));
               RayHit hit;
               near_rays += 1u;
               if (trace_closest(org, dir, len, hit)) {
@@ -166,13 +184,14 @@ void main() {
                 has_point = true;
                 point = org + dir * hit.t;
                 done_near = true;
-              } else if (len >= tfar) {
-                done_near = true;  // the whole segment was near: unblocked
+              } else if (len >= t_end) {
+                done_near = true;  // the whole segment was near (or in the light field): unblocked
               }
               start = org + dir * len;
             }
+            vec3 end = t_end < tfar ? org + dir * t_end : q;
             if (!done_near)
-              crt_trace(images, b.trace, start, q, b.coherence != 0u, spans, tc, blocked, has_point, point);
+              crt_trace(images, b.trace, start, end, b.coherence != 0u, spans, tc, blocked, has_point, point);
           }
           if (tc.overflow == 0u) ss_answer(r, st, L, s.p, j, blocked, has_point, point, sc);
           done += 1;
@@ -224,5 +243,6 @@ void main() {
   atomicAdd(c.c.own_plane_cells, uint64_t(own_plane_cells));
   atomicAdd(c.c.geometry_rays, uint64_t(geometry_rays));
   atomicAdd(c.c.near_rays, uint64_t(near_rays));
+  atomicAdd(c.c.light_rays, uint64_t(light_rays));
   if (tc.overflow != 0u) atomicMax(c.c.overflow, 1u);
 }
