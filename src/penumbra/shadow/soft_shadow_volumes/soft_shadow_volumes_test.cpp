@@ -243,21 +243,34 @@ TEST(SoftShadowVolumesDepthComplexity, NonSilhouetteEdgesChangeNothing) {
   EXPECT_EQ(std::abs(ssv::edge_weight(e, {0.5f, -1, 3})), 1);
 }
 
+// ssv-rt with n light samples against Embree's rays to the same points, and the exactness every
+// test below asserts: every view sample equal, but for rounding's one sample in a thousand.
+struct ExactRun {
+  std::vector<float> v;
+  MethodStats stats;
+  Agreement g;
+};
+ExactRun expect_equal_to_embree(const SceneRun& r, int n, const std::string& what) {
+  ExactRun out;
+  out.v = run_method(r, "ssv-rt", n, {}, &out.stats);
+  const LightSamples pts = make_light_samples(r.scene.lights[0], n, 0, 0, 0);
+  const std::vector<float> e = embree_to_points(r, pts.points);
+  out.g = agreement(out.v, e);
+  EXPECT_GE(out.g.equal_fraction, 0.999) << what << ", " << worst_sample(r, out.v, e);
+  EXPECT_LE(out.g.max_diff, 1.0f / n + 1e-6f) << what << ", " << worst_sample(r, out.v, e);
+  return out;
+}
+
 class SoftShadowVolumesScenes : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(SoftShadowVolumesScenes, EqualsEmbreeToTheSameLightPoints) {
   const SceneRun r = load_scene_at(GetParam(), 96);
   const int n = 64;
-  MethodStats stats;
-  const std::vector<float> v = run_method(r, "ssv-rt", n, {}, &stats);
-  const LightSamples pts = make_light_samples(r.scene.lights[0], n, 0, 0, 0);
-  const std::vector<float> e = embree_to_points(r, pts.points);
   // Every view sample, those on thin two-sided leaves (plant, foliage, leaf-cards) included.
-  const Agreement g = agreement(v, e);
+  const ExactRun run = expect_equal_to_embree(r, n, GetParam());
+  const std::vector<float>& v = run.v;
   std::printf("ssv-rt N=%d vs Embree to the same points, %s: %.5f equal, max |dV| %.5f, %zu silhouette edges\n", n,
-              GetParam().c_str(), g.equal_fraction, g.max_diff, stats.extra["silhouette_edges"].get<size_t>());
-  EXPECT_GE(g.equal_fraction, 0.999) << GetParam() << ", " << worst_sample(r, v, e);
-  EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << GetParam() << ", " << worst_sample(r, v, e);
+              GetParam().c_str(), run.g.equal_fraction, run.g.max_diff, run.stats.extra["silhouette_edges"].get<size_t>());
   // A penumbra exists, and afsm (the same points) agrees.
   EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 50);
   const std::vector<float> a = run_method(r, "afsm", n, {"resolution=192"});
@@ -284,15 +297,9 @@ TEST(SoftShadowVolumesShapes, EqualsEmbreeForEveryLightShapeWithOpenClosedAndSem
                                                     light, 64));
     ASSERT_FALSE(r.scene.objects[1].closed);
     ASSERT_TRUE(r.scene.objects[2].closed);
-    const int n = 100;
-    MethodStats stats;
-    const std::vector<float> v = run_method(r, "ssv-rt", n, {}, &stats);
-    const LightSamples pts = make_light_samples(r.scene.lights[0], n, 0, 0, 0);
-    const std::vector<float> e = embree_to_points(r, pts.points);
-    const Agreement g = agreement(v, e);
-    EXPECT_GE(g.equal_fraction, 0.999) << to_string(shape) << ", " << worst_sample(r, v, e);
-    EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << to_string(shape) << ", " << worst_sample(r, v, e);
-    EXPECT_EQ(stats.extra["partial_casters"].get<int>(), 4);
+    const ExactRun run = expect_equal_to_embree(r, 100, to_string(shape));
+    const std::vector<float>& v = run.v;
+    EXPECT_EQ(run.stats.extra["partial_casters"].get<int>(), 4);
     // Some light passes through one or both of the semi-transparent quads only.
     EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return std::abs(x * 100 - std::round(x * 100)) > 1e-3f; }), 50)
         << to_string(shape);
@@ -324,16 +331,10 @@ TEST(SoftShadowVolumesShapes, CastersThroughOrBehindTheLightAreClippedToItsFront
     scene.camera.up = {0, 0, -1};
     scene.camera.fov_y = 80;
     const SceneRun r = build_scene_run(std::move(scene));
-    const int n = 64;
-    MethodStats stats;
-    const std::vector<float> v = run_method(r, "ssv-rt", n, {}, &stats);
-    const LightSamples pts = make_light_samples(r.scene.lights[0], n, 0, 0, 0);
-    const std::vector<float> e = embree_to_points(r, pts.points);
-    const Agreement g = agreement(v, e);
-    std::printf("%s light, a wall through it and a ceiling: %.5f equal, max |dV| %.5f\n", to_string(shape), g.equal_fraction,
-                g.max_diff);
-    EXPECT_GE(g.equal_fraction, 0.999) << to_string(shape) << ", " << worst_sample(r, v, e);
-    EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << to_string(shape) << ", " << worst_sample(r, v, e);
+    const ExactRun run = expect_equal_to_embree(r, 64, to_string(shape));
+    const std::vector<float>& v = run.v;
+    std::printf("%s light, a wall through it and a ceiling: %.5f equal, max |dV| %.5f\n", to_string(shape),
+                run.g.equal_fraction, run.g.max_diff);
     // The wall hides part of the light from most of the ground: a penumbra.
     EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 200) << to_string(shape);
   }
