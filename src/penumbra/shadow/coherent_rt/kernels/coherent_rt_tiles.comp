@@ -156,7 +156,7 @@ void main() {
           } else {
             // The light field (crt_light_field_start): the ray's part nearer the light than the images
             // can hold a caster, through the BVH; the images answer up to where it begins.
-            bool done_near = false;
+            bool answered = false;
             float t_end = tfar;
             float t_light = crt_light_field_start(org, dir, tfar, L.center, L.n, b.light_field);
             if (t_light < tfar) {
@@ -167,15 +167,15 @@ void main() {
                 blocked = true;
                 has_point = true;
                 point = from + dir * hit.t;
-                done_near = true;
+                answered = true;
               } else if (!(t_light > 0.0f)) {
-                done_near = true;  // the whole segment was in it: unblocked
+                answered = true;  // the whole segment was in it: unblocked
               }
               t_end = t_light;
             }
             // The near field (crt_near_field_length): its part of the ray through the BVH first.
             vec3 start = org;
-            if (!done_near && b.near_scale > 0.0f) {
+            if (!answered && b.near_scale > 0.0f) {
               float len = min(t_end, crt_near_field_length(s.p, b.near_eye, b.near_forward, b.near_scale, b.near_light_width, tfar));
               RayHit hit;
               near_rays += 1u;
@@ -183,14 +183,14 @@ void main() {
                 blocked = true;
                 has_point = true;
                 point = org + dir * hit.t;
-                done_near = true;
+                answered = true;
               } else if (len >= t_end) {
-                done_near = true;  // the whole segment was near (or in the light field): unblocked
+                answered = true;  // the whole segment was near (or in the light field): unblocked
               }
               start = org + dir * len;
             }
             vec3 end = t_end < tfar ? org + dir * t_end : q;
-            if (!done_near)
+            if (!answered)
               crt_trace(images, b.trace, start, end, b.coherence != 0u, spans, tc, blocked, has_point, point);
           }
           if (tc.overflow == 0u) ss_answer(r, st, L, s.p, j, blocked, has_point, point, sc);
