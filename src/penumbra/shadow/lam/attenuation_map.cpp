@@ -114,9 +114,9 @@ inline float AttenuationMap::visibility_impl(Vec3f p, Vec3f n, bool closed, uint
 }
 
 namespace {
-// "LAMATDM3" (2: open_epsilon; 3: the projection takes p - eye, LightView::texel_projection, and
-// the region's cut, cap_tan)
-constexpr uint64_t kMapRecordMagic = 0x334d4454414d414cull;
+// "LAMATDM4" (2: open_epsilon; 3: the projection takes p - eye, LightView::texel_projection, and
+// the region's cut, cap_tan; 4: the tolerances scaled by the view's width, depth_tolerance_scale)
+constexpr uint64_t kMapRecordMagic = 0x344d4454414d414cull;
 }  // namespace
 
 void AttenuationMap::write(std::ostream& out) const {
@@ -318,6 +318,9 @@ AttenuationMap Builder::frame(const AreaLight& light, const ShadowRegion& region
     map.far_ = ref.far();
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c) map.proj_[r][c] = ref.texel_projection().m[r][c];
+    const float scale = depth_tolerance_scale(map.delta_ * static_cast<float>(std::max(ref.width(), ref.height())));
+    map.epsilon_ *= scale;
+    map.open_epsilon_ *= scale;
   }
   map.update_shared();
   return map;
@@ -337,7 +340,7 @@ AttenuationMap Builder::build(RasterTriangleView tris, const AreaLight& light, c
   const size_t texels = static_cast<size_t>(W) * H;
   const int K = opt.max_layers;
   const float delta = map.delta_;
-  const float eps = opt.epsilon;
+  const float eps = map.epsilon_;
   const float eps_open = map.open_epsilon_;
   const bool slope = opt.slope;
 

@@ -43,6 +43,16 @@ namespace lam {
 // The tolerance within which two linear depths are one surface: epsilon * z (relative).
 inline float depth_tolerance(float epsilon, float z) { return epsilon * z; }
 
+// What the map multiplies epsilon and open_epsilon by, from its reference view's width at unit
+// depth (its window over its near plane, the longer side). Relative to z, the tolerance suits a
+// light near what it shadows, whose view is about as wide as it is deep. A view narrower than
+// kFullToleranceWidth (a light far from the scene: a sun) sees the scene's depth range as a small
+// part of z, and epsilon z would span whole objects (a 1 m box under a light 1 km away, 5 m):
+// there the tolerance shrinks with the view, to the same size in texels as that of a view
+// kFullToleranceWidth wide.
+inline constexpr float kFullToleranceWidth = 2.0f;  // a 90-degree view
+inline float depth_tolerance_scale(float view_width) { return std::min(1.0f, view_width / kFullToleranceWidth); }
+
 // One layer of one texel after precomputation.
 struct Layer {
   float z = 0;            // linear depth in the reference view (mean of the samples that saw it)

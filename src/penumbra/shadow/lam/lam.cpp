@@ -234,7 +234,8 @@ const MethodRegistration registration({
          {}, 4, 8192},
         {"epsilon", ParamType::Float, 0.005,
          "depth tolerance, relative to the light-view linear depth: depths within epsilon * z are one surface "
-         "(insertion and display); with local_planes, for closed objects' surfaces",
+         "(insertion and display); with local_planes, for closed objects' surfaces. A view narrower than 90 degrees "
+         "(a light far from the scene) scales it (and open_epsilon) by its width over 2",
          {}, 0, 1},
         {"open_epsilon", ParamType::Float, 0.002,
          "with local_planes, the depth tolerance for open surfaces (leaves, cards, planes: objects that are not "

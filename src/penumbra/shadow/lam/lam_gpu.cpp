@@ -219,7 +219,7 @@ class LayeredAttenuationMapsGpu final : public GpuShadowMethod {
         ip.height = ref.height();
         ip.near = ref.near();
         ip.far = ref.far();
-        ip.epsilon = options_.epsilon;
+        ip.epsilon = map_.epsilon();
         ip.open_epsilon = map_.open_epsilon();
         ip.scene = frame.scene->address();
         ip.max_layers = K;

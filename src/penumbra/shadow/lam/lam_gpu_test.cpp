@@ -4,6 +4,8 @@
 // crops, an empty shadow region, the memory estimate. Small renders: lavapipe is slow.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "penumbra/gpu/raster/gpu_batch_rasterizer.h"
 #include "penumbra/shadow/gpu_method.h"
 #include "penumbra/shadow/lam/lam_gpu.h"
@@ -108,6 +110,17 @@ TEST_F(LamGpu, BatchesOfEverySizeAndListsAndBuffersFarTooSmallGiveOnePicture) {
   const RenderResult gathered = render_scene(scene, settings(true));
   EXPECT_EQ(mean_abs_dv(whole.visibility, gathered.visibility), 0.0);
   EXPECT_EQ(whole.stats.extra.at("splats"), gathered.stats.extra.at("splats"));
+}
+
+TEST_F(LamGpu, ALightFarFromTheSceneGivesTheCpuPicture) {
+  // A sun (100 m wide, 1 km away, 45 degrees up) over a box: both devices' builds and displays take the tolerances
+  // the view's width scales (depth_tolerance_scale); lam_test.cpp holds the CPU to the penumbra.
+  const Scene scene = testing::ground_scene({testing::object(testing::box({-0.5f, 0, -0.5f}, {0.5f, 1, 0.5f}))},
+                                            testing::rect_light_down({700, 700, 0}, 100, 100), 32);
+  const RenderResult gpu = render_scene(scene, settings(true));
+  EXPECT_LE(difference(scene, settings(true), "sun"), 2e-3);
+  // The box's shadow, 1 m long toward -x, is there (the ground read as lit before).
+  EXPECT_LT(*std::min_element(gpu.visibility.data().begin(), gpu.visibility.data().end()), 0.05f);
 }
 
 TEST_F(LamGpu, CropWindowIsTheWholeFramesPixelsAndTheCpusCrop) {

@@ -165,15 +165,45 @@ TEST(Lam, FlatOccluderGivesTheAnalyticPenumbraWithinTheBanding) {
   }
 }
 
+// A light far from what it shadows (a sun: 100 m wide, 1 km up) over the same edge. epsilon z
+// was 5 m there, and the ground 1 m under the occluder read as the occluder's own surface: lit
+// (mean error 0.5 over this line until 2026-12-07). Scaled by the view's width
+// (depth_tolerance_scale), the tolerance keeps them apart.
+TEST(Lam, ALightFarFromTheSceneStillTellsTheGroundFromTheOccluderAboveIt) {
+  constexpr float H = 1000, w = 100;
+  const Scene scene = ground_scene({object(quad_y(kh, -1.5f, 0.0f, -1.0f, 1.0f))}, rect_light_down({0, H, 0}, w, w));
+  const float ramp = kh * w / (H - kh);  // the penumbra's width on the ground, 0.1 m
+  const ViewSamples vs = ground_line(-2 * ramp, 2 * ramp, 400);
+  constexpr int kSpp = 64;
+  int cols = 0, rows = 0;
+  stratification_grid(kSpp, &cols, &rows);
+  const lam::AttenuationMap map = build_map(scene, kSpp, 256);
+  EXPECT_LT(map.epsilon(), 0.005f * 0.01f);  // the view is 0.2 degrees wide
+  for (lam::Filter f : kFilters) {
+    const std::vector<float> v = lookup_all(map, vs, f);
+    double mae = 0;
+    for (size_t i = 0; i < vs.size(); ++i)
+      mae += std::abs(v[i] - clamp01(0.5f + vs.samples[i].p.x / ramp));
+    mae /= vs.size();
+    // The near light's bound above (measured: nearest 0.023, bilinear 0.015; 0.48 before).
+    EXPECT_LE(mae, 0.5 / cols) << name(f);
+    EXPECT_EQ(v.front(), 0.0f) << name(f);
+    EXPECT_EQ(v.back(), 1.0f) << name(f);
+  }
+}
+
 TEST(Lam, OpenSurfacesCloserThanEpsilonStayApartWithTheOpenTolerance) {
-  // A leaf-like open quad 7 mm above the open ground, under a light 2 m up: the ground beneath
-  // its middle is in umbra. Within epsilon (0.005 z: 1 cm) the two are one surface and the
-  // ground reads as lit as the leaf; open_epsilon (0.002 z: 4 mm) keeps them two layers.
+  // An open quad 7 mm above the open ground, under a light 2 m up: the ground beneath its middle
+  // is in umbra. Within epsilon (0.005 z: 1 cm) the two are one surface and the ground reads as
+  // lit as the quad; open_epsilon (0.002 z: 4 mm) keeps them two layers. (The quad is 4 m wide so
+  // that the view holding its shadow is 90 degrees wide: a narrower one scales both tolerances
+  // down, depth_tolerance_scale.)
   const Scene scene =
-      ground_scene({object(quad_y(0.007f, -0.5f, 0.5f, -0.5f, 0.5f))}, rect_light_down({0, kH, 0}, 0.5f, 0.5f));
+      ground_scene({object(quad_y(0.007f, -2.0f, 2.0f, -2.0f, 2.0f))}, rect_light_down({0, kH, 0}, 0.5f, 0.5f));
   ASSERT_FALSE(scene.objects[0].closed);
   ASSERT_FALSE(scene.objects[1].closed);
   const ViewSamples vs = ground_line(-0.2f, 0.2f, 40, 0.0f);  // object 0: the ground
+  EXPECT_EQ(build_map(scene, 64, 256).epsilon(), 0.005f);
   for (const char* open : {"open_epsilon=0.002", "open_epsilon=0.005"}) {
     const std::vector<float> v = run_lam(scene, vs, 64, {"resolution=256", "epsilon=0.005", open});
     double mean = 0;
