@@ -492,6 +492,22 @@ TEST(MultiViewShadowMap, TheNearFieldDrawsPenumbraeNarrowerThanTheTexels) {
   EXPECT_GT(near.stats.extra["near_field_rays"].get<uint64_t>(), 48u * 48u);
 }
 
+TEST(MultiViewShadowMap, ReceiversBeyondAMapsWindowAreTraced) {
+  // Maps 30 degrees wide (max_fov): most receivers lie outside most light points' maps, where a
+  // map says nothing. They were lit there (a room lit through a window by a light just outside it
+  // lost the walls' shadows so: mean |dV| 0.055 against the reference's own 0.019); now their
+  // whole segment to that light point is traced (mv_traced_length), and the error is the
+  // reference's own at these samples. The maps alone (near_field=0) keep the old answer.
+  Scene scene = small_scene(40);
+  Image ref = render_v(scene, "reference", {}, 1024);
+  const double narrow = compare_images(render_v(scene, "multi-view-sm", {"max_fov=30"}, 256), ref).mae;
+  const double alone = compare_images(render_v(scene, "multi-view-sm", {"max_fov=30", "near_field=0"}, 256), ref).mae;
+  const double mae_ref = compare_images(render_v(scene, "reference", {}, 256), ref).mae;
+  std::printf("multi-view-sm 30-degree maps: mean |dV| %.4f, maps alone %.4f; reference %.4f\n", narrow, alone, mae_ref);
+  EXPECT_LT(narrow, 1.5 * mae_ref + 1e-3);
+  EXPECT_GT(alone, 5 * narrow);
+}
+
 TEST(MultiViewShadowMap, DiskAndSphereLights) {
   // A disk light: its maps sample the disk itself. A sphere light: the maps sample the
   // disk through its centre facing the scene (AreaLight::sample_area), while `reference`

@@ -91,7 +91,7 @@ class MultiViewShadowMap final : public ShadowMethod {
           if (!in_front_of_light(light, s.p)) continue;
           ++local;
           const bool closed = ctx.scene->objects[s.object].closed;
-          const float near = shader::sm_near_field_length(m, s.p, near_field, light_width);
+          const float near = shader::mv_traced_length(m, s.p, near_field, light_width);
           const float t = shader::mv_far_lookup(planes.z.data(), planes.opacity.data(), m, s.p, s.ng, closed,
                                                 bias_.shared(), near);
           if (t > 0.0f && near > 0.0f) {

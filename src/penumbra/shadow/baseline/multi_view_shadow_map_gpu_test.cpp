@@ -52,6 +52,12 @@ TEST_F(MultiViewGpu, TheNearFieldIsTracedAsOnTheCpu) {
   }
 }
 
+TEST_F(MultiViewGpu, ReceiversBeyondAMapsWindowAreTracedAsOnTheCpu) {
+  // Maps 30 degrees wide: the receivers outside a light point's map trace their whole segment to
+  // it (multi_view_shared.h mv_traced_length), on both devices.
+  EXPECT_LE(difference(shipped_scene("bunny.json", 32), settings(true, {"max_fov=30"})), 2e-3);
+}
+
 TEST_F(MultiViewGpu, BatchesOfEverySizeGiveOnePicture) {
   const Scene scene = shipped_scene("bunny.json", 32);
   const RenderResult whole = render_scene(scene, settings(true));

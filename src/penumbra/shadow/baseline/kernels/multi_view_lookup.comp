@@ -34,7 +34,7 @@ void main() {
         for (uint m = 0u; m < pc.p.map_count; ++m) {
           MultiViewMap map = maps.m[m];
           uint64_t offset = map.first_texel * 4UL;
-          float near = sm_near_field_length(map.map, s.p, pc.p.near_field, pc.p.light_width);
+          float near = mv_traced_length(map.map, s.p, pc.p.near_field, pc.p.light_width);
           float t = mv_far_lookup(Floats(pc.p.z + offset), Floats(pc.p.opacity + offset), map.map, s.p, s.ng, closed,
                                   pc.p.bias, near);
           if (t > 0.0f && near > 0.0f) {
