@@ -68,8 +68,9 @@ class MultilayerMethod final : public ShadowMethod {
       if (shader::ml_is_receiver(light.center, light.frame.n, s.p)) receivers.push_back(s.p);
     if (receivers.empty()) return;
     build(*ctx.scene, light, receivers);
-    const multilayer::TraceSetup setup = multilayer::make_trace_setup(
+    multilayer::TraceSetup setup = multilayer::make_trace_setup(
         view_.view, kind_ == Kind::Opaque ? opaque_.z_min : transparent_.z_min, resolved_trace_);
+    setup.segments_held_beyond = view_.segments_held_beyond;
 
     ScopedPhase phase(stats_, "trace");
     const int n = std::max(1, ctx.light_samples);

@@ -298,6 +298,7 @@ class MultilayerGpu final : public GpuShadowMethod {
           if (shader::shadow_view_project(plan.frame.axes, q, x, y, z)) range.add(x, y, z);
         }
       view.view = build_shadow_view(plan.frame, range, casters_, plan.fit);
+      view.segments_held_beyond = multilayer::segments_held_beyond(plan, view.view, true);
     }
     view_ = view;
 
@@ -371,7 +372,8 @@ class MultilayerGpu final : public GpuShadowMethod {
     params.light_width = shader::near_field_light_width(light.area());
     const multilayer::TraceParams resolved =
         multilayer::resolve_trace_params(params, v, z_min, settings_.z_thresh, settings_.z_thresh_texels);
-    const multilayer::TraceSetup setup = multilayer::make_trace_setup(v, z_min, resolved);
+    multilayer::TraceSetup setup = multilayer::make_trace_setup(v, z_min, resolved);
+    setup.segments_held_beyond = view_.segments_held_beyond;
     tb.setup = multilayer::shared_trace_setup(setup, z_min);
     trace_block_.upload(&tb, sizeof(tb));
     receiver_bounds_ = rb;

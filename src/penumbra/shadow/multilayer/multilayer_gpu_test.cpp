@@ -86,6 +86,20 @@ TEST_F(MultilayerGpu, RaysBehindFullTexelsAreTracedAsOnTheCpu) {
   }
 }
 
+// A map capped at max_fov: the rays it does not hold are traced whole (ml_leaves_window), the
+// GPU's as the CPU's.
+TEST_F(MultilayerGpu, RaysTheCappedMapDoesNotHoldAreTracedAsOnTheCpu) {
+  Scene scene = testing::ground_scene({testing::object(testing::quad_y(0.9f, 0.3f, 4.0f, -4.0f, 4.0f))},
+                                      testing::rect_light_down({0, 1, 0}, 0.5f, 0.5f), 32);
+  scene.camera.eye = {-1.5f, 0.6f, 3.0f};  // multilayer_test.cpp's plate beside the light
+  scene.camera.target = {2.5f, 0.0f, 0.0f};
+  scene.finalize();
+  for (const char* method : {"mlsm", "mtsm"}) {
+    const testing::DevicePair both = testing::render_on_both(scene, settings(method, {}, false));
+    EXPECT_LE(both.mean_abs_dv, 2e-3) << method;
+  }
+}
+
 // 256 light samples a view sample: on lavapipe more loop iterations than one invocation may run
 // (docs/gpu.md), so the traces are split over dispatches there; the same picture either way.
 TEST_F(MultilayerGpu, ManyLightSamplesGiveTheCpuPicture) {

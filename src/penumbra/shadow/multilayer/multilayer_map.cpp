@@ -79,6 +79,16 @@ PushBackPlan plan_push_back(const AreaLight& light, const LightView& centre, con
   return plan;
 }
 
+float segments_held_beyond(const PushBackPlan& plan, const LightView& view, bool push_back) {
+  if (!push_back) return kInfinity;
+  const float edge = std::max({std::abs(view.window_left()), std::abs(view.window_right()),
+                               std::abs(view.window_bottom()), std::abs(view.window_top())}) /
+                     view.near();
+  const bool capped = edge >= std::tan(radians(0.5f * plan.fit.max_fov)) * (1 - 1e-4f);
+  if (!capped) return kInfinity;
+  return plan.crossings ? plan.z_c : plan.fit.min_near;
+}
+
 CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> receivers, const Bounds3f& casters,
                              const ViewOptions& options, std::span<const Bounds3f> caster_boxes) {
   ShadowViewFit fit;
@@ -114,6 +124,7 @@ CentreView light_centre_view(const AreaLight& light, std::span<const Vec3f> rece
   // casters and receivers; with the light's outline among the receivers it is in front of
   // the light too (at depth ~d).
   out.view = fit_shadow_view(plan.eye, plan.dir, plan.up, points, casters, plan.fit);
+  out.segments_held_beyond = segments_held_beyond(plan, out.view, true);
   return out;
 }
 

@@ -53,6 +53,9 @@ struct CentreView {
   LightView view;
   float push_back = 0;      // d of eq. 4, world units (0 without push-back)
   float half_fov_deg = 0;   // the half angle eq. 4 used
+  // The linear depth beyond which the window holds every receiver's segments to the light, as
+  // fitted (segments_held_beyond); +inf without push-back (nothing is held).
+  float segments_held_beyond = kInfinity;
 };
 
 // xie2007 §6.2, eq. 4: the light-centre view, with the eye pushed back along -n by
@@ -91,6 +94,13 @@ struct PushBackPlan {
 };
 PushBackPlan plan_push_back(const AreaLight& light, const LightView& centre, const Bounds3f& casters,
                             const ViewOptions& options, std::span<const Bounds3f> caster_boxes);
+// Where the pushed view `view`, fitted from `plan`, may fail to hold a receiver's segments to the
+// light: the depth beyond which it was fitted to hold them (where casters stand: z_c with the
+// segments' crossings, else the near plane, the outline itself having been fitted just past it),
+// when the fit stopped at max_fov on some side; +inf (every segment held) when it did not, and
+// without push-back. The trace checks each ray beyond that depth against the window
+// (multilayer_trace_shared.h ml_leaves_window).
+float segments_held_beyond(const PushBackPlan& plan, const LightView& view, bool push_back);
 // The most light_centre_view allocates for `receivers` receivers: the points it fits, each
 // receiver and its segments' crossings toward the light's outline (`outline_points`
 // vertices).

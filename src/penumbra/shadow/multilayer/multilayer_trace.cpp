@@ -20,7 +20,7 @@ TraceParams resolve_trace_params(const TraceParams& params, const LightView& vie
 
 shader::MlTraceSetup shared_trace_setup(const TraceSetup& s, float z_min) {
   return {s.z_thresh, s.window_tolerance, s.inv_focal,   s.self_bias,   s.stop_below,
-          z_min,      s.open_self_bias,   s.near_field,  s.light_width, 0.0f};
+          z_min,      s.open_self_bias,   s.near_field,  s.light_width, s.segments_held_beyond};
 }
 
 TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParams& params) {

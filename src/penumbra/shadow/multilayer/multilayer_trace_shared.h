@@ -26,7 +26,7 @@ struct MlTraceSetup {
   float open_self_bias;    // self_bias at a receiver on an open surface (a leaf, a card, a plane)
   float near_field;        // narrowest penumbra the map answers for, texel widths at the receiver (0: no near field)
   float light_width;       // near_field_light_width of the light
-  float pad;
+  float segments_held_beyond;  // linear depth beyond which the window holds the segments (+inf: unknown)
 };
 
 // A ray ready to walk: the segment projected into the view, the receiver's normal turned toward
@@ -124,15 +124,40 @@ PN_INLINE float ml_next_toward_zero(float x) {
   return uintBitsToFloat(floatBitsToUint(x) - 1u);
 }
 
+// Whether world point x projects outside view v's window (or behind its eye).
+PN_INLINE bool ml_outside_window(PN_IN(RasterView) v, vec3 x) {
+  float h0, h1, h2, h3;
+  view_texel_homogeneous(v, x, h0, h1, h2, h3);
+  if (!(h3 > 0.0f)) return true;
+  float tx = h0 / h3;
+  float ty = h1 / h3;
+  return !(tx >= 0.0f && ty >= 0.0f && tx <= float(v.width) && ty <= float(v.height));
+}
+
+// Whether the part of the segment from receiver p to light point q beyond linear depth z_held
+// (CentreView::segments_held_beyond: casters stand only there) leaves the window. The view is
+// fitted to hold those parts (multilayer.md "How it works"), up to max_fov: a view capped there (a
+// light just outside a room's window, lighting walls more than 60 degrees off its axis) does not,
+// and the map let such a ray through past casters it never held. The window is convex: the part's
+// two ends decide.
+PN_INLINE bool ml_leaves_window(PN_IN(RasterView) v, float z_held, vec3 p, vec3 q) {
+  float zp = view_linear_depth(v, p);
+  if (!(zp > z_held)) return false;  // no part beyond it (+inf: nothing held, nothing checked)
+  float zq = view_linear_depth(v, q);
+  vec3 c = zq >= z_held ? q : p + (q - p) * ((zp - z_held) / (zp - zq));
+  return ml_outside_window(v, p) || ml_outside_window(v, c);
+}
+
 // The near field (penumbra's addition; multilayer.md "The near field"): the fraction of the segment
 // from receiver p to light point q, from p, that the caller traces through the scene itself (0 with
 // no near field; 1: the whole segment): where an occluder's penumbra at p would be narrower than
 // near_field texel widths at p's depth (near_field_length). There the map holds a ray's occluders
 // only where they cover a texel's centre, and not inside the own-surface band; beyond, the map
 // answers (ml_setup_ray starts there: with a near field it projects the segment from where the
-// near field ends).
+// near field ends). 1 where the map's part of the ray leaves the window (ml_leaves_window).
 PN_INLINE float ml_near_fraction(PN_IN(RasterView) v, MlTraceSetup s, vec3 p, vec3 q) {
   if (!(s.near_field > 0.0f)) return 0.0f;
+  if (ml_leaves_window(v, s.segments_held_beyond, p, q)) return 1.0f;  // the map cannot answer: traced whole
   float resolved = s.near_field * max(0.0f, view_linear_depth(v, p)) * s.inv_focal;
   float dist = length(q - p);
   float near = near_field_length(resolved, dist, s.light_width);
