@@ -37,9 +37,10 @@ PN_INLINE float mv_far_lookup(PN_FLOAT_ARRAY zs, PN_FLOAT_ARRAY opacity, ShadowM
 
 // The part of p's segment to map m's eye that is traced: the near field (sm_near_field_length),
 // or the whole segment where p lies outside the map (behind its near plane or beyond its window:
-// a receiver more than max_fov / 2 off the light's axis from that light point, where the map says
-// nothing and counted as lit; a room lit through a window by a light just outside it lost the
-// shadows of the walls beside the window so). 0 with near_field 0 (the maps alone).
+// a receiver more than max_fov / 2 off the light's axis from that light point). The map says
+// nothing there, and such receivers counted as lit: a room lit through a window by a light just
+// outside it lost the shadows of the walls beside the window so. 0 with near_field 0 (the maps
+// alone).
 PN_INLINE float mv_traced_length(ShadowMapView m, vec3 p, float near_field, float light_width) {
   if (!(near_field > 0.0f)) return 0.0f;
   if (sm_outside(m, p)) return length(m.view.eye - p);

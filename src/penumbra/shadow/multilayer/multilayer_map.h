@@ -53,8 +53,10 @@ struct CentreView {
   LightView view;
   float push_back = 0;      // d of eq. 4, world units (0 without push-back)
   float half_fov_deg = 0;   // the half angle eq. 4 used
-  // The linear depth beyond which the window holds every receiver's segments to the light, as
-  // fitted (segments_held_beyond); +inf without push-back (nothing is held).
+  // Where the trace checks rays against the window: the linear depth beyond which the pushed
+  // view was fitted to hold every receiver's segments, when its fit stopped at max_fov
+  // (segments_held_beyond); +inf where it did not (every segment held) and without push-back
+  // (nothing checked).
   float segments_held_beyond = kInfinity;
 };
 

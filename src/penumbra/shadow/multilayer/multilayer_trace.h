@@ -45,7 +45,9 @@ struct TraceSetup {
   float stop_below = 1e-3f;
   float near_field = 0;
   float light_width = 0;
-  float segments_held_beyond = kInfinity;  // CentreView's: with a near field, rays whose part beyond it leaves the window are traced
+  // CentreView's: with a near field, a ray whose part beyond this depth leaves the window is traced
+  // whole (ml_leaves_window); +inf: none is.
+  float segments_held_beyond = kInfinity;
 };
 // z_min: the map's smallest depth (the widest window-depth span of +-z_thresh is there).
 TraceSetup make_trace_setup(const LightView& view, float z_min, const TraceParams& params);

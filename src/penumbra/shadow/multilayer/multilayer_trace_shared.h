@@ -26,7 +26,7 @@ struct MlTraceSetup {
   float open_self_bias;    // self_bias at a receiver on an open surface (a leaf, a card, a plane)
   float near_field;        // narrowest penumbra the map answers for, texel widths at the receiver (0: no near field)
   float light_width;       // near_field_light_width of the light
-  float segments_held_beyond;  // linear depth beyond which the window holds the segments (+inf: unknown)
+  float segments_held_beyond;  // CentreView's: rays are checked against the window beyond it (+inf: none)
 };
 
 // A ray ready to walk: the segment projected into the view, the receiver's normal turned toward
@@ -142,7 +142,7 @@ PN_INLINE bool ml_outside_window(PN_IN(RasterView) v, vec3 x) {
 // two ends decide.
 PN_INLINE bool ml_leaves_window(PN_IN(RasterView) v, float z_held, vec3 p, vec3 q) {
   float zp = view_linear_depth(v, p);
-  if (!(zp > z_held)) return false;  // no part beyond it (+inf: nothing held, nothing checked)
+  if (!(zp > z_held)) return false;  // no part beyond it (+inf: nothing checked)
   float zq = view_linear_depth(v, q);
   vec3 c = zq >= z_held ? q : p + (q - p) * ((zp - z_held) / (zp - zq));
   return ml_outside_window(v, p) || ml_outside_window(v, c);
