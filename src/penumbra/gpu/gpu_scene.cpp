@@ -59,9 +59,7 @@ uint32_t object_flags(const SceneObject& o) {
   if (m.two_sided) f |= shader::kObjectTwoSided;
   if (o.closed) f |= shader::kObjectClosed;
   if (m.alpha.active()) f |= m.alpha.mode == AlphaMode::Mask ? shader::kObjectAlphaMask : shader::kObjectAlphaBlend;
-  bool semi = m.semi_transparent();
-  for (float a : o.mesh.triangle_opacity) semi = semi || a < 1.0f;
-  if (semi) f |= shader::kObjectSemiTransparent;
+  if (o.semi_transparent()) f |= shader::kObjectSemiTransparent;
   return f;
 }
 

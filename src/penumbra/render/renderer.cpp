@@ -182,6 +182,7 @@ RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSett
     q.light_samples = settings.light_samples;
     q.triangles = scene.triangle_count();
     q.threads = std::max(1, max_threads());
+    q.semi_transparent = scene.semi_transparent();
     const ParamSet params = resolve_method_params(settings.method, scene, settings.params);
     // One instance per light, each keeping its maps (Renderer::methods_); the setting named is
     // the one that drives most of their bytes together.
@@ -247,6 +248,7 @@ GpuMemoryEstimate estimate_gpu_render_memory(const Scene& scene, const RenderSet
     q.light_samples = settings.light_samples;
     q.triangles = scene.triangle_count();
     q.threads = 1;
+    q.semi_transparent = scene.semi_transparent();
     const ParamSet params = resolve_method_params(settings.method, scene, settings.params);
     MemoryTally lights;
     for (const AreaLight& light : expand_textured_lights(scene.lights)) {

@@ -41,6 +41,13 @@ Mat4 ObjectTransform::matrix() const {
          Mat4::scale(scale);
 }
 
+bool SceneObject::semi_transparent() const {
+  if (material.semi_transparent()) return true;
+  for (float a : mesh.triangle_opacity)
+    if (a < 1.0f) return true;
+  return false;
+}
+
 bool ObjectTransform::similarity() const {
   float ax = std::abs(scale.x);
   return std::abs(std::abs(scale.y) - ax) <= 1e-6f * ax && std::abs(std::abs(scale.z) - ax) <= 1e-6f * ax;

@@ -94,6 +94,9 @@ struct SceneObject {
   Material material;
   bool closed = false;  // mesh.is_closed(), computed once at load
   std::optional<SphereShape> sphere;
+  // Whether it may stop only part of the light somewhere: a semi-transparent or alpha-blended
+  // material, or a triangle of opacity below 1.
+  bool semi_transparent() const;
 
   // Mesh sharing (instancing): several objects placing one mesh (a mesh file named by several
   // scene-file objects, the forest generator's trees) hold the same `shared_mesh`, that mesh in

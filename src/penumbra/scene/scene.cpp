@@ -32,9 +32,17 @@ size_t Scene::triangle_count() const {
   return n;
 }
 
+bool Scene::semi_transparent() const {
+  for (const SceneObject& o : objects)
+    if (o.semi_transparent()) return true;
+  return false;
+}
+
 void Scene::finalize() {
-  // A closed mesh with an alpha texture is not closed to light: its mask has holes. A shared
-  // mesh is checked once, in its own space: placing it neither opens nor closes it.
+  // A closed mesh with an alpha texture is not closed to light: its mask has holes; nor is a
+  // semi-transparent one: light passes through it, so a point on it sees the light behind its own
+  // plane through the mesh, as the rays do (the methods' closed-mesh rules assume an opaque
+  // solid). A shared mesh is checked once, in its own space: placing it neither opens nor closes it.
   std::unordered_map<const TriangleMesh*, bool> shared_closed;
   for (auto& o : objects) {
     bool closed = false;
@@ -45,7 +53,7 @@ void Scene::finalize() {
     } else {
       closed = o.mesh.is_closed();
     }
-    o.closed = closed && !o.material.alpha_textured();
+    o.closed = closed && !o.material.alpha_textured() && !o.semi_transparent();
   }
   orient_sphere_lights();
 }

@@ -33,6 +33,8 @@ struct Scene {
 
   Bounds3f bounds() const;
   size_t triangle_count() const;
+  // Whether some object stops only part of the light (SceneObject::semi_transparent).
+  bool semi_transparent() const;
   // After lights or objects change: orient sphere lights toward the scene, compute
   // SceneObject::closed. The loader calls it; code that builds scenes by hand should too.
   void finalize();

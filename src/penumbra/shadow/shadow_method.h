@@ -93,6 +93,7 @@ struct MemoryQuery {
   int light_samples = 256;    // --spp
   uint64_t triangles = 0;     // in the whole scene
   int threads = 1;            // worker threads that may each hold scratch buffers
+  bool semi_transparent = false;  // some object stops only part of the light (SceneObject::semi_transparent)
   // The light the instance serves (its shape decides some sizes); null: the largest of any.
   const AreaLight* light = nullptr;
 };

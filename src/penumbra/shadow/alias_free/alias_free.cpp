@@ -128,10 +128,13 @@ class AliasFreeBase : public ShadowMethod {
     return true;
   }
 
-  // §3: the shadow bit of every listed slot for the point light at c (1 = some caster blocks
-  // the segment from the slot's point to c). Closed meshes cast with their triangles facing
+  // §3: the shadow of every listed slot for the point light at c: kCenterBlocked where some
+  // caster blocks the segment from the slot's point to c; kCenterPartial where, with `partial`,
+  // only casters that stop part of the light (semi-transparent, alpha blend) cover it (its ray
+  // then decides how much passes); else 0. Closed meshes cast with their triangles facing
   // away from c only (§3.3). Sets extra.casters; adds to *counters and *memory.
-  std::vector<uint8_t> center_shadow(const Scene& scene, Vec3f c, Counters* counters, size_t* memory) {
+  static constexpr uint8_t kCenterPartial = shader::kAfsmCenterPartial, kCenterBlocked = shader::kAfsmCenterBlocked;
+  std::vector<uint8_t> center_shadow(const Scene& scene, Vec3f c, bool partial, Counters* counters, size_t* memory) {
     std::vector<RasterTriangle> casters;
     std::vector<Planes> planes;
     {
@@ -168,16 +171,19 @@ class AliasFreeBase : public ShadowMethod {
           return;
         }
         const Planes& pl = planes[index];
+        const uint8_t mark = partial && textures.semi_transparent(casters[index]) ? kCenterPartial : kCenterBlocked;
         for (uint32_t slot = begin; slot < end; ++slot) {
-          if (shadowed[slot]) continue;
+          if (shadowed[slot] >= mark) continue;
           cnt.sample_tests++;
           const Vec3f p = lists_.positions[slot];
           // §3.3's four planes (alias_free_shared.h: the GPU version runs the same test).
           if (!shader::afsm_hard_blocks(pl.support, pl.v0, pl.edge[0], pl.edge[1], pl.edge[2], c, p)) continue;
           const Vec3f d = p - c;
           // An alpha-textured caster (issue 20) blocks where the segment meets it inside its mask.
-          if (textures.textured(casters[index]) && !(textures.opacity_on_line(casters[index], p, d) > 0)) continue;
-          shadowed[slot] = 1;
+          if (mark == kCenterBlocked && textures.textured(casters[index]) &&
+              !(textures.opacity_on_line(casters[index], p, d) > 0))
+            continue;
+          shadowed[slot] = mark;
         }
       });
     }
@@ -289,9 +295,28 @@ class AliasFreeHard final : public AliasFreeBase {
 
     Counters total;
     size_t memory = 0;
-    const std::vector<uint8_t> shadowed = center_shadow(scene, c, &total, &memory);
-    for (size_t slot = 0; slot < lists_.slots(); ++slot)
-      if (shadowed[slot]) out.visibility[lists_.sample[slot]] = 0.0f;
+    const std::vector<uint8_t> shadowed = center_shadow(scene, c, ctx.tracer != nullptr, &total, &memory);
+    std::vector<uint32_t> partial;  // the slots only casters that stop part of the light cover
+    for (size_t slot = 0; slot < lists_.slots(); ++slot) {
+      if (shadowed[slot] == kCenterBlocked) out.visibility[lists_.sample[slot]] = 0.0f;
+      if (shadowed[slot] == kCenterPartial) partial.push_back(static_cast<uint32_t>(slot));
+    }
+    // Their rays to the centre decide how much light passes (the ray tracer's transmittance,
+    // as `hard`'s).
+    if (!partial.empty()) {
+      ScopedPhase phase(stats_, "partial");
+      parallel_for(partial.size(), 256, [&](size_t begin, size_t end) {
+        std::vector<ShadowRay> rays;
+        std::vector<float> transmitted(end - begin);
+        for (size_t k = begin; k < end; ++k) {
+          const ViewSample& s = vs.samples[lists_.sample[partial[k]]];
+          rays.push_back(shadow_ray_to(s.p, s.ng, c));
+        }
+        ctx.tracer->transmittance(rays, transmitted);
+        for (size_t k = begin; k < end; ++k) out.visibility[lists_.sample[partial[k]]] = transmitted[k - begin];
+      });
+    }
+    stats_.extra["partial_rays"] = partial.size();
     report(total, static_cast<uint64_t>(stats_.extra.value("casters", 0)), memory);
     finish(ctx, vs);
   }
@@ -353,6 +378,8 @@ class AliasFreeSoft final : public AliasFreeBase {
     const bool jitter = p.get_bool("jitter") && symmetric;
     const uint64_t slots = q.view_samples + afsm::kPairPadding;
     tally.add(slots * words * sizeof(uint64_t), kLightSamplesSetting);
+    // Casters that stop part of the light: a second mask and the light they take, per slot.
+    if (q.semi_transparent) tally.add(slots * (words * sizeof(uint64_t) + sizeof(float)), kLightSamplesSetting);
     tally.add(slots * (sizeof(float) + sizeof(uint32_t) + sizeof(uint8_t) + sizeof(uint16_t) + 3 * sizeof(float) +
                        (jitter ? sizeof(Vec2f) + 2 * sizeof(float) : 0)),
               kViewSamplesSetting);
@@ -589,7 +616,7 @@ class AliasFreeSoft final : public AliasFreeBase {
       float near;
     };
     std::vector<CasterRun> runs;
-    uint64_t front_facing = 0, runs_culled = 0;
+    uint64_t front_facing = 0, runs_culled = 0, partial_casters = 0;
     // Per slab: the casters' regions on its far plane, and which caster each region is.
     std::vector<ConvexPolygons> regions(slabs.count);
     std::vector<std::vector<uint32_t>> region_caster(slabs.count);
@@ -621,6 +648,8 @@ class AliasFreeSoft final : public AliasFreeBase {
         cs.support_h = dot(cs.normal, c - t.p[0]);
         cs.closed = scene.objects[t.object].closed;
         if (triangles_.textures.textured(t)) cs.textured = &t;
+        cs.partial = ctx.tracer && triangles_.textures.semi_transparent(t);
+        partial_casters += cs.partial;
         if (cs.closed) {
           // A closed mesh's triangle casts only toward the light samples behind it (it faces
           // away from them), whatever p: that set is p's supporting-plane mask, computed once.
@@ -658,6 +687,13 @@ class AliasFreeSoft final : public AliasFreeBase {
         run.near = std::min(run.near, caster_near.back());
       }
     }
+    // Casters that stop only part of the light (semi-transparent, alpha blend) have no bit to set:
+    // the fraction they let through depends on every such surface a segment crosses. Per slot, the
+    // light samples they cover are marked here (the same tests as a blocking caster's), and each
+    // marked sample no opaque caster blocks gets the ray tracer's transmittance along its segment
+    // at the end: the reference's estimator for the same light points (ssv-rt does the same).
+    // Without a ray tracer (a bare context) they block, as the paper's opaque casters.
+    std::vector<uint64_t> partial(partial_casters > 0 ? slots * words : 0, 0);
     // Slab k's regions on its own far plane (§4.1); a caster wholly deeper than every sample of
     // the slab shadows none of its samples. Computed in parallel, kept in caster order; made for a
     // group of slabs just before their raster pass and dropped after it (below).
@@ -764,8 +800,9 @@ class AliasFreeSoft final : public AliasFreeBase {
         }
         // The edges of an alpha mask's holes cast penumbrae anywhere inside an alpha-textured
         // triangle (issue 20): its whole region is away from no silhouette.
+        // So do the casters that stop part of the light: their rays decide (below).
         for (const Caster& cs : casters) {
-          if (!cs.textured) continue;
+          if (!cs.textured && !cs.partial) continue;
           if (!influence.region(cs.v, &polygon)) polygon.assign(whole, whole + 4);
           edge_regions.add(polygon);
         }
@@ -782,7 +819,8 @@ class AliasFreeSoft final : public AliasFreeBase {
     if (silhouettes_) {
       // Away from every silhouette edge: all of the light or none, as the centre (its hard
       // shadow bit, afsm-hard's pass over the lists in their own order); those slots settle.
-      const std::vector<uint8_t> center = center_shadow(scene, c, &center_counters, &center_memory);
+      // (Slots only partial casters cover lie in their regions, which the stencil holds.)
+      const std::vector<uint8_t> center = center_shadow(scene, c, partial_casters > 0, &center_counters, &center_memory);
       uint64_t hard = 0;
       for (int k = 0; k < slabs.count; ++k)
         for (size_t texel = 0; texel < slabs.texels; ++texel) {
@@ -790,7 +828,7 @@ class AliasFreeSoft final : public AliasFreeBase {
           for (uint32_t slot = slabs.begin(k, texel); slot < slabs.end(k, texel); ++slot) {
             if (own_plane_cuts[slot]) continue;
             settled[slot] = 1;
-            if (!center[slabs.list_slot[slot]]) continue;
+            if (center[slabs.list_slot[slot]] != kCenterBlocked) continue;
             std::copy_n(lut.all(), words, blocked.data() + static_cast<size_t>(slot) * words);
             ++hard;
           }
@@ -847,6 +885,8 @@ class AliasFreeSoft final : public AliasFreeBase {
           const float side = survivors[j].side;
           const afsm::Line* edges = survivors[j].edges;
           uint64_t* m = blocked.data() + static_cast<size_t>(slot) * words;
+          // A caster that stops part of the light marks the samples it covers (the rays decide).
+          uint64_t* pm = t.partial ? partial.data() + static_cast<size_t>(slot) * words : nullptr;
           const Vec2f rot = jitter ? rotation[slot] : Vec2f{1, 0};
           // Behind the supporting plane as seen from p: the other side.
           const float sign = side > 0 ? -1.0f : 1.0f;
@@ -901,7 +941,10 @@ class AliasFreeSoft final : public AliasFreeBase {
               if (support_known ? !(support[i >> 6] & bit)
                                 : !afsm::above(grid.x()[k], grid.y()[k], behind.g, behind.h))
                 continue;
-              if (!(m[i >> 6] & bit) && (!t.textured || solid(static_cast<int>(i)))) {
+              if (m[i >> 6] & bit) continue;
+              if (pm)
+                pm[i >> 6] |= bit;
+              else if (!t.textured || solid(static_cast<int>(i))) {
                 m[i >> 6] |= bit;
                 added = true;
               }
@@ -922,7 +965,7 @@ class AliasFreeSoft final : public AliasFreeBase {
             cnt.plane_lookups++;
           }
           uint64_t fresh = 0;
-          for (int w = 0; w < words; ++w) fresh |= hidden[w] & ~m[w];
+          for (int w = 0; w < words; ++w) fresh |= hidden[w] & ~m[w] & (pm ? ~pm[w] : ~0ull);
           if (!fresh) continue;  // nothing this caster could add
           bool any = true;
           for (int i = 0; i < 3 && any; ++i) {
@@ -935,6 +978,10 @@ class AliasFreeSoft final : public AliasFreeBase {
           }
           // The samples the whole triangle hides; an alpha-textured one hides those whose segment
           // from p meets it inside its mask.
+          if (any && pm) {
+            for (int w = 0; w < words; ++w) pm[w] |= hidden[w] & ~m[w];
+            continue;
+          }
           if (any && t.textured) {
             uint64_t left = 0;
             for (int w = 0; w < words; ++w) {
@@ -1001,18 +1048,55 @@ class AliasFreeSoft final : public AliasFreeBase {
       }
     }
     std::vector<uint16_t> blocked_count(vs.size(), 0);  // per view sample, over its entries
+    // Per slot: the light its marked samples lose to the casters that stop part of it, 1 -
+    // transmittance summed over them (the rays from the view sample, shadow_ray_to, as `reference`
+    // and embree_to_points trace them; a split sample's side by its light point, as its entry).
+    std::vector<float> attenuated(partial.empty() ? 0 : slots, 0.0f);
+    uint64_t partial_rays = 0;
     {
       ScopedPhase phase(stats_, "resolve");
+      if (!partial.empty()) {
+        std::atomic<uint64_t> rays_traced{0};
+        parallel_for(slots, 64, [&](size_t begin, size_t end) {
+          std::vector<ShadowRay> rays;
+          std::vector<float> transmitted;
+          for (size_t slot = begin; slot < end; ++slot) {
+            const uint64_t* m = blocked.data() + slot * words;
+            const uint64_t* pm = partial.data() + slot * words;
+            const ViewSample& s = vs.samples[entries[slabs.sample[slot]].sample];
+            rays.clear();
+            for (int w = 0; w < words; ++w)
+              for (uint64_t rest = pm[w] & ~m[w]; rest; rest &= rest - 1) {
+                const int i = 64 * w + std::countr_zero(rest);
+                rays.push_back(shadow_ray_to(s.p, s.ng, jitter ? light_point(samples, i, rotation[slot]) : samples.points[i]));
+              }
+            if (rays.empty()) continue;
+            transmitted.resize(rays.size());
+            ctx.tracer->transmittance(rays, transmitted);
+            float lost = 0;  // in the GPU's order and precision (afsm_soft_resolve.comp)
+            for (float t : transmitted) lost += 1.0f - t;
+            attenuated[slot] = lost;
+            rays_traced += rays.size();
+          }
+        });
+        partial_rays = rays_traced;
+      }
+      std::vector<float> lost(attenuated.empty() ? 0 : vs.size(), 0.0f);
       for (size_t slot = 0; slot < slots; ++slot) {
         const uint64_t* m = blocked.data() + slot * words;
         int count = 0;
         for (int w = 0; w < words; ++w) count += std::popcount(m[w]);
-        blocked_count[entries[slabs.sample[slot]].sample] += static_cast<uint16_t>(count - ignored[slot]);
+        const uint32_t sample = entries[slabs.sample[slot]].sample;
+        blocked_count[sample] += static_cast<uint16_t>(count - ignored[slot]);
+        if (!attenuated.empty()) lost[sample] += attenuated[slot];
       }
       // Samples (or one side of a split sample) outside the fitted window are not listed: lit.
       const float inv = 1.0f / static_cast<float>(n);
-      for (uint32_t id : ids) out.visibility[id] = 1.0f - static_cast<float>(blocked_count[id]) * inv;
+      for (uint32_t id : ids)
+        out.visibility[id] = std::max(0.0f, 1.0f - (static_cast<float>(blocked_count[id]) + (lost.empty() ? 0.0f : lost[id])) * inv);
     }
+    stats_.extra["partial_casters"] = partial_casters;
+    stats_.extra["partial_rays"] = partial_rays;
     Counters total = center_counters;
     for (const Counters& c2 : counters) total.add(c2);
     report(total, casters.size(),
@@ -1021,7 +1105,8 @@ class AliasFreeSoft final : public AliasFreeBase {
                casters.size() * (sizeof(Caster) + sizeof(afsm::PairCaster)) + settled.size() * sizeof(uint32_t) +
                (sample_x.size() * 3 + rot_c.size() * 2) * sizeof(float) + region_bytes + slabs.memory_bytes() +
                lut.memory_bytes() + entries.capacity() * sizeof(ListEntry) + front_masks.capacity() * sizeof(uint64_t) +
-               ignored.size() * sizeof(uint16_t) + blocked_count.size() * sizeof(uint16_t));
+               ignored.size() * sizeof(uint16_t) + blocked_count.size() * sizeof(uint16_t) +
+               (partial.size() * sizeof(uint64_t) + attenuated.size() * sizeof(float)));
     stats_.extra["light_samples"] = n;
     stats_.extra["casters_skipped"] = skipped;
     stats_.extra["caster_runs"] = runs.size() * static_cast<size_t>(slabs.count);
@@ -1077,6 +1162,9 @@ class AliasFreeSoft final : public AliasFreeBase {
     bool closed;
     size_t support_mask = 0;  // closed, without jitter: index into support_masks
     const RasterTriangle* textured = nullptr;  // an alpha-textured caster's triangle (issue 20)
+    // It may stop only part of the light (semi-transparent, or an alpha blend): the light samples
+    // it covers are marked, not blocked, and the rays to them decide (`partial`, resolve).
+    bool partial = false;
   };
 
   bool use_lut_;

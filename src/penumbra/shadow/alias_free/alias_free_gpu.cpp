@@ -309,10 +309,13 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
         afsm::make_light_samples(light, ctx.light_samples, ctx.seed, ctx.light_index, ctx.frame);
     const uint32_t n = static_cast<uint32_t>(samples.size());
     const uint32_t words = (n + 31) / 32;
+    // A list position's masks: its blocked light samples and, where some caster stops only part
+    // of the light, the samples such casters cover (their rays decide: afsm_soft_resolve).
+    const uint32_t stride = ctx.scene->semi_transparent() ? 2 * words : words;
     // Uploads are immediate, the kernels recorded: the light block is written after fit()'s flush
     // has run everything recorded before (a previous progressive frame's kernels still read it).
     const std::optional<LightView> view = fit(ctx, frame);
-    upload_light(device, samples, light);
+    upload_light(device, samples, light, stride);
     const uint32_t texels = view ? static_cast<uint32_t>(view->width() * view->height()) : 0;
     const uint32_t triangles = view ? static_cast<uint32_t>(frame.scene->triangle_count()) : 0;
     const uint32_t entries = 2 * frame.slots;  // a split sample is listed once per side
@@ -344,7 +347,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     Totals t;
     if (view) t = read_totals(frame, keys, triangles, false);
     grow_lists(device, t.listed, entries, sizeof(AfsmSoftListed));
-    gpu::ensure_buffer(device, masks_, uint64_t{capacity_} * words * 4, "afsm's sample masks");
+    gpu::ensure_buffer(device, masks_, uint64_t{capacity_} * stride * 4, "afsm's sample masks");
     p.listed = listed_.address();
     p.masks = masks_.address();
     // Per slab, §4.1: the casters' influence regions on its far plane and their covered rows;
@@ -382,7 +385,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
  private:
   // The light block (AfsmSoftLight, far_bits 0: the list pass raises it), the samples and the
   // plane-mask table (§4.2; built by the CPU's PlaneMaskLut, none with lut=false).
-  void upload_light(gpu::Device& device, const afsm::LightSamples& samples, const AreaLight& light) {
+  void upload_light(gpu::Device& device, const afsm::LightSamples& samples, const AreaLight& light, uint32_t stride) {
     const uint32_t n = static_cast<uint32_t>(samples.size());
     const afsm::PlaneMaskLut lut(samples.local, lut_bins_, lut_bins_);
     shader::AfsmSoftLight l{};
@@ -393,6 +396,7 @@ class AliasFreeSoftGpu final : public AliasFreeGpuBase {
     l.lt = samples.t * samples.radius;
     l.max_distance2 = lut.max_distance2();
     l.axis = light.frame.n;
+    l.stride = stride;
     l.lo_x = l.lo_y = kInfinity;
     l.hi_x = l.hi_y = -kInfinity;
     for (Vec2f u : samples.local) {
@@ -444,7 +448,8 @@ MemoryEstimate soft_memory(const ParamSet& p, const MemoryQuery& q) {
                 sizeof(shader::RasterView) + sizeof(shader::AfsmCounters) + sizeof(shader::AfsmSlabs),
             "resolution");
   tally.add(2 * q.view_samples * (sizeof(uint32_t) + sizeof(Vec3f) + sizeof(AfsmSoftListed)), kViewSamplesSetting);
-  tally.add(2 * q.view_samples * words * sizeof(uint32_t), kLightSamplesSetting);
+  // (Twice that where some caster stops only part of the light: the samples such casters cover.)
+  tally.add(2 * q.view_samples * words * sizeof(uint32_t) * (q.semi_transparent ? 2 : 1), kLightSamplesSetting);
   tally.add(AliasFreeSoftGpu::light_bytes(n, p.get_bool("lut") ? p.get_int("lut_resolution") : 0), "lut_resolution");
   tally.add(q.triangles * (sizeof(AfsmSoftCaster) + sizeof(uint32_t) + shader::kAfsmRegionVertices * sizeof(Vec2f)) +
                 sizeof(uint32_t) + gpu::GpuScan::scratch_bytes(q.triangles),

@@ -56,7 +56,11 @@ class AliasFreeGpu : public GpuTest {
     const testing::Agreement g = testing::agreement(v, rays);
     std::printf("GPU afsm N=%d vs GPU rays to the same points, %s: %.5f of %zu equal, max |dV| %.5f\n", n, name.c_str(),
                 g.equal_fraction, v.size(), g.max_diff);
-    EXPECT_GE(g.equal_fraction, 0.999) << name << ", " << testing::worst_sample(r, v, rays);
+    // Where semi-transparent casters let part of the light through, the kernel's own rays to the
+    // light samples they cover decide; the rays compared with are set up on the host
+    // (shadow_ray_to), a rounding apart, and one of them may graze a hair strand the other misses
+    // (the furball at 32², 16 samples: 1 view sample of 694, by 0.002).
+    EXPECT_GE(g.equal_fraction, r.scene.semi_transparent() ? 0.995 : 0.999) << name << ", " << testing::worst_sample(r, v, rays);
     EXPECT_LE(g.max_diff, 1.0f / n + 1e-6f) << name << ", " << testing::worst_sample(r, v, rays);
     EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.05f && x < 0.95f; }), 10) << "no penumbra";
     EXPECT_GT(gpu.stats.extra["sample_tests"].get<uint64_t>(), 0u);
@@ -77,7 +81,11 @@ class AliasFreeGpu : public GpuTest {
     std::printf("GPU afsm-hard vs GPU rays to the centre, %s: %.5f of %zu view samples equal\n", name.c_str(),
                 g.equal_fraction, v.size());
     EXPECT_GE(g.equal_fraction, 0.999) << name << ", " << testing::worst_sample(r, v, rays);
-    for (float x : v) ASSERT_TRUE(x == 0.0f || x == 1.0f);
+    // Binary, except where only semi-transparent casters cover a sample (its ray decides).
+    if (!r.scene.semi_transparent())
+      for (float x : v) ASSERT_TRUE(x == 0.0f || x == 1.0f);
+    else
+      EXPECT_GT(std::count_if(v.begin(), v.end(), [](float x) { return x > 0.0f && x < 1.0f; }), 10) << name;
     EXPECT_GT(std::count(v.begin(), v.end(), 0.0f), 50) << name << ": no shadow";
     EXPECT_GT(std::count(v.begin(), v.end(), 1.0f), 50) << name << ": no light";
     EXPECT_GT(gpu.stats.extra["listed_samples"].get<uint64_t>(), 0u);
@@ -159,6 +167,11 @@ TEST_F(AliasFreeGpu, PairLinesOnTheDeviceAreTheCpus) {
 TEST_F(AliasFreeGpu, HardBunnyEqualsGpuRaysToTheCentre) { expect_exact("bunny", 64); }
 
 TEST_F(AliasFreeGpu, HardAlphaMaskedFoliageEqualsGpuRaysToTheCentre) { expect_exact("foliage", 64); }
+
+// The furball's hair is semi-transparent (opacity 0.3-0.9): where only hair covers a sample, its
+// ray to the centre (afsm-hard) or to each light sample the hair covers (afsm) lets part through.
+TEST_F(AliasFreeGpu, HardSemiTransparentFurballEqualsGpuRaysToTheCentre) { expect_exact("furball", 48); }
+TEST_F(AliasFreeGpu, SoftSemiTransparentFurballEqualsGpuRaysToTheSameLightPoints) { expect_soft_exact("furball", 32, 16); }
 
 // 32² view samples, 16 light samples, 64² lists: a few seconds on lavapipe.
 TEST_F(AliasFreeGpu, SoftBunnyEqualsGpuRaysToTheSameLightPoints) { expect_soft_exact("bunny", 32, 16); }

@@ -178,7 +178,12 @@ struct AfsmHardCaster {
   int y0;
 };
 
-// A list position, 16 bytes: bytes 0-11 the listed point, 12-15 its shadow bit (0 or 1).
+// A list position, 16 bytes: bytes 0-11 the listed point, 12-15 its shadow: 0 (lit),
+// kAfsmCenterPartial where only casters that stop part of the light (semi-transparent, alpha
+// blend) cover it and its ray to the centre decides, kAfsmCenterBlocked where a caster blocks it
+// (alias_free.cpp center_shadow: the same values, ordered so that the larger mark wins).
+PN_CONST uint kAfsmCenterPartial = 1u;
+PN_CONST uint kAfsmCenterBlocked = 2u;
 struct AfsmListed {
   vec3 p;
   uint shadow;
@@ -226,7 +231,9 @@ struct AfsmHardParams {
 //   bytes  0-11 c (centre), 12-15 n (light samples, <= 1024)
 //   bytes 16-27 ls,         28-31 words (uint words of a mask: (n + 31) / 32)
 //   bytes 32-43 lt,         44-47 max_distance2 (PlaneMaskLut::max_distance2)
-//   bytes 48-59 axis (the view's forward), 60-63 pad0 (the far planes are AfsmSlabs')
+//   bytes 48-59 axis (the view's forward), 60-63 stride: the uints of a list position's masks,
+//               `words` (its light samples blocked), or 2 words where the scene has casters that
+//               stop only part of the light (then the samples they cover follow: the rays decide)
 //   bytes 64-79 lo.x lo.y hi.x hi.y: the bounding box of the samples' local coordinates
 //   bytes 80-83 max_distance (PlaneMaskLut::max_distance), 84-87 angle_bins, 88-91 distance_bins
 //               (0: no table, every light sample tested exactly: lut=false), 92-95 pad
@@ -240,7 +247,7 @@ struct AfsmSoftLight {
   vec3 lt;
   float max_distance2;
   vec3 axis;
-  uint pad0;
+  uint stride;
   float lo_x;
   float lo_y;
   float hi_x;

@@ -5,7 +5,9 @@
 // (gpu/raster/conservative_cover.glsl, the CPU's test of raster/conservative.cpp), grown by
 // kAfsmCoverSlack; every view sample listed there is tested against the caster's four
 // planes (afsm_hard_blocks) and, on an alpha-textured caster, against its mask where the segment
-// to the light's centre crosses it. A set shadow bit skips further tests. sintorn2008 ran this
+// to the light's centre crosses it. A caster that stops only part of the light marks the sample
+// partial (its ray decides: afsm_hard_resolve); a blocking one marks it blocked (atomicMax: the
+// larger mark wins, blocked > partial). A sample's mark skips the casters that cannot raise it. sintorn2008 ran this
 // per fragment of the hardware rasterizer; the row threads are its compute form.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/raster/conservative_cover.glsl"
@@ -39,6 +41,7 @@ void main() {
   uint object, prim;
   raster_source(g, object, prim);
   bool textured = raster_textured(object);
+  uint mark = raster_semi_transparent(object, prim) ? kAfsmCenterPartial : kAfsmCenterBlocked;
   // The lists are stored texel by texel in row-major order: the samples of the span's texels are
   // one range of positions.
   uint row = uint(y) * uint(view.width);
@@ -46,10 +49,10 @@ void main() {
   uint tests = 0u;
   for (uint pos = first.v[row + uint(x_lo)]; pos < end; ++pos) {
     AfsmListed l = listed.v[pos];
-    if (l.shadow != 0u) continue;
+    if (l.shadow >= mark) continue;
     ++tests;
     if (!afsm_hard_blocks(k.support, k.v0, k.e0, k.e1, k.e2, c, l.p)) continue;
-    if (textured) {
+    if (textured && mark == kAfsmCenterBlocked) {
       // RasterTriangle::opacity_on_line: the mask where the line p + s (p - c) meets the caster.
       vec3 p0, p1, p2;
       raster_vertices(object, prim, p0, p1, p2);
@@ -61,7 +64,7 @@ void main() {
       float a = object_mirrored(object) ? surface_opacity(object, prim, b2, b1) : surface_opacity(object, prim, b1, b2);
       if (!(a > 0.0f)) continue;
     }
-    listed.v[pos].shadow = 1u;
+    atomicMax(listed.v[pos].shadow, mark);
   }
   afsm_count(pc.p.view, uint(x_hi - x_lo + 1), tests);
 }

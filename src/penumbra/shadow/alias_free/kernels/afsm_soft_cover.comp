@@ -7,7 +7,9 @@
 // samples a word: from the plane-mask table (§4.2: sure bits, the cell's unsure samples tested by
 // afsm_above; lut=false: every sample tested; the same bits), ANDed; an alpha-textured caster
 // keeps the samples whose segment crosses it inside its mask. The bits OR into the entry's mask
-// (atomicOr: several casters cover one texel at once). sintorn2008 ran this per fragment of the
+// (atomicOr: several casters cover one texel at once); a caster that stops only part of the light
+// (semi-transparent, alpha blend) ORs them into the entry's second mask instead, of the samples
+// whose rays decide (afsm_soft_resolve; alias_free.cpp `partial`). sintorn2008 ran this per fragment of the
 // hardware rasterizer; a thread per covered row is its compute form.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/raster/conservative_cover.glsl"
@@ -36,6 +38,7 @@ void main() {
   float len = sqrt(dot(k.normal, k.normal));
   float flat_scale = kAfsmFlat * kAfsmFlat * len * len;
   AfsmSoftLight light = AfsmLightRef(pc.p.light).l;
+  bool partial = light.stride > light.words && raster_semi_transparent(object, prim);
   RasterView view = RasterViewRef(pc.p.view).v;
   Uints first = Uints(pc.p.first);
   Uints masks = Uints(pc.p.masks);
@@ -56,7 +59,7 @@ void main() {
     bool settled = true;
     for (uint w = 0u; w < light.words && settled; ++w) {
       uint valid = 32u * (w + 1u) <= light.n ? 0xffffffffu : (1u << (light.n - 32u * w)) - 1u;
-      settled = masks.v[pos * light.words + w] == valid;
+      settled = masks.v[pos * light.stride + w] == valid;
     }
     if (settled) continue;
     vec3 p = listed.v[pos].p;
@@ -76,13 +79,15 @@ void main() {
     int c0 = afsm_side_of_disk(l.g0, l.h0, light.max_distance2) > 0 ? kAfsmLutAll : afsm_cell(light, l.g0, l.h0);
     int c1 = afsm_side_of_disk(l.g1, l.h1, light.max_distance2) > 0 ? kAfsmLutAll : afsm_cell(light, l.g1, l.h1);
     int c2 = afsm_side_of_disk(l.g2, l.h2, light.max_distance2) > 0 ? kAfsmLutAll : afsm_cell(light, l.g2, l.h2);
+    uint target = pos * light.stride + (partial ? light.words : 0u);
     for (uint w = 0u; w < light.words; ++w) {
-      uint have = masks.v[pos * light.words + w];
+      uint have = masks.v[pos * light.stride + w];
+      if (partial) have |= masks.v[target + w];
       uint bits = afsm_mask_word(pc.p.light, light, cb, l.gb, l.hb, w) & ~have;
       if (bits != 0u) bits &= afsm_mask_word(pc.p.light, light, c0, l.g0, l.h0, w);
       if (bits != 0u) bits &= afsm_mask_word(pc.p.light, light, c1, l.g1, l.h1, w);
       if (bits != 0u) bits &= afsm_mask_word(pc.p.light, light, c2, l.g2, l.h2, w);
-      if (bits != 0u && textured) {
+      if (bits != 0u && textured && !partial) {
         // The samples the whole triangle hides whose segment from p meets it in a hole of its
         // mask are not hidden (RasterTriangle::opacity_on_line toward AliasFreeSoft::light_point).
         for (uint rest = bits; rest != 0u; rest &= rest - 1u) {
@@ -98,7 +103,7 @@ void main() {
           if (!(a > 0.0f)) bits &= ~(1u << b);
         }
       }
-      if (bits != 0u) atomicOr(masks.v[pos * light.words + w], bits);
+      if (bits != 0u) atomicOr(masks.v[target + w], bits);
     }
   }
   afsm_count(pc.p.view, uint(x_hi - x_lo + 1), tests);

@@ -3,7 +3,8 @@
 // view-sample slot; each listed entry takes the next position of its key's list (its slab and
 // texel: afsm_soft_list_key) and its mask starts: one side of a split sample with the other side's light samples set (ignored: not
 // counted), a sample on a closed mesh with the light samples behind its own tangent plane set
-// (its shadow rays toward them would start inside the object), others empty.
+// (its shadow rays toward them would start inside the object), others empty; its mask of samples
+// partly covered (AfsmSoftLight::stride) empty.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/scene_access.glsl"
 #include "penumbra/shadow/alias_free/kernels/afsm_soft_access.glsl"
@@ -45,9 +46,11 @@ void main() {
         else if (closed) preset = !afsm_above(afsm_local(pc.p.light, k).x, afsm_local(pc.p.light, k).y, g, h);
         if (preset) bits |= 1u << b;
       }
-      masks.v[pos * light.words + w] = bits;
+      masks.v[pos * light.stride + w] = bits;
       if (split) ignored += uint(bitCount(bits));
     }
+    // The samples the casters that stop part of the light cover (where the scene has them).
+    for (uint w = light.words; w < light.stride; ++w) masks.v[pos * light.stride + w] = 0u;
     AfsmSoftListed l;
     l.p = Vec3s(pc.p.points).v[2u * i + e];
     l.ignored = ignored;

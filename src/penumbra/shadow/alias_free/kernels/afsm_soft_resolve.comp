@@ -1,12 +1,19 @@
 #version 460
 // afsm on the GPU (alias_free.cpp AliasFreeSoft::evaluate, "resolve"): V per view-sample slot,
 // 1 - (blocked light samples over its list entries, less the preset other side of a split
-// sample) / N. Entries outside the fitted view count as lit.
+// sample, plus the light the casters that stop only part of it take) / N. Entries outside the
+// fitted view count as lit. The light samples such casters cover and no blocking caster blocks
+// (the entry's second mask, where AfsmSoftLight::stride holds one) each take the transmittance
+// of their shadow segment through the scene (the ray tracer's rule, as ssv_evaluate.comp's).
 #include "penumbra/gpu/kernel_common.glsl"
+#include "penumbra/gpu/bvh_traverse.glsl"
 #include "penumbra/shadow/alias_free/kernels/afsm_soft_access.glsl"
+#include "penumbra/shadow/view_samples_shared.h"
+#include "penumbra/trace/ray_shared.h"
 
 layout(local_size_x = 64) in;
 layout(push_constant, scalar) uniform Push { AfsmSoftParams p; } pc;
+layout(buffer_reference, scalar) readonly buffer ViewSamplesIn { GpuViewSample v[]; };
 
 void main() {
   uint i = pn_thread_index();
@@ -23,12 +30,30 @@ void main() {
   Uints masks = Uints(pc.p.masks);
   AfsmListedRef listed = AfsmListedRef(pc.p.listed);
   int count = 0;
+  float lost = 0.0f;
+  bool bound = false;
+  GpuViewSample s;
   for (uint e = 0u; e < 2u; ++e) {
     uint pos = state.v[2u * i + e];
     if (pos >= kAfsmUncovered) continue;
-    for (uint w = 0u; w < light.words; ++w) count += bitCount(masks.v[pos * light.words + w]);
+    for (uint w = 0u; w < light.words; ++w) {
+      uint blocked = masks.v[pos * light.stride + w];
+      count += bitCount(blocked);
+      if (light.stride == light.words) continue;
+      for (uint rest = masks.v[pos * light.stride + light.words + w] & ~blocked; rest != 0u; rest &= rest - 1u) {
+        if (!bound) {
+          s = ViewSamplesIn(pc.p.samples).v[i];
+          scene_bind(pc.p.scene);
+          bound = true;
+        }
+        vec3 org, dir;
+        float tfar;
+        shadow_segment(s.p, s.ng, afsm_point(pc.p.light, light.n, 32u * w + uint(findLSB(rest))), org, dir, tfar);
+        lost += 1.0f - trace_transmittance(org, dir, tfar);
+      }
+    }
     count -= int(listed.v[pos].ignored);
   }
   float inv = 1.0f / float(light.n);
-  visibility.v[i] = 1.0f - float(count) * inv;
+  visibility.v[i] = max(0.0f, 1.0f - (float(count) + lost) * inv);
 }
