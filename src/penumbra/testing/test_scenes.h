@@ -123,6 +123,20 @@ inline Scene contact_scene_at_scale(float scale, int res = 40, Vec3f offset = {0
   s.finalize();
   return s;
 }
+// A ledge beside a light that faces down at height 2: a plate 0.001 in front of the light's plane
+// (1.999, x from 0.7 to 2), lit at grazing angles over a wall (x = 0.6, up to 1.9996) that hides
+// part of the light from it, and a box on the ground. The plate's points lie 89.8 degrees and
+// more off the light's axis: no light view capped at max_fov (179 degrees) holds them, as the
+// ceiling beside a window that a light outside shines through (alias_free_test.cpp).
+inline Scene ledge_beside_the_light_scene(int res = 48) {
+  TriangleMesh wall;
+  wall.positions = {{0.6f, 1.5f, -1.0f}, {0.6f, 1.5f, 1.0f}, {0.6f, 1.9996f, 1.0f}, {0.6f, 1.9996f, -1.0f}};
+  wall.indices = {0, 1, 2, 0, 2, 3};
+  return ground_scene({object(quad_y(1.999f, 0.7f, 2.0f, -1.0f, 1.0f)), object(std::move(wall)),
+                       object(box({-0.3f, 0, -0.2f}, {0.2f, 0.5f, 0.3f}))},
+                      rect_light_down({0, 2, 0}, 1.0f, 0.6f), res);
+}
+
 // `scene` with a ceiling in its first light's plane: a square 2 half_size across around the light,
 // facing where the light faces, `gap` behind the light's plane (0: flush with it, a panel light
 // set into its ceiling). Nothing there can block any of the light for a point in front of it

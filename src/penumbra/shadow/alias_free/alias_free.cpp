@@ -285,38 +285,48 @@ class AliasFreeHard final : public AliasFreeBase {
       return;
     }
     for (size_t slot = 0; slot < lists_.slots(); ++slot) out.visibility[lists_.sample[slot]] = 1.0f;
-    // Uncovered samples (outside the fitted window) are lit, as in a shadow map.
+    // Uncovered samples (outside the fitted window, which max_fov caps, or before its near plane)
+    // take their ray to the centre (`hard`'s); without a ray tracer they are lit, as outside a
+    // shadow map.
+    std::vector<uint32_t> rays_decide;  // view samples (unlisted), then list slots (partial, below)
     {
       std::vector<char> listed(vs.size(), 0);
       for (uint32_t id : lists_.sample) listed[id] = 1;
-      for (uint32_t id : ids)
-        if (!listed[id]) out.visibility[id] = 1.0f;
+      for (uint32_t id : ids) {
+        if (listed[id]) continue;
+        if (ctx.tracer)
+          rays_decide.push_back(id);
+        else
+          out.visibility[id] = 1.0f;
+      }
     }
 
     Counters total;
     size_t memory = 0;
     const std::vector<uint8_t> shadowed = center_shadow(scene, c, ctx.tracer != nullptr, &total, &memory);
-    std::vector<uint32_t> partial;  // the slots only casters that stop part of the light cover
+    const size_t unlisted = rays_decide.size();
     for (size_t slot = 0; slot < lists_.slots(); ++slot) {
       if (shadowed[slot] == kCenterBlocked) out.visibility[lists_.sample[slot]] = 0.0f;
-      if (shadowed[slot] == kCenterPartial) partial.push_back(static_cast<uint32_t>(slot));
+      // Only casters that stop part of the light cover it.
+      if (shadowed[slot] == kCenterPartial) rays_decide.push_back(lists_.sample[slot]);
     }
     // Their rays to the centre decide how much light passes (the ray tracer's transmittance,
     // as `hard`'s).
-    if (!partial.empty()) {
-      ScopedPhase phase(stats_, "partial");
-      parallel_for(partial.size(), 256, [&](size_t begin, size_t end) {
+    if (!rays_decide.empty()) {
+      ScopedPhase phase(stats_, "rays");
+      parallel_for(rays_decide.size(), 256, [&](size_t begin, size_t end) {
         std::vector<ShadowRay> rays;
         std::vector<float> transmitted(end - begin);
         for (size_t k = begin; k < end; ++k) {
-          const ViewSample& s = vs.samples[lists_.sample[partial[k]]];
+          const ViewSample& s = vs.samples[rays_decide[k]];
           rays.push_back(shadow_ray_to(s.p, s.ng, c));
         }
         ctx.tracer->transmittance(rays, transmitted);
-        for (size_t k = begin; k < end; ++k) out.visibility[lists_.sample[partial[k]]] = transmitted[k - begin];
+        for (size_t k = begin; k < end; ++k) out.visibility[rays_decide[k]] = transmitted[k - begin];
       });
     }
-    stats_.extra["partial_rays"] = partial.size();
+    stats_.extra["unlisted_rays"] = unlisted;
+    stats_.extra["partial_rays"] = rays_decide.size() - unlisted;
     report(total, static_cast<uint64_t>(stats_.extra.value("casters", 0)), memory);
     finish(ctx, vs);
   }
@@ -487,6 +497,40 @@ class AliasFreeSoft final : public AliasFreeBase {
     // counted: ignored below). Only these receivers pay for the split.
     std::vector<ListEntry> entries;
     std::vector<uint64_t> front_masks;  // per split sample: its light samples in front (words)
+    // Entries no list holds (outside the fitted window, which max_fov caps, or before its near
+    // plane: a receiver beside a light that shines through a window, almost in the light's plane)
+    // are decided by rays: `unlisted` (an entry index each) gets, per view sample, the light its
+    // entries' side loses along the segments to the same N light points (shadow_ray_to, as
+    // embree_to_points and the partial casters' rays), so V stays exact there too. Without a ray
+    // tracer they count as lit, as outside a shadow map.
+    uint64_t unlisted_rays = 0;
+    auto trace_unlisted = [&](std::span<const uint32_t> unlisted, std::span<float> lost) {
+      if (!ctx.tracer || unlisted.empty()) return;
+      std::vector<float> entry_lost(unlisted.size(), 0.0f);
+      std::atomic<uint64_t> traced{0};
+      parallel_for(unlisted.size(), 16, [&](size_t begin, size_t end) {
+        std::vector<ShadowRay> rays;
+        std::vector<float> transmitted;
+        for (size_t u = begin; u < end; ++u) {
+          const ListEntry& e = entries[unlisted[u]];
+          const ViewSample& s = vs.samples[e.sample];
+          const Vec2f rot = jitter ? rotation_of(s) : Vec2f{1, 0};
+          // A split sample's entry sees the light samples on its own side only.
+          const uint64_t* front = e.split != kWhole ? front_masks.data() + static_cast<size_t>(e.split) * words : nullptr;
+          rays.clear();
+          for (int k = 0; k < n; ++k) {
+            if (front && (((front[k >> 6] >> (k & 63)) & 1) != 0) != e.front) continue;
+            rays.push_back(shadow_ray_to(s.p, s.ng, jitter ? light_point(samples, k, rot) : samples.points[k]));
+          }
+          transmitted.resize(rays.size());
+          ctx.tracer->transmittance(rays, transmitted);
+          for (float t : transmitted) entry_lost[u] += 1.0f - t;
+          traced += rays.size();
+        }
+      });
+      for (size_t u = 0; u < unlisted.size(); ++u) lost[entries[unlisted[u]].sample] += entry_lost[u];
+      unlisted_rays += traced;
+    };
     {
       ScopedPhase phase(stats_, "sides");
       // Which light samples the ray from view sample s leaves toward on its front side (into f,
@@ -541,8 +585,12 @@ class AliasFreeSoft final : public AliasFreeBase {
       }
       stats_.extra["split_samples"] = front_masks.size() / words;
       if (!build_lists(points, entry_ids, light)) {
+        // None listed: every entry's rays decide.
+        std::vector<float> lost(vs.size(), 0.0f);
+        trace_unlisted(entry_ids, lost);
+        for (uint32_t id : ids) out.visibility[id] = std::max(0.0f, 1.0f - lost[id] / static_cast<float>(n));
+        stats_.extra["unlisted_rays"] = unlisted_rays;
         if (ctx.progress) ctx.progress->add(vs.size());
-        for (uint32_t id : ids) out.visibility[id] = 1.0f;  // none listed: lit, as outside the window
         return;
       }
     }
@@ -1081,7 +1129,15 @@ class AliasFreeSoft final : public AliasFreeBase {
         });
         partial_rays = rays_traced;
       }
-      std::vector<float> lost(attenuated.empty() ? 0 : vs.size(), 0.0f);
+      std::vector<float> lost(vs.size(), 0.0f);
+      {
+        std::vector<uint8_t> listed(entries.size(), 0);
+        for (size_t slot = 0; slot < slots; ++slot) listed[slabs.sample[slot]] = 1;
+        std::vector<uint32_t> unlisted;
+        for (uint32_t e = 0; e < entries.size(); ++e)
+          if (!listed[e]) unlisted.push_back(e);
+        trace_unlisted(unlisted, lost);
+      }
       for (size_t slot = 0; slot < slots; ++slot) {
         const uint64_t* m = blocked.data() + slot * words;
         int count = 0;
@@ -1090,13 +1146,13 @@ class AliasFreeSoft final : public AliasFreeBase {
         blocked_count[sample] += static_cast<uint16_t>(count - ignored[slot]);
         if (!attenuated.empty()) lost[sample] += attenuated[slot];
       }
-      // Samples (or one side of a split sample) outside the fitted window are not listed: lit.
       const float inv = 1.0f / static_cast<float>(n);
       for (uint32_t id : ids)
-        out.visibility[id] = std::max(0.0f, 1.0f - (static_cast<float>(blocked_count[id]) + (lost.empty() ? 0.0f : lost[id])) * inv);
+        out.visibility[id] = std::max(0.0f, 1.0f - (static_cast<float>(blocked_count[id]) + lost[id]) * inv);
     }
     stats_.extra["partial_casters"] = partial_casters;
     stats_.extra["partial_rays"] = partial_rays;
+    stats_.extra["unlisted_rays"] = unlisted_rays;
     Counters total = center_counters;
     for (const Counters& c2 : counters) total.add(c2);
     report(total, casters.size(),

@@ -173,6 +173,30 @@ TEST_F(AliasFreeGpu, HardAlphaMaskedFoliageEqualsGpuRaysToTheCentre) { expect_ex
 TEST_F(AliasFreeGpu, HardSemiTransparentFurballEqualsGpuRaysToTheCentre) { expect_exact("furball", 48); }
 TEST_F(AliasFreeGpu, SoftSemiTransparentFurballEqualsGpuRaysToTheSameLightPoints) { expect_soft_exact("furball", 32, 16); }
 
+// Receivers no light view capped at max_fov can hold (alias_free_test.cpp's ledge beside the
+// light): their rays decide on the GPU too, the CPU's picture and the GPU rays to the same points.
+TEST_F(AliasFreeGpu, ReceiversTheCappedViewCannotHoldAreTracedAsOnTheCpu) {
+  const testing::SceneRun r = testing::build_scene_run(testing::ledge_beside_the_light_scene(32));
+  const int n = 16;
+  for (const char* method : {"afsm-hard", "afsm"}) {
+    RenderSettings settings[2] = {testing::device_settings(method, {"resolution=64"}, false),
+                                  testing::device_settings(method, {"resolution=64"}, true)};
+    for (RenderSettings& s : settings) s.light_samples = n;
+    const RenderResult cpu = render_scene(r.scene, settings[0]);
+    const RenderResult gpu = render_scene(r.scene, settings[1]);
+    const double dv = testing::mean_abs_dv(cpu.visibility, gpu.visibility);
+    std::printf("GPU %s vs CPU, a ledge beside the light: mean |dV| %.2e\n", method, dv);
+    EXPECT_LE(dv, 2e-3) << method;
+    const std::vector<float> v = testing::per_sample(r, gpu);
+    const std::vector<float> rays =
+        std::string(method) == "afsm"
+            ? testing::gpu_rays_to_points(device(), r,
+                                          afsm::make_light_samples(r.scene.lights[0], n, settings[1].seed, 0, 0).points)
+            : gpu_rays_to_centre(r);
+    EXPECT_GE(testing::agreement(v, rays).equal_fraction, 0.999) << method << ", " << testing::worst_sample(r, v, rays);
+  }
+}
+
 // 32² view samples, 16 light samples, 64² lists: a few seconds on lavapipe.
 TEST_F(AliasFreeGpu, SoftBunnyEqualsGpuRaysToTheSameLightPoints) { expect_soft_exact("bunny", 32, 16); }
 

@@ -569,6 +569,31 @@ TEST(AliasFreeShapes, SemiTransparentCastersLetThroughWhatEmbreesRaysDo) {
   }
 }
 
+// Receivers no light view capped at max_fov can hold (a ledge 0.001 in front of the light's plane,
+// beside it, part of the light hidden from it by a wall): their rays decide, so afsm and afsm-hard
+// still equal Embree's rays on every view sample. Before, they counted as lit (V = 1 all along the
+// ledge: the dashed line where a room's ceiling meets the wall of a window a light shines through).
+TEST(AliasFreeShapes, ReceiversTheCappedViewCannotHoldAreTraced) {
+  const SceneRun r = build_scene_run(ledge_beside_the_light_scene(64));
+  const int n = 64;
+  const SoftRun run = afsm_and_embree(r, n, "128");
+  std::printf("afsm N=%d, a ledge beside the light: %.5f equal, max |dV| %.5f, %zu rays for unlisted samples\n", n,
+              run.g.equal_fraction, run.g.max_diff, run.stats.extra["unlisted_rays"].get<size_t>());
+  EXPECT_GE(run.g.equal_fraction, 0.999) << worst_sample(r, run.v, run.rays);
+  EXPECT_LE(run.g.max_diff, 1.0f / n + 1e-6f) << worst_sample(r, run.v, run.rays);
+  EXPECT_GT(run.stats.extra["unlisted_rays"].get<size_t>(), 0u);
+  // The wall hides part of the light from the ledge: a penumbra there.
+  size_t ledge_penumbra = 0;
+  for (size_t k = 0; k < r.vs.size(); ++k)
+    ledge_penumbra += r.vs.samples[k].object == 1 && run.v[k] > 0.05f && run.v[k] < 0.95f;
+  EXPECT_GT(ledge_penumbra, 20u);
+  MethodStats stats;
+  const std::vector<float> hard = run_method(r, "afsm-hard", 1, {"resolution=128"}, &stats);
+  const std::vector<float> hard_rays = embree_hard(r);
+  EXPECT_GE(agreement(hard, hard_rays).equal_fraction, 0.999) << worst_sample(r, hard, hard_rays);
+  EXPECT_GT(stats.extra["unlisted_rays"].get<size_t>(), 0u);
+}
+
 // The bunny under a sphere light of radius 0.75 in place of its 1.5 x 1.5 rect (or, for
 // comparison, a disk of that radius in the given frame), 64 x 64.
 SceneRun bunny_under(LightShape shape, const Frame* frame = nullptr) {

@@ -1,9 +1,9 @@
 #version 460
 // afsm-hard on the GPU: V per view-sample slot from its state and its list position's shadow mark
 // (alias_free.cpp AliasFreeHard::evaluate): 0 behind the light or light back-facing on a closed
-// mesh, 1 outside the fitted view, 0 where a caster blocks it, 1 where none covers it, and where
-// only casters that stop part of the light cover it the transmittance of its shadow segment to the
-// centre through the scene (`hard`'s ray: hard_rays.comp).
+// mesh, 0 where a caster blocks it, 1 where none covers it; outside the fitted view (which max_fov
+// caps), and where only casters that stop part of the light cover it, the transmittance of its
+// shadow segment to the centre through the scene (`hard`'s ray: hard_rays.comp).
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/bvh_traverse.glsl"
 #include "penumbra/shadow/alias_free/alias_free_shared.h"
@@ -23,8 +23,8 @@ void main() {
   float v = 1.0f;
   if (st == kAfsmNotListed) {
     v = 0.0f;
-  } else if (st != kAfsmUncovered) {
-    uint shadow = ListedIn(pc.p.listed).v[st].shadow;
+  } else {
+    uint shadow = st == kAfsmUncovered ? kAfsmCenterPartial : ListedIn(pc.p.listed).v[st].shadow;
     if (shadow == kAfsmCenterBlocked) {
       v = 0.0f;
     } else if (shadow == kAfsmCenterPartial) {

@@ -1,10 +1,11 @@
 #version 460
 // afsm on the GPU (alias_free.cpp AliasFreeSoft::evaluate, "resolve"): V per view-sample slot,
 // 1 - (blocked light samples over its list entries, less the preset other side of a split
-// sample, plus the light the casters that stop only part of it take) / N. Entries outside the
-// fitted view count as lit. The light samples such casters cover and no blocking caster blocks
-// (the entry's second mask, where AfsmSoftLight::stride holds one) each take the transmittance
-// of their shadow segment through the scene (the ray tracer's rule, as ssv_evaluate.comp's).
+// sample, plus the light the casters that stop only part of it take) / N. The light samples such
+// casters cover and no blocking caster blocks (the entry's second mask, where
+// AfsmSoftLight::stride holds one) each take the transmittance of their shadow segment through the
+// scene (the ray tracer's rule, as ssv_evaluate.comp's); so does every light sample of an entry
+// outside the fitted view (which max_fov caps), on its side of a split sample.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/bvh_traverse.glsl"
 #include "penumbra/shadow/alias_free/kernels/afsm_soft_access.glsl"
@@ -33,8 +34,28 @@ void main() {
   float lost = 0.0f;
   bool bound = false;
   GpuViewSample s;
+  bool split = state.v[2u * i + 1u] != kAfsmMiss;
   for (uint e = 0u; e < 2u; ++e) {
     uint pos = state.v[2u * i + e];
+    if (pos == kAfsmUncovered) {
+      // No list holds it: its rays decide (alias_free.cpp trace_unlisted), a split sample's entry
+      // toward the light samples on its side (e 0: the front, as afsm_soft_list_scatter's).
+      if (!bound) {
+        s = ViewSamplesIn(pc.p.samples).v[i];
+        scene_bind(pc.p.scene);
+        bound = true;
+      }
+      vec3 n_unit = offset_normal(s.ng);
+      for (uint k = 0u; k < light.n; ++k) {
+        vec3 q = afsm_point(pc.p.light, light.n, k);
+        if (split && leaves_front(n_unit, q - s.p) != (e == 0u)) continue;
+        vec3 org, dir;
+        float tfar;
+        shadow_segment(s.p, s.ng, q, org, dir, tfar);
+        lost += 1.0f - trace_transmittance(org, dir, tfar);
+      }
+      continue;
+    }
     if (pos >= kAfsmUncovered) continue;
     for (uint w = 0u; w < light.words; ++w) {
       uint blocked = masks.v[pos * light.stride + w];
