@@ -49,11 +49,31 @@ class CoherentRayTracing final : public ShadowMethod {
 
   bool computes_irradiance() const override { return true; }
 
+  // A sphere light is sampled through its central disk (soft_shad.h sampled_light): both passes
+  // run on that disk, and E is the sphere's closed form times V.
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
-    if (!coherent_rt::supports_light(ctx.light->shape))
-      throw Error("coherent-rt does not support {} lights (light {}); only rect and disk lights",
-                  to_string(ctx.light->shape), ctx.light_index);
+    coherent_rt::check_light(*ctx.light, ctx.light_index);
+    sampled_ = sampled_light(*ctx.light);
+    ShadowContext sampled = ctx;
+    sampled.light = &sampled_;
+    prepare_sampled(sampled);
+  }
+
+  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+    sampled_ = sampled_light(*ctx.light);
+    ShadowContext sampled = ctx;
+    sampled.light = &sampled_;
+    evaluate_sampled(sampled, vs, out);
+    if (!sphere_emitter(*ctx.light)) return;
+    parallel_for(vs.size(), 1024, [&](size_t begin, size_t end) {
+      for (size_t k = begin; k < end; ++k)
+        out.irradiance[k] = ctx.light->unshadowed_irradiance(vs.samples[k].p, vs.samples[k].ns) * out.visibility[k];
+    });
+  }
+
+ private:
+  void prepare_sampled(const ShadowContext& ctx) {
     images_.clear();
     extra_ = nlohmann::json::object();
     light_field_ = 0;
@@ -87,7 +107,7 @@ class CoherentRayTracing final : public ShadowMethod {
                                {"quadtrees", times.pyramid_ms}};
   }
 
-  void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
+  void evaluate_sampled(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) {
     ScopedPhase phase(stats_, "trace");
     const AreaLight& light = *ctx.light;
     if (geometry_ && !ctx.tracer) throw Error("coherent-rt: tracer=geometry needs the Embree scene");
@@ -292,6 +312,7 @@ class CoherentRayTracing final : public ShadowMethod {
   }
 
  private:
+  AreaLight sampled_;  // the light the passes sample (sampled_light)
   bool geometry_ = false;
   std::string views_;
   int tile_ = 32;

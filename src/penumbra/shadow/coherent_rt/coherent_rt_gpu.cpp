@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <optional>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/sampling.h"
+#include "penumbra/gpu/gpu_light.h"
 #include "penumbra/gpu/loop_limit.h"
 #include "penumbra/gpu/minmax_pyramid_gpu.h"
 #include "penumbra/gpu/raster/gpu_rasterizer.h"
@@ -57,10 +59,16 @@ class CoherentRtGpu final : public GpuShadowMethod {
 
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
-    if (!coherent_rt::supports_light(ctx.light->shape))
-      throw Error("coherent-rt does not support {} lights (light {}); only rect and disk lights",
-                  to_string(ctx.light->shape), ctx.light_index);
+    coherent_rt::check_light(*ctx.light, ctx.light_index);
     gpu::Device& device = *frame.device;
+    // A sphere light is sampled through its central disk (soft_shad.h sampled_light): the images
+    // and the tiles see that disk, whose record the tiles read, and E is the sphere's closed form
+    // times V (CrtTileBlock::sphere_emitter), as on the CPU.
+    sampled_ = coherent_rt::sampled_light(*ctx.light);
+    if (coherent_rt::sphere_emitter(*ctx.light))
+      sampled_record_.emplace(device, sampled_);
+    else
+      sampled_record_.reset();
     images_.clear();
     extra_ = nlohmann::json::object();
     if (counters_buffer_.empty()) {
@@ -77,12 +85,12 @@ class CoherentRtGpu final : public GpuShadowMethod {
     std::vector<shader::CrtImageDesc> descs;
     nlohmann::json views = nlohmann::json::array();
     // No image where no caster can shadow a receiver (reference_view): nothing blocks a ray.
-    const ShadowRegion region = fit_shadow_region(*ctx.scene, *ctx.light);
+    const ShadowRegion region = fit_shadow_region(*ctx.scene, sampled_);
     light_field_ = settings_.light_field ? region.light_field : 0.0f;  // coherent_rt.cpp
-    const std::vector<Vec3f> eyes = region.empty ? std::vector<Vec3f>{} : view_points(*ctx.light, settings_.views);
+    const std::vector<Vec3f> eyes = region.empty ? std::vector<Vec3f>{} : view_points(sampled_, settings_.views);
     for (Vec3f eye : eyes) {
       GpuReferenceImage img;
-      img.view = reference_view(region, *ctx.light, eye, settings_.images.resolution);
+      img.view = reference_view(region, sampled_, eye, settings_.images.resolution);
       const int w = img.view.width(), h = img.view.height();
       const uint64_t texels = static_cast<uint64_t>(w) * static_cast<uint64_t>(h);
       // The depth map (one, reused for every view: each image is built before the next map).
@@ -182,12 +190,13 @@ class CoherentRtGpu final : public GpuShadowMethod {
     b.images = static_cast<int>(images_.size());
     b.own_plane = settings_.own_plane ? 1u : 0u;
     b.geometry = settings_.geometry ? 1u : 0u;
+    b.sphere_emitter = sampled_record_ ? frame.light : 0;
     // The near field (coherent_rt.cpp): the part of each ray near enough its point for an occluder's
     // penumbra to be narrower than near_field texels, through the BVH.
     std::vector<LightView> views;
     for (const GpuReferenceImage& img : images_) views.push_back(img.view);
     if (!settings_.geometry) {
-      const NearFieldFrame near = near_field_frame(settings_.near_field, *ctx.light, views);
+      const NearFieldFrame near = near_field_frame(settings_.near_field, sampled_, views);
       b.near_scale = near.scale;
       b.near_light_width = near.light_width;
       b.near_eye = near.eye;
@@ -217,7 +226,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
       shader::CrtTilesParams tp{};
       tp.scene = frame.scene->address();
       tp.samples = frame.view_samples;
-      tp.light = frame.light;
+      tp.light = sampled_record_ ? sampled_record_->address() : frame.light;
       tp.visibility = out.visibility;
       tp.irradiance = out.irradiance;
       tp.block = block_.address();
@@ -331,6 +340,8 @@ class CoherentRtGpu final : public GpuShadowMethod {
   gpu::GpuDepthMap map_;
   std::vector<GpuReferenceImage> images_;
   gpu::Buffer descs_, block_, counters_buffer_, scratch_, spans_;
+  AreaLight sampled_;  // the light the passes sample (soft_shad.h sampled_light)
+  std::optional<gpu::GpuLightBuffer> sampled_record_;  // its record, where it is not the scene's light (a sphere's disk)
   int span_capacity_ = first_span_capacity;
   uint64_t span_retries_ = 0;
   float light_field_ = 0;  // ShadowRegion::light_field of the prepared light (0: none)

@@ -132,13 +132,16 @@ TEST_F(CoherentRtGpu, OcclusionSpanListsTooShortGrowAndGiveTheSamePicture) {
 }
 
 // A disk light's cells (the rect's under the concentric map, soft_shad_shared.h ss_project): the
-// same blocker points' prediction on both devices.
-TEST_F(CoherentRtGpu, DiskLightGivesTheCpuPicture) {
-  Scene scene = shipped_scene("bunny.json", 48);
-  scene.lights[0].shape = LightShape::Disk;
-  scene.lights[0].radius = 0.6f;
-  scene.finalize();
-  EXPECT_LE(difference(scene, {"resolution=256"}), 2e-3);
+// same blocker points' prediction on both devices. A sphere light, sampled through its central
+// disk facing the scene, E its closed form times V: the CPU's picture and colours.
+TEST_F(CoherentRtGpu, DiskAndSphereLightsGiveTheCpuPicture) {
+  for (LightShape shape : {LightShape::Disk, LightShape::Sphere}) {
+    Scene scene = shipped_scene("bunny.json", 48);
+    scene.lights[0].shape = shape;
+    scene.lights[0].radius = 0.6f;
+    scene.finalize();
+    EXPECT_LE(difference(scene, {"resolution=256"}), 2e-3) << to_string(shape);
+  }
 }
 
 // The light field: the parts of the rays near the light where the lamp's shades lie beyond the
@@ -149,14 +152,13 @@ TEST_F(CoherentRtGpu, CastersBesideTheLightGiveTheCpuPicture) {
 
 TEST_F(CoherentRtGpu, OtherLightShapesAreAOneLineError) {
   Scene scene = shipped_scene("bunny.json", 16);
-  scene.lights[0].shape = LightShape::Sphere;
-  scene.lights[0].radius = 0.3f;
+  scene.lights[0] = testing::ellipsoid_light_down(scene.lights[0].center, {0.4f, 0.3f, 0.2f});
   scene.finalize();
   try {
     render_scene(scene, settings({"resolution=64"}, true, 4));
-    FAIL() << "a sphere light rendered";
+    FAIL() << "an ellipsoid light rendered";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("only rect and disk lights"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("only rect, disk and sphere lights"), std::string::npos) << e.what();
   }
 }
 

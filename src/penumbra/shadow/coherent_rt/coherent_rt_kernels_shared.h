@@ -88,8 +88,9 @@ PN_INLINE float crt_light_field_start(vec3 org, vec3 dir, float tfar, vec3 c, ve
   return min(tfar, (z0 - z_l) / -dz);
 }
 
-// What the tiles read besides their buffers, 156 bytes (the near field's 32 and the light field's
-// 4 last), uploaded with each evaluate.
+// What the tiles read besides their buffers, 168 bytes (the near field's 32 and the light field's
+// 4 at bytes 120-155, 4 bytes of padding, the sphere emitter's address at 160-167), uploaded with
+// each evaluate.
 struct CrtTileBlock {
   CrtTraceOptions trace;  // 24 bytes
   int cols;               // light cells (stratification_grid)
@@ -121,6 +122,10 @@ struct CrtTileBlock {
   vec3 near_forward;
   float near_light_width;  // near_field_light_width of the light
   float light_field;       // crt_light_field_start's z_l (0: no light field)
+  uint pad;
+  // A sphere light's GpuLight, whose closed form times V is E, where the tiles sample its central
+  // disk (soft_shad.h sampled_light); 0: E from the samples (eq. 1).
+  uint64_t sphere_emitter;
 };
 
 // A tile's scratch, `words` uint32 words each (crt_tile_scratch_words): stamps (n sub^2),
@@ -209,7 +214,7 @@ struct CrtBuildParams {
 PN_SHARED_END
 
 #ifdef __cplusplus
-static_assert(sizeof(penumbra::shader::CrtTileBlock) == 156);
+static_assert(sizeof(penumbra::shader::CrtTileBlock) == 168);
 static_assert(sizeof(penumbra::shader::CrtGpuCounters) == 168);
 static_assert(sizeof(penumbra::shader::CrtTilesParams) <= 128);
 static_assert(sizeof(penumbra::shader::CrtBuildParams) <= 128);

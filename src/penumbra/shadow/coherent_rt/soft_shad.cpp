@@ -13,10 +13,23 @@ void SoftShadCounters::add(const SoftShadCounters& o) {
   blocker_points += o.blocker_points;
 }
 
+AreaLight sampled_light(const AreaLight& light) {
+  if (light.shape != LightShape::Sphere) return light;
+  AreaLight disk = light;
+  disk.shape = LightShape::Disk;
+  return disk;
+}
+
+void check_light(const AreaLight& light, int index) {
+  if (!supports_light(light.shape))
+    throw Error("coherent-rt does not support {} lights (light {}); only rect, disk and sphere lights",
+                to_string(light.shape), index);
+}
+
 SoftShad::SoftShad(const AreaLight& light, int cols, int rows, const SoftShadOptions& options)
     : light_(light.geometry()) {
   if (!supports_light(light.shape))
-    throw Error("coherent-rt: coherence sampling does not support {} lights; only rect and disk lights",
+    throw Error("coherent-rt: coherence sampling does not support {} lights; only rect and disk lights (a sphere: its disk)",
                 to_string(light.shape));
   if (options.sub_grid < 1) throw Error("coherent-rt: sub_grid {} must be at least 1", options.sub_grid);
   state_ = shader::ss_make(cols, rows, options.sub_grid, options.coherence, options.shortcut, options.reset_distance);

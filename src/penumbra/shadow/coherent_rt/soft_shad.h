@@ -31,9 +31,18 @@
 namespace penumbra::coherent_rt {
 
 // The light shapes coherent-rt samples (both devices): a rect, agrawala2000's, and a disk, its
-// cells the rect's under concentric_disk. A sphere's or an ellipsoid's V is a fraction of its
-// solid angle (reference), which cells on its central disk do not sample.
-inline bool supports_light(LightShape s) { return s == LightShape::Rect || s == LightShape::Disk; }
+// cells the rect's under concentric_disk; a sphere through its central disk facing the scene
+// (sampled_light). An ellipsoid's central ellipse has no such cells: not supported.
+inline bool supports_light(LightShape s) { return s != LightShape::Ellipsoid; }
+// The light whose cells coherent-rt samples for `light`: the light itself, or for a sphere the disk
+// of its radius through its centre, facing the scene (frame.n, which Scene::orient_sphere_lights
+// points at the scene's centre), as afsm and every light-space method sample a sphere. V is then
+// the fraction of that disk a point sees, not of the sphere's solid angle (`reference`'s), and E
+// the sphere's closed form times V (sphere_emitter).
+AreaLight sampled_light(const AreaLight& light);
+inline bool sphere_emitter(const AreaLight& light) { return light.shape == LightShape::Sphere; }
+// The one-line error for a light coherent-rt does not sample.
+void check_light(const AreaLight& light, int index);
 
 struct SoftShadOptions {
   bool coherence = true;        // off: every cell traced (plain stratified sampling)

@@ -207,8 +207,15 @@ void main() {
             e += double(crt_cell_irradiance(s.p, s.ns, L.n, points.v[j]));
           }
         }
-        Floats(pc.p.visibility).v[slot] = float(visible) / float(n);
-        Vec3s(pc.p.irradiance).v[slot] = light.radiance * float(e * double(L.area) / double(n));
+        float v = float(visible) / float(n);
+        Floats(pc.p.visibility).v[slot] = v;
+        if (b.sphere_emitter != 0UL) {
+          // A sphere sampled through its central disk: its own closed form times V (coherent_rt.cpp).
+          GpuLight sphere = LightRef(b.sphere_emitter).v;
+          Vec3s(pc.p.irradiance).v[slot] = sphere.radiance * light_irradiance_sphere(sphere.geometry, s.p, s.ns) * v;
+        } else {
+          Vec3s(pc.p.irradiance).v[slot] = light.radiance * float(e * double(L.area) / double(n));
+        }
         step += 1;
         begun = 0u;
       }
