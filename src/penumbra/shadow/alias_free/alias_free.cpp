@@ -516,7 +516,8 @@ class AliasFreeSoft final : public AliasFreeBase {
           const ViewSample& s = vs.samples[e.sample];
           const Vec2f rot = jitter ? rotation_of(s) : Vec2f{1, 0};
           // A split sample's entry sees the light samples on its own side only.
-          const uint64_t* front = e.split != kWhole ? front_masks.data() + static_cast<size_t>(e.split) * words : nullptr;
+          const uint64_t* front =
+              e.split != kWhole ? front_masks.data() + static_cast<size_t>(e.split) * words : nullptr;
           rays.clear();
           for (int k = 0; k < n; ++k) {
             if (front && (((front[k >> 6] >> (k & 63)) & 1) != 0) != e.front) continue;
@@ -868,7 +869,8 @@ class AliasFreeSoft final : public AliasFreeBase {
       // Away from every silhouette edge: all of the light or none, as the centre (its hard
       // shadow bit, afsm-hard's pass over the lists in their own order); those slots settle.
       // (Slots only partial casters cover lie in their regions, which the stencil holds.)
-      const std::vector<uint8_t> center = center_shadow(scene, c, partial_casters > 0, &center_counters, &center_memory);
+      const std::vector<uint8_t> center =
+          center_shadow(scene, c, partial_casters > 0, &center_counters, &center_memory);
       uint64_t hard = 0;
       for (int k = 0; k < slabs.count; ++k)
         for (size_t texel = 0; texel < slabs.texels; ++texel) {
@@ -1116,7 +1118,8 @@ class AliasFreeSoft final : public AliasFreeBase {
             for (int w = 0; w < words; ++w)
               for (uint64_t rest = pm[w] & ~m[w]; rest; rest &= rest - 1) {
                 const int i = 64 * w + std::countr_zero(rest);
-                rays.push_back(shadow_ray_to(s.p, s.ng, jitter ? light_point(samples, i, rotation[slot]) : samples.points[i]));
+                const Vec3f q = jitter ? light_point(samples, i, rotation[slot]) : samples.points[i];
+                rays.push_back(shadow_ray_to(s.p, s.ng, q));
               }
             if (rays.empty()) continue;
             transmitted.resize(rays.size());

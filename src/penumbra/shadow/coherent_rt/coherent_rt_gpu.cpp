@@ -341,7 +341,8 @@ class CoherentRtGpu final : public GpuShadowMethod {
   std::vector<GpuReferenceImage> images_;
   gpu::Buffer descs_, block_, counters_buffer_, scratch_, spans_;
   AreaLight sampled_;  // the light the passes sample (soft_shad.h sampled_light)
-  std::optional<gpu::GpuLightBuffer> sampled_record_;  // its record, where it is not the scene's light (a sphere's disk)
+  // Its record, where it is not the scene's light (a sphere's disk).
+  std::optional<gpu::GpuLightBuffer> sampled_record_;
   int span_capacity_ = first_span_capacity;
   uint64_t span_retries_ = 0;
   float light_field_ = 0;  // ShadowRegion::light_field of the prepared light (0: none)

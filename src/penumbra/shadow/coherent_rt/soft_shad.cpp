@@ -28,8 +28,9 @@ void check_light(const AreaLight& light, int index) {
 
 SoftShad::SoftShad(const AreaLight& light, int cols, int rows, const SoftShadOptions& options)
     : light_(light.geometry()) {
-  if (!supports_light(light.shape))
-    throw Error("coherent-rt: coherence sampling does not support {} lights; only rect and disk lights (a sphere: its disk)",
+  // Cells on a rect or a disk only (a sphere comes as its disk: sampled_light).
+  if (light.shape != LightShape::Rect && light.shape != LightShape::Disk)
+    throw Error("coherent-rt: coherence sampling does not support {} lights; only rect and disk lights",
                 to_string(light.shape));
   if (options.sub_grid < 1) throw Error("coherent-rt: sub_grid {} must be at least 1", options.sub_grid);
   state_ = shader::ss_make(cols, rows, options.sub_grid, options.coherence, options.shortcut, options.reset_distance);

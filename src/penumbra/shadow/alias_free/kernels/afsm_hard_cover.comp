@@ -7,8 +7,9 @@
 // planes (afsm_hard_blocks) and, on an alpha-textured caster, against its mask where the segment
 // to the light's centre crosses it. A caster that stops only part of the light marks the sample
 // partial (its ray decides: afsm_hard_resolve); a blocking one marks it blocked (atomicMax: the
-// larger mark wins, blocked > partial). A sample's mark skips the casters that cannot raise it. sintorn2008 ran this
-// per fragment of the hardware rasterizer; the row threads are its compute form.
+// larger mark wins, blocked > partial). A sample's mark skips the casters that cannot raise it.
+// sintorn2008 ran this per fragment of the hardware rasterizer; the row threads are its compute
+// form.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/raster/conservative_cover.glsl"
 #include "penumbra/gpu/raster/raster_access.glsl"

@@ -9,8 +9,8 @@
 // keeps the samples whose segment crosses it inside its mask. The bits OR into the entry's mask
 // (atomicOr: several casters cover one texel at once); a caster that stops only part of the light
 // (semi-transparent, alpha blend) ORs them into the entry's second mask instead, of the samples
-// whose rays decide (afsm_soft_resolve; alias_free.cpp `partial`). sintorn2008 ran this per fragment of the
-// hardware rasterizer; a thread per covered row is its compute form.
+// whose rays decide (afsm_soft_resolve; alias_free.cpp `partial`). sintorn2008 ran this per
+// fragment of the hardware rasterizer; a thread per covered row is its compute form.
 #include "penumbra/gpu/kernel_common.glsl"
 #include "penumbra/gpu/raster/conservative_cover.glsl"
 #include "penumbra/gpu/raster/raster_access.glsl"
