@@ -49,6 +49,24 @@ struct ComposeParams {
   uint has_irradiance;
 };
 
+// face_samples.comp: the view samples one face of a split sphere light serves
+// (scene/light.h split_sphere_lights), copied, every other slot marked a miss; the face's method
+// and compose read the copy, so they draw the served samples alone (Renderer::render's split).
+//   0-7 samples  8-15 served  16-27 center  28-31 face  32-43 s  44-47 slots  48-59 t  60-63 cube
+//   64-75 n
+struct FaceSamplesParams {
+  uint64_t samples;  // GpuViewSample[slots], the camera pass's
+  uint64_t served;   // GpuViewSample[slots], written
+  vec3 center;       // the sphere's
+  uint face;         // AreaLight::split_face
+  vec3 s;            // AreaLight::split_frame
+  uint slots;
+  vec3 t;
+  uint cube;  // AreaLight::split_cube
+  vec3 n;
+  uint pad;
+};
+
 // frame_sum.comp: progressive frames (RenderSettings::frames): add a frame's V and E into sums
 // (mode 0), or turn the sums into their means (mode 1).
 struct FrameSumParams {
@@ -75,7 +93,7 @@ struct ResolveParams {
   int window_width;
   int window_height;
   int spp;
-  float lights;
+  float lights;  // whole lights (whole_light_count): a split sphere's faces count once together
 };
 
 PN_SHARED_END
@@ -83,6 +101,7 @@ PN_SHARED_END
 #ifdef __cplusplus
 static_assert(sizeof(penumbra::shader::CameraPassParams) == 128);
 static_assert(sizeof(penumbra::shader::ComposeParams) <= 128);
+static_assert(sizeof(penumbra::shader::FaceSamplesParams) == 80);
 static_assert(sizeof(penumbra::shader::ResolveParams) <= 128);
 #endif
 

@@ -41,9 +41,11 @@ class DropUnsubmittedOnThrow {
 
 }  // namespace
 
-uint64_t gpu_frame_bytes(uint64_t slots, uint64_t pixels) {
-  // View samples, V, E, radiance, three V sums per slot; colour and V per pixel.
-  return slots * (sizeof(shader::GpuViewSample) + 4 + 12 + 12 + 3 * 4) + pixels * (12 + 4);
+uint64_t gpu_frame_bytes(uint64_t slots, uint64_t pixels, bool split_sphere) {
+  // View samples (twice with a split sphere), V, E, radiance, three V sums per slot; colour and
+  // V per pixel.
+  const uint64_t samples = sizeof(shader::GpuViewSample) * (split_sphere ? 2 : 1);
+  return slots * (samples + 4 + 12 + 12 + 3 * 4) + pixels * (12 + 4);
 }
 
 GpuRenderer::GpuRenderer(const Scene& scene, const RenderSettings& settings, gpu::Device& device) : device_(&device) {
@@ -60,7 +62,9 @@ void GpuRenderer::set_lights(const Scene& scene, const std::vector<bool>& change
   lights_.resize(n);
   methods_.resize(n);
   prepared_.resize(n, false);
+  split_.resize(n);
   for (size_t l = 0; l < n; ++l) {
+    split_[l] = scene.lights[l].split_face >= 0;
     if (!changed[l] && methods_[l]) continue;
     lights_[l] = std::make_unique<gpu::GpuLightBuffer>(*device_, scene.lights[l]);
     methods_[l] = create_gpu_method(settings.method, scene, settings.params);
@@ -97,7 +101,9 @@ GpuFrame GpuRenderer::frame_for(size_t l) {
   f.device = device_;
   f.commands = commands_.get();
   f.scene = gpu_scene_.get();
-  f.view_samples = samples_.empty() ? 0 : samples_.address();
+  // A split sphere's face reads its own copy (face_samples.comp), the camera pass's otherwise.
+  const gpu::Buffer& samples = split_[l] ? face_samples_ : samples_;
+  f.view_samples = samples.empty() ? 0 : samples.address();
   f.slots = frame_slots_;
   f.width = frame_width_;
   f.height = frame_height_;
@@ -135,6 +141,7 @@ void GpuRenderer::size_frame(uint64_t slots, uint64_t pixels) {
   visibility_out_ = gpu::Buffer(d, pixels * 4, "the visibility image");
   visibility_sum_ = gpu::Buffer();
   irradiance_sum_ = gpu::Buffer();
+  face_samples_ = gpu::Buffer();
   slots_ = slots;
   pixels_ = pixels;
 }
@@ -155,6 +162,8 @@ RenderResult GpuRenderer::render(const Scene& scene, const RenderSettings& setti
   frame_spp_ = spp;
   frame_window_ = window;
   const int frames = std::max(1, settings.frames);
+  if (face_samples_.empty() && std::find(split_.begin(), split_.end(), true) != split_.end())
+    face_samples_ = gpu::Buffer(*device_, slots * sizeof(shader::GpuViewSample), "a split sphere's view samples");
   if (frames > 1 && visibility_sum_.empty()) {
     visibility_sum_ = gpu::Buffer(*device_, slots * 4, "the frames' visibility sums");
     irradiance_sum_ = gpu::Buffer(*device_, slots * 12, "the frames' irradiance sums");
@@ -199,6 +208,21 @@ RenderResult GpuRenderer::render(const Scene& scene, const RenderSettings& setti
   for (size_t l = 0; l < methods_.size(); ++l) {
     GpuShadowMethod& method = *methods_[l];
     ShadowContext ctx = light_context(scene, l, settings);
+    if (split_[l]) {  // the face's view samples, every other slot a miss
+      const AreaLight& light = scene.lights[l];
+      cl.stage("face_samples");
+      shader::FaceSamplesParams fp{};
+      fp.samples = samples_.address();
+      fp.served = face_samples_.address();
+      fp.center = light.center;
+      fp.face = static_cast<uint32_t>(light.split_face);
+      fp.s = light.split_frame.s;
+      fp.t = light.split_frame.t;
+      fp.n = light.split_frame.n;
+      fp.cube = light.split_cube ? 1u : 0u;
+      fp.slots = static_cast<uint32_t>(slots);
+      cl.dispatch("face_samples", slots, fp);
+    }
     GpuFrame frame = frame_for(l);
     if (!prepared_[l]) {
       method.prepare(ctx, frame);
@@ -229,7 +253,7 @@ RenderResult GpuRenderer::render(const Scene& scene, const RenderSettings& setti
                                          static_cast<uint32_t>(slots), 1u, 1.0f / static_cast<float>(frames), 0u});
     cl.stage("compose");
     shader::ComposeParams p{};
-    p.samples = samples_.address();
+    p.samples = frame.view_samples;  // a split sphere's face: the samples it serves alone
     p.light = lights_[l]->address();
     p.unit_circle = frame.unit_circle;
     p.visibility = visibility_.address();
@@ -256,7 +280,7 @@ RenderResult GpuRenderer::render(const Scene& scene, const RenderSettings& setti
   rp.window_width = window.width();
   rp.window_height = window.height();
   rp.spp = spp;
-  rp.lights = static_cast<float>(methods_.size());
+  rp.lights = whole_light_count(scene.lights);
   cl.dispatch("resolve", pixels, rp);
   times_.add(cl.submit());
 

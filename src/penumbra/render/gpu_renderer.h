@@ -51,6 +51,7 @@ class GpuRenderer {
   std::vector<std::unique_ptr<gpu::GpuLightBuffer>> lights_;
   std::vector<std::unique_ptr<GpuShadowMethod>> methods_;
   std::vector<bool> prepared_;
+  std::vector<bool> split_;  // light l is a face of a split sphere (AreaLight::split_face)
   std::unique_ptr<gpu::CommandList> commands_;
   gpu::StageTimes times_;  // of the render in progress (flushes included)
   uint64_t slots_ = 0, pixels_ = 0;
@@ -59,10 +60,12 @@ class GpuRenderer {
   PixelWindow frame_window_;
   gpu::Buffer samples_, visibility_, irradiance_, visibility_sum_, irradiance_sum_, radiance_, v_weighted_, v_weight_,
       v_plain_, color_out_, visibility_out_;
+  gpu::Buffer face_samples_;  // a split sphere's face's view samples (face_samples.comp), when one is drawn
 };
 
 // What a render on the GPU holds in device memory beyond the scene (the frame's per-slot
 // buffers) for a window of `slots` camera rays and `pixels` pixels.
-uint64_t gpu_frame_bytes(uint64_t slots, uint64_t pixels);
+// With `split_sphere`, also the copy of the view samples a split sphere's face draws.
+uint64_t gpu_frame_bytes(uint64_t slots, uint64_t pixels, bool split_sphere = false);
 
 }  // namespace penumbra

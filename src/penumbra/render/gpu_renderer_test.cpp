@@ -331,6 +331,21 @@ TEST_F(GpuFrame, ACeilingFlushWithTheLightBlocksNothingAsOnTheCpu) {
   }
 }
 
+// scene_units_test.cpp's bulb in a room: the faces of the split sphere (split_sphere_lights) draw
+// their own view samples on the GPU (face_samples.comp) as on the CPU, each method's V as the
+// CPU's.
+TEST_F(GpuFrame, ABulbInARoomIsDrawnFaceByFaceAsOnTheCpu) {
+  const Scene scene = testing::bulb_in_a_room_scene(24);
+  for (const char* method : {"afsm", "shadow-map", "vsm", "occlusion-textures"}) {
+    const RenderSettings settings = testing::device_settings(method, {}, true, 3, 16);
+    const RenderResult gpu = render_on(scene, settings, true), cpu = render_on(scene, settings, false);
+    const double dv = mean_abs_diff(gpu.visibility, cpu.visibility);
+    std::printf("%-20s GPU against CPU, a bulb in a room: %.6f\n", method, dv);
+    EXPECT_LE(dv, 2e-3) << method;
+    EXPECT_LE(mean_abs_diff(gpu.color, cpu.color), 2e-3) << method;
+  }
+}
+
 // baselines_test.cpp's street: the fitted maps hold the receivers beyond max_fov a caster can
 // shadow on the GPU as on the CPU (the reach is host code both devices' fits call).
 TEST_F(GpuFrame, ReceiversBeyondMaxFovThatACasterCanShadowAreInTheMapAsOnTheCpu) {

@@ -163,6 +163,13 @@ std::string format_bytes(uint64_t b) {
 }
 }  // namespace
 
+std::vector<AreaLight> drawn_lights(const Scene& scene, const std::string& method, std::span<const AreaLight> lights) {
+  std::vector<AreaLight> drawn = expand_textured_lights(lights);
+  const MethodInfo* info = MethodRegistry::find(method);
+  if (info && info->sphere_through_disk) drawn = split_sphere_lights(drawn, scene.bounds());
+  return drawn;
+}
+
 RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSettings& settings) {
   RenderMemoryEstimate e;
   // The crop's pixels only (the whole image without one); a crop outside the image is refused here.
@@ -171,8 +178,12 @@ RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSett
   const uint64_t rays = pixels * static_cast<uint64_t>(std::max(1, scene.camera.samples_per_pixel));
   // CameraPass: a 16-byte hit per ray and a ViewSample per hit (every ray may hit); the
   // compose's per-sample radiance, V sums, vis and irradiance (FrameBuffers: 40 bytes), twice
-  // that again for progressive frames; the colour and V images.
-  const uint64_t per_sample = sizeof(ViewSample) + 40 + (settings.frames > 1 ? 16 : 0);
+  // that again for progressive frames; the colour and V images; a split sphere's face's copy of
+  // the view samples it serves and their indices.
+  const std::vector<AreaLight> drawn = drawn_lights(scene, settings.method, scene.lights);
+  const bool split = std::any_of(drawn.begin(), drawn.end(), [](const AreaLight& l) { return l.split_face >= 0; });
+  const uint64_t per_sample =
+      sizeof(ViewSample) + 40 + (settings.frames > 1 ? 16 : 0) + (split ? sizeof(ViewSample) + 4 : 0);
   e.view_bytes = rays * (16 + per_sample) + pixels * 16;
 
   const MethodInfo& info = MethodRegistry::get(settings.method);
@@ -187,7 +198,7 @@ RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSett
     // One instance per light, each keeping its maps (Renderer::methods_); the setting named is
     // the one that drives most of their bytes together.
     MemoryTally lights;
-    for (const AreaLight& light : expand_textured_lights(scene.lights)) {
+    for (const AreaLight& light : drawn) {
       q.light = &light;
       const MemoryEstimate m = info.estimate_memory(params, q);
       lights.add(m.bytes, m.setting);
@@ -240,7 +251,9 @@ GpuMemoryEstimate estimate_gpu_render_memory(const Scene& scene, const RenderSet
   const uint64_t pixels = static_cast<uint64_t>(window.width()) * static_cast<uint64_t>(window.height());
   const uint64_t slots = pixels * static_cast<uint64_t>(std::max(1, scene.camera.samples_per_pixel));
   e.scene_bytes = gpu::GpuScene::estimate_bytes(scene);
-  e.frame_bytes = gpu_frame_bytes(slots, pixels) + (settings.frames > 1 ? slots * 16 : 0);
+  const std::vector<AreaLight> drawn = drawn_lights(scene, settings.method, scene.lights);
+  const bool split = std::any_of(drawn.begin(), drawn.end(), [](const AreaLight& l) { return l.split_face >= 0; });
+  e.frame_bytes = gpu_frame_bytes(slots, pixels, split) + (settings.frames > 1 ? slots * 16 : 0);
   const GpuMethodInfo* info = find_gpu_method(settings.method);
   if (info && info->estimate_memory) {
     MemoryQuery q;
@@ -251,7 +264,7 @@ GpuMemoryEstimate estimate_gpu_render_memory(const Scene& scene, const RenderSet
     q.semi_transparent = scene.semi_transparent();
     const ParamSet params = resolve_method_params(settings.method, scene, settings.params);
     MemoryTally lights;
-    for (const AreaLight& light : expand_textured_lights(scene.lights)) {
+    for (const AreaLight& light : drawn) {
       q.light = &light;
       const MemoryEstimate m = info->estimate_memory(params, q);
       lights.add(m.bytes, m.setting);
@@ -291,7 +304,7 @@ void check_gpu_render_memory(const Scene& scene, const RenderSettings& settings,
 Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene), settings_(std::move(settings)) {
   if (scene_.lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
   // A textured light is drawn as one light per colour channel (issue 20 part 3).
-  scene_.lights = expand_textured_lights(scene.lights);
+  scene_.lights = drawn_lights(scene, settings_.method, scene.lights);
   const bool textured = std::any_of(scene.lights.begin(), scene.lights.end(), [](const AreaLight& l) { return l.textured(); });
   if (textured && MethodRegistry::get(settings_.method).uniform_light)
     std::fprintf(stderr,
@@ -355,13 +368,15 @@ bool same_light(const AreaLight& a, const AreaLight& b) {
   return a.shape == b.shape && eq(a.center, b.center) && eq(a.frame.s, b.frame.s) && eq(a.frame.t, b.frame.t) &&
          eq(a.frame.n, b.frame.n) && a.size.x == b.size.x && a.size.y == b.size.y && a.radius == b.radius &&
          eq(a.radii, b.radii) && eq(a.radiance, b.radiance) && a.texture == b.texture &&
-         a.texture_channel == b.texture_channel;
+         a.texture_channel == b.texture_channel && a.split_face == b.split_face && a.split_faces == b.split_faces &&
+         a.split_cube == b.split_cube &&
+         eq(a.split_frame.n, b.split_frame.n) && eq(a.split_frame.s, b.split_frame.s);
 }
 }  // namespace
 
 void Renderer::set_lights(const std::vector<AreaLight>& given) {
   if (given.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
-  const std::vector<AreaLight> lights = expand_textured_lights(given);
+  const std::vector<AreaLight> lights = drawn_lights(scene_, settings_.method, given);
   if (gpu_) {
     std::vector<bool> changed(lights.size());
     for (size_t l = 0; l < lights.size(); ++l)
@@ -465,34 +480,63 @@ RenderResult Renderer::render() {
   std::vector<float>&v_weighted = fb.v_weighted, &v_weight = fb.v_weight, &v_plain = fb.v_plain, &vis = fb.vis;
   std::vector<Vec3f>& irr = fb.irr;
   const size_t lights = scene_.lights.size();
-  Progress own_progress(settings_.method, n * lights * std::max(1, settings_.frames), settings_.progress && !settings_.progress_bar);
+  // The faces of a split sphere serve each view sample once together.
+  const float whole_lights = whole_light_count(scene_.lights);
+  const auto expected = static_cast<uint64_t>(static_cast<double>(n) * whole_lights + 0.5);
+  Progress own_progress(settings_.method, expected * std::max(1, settings_.frames),
+                        settings_.progress && !settings_.progress_bar);
   Progress& progress = settings_.progress_bar ? *settings_.progress_bar : own_progress;
+  std::vector<uint32_t> served;  // a split sphere's face: the view samples it serves
+  ViewSamples face_samples;
   for (size_t l = 0; l < lights; ++l) {
     const AreaLight& light = scene_.lights[l];
     ShadowContext ctx = light_context(l);
     ctx.progress = &progress;
     ShadowMethod& method = *methods_[l];
+    // A face of a split sphere (split_sphere_lights) draws only the view samples it serves: its
+    // method sees them alone (its light view fits them), and the compose adds nothing elsewhere.
+    const bool split = light.split_face >= 0;
+    if (split) {
+      served.clear();
+      for (size_t i = 0; i < n; ++i)
+        if (light.serves(vs.samples[i].p)) served.push_back(static_cast<uint32_t>(i));
+      if (served.empty()) continue;
+      face_samples.width = vs.width;
+      face_samples.height = vs.height;
+      face_samples.window = vs.window;
+      face_samples.samples_per_pixel = vs.samples_per_pixel;
+      face_samples.samples.resize(served.size());
+      for (size_t k = 0; k < served.size(); ++k) face_samples.samples[k] = vs.samples[served[k]];
+    }
+    const ViewSamples& drawn = split ? face_samples : vs;
+    const size_t m = drawn.size();
     // The light-space structures survive camera changes (agrawala2000 §4).
     if (!prepared_[l]) prepare_light(l, ctx);
-    ShadowOutput out{std::span<float>(vis), std::span<Vec3f>(irr)};
+    ShadowOutput out{std::span<float>(vis).first(m), std::span<Vec3f>(irr).first(m)};
     const int frames = std::max(1, settings_.frames);
-    std::vector<float> vis_sum(frames > 1 ? n : 0, 0.0f);
-    std::vector<Vec3f> irr_sum(frames > 1 ? n : 0, Vec3f(0.0f));
+    std::vector<float> vis_sum(frames > 1 ? m : 0, 0.0f);
+    std::vector<Vec3f> irr_sum(frames > 1 ? m : 0, Vec3f(0.0f));
     for (int f = 0; f < frames; ++f) {
       ctx.frame = settings_.first_frame + f;
       std::fill(vis.begin(), vis.end(), 1.0f);
-      method.evaluate(ctx, vs, out);
+      method.evaluate(ctx, drawn, out);
       if (frames == 1) break;
-      for (size_t i = 0; i < n; ++i) {
+      for (size_t i = 0; i < m; ++i) {
         vis_sum[i] += vis[i];
         irr_sum[i] += irr[i];
       }
     }
     if (frames > 1) {
       const float inv = 1.0f / static_cast<float>(frames);
-      for (size_t i = 0; i < n; ++i) {
+      for (size_t i = 0; i < m; ++i) {
         vis[i] = vis_sum[i] * inv;
         irr[i] = irr_sum[i] * inv;
+      }
+    }
+    if (split) {  // back to the view samples' own places, from the last served one down
+      for (size_t k = served.size(); k-- > 0;) {
+        vis[served[k]] = vis[k];
+        irr[served[k]] = irr[k];
       }
     }
     const bool has_e = method.computes_irradiance();
@@ -518,6 +562,7 @@ RenderResult Renderer::render() {
                                                std::span(e_unit).first(count));
           }
           const ViewSample& s = vs.samples[i];
+          if (split && !light.serves(s.p)) continue;
           const Vec3f e0 = light.radiance * e_unit[k];
           // Where the light's emitting side does not face the point (behind a rect's or disk's
           // plane, inside a sphere), it sees none of the light: V = 0 whatever the method drew
@@ -562,7 +607,7 @@ RenderResult Renderer::render() {
       for (; i < e && vs.samples[i].pixel == px; ++i, ++hits) {
         // V of a sample over several lights: weighted by each light's unshadowed irradiance
         // (a single light gives its V exactly).
-        v_sum += v_weight[i] > 0 ? v_weighted[i] / v_weight[i] : v_plain[i] / lights;
+        v_sum += v_weight[i] > 0 ? v_weighted[i] / v_weight[i] : v_plain[i] / whole_lights;
         c += radiance[i];
       }
       const int x = static_cast<int>(px % image_width) - window.x0, y = static_cast<int>(px / image_width) - window.y0;

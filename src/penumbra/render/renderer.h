@@ -58,6 +58,13 @@ struct RenderSettings {
   gpu::DeviceChoice device;
 };
 
+// The lights a render of `scene` with `method` draws for `lights`, one method instance each:
+// a textured light as one light per colour channel (expand_textured_lights), and for a method
+// that samples a sphere through one disk (MethodInfo::sphere_through_disk) a sphere the scene
+// reaches behind as one light per face (split_sphere_lights), each serving its own view
+// samples (AreaLight::serves).
+std::vector<AreaLight> drawn_lights(const Scene& scene, const std::string& method, std::span<const AreaLight> lights);
+
 // What a render of `scene` will allocate, estimated before anything is: the camera pass (a
 // 16-byte hit per camera ray, a view sample per hit), the per-sample sums of the compose and
 // the output images, and each light's method instance (MethodInfo::estimate_memory: its

@@ -91,6 +91,83 @@ std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights)
   return out;
 }
 
+namespace {
+
+// Whether the cone of directions leaving the cube around `apex` through the face of axis `a`
+// (side axes b, c: a.d >= |b.d|, a.d >= |c.d|) meets the box: the separating axis test of two
+// convex polytopes, the cone cut off beyond the box (a pyramid of apex `apex`).
+bool inside(const Bounds3f& b, Vec3f p) {
+  return p.x >= b.lo.x && p.x <= b.hi.x && p.y >= b.lo.y && p.y <= b.hi.y && p.z >= b.lo.z && p.z <= b.hi.z;
+}
+
+bool face_cone_meets_box(Vec3f apex, Vec3f a, Vec3f b, Vec3f c, const Bounds3f& box) {
+  float reach = 0;
+  for (int i = 0; i < 8; ++i) reach = std::max(reach, length(box.corner(i) - apex));
+  const float h = reach * 1.01f + 1e-6f;
+  const std::array<Vec3f, 5> pyramid = {apex, apex + (a + b + c) * h, apex + (a + b - c) * h, apex + (a - b - c) * h,
+                                        apex + (a - b + c) * h};
+  std::array<Vec3f, 8> corners;
+  for (int i = 0; i < 8; ++i) corners[i] = box.corner(i);
+  const std::array<Vec3f, 3> box_edges = {Vec3f(1, 0, 0), Vec3f(0, 1, 0), Vec3f(0, 0, 1)};
+  const std::array<Vec3f, 6> pyramid_edges = {a + b + c, a + b - c, a - b - c, a - b + c, b, c};
+  std::vector<Vec3f> axes(box_edges.begin(), box_edges.end());
+  axes.push_back(a);
+  for (int k = 0; k < 4; ++k)  // the pyramid's lateral faces
+    axes.push_back(cross(pyramid[1 + k] - apex, pyramid[1 + (k + 1) % 4] - apex));
+  for (Vec3f e : box_edges)
+    for (Vec3f f : pyramid_edges) axes.push_back(cross(e, f));
+  for (Vec3f axis : axes) {
+    if (!(length_squared(axis) > 1e-20f)) continue;
+    float lo0 = kInfinity, hi0 = -kInfinity, lo1 = kInfinity, hi1 = -kInfinity;
+    for (Vec3f v : pyramid) lo0 = std::min(lo0, dot(v, axis)), hi0 = std::max(hi0, dot(v, axis));
+    for (Vec3f v : corners) lo1 = std::min(lo1, dot(v, axis)), hi1 = std::max(hi1, dot(v, axis));
+    if (hi0 < lo1 || hi1 < lo0) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::vector<AreaLight> split_sphere_lights(std::span<const AreaLight> lights, const Bounds3f& scene_bounds) {
+  std::vector<AreaLight> out;
+  for (const AreaLight& l : lights) {
+    bool behind = false;  // some of the scene behind the plane of the disk the methods sample
+    if (l.shape == LightShape::Sphere && l.split_face < 0 && !scene_bounds.empty())
+      for (int i = 0; i < 8; ++i) behind = behind || dot(scene_bounds.corner(i) - l.center, l.frame.n) < 0.0f;
+    if (!behind) {
+      out.push_back(l);
+      continue;
+    }
+    // The faces in sphere_face's order: +n, -n, +s, -s, +t, -t; each face's light gets a
+    // right-handed frame with n along the face's axis, and is kept where its cone of the cube
+    // reaches the scene's bounds. Outside the bounds, face 0 is the light as it was, serving the
+    // whole half-space in front.
+    const bool cube = inside(scene_bounds, l.center);
+    const Frame& f = l.frame;
+    const std::array<Frame, 6> faces = {Frame(f.s, f.t, f.n),   Frame(f.t, f.s, -f.n), Frame(f.t, f.n, f.s),
+                                        Frame(f.n, f.t, -f.s), Frame(f.n, f.s, f.t),  Frame(f.s, f.n, -f.t)};
+    const size_t first = out.size();
+    for (int k = 0; k < 6; ++k) {
+      if ((cube || k > 0) && !face_cone_meets_box(l.center, faces[k].n, faces[k].s, faces[k].t, scene_bounds))
+        continue;
+      AreaLight face = l;
+      face.frame = faces[k];
+      face.split_face = k;
+      face.split_cube = cube;
+      face.split_frame = f;
+      out.push_back(face);
+    }
+    for (size_t i = first; i < out.size(); ++i) out[i].split_faces = static_cast<int>(out.size() - first);
+  }
+  return out;
+}
+
+float whole_light_count(std::span<const AreaLight> lights) {
+  float n = 0;
+  for (const AreaLight& l : lights) n += l.split_faces > 0 ? 1.0f / static_cast<float>(l.split_faces) : 1.0f;
+  return n;
+}
+
 shader::LightGeometry AreaLight::geometry() const {
   shader::LightGeometry g;
   g.center = center;

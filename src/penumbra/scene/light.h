@@ -58,6 +58,19 @@ struct AreaLight {
   std::shared_ptr<const LightTexture> texture;
   int texture_channel = -1;
   bool textured() const { return texture != nullptr && shape == LightShape::Rect; }
+  // One face of a sphere light that the scene reaches behind (split_sphere_lights): this light
+  // serves only the points of face `split_face` of `split_frame` (sphere_face, light_shared.h:
+  // the front half-space, or a face of the cube behind it), and its frame.n is that face's
+  // axis. -1: a whole light, serving every point.
+  int split_face = -1;
+  int split_faces = 0;     // how many faces its sphere became (0: a whole light)
+  bool split_cube = false;  // sphere_face's `cube`: the whole cube (a sphere inside the scene's bounds)
+  Frame split_frame;
+  // Whether this light draws p (always, unless it is a face of a split sphere).
+  bool serves(Vec3f p) const {
+    return split_face < 0 || shader::sphere_face(split_frame.s, split_frame.t, split_frame.n, split_cube,
+                                                 p - center) == static_cast<uint32_t>(split_face);
+  }
 
   // rect and disk: the emitting area; sphere: its cross-section disk; ellipsoid: its central
   // ellipse facing frame.n (pi radii.x radii.y).
@@ -150,6 +163,22 @@ const float* unit_circle_table();
 // emission a point sees, so composing V x unshadowed irradiance per light gives coloured
 // penumbrae with every light-sampling method unchanged. Other lights are kept as they are.
 std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights);
+
+// The lights a light-space method draws for `lights` in a scene of bounds `scene_bounds`
+// (MethodInfo::sphere_through_disk). Such a method samples a sphere through its central disk
+// facing frame.n (toward the scene's centre, orient_sphere_lights), and a point behind that
+// disk's plane sees none of it: right for a sphere beside or above the scene, wrong for a bulb
+// inside a room. So a sphere whose scene reaches behind that plane becomes several lights
+// (sphere_face, light_shared.h), as a cube shadow map does for a point light: one per face of
+// the cube around the centre that the scene reaches, the same sphere with frame.n along the
+// face's axis, serving the points whose direction leaves through that face (AreaLight::serves),
+// which see its disk within 54.7 degrees of its axis. A sphere outside the scene's bounds (a lamp
+// above a ground that reaches a little behind it) keeps its light as it was for the points in
+// front of that plane, so they draw what they drew unsplit, and only the points behind go to the
+// cube's faces. E stays the sphere's closed form. Other lights are kept.
+std::vector<AreaLight> split_sphere_lights(std::span<const AreaLight> lights, const Bounds3f& scene_bounds);
+// How many whole lights `lights` holds: each split sphere's faces count once together.
+float whole_light_count(std::span<const AreaLight> lights);
 
 // Direction sampling toward a light from one point p: the per-point set-up (the spherical
 // rectangle's corner normals and solid angle, the cone's frame) is done once, then each

@@ -58,6 +58,22 @@ PN_INLINE bool light_faces(LightGeometry L, vec3 p) {
   return dot(p - L.center, L.n) > 0.0f;
 }
 
+// A sphere light drawn as faces (scene/light.h split_sphere_lights): which face serves the
+// point in direction d from the centre, for the frame (s, t, n) whose n points toward the scene.
+// The faces of the cube around the centre that d leaves through: 0 = +n, 1 = -n, 2 = +s,
+// 3 = -s, 4 = +t, 5 = -t (ties go to the earlier), each of whose disks the points it serves
+// see within 54.7 degrees of its axis. Without `cube`, face 0 is the whole half-space in front
+// (d.n >= 0, the one disk facing n that light-space methods sample in any case) and the cube's
+// faces serve only what lies behind it. The same float operations on both devices.
+PN_INLINE uint sphere_face(vec3 s, vec3 t, vec3 n, bool cube, vec3 d) {
+  float x = dot(d, s), y = dot(d, t), z = dot(d, n);
+  if (!cube && z >= 0.0f) return 0u;
+  float ax = abs(x), ay = abs(y), az = abs(z);
+  if (az >= ax && az >= ay) return z >= 0.0f ? 0u : 1u;
+  if (ax >= ay) return x >= 0.0f ? 2u : 3u;
+  return y >= 0.0f ? 4u : 5u;
+}
+
 // AreaLight::sample_area for an untextured light (a textured rect warps u through its table
 // first): the rect, the disk, a sphere's disk facing frame.n, an ellipsoid's central ellipse.
 PN_INLINE vec3 light_sample_area(LightGeometry L, vec2 u) {

@@ -4,9 +4,12 @@
 
 #include <cmath>
 #include <memory>
+#include <tuple>
+#include <utility>
 
 #include "penumbra/core/rng.h"
 #include "penumbra/core/sampling.h"
+#include "penumbra/scene/scene.h"
 
 namespace penumbra {
 namespace {
@@ -509,6 +512,69 @@ TEST(AreaLight, TexturedRectSamplesFollowTheImageAndExpandsPerChannel) {
   quarter.center = {0.5f, 3, 0.25f};
   const double exact = quarter.unshadowed_irradiance_scalar(p, n) * 4;  // the quarter's emission / mean (1/4)
   EXPECT_NEAR(e / m, exact, 0.01 * exact);
+}
+
+// split_sphere_lights: every point of the scene's bounds is served by exactly one of the lights a
+// sphere becomes, a point behind the sphere's disk by a face whose disk it sees within 54.7
+// degrees of its axis; a sphere whose scene lies in front of its disk is kept as it is.
+TEST(AreaLight, ASphereTheSceneReachesBehindIsSplitSoThatEveryPointHasOneFace) {
+  AreaLight sphere;
+  sphere.shape = LightShape::Sphere;
+  sphere.radius = 0.2f;
+  const auto split = [&](Vec3f center, const Bounds3f& bounds) {
+    AreaLight l = sphere;
+    l.center = center;
+    std::vector<AreaLight> lights = {l};
+    orient_sphere_lights(lights, bounds);
+    return std::pair(lights[0], split_sphere_lights(lights, bounds));
+  };
+  Bounds3f room;
+  room.extend(Vec3f(-2, 0, -2));
+  room.extend(Vec3f(2, 2.5f, 2));
+  Bounds3f ground;
+  ground.extend(Vec3f(-4, 0, -4));
+  ground.extend(Vec3f(4, 1, 4));
+
+  // Above a ground that lies in front of its disk: kept.
+  const auto [above, kept] = split(Vec3f(0, 3, 0), ground);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_EQ(kept[0].split_face, -1);
+  EXPECT_EQ(whole_light_count(kept), 1.0f);
+
+  // In a room (inside the bounds): the whole cube, six faces. Beside a ground that reaches behind
+  // its disk (outside the bounds): the light as it was for the front, faces behind.
+  for (const auto& [center, bounds, cube] : {std::tuple(Vec3f(0, 1.6f, 0), room, true),
+                                             std::tuple(Vec3f(3.5f, 1.5f, 0.5f), ground, false)}) {
+    const auto [whole, faces] = split(center, bounds);
+    ASSERT_GE(faces.size(), 2u);
+    if (cube) EXPECT_EQ(faces.size(), 6u);
+    EXPECT_FLOAT_EQ(whole_light_count(faces), 1.0f);
+    for (const AreaLight& f : faces) {
+      EXPECT_EQ(f.split_cube, cube);
+      EXPECT_EQ(f.split_faces, static_cast<int>(faces.size()));
+      EXPECT_NEAR(dot(cross(f.frame.s, f.frame.t), f.frame.n), 1.0f, 1e-5f);  // right-handed
+      EXPECT_EQ(f.center, whole.center);
+    }
+    if (!cube) {  // the front is the light as it was
+      EXPECT_EQ(faces[0].split_face, 0);
+      EXPECT_EQ(faces[0].frame.n, whole.frame.n);
+    }
+    Rng rng(5);
+    for (int i = 0; i < 20000; ++i) {
+      const Vec3f p = bounds.lo + bounds.diagonal() * Vec3f(rng.next_float(), rng.next_float(), rng.next_float());
+      int serving = 0;
+      for (const AreaLight& f : faces) {
+        if (!f.serves(p)) continue;
+        ++serving;
+        const float cos_axis = dot(normalize(p - center), f.frame.n);
+        if (cube || f.split_face > 0)
+          EXPECT_GE(cos_axis, 1.0f / std::sqrt(3.0f) - 1e-4f) << "face " << f.split_face;
+        else
+          EXPECT_GE(cos_axis, 0.0f);
+      }
+      ASSERT_EQ(serving, 1) << p.x << " " << p.y << " " << p.z;
+    }
+  }
 }
 
 }  // namespace PENUMBRA_UNITY_ID

@@ -148,6 +148,12 @@ struct MethodInfo {
   // and a render says so in one line. False for every method that takes points on the light
   // (AreaLight::sample_area, LightPointSampler), which follow the texture (issue 20 part 3).
   bool uniform_light = false;
+  // Whether the method samples a sphere light through the one disk facing frame.n (its light
+  // views, its maps): the renderer then draws a sphere that the scene reaches behind as one
+  // light per face of the cube around it (split_sphere_lights, scene/light.h), each serving
+  // only its view samples. False for a method that takes each point's own silhouette disk
+  // (AreaLight::sample_area_toward) or the light's centre alone: the split would change nothing.
+  bool sphere_through_disk = true;
 };
 
 // The registry of shadow methods by name. Methods register from their own source file:

@@ -171,6 +171,38 @@ inline Scene lamp_shades_scene(int res) {
   return s;
 }
 
+// A bulb in a closed room (docs/data/scenes/bulb-room.json): a sphere light of radius 0.15 at
+// 1.6 in a 6 x 3 x 6 room of six slabs, a shelf 0.7 above the bulb and a table under it, seen
+// from a corner so that the floor, two walls and the ceiling are in view. The bulb's frame.n
+// points down (toward the room's centre): a light-space method's one disk facing it leaves the
+// walls' upper half and the ceiling behind its plane (split_sphere_lights; scene_units_test.cpp,
+// gpu_renderer_test.cpp).
+inline Scene bulb_in_a_room_scene(int res) {
+  Scene s;
+  const auto slab = [&](Vec3f lo, Vec3f hi) { s.objects.push_back(object(box(lo, hi))); };
+  slab({-3.0f, -0.1f, -3.0f}, {3.0f, 0.0f, 3.0f});  // floor
+  slab({-3.0f, 3.0f, -3.0f}, {3.0f, 3.1f, 3.0f});   // ceiling
+  slab({-3.0f, 0.0f, -3.1f}, {3.0f, 3.0f, -3.0f});
+  slab({-3.0f, 0.0f, 3.0f}, {3.0f, 3.0f, 3.1f});
+  slab({-3.1f, 0.0f, -3.0f}, {-3.0f, 3.0f, 3.0f});
+  slab({3.0f, 0.0f, -3.0f}, {3.1f, 3.0f, 3.0f});
+  slab({-0.2f, 2.275f, 0.0f}, {0.8f, 2.325f, 0.4f});   // the shelf
+  slab({-0.1f, 0.725f, 0.1f}, {1.1f, 0.775f, 0.9f});   // the table
+  AreaLight bulb;
+  bulb.shape = LightShape::Sphere;
+  bulb.center = {0.3f, 1.6f, 0.2f};
+  bulb.radius = 0.15f;
+  bulb.radiance = Vec3f(30.0f);
+  s.lights.push_back(bulb);
+  s.camera.eye = {-2.5f, 1.5f, -2.5f};
+  s.camera.target = {1.0f, 1.2f, 1.0f};
+  s.camera.up = {0, 1, 0};
+  s.camera.fov_y = 70;
+  s.camera.width = s.camera.height = res;
+  s.finalize();
+  return s;
+}
+
 // A street 400 units long and 2 wide with a box every 10 units and a block 8 wide and 10 tall at its middle,
 // under a 3 x 3 light 30 above it, seen from one end: most of what the camera sees lies 70-85
 // degrees off the light's axis, beyond the 60 degrees of a fitted map's max_fov and the 76 lam's

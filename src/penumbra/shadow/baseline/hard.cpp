@@ -30,6 +30,8 @@ const MethodRegistration registration({
     /*tile_exact=*/true,
     // A textured light counts as its mean colour: the light is its centre, size or outline.
     /*uniform_light=*/true,
+    // The centre alone: a sphere split into faces would give the same rays.
+    /*sphere_through_disk=*/false,
 });
 
 }  // namespace

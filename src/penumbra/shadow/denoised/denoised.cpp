@@ -134,6 +134,9 @@ const MethodRegistration registration({
     memory,
     // The filter reads neighbouring pixels: a crop's border pixels miss the ones outside it.
     /*tile_exact=*/false,
+    /*uniform_light=*/false,
+    // Its rays sample a sphere toward each point (shadow_rays.h), as the reference does.
+    /*sphere_through_disk=*/false,
 });
 
 }  // namespace

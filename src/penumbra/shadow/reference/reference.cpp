@@ -69,6 +69,10 @@ const MethodRegistration registration({
     [](const ParamSet& p) { return std::make_unique<ReferenceMethod>(p); },
     /*samples_light=*/true,
     memory,
+    /*tile_exact=*/true,
+    /*uniform_light=*/false,
+    // Its rays sample a sphere toward each point (the cone of its silhouette).
+    /*sphere_through_disk=*/false,
 });
 
 }  // namespace

@@ -744,6 +744,8 @@ const MethodRegistration registration({
     /*tile_exact=*/true,
     // A textured light counts as its mean colour: the light is its centre, size or outline.
     /*uniform_light=*/true,
+    // A ray from each point toward the centre, the light's diameter its cone: no disk to split.
+    /*sphere_through_disk=*/false,
 });
 
 }  // namespace
