@@ -132,7 +132,8 @@ std::vector<AreaLight> split_sphere_lights(std::span<const AreaLight> lights, co
   std::vector<AreaLight> out;
   for (const AreaLight& l : lights) {
     bool behind = false;  // some of the scene behind the plane of the disk the methods sample
-    if (l.shape == LightShape::Sphere && l.split_face < 0 && !scene_bounds.empty())
+    const bool round = l.shape == LightShape::Sphere || l.shape == LightShape::Ellipsoid;
+    if (round && l.split_face < 0 && !scene_bounds.empty())
       for (int i = 0; i < 8; ++i) behind = behind || dot(scene_bounds.corner(i) - l.center, l.frame.n) < 0.0f;
     if (!behind) {
       out.push_back(l);
@@ -141,17 +142,23 @@ std::vector<AreaLight> split_sphere_lights(std::span<const AreaLight> lights, co
     // The faces in sphere_face's order: +n, -n, +s, -s, +t, -t; each face's light gets a
     // right-handed frame with n along the face's axis, and is kept where its cone of the cube
     // reaches the scene's bounds. Outside the bounds, face 0 is the light as it was, serving the
-    // whole half-space in front.
+    // whole half-space in front. An ellipsoid's frame is its semi-axes': each face describes the
+    // same ellipsoid, its radii permuted with the axes, and samples its central ellipse facing
+    // the face's axis.
     const bool cube = inside(scene_bounds, l.center);
     const Frame& f = l.frame;
     const std::array<Frame, 6> faces = {Frame(f.s, f.t, f.n),   Frame(f.t, f.s, -f.n), Frame(f.t, f.n, f.s),
                                         Frame(f.n, f.t, -f.s), Frame(f.n, f.s, f.t),  Frame(f.s, f.n, -f.t)};
+    const Vec3f r = l.radii;
+    const std::array<Vec3f, 6> radii = {r, Vec3f(r.y, r.x, r.z), Vec3f(r.y, r.z, r.x),
+                                        Vec3f(r.z, r.y, r.x), Vec3f(r.z, r.x, r.y), Vec3f(r.x, r.z, r.y)};
     const size_t first = out.size();
     for (int k = 0; k < 6; ++k) {
       if ((cube || k > 0) && !face_cone_meets_box(l.center, faces[k].n, faces[k].s, faces[k].t, scene_bounds))
         continue;
       AreaLight face = l;
       face.frame = faces[k];
+      face.radii = radii[k];
       face.split_face = k;
       face.split_cube = cube;
       face.split_frame = f;

@@ -166,8 +166,9 @@ std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights)
 
 // The lights a light-space method draws for `lights` in a scene of bounds `scene_bounds`
 // (MethodInfo::sphere_through_disk). Such a method samples a sphere through its central disk
-// facing frame.n (toward the scene's centre, orient_sphere_lights), and a point behind that
-// disk's plane sees none of it: right for a sphere beside or above the scene, wrong for a bulb
+// facing frame.n (toward the scene's centre, orient_sphere_lights; an ellipsoid through its
+// central ellipse facing the frame.n the scene gave), and a point behind that disk's plane sees
+// none of it: right for a sphere beside or above the scene, wrong for a bulb
 // inside a room. So a sphere whose scene reaches behind that plane becomes several lights
 // (sphere_face, light_shared.h), as a cube shadow map does for a point light: one per face of
 // the cube around the centre that the scene reaches, the same sphere with frame.n along the
@@ -175,7 +176,9 @@ std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights)
 // which see its disk within 54.7 degrees of its axis. A sphere outside the scene's bounds (a lamp
 // above a ground that reaches a little behind it) keeps its light as it was for the points in
 // front of that plane, so they draw what they drew unsplit, and only the points behind go to the
-// cube's faces. E stays the sphere's closed form. Other lights are kept.
+// cube's faces. E stays the sphere's closed form. An ellipsoid is split alike, each face the same
+// ellipsoid in a frame whose n is the face's axis (its radii permuted with the axes). Other
+// lights are kept.
 std::vector<AreaLight> split_sphere_lights(std::span<const AreaLight> lights, const Bounds3f& scene_bounds);
 // How many whole lights `lights` holds: each split sphere's faces count once together.
 float whole_light_count(std::span<const AreaLight> lights);

@@ -577,6 +577,42 @@ TEST(AreaLight, ASphereTheSceneReachesBehindIsSplitSoThatEveryPointHasOneFace) {
   }
 }
 
+// An ellipsoid is split alike (its frame is its semi-axes', given by the scene): every face is the
+// same ellipsoid, in a frame whose n is the face's axis, so its inside, its closed-form
+// irradiance and its tangent cone are the whole light's.
+TEST(AreaLight, AnEllipsoidTheSceneReachesBehindIsSplitIntoTheSameEllipsoid) {
+  AreaLight e;
+  e.shape = LightShape::Ellipsoid;
+  e.center = Vec3f(0.3f, 1.6f, 0.2f);
+  e.frame = Frame::from_zx(normalize(Vec3f(0.2f, -1.0f, 0.1f)), Vec3f(1, 0, 0));
+  e.radii = Vec3f(0.3f, 0.12f, 0.06f);
+  Bounds3f room;
+  room.extend(Vec3f(-3, 0, -3));
+  room.extend(Vec3f(3, 3, 3));
+  const std::vector<AreaLight> faces = split_sphere_lights(std::span(&e, 1), room);
+  ASSERT_EQ(faces.size(), 6u);
+  Rng rng(9);
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3f p = room.lo + room.diagonal() * Vec3f(rng.next_float(), rng.next_float(), rng.next_float());
+    const Vec3f n = normalize(Vec3f(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f));
+    const float whole = e.unshadowed_irradiance_scalar(p, n);
+    int serving = 0;
+    for (const AreaLight& f : faces) {
+      EXPECT_EQ(f.faces(p), e.faces(p));
+      EXPECT_NEAR(f.unshadowed_irradiance_scalar(p, n), whole, 1e-4f * whole + 1e-7f);
+      EXPECT_NEAR(length(f.from_unit_sphere(f.to_unit_sphere(p)) - p), 0.0f, 1e-4f);
+      serving += f.serves(p) ? 1 : 0;
+    }
+    ASSERT_EQ(serving, 1);
+  }
+  // Each face's surface is the whole light's: a point of its unit sphere maps onto the ellipsoid.
+  for (const AreaLight& f : faces)
+    for (int i = 0; i < 200; ++i) {
+      const Vec3f x = normalize(Vec3f(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f));
+      EXPECT_NEAR(length(e.to_unit_sphere(f.from_unit_sphere(x))), 1.0f, 1e-4f) << "face " << f.split_face;
+    }
+}
+
 }  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
