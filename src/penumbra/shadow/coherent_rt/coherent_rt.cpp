@@ -61,11 +61,11 @@ class CoherentRayTracing final : public ShadowMethod {
   }
 
   void evaluate(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) override {
-    sampled_ = sampled_light(*ctx.light);
     ShadowContext sampled = ctx;
-    sampled.light = &sampled_;
-    evaluate_sampled(sampled, vs, out);
-    if (!sphere_emitter(*ctx.light)) return;
+    sampled.light = &sampled_;  // prepare() set it for this light
+    const bool sphere = sphere_emitter(*ctx.light);
+    evaluate_sampled(sampled, vs, out, /*sample_irradiance=*/!sphere);
+    if (!sphere) return;
     parallel_for(vs.size(), 1024, [&](size_t begin, size_t end) {
       for (size_t k = begin; k < end; ++k)
         out.irradiance[k] = ctx.light->unshadowed_irradiance(vs.samples[k].p, vs.samples[k].ns) * out.visibility[k];
@@ -107,7 +107,9 @@ class CoherentRayTracing final : public ShadowMethod {
                                {"quadtrees", times.pyramid_ms}};
   }
 
-  void evaluate_sampled(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out) {
+  // V of ctx.light's cells, and with `sample_irradiance` E from the visible cells (eq. 1); without
+  // it, E is left for the caller (a sphere's closed form times V).
+  void evaluate_sampled(const ShadowContext& ctx, const ViewSamples& vs, ShadowOutput& out, bool sample_irradiance) {
     ScopedPhase phase(stats_, "trace");
     const AreaLight& light = *ctx.light;
     if (geometry_ && !ctx.tracer) throw Error("coherent-rt: tracer=geometry needs the Embree scene");
@@ -258,10 +260,10 @@ class CoherentRayTracing final : public ShadowMethod {
           for (int j = 0; j < n; ++j) {
             if (!vis[j]) continue;
             ++visible;
-            e += shader::crt_cell_irradiance(s.p, s.ns, light.frame.n, q[j]);
+            if (sample_irradiance) e += shader::crt_cell_irradiance(s.p, s.ns, light.frame.n, q[j]);
           }
           out.visibility[k] = static_cast<float>(visible) / n;
-          out.irradiance[k] = light.radiance * static_cast<float>(e * light.area() / n);
+          if (sample_irradiance) out.irradiance[k] = light.radiance * static_cast<float>(e * light.area() / n);
         }
       }
       if (ctx.progress) ctx.progress->add(done);
