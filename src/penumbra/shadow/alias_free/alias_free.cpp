@@ -55,6 +55,22 @@ constexpr float kFlat = shader::kAfsmFlat;  // alias_free_shared.h
 // the GPU version).
 inline Vec3f edge_plane(Vec3f a, Vec3f d, bool apex_in_front) { return shader::afsm_edge_plane(a, d, apex_in_front); }
 
+// The light a view sample loses along the segments to `points`: 1 - transmittance summed in their
+// order (the GPU's, afsm_soft_resolve.comp), over the rays shadow_ray_to gives, as `reference`
+// and embree_to_points trace them. For the light samples the lists cannot decide: those only
+// semi-transparent casters cover, and the entries no list holds. `rays` and `transmitted` are
+// the caller's scratch.
+float light_lost(const RayTracer& tracer, const ViewSample& s, std::span<const Vec3f> points,
+                 std::vector<ShadowRay>& rays, std::vector<float>& transmitted) {
+  rays.clear();
+  for (Vec3f q : points) rays.push_back(shadow_ray_to(s.p, s.ng, q));
+  transmitted.resize(rays.size());
+  tracer.transmittance(rays, transmitted);
+  float lost = 0;
+  for (float t : transmitted) lost += 1.0f - t;
+  return lost;
+}
+
 struct Counters {
   uint64_t texel_visits = 0;   // (covered texel, caster) pairs
   uint64_t empty_visits = 0;   // ... whose texel lists no sample (skipped at once)
@@ -509,6 +525,7 @@ class AliasFreeSoft final : public AliasFreeBase {
       std::vector<float> entry_lost(unlisted.size(), 0.0f);
       std::atomic<uint64_t> traced{0};
       parallel_for(unlisted.size(), 16, [&](size_t begin, size_t end) {
+        std::vector<Vec3f> points;
         std::vector<ShadowRay> rays;
         std::vector<float> transmitted;
         for (size_t u = begin; u < end; ++u) {
@@ -518,15 +535,13 @@ class AliasFreeSoft final : public AliasFreeBase {
           // A split sample's entry sees the light samples on its own side only.
           const uint64_t* front =
               e.split != kWhole ? front_masks.data() + static_cast<size_t>(e.split) * words : nullptr;
-          rays.clear();
+          points.clear();
           for (int k = 0; k < n; ++k) {
             if (front && (((front[k >> 6] >> (k & 63)) & 1) != 0) != e.front) continue;
-            rays.push_back(shadow_ray_to(s.p, s.ng, jitter ? light_point(samples, k, rot) : samples.points[k]));
+            points.push_back(jitter ? light_point(samples, k, rot) : samples.points[k]);
           }
-          transmitted.resize(rays.size());
-          ctx.tracer->transmittance(rays, transmitted);
-          for (float t : transmitted) entry_lost[u] += 1.0f - t;
-          traced += rays.size();
+          entry_lost[u] = light_lost(*ctx.tracer, s, points, rays, transmitted);
+          traced += points.size();
         }
       });
       for (size_t u = 0; u < unlisted.size(); ++u) lost[entries[unlisted[u]].sample] += entry_lost[u];
@@ -1108,26 +1123,22 @@ class AliasFreeSoft final : public AliasFreeBase {
       if (!partial.empty()) {
         std::atomic<uint64_t> rays_traced{0};
         parallel_for(slots, 64, [&](size_t begin, size_t end) {
+          std::vector<Vec3f> points;
           std::vector<ShadowRay> rays;
           std::vector<float> transmitted;
           for (size_t slot = begin; slot < end; ++slot) {
             const uint64_t* m = blocked.data() + slot * words;
             const uint64_t* pm = partial.data() + slot * words;
-            const ViewSample& s = vs.samples[entries[slabs.sample[slot]].sample];
-            rays.clear();
+            points.clear();
             for (int w = 0; w < words; ++w)
               for (uint64_t rest = pm[w] & ~m[w]; rest; rest &= rest - 1) {
                 const int i = 64 * w + std::countr_zero(rest);
-                const Vec3f q = jitter ? light_point(samples, i, rotation[slot]) : samples.points[i];
-                rays.push_back(shadow_ray_to(s.p, s.ng, q));
+                points.push_back(jitter ? light_point(samples, i, rotation[slot]) : samples.points[i]);
               }
-            if (rays.empty()) continue;
-            transmitted.resize(rays.size());
-            ctx.tracer->transmittance(rays, transmitted);
-            float lost = 0;  // in the GPU's order and precision (afsm_soft_resolve.comp)
-            for (float t : transmitted) lost += 1.0f - t;
-            attenuated[slot] = lost;
-            rays_traced += rays.size();
+            if (points.empty()) continue;
+            const ViewSample& s = vs.samples[entries[slabs.sample[slot]].sample];
+            attenuated[slot] = light_lost(*ctx.tracer, s, points, rays, transmitted);
+            rays_traced += points.size();
           }
         });
         partial_rays = rays_traced;
