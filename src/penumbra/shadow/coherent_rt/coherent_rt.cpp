@@ -53,7 +53,7 @@ class CoherentRayTracing final : public ShadowMethod {
   // run on that disk, and E is the sphere's closed form times V.
   void prepare(const ShadowContext& ctx) override {
     stats_.prepare_count++;
-    coherent_rt::check_light(*ctx.light, ctx.light_index);
+    coherent_rt::check_light(*ctx.light);
     sampled_ = sampled_light(*ctx.light);
     ShadowContext sampled = ctx;
     sampled.light = &sampled_;

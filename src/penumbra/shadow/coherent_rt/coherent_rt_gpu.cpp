@@ -59,7 +59,7 @@ class CoherentRtGpu final : public GpuShadowMethod {
 
   void prepare(const ShadowContext& ctx, GpuFrame& frame) override {
     stats_.prepare_count++;
-    coherent_rt::check_light(*ctx.light, ctx.light_index);
+    coherent_rt::check_light(*ctx.light);
     gpu::Device& device = *frame.device;
     // A sphere light is sampled through its central disk (soft_shad.h sampled_light): the images
     // and the tiles see that disk, whose record the tiles read, and E is the sphere's closed form

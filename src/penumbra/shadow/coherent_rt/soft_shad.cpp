@@ -20,10 +20,10 @@ AreaLight sampled_light(const AreaLight& light) {
   return disk;
 }
 
-void check_light(const AreaLight& light, int index) {
+void check_light(const AreaLight& light) {
   if (!supports_light(light.shape))
-    throw Error("coherent-rt does not support {} lights (light {}); only rect, disk and sphere lights",
-                to_string(light.shape), index);
+    throw Error("coherent-rt does not support {} lights (the one at [{}, {}, {}]); only rect, disk and sphere lights",
+                to_string(light.shape), light.center.x, light.center.y, light.center.z);
 }
 
 SoftShad::SoftShad(const AreaLight& light, int cols, int rows, const SoftShadOptions& options)

@@ -41,8 +41,10 @@ inline bool supports_light(LightShape s) { return s != LightShape::Ellipsoid; }
 // the sphere's closed form times V (sphere_emitter).
 AreaLight sampled_light(const AreaLight& light);
 inline bool sphere_emitter(const AreaLight& light) { return light.shape == LightShape::Sphere; }
-// The one-line error for a light coherent-rt does not sample.
-void check_light(const AreaLight& light, int index);
+// The one-line error for a light coherent-rt does not sample, naming it by its centre (the
+// renderer's index of a light is not the scene file's where it splits a light into several:
+// render/renderer.h drawn_lights).
+void check_light(const AreaLight& light);
 
 struct SoftShadOptions {
   bool coherence = true;        // off: every cell traced (plain stratified sampling)
