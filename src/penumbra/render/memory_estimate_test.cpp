@@ -358,6 +358,26 @@ TEST(MemoryEstimate, NamesTheSettingThatDrivesIt) {
   }
 }
 
+// A sphere light inside the scene is drawn as one light per face of a cube (drawn_lights): the
+// estimate counts each face's method instance, and the copy of the view samples a face draws.
+TEST(MemoryEstimate, ASplitSphereCountsEveryFacesInstance) {
+  const Scene bulb = testing::bulb_in_a_room_scene(32);
+  RenderSettings settings;
+  settings.method = "shadow-map";
+  const std::vector<AreaLight> drawn = drawn_lights(bulb, settings.method, bulb.lights);
+  ASSERT_EQ(drawn.size(), 6u);
+  const RenderMemoryEstimate split = estimate_render_memory(bulb, settings);
+  // The same room and bulb drawn whole: reference samples each point's own silhouette.
+  settings.method = "reference";
+  EXPECT_EQ(drawn_lights(bulb, settings.method, bulb.lights).size(), 1u);
+  settings.method = "shadow-map";
+  Scene whole = bulb;
+  whole.lights[0].shape = LightShape::Disk;  // a disk is never split: the same one instance's maps
+  const RenderMemoryEstimate one = estimate_render_memory(whole, settings);
+  EXPECT_EQ(split.method_bytes, 6 * one.method_bytes);
+  EXPECT_EQ(split.view_bytes, one.view_bytes + 32 * 32 * (sizeof(ViewSample) + 4));
+}
+
 }  // namespace PENUMBRA_UNITY_ID
 }  // namespace
 }  // namespace penumbra
