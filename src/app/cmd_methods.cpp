@@ -29,7 +29,8 @@ int run_methods(const std::string& name, bool json) {
         params.push_back({{"name", p.name}, {"type", to_string(p.type)}, {"default", p.default_value},
                           {"doc", p.doc}, {"choices", p.choices}});
       out.push_back({{"name", m->name}, {"description", m->description}, {"samples_light", m->samples_light},
-                     {"tile_exact", m->tile_exact}, {"devices", devices_json(m->name)},
+                     {"tile_exact", m->tile_exact}, {"sphere_through_disk", m->sphere_through_disk},
+                     {"devices", devices_json(m->name)},
                      {"params", params}});
     }
     std::printf("%s\n", out.dump(2).c_str());
@@ -43,6 +44,9 @@ int run_methods(const std::string& name, bool json) {
     if (m->samples_light) std::printf("  (samples the light: --spp N sets the light samples per point)\n");
     if (!m->tile_exact)
       std::printf("  (not tile-exact: a `render --crop` window may differ from the whole frame's pixels there)\n");
+    if (m->sphere_through_disk)
+      std::printf("  (samples a sphere or ellipsoid light through one disk facing the scene: one that the scene reaches "
+                  "behind, a bulb in a room, is drawn face by face, docs/methods/README.md)\n");
     for (const ParamSpec& p : m->params) {
       std::string extra;
       if (!p.choices.empty()) {

@@ -15,8 +15,8 @@ std::vector<ParamSpec> common_param_specs(int default_resolution) {
        "texels along the longer side of each depth map (the view is fitted to the receivers; texels are square)",
        {}, 16, 16384},
       {"max_fov", ParamType::Float, 120.0,
-       "largest field of view of a map, degrees: receivers beyond it (grazing the light's plane) are not covered and "
-       "count as lit",
+       "largest field of view of a map, degrees: receivers beyond it (grazing the light's plane) that a caster can "
+       "shadow widen the map to hold them (shadow-map, pcss) or are traced (multi-view-sm); the others are lit",
        {}, 1, 179},
       {"bias", ParamType::Float, 1e-3, "constant depth bias, world units of linear depth, kept between 64 float epsilons of the receiver's depth and one texel (a scene in any unit)", {}, 0, 1e30},
       {"slope_bias", ParamType::Float, 1.0,

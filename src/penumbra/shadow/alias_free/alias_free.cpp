@@ -1262,7 +1262,8 @@ std::vector<ParamSpec> view_specs() {
        "samples, §4.3); affects speed only, never the result",
        {}, 8, 8192},
       {"max_fov", ParamType::Float, 120.0,
-       "widest field of view of the light's image (degrees); samples outside it are not listed and count as lit",
+       "widest field of view of the light's image (degrees); samples outside it are not listed, and shadow rays decide "
+       "them (lit without a ray tracer)",
        {}, 1, 179},
   };
 }
