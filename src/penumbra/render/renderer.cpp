@@ -303,7 +303,8 @@ void check_gpu_render_memory(const Scene& scene, const RenderSettings& settings,
 
 Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene), settings_(std::move(settings)) {
   if (scene_.lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
-  // A textured light is drawn as one light per colour channel (issue 20 part 3).
+  // A textured light is drawn as one light per colour channel (issue 20 part 3), a sphere the
+  // scene reaches behind as one light per face of a cube (drawn_lights).
   scene_.lights = drawn_lights(scene, settings_.method, scene.lights);
   const bool textured = std::any_of(scene.lights.begin(), scene.lights.end(), [](const AreaLight& l) { return l.textured(); });
   if (textured && MethodRegistry::get(settings_.method).uniform_light)
@@ -369,8 +370,7 @@ bool same_light(const AreaLight& a, const AreaLight& b) {
          eq(a.frame.n, b.frame.n) && a.size.x == b.size.x && a.size.y == b.size.y && a.radius == b.radius &&
          eq(a.radii, b.radii) && eq(a.radiance, b.radiance) && a.texture == b.texture &&
          a.texture_channel == b.texture_channel && a.split_face == b.split_face && a.split_faces == b.split_faces &&
-         a.split_cube == b.split_cube &&
-         eq(a.split_frame.n, b.split_frame.n) && eq(a.split_frame.s, b.split_frame.s);
+         a.split_cube == b.split_cube && eq(a.split_frame.n, b.split_frame.n) && eq(a.split_frame.s, b.split_frame.s);
 }
 }  // namespace
 

@@ -156,9 +156,9 @@ class Renderer {
   void set_camera(const Camera& camera);
   // New lights over the same geometry (the Embree scene is kept): the method instances of the
   // lights that changed are created afresh and prepare() again at the next render; those of
-  // unchanged lights keep their light-space structures. The count may change. Textured lights
-  // are expanded (expand_textured_lights) as in the constructor: scene().lights holds one
-  // light per colour channel of each.
+  // unchanged lights keep their light-space structures. The count may change. The lights are
+  // expanded as in the constructor (drawn_lights): scene().lights holds one light per colour
+  // channel of a textured light and one per face of a split sphere.
   void set_lights(const std::vector<AreaLight>& lights);
   // New vertex positions for the objects `moved` (indices into Scene::objects; the same
   // triangles, as an animated transform gives; `objects` is the whole new list): the Embree
