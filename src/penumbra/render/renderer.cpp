@@ -237,12 +237,17 @@ void check_render_memory(const Scene& scene, const RenderSettings& settings) {
   const std::vector<ParamSpec>& specs = MethodRegistry::get(settings.method).params;
   const bool is_param = std::any_of(specs.begin(), specs.end(),
                                     [&](const ParamSpec& p) { return p.name == need.method_setting; });
+  // The instances the render holds: a split sphere's faces each hold their own (drawn_lights).
+  const std::vector<AreaLight> drawn = drawn_lights(scene, settings.method, scene.lights);
+  const bool split = std::any_of(drawn.begin(), drawn.end(), [](const AreaLight& l) { return l.split_face >= 0; });
   throw Error("{}: {} needs about {} for its light-space data{} (and {} for the view samples), {}; lower {}{} or "
-              "raise --memory-limit",
+              "raise --memory-limit{}",
               scene.source.string(), settings.method, format_bytes(need.method_bytes),
-              scene.lights.size() > 1 ? fmt::format(" of {} lights", scene.lights.size()) : "",
-              format_bytes(need.view_bytes), over, is_param ? fmt::format("-p {}.", settings.method) : "",
-              need.method_setting);
+              drawn.size() > 1 ? fmt::format(" of {} lights", drawn.size()) : "", format_bytes(need.view_bytes), over,
+              is_param ? fmt::format("-p {}.", settings.method) : "", need.method_setting,
+              split ? " (a sphere light the scene reaches behind is drawn as one light per face of a cube, each with "
+                      "its own maps)"
+                    : "");
 }
 
 GpuMemoryEstimate estimate_gpu_render_memory(const Scene& scene, const RenderSettings& settings) {
@@ -291,14 +296,20 @@ void check_gpu_render_memory(const Scene& scene, const RenderSettings& settings,
                     need.method_setting == kTrianglesSetting
                 ? need.method_setting
                 : fmt::format("-p {}.{}", settings.method, need.method_setting);
+  const std::vector<AreaLight> drawn = drawn_lights(scene, settings.method, scene.lights);
+  const bool split = std::any_of(drawn.begin(), drawn.end(), [](const AreaLight& l) { return l.split_face >= 0; });
   throw Error("{}: {} on {} needs about {} of GPU memory ({} for the scene, {} for the frame, {} for the method), over "
-              "{}; lower {}{}",
+              "{}; lower {}{}{}",
               scene.source.string(), settings.method, device.info().name, format_bytes(need.total()),
               format_bytes(need.scene_bytes), format_bytes(need.frame_bytes), format_bytes(need.method_bytes),
               user_limit ? fmt::format("the memory limit of {}", format_bytes(limit))
                          : fmt::format("the {} this GPU can give a render (90% of its {})", format_bytes(limit),
                                        format_bytes(device.info().memory_bytes)),
-              lower, user_limit ? " or raise --memory-limit" : "");
+              lower, user_limit ? " or raise --memory-limit" : "",
+              split ? fmt::format(" (a sphere light the scene reaches behind is drawn as one light per face of a cube, "
+                                  "each with its own maps: {} lights)",
+                                  drawn.size())
+                    : "");
 }
 
 Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene), settings_(std::move(settings)) {
