@@ -118,7 +118,8 @@ TEST_P(SceneUnits, ABulbInARoomLightsTheCeilingAndTheWallsBehindItsDisk) {
   // (docs/data/scenes/bulb-room.json), against hard's 0.0125.
   const std::string& method = GetParam();
   static const Image truth =
-      render_scene(testing::bulb_in_a_room_scene(32), testing::device_settings("reference", {}, false, 3, 256)).visibility;
+      render_scene(testing::bulb_in_a_room_scene(32), testing::device_settings("reference", {}, false, 3, 256))
+          .visibility;
   const RenderResult r = render_scene(testing::bulb_in_a_room_scene(32), settings_for(method));
   const double dv = testing::mean_abs_dv(r.visibility, truth);
   std::printf("%-20s a bulb in a room: mean |dV| %.5f\n", method.c_str(), dv);

@@ -93,13 +93,13 @@ std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights)
 
 namespace {
 
-// Whether the cone of directions leaving the cube around `apex` through the face of axis `a`
-// (side axes b, c: a.d >= |b.d|, a.d >= |c.d|) meets the box: the separating axis test of two
-// convex polytopes, the cone cut off beyond the box (a pyramid of apex `apex`).
 bool inside(const Bounds3f& b, Vec3f p) {
   return p.x >= b.lo.x && p.x <= b.hi.x && p.y >= b.lo.y && p.y <= b.hi.y && p.z >= b.lo.z && p.z <= b.hi.z;
 }
 
+// Whether the cone of directions leaving the cube around `apex` through the face of axis `a`
+// (side axes b, c: a.d >= |b.d|, a.d >= |c.d|) meets the box: the separating axis test of two
+// convex polytopes, the cone cut off beyond the box (a pyramid of apex `apex`).
 bool face_cone_meets_box(Vec3f apex, Vec3f a, Vec3f b, Vec3f c, const Bounds3f& box) {
   float reach = 0;
   for (int i = 0; i < 8; ++i) reach = std::max(reach, length(box.corner(i) - apex));

@@ -58,10 +58,11 @@ struct AreaLight {
   std::shared_ptr<const LightTexture> texture;
   int texture_channel = -1;
   bool textured() const { return texture != nullptr && shape == LightShape::Rect; }
-  // One face of a sphere light that the scene reaches behind (split_sphere_lights): this light
-  // serves only the points of face `split_face` of `split_frame` (sphere_face, light_shared.h:
-  // the front half-space, or a face of the cube behind it), and its frame.n is that face's
-  // axis. -1: a whole light, serving every point.
+  // One face of a sphere or ellipsoid light that the scene reaches behind (split_sphere_lights):
+  // this light serves only the points of face `split_face` of `split_frame` (sphere_face,
+  // light_shared.h: a face of the cube around the centre; without split_cube, face 0 is the
+  // whole half-space in front), and its frame.n is that face's axis. -1: a whole light, serving
+  // every point.
   int split_face = -1;
   int split_faces = 0;     // how many faces its sphere became (0: a whole light)
   bool split_cube = false;  // sphere_face's `cube`: the whole cube (a sphere inside the scene's bounds)
@@ -168,8 +169,8 @@ std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights)
 // (MethodInfo::sphere_through_disk). Such a method samples a sphere through its central disk
 // facing frame.n (toward the scene's centre, orient_sphere_lights; an ellipsoid through its
 // central ellipse facing the frame.n the scene gave), and a point behind that disk's plane sees
-// none of it: right for a sphere beside or above the scene, wrong for a bulb
-// inside a room. So a sphere whose scene reaches behind that plane becomes several lights
+// none of it: right for a sphere beside or above the scene, wrong for a bulb inside a room. So a
+// sphere whose scene reaches behind that plane becomes several lights
 // (sphere_face, light_shared.h), as a cube shadow map does for a point light: one per face of
 // the cube around the centre that the scene reaches, the same sphere with frame.n along the
 // face's axis, serving the points whose direction leaves through that face (AreaLight::serves),
