@@ -86,8 +86,14 @@ def _scatter(client, files):
     keys, so every job's payload was "digest" and "files", and a job that scattered them while an
     earlier job's futures of the same keys were being released lost them: its tiles failed with
     "computation on lost data" (1 run in 3 of test_distributed here). ``hash=False`` for the same
-    reason with content-hashed keys (dask/distributed#8576)."""
-    return client.scatter([files], broadcast=False, hash=False)[0]
+    reason with content-hashed keys (dask/distributed#8576).
+
+    Broadcast to every worker: scattered data has no task that could compute it again, so a
+    worker that dies holding its only copy would take it with it and the scheduler would cancel
+    every job that needs it (test_a_worker_killed_mid_job_changes_nothing failed so in a fresh
+    clone's CI on 2026-12-07: the killed worker was the one the payload had gone to). A worker that joins later
+    (a nanny's restart) fetches it from a peer that holds it."""
+    return client.scatter([files], broadcast=True, hash=False)[0]
 
 
 def _with_meshes(setup_text, meshes):
