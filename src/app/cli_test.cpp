@@ -23,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "penumbra/core/huge_pages.h"
 #include "penumbra/core/image.h"
 #include "penumbra/testing/cli_run.h"
 
@@ -118,6 +119,25 @@ TEST_F(Cli, RenderMapCacheSecondRunReadsTheMaps) {
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("--map-cache " + file.string() + ": exists and is not a folder"), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(dir_ / "x.png"));
+}
+
+// The command line re-executes itself with glibc's heap on 2 MiB pages where the kernel offers
+// them (core/huge_pages.h), and --stats-json says whether it ran so. A user's own
+// glibc.malloc.hugetlb, or PENUMBRA_HUGE_PAGES=0, is obeyed; another tunable is kept.
+TEST_F(Cli, TheHeapIsOnHugePagesWhereTheKernelOffersThem) {
+  const std::string scene = tiny_scene();
+  const fs::path exr = dir_ / "out.exr", stats = dir_ / "stats.json";
+  auto huge_pages = [&](const std::string& env) {
+    CliRun r = run(fmt::format("render {} -m hard -o {} --stats-json {} --quiet", scene, exr.string(), stats.string()),
+                   env);
+    EXPECT_EQ(r.exit_code, 0) << env << ": " << r.err;
+    return nlohmann::json::parse(slurp(stats)).at("huge_pages").get<bool>();
+  };
+  const bool available = huge_pages_available();
+  EXPECT_EQ(huge_pages("env -u GLIBC_TUNABLES"), available);
+  EXPECT_EQ(huge_pages("GLIBC_TUNABLES=glibc.malloc.perturb=0"), available);
+  EXPECT_FALSE(huge_pages("GLIBC_TUNABLES=glibc.malloc.hugetlb=0"));
+  EXPECT_FALSE(huge_pages("env -u GLIBC_TUNABLES PENUMBRA_HUGE_PAGES=0"));
 }
 
 TEST_F(Cli, RenderWritesAnImageWithSoftShadows) {

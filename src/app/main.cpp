@@ -10,6 +10,7 @@
 #include "app/command.h"
 #include "penumbra/gpu/device.h"
 #include "penumbra/core/error.h"
+#include "penumbra/core/huge_pages.h"
 #include "penumbra/core/interrupt.h"
 
 namespace penumbra::app {
@@ -45,6 +46,8 @@ void setup_commands(CLI::App& app, std::vector<std::pair<CLI::App*, std::functio
 }  // namespace penumbra::app
 
 int main(int argc, char** argv) {
+  // Once, before anything is allocated that matters: glibc's heap on 2 MiB pages (core/huge_pages.h).
+  penumbra::reexec_with_huge_pages(argv);
   CLI::App app{"penumbra: soft shadows from area lights, five papers and their ground truth"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "penumbra 0.1.0");

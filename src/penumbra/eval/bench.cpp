@@ -608,6 +608,10 @@ std::string bench_markdown(const json& r) {
   std::ostringstream md;
   const json& st = r.at("settings");
   const json& mc = r.at("machine");
+  // The build, and whether the heap was on 2 MiB pages (core/huge_pages.h): times of a wide
+  // scene differ by about a fifth between the two.
+  const std::string build =
+      mc.value("build", "?") + (mc.value("huge_pages", false) ? ", heap on 2 MiB pages" : ", heap on 4 KiB pages");
   const bool sequences = st.contains("frames");
   if (sequences) {
     md << fmt::format("Suite `{}`: {}×{} pixels, {} light samples, frames 0–{} of each animated scene rendered one "
@@ -615,20 +619,20 @@ std::string bench_markdown(const json& r) {
                       "methods interleaved frame by frame; {}, {} threads, {}, {}; {}.\n\n",
                       r.value("suite", "?"), st.value("resolution", 0), st.value("resolution", 0), st.value("spp", 0),
                       st.value("frames", 0) - 1, mc.value("cpu", "?"), mc.value("threads", 0),
-                      mc.value("compiler", "?"), mc.value("build", "?"), r.value("started", "?"));
+                      mc.value("compiler", "?"), build, r.value("started", "?"));
   } else if (r.contains("targets")) {
     md << fmt::format("Suite `{}`: the speed-up targets at {}×{} pixels, the time targets at their own size; light "
                       "samples per target; median of {} runs after {} warm-up, every method's runs interleaved with "
                       "the others' of its scene; {}, {} threads, {}, {}; {}.\n\n",
                       r.value("suite", "?"), st.value("resolution", 0), st.value("resolution", 0), st.value("runs", 0),
                       st.value("warmup_runs", 0), mc.value("cpu", "?"), mc.value("threads", 0),
-                      mc.value("compiler", "?"), mc.value("build", "?"), r.value("started", "?"));
+                      mc.value("compiler", "?"), build, r.value("started", "?"));
   } else {
     md << fmt::format("Suite `{}`: {}×{} pixels, {} light samples, median of {} runs after {} warm-up; {}, {} threads, "
                       "{}, {}; {}.\n\n",
                       r.value("suite", "?"), st.value("resolution", 0), st.value("resolution", 0), st.value("spp", 0),
                       st.value("runs", 0), st.value("warmup_runs", 0), mc.value("cpu", "?"), mc.value("threads", 0),
-                      mc.value("compiler", "?"), mc.value("build", "?"), r.value("started", "?"));
+                      mc.value("compiler", "?"), build, r.value("started", "?"));
   }
   if (r.contains("targets")) {
     md << (sequences ? "Targets (issue 18): per-frame speed-ups, reference's median shadow time per frame / the "

@@ -13,6 +13,7 @@
 #include <sys/resource.h>
 
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/huge_pages.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/program_identity.h"
@@ -59,7 +60,9 @@ json machine_json() {
           {"logical_cores", std::thread::hardware_concurrency()},
           {"threads", max_threads()},
           {"compiler", fmt::format("g++ {}", __VERSION__)},
-          {"build", build}};
+          {"build", build},
+          // The heap on 2 MiB pages (core/huge_pages.h): a fifth of a wide scene's time.
+          {"huge_pages", heap_uses_huge_pages()}};
 }
 
 uint64_t peak_rss_bytes() {

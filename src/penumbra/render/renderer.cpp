@@ -9,6 +9,7 @@
 #include <cstdint>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/huge_pages.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/rng.h"
@@ -656,6 +657,7 @@ nlohmann::json render_stats_json(const Scene& scene, const std::string& method, 
                         {"view_samples", r.view_sample_count},
                         {"camera_pass_ms", r.camera_pass_ms},
                         {"total_ms", r.total_ms},
+                        {"huge_pages", heap_uses_huge_pages()},  // core/huge_pages.h
                         {"stats", r.stats.to_json()}};
   if (!r.map_cache.is_null()) doc["map_cache"] = r.map_cache;
   doc["device"] = r.device;
