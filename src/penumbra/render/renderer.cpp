@@ -182,7 +182,7 @@ RenderMemoryEstimate estimate_render_memory(const Scene& scene, const RenderSett
   // that again for progressive frames; the colour and V images; a split sphere's face's copy of
   // the view samples it serves and their indices.
   const std::vector<AreaLight> drawn = drawn_lights(scene, settings.method, scene.lights);
-  const bool split = std::any_of(drawn.begin(), drawn.end(), [](const AreaLight& l) { return l.split_face >= 0; });
+  const bool split = has_split_light(drawn);
   const uint64_t per_sample =
       sizeof(ViewSample) + 40 + (settings.frames > 1 ? 16 : 0) + (split ? sizeof(ViewSample) + 4 : 0);
   e.view_bytes = rays * (16 + per_sample) + pixels * 16;
@@ -240,7 +240,7 @@ void check_render_memory(const Scene& scene, const RenderSettings& settings) {
                                     [&](const ParamSpec& p) { return p.name == need.method_setting; });
   // The instances the render holds: a split sphere's faces each hold their own (drawn_lights).
   const std::vector<AreaLight> drawn = drawn_lights(scene, settings.method, scene.lights);
-  const bool split = std::any_of(drawn.begin(), drawn.end(), [](const AreaLight& l) { return l.split_face >= 0; });
+  const bool split = has_split_light(drawn);
   throw Error("{}: {} needs about {} for its light-space data{} (and {} for the view samples), {}; lower {}{} or "
               "raise --memory-limit{}",
               scene.source.string(), settings.method, format_bytes(need.method_bytes),
@@ -258,7 +258,7 @@ GpuMemoryEstimate estimate_gpu_render_memory(const Scene& scene, const RenderSet
   const uint64_t slots = pixels * static_cast<uint64_t>(std::max(1, scene.camera.samples_per_pixel));
   e.scene_bytes = gpu::GpuScene::estimate_bytes(scene);
   const std::vector<AreaLight> drawn = drawn_lights(scene, settings.method, scene.lights);
-  const bool split = std::any_of(drawn.begin(), drawn.end(), [](const AreaLight& l) { return l.split_face >= 0; });
+  const bool split = has_split_light(drawn);
   e.frame_bytes = gpu_frame_bytes(slots, pixels, split) + (settings.frames > 1 ? slots * 16 : 0);
   const GpuMethodInfo* info = find_gpu_method(settings.method);
   if (info && info->estimate_memory) {
@@ -298,7 +298,7 @@ void check_gpu_render_memory(const Scene& scene, const RenderSettings& settings,
                 ? need.method_setting
                 : fmt::format("-p {}.{}", settings.method, need.method_setting);
   const std::vector<AreaLight> drawn = drawn_lights(scene, settings.method, scene.lights);
-  const bool split = std::any_of(drawn.begin(), drawn.end(), [](const AreaLight& l) { return l.split_face >= 0; });
+  const bool split = has_split_light(drawn);
   throw Error("{}: {} on {} needs about {} of GPU memory ({} for the scene, {} for the frame, {} for the method), over "
               "{}; lower {}{}{}",
               scene.source.string(), settings.method, device.info().name, format_bytes(need.total()),

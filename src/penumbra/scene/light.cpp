@@ -1,5 +1,6 @@
 #include "penumbra/scene/light.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <span>
@@ -173,6 +174,10 @@ float whole_light_count(std::span<const AreaLight> lights) {
   float n = 0;
   for (const AreaLight& l : lights) n += l.split_faces > 0 ? 1.0f / static_cast<float>(l.split_faces) : 1.0f;
   return n;
+}
+
+bool has_split_light(std::span<const AreaLight> lights) {
+  return std::any_of(lights.begin(), lights.end(), [](const AreaLight& l) { return l.split_face >= 0; });
 }
 
 shader::LightGeometry AreaLight::geometry() const {

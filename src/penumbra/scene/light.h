@@ -183,6 +183,9 @@ std::vector<AreaLight> expand_textured_lights(std::span<const AreaLight> lights)
 std::vector<AreaLight> split_sphere_lights(std::span<const AreaLight> lights, const Bounds3f& scene_bounds);
 // How many whole lights `lights` holds: each split sphere's faces count once together.
 float whole_light_count(std::span<const AreaLight> lights);
+// True if any of `lights` is a face of a split sphere (the frame then keeps each face's copy of
+// the view samples it serves).
+bool has_split_light(std::span<const AreaLight> lights);
 
 // Direction sampling toward a light from one point p: the per-point set-up (the spherical
 // rectangle's corner normals and solid angle, the cone's frame) is done once, then each
