@@ -346,6 +346,22 @@ TEST_F(GpuFrame, ABulbInARoomIsDrawnFaceByFaceAsOnTheCpu) {
   }
 }
 
+// Objects moving around a bulb split it again on the GPU as on the CPU
+// (Renderer.MovingObjectsSplitsASphereLightByTheNewBounds): the frame after set_objects is a
+// fresh GPU render of the moved scene.
+TEST_F(GpuFrame, MovingObjectsSplitASphereLightAgainAsAFreshRender) {
+  const Scene room = testing::bulb_in_a_room_scene(24), below = testing::bulb_room_lowered_scene(24);
+  RenderSettings settings = testing::device_settings("shadow-map", {}, true, 3, 16);
+  settings.movable_objects = {1, 2, 3, 4, 5, 6};
+  Renderer r(below, settings);
+  r.render();
+  r.set_objects(room.objects, settings.movable_objects);
+  EXPECT_GT(r.scene().lights.size(), 1u);
+  const RenderResult after = r.render();
+  settings.movable_objects.clear();
+  EXPECT_LE(mean_abs_diff(after.visibility, render_on(room, settings, true).visibility), 1e-4);
+}
+
 // baselines_test.cpp's street: the fitted maps hold the receivers beyond max_fov a caster can
 // shadow on the GPU as on the CPU (the reach is host code both devices' fits call).
 TEST_F(GpuFrame, ReceiversBeyondMaxFovThatACasterCanShadowAreInTheMapAsOnTheCpu) {

@@ -317,6 +317,7 @@ Renderer::Renderer(const Scene& scene, RenderSettings settings) : scene_(scene),
   if (scene_.lights.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
   // A textured light is drawn as one light per colour channel (issue 20 part 3), a sphere the
   // scene reaches behind as one light per face of a cube (drawn_lights).
+  given_lights_ = scene.lights;
   scene_.lights = drawn_lights(scene, settings_.method, scene.lights);
   const bool textured = std::any_of(scene.lights.begin(), scene.lights.end(), [](const AreaLight& l) { return l.textured(); });
   if (textured && MethodRegistry::get(settings_.method).uniform_light)
@@ -389,6 +390,7 @@ bool same_light(const AreaLight& a, const AreaLight& b) {
 void Renderer::set_lights(const std::vector<AreaLight>& given) {
   if (given.empty()) throw Error("{}: the scene has no lights", scene_.source.string());
   const std::vector<AreaLight> lights = drawn_lights(scene_, settings_.method, given);
+  given_lights_ = given;
   if (gpu_) {
     std::vector<bool> changed(lights.size());
     for (size_t l = 0; l < lights.size(); ++l)
@@ -434,16 +436,26 @@ void Renderer::set_objects(const std::vector<SceneObject>& objects, std::span<co
   }
   if (gpu_) {
     gpu_->set_objects(scene_, moved, settings_);
-    return;
+  } else {
+    tracer_->update_objects(scene_, moved);
+    geometry_digest_.clear();
+    for (size_t l = 0; l < methods_.size(); ++l) {
+      if (!prepared_[l]) continue;
+      const ShadowContext ctx = light_context(l);
+      if (methods_[l]->keeps_prepared_after_moving(moved, ctx)) continue;
+      methods_[l] = create_method(settings_.method, scene_, settings_.params);
+      prepared_[l] = false;
+    }
   }
-  tracer_->update_objects(scene_, moved);
-  geometry_digest_.clear();
-  for (size_t l = 0; l < methods_.size(); ++l) {
-    if (!prepared_[l]) continue;
-    const ShadowContext ctx = light_context(l);
-    if (methods_[l]->keeps_prepared_after_moving(moved, ctx)) continue;
-    methods_[l] = create_method(settings_.method, scene_, settings_.params);
-    prepared_[l] = false;
+  // A sphere light faces the scene's centre (orient_sphere_lights) and is split by its bounds
+  // (drawn_lights): both follow the new bounds, as in a fresh render of the moved scene (and as
+  // an animation's frames do); set_lights recreates only the lights that changed.
+  if (std::any_of(given_lights_.begin(), given_lights_.end(), [](const AreaLight& l) {
+        return l.shape == LightShape::Sphere || l.shape == LightShape::Ellipsoid;
+      })) {
+    std::vector<AreaLight> lights = given_lights_;
+    orient_sphere_lights(lights, scene_.bounds());
+    set_lights(lights);
   }
 }
 

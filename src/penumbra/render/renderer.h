@@ -164,7 +164,8 @@ class Renderer {
   // triangles, as an animated transform gives; `objects` is the whole new list): the Embree
   // scene is refit where RenderSettings::movable_objects allows, else rebuilt, and each light's
   // method either keeps its light-space structures (ShadowMethod::keeps_prepared_after_moving)
-  // or is created afresh and prepared again at the next render.
+  // or is created afresh and prepared again at the next render. A sphere light is split again
+  // by the new bounds (drawn_lights): the faces that change are created afresh, as set_lights.
   void set_objects(const std::vector<SceneObject>& objects, std::span<const uint32_t> moved);
   // Only the first frame index of the next render (RenderSettings::first_frame).
   void set_first_frame(int frame) { settings_.first_frame = frame; }
@@ -190,6 +191,9 @@ class Renderer {
 
  private:
   Scene scene_;
+  // The lights as given (the scene's, or set_lights'), before drawn_lights expanded them into
+  // scene_.lights: set_objects splits their spheres again by the new bounds.
+  std::vector<AreaLight> given_lights_;
   RenderSettings settings_;
   std::unique_ptr<RayTracer> tracer_;  // on the CPU
   std::unique_ptr<GpuRenderer> gpu_;   // on a GPU (then no tracer_ and no methods_)

@@ -145,6 +145,39 @@ TEST(Renderer, EveryMethodsFramesAfterObjectsMoveEqualFreshRenders) {
   }
 }
 
+// A sphere light is split by the scene's bounds (split_sphere_lights); when objects move, the
+// split follows the new bounds, so the frame equals a fresh render of the moved scene. The room's
+// ceiling, walls and shelf start low (nothing reaches behind the bulb's disk: one light) and move
+// up around the bulb (the cube's faces). Before, set_objects kept the old split: the ceiling and the
+// walls' upper half stayed dark.
+TEST(Renderer, MovingObjectsSplitsASphereLightByTheNewBounds) {
+  const Scene room = testing::bulb_in_a_room_scene(24);
+  const Scene below = testing::bulb_room_lowered_scene(24);
+  const std::vector<uint32_t> moved = {1, 2, 3, 4, 5, 6};
+  for (const char* method : {"shadow-map", "afsm"}) {
+    SCOPED_TRACE(method);
+    RenderSettings settings;
+    settings.method = method;
+    settings.light_samples = 16;
+    RenderSettings movable = settings;
+    movable.movable_objects = moved;
+    Renderer r(below, movable);
+    EXPECT_EQ(r.scene().lights.size(), 1u);
+    r.render();
+    r.set_objects(room.objects, moved);
+    EXPECT_GT(r.scene().lights.size(), 1u);
+    const RenderResult reused = r.render();
+    const RenderResult fresh = render_scene(room, settings);
+    const std::vector<float>&a = reused.visibility.data(), &b = fresh.visibility.data();
+    double diff = 0;
+    for (size_t i = 0; i < a.size(); ++i) diff += std::abs(a[i] - b[i]);
+    EXPECT_LE(diff / static_cast<double>(a.size()), 1e-4);
+    // And back: under the floor again, one light.
+    r.set_objects(below.objects, moved);
+    EXPECT_EQ(r.scene().lights.size(), 1u);
+  }
+}
+
 // The mean of frames 0..K-1 rendered one at a time (first_frame = k) is the render with
 // frames = K, up to float rounding: the viewer's progressive refinement shows `--frames K`.
 TEST(Renderer, FramesRenderedOneAtATimeAverageToTheFramesRender) {

@@ -203,6 +203,21 @@ inline Scene bulb_in_a_room_scene(int res) {
   return s;
 }
 
+// bulb_in_a_room_scene with its ceiling 4 lower (under the floor) and its walls and shelf 3
+// lower: nothing reaches behind the bulb's disk, so the bulb is one light; the same triangles,
+// so Renderer::set_objects can move them back up around it (renderer_test.cpp,
+// gpu_renderer_test.cpp). Indices of the moved objects: 1-6.
+inline Scene bulb_room_lowered_scene(int res) {
+  Scene s = bulb_in_a_room_scene(res);
+  for (uint32_t o = 1; o <= 6; ++o) {
+    ObjectTransform t;
+    t.translate = {0, o == 1 ? -4.0f : -3.0f, 0};
+    place_object(s.objects[o], t);
+  }
+  s.finalize();
+  return s;
+}
+
 // A street 400 units long and 2 wide with a box every 10 units and a block 8 wide and 10 tall at its middle,
 // under a 3 x 3 light 30 above it, seen from one end: most of what the camera sees lies 70-85
 // degrees off the light's axis, beyond the 60 degrees of a fitted map's max_fov and the 76 lam's
