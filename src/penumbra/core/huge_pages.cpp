@@ -4,6 +4,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 namespace penumbra {
@@ -71,18 +72,19 @@ bool heap_uses_huge_pages() {
 
 void reexec_with_huge_pages(char** argv) {
   if (const char* off = std::getenv("PENUMBRA_HUGE_PAGES"); off && std::string_view(off) == "0") return;
-  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  const char* given = std::getenv("GLIBC_TUNABLES");
+  const std::optional<std::string> tunables = given ? std::optional<std::string>(given) : std::nullopt;
   // Said already, either way (by the user, or by this function in the process that executed
   // this one): never executed twice.
-  if (tunables && std::string_view(tunables).find(kTunable) != std::string_view::npos) return;
+  if (tunables && tunables->find(kTunable) != std::string::npos) return;
   if (!huge_pages_available()) return;
-  std::string value = tunables && *tunables ? std::string(tunables) + ":" : std::string();
-  value += std::string(kTunable) + "=1";
+  const std::string value = (tunables && !tunables->empty() ? *tunables + ":" : std::string()) +
+                            std::string(kTunable) + "=1";
   if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
   execv("/proc/self/exe", argv);
   // exec failed (no /proc): carry on with 4 KiB pages, and say so to no one (it is only speed).
   if (tunables)
-    setenv("GLIBC_TUNABLES", tunables, 1);
+    setenv("GLIBC_TUNABLES", tunables->c_str(), 1);
   else
     unsetenv("GLIBC_TUNABLES");
 }
