@@ -72,6 +72,10 @@ bool heap_uses_huge_pages() {
 
 void reexec_with_huge_pages(char** argv) {
   if (const char* off = std::getenv("PENUMBRA_HUGE_PAGES"); off && std::string_view(off) == "0") return;
+  // Under valgrind (its preload in LD_PRELOAD) the tool's malloc stands in for glibc's, and an
+  // exec would leave the tool: callgrind would measure nothing.
+  const char* preload = std::getenv("LD_PRELOAD");
+  if (preload && std::string_view(preload).find("vgpreload") != std::string_view::npos) return;
   const char* given = std::getenv("GLIBC_TUNABLES");
   const std::optional<std::string> tunables = given ? std::optional<std::string>(given) : std::nullopt;
   // Said already, either way (by the user, or by this function in the process that executed

@@ -40,7 +40,7 @@ bool heap_uses_huge_pages();
 // For main(): where the kernel offers huge pages and GLIBC_TUNABLES does not already say
 // glibc.malloc.hugetlb, adds glibc.malloc.hugetlb=1 to it and executes /proc/self/exe again
 // with the same arguments. Returns (nothing changed) where it does not: PENUMBRA_HUGE_PAGES=0,
-// a sanitizer's allocator in place of glibc's, no /proc, or exec failing.
+// a sanitizer's or valgrind's allocator in place of glibc's, no /proc, or exec failing.
 void reexec_with_huge_pages(char** argv);
 
 }  // namespace penumbra
