@@ -164,8 +164,9 @@ class Renderer {
   // triangles, as an animated transform gives; `objects` is the whole new list): the Embree
   // scene is refit where RenderSettings::movable_objects allows, else rebuilt, and each light's
   // method either keeps its light-space structures (ShadowMethod::keeps_prepared_after_moving)
-  // or is created afresh and prepared again at the next render. A sphere light is split again
-  // by the new bounds (drawn_lights): the faces that change are created afresh, as set_lights.
+  // or is created afresh and prepared again at the next render. A sphere light is aimed and
+  // split again by the new bounds (orient_sphere_lights, drawn_lights), as in a fresh render of
+  // the moved scene: the lights that change are created afresh, as set_lights does.
   void set_objects(const std::vector<SceneObject>& objects, std::span<const uint32_t> moved);
   // Only the first frame index of the next render (RenderSettings::first_frame).
   void set_first_frame(int frame) { settings_.first_frame = frame; }
@@ -192,7 +193,7 @@ class Renderer {
  private:
   Scene scene_;
   // The lights as given (the scene's, or set_lights'), before drawn_lights expanded them into
-  // scene_.lights: set_objects splits their spheres again by the new bounds.
+  // scene_.lights: set_objects aims and splits their spheres again by the new bounds.
   std::vector<AreaLight> given_lights_;
   RenderSettings settings_;
   std::unique_ptr<RayTracer> tracer_;  // on the CPU
